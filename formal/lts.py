@@ -1,0 +1,344 @@
+"""The cognitive map G = (Q, ↪): an explicit labelled transition system.
+
+States are :class:`~formal.model.State` records keyed by their ident; transitions are
+labelled with the task kind of their target (the task the Configurator starts when it
+takes the transition). The map holds the goal D_G it was built for and exactly one
+initial state q0. Iteration is always in a stable order (states by ident, transitions
+by (source, target, label)), so that the same map renders to the same bytes.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from collections.abc import Iterable, Iterator
+from dataclasses import dataclass
+from fractions import Fraction
+from typing import IO, Any
+
+from formal.model import Disturbance, State, TaskKind
+
+__all__ = ["Transition", "CognitiveMap", "MapError", "FORMAT_VERSION"]
+
+FORMAT_VERSION = 1
+
+
+class MapError(ValueError):
+    """A map is malformed (unknown state, duplicate ident, unreadable JSON ...)."""
+
+
+@dataclass(frozen=True, slots=True, order=True)
+class Transition:
+    """A transition q1 ↪ q2 labelled with the task of q2.
+
+    ``probability`` is exact (a :class:`fractions.Fraction`); the Configurator's maps
+    are deterministic (probability 1), a probabilistic map splits a (state, task)
+    choice among several targets whose probabilities sum to 1.
+    """
+
+    source: int
+    target: int
+    label: TaskKind
+    probability: Fraction = Fraction(1)
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready form; the probability as an exact ``"p/q"`` string."""
+        return {
+            "source": self.source,
+            "target": self.target,
+            "label": self.label.value,
+            "probability": str(self.probability),
+        }
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any]) -> "Transition":
+        """Inverse of :meth:`to_dict`."""
+        return cls(
+            int(data["source"]),
+            int(data["target"]),
+            TaskKind(data["label"]),
+            Fraction(str(data.get("probability", "1"))),
+        )
+
+
+class CognitiveMap:
+    """An explicit labelled transition system of simulated task outcomes.
+
+    >>> from formal.model import Pose, State, TaskKind, Disturbance
+    >>> g = Disturbance.goal(1.0, 0.0)
+    >>> m = CognitiveMap(goal=g)
+    >>> q0 = m.add_state(State(0, TaskKind.STRAIGHT, g, None, Pose(0, 0), Pose(0, 0)))
+    >>> q1 = m.add_state(State(1, TaskKind.STRAIGHT, g, None, Pose(0, 0), Pose(1, 0)))
+    >>> m.add_transition(0, 1)
+    Transition(source=0, target=1, label=<TaskKind.STRAIGHT: 'STRAIGHT'>, probability=Fraction(1, 1))
+    >>> [s.ident for s in m.successors(0)]
+    [1]
+    """
+
+    def __init__(self, goal: Disturbance | None = None, initial: int | None = None) -> None:
+        self.goal: Disturbance | None = goal
+        self._initial: int | None = initial
+        self._states: dict[int, State] = {}
+        self._out: dict[int, dict[tuple[int, TaskKind], Transition]] = {}
+        self._in: dict[int, dict[tuple[int, TaskKind], Transition]] = {}
+        self.metadata: dict[str, Any] = {}
+
+    # -- construction -------------------------------------------------------------
+    def add_state(self, state: State) -> State:
+        """Add ``state``; the first state added becomes q0 unless one was named."""
+        if state.ident in self._states:
+            raise MapError(f"duplicate state ident {state.ident}")
+        self._states[state.ident] = state
+        self._out.setdefault(state.ident, {})
+        self._in.setdefault(state.ident, {})
+        if self._initial is None:
+            self._initial = state.ident
+        return state
+
+    def replace_state(self, state: State) -> None:
+        """Replace the record of an existing state (same ident), e.g. to set its cost."""
+        if state.ident not in self._states:
+            raise MapError(f"no state q{state.ident}")
+        self._states[state.ident] = state
+
+    def add_transition(
+        self,
+        source: int,
+        target: int,
+        label: TaskKind | None = None,
+        probability: Fraction | int | str = 1,
+    ) -> Transition:
+        """Add q_source ↪ q_target; the label defaults to the target's task."""
+        for ident in (source, target):
+            if ident not in self._states:
+                raise MapError(f"transition names unknown state q{ident}")
+        if label is None:
+            label = self._states[target].task
+        t = Transition(source, target, TaskKind(label), Fraction(probability))
+        self._out[source][(target, t.label)] = t
+        self._in[target][(source, t.label)] = t
+        return t
+
+    def set_initial(self, ident: int) -> None:
+        """Name q0."""
+        if ident not in self._states:
+            raise MapError(f"no state q{ident}")
+        self._initial = ident
+
+    # -- queries --------------------------------------------------------------------
+    @property
+    def initial(self) -> State:
+        """q0, the initial state."""
+        if self._initial is None or self._initial not in self._states:
+            raise MapError("map has no initial state")
+        return self._states[self._initial]
+
+    @property
+    def initial_id(self) -> int | None:
+        """The ident of q0, or None for an empty map."""
+        return self._initial
+
+    def __len__(self) -> int:
+        return len(self._states)
+
+    def __contains__(self, ident: object) -> bool:
+        return ident in self._states
+
+    def __getitem__(self, ident: int) -> State:
+        try:
+            return self._states[ident]
+        except KeyError:
+            raise MapError(f"no state q{ident}") from None
+
+    def __iter__(self) -> Iterator[State]:
+        return iter(self.states())
+
+    def states(self) -> list[State]:
+        """All states, by ident."""
+        return [self._states[k] for k in sorted(self._states)]
+
+    def transitions(self) -> list[Transition]:
+        """All transitions, sorted by (source, target, label)."""
+        return sorted(t for out in self._out.values() for t in out.values())
+
+    @property
+    def n_transitions(self) -> int:
+        """The number of transitions."""
+        return sum(len(out) for out in self._out.values())
+
+    def out_transitions(self, ident: int) -> list[Transition]:
+        """Transitions leaving q_ident, sorted."""
+        return sorted(self._out[self[ident].ident].values())
+
+    def in_transitions(self, ident: int) -> list[Transition]:
+        """Transitions entering q_ident, sorted."""
+        return sorted(self._in[self[ident].ident].values())
+
+    def successors(self, ident: int) -> list[State]:
+        """States reachable from q_ident in one transition, by ident, without repeats."""
+        return [self._states[i] for i in sorted({t.target for t in self._out[self[ident].ident].values()})]
+
+    def predecessors(self, ident: int) -> list[State]:
+        """States with a transition into q_ident, by ident, without repeats."""
+        return [self._states[i] for i in sorted({t.source for t in self._in[self[ident].ident].values()})]
+
+    def has_transition(self, source: int, target: int) -> bool:
+        """True when some transition q_source ↪ q_target exists."""
+        return any(k[0] == target for k in self._out.get(source, {}))
+
+    def reachable(self, source: int | None = None) -> set[int]:
+        """Idents reachable from ``source`` (default q0), itself included."""
+        start = self.initial.ident if source is None else self[source].ident
+        seen = {start}
+        stack = [start]
+        while stack:
+            for (target, _), _t in self._out[stack.pop()].items():
+                if target not in seen:
+                    seen.add(target)
+                    stack.append(target)
+        return seen
+
+    def path(self, target: int, source: int | None = None) -> list[int]:
+        """A shortest path (fewest transitions) of idents from ``source`` (q0) to ``target``.
+
+        Ties are broken towards lower idents, so the path is deterministic. Raises
+        :class:`MapError` when ``target`` is not reachable.
+        """
+        start = self.initial.ident if source is None else self[source].ident
+        self[target]
+        parent: dict[int, int | None] = {start: None}
+        frontier = [start]
+        while frontier and target not in parent:
+            nxt: list[int] = []
+            for u in frontier:
+                for v in sorted({k[0] for k in self._out[u]}):
+                    if v not in parent:
+                        parent[v] = u
+                        nxt.append(v)
+            frontier = nxt
+        if target not in parent:
+            raise MapError(f"q{target} is not reachable from q{start}")
+        out = [target]
+        while parent[out[-1]] is not None:
+            out.append(parent[out[-1]])  # type: ignore[arg-type]
+        return out[::-1]
+
+    def paths(self, source: int | None = None) -> Iterator[list[int]]:
+        """Every simple path from ``source`` (q0) to a state with no successor, in a stable order."""
+        start = self.initial.ident if source is None else self[source].ident
+
+        def walk(path: list[int]) -> Iterator[list[int]]:
+            succ = [s.ident for s in self.successors(path[-1]) if s.ident not in path]
+            if not succ:
+                yield list(path)
+            for s in succ:
+                path.append(s)
+                yield from walk(path)
+                path.pop()
+
+        yield from walk([start])
+
+    # -- conversions ---------------------------------------------------------------
+    def to_networkx(self) -> Any:
+        """A :class:`networkx.MultiDiGraph`: nodes are idents with ``state`` attributes,
+        edges carry ``label`` (task name) and ``probability``."""
+        import networkx as nx
+
+        g = nx.MultiDiGraph(initial=self._initial, goal=None if self.goal is None else (self.goal.x, self.goal.y))
+        for s in self.states():
+            g.add_node(s.ident, state=s, task=s.task.value, interrupted=s.interrupted, cost=s.cost)
+        for t in self.transitions():
+            g.add_edge(t.source, t.target, key=t.label.value, label=t.label.value, probability=t.probability)
+        return g
+
+    def to_dict(self) -> dict[str, Any]:
+        """The lossless JSON form."""
+        return {
+            "format": "clomp-cognitive-map",
+            "version": FORMAT_VERSION,
+            "goal": None if self.goal is None else self.goal.to_dict(),
+            "initial": self._initial,
+            "states": [s.to_dict() for s in self.states()],
+            "transitions": [t.to_dict() for t in self.transitions()],
+            "metadata": self.metadata,
+        }
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any]) -> "CognitiveMap":
+        """Inverse of :meth:`to_dict`; raises :class:`MapError` on a malformed document."""
+        if not isinstance(data, dict) or data.get("format") != "clomp-cognitive-map":
+            raise MapError("not a clomp cognitive map (missing 'format': 'clomp-cognitive-map')")
+        try:
+            goal = None if data.get("goal") is None else Disturbance.from_dict(data["goal"])
+            m = cls(goal=goal)
+            for sd in data["states"]:
+                m.add_state(State.from_dict(sd))
+            for td in data["transitions"]:
+                t = Transition.from_dict(td)
+                m.add_transition(t.source, t.target, t.label, t.probability)
+            init = data.get("initial")
+            m._initial = None if init is None else int(init)
+            if m._initial is not None and m._initial not in m._states:
+                raise MapError(f"initial state q{m._initial} is not in the map")
+            m.metadata = dict(data.get("metadata", {}))
+        except MapError:
+            raise
+        except (KeyError, TypeError, ValueError) as exc:
+            raise MapError(f"malformed cognitive map: {exc!r}") from None
+        return m
+
+    def write_json(self, dest: str | os.PathLike[str] | IO[str], indent: int | None = 1) -> None:
+        """Write the JSON form to a path or an open text file."""
+        text = json.dumps(self.to_dict(), indent=indent, allow_nan=False)
+        if hasattr(dest, "write"):
+            dest.write(text + "\n")  # type: ignore[union-attr]
+        else:
+            with open(dest, "w", encoding="utf-8") as fh:  # type: ignore[arg-type]
+                fh.write(text + "\n")
+
+    @classmethod
+    def read_json(cls, src: str | os.PathLike[str] | IO[str]) -> "CognitiveMap":
+        """Read a map written by :meth:`write_json` from a path or an open text file."""
+        try:
+            if hasattr(src, "read"):
+                data = json.load(src)  # type: ignore[arg-type]
+            else:
+                with open(src, encoding="utf-8") as fh:  # type: ignore[arg-type]
+                    data = json.load(fh)
+        except json.JSONDecodeError as exc:
+            raise MapError(f"not valid JSON: {exc}") from None
+        return cls.from_dict(data)
+
+    def __eq__(self, other: object) -> bool:
+        if not isinstance(other, CognitiveMap):
+            return NotImplemented
+        return (
+            self.goal == other.goal
+            and self._initial == other._initial
+            and self.states() == other.states()
+            and self.transitions() == other.transitions()
+        )
+
+    def __repr__(self) -> str:
+        return f"CognitiveMap({len(self)} states, {self.n_transitions} transitions, q0=q{self._initial})"
+
+    @classmethod
+    def from_parts(
+        cls,
+        states: Iterable[State],
+        transitions: Iterable[tuple[int, int]] | Iterable[Transition],
+        goal: Disturbance | None = None,
+        initial: int | None = None,
+    ) -> "CognitiveMap":
+        """Build a map by hand from states and (source, target) pairs or transitions."""
+        m = cls(goal=goal)
+        for s in states:
+            m.add_state(s)
+        for t in transitions:
+            if isinstance(t, Transition):
+                m.add_transition(t.source, t.target, t.label, t.probability)
+            else:
+                m.add_transition(*t)
+        if initial is not None:
+            m.set_initial(initial)
+        return m

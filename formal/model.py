@@ -1,0 +1,184 @@
+"""The vocabulary of the cognitive map: tasks, disturbances, poses and states.
+
+These are plain frozen (hashable) records with no physics in them, so that the formal
+layer can reason about a map without importing the planner's engine.
+"""
+
+from __future__ import annotations
+
+import enum
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+__all__ = [
+    "TaskKind",
+    "DisturbanceKind",
+    "Pose",
+    "Disturbance",
+    "State",
+]
+
+
+class TaskKind(str, enum.Enum):
+    """The task space **T**: the three closed-loop controllers of the paper."""
+
+    STRAIGHT = "STRAIGHT"
+    LEFT = "LEFT"
+    RIGHT = "RIGHT"
+
+    @property
+    def is_turn(self) -> bool:
+        """True for LEFT and RIGHT (turns in place)."""
+        return self is not TaskKind.STRAIGHT
+
+
+class DisturbanceKind(str, enum.Enum):
+    """What a disturbance is: the goal D_G or an obstacle."""
+
+    GOAL = "GOAL"
+    OBSTACLE = "OBSTACLE"
+
+
+@dataclass(frozen=True, slots=True)
+class Pose:
+    """A planar pose (x, y, theta) in metres and radians, theta in (-pi, pi]."""
+
+    x: float
+    y: float
+    theta: float = 0.0
+
+    def __post_init__(self) -> None:
+        if not all(math.isfinite(v) for v in (self.x, self.y, self.theta)):
+            raise ValueError(f"pose must be finite, got ({self.x}, {self.y}, {self.theta})")
+
+    def distance_to(self, x: float, y: float) -> float:
+        """Euclidean distance from this pose's position to the point (x, y)."""
+        return math.hypot(x - self.x, y - self.y)
+
+    def as_list(self) -> list[float]:
+        """``[x, y, theta]``, the JSON form."""
+        return [self.x, self.y, self.theta]
+
+    @classmethod
+    def from_list(cls, values: Any) -> "Pose":
+        """Inverse of :meth:`as_list`."""
+        x, y, theta = (float(v) for v in values)
+        return cls(x, y, theta)
+
+
+@dataclass(frozen=True, slots=True)
+class Disturbance:
+    """A disturbance D: the goal, or an obstacle the robot's sensors see.
+
+    ``x, y`` is its reference point in the planning frame (the robot frame at q0): the
+    goal's position, or for an obstacle the point where it was hit (D_N) or the centre
+    of the shape. ``vertices`` is the obstacle's outline (a convex polygon), empty for
+    a point-like disturbance such as the goal. ``ident`` names the obstacle so that two
+    states interrupted by the same object can be told apart from two different ones.
+    """
+
+    kind: DisturbanceKind
+    x: float
+    y: float
+    vertices: tuple[tuple[float, float], ...] = ()
+    ident: int = -1
+
+    def __post_init__(self) -> None:
+        if not (math.isfinite(self.x) and math.isfinite(self.y)):
+            raise ValueError(f"disturbance position must be finite, got ({self.x}, {self.y})")
+
+    @classmethod
+    def goal(cls, x: float, y: float) -> "Disturbance":
+        """The goal disturbance D_G at (x, y)."""
+        return cls(DisturbanceKind.GOAL, float(x), float(y))
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready form (lossless)."""
+        return {
+            "kind": self.kind.value,
+            "x": self.x,
+            "y": self.y,
+            "vertices": [list(v) for v in self.vertices],
+            "ident": self.ident,
+        }
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any]) -> "Disturbance":
+        """Inverse of :meth:`to_dict`."""
+        return cls(
+            DisturbanceKind(data["kind"]),
+            float(data["x"]),
+            float(data["y"]),
+            tuple((float(a), float(b)) for a, b in data.get("vertices", ())),
+            int(data.get("ident", -1)),
+        )
+
+
+@dataclass(frozen=True, slots=True)
+class State:
+    """A state q = (T, D) of the cognitive map, with its simulated outcome.
+
+    ``task`` is T; ``d_i`` the disturbance the task is contingent on (D_I, set by the
+    reset R); ``d_n`` the disturbance that interrupted it (D_N), ``None`` when the task
+    ended by its own criterion. ``start``/``end`` are the simulated poses, ``distance``
+    the path length driven (metres), ``duration`` the simulated time (seconds), ``cost``
+    the value of phi = gamma + chi the Configurator assigned, and ``reached_goal``
+    whether the task ended within the goal tolerance. ``ident`` is the order of
+    creation (the subscript of q in the paper); q0 has ident 0.
+    """
+
+    ident: int
+    task: TaskKind
+    d_i: Disturbance | None
+    d_n: Disturbance | None
+    start: Pose
+    end: Pose
+    distance: float = 0.0
+    duration: float = 0.0
+    cost: float = 0.0
+    reached_goal: bool = False
+    extra: tuple[tuple[str, float], ...] = field(default=(), compare=True)
+
+    @property
+    def interrupted(self) -> bool:
+        """True when D_N is not empty: the task was cut short by a disturbance."""
+        return self.d_n is not None
+
+    @property
+    def label(self) -> str:
+        """A short human label, e.g. ``q3:RIGHT``."""
+        return f"q{self.ident}:{self.task.value}"
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready form (lossless: floats are written with repr precision)."""
+        return {
+            "id": self.ident,
+            "task": self.task.value,
+            "d_i": None if self.d_i is None else self.d_i.to_dict(),
+            "d_n": None if self.d_n is None else self.d_n.to_dict(),
+            "start": self.start.as_list(),
+            "end": self.end.as_list(),
+            "distance": self.distance,
+            "duration": self.duration,
+            "cost": self.cost,
+            "reached_goal": self.reached_goal,
+            "extra": {k: v for k, v in self.extra},
+        }
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any]) -> "State":
+        """Inverse of :meth:`to_dict`."""
+        return cls(
+            ident=int(data["id"]),
+            task=TaskKind(data["task"]),
+            d_i=None if data.get("d_i") is None else Disturbance.from_dict(data["d_i"]),
+            d_n=None if data.get("d_n") is None else Disturbance.from_dict(data["d_n"]),
+            start=Pose.from_list(data["start"]),
+            end=Pose.from_list(data["end"]),
+            distance=float(data.get("distance", 0.0)),
+            duration=float(data.get("duration", 0.0)),
+            cost=float(data.get("cost", 0.0)),
+            reached_goal=bool(data.get("reached_goal", False)),
+            extra=tuple(sorted((str(k), float(v)) for k, v in data.get("extra", {}).items())),
+        )

@@ -1,0 +1,3 @@
+"""clomp.planner — core knowledge (pymunk) and the Configurator."""
+
+__all__: list[str] = []
