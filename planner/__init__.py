@@ -1,3 +1,59 @@
-"""clomp.planner — core knowledge (pymunk) and the Configurator."""
+"""clomp.planner — core knowledge (a pymunk world) and the Configurator.
 
-__all__: list[str] = []
+>>> import numpy as np
+>>> from planner import plan
+>>> result = plan(np.zeros((0, 2)), goal=(1.0, 0.0))
+>>> result.reached_goal, [s.task.value for s in result.steps]
+(True, ['STRAIGHT'])
+"""
+
+from formal.model import Disturbance, DisturbanceKind, Pose, State, TaskKind
+from planner.configurator import (
+    Configurator,
+    CostContext,
+    CostFunction,
+    PlanningError,
+    PlanResult,
+    chi,
+    default_cost,
+    gamma,
+    plan,
+)
+from planner.perception import Obstacles, ScanError, load_scan, perceive, validate_scan
+from planner.physics import Outcome, World, in_the_way, simulate, straight_limit
+from planner.robot import RobotModel
+from planner.scenarios import Scene, ScenarioError, builtin_scenarios, load_scenario
+from planner.tasks import Task
+
+__all__ = [
+    "Configurator",
+    "CostContext",
+    "CostFunction",
+    "Disturbance",
+    "DisturbanceKind",
+    "Obstacles",
+    "Outcome",
+    "PlanResult",
+    "PlanningError",
+    "Pose",
+    "RobotModel",
+    "ScanError",
+    "Scene",
+    "ScenarioError",
+    "State",
+    "Task",
+    "TaskKind",
+    "World",
+    "builtin_scenarios",
+    "chi",
+    "default_cost",
+    "gamma",
+    "in_the_way",
+    "load_scan",
+    "load_scenario",
+    "perceive",
+    "plan",
+    "simulate",
+    "straight_limit",
+    "validate_scan",
+]

@@ -16,6 +16,7 @@ __all__ = ["main", "CliError"]
 
 # subcommand modules, in the order they appear in --help
 _COMMAND_MODULES: list[str] = [
+    "runtime._cli_demo",
     "runtime._cli_plan",
 ]
 

@@ -1,0 +1,333 @@
+"""The Configurator (G, D_G, Ψ, R): best-first construction of the cognitive map.
+
+Algorithm 1 of the paper. From the state to expand q_E, every option is simulated
+depth-first until a STRAIGHT state is reached or the task is interrupted (D_N ≠ ∅):
+STRAIGHT; LEFT then STRAIGHT; RIGHT then STRAIGHT. The frontier states go into a
+priority queue ordered by φ = γ + χ and the next q_E is the one of least φ. It stops
+when a state reaches D_G, when no obstacle-free transition is left to expand, or when
+the budget (``max_states``) is spent. States beyond the planning horizon (a box of
+half-size ``horizon`` around the start) are kept but not expanded.
+
+A state is determined by its task and its start pose (rollouts are deterministic), so a
+task reached twice from the same pose is one state with two incoming transitions: the
+map is a graph, and expansion never repeats a simulation.
+"""
+
+from __future__ import annotations
+
+import heapq
+import math
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from formal.lts import CognitiveMap
+from formal.model import Disturbance, Pose, State, TaskKind
+from formal.supervisory import Plan, extract_plan, guard
+from planner.perception import Obstacles, load_scan, perceive
+from planner.physics import Outcome, simulate
+from planner.robot import RobotModel
+
+__all__ = [
+    "CostContext",
+    "CostFunction",
+    "default_cost",
+    "gamma",
+    "chi",
+    "PlanningError",
+    "PlanResult",
+    "Configurator",
+    "plan",
+]
+
+
+class PlanningError(ValueError):
+    """The planning problem is ill-posed (goal inside an obstacle, at the robot, NaN …)."""
+
+
+@dataclass(frozen=True)
+class CostContext:
+    """What a cost function may know besides the state: the goal, the start and the robot."""
+
+    goal: Disturbance
+    origin: Pose
+    robot: RobotModel
+
+    @property
+    def start_distance(self) -> float:
+        """d0 = ‖D_G − start‖, the normaliser of χ."""
+        return self.origin.distance_to(self.goal.x, self.goal.y)
+
+
+CostFunction = Callable[[State, CostContext], float]
+
+
+def gamma(state: State, ctx: CostContext) -> float:
+    """γ(q), the past cost: 0 when the task was not interrupted; otherwise
+    ``2 − min(d_N, r)/r`` ∈ [1, 2], with d_N the distance from the start of the task to
+    the point where D_N interrupted it and r the sensor range (the paper's "normalised
+    distance from the start of the task to D_N": the sooner the hit, the dearer)."""
+    if state.d_n is None:
+        return 0.0
+    r = ctx.robot.sensor_range
+    d = state.start.distance_to(state.d_n.x, state.d_n.y)
+    return 2.0 - min(d, r) / r
+
+
+def chi(state: State, ctx: CostContext) -> float:
+    """χ(q), the heuristic future cost: ``d / (d + d0)`` ∈ [0, 1), with d the distance
+    from the end of the task to D_G and d0 that from the start of planning: 0 at the
+    goal, 1/2 where planning began, approaching 1 far away (normalised so that any
+    uninterrupted state costs less than any interrupted one)."""
+    d = state.end.distance_to(ctx.goal.x, ctx.goal.y)
+    d0 = ctx.start_distance
+    return d / (d + d0) if d + d0 > 0 else 0.0
+
+
+def default_cost(state: State, ctx: CostContext) -> float:
+    """φ(q) = γ(q) + χ(q) (Hart, Nilsson & Raphael 1968, in the paper's §2.2)."""
+    return gamma(state, ctx) + chi(state, ctx)
+
+
+@dataclass
+class PlanResult:
+    """The outcome of planning: the cognitive map, the plan and its figures."""
+
+    map: CognitiveMap
+    plan: Plan
+    goal: Disturbance
+    obstacles: Obstacles
+    robot: RobotModel
+    planning_time_s: float
+    stop_reason: str
+    psi: dict[Any, int] = field(default_factory=dict)
+
+    @property
+    def reached_goal(self) -> bool:
+        """True when the plan ends within the goal tolerance."""
+        return self.map[self.plan.end].reached_goal
+
+    @property
+    def collision_free(self) -> bool:
+        """True when no state of the plan was interrupted."""
+        return not any(self.map[i].interrupted for i in self.plan.states)
+
+    @property
+    def steps(self) -> list[State]:
+        """The planned tasks q1 … qn."""
+        return self.plan.tasks(self.map)
+
+    @property
+    def states(self) -> int:
+        """|Q|."""
+        return len(self.map)
+
+    @property
+    def transitions(self) -> int:
+        """|↪|."""
+        return self.map.n_transitions
+
+    def to_dict(self) -> dict[str, Any]:
+        """The JSON summary printed by ``clomp plan --json``."""
+        return {
+            "plan": [
+                {
+                    "task": s.task.value,
+                    "start": [round(v, 6) for v in s.start.as_list()],
+                    "end": [round(v, 6) for v in s.end.as_list()],
+                    "state": s.ident,
+                }
+                for s in self.steps
+            ],
+            "reached_goal": self.reached_goal,
+            "collision_free": self.collision_free,
+            "states": self.states,
+            "transitions": self.transitions,
+            "planning_time_s": self.planning_time_s,
+            "goal": [self.goal.x, self.goal.y],
+            "obstacles": len(self.obstacles),
+            "stop_reason": self.stop_reason,
+        }
+
+
+class Configurator:
+    """Builds cognitive maps by best-first simulation and extracts plans from them.
+
+    >>> import numpy as np
+    >>> r = Configurator().plan(np.zeros((0, 2)), goal=(1.0, 0.0))
+    >>> [s.task.value for s in r.steps], r.reached_goal
+    (['STRAIGHT'], True)
+    """
+
+    def __init__(
+        self,
+        robot: RobotModel | None = None,
+        cost: CostFunction = default_cost,
+        max_states: int = 400,
+        horizon: float = 1.2,
+    ) -> None:
+        if max_states < 1:
+            raise ValueError("max_states must be at least 1")
+        if not (math.isfinite(horizon) and horizon > 0):
+            raise ValueError("horizon must be a positive number of metres")
+        self.robot = robot or RobotModel()
+        self.cost = cost
+        self.max_states = int(max_states)
+        self.horizon = float(horizon)
+
+    # -- inputs ---------------------------------------------------------------------
+    def _goal(self, goal: Disturbance | tuple[float, float], obstacles: Obstacles) -> Disturbance:
+        if isinstance(goal, Disturbance):
+            g = goal
+        else:
+            try:
+                gx, gy = (float(v) for v in goal)
+            except (TypeError, ValueError):
+                raise PlanningError(f"goal must be two numbers x, y, got {goal!r}") from None
+            if not (math.isfinite(gx) and math.isfinite(gy)):
+                raise PlanningError(f"goal must be finite, got ({gx}, {gy})")
+            g = Disturbance.goal(gx, gy)
+        if math.hypot(g.x, g.y) <= self.robot.goal_tolerance:
+            raise PlanningError(
+                f"goal ({g.x:g}, {g.y:g}) is at the robot's own position (within {self.robot.goal_tolerance} m)"
+            )
+        inside = obstacles.contains_point(g.x, g.y)
+        if inside is not None:
+            raise PlanningError(f"goal ({g.x:g}, {g.y:g}) is inside obstacle {inside}")
+        return g
+
+    # -- Algorithm 1 ------------------------------------------------------------------
+    def build(self, obstacles: Obstacles, goal: Disturbance | tuple[float, float]) -> PlanResult:
+        """Construct the cognitive map for ``goal`` among ``obstacles`` and extract ρ."""
+        t0 = time.perf_counter()
+        g = self._goal(goal, obstacles)
+        robot = self.robot
+        origin = Pose(0.0, 0.0, 0.0)
+        ctx = CostContext(g, origin, robot)
+        horizon = max(self.horizon, abs(g.x) + robot.length, abs(g.y) + robot.length)
+        cmap = CognitiveMap(goal=g)
+        q0 = State(0, TaskKind.STRAIGHT, g, None, origin, origin)
+        q0 = State(0, TaskKind.STRAIGHT, g, None, origin, origin, cost=self.cost(q0, ctx))
+        cmap.add_state(q0)
+        index: dict[tuple[TaskKind, int, int, int], int] = {}
+        pq: list[tuple[float, int]] = [(q0.cost, 0)]
+        reached: int | None = None
+        stop = "exhausted"
+
+        def key(kind: TaskKind, p: Pose) -> tuple[TaskKind, int, int, int]:
+            return (kind, round(p.x * 1e6), round(p.y * 1e6), round(p.theta * 1e6))
+
+        def child(parent: State, kind: TaskKind) -> tuple[State, bool]:
+            """The state of ``kind`` started where ``parent`` ended (simulated once)."""
+            k = key(kind, parent.end)
+            if k in index:
+                s = cmap[index[k]]
+                cmap.add_transition(parent.ident, s.ident)
+                return s, False
+            d_i = reset_goal(parent)
+            out = simulate(kind, parent.end, d_i, obstacles, robot)
+            s = _state(len(cmap), out, d_i)
+            s = State(**{**_fields(s), "cost": self.cost(s, ctx)})
+            cmap.add_state(s)
+            cmap.add_transition(parent.ident, s.ident)
+            index[k] = s.ident
+            return s, True
+
+        def reset_goal(parent: State) -> Disturbance:
+            # R(q1, q2) = D_G when q1 was not interrupted (never called otherwise)
+            assert parent.d_n is None
+            return g
+
+        while pq:
+            _, qe_id = heapq.heappop(pq)
+            qe = cmap[qe_id]
+            for kind in (TaskKind.STRAIGHT, TaskKind.LEFT, TaskKind.RIGHT):
+                if len(cmap) + (2 if kind.is_turn else 1) > self.max_states:
+                    stop = "budget"
+                    break
+                first, new = child(qe, kind)
+                frontier, fresh = first, new
+                if kind.is_turn and not first.interrupted:
+                    frontier, fresh = child(first, TaskKind.STRAIGHT)
+                if frontier.reached_goal and reached is None:
+                    reached = frontier.ident
+                if fresh and not frontier.interrupted and not frontier.reached_goal:
+                    e = frontier.end
+                    if abs(e.x - origin.x) <= horizon and abs(e.y - origin.y) <= horizon:
+                        heapq.heappush(pq, (frontier.cost, frontier.ident))
+            if stop == "budget":
+                break
+            if reached is not None:
+                stop = "goal"
+                break
+        else:
+            stop = "exhausted"
+
+        p = extract_plan(cmap)
+        psi = guard(cmap, p)
+        cmap.metadata.update(
+            {
+                "robot": robot.to_dict(),
+                "horizon": horizon,
+                "max_states": self.max_states,
+                "stop_reason": stop,
+                "plan": list(p.states),
+                "obstacles": [d.to_dict() for d in obstacles.disturbances],
+            }
+        )
+        elapsed = time.perf_counter() - t0
+        return PlanResult(cmap, p, g, obstacles, robot, elapsed, stop, psi)
+
+    def plan(
+        self,
+        scan: np.ndarray | str | Any,
+        goal: Disturbance | tuple[float, float],
+    ) -> PlanResult:
+        """Perceive ``scan`` (array or file) and plan to ``goal``; see :meth:`build`.
+
+        ``planning_time_s`` covers perception and map construction.
+        """
+        t0 = time.perf_counter()
+        pts = load_scan(scan)
+        obstacles = perceive(pts, self.robot.sensor_range, self.robot.cluster_distance)
+        result = self.build(obstacles, goal)
+        result.planning_time_s = time.perf_counter() - t0
+        return result
+
+
+def _fields(s: State) -> dict[str, Any]:
+    return {f: getattr(s, f) for f in State.__dataclass_fields__}
+
+
+def _state(ident: int, out: Outcome, d_i: Disturbance) -> State:
+    return State(
+        ident=ident,
+        task=out.task,
+        d_i=d_i,
+        d_n=out.d_n,
+        start=out.start,
+        end=out.end,
+        distance=out.distance,
+        duration=out.duration,
+        reached_goal=out.reached_goal,
+    )
+
+
+def plan(
+    scan: Any,
+    goal: tuple[float, float] | Disturbance = (1.0, 0.0),
+    robot: RobotModel | None = None,
+    **options: Any,
+) -> PlanResult:
+    """Plan from a scan (N×2 array, text or .npy file) to ``goal`` (robot frame).
+
+    >>> import numpy as np
+    >>> plan(np.zeros((0, 2)), goal=(1.0, 0.0)).reached_goal
+    True
+    """
+    return Configurator(robot=robot, **options).plan(scan, goal)
+
+

@@ -1,0 +1,112 @@
+"""Tasks: the temporary closed-loop controllers STRAIGHT, LEFT and RIGHT.
+
+A task is contingent on a disturbance D_I (here the goal D_G). At every control tick it
+computes an error signal E from the robot's pose and its disturbance, maps E to wheel
+speeds (the motor law M = H(E)) and ends when E reaches zero. The same controller runs
+in the physics rollouts of the Configurator and on the robot under the supervisor: in
+both, the task ends by its own criterion measured on the (simulated or estimated) pose.
+
+- STRAIGHT: both wheels equal. E is the distance still to drive: the smaller of what is
+  left of its length limit (a body-length step, or the distance to the goal when the
+  goal is dead ahead and nothing is in the way) and, when the goal was ahead at the
+  start, the goal's distance along the heading (E = 0 when the goal comes abeam or is
+  reached). Speed ramps down in the last tick so that it stops exactly on E = 0.
+- LEFT / RIGHT: spin in place (wheels opposite). E is the heading change still to make
+  towards the commanded turn angle.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from formal.model import Disturbance, Pose, TaskKind
+from planner.robot import RobotModel
+
+__all__ = ["Task", "wrap_angle"]
+
+_EPS = 1e-9
+
+
+def wrap_angle(a: float) -> float:
+    """Wrap an angle to (-pi, pi]."""
+    a = math.fmod(a + math.pi, 2 * math.pi)
+    if a <= 0:
+        a += 2 * math.pi
+    return a - math.pi
+
+
+@dataclass
+class Task:
+    """One closed-loop controller, started at ``start`` with its limits fixed then.
+
+    ``limit`` is the length (m) of a STRAIGHT or the angle (rad) of a turn.
+    ``goal`` is D_I. Create with :meth:`straight` / :meth:`turn` or :meth:`create`.
+    """
+
+    kind: TaskKind
+    robot: RobotModel
+    start: Pose
+    limit: float
+    goal: Disturbance | None = None
+    goal_ahead: bool = False
+
+    @classmethod
+    def straight(cls, robot: RobotModel, start: Pose, goal: Disturbance | None, limit: float) -> "Task":
+        """A STRAIGHT of at most ``limit`` metres, ending early when ``goal`` comes abeam."""
+        ahead = False
+        if goal is not None:
+            ahead = _along(start, goal) > _EPS
+        return cls(TaskKind.STRAIGHT, robot, start, float(limit), goal, ahead)
+
+    @classmethod
+    def turn(cls, robot: RobotModel, kind: TaskKind, start: Pose, goal: Disturbance | None = None,
+             angle: float | None = None) -> "Task":
+        """A LEFT or RIGHT spin in place by ``angle`` (default the robot's turn angle)."""
+        if not kind.is_turn:
+            raise ValueError("turn() needs LEFT or RIGHT")
+        return cls(kind, robot, start, float(robot.turn_angle if angle is None else angle), goal)
+
+    # -- the control loop ------------------------------------------------------------
+    def error(self, pose: Pose) -> float:
+        """E: what is left to do, in metres (STRAIGHT) or radians (turns); 0 means done."""
+        if self.kind is TaskKind.STRAIGHT:
+            travelled = (pose.x - self.start.x) * math.cos(self.start.theta) + (pose.y - self.start.y) * math.sin(
+                self.start.theta
+            )
+            e = self.limit - travelled
+            if self.goal_ahead and self.goal is not None:
+                e = min(e, _along(pose, self.goal))
+            return max(e, 0.0)
+        turned = wrap_angle(pose.theta - self.start.theta)
+        if self.kind is TaskKind.RIGHT:
+            turned = -turned
+        # a turn by pi may wrap: count a wrapped heading as turned past
+        if turned < -math.pi / 2 and self.limit > math.pi / 2:
+            turned += 2 * math.pi
+        return max(self.limit - turned, 0.0)
+
+    def done(self, error: float) -> bool:
+        """True when the task's error signal has reached zero."""
+        return error <= _EPS
+
+    def wheel_speeds(self, error: float) -> tuple[float, float]:
+        """M = H(E): (left, right) wheel speeds in m/s for this tick."""
+        r = self.robot
+        if self.kind is TaskKind.STRAIGHT:
+            v = min(r.straight_speed, error / r.tick)
+            return v, v
+        w = min(r.turn_rate, error / r.tick)
+        wheel = w * r.wheel_base / 2
+        return (-wheel, wheel) if self.kind is TaskKind.LEFT else (wheel, -wheel)
+
+    def max_ticks(self) -> int:
+        """An upper bound on the ticks the task can take (for loops that must end)."""
+        r = self.robot
+        rate = r.straight_speed if self.kind is TaskKind.STRAIGHT else r.turn_rate
+        return int(math.ceil(self.limit / (rate * r.tick))) + 2
+
+
+def _along(pose: Pose, goal: Disturbance) -> float:
+    """The goal's distance ahead of ``pose`` along its heading (negative when behind)."""
+    return (goal.x - pose.x) * math.cos(pose.theta) + (goal.y - pose.y) * math.sin(pose.theta)

@@ -1,0 +1,152 @@
+"""``clomp plan``: plan on a built-in scenario, a scan file, or every scan in a folder."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+from pathlib import Path
+from typing import Any
+
+from formal.lts import MapError
+from planner import Configurator, PlanningError, PlanResult, RobotModel, ScanError
+from planner.scenarios import ScenarioError, load_scenario
+from runtime.cli import CliError
+
+__all__ = ["register", "parse_goal", "configurator_from_args", "add_planner_options"]
+
+
+def parse_goal(text: str) -> tuple[float, float]:
+    """``"1.0,0.0"`` → (1.0, 0.0); a clear error for anything else."""
+    try:
+        parts = [float(p) for p in text.replace(" ", "").split(",")]
+    except ValueError:
+        raise CliError(f"--goal: expected X,Y in metres, got {text!r}") from None
+    if len(parts) != 2:
+        raise CliError(f"--goal: expected X,Y in metres, got {text!r}")
+    if not all(math.isfinite(p) for p in parts):
+        raise CliError(f"--goal: coordinates must be finite, got {text!r}")
+    return parts[0], parts[1]
+
+
+def add_planner_options(p: argparse.ArgumentParser) -> None:
+    """Options shared by the commands that plan."""
+    g = p.add_argument_group("planner")
+    g.add_argument("--max-states", type=int, default=400, help="state budget of the cognitive map (default 400)")
+    g.add_argument("--horizon", type=float, default=1.2, help="half-size of the box around the start beyond which states are not expanded (m, default 1.2)")
+    g.add_argument("--step-length", type=float, default=0.27, help="length of a STRAIGHT step when the way to the goal is not clear (m, default 0.27; 0 = no cut)")
+
+
+def configurator_from_args(args: argparse.Namespace) -> Configurator:
+    """A Configurator from the shared planner options."""
+    try:
+        step = None if args.step_length == 0 else args.step_length
+        return Configurator(RobotModel(step_length=step), max_states=args.max_states, horizon=args.horizon)
+    except ValueError as exc:
+        raise CliError(str(exc)) from None
+
+
+def register(sub: Any) -> None:
+    """Add ``plan`` to the command line."""
+    p = sub.add_parser("plan", help="plan to a goal on a scenario or scan(s)", description=__doc__)
+    src = p.add_mutually_exclusive_group(required=True)
+    src.add_argument("--scenario", help="a built-in scenario name or a scenario JSON file")
+    src.add_argument("--scan", help="a scan file (x y per line, or .npy) or a folder of scans")
+    p.add_argument("--goal", help="goal X,Y in the robot frame (metres); default: the scenario's, or 1.0,0.0")
+    p.add_argument("--json", action="store_true", help="print JSON (one object; one line per scan for a folder)")
+    p.add_argument("--map", metavar="FILE", help="also write the cognitive map as JSON to FILE")
+    add_planner_options(p)
+    p.set_defaults(func=run)
+
+
+def _plan_one(conf: Configurator, scan: Any, goal: tuple[float, float]) -> PlanResult:
+    try:
+        return conf.plan(scan, goal)
+    except (ScanError, PlanningError) as exc:
+        raise CliError(str(exc)) from None
+
+
+def _print_readable(r: PlanResult, title: str) -> None:
+    out = sys.stdout
+    verdict = "reaches the goal" if r.reached_goal else "does NOT reach the goal (best partial plan)"
+    print(f"{title}: goal ({r.goal.x:g}, {r.goal.y:g}) — plan {verdict}", file=out)
+    print(
+        f"  {r.states} states, {r.transitions} transitions, {len(r.obstacles)} obstacle boxes, "
+        f"planned in {r.planning_time_s * 1e3:.2f} ms (stopped: {r.stop_reason})",
+        file=out,
+    )
+    if not r.steps:
+        print("  (empty plan: no safe task leads closer to the goal)", file=out)
+    for k, s in enumerate(r.steps, 1):
+        print(
+            f"  {k:2d}. {s.task.value:<8} ({s.start.x:+.3f}, {s.start.y:+.3f}, {math.degrees(s.start.theta):+6.1f}°)"
+            f" → ({s.end.x:+.3f}, {s.end.y:+.3f}, {math.degrees(s.end.theta):+6.1f}°)  q{s.ident}",
+            file=out,
+        )
+    end = r.map[r.plan.end].end
+    print(f"  ends {end.distance_to(r.goal.x, r.goal.y):.3f} m from the goal; collision-free: {r.collision_free}", file=out)
+
+
+def run(args: argparse.Namespace) -> int:
+    """Execute ``clomp plan``."""
+    conf = configurator_from_args(args)
+    if args.scenario:
+        try:
+            scene = load_scenario(args.scenario)
+        except ScenarioError as exc:
+            raise CliError(str(exc)) from None
+        goal = parse_goal(args.goal) if args.goal else tuple(scene.goal_in_robot_frame())
+        r = _plan_one(conf, scene.scan(max_range=conf.robot.sensor_range), goal)  # type: ignore[arg-type]
+        _emit(r, args, scene.name)
+        return 0
+    path = Path(args.scan)
+    goal = parse_goal(args.goal) if args.goal else (1.0, 0.0)
+    if not path.exists():
+        raise CliError(f"{path}: no such file or folder")
+    if path.is_dir():
+        return _plan_folder(conf, path, goal, args)
+    r = _plan_one(conf, path, goal)
+    _emit(r, args, str(path))
+    return 0
+
+
+def _emit(r: PlanResult, args: argparse.Namespace, title: str) -> None:
+    if args.map:
+        try:
+            r.map.write_json(args.map)
+        except (OSError, MapError) as exc:
+            raise CliError(f"--map: cannot write {args.map}: {exc}") from None
+    if args.json:
+        print(json.dumps(r.to_dict()))
+    else:
+        _print_readable(r, title)
+
+
+def _plan_folder(conf: Configurator, folder: Path, goal: tuple[float, float], args: argparse.Namespace) -> int:
+    files = sorted(p for p in folder.iterdir() if p.is_file() and p.suffix in (".dat", ".txt", ".npy", ".xy"))
+    if not files:
+        raise CliError(f"{folder}: no scan files (*.dat, *.txt, *.npy) in this folder")
+    tty = sys.stderr.isatty()
+    times: list[float] = []
+    reached = 0
+    for k, f in enumerate(files, 1):
+        r = _plan_one(conf, f, goal)
+        times.append(r.planning_time_s)
+        reached += r.reached_goal
+        if args.json:
+            print(json.dumps({"scan": str(f), **r.to_dict()}), flush=True)
+        else:
+            print(
+                f"{f.name}: {'goal' if r.reached_goal else 'partial'}  {len(r.steps)} tasks  {r.states} states  "
+                f"{r.planning_time_s * 1e3:.2f} ms  [{' '.join(s.task.value[0] for s in r.steps)}]",
+                flush=True,
+            )
+        if tty:
+            print(f"\r  {k}/{len(files)} scans planned", end="", file=sys.stderr, flush=True)
+    if tty:
+        print(file=sys.stderr)
+    if not args.json:
+        times.sort()
+        print(f"{len(files)} scans, {reached} plans reach the goal, median {times[len(times) // 2] * 1e3:.2f} ms")
+    return 0
