@@ -57,4 +57,7 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 
 if __name__ == "__main__":  # pragma: no cover
-    sys.exit(main())
+    # run through the canonical module so that CliError is the one the commands raise
+    from runtime.cli import main as _main
+
+    sys.exit(_main())

@@ -1,0 +1,160 @@
+"""The Configurator on the built-in scenarios, on recorded scans, and on bad input."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from formal.model import TaskKind
+from formal.supervisory import guard
+from planner import Configurator, PlanningError, RobotModel, load_scan, load_scenario, plan, simulate
+from planner.configurator import chi, default_cost, gamma
+from planner.physics import World
+
+
+def _plan_scenario(name: str, **kw):
+    scene = load_scenario(name)
+    return Configurator(**kw).plan(scene.scan(), tuple(scene.goal_in_robot_frame()))
+
+
+def test_overtaking_turns_around_the_obstacle_and_reaches_the_goal():
+    r = _plan_scenario("overtaking")
+    assert r.reached_goal and r.collision_free
+    assert 10 <= r.states <= 200
+    kinds = [s.task for s in r.steps]
+    assert TaskKind.LEFT in kinds or TaskKind.RIGHT in kinds
+    # the plan passes beside the obstacle, not through it
+    assert max(abs(s.end.y) for s in r.steps) >= 0.2
+    end = r.map[r.plan.end].end
+    assert end.distance_to(1.0, 0.0) <= r.robot.goal_tolerance
+
+
+def test_resimulating_the_plan_in_a_fresh_world_gives_the_same_poses():
+    r = _plan_scenario("overtaking")
+    for s in r.steps:
+        out = simulate(s.task, s.start, r.goal, r.obstacles, r.robot)
+        assert out.d_n is None
+        assert out.end == s.end
+        # and the pose is free in a world holding every obstacle
+        w = World(r.obstacles, r.robot)
+        w.place(out.end)
+        assert w.contact() is None
+
+
+def test_open_is_a_single_straight():
+    r = _plan_scenario("open")
+    assert r.reached_goal
+    assert [s.task for s in r.steps] == [TaskKind.STRAIGHT]
+
+
+def test_corridor_reaches_the_goal():
+    r = _plan_scenario("corridor")
+    assert r.reached_goal and r.collision_free
+
+
+def test_blocked_gives_the_best_partial_plan():
+    r = _plan_scenario("blocked")
+    assert not r.reached_goal
+    assert r.collision_free
+    assert r.stop_reason in ("exhausted", "budget")
+    end = r.map[r.plan.end]
+    uninterrupted = [s for s in r.map.states() if not s.interrupted]
+    assert end.cost == min(s.cost for s in uninterrupted)
+    # the partial plan gets closer to the goal than the start
+    assert end.end.distance_to(1.0, 0.0) < 1.0
+
+
+def test_guard_is_one_exactly_on_the_plan():
+    r = _plan_scenario("overtaking")
+    steps = set(r.plan.steps())
+    psi = guard(r.map, r.plan)
+    assert sum(psi.values()) == len(steps)
+    assert all(v == ((t.source, t.target) in steps) for t, v in psi.items())
+    assert r.psi == psi
+
+
+def test_budget_is_respected_and_stops_with_a_reason():
+    r = _plan_scenario("overtaking", max_states=12)
+    assert r.states <= 12
+    assert r.stop_reason == "budget"
+    assert r.collision_free
+
+
+def test_cost_is_a_parameter():
+    calls = []
+
+    def cost(state, ctx):
+        calls.append(state.ident)
+        return default_cost(state, ctx)
+
+    r = _plan_scenario("overtaking", cost=cost)
+    assert r.reached_goal and len(calls) == r.states
+
+
+def test_cost_definition():
+    r = _plan_scenario("overtaking")
+    from planner.configurator import CostContext
+
+    ctx = CostContext(r.goal, r.map.initial.start, r.robot)
+    for s in r.map.states():
+        assert s.cost == pytest.approx(gamma(s, ctx) + chi(s, ctx))
+        if s.interrupted:
+            assert 1.0 <= s.cost < 3.0
+        else:
+            assert 0.0 <= s.cost < 1.0
+    assert chi(r.map.initial, ctx) == pytest.approx(0.5)
+
+
+def test_same_input_gives_an_identical_map():
+    a = _plan_scenario("overtaking")
+    b = _plan_scenario("overtaking")
+    assert json.dumps(a.map.to_dict()) == json.dumps(b.map.to_dict())
+
+
+def test_json_round_trip(tmp_path):
+    from formal.lts import CognitiveMap
+
+    r = _plan_scenario("overtaking")
+    p = tmp_path / "map.json"
+    r.map.write_json(p)
+    assert CognitiveMap.read_json(p) == r.map
+
+
+@pytest.mark.parametrize(
+    "goal, message",
+    [((0.0, 0.0), "robot's own position"), ((float("nan"), 0.0), "finite"), ((0.45, 0.0), "inside obstacle")],
+)
+def test_ill_posed_goals(goal, message):
+    scene = load_scenario("overtaking")
+    with pytest.raises(PlanningError, match=message):
+        Configurator().plan(scene.scan(), goal)
+
+
+def test_points_inside_the_robot_give_an_empty_safe_plan():
+    r = plan(np.array([[0.0, 0.05], [0.02, 0.05]]), goal=(1.0, 0.0))
+    assert r.steps == []
+    assert r.collision_free and not r.reached_goal
+
+
+def test_every_recorded_scan_plans(scans_dir):
+    conf = Configurator()
+    files = sorted(scans_dir.glob("*.dat"))
+    assert len(files) == 279
+    reached = 0
+    for f in files:
+        r = conf.plan(f, (1.0, 0.0))
+        assert r.collision_free
+        assert 1 <= r.states <= conf.max_states
+        reached += r.reached_goal
+    empty = [f for f in files if load_scan(f).size == 0]
+    assert len(empty) >= 40 and reached >= len(empty)
+
+
+def test_robot_model_is_configurable_and_validated():
+    with pytest.raises(ValueError, match="wheel_base"):
+        RobotModel(wheel_base=-1)
+    r = plan(np.zeros((0, 2)), goal=(0.0, 1.0), robot=RobotModel(turn_angle=np.pi / 2))
+    assert r.reached_goal
+    assert [s.task for s in r.steps] == [TaskKind.LEFT, TaskKind.STRAIGHT]

@@ -1,0 +1,111 @@
+"""Perception: reading scans, rejecting bad ones, and covering points tightly."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from planner.perception import ScanError, load_scan, perceive, validate_scan
+
+
+def test_text_scan_with_tabs_spaces_and_comments(tmp_path):
+    f = tmp_path / "s.dat"
+    f.write_text("0.5\t0.1\n# a comment\n\n0.6 -0.2\n")
+    assert load_scan(f).tolist() == [[0.5, 0.1], [0.6, -0.2]]
+
+
+def test_empty_file_is_free_space(tmp_path):
+    f = tmp_path / "empty.dat"
+    f.write_text("")
+    pts = load_scan(f)
+    assert pts.shape == (0, 2)
+    assert len(perceive(pts)) == 0
+
+
+def test_npy_and_array(tmp_path):
+    a = np.array([[0.3, 0.0], [0.31, 0.0]])
+    np.save(tmp_path / "s.npy", a)
+    assert np.array_equal(load_scan(tmp_path / "s.npy"), a)
+    assert np.array_equal(load_scan(a), a)
+
+
+@pytest.mark.parametrize(
+    "content, message",
+    [
+        ("0.5 0.1\n0.3\n", ":2: expected two numbers"),
+        ("0.5 abc\n", ":1: not a number"),
+        ("nan 0.1\n", "not finite"),
+        ("0.1 inf\n", "not finite"),
+    ],
+)
+def test_malformed_lines_are_named(tmp_path, content, message):
+    f = tmp_path / "bad.dat"
+    f.write_text(content)
+    with pytest.raises(ScanError, match=message):
+        load_scan(f)
+
+
+def test_missing_file_and_bad_arrays(tmp_path):
+    with pytest.raises(ScanError, match="no such file"):
+        load_scan(tmp_path / "nope.dat")
+    with pytest.raises(ScanError, match="N×2"):
+        validate_scan(np.zeros((3, 3)))
+    with pytest.raises(ScanError, match="not finite"):
+        validate_scan(np.array([[0.1, np.nan]]))
+
+
+def test_points_beyond_range_are_dropped():
+    pts = np.array([[0.5, 0.0], [1.5, 0.0]])
+    obs = perceive(pts, sensor_range=1.1)
+    assert len(obs) == 1
+    assert obs.contains_point(0.5, 0.0) is not None
+    assert obs.contains_point(1.5, 0.0) is None
+
+
+def test_far_apart_points_are_separate_clusters_close_ones_join():
+    pts = np.array([[0.5, 0.0], [0.55, 0.0], [0.5, 0.5]])
+    obs = perceive(pts)
+    assert len(obs) == 2
+
+
+def test_slanted_wall_becomes_a_thin_slanted_box():
+    # a wall at 45 degrees from (0.3, -0.3) to (0.8, 0.2): its axis-aligned box would be 0.5 x 0.5
+    t = np.linspace(0, 1, 60)
+    pts = np.c_[0.3 + 0.5 * t, -0.3 + 0.5 * t]
+    obs = perceive(pts)
+    total_area = 0.0
+    for box in obs.boxes:
+        x, y = box[:, 0], box[:, 1]
+        total_area += 0.5 * abs(np.dot(x, np.roll(y, -1)) - np.dot(y, np.roll(x, -1)))
+    assert total_area < 0.05 * 0.5 * math.sqrt(2)  # a slab a few cm thick, not 0.25 m²
+    # the corridor beside the wall stays open: a point 10 cm off the wall is free
+    assert obs.contains_point(0.55 + 0.07, -0.05 - 0.07) is None
+    assert all(obs.contains_point(*p) is not None for p in pts)
+
+
+def test_l_shaped_corner_is_not_one_fat_box():
+    a = np.c_[np.linspace(0.4, 0.8, 40), np.full(40, 0.3)]
+    b = np.c_[np.full(40, 0.4), np.linspace(0.3, -0.1, 40)]
+    obs = perceive(np.r_[a, b])
+    # the inside of the L is free
+    assert obs.contains_point(0.6, 0.1) is None
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    st.lists(
+        st.tuples(st.floats(-1.0, 1.0), st.floats(-1.0, 1.0)),
+        min_size=1,
+        max_size=80,
+    )
+)
+def test_every_point_in_range_is_covered(points):
+    pts = np.array(points)
+    obs = perceive(pts)
+    for x, y in pts:
+        if 1e-3 < math.hypot(x, y) <= 1.1:
+            assert obs.contains_point(x, y, margin=1e-9) is not None

@@ -1,0 +1,115 @@
+"""Invariants of every map the Configurator builds, over generated scenes."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+from hypothesis import HealthCheck, assume, given, settings
+from hypothesis import strategies as st
+
+from planner import Configurator, PlanningError, RobotModel
+from planner.physics import World
+from planner.scenarios import Scene, Shape, _rect
+
+
+@st.composite
+def scenes(draw):
+    """A few boxes around (not on) the robot, and a goal within the planning horizon."""
+    shapes = []
+    for _ in range(draw(st.integers(0, 4))):
+        r = draw(st.floats(0.35, 1.0))
+        a = draw(st.floats(-math.pi, math.pi))
+        sx = draw(st.floats(0.03, 0.4))
+        sy = draw(st.floats(0.03, 0.4))
+        ang = draw(st.floats(0, math.pi))
+        shapes.append(Shape("polygon", _rect(r * math.cos(a), r * math.sin(a), sx, sy, ang)))
+    gd = draw(st.floats(0.3, 1.1))
+    ga = draw(st.floats(-math.pi, math.pi))
+    goal = (gd * math.cos(ga), gd * math.sin(ga))
+    return Scene("generated", tuple(shapes), goal)
+
+
+robots = st.builds(
+    RobotModel,
+    width=st.sampled_from([0.14, 0.18, 0.22]),
+    step_length=st.sampled_from([0.2, 0.27, 0.35]),
+    turn_angle=st.sampled_from([math.pi / 2, math.pi / 3]),
+)
+
+
+def _build(scene: Scene, robot: RobotModel):
+    conf = Configurator(robot=robot, max_states=120)
+    try:
+        return conf.plan(scene.scan(rays=180), scene.goal)
+    except PlanningError:
+        assume(False)
+
+
+SETTINGS = settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+
+
+@SETTINGS
+@given(scenes(), robots)
+def test_map_invariants(scene, robot):
+    r = _build(scene, robot)
+    m = r.map
+    # every state is reachable from q0, which is the only initial state
+    assert m.initial.ident == 0
+    assert m.reachable() == {s.ident for s in m.states()}
+    for s in m.states():
+        # no transition leaves an interrupted state
+        if s.interrupted:
+            assert m.out_transitions(s.ident) == []
+        # R: after an uninterrupted state, the next task is contingent on D_G
+        for t in m.out_transitions(s.ident):
+            assert not s.interrupted
+            assert m[t.target].d_i == m.goal
+            # the simulated motion is continuous: a task starts where its predecessor ended
+            tgt = m[t.target].start
+            assert math.isclose(tgt.x, s.end.x, abs_tol=1e-6) and math.isclose(tgt.y, s.end.y, abs_tol=1e-6)
+        # a turn that was not interrupted is followed by a straight
+        if s.task.is_turn and not s.interrupted:
+            assert [x.task.value for x in m.successors(s.ident)] == ["STRAIGHT"]
+    # the plan is a path from q0 ending at argmin phi over the states a plan may end in
+    p = r.plan.states
+    assert p[0] == 0
+    assert all(m.has_transition(a, b) for a, b in zip(p, p[1:]))
+    candidates = [s for s in m.states() if not s.interrupted]
+    assert m[p[-1]].cost == min(s.cost for s in candidates)
+    assert r.collision_free
+
+
+@SETTINGS
+@given(scenes(), robots)
+def test_tasks_never_end_inside_an_obstacle(scene, robot):
+    r = _build(scene, robot)
+    world = World(r.obstacles, robot)
+    world.place(r.map.initial.start)
+    assume(world.contact() is None)  # a robot already touching something plans nothing (tested elsewhere)
+    for s in r.map.states():
+        if s.ident == 0:
+            continue
+        world.place(s.end)
+        assert world.contact() is None, f"q{s.ident} ends inside an obstacle"
+
+
+@settings(max_examples=15, deadline=None)
+@given(scenes(), robots)
+def test_same_input_same_map(scene, robot):
+    a = _build(scene, robot)
+    b = _build(scene, robot)
+    assert json.dumps(a.map.to_dict()) == json.dumps(b.map.to_dict())
+
+
+@settings(max_examples=30, deadline=None)
+@given(st.floats(0.3, 1.1), st.floats(-math.pi, math.pi))
+def test_free_space_reaches_any_goal_in_range(d, a):
+    goal = (d * math.cos(a), d * math.sin(a))
+    r = Configurator().plan(np.zeros((0, 2)), goal)
+    assert r.collision_free
+    # a straight stops when the goal comes abeam, then a turn faces it and a clear run
+    # reaches it: every goal in free space is reached exactly
+    assert r.reached_goal
+    assert r.map[r.plan.end].end.distance_to(*goal) <= r.robot.goal_tolerance

@@ -1,0 +1,80 @@
+"""``clomp plan`` as a user runs it: the console script, JSON out, one-line errors."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+
+def clomp(*args: str, cwd=None) -> subprocess.CompletedProcess[str]:
+    """Run the installed console script (as a user does), or the module when not installed."""
+    script = Path(sys.executable).with_name("clomp")
+    cmd = [str(script)] if script.exists() else [sys.executable, "-m", "runtime.cli"]
+    return subprocess.run([*cmd, *args], capture_output=True, text=True, timeout=120, cwd=cwd)
+
+
+def test_plan_overtaking_json():
+    p = clomp("plan", "--scenario", "overtaking", "--json")
+    assert p.returncode == 0, p.stderr
+    d = json.loads(p.stdout)
+    assert d["reached_goal"] is True and d["collision_free"] is True
+    assert 10 <= d["states"] <= 200 and d["transitions"] >= d["states"] - 1
+    assert isinstance(d["planning_time_s"], float)
+    assert {s["task"] for s in d["plan"]} >= {"STRAIGHT"}
+    assert any(s["task"] in ("LEFT", "RIGHT") for s in d["plan"])
+    for s in d["plan"]:
+        assert len(s["start"]) == 3 and len(s["end"]) == 3
+
+
+def test_plan_readable_and_blocked_exit_zero():
+    p = clomp("plan", "--scenario", "blocked")
+    assert p.returncode == 0
+    assert "does NOT reach the goal" in p.stdout
+    p = clomp("plan", "--scenario", "blocked", "--json")
+    assert json.loads(p.stdout)["reached_goal"] is False
+
+
+def test_plan_scan_file_and_folder(tmp_path, scans_dir):
+    p = clomp("plan", "--scan", str(scans_dir / "map0001.dat"), "--goal", "1.0,0.0", "--json")
+    assert p.returncode == 0, p.stderr
+    assert "plan" in json.loads(p.stdout)
+    folder = tmp_path / "few"
+    folder.mkdir()
+    for name in ("map0001.dat", "map0100.dat", "map0250.dat"):
+        (folder / name).write_bytes((scans_dir / name).read_bytes())
+    p = clomp("plan", "--scan", str(folder), "--goal", "1.0,0.0", "--json")
+    assert p.returncode == 0, p.stderr
+    lines = [json.loads(x) for x in p.stdout.splitlines()]
+    assert [x["scan"].rsplit("/", 1)[-1] for x in lines] == ["map0001.dat", "map0100.dat", "map0250.dat"]
+    assert all("reached_goal" in x for x in lines)
+
+
+@pytest.mark.parametrize(
+    "args, needle",
+    [
+        (["--scan", "/nonexistent/scan.dat"], "no such file"),
+        (["--scenario", "atlantis"], "unknown scenario"),
+        (["--scenario", "overtaking", "--goal", "0,0"], "robot's own position"),
+        (["--scenario", "overtaking", "--goal", "0.45,0"], "inside obstacle"),
+        (["--scenario", "overtaking", "--goal", "nan,0"], "finite"),
+        (["--scenario", "overtaking", "--goal", "1"], "X,Y"),
+    ],
+)
+def test_bad_input_is_one_line_and_exit_2(args, needle):
+    p = clomp("plan", *args)
+    assert p.returncode == 2
+    assert needle in p.stderr
+    assert "Traceback" not in p.stderr
+    assert len(p.stderr.strip().splitlines()) == 1
+
+
+@pytest.mark.parametrize("content, needle", [("0.5 0.1\nfoo\n", ":2:"), ("nan 0.2\n", "not finite")])
+def test_malformed_scan_files(tmp_path, content, needle):
+    f = tmp_path / "bad.dat"
+    f.write_text(content)
+    p = clomp("plan", "--scan", str(f), "--goal", "1.0,0.0")
+    assert p.returncode == 2 and needle in p.stderr and "Traceback" not in p.stderr
