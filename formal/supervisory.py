@@ -16,7 +16,7 @@ from typing import Any
 from formal.lts import CognitiveMap, MapError, Transition
 from formal.model import Disturbance, State, TaskKind
 
-__all__ = ["Plan", "ResetUndefined", "guard", "reset", "plan_end", "extract_plan"]
+__all__ = ["Plan", "ResetUndefined", "Guard", "Reset", "guard", "reset", "plan_end", "extract_plan", "plan_tasks"]
 
 
 class ResetUndefined(MapError):
@@ -104,3 +104,131 @@ def extract_plan(cmap: CognitiveMap) -> Plan:
 def plan_tasks(cmap: CognitiveMap, plan: Plan) -> list[TaskKind]:
     """The task kinds the plan starts, in order."""
     return [cmap[i].task for i in plan.states[1:]]
+
+
+class Guard:
+    """Ψ: ↪ → {0, 1} as an object: the supervisory control pattern of one plan on one map.
+
+    The domain is every transition of the map; the codomain is {0, 1}. Ψ(t) = 1 exactly
+    when t is a step of the plan ρ, so the supervisor enables one task per state of ρ and
+    disables every other option the Configurator explored. Usable on a map built by hand:
+
+    >>> from formal.model import Disturbance, Pose, State, TaskKind
+    >>> g = Disturbance.goal(1.0, 0.0)
+    >>> m = CognitiveMap.from_parts(
+    ...     [State(0, TaskKind.STRAIGHT, g, None, Pose(0, 0), Pose(0, 0), cost=0.5),
+    ...      State(1, TaskKind.STRAIGHT, g, None, Pose(0, 0), Pose(1, 0), cost=0.0),
+    ...      State(2, TaskKind.LEFT, g, None, Pose(0, 0), Pose(0, 0, 1.57), cost=0.5)],
+    ...     [(0, 1), (0, 2)], goal=g)
+    >>> psi = Guard.for_map(m)
+    >>> [psi(t) for t in psi.domain]
+    [1, 0]
+    >>> [t.target for t in psi.enabled(0)]
+    [1]
+    """
+
+    codomain: frozenset[int] = frozenset({0, 1})
+
+    def __init__(self, cmap: CognitiveMap, plan: Plan) -> None:
+        self.cmap = cmap
+        self.plan = plan
+        self._steps = frozenset(plan.steps())
+        for s, t in plan.steps():
+            if not cmap.has_transition(s, t):
+                raise MapError(f"plan step q{s} ↪ q{t} is not a transition of the map")
+
+    @classmethod
+    def for_map(cls, cmap: CognitiveMap) -> "Guard":
+        """Ψ for the plan :func:`extract_plan` takes from ``cmap``."""
+        return cls(cmap, extract_plan(cmap))
+
+    @property
+    def domain(self) -> list[Transition]:
+        """The transitions Ψ is defined on: all of ↪, in the map's stable order."""
+        return self.cmap.transitions()
+
+    def __call__(self, transition: Transition | tuple[int, int]) -> int:
+        """Ψ(t): 1 when ``transition`` is a step of the plan, 0 otherwise.
+
+        Raises :class:`MapError` for a pair that is not a transition of the map (outside
+        the domain).
+        """
+        if isinstance(transition, Transition):
+            s, t = transition.source, transition.target
+            if s not in self.cmap or transition not in self.cmap.out_transitions(s):
+                raise MapError(f"{transition} is not a transition of the map")
+        else:
+            s, t = transition
+            if not self.cmap.has_transition(s, t):
+                raise MapError(f"no transition q{s} ↪ q{t}")
+        return int((s, t) in self._steps)
+
+    def enabled(self, ident: int) -> list[Transition]:
+        """The transitions out of q_ident that Ψ enables (at most one for a plan)."""
+        return [t for t in self.cmap.out_transitions(ident) if (t.source, t.target) in self._steps]
+
+    def as_dict(self) -> dict[Transition, int]:
+        """Ψ as a table, the same as :func:`guard`."""
+        return {t: int((t.source, t.target) in self._steps) for t in self.domain}
+
+    def __repr__(self) -> str:
+        return f"Guard(plan={list(self.plan.states)}, |↪|={self.cmap.n_transitions})"
+
+
+class Reset:
+    """R: ↪ → **D** as an object: what the Configurator injects as D_I of a transition's target.
+
+    R(q1, q2) = D_G when q1 was not interrupted (D_N = ∅); R is undefined on transitions
+    leaving an interrupted state, because the Configurator never continues after a
+    collision. The codomain is {D_G}. :meth:`inject` applies R to a pair of states that
+    are not (yet) in a map, which is how a map is grown by hand:
+
+    >>> from formal.model import Disturbance, Pose, State, TaskKind
+    >>> g = Disturbance.goal(1.0, 0.0)
+    >>> q0 = State(0, TaskKind.STRAIGHT, g, None, Pose(0, 0), Pose(0, 0))
+    >>> q1 = Reset(CognitiveMap(goal=g)).inject(q0, State(1, TaskKind.LEFT, None, None, Pose(0, 0), Pose(0, 0, 1.57)))
+    >>> q1.d_i == g
+    True
+    """
+
+    def __init__(self, cmap: CognitiveMap) -> None:
+        self.cmap = cmap
+
+    @property
+    def codomain(self) -> frozenset[Disturbance]:
+        """{D_G}, or the empty set for a map without a goal."""
+        return frozenset() if self.cmap.goal is None else frozenset({self.cmap.goal})
+
+    def is_defined(self, transition: Transition) -> bool:
+        """True when R is defined on ``transition``: its source is not interrupted and the map has a goal."""
+        return self.cmap.goal is not None and not self.cmap[transition.source].interrupted
+
+    @property
+    def domain(self) -> list[Transition]:
+        """The transitions R is defined on."""
+        return [t for t in self.cmap.transitions() if self.is_defined(t)]
+
+    @property
+    def undefined(self) -> list[Transition]:
+        """The transitions R is undefined on (none in a well-formed map, by invariant 2)."""
+        return [t for t in self.cmap.transitions() if not self.is_defined(t)]
+
+    def __call__(self, transition: Transition | tuple[int, int]) -> Disturbance:
+        """R(t); raises :class:`ResetUndefined` where R is undefined."""
+        if isinstance(transition, Transition):
+            return reset(self.cmap, transition.source, transition.target)
+        return reset(self.cmap, *transition)
+
+    def inject(self, source: State, target: State) -> State:
+        """``target`` with D_I set to R(source, target) = D_G; raises :class:`ResetUndefined`
+        when ``source`` was interrupted and :class:`MapError` when the map has no goal."""
+        if source.interrupted:
+            raise ResetUndefined(f"R(q{source.ident}, q{target.ident}) is undefined: q{source.ident} was interrupted (D_N ≠ ∅)")
+        if self.cmap.goal is None:
+            raise MapError("the map has no goal D_G")
+        fields = {f: getattr(target, f) for f in State.__dataclass_fields__}
+        fields["d_i"] = self.cmap.goal
+        return State(**fields)
+
+    def __repr__(self) -> str:
+        return f"Reset(D_G={self.cmap.goal!r})"

@@ -16,8 +16,6 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-from scipy.sparse import coo_matrix
-from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
 from formal.model import Disturbance, DisturbanceKind
@@ -146,13 +144,27 @@ def _point_in_convex(box: np.ndarray, x: float, y: float, margin: float) -> bool
 
 
 def _clusters(points: np.ndarray, eps: float) -> list[np.ndarray]:
-    """Single-linkage clusters: points closer than ``eps`` to each other share one."""
+    """Single-linkage clusters: points closer than ``eps`` to each other share one.
+
+    Neighbour pairs come from a k-d tree; components are found by min-label
+    propagation with pointer jumping (a few vectorised passes, no Python loop per point).
+    """
     n = len(points)
     if n == 0:
         return []
     pairs = cKDTree(points).query_pairs(eps, output_type="ndarray")
-    adj = coo_matrix((np.ones(len(pairs), dtype=np.int8), (pairs[:, 0], pairs[:, 1])), shape=(n, n))
-    k, labels = connected_components(adj, directed=False)
+    labels = np.arange(n)
+    if len(pairs):
+        a, b = pairs[:, 0], pairs[:, 1]
+        while True:
+            m = np.minimum(labels[a], labels[b])
+            new = labels.copy()
+            np.minimum.at(new, a, m)
+            np.minimum.at(new, b, m)
+            new = new[new]
+            if np.array_equal(new, labels):
+                break
+            labels = new
     order = np.argsort(labels, kind="stable")
     bounds = np.flatnonzero(np.diff(labels[order])) + 1
     return [points[idx] for idx in np.split(order, bounds)]
@@ -161,30 +173,32 @@ def _clusters(points: np.ndarray, eps: float) -> list[np.ndarray]:
 def _cover(points: np.ndarray, out: list[np.ndarray], depth: int = 0) -> None:
     """Cover ``points`` with thin oriented boxes, splitting at the median along the axis."""
     centre = points.mean(axis=0)
+    rel = points - centre
     if len(points) >= 2:
-        cov = np.cov((points - centre).T)
-        w, v = np.linalg.eigh(cov)
-        axis = v[:, 1]
+        # principal axis of the 2×2 covariance in closed form
+        sxx = float(rel[:, 0] @ rel[:, 0])
+        syy = float(rel[:, 1] @ rel[:, 1])
+        sxy = float(rel[:, 0] @ rel[:, 1])
+        phi = 0.5 * math.atan2(2 * sxy, sxx - syy)
+        axis = np.array([math.cos(phi), math.sin(phi)])
     else:
         axis = np.array([1.0, 0.0])
     normal = np.array([-axis[1], axis[0]])
-    rel = points - centre
     u = rel @ axis
     t = rel @ normal
-    if (t.max() - t.min()) > 2 * _THIN and len(points) > 2 and depth < 12:
+    if len(points) > 2 and depth < 12 and (t.max() - t.min()) > 2 * _THIN:
         cut = np.median(u)
-        left, right = points[u <= cut], points[u > cut]
-        if len(left) and len(right):
-            _cover(left, out, depth + 1)
-            _cover(right, out, depth + 1)
+        below = u <= cut
+        if below.any() and not below.all():
+            _cover(points[below], out, depth + 1)
+            _cover(points[~below], out, depth + 1)
             return
     u0, u1 = u.min() - _MIN_HALF, u.max() + _MIN_HALF
     t0, t1 = t.min() - _MIN_HALF, t.max() + _MIN_HALF
-    corners = [centre + a * axis + b * normal for a, b in ((u0, t0), (u1, t0), (u1, t1), (u0, t1))]
-    box = np.array(corners)
-    # make the corners counter-clockwise
-    area = 0.5 * np.sum(box[:, 0] * np.roll(box[:, 1], -1) - np.roll(box[:, 0], -1) * box[:, 1])
-    out.append(box if area > 0 else box[::-1])
+    # counter-clockwise: (axis, normal) is a right-handed frame
+    out.append(
+        np.array([centre + a * axis + b * normal for a, b in ((u0, t0), (u1, t0), (u1, t1), (u0, t1))])
+    )
 
 
 def perceive(
@@ -201,7 +215,10 @@ def perceive(
     if len(pts):
         r = np.hypot(pts[:, 0], pts[:, 1])
         pts = pts[(r <= sensor_range) & (r > 1e-3)]
-        pts = np.unique(np.round(pts, 6), axis=0)
+        # de-duplicate on a 0.1 mm grid, keeping scan order (recorded scans repeat points)
+        k = np.round(pts * 1e4).astype(np.int64)
+        _, first = np.unique(k[:, 0] * (1 << 32) + k[:, 1], return_index=True)
+        pts = pts[np.sort(first)]
     boxes: list[np.ndarray] = []
     for cluster in _clusters(pts, cluster_distance):
         _cover(cluster, boxes)

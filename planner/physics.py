@@ -158,7 +158,7 @@ def _rollout(task: Task, world: World | None) -> Outcome:
             d_n = _obstacle_disturbance(world.obstacles, hit)
     limit = task.max_ticks()
     while d_n is None and ticks < limit:
-        e = task.error(pose)
+        e = task.error_at(x, y, th)
         if task.done(e):
             break
         vl, vr = task.wheel_speeds(e)
@@ -179,8 +179,9 @@ def _rollout(task: Task, world: World | None) -> Outcome:
             nx, ny, nth = x + vx * dt, y + vy * dt, th + w * dt
         distance += abs(v) * dt
         x, y, th = nx, ny, nth
-        pose = Pose(x, y, wrap_angle(th))
         ticks += 1
+    if ticks:
+        pose = Pose(x, y, wrap_angle(th))
     return Outcome(task.kind, task.start, pose, distance, ticks * dt, ticks, d_n, False)
 
 

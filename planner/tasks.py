@@ -70,15 +70,19 @@ class Task:
     # -- the control loop ------------------------------------------------------------
     def error(self, pose: Pose) -> float:
         """E: what is left to do, in metres (STRAIGHT) or radians (turns); 0 means done."""
+        return self.error_at(pose.x, pose.y, pose.theta)
+
+    def error_at(self, x: float, y: float, theta: float) -> float:
+        """:meth:`error` for a pose given as three floats (the rollouts' hot path)."""
+        s = self.start
         if self.kind is TaskKind.STRAIGHT:
-            travelled = (pose.x - self.start.x) * math.cos(self.start.theta) + (pose.y - self.start.y) * math.sin(
-                self.start.theta
-            )
-            e = self.limit - travelled
+            c, sn = math.cos(s.theta), math.sin(s.theta)
+            e = self.limit - ((x - s.x) * c + (y - s.y) * sn)
             if self.goal_ahead and self.goal is not None:
-                e = min(e, _along(pose, self.goal))
+                g = self.goal
+                e = min(e, (g.x - x) * math.cos(theta) + (g.y - y) * math.sin(theta))
             return max(e, 0.0)
-        turned = wrap_angle(pose.theta - self.start.theta)
+        turned = wrap_angle(theta - s.theta)
         if self.kind is TaskKind.RIGHT:
             turned = -turned
         # a turn by pi may wrap: count a wrapped heading as turned past
