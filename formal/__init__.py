@@ -5,20 +5,28 @@ Knows nothing of physics: states, transitions, the plan ρ, the guard Ψ and the
 
 from formal.lts import FORMAT_VERSION, CognitiveMap, MapError, Transition
 from formal.model import Disturbance, DisturbanceKind, Pose, State, TaskKind
-from formal.supervisory import Plan, ResetUndefined, extract_plan, guard, plan_end, reset
+from formal.invariants import Invariant, InvariantError, Violation, assert_map_valid, check_map
+from formal.supervisory import Guard, Plan, Reset, ResetUndefined, extract_plan, guard, plan_end, reset
 
 __all__ = [
     "FORMAT_VERSION",
     "CognitiveMap",
     "Disturbance",
+    "Guard",
+    "Invariant",
+    "InvariantError",
     "DisturbanceKind",
     "MapError",
     "Plan",
     "Pose",
+    "Reset",
     "ResetUndefined",
     "State",
     "TaskKind",
     "Transition",
+    "Violation",
+    "assert_map_valid",
+    "check_map",
     "extract_plan",
     "guard",
     "plan_end",

@@ -1,0 +1,229 @@
+"""The invariants of a cognitive map, checked one by one with the states involved.
+
+:func:`check_map` returns every violated invariant (an empty list for a good map), so a
+user who builds a map by hand, or a test that breaks one on purpose, learns *which*
+property fails and *where*, not just that something is wrong. The invariants are:
+
+1. ``INITIAL`` — the map has one initial state q0 and every state is reachable from it;
+2. ``INTERRUPTED_ABSORBING`` — no transition leaves an interrupted state (D_N ≠ ∅);
+3. ``RESET`` — R: every successor of an uninterrupted state is contingent on D_G (D_I = D_G);
+4. ``GUARD`` — Ψ is 1 exactly on the plan's transitions, and the guarded map is a single
+   path from q0 that ends at argmin φ (over the uninterrupted reachable states);
+5. ``TURN_THEN_STRAIGHT`` — every uninterrupted turn is followed by a straight, and only
+   by straights (Algorithm 1's frontier rule: a frontier state is STRAIGHT or interrupted);
+6. ``PROBABILITY`` — for every (state, task) the outgoing probabilities are in (0, 1] and
+   sum to exactly 1.
+
+>>> from formal.model import Disturbance, Pose, State, TaskKind
+>>> g = Disturbance.goal(1.0, 0.0)
+>>> m = CognitiveMap.from_parts(
+...     [State(0, TaskKind.STRAIGHT, g, None, Pose(0, 0), Pose(0, 0), cost=0.5),
+...      State(1, TaskKind.LEFT, g, None, Pose(0, 0), Pose(0, 0, 1.57), cost=0.5)],
+...     [(0, 1)], goal=g)
+>>> [(v.invariant.name, v.states) for v in check_map(m)]
+[('TURN_THEN_STRAIGHT', (1,))]
+"""
+
+from __future__ import annotations
+
+import enum
+from collections import defaultdict
+from collections.abc import Mapping
+from dataclasses import dataclass
+from fractions import Fraction
+
+from formal.lts import CognitiveMap, MapError, Transition
+from formal.model import TaskKind
+from formal.supervisory import Plan, extract_plan, guard
+
+__all__ = [
+    "Invariant",
+    "Violation",
+    "InvariantError",
+    "check_map",
+    "assert_map_valid",
+    "map_plan",
+]
+
+
+class Invariant(enum.IntEnum):
+    """The invariants of a cognitive map, numbered as in the module docstring."""
+
+    INITIAL = 1
+    INTERRUPTED_ABSORBING = 2
+    RESET = 3
+    GUARD = 4
+    TURN_THEN_STRAIGHT = 5
+    PROBABILITY = 6
+
+
+@dataclass(frozen=True, slots=True)
+class Violation:
+    """One violated invariant: which, where (state idents) and a sentence saying why."""
+
+    invariant: Invariant
+    states: tuple[int, ...]
+    message: str
+
+    def __str__(self) -> str:
+        where = ", ".join(f"q{i}" for i in self.states)
+        return f"[{self.invariant.value} {self.invariant.name}] {self.message}" + (f" ({where})" if where else "")
+
+
+class InvariantError(MapError):
+    """Raised by :func:`assert_map_valid`; ``violations`` lists every failure."""
+
+    def __init__(self, violations: list[Violation]) -> None:
+        self.violations = violations
+        super().__init__("; ".join(str(v) for v in violations))
+
+
+def map_plan(cmap: CognitiveMap) -> Plan:
+    """The plan recorded in the map's metadata (the Configurator's choice), else :func:`extract_plan`."""
+    recorded = cmap.metadata.get("plan")
+    if recorded:
+        try:
+            return Plan(tuple(int(i) for i in recorded))
+        except (TypeError, ValueError):
+            raise MapError(f"metadata 'plan' is not a list of state idents: {recorded!r}") from None
+    return extract_plan(cmap)
+
+
+def check_map(
+    cmap: CognitiveMap,
+    plan: Plan | None = None,
+    psi: Mapping[Transition, int] | None = None,
+) -> list[Violation]:
+    """Every violated invariant of ``cmap``, in invariant order; [] when the map is good.
+
+    ``plan`` defaults to :func:`map_plan`; ``psi`` (a table Transition → {0, 1}) defaults
+    to :func:`~formal.supervisory.guard` of that plan. Passing the ``psi`` a planner
+    produced checks that table instead of one computed here.
+    """
+    out: list[Violation] = []
+    if len(cmap) == 0:
+        return [Violation(Invariant.INITIAL, (), "the map is empty: it has no initial state")]
+    q0 = cmap.initial_id
+    if q0 is None or q0 not in cmap:
+        return [Violation(Invariant.INITIAL, (), "the map has no initial state q0")]
+    unreachable = tuple(s.ident for s in cmap.states() if s.ident not in cmap.reachable())
+    if unreachable:
+        out.append(Violation(Invariant.INITIAL, unreachable, f"{len(unreachable)} state(s) not reachable from q{q0}"))
+    out += _interrupted_absorbing(cmap)
+    out += _reset(cmap)
+    out += _guard(cmap, plan, psi)
+    out += _turn_then_straight(cmap)
+    out += _probability(cmap)
+    return out
+
+
+def assert_map_valid(cmap: CognitiveMap, plan: Plan | None = None, psi: Mapping[Transition, int] | None = None) -> None:
+    """Raise :class:`InvariantError` listing every violation when ``cmap`` breaks an invariant."""
+    violations = check_map(cmap, plan, psi)
+    if violations:
+        raise InvariantError(violations)
+
+
+def _interrupted_absorbing(cmap: CognitiveMap) -> list[Violation]:
+    bad = tuple(s.ident for s in cmap.states() if s.interrupted and cmap.out_transitions(s.ident))
+    if not bad:
+        return []
+    return [Violation(Invariant.INTERRUPTED_ABSORBING, bad, "transitions leave interrupted state(s) (D_N ≠ ∅), where R is undefined")]
+
+
+def _reset(cmap: CognitiveMap) -> list[Violation]:
+    if cmap.goal is None:
+        return [Violation(Invariant.RESET, (), "the map has no goal D_G, so R has no value")]
+    bad = sorted(
+        {t.target for t in cmap.transitions() if not cmap[t.source].interrupted and cmap[t.target].d_i != cmap.goal}
+    )
+    if not bad:
+        return []
+    return [Violation(Invariant.RESET, tuple(bad), "successor(s) of an uninterrupted state are not contingent on D_G (D_I ≠ D_G)")]
+
+
+def _guard(cmap: CognitiveMap, plan: Plan | None, psi: Mapping[Transition, int] | None) -> list[Violation]:
+    out: list[Violation] = []
+    try:
+        rho = map_plan(cmap) if plan is None else plan
+    except MapError as exc:
+        return [Violation(Invariant.GUARD, (), f"no plan: {exc}")]
+    missing = [(s, t) for s, t in rho.steps() if s not in cmap or t not in cmap or not cmap.has_transition(s, t)]
+    if missing:
+        states = tuple(sorted({i for st in missing for i in st}))
+        return [Violation(Invariant.GUARD, states, f"plan step(s) {missing} are not transitions of the map")]
+    table = dict(guard(cmap, rho) if psi is None else psi)
+    domain = set(cmap.transitions())
+    if set(table) != domain:
+        extra = sorted({t.source for t in set(table) ^ domain})
+        out.append(Violation(Invariant.GUARD, tuple(extra), "Ψ is not defined on exactly the map's transitions"))
+    odd = sorted({t.source for t, v in table.items() if v not in (0, 1)})
+    if odd:
+        out.append(Violation(Invariant.GUARD, tuple(odd), "Ψ takes a value other than 0 or 1"))
+    on = {t for t, v in table.items() if v == 1}
+    steps = set(rho.steps())
+    wrong = sorted({t.source for t in on if (t.source, t.target) not in steps} | {s for s, t in steps if not any((u.source, u.target) == (s, t) for u in on)})
+    if wrong:
+        out.append(Violation(Invariant.GUARD, tuple(wrong), "Ψ = 1 is not exactly the plan's transitions"))
+    # the guarded map: follow Ψ = 1 from q0; it must be one path, without branches or cycles
+    q0 = cmap.initial_id
+    if rho.states[0] != q0:
+        out.append(Violation(Invariant.GUARD, (rho.states[0],), f"the plan does not start at q{q0}"))
+    enabled: dict[int, set[int]] = defaultdict(set)
+    for t in on:
+        enabled[t.source].add(t.target)
+    branching = tuple(sorted(s for s, ts in enabled.items() if len(ts) > 1))
+    if branching:
+        out.append(Violation(Invariant.GUARD, branching, "Ψ enables more than one successor: the guarded map is not a single path"))
+    path, cur = [q0], q0
+    while len(enabled.get(cur, ())) == 1:
+        (cur,) = enabled[cur]
+        if cur in path:
+            out.append(Violation(Invariant.GUARD, tuple(path[path.index(cur):]), "the guarded map has a cycle"))
+            break
+        path.append(cur)
+    stray = tuple(sorted(set(enabled) - set(path)))
+    if stray:
+        out.append(Violation(Invariant.GUARD, stray, "Ψ enables transitions off the path from q0"))
+    end = path[-1]
+    reach = cmap.reachable()
+    candidates = [s for s in cmap.states() if s.ident in reach and not s.interrupted]
+    if candidates:
+        best = min(s.cost for s in candidates)
+        if cmap[end].interrupted or cmap[end].cost > best:
+            argmin = tuple(s.ident for s in candidates if s.cost == best)
+            out.append(
+                Violation(
+                    Invariant.GUARD,
+                    (end, *argmin),
+                    f"the guarded path ends at q{end} (φ={cmap[end].cost:.6g}), not at argmin φ = {best:.6g}",
+                )
+            )
+    return out
+
+
+def _turn_then_straight(cmap: CognitiveMap) -> list[Violation]:
+    bad = []
+    for s in cmap.states():
+        if not s.task.is_turn or s.interrupted:
+            continue
+        out = cmap.out_transitions(s.ident)
+        if not out or any(cmap[t.target].task is not TaskKind.STRAIGHT or t.label is not TaskKind.STRAIGHT for t in out):
+            bad.append(s.ident)
+    if not bad:
+        return []
+    return [Violation(Invariant.TURN_THEN_STRAIGHT, tuple(bad), "an uninterrupted turn is not followed by straight(s) only")]
+
+
+def _probability(cmap: CognitiveMap) -> list[Violation]:
+    sums: dict[tuple[int, TaskKind], Fraction] = defaultdict(Fraction)
+    bad: set[int] = set()
+    for t in cmap.transitions():
+        p = Fraction(t.probability)
+        if not 0 < p <= 1:
+            bad.add(t.source)
+        sums[(t.source, t.label)] += p
+    bad |= {s for (s, _), total in sums.items() if total != 1}
+    if not bad:
+        return []
+    return [Violation(Invariant.PROBABILITY, tuple(sorted(bad)), "outgoing probabilities of a (state, task) are not in (0, 1] or do not sum to 1")]
