@@ -96,6 +96,9 @@ def make_task(kind: TaskKind, obstacles: Obstacles, robot: RobotModel, start: Po
     return Task.turn(robot, kind, start, goal)
 
 
+_ROBOT_FILTER = pymunk.ShapeFilter(group=1)
+
+
 class World:
     """A pymunk space with some obstacles and the robot, rebuilt for each rollout."""
 
@@ -112,6 +115,7 @@ class World:
             shapes.append(shape)
         self.body = pymunk.Body(body_type=pymunk.Body.KINEMATIC)
         self.shape = pymunk.Poly(self.body, list(robot.footprint))
+        self.shape.filter = _ROBOT_FILTER
         space.add(self.body, self.shape, *shapes)
         self.space = space
 
@@ -134,6 +138,34 @@ class World:
         else:
             x, y = self.obstacles.centres[best.shape.obstacle_index]  # type: ignore[attr-defined]
         return best.shape.obstacle_index, float(x), float(y)  # type: ignore[attr-defined]
+
+    def sweep_is_clear(self, task: Task) -> bool:
+        """True when the whole motion of ``task`` touches nothing, decided by one query.
+
+        A STRAIGHT translates the footprint: its swept area is exactly the hull of the
+        start and end footprints. A turn rotates it: the hull of the footprint at
+        sixteen headings across the turn, grown by the largest gap between an arc and
+        its chord, contains the swept area. Both are upper bounds of the area limited
+        by the task's limit, so "clear" is never wrong.
+        """
+        self.place(task.start)
+        fp = self.robot.footprint
+        if task.kind is TaskKind.STRAIGHT:
+            (x0, y0), (x1, _), (_, y1), _ = fp
+            verts = [(x0, y0), (x1 + task.limit, y0), (x1 + task.limit, y1), (x0, y1)]
+            grow = 0.0
+        else:
+            sign = 1.0 if task.kind is TaskKind.LEFT else -1.0
+            n = 16
+            verts = []
+            for k in range(n + 1):
+                a = sign * task.limit * k / n
+                c, s = math.cos(a), math.sin(a)
+                verts.extend((x * c - y * s, x * s + y * c) for x, y in fp)
+            grow = self.robot.swept_radius * (1 - math.cos(task.limit / n / 2)) + 1e-6
+        sweep = pymunk.Poly(self.body, verts, radius=grow)
+        sweep.filter = _ROBOT_FILTER
+        return not self.space.shape_query(sweep)
 
     def rollout(self, task: Task) -> Outcome:
         """Run ``task`` tick by tick from its start pose until it ends or collides."""
@@ -185,6 +217,29 @@ def _rollout(task: Task, world: World | None) -> Outcome:
     return Outcome(task.kind, task.start, pose, distance, ticks * dt, ticks, d_n, False)
 
 
+def _unobstructed(task: Task) -> Outcome:
+    """The outcome of a task that nothing interrupts, in closed form.
+
+    Both controllers drive their error down linearly at full rate and cover the rest in
+    the last tick (see :mod:`planner.tasks`), so the end pose is the start moved by the
+    initial error and the duration is the number of ticks that takes.
+    """
+    r = task.robot
+    s = task.start
+    e0 = task.error_at(s.x, s.y, s.theta)
+    if task.kind is TaskKind.STRAIGHT:
+        per_tick = r.straight_speed * r.tick
+        end = Pose(s.x + e0 * math.cos(s.theta), s.y + e0 * math.sin(s.theta), s.theta)
+        distance = e0
+    else:
+        per_tick = r.turn_rate * r.tick
+        sign = 1.0 if task.kind is TaskKind.LEFT else -1.0
+        end = Pose(s.x, s.y, wrap_angle(s.theta + sign * e0))
+        distance = 0.0
+    ticks = math.ceil(e0 / per_tick - 1e-9) if e0 > 1e-9 else 0
+    return Outcome(task.kind, s, end if ticks else s, distance, ticks * r.tick, ticks, None, False)
+
+
 def _obstacle_disturbance(obstacles: Obstacles, hit: tuple[int, float, float]) -> Disturbance:
     i, x, y = hit
     base = obstacles.disturbances[i]
@@ -207,7 +262,10 @@ def simulate(
     length = task.limit if kind is TaskKind.STRAIGHT else 0.0
     idx = in_the_way(obstacles, robot, start, kind, length)
     world = World(obstacles, robot, idx) if len(idx) else None
-    out = _rollout(task, world)
+    if world is None or world.sweep_is_clear(task):
+        out = _unobstructed(task)  # nothing can interrupt it: no contact to check per tick
+    else:
+        out = _rollout(task, world)
     if goal is not None and out.d_n is None and out.end.distance_to(goal.x, goal.y) <= robot.goal_tolerance:
         out = Outcome(out.task, out.start, out.end, out.distance, out.duration, out.ticks, None, True)
     return out
