@@ -97,6 +97,8 @@ def make_task(kind: TaskKind, obstacles: Obstacles, robot: RobotModel, start: Po
 
 
 _ROBOT_FILTER = pymunk.ShapeFilter(group=1)
+# how much deeper (m) a task may push into an obstacle it touched at its start
+_DEEPER = 1e-4
 
 
 class World:
@@ -125,19 +127,30 @@ class World:
         self.body.angle = pose.theta
         self.space.reindex_shapes_for_body(self.body)
 
+    def contacts(self) -> dict[int, tuple[float, float, float]]:
+        """Every obstacle the robot overlaps: index → (penetration depth, contact x, y).
+
+        Depth is 0 for shapes that just touch (a brush) and grows as they overlap.
+        """
+        out: dict[int, tuple[float, float, float]] = {}
+        for h in self.space.shape_query(self.shape):
+            i = h.shape.obstacle_index  # type: ignore[attr-defined]
+            pts = h.contact_point_set.points
+            if pts:
+                deepest = min(pts, key=lambda p: p.distance)
+                out[i] = (max(0.0, -deepest.distance), float(deepest.point_b.x), float(deepest.point_b.y))
+            else:
+                cx, cy = self.obstacles.centres[i]
+                out[i] = (0.0, float(cx), float(cy))
+        return out
+
     def contact(self) -> tuple[int, float, float] | None:
-        """(obstacle index, contact x, y) when the robot overlaps an obstacle, else None."""
-        hits = self.space.shape_query(self.shape)
+        """(obstacle index, contact x, y) of the lowest-indexed obstacle the robot overlaps, or None."""
+        hits = self.contacts()
         if not hits:
             return None
-        best = min(hits, key=lambda h: h.shape.obstacle_index)  # type: ignore[attr-defined]
-        pts = best.contact_point_set.points
-        if pts:
-            p = pts[0].point_b
-            x, y = p.x, p.y
-        else:
-            x, y = self.obstacles.centres[best.shape.obstacle_index]  # type: ignore[attr-defined]
-        return best.shape.obstacle_index, float(x), float(y)  # type: ignore[attr-defined]
+        i = min(hits)
+        return i, hits[i][1], hits[i][2]
 
     def sweep_is_clear(self, task: Task) -> bool:
         """True when the whole motion of ``task`` touches nothing, decided by one query.
@@ -182,12 +195,13 @@ def _rollout(task: Task, world: World | None) -> Outcome:
     distance = 0.0
     d_n: Disturbance | None = None
     body = None
+    # obstacles the robot already touches when the task starts (a brush, or returns of
+    # its own body) interrupt it only if the task pushes further into them
+    touching: dict[int, float] = {}
     if world is not None:
         world.place(task.start)
         body = world.body
-        hit = world.contact()
-        if hit is not None:
-            d_n = _obstacle_disturbance(world.obstacles, hit)
+        touching = {i: depth for i, (depth, _, _) in world.contacts().items()}
     limit = task.max_ticks()
     while d_n is None and ticks < limit:
         e = task.error_at(x, y, th)
@@ -201,9 +215,11 @@ def _rollout(task: Task, world: World | None) -> Outcome:
             body.velocity = (vx, vy)
             body.angular_velocity = w
             world.space.step(dt)  # type: ignore[union-attr]
-            hit = world.contact()  # type: ignore[union-attr]
-            if hit is not None:
-                d_n = _obstacle_disturbance(world.obstacles, hit)  # type: ignore[union-attr]
+            for i, (depth, cx, cy) in sorted(world.contacts().items()):  # type: ignore[union-attr]
+                if i not in touching or depth > touching[i] + _DEEPER:
+                    d_n = _obstacle_disturbance(world.obstacles, (i, cx, cy))  # type: ignore[union-attr]
+                    break
+            if d_n is not None:
                 break
             pos = body.position
             nx, ny, nth = pos.x, pos.y, body.angle

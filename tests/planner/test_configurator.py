@@ -46,7 +46,7 @@ def test_resimulating_the_plan_in_a_fresh_world_gives_the_same_poses():
 def test_open_is_a_single_straight():
     r = _plan_scenario("open")
     assert r.reached_goal
-    assert [s.task for s in r.steps] == [TaskKind.STRAIGHT]
+    assert {s.task for s in r.steps} == {TaskKind.STRAIGHT}
 
 
 def test_corridor_reaches_the_goal():
@@ -132,10 +132,12 @@ def test_ill_posed_goals(goal, message):
         Configurator().plan(scene.scan(), goal)
 
 
-def test_points_inside_the_robot_give_an_empty_safe_plan():
-    r = plan(np.array([[0.0, 0.05], [0.02, 0.05]]), goal=(1.0, 0.0))
-    assert r.steps == []
-    assert r.collision_free and not r.reached_goal
+def test_something_touching_the_robot_does_not_pin_it():
+    # returns at the robot's rear-right corner (as in recorded scans 138-230): driving
+    # forward moves away from them, turning right would push into them
+    r = plan(np.array([[-0.15, -0.09], [-0.15, -0.1], [-0.15, -0.11]]), goal=(1.0, 0.0))
+    assert r.reached_goal and r.collision_free
+    assert {s.task for s in r.steps} == {TaskKind.STRAIGHT}
 
 
 def test_every_recorded_scan_plans(scans_dir):
