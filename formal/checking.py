@@ -1,0 +1,458 @@
+"""Model checking exported maps with Storm (stormpy), and the property-file format.
+
+Property files (``specs/properties/*.pctl``) hold PCTL properties in PRISM syntax, one
+per line::
+
+    // @model dtmc                      which model the file is about: mdp | dtmc
+    // Under Ψ the robot never collides.  ← comment lines above a property describe it
+    // @required = 0                    ← the next property must give 0 (or: true, false,
+    "no_collision": P=? [F "collision"]    <= 0.5, >= 1 …); without it, it is reported only
+
+``//`` starts a comment; blank lines are ignored; ``"name":`` before a formula names it.
+``@model`` appears once, before the first property. A ``@required`` line applies to the
+next property. Anything else starting with ``// @`` is a syntax error, and so is a
+property line that is not a P, R or S query (errors name the file and line).
+
+stormpy is an optional dependency (``pip install 'clomp[verify]'``): it is imported
+inside the functions that need it, and :class:`StormMissing` says how to install it.
+Storm renumbers states, so results are mapped back to map states through the ``q``
+variable (PRISM language) or the ``q<ident>`` labels (DRN), never by index.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import re
+import tempfile
+from collections import deque
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from formal.export import LABELS, ExportModel, ModelKind, export_model, write_drn, write_prism
+from formal.invariants import map_plan
+from formal.lts import CognitiveMap, MapError
+
+__all__ = [
+    "SpecError",
+    "StormMissing",
+    "Requirement",
+    "PropertySpec",
+    "PropertyFile",
+    "CheckResult",
+    "StormModel",
+    "parse_properties",
+    "read_properties",
+    "default_property_files",
+    "require_stormpy",
+    "build_storm_model",
+    "load_storm_model",
+    "check_properties",
+    "check_map_properties",
+    "plan_distance",
+    "DistanceComparison",
+    "compare_distance",
+    "TOLERANCE",
+]
+
+TOLERANCE = 1e-6
+"""Absolute tolerance when comparing a numeric result with a required value."""
+
+INSTALL_HINT = "pip install 'clomp[verify]'"
+
+
+class SpecError(ValueError):
+    """A property file is malformed; the message names the file and line."""
+
+
+class StormMissing(RuntimeError):
+    """stormpy is not installed."""
+
+    def __init__(self) -> None:
+        super().__init__(f"model checking needs stormpy, which is not installed: {INSTALL_HINT}")
+
+
+def require_stormpy() -> Any:
+    """Import and return :mod:`stormpy`, or raise :class:`StormMissing` with the install hint."""
+    try:
+        import stormpy
+    except ImportError:
+        raise StormMissing() from None
+    return stormpy
+
+
+# -- the property-file format ----------------------------------------------------------------------
+_OPS = ("<=", ">=", "<", ">", "=")
+
+
+@dataclass(frozen=True, slots=True)
+class Requirement:
+    """What a required property must give: ``op value`` (``value`` a number or a bool)."""
+
+    op: str
+    value: float | bool
+
+    @classmethod
+    def parse(cls, text: str) -> "Requirement":
+        """``"true"``, ``"false"``, ``"0"``, ``"= 1"``, ``"<= 0.5"`` …; ValueError otherwise."""
+        t = text.strip()
+        if t.lower() in ("true", "false"):
+            return cls("=", t.lower() == "true")
+        op = next((o for o in _OPS if t.startswith(o)), "=")
+        number = t[len(op) :].strip() if t.startswith(op) else t
+        value = float(number)
+        if math.isnan(value):
+            raise ValueError("NaN is not a value")
+        return cls(op, value)
+
+    def holds(self, result: float | bool) -> bool:
+        """Whether ``result`` meets the requirement (numbers within :data:`TOLERANCE`)."""
+        if isinstance(self.value, bool):
+            return isinstance(result, bool) and result is self.value
+        if isinstance(result, bool):
+            return False
+        x, v = float(result), float(self.value)
+        close = x == v or abs(x - v) <= TOLERANCE
+        return {
+            "=": close,
+            "<=": x <= v or close,
+            ">=": x >= v or close,
+            "<": x < v and not close,
+            ">": x > v and not close,
+        }[self.op]
+
+    def __str__(self) -> str:
+        if isinstance(self.value, bool):
+            return str(self.value).lower()
+        return f"{self.op} {self.value:g}"
+
+
+@dataclass(frozen=True, slots=True)
+class PropertySpec:
+    """One property of a file: formula, name, description, requirement (None = report only)."""
+
+    formula: str
+    name: str
+    description: str = ""
+    required: Requirement | None = None
+    line: int = 0
+
+
+@dataclass(frozen=True)
+class PropertyFile:
+    """A parsed property file: the model kind it is about and its properties."""
+
+    model: ModelKind
+    properties: tuple[PropertySpec, ...]
+    source: str = "<string>"
+
+
+_NAME = re.compile(r'^"([A-Za-z_][A-Za-z0-9_]*)"\s*:\s*(.*)$')
+_QUERY = re.compile(r"^(!?\s*\"[A-Za-z_][A-Za-z0-9_]*\"\s*[|&]\s*)*\(?\s*[PRS](\{\"[A-Za-z_][A-Za-z0-9_]*\"\})?(min|max)?\s*(=\?|[<>]=?\s*[0-9.eE+-]+)\s*\[")
+
+
+def parse_properties(text: str, source: str = "<string>") -> PropertyFile:
+    """Parse the property-file format (see the module docstring); raises :class:`SpecError`."""
+    model: str | None = None
+    props: list[PropertySpec] = []
+    comments: list[str] = []
+    required: Requirement | None = None
+    req_line = 0
+    names: set[str] = set()
+    for n, raw in enumerate(text.splitlines(), 1):
+        line = raw.strip()
+        where = f"{source}:{n}"
+        if not line:
+            comments = []
+            continue
+        if line.startswith("//"):
+            body = line[2:].strip()
+            if body.startswith("@"):
+                key, _, arg = body[1:].partition(" ")
+                if key == "model":
+                    if model is not None or props:
+                        raise SpecError(f"{where}: @model must appear once, before the first property")
+                    if arg.strip() not in ("mdp", "dtmc"):
+                        raise SpecError(f"{where}: @model must be 'mdp' or 'dtmc', got {arg.strip()!r}")
+                    model = arg.strip()
+                elif key == "required":
+                    if required is not None:
+                        raise SpecError(f"{where}: two @required lines for one property")
+                    try:
+                        required = Requirement.parse(arg)
+                    except ValueError:
+                        raise SpecError(f"{where}: @required expects true, false or [op] number, got {arg.strip()!r}") from None
+                    req_line = n
+                else:
+                    raise SpecError(f"{where}: unknown directive @{key} (expected @model or @required)")
+            else:
+                comments.append(body)
+            continue
+        m = _NAME.match(line)
+        name, formula = (m.group(1), m.group(2).strip()) if m else (None, line)
+        formula = formula.rstrip(";").strip()
+        if not _QUERY.match(formula) or formula.count("[") != formula.count("]") or formula.count("(") != formula.count(")"):
+            raise SpecError(f"{where}: not a PCTL property (expected e.g. P=? [F \"goal\"]): {line!r}")
+        if model is None:
+            raise SpecError(f"{where}: a property before '// @model mdp|dtmc'")
+        name = name or formula
+        if name in names:
+            raise SpecError(f"{where}: duplicate property name {name!r}")
+        names.add(name)
+        props.append(PropertySpec(formula, name, " ".join(comments), required, n))
+        comments, required = [], None
+    if required is not None:
+        raise SpecError(f"{source}:{req_line}: @required is not followed by a property")
+    if model is None:
+        raise SpecError(f"{source}: no '// @model mdp|dtmc' line")
+    if not props:
+        raise SpecError(f"{source}: no properties")
+    return PropertyFile(model, tuple(props), source)  # type: ignore[arg-type]
+
+
+def read_properties(path: str | os.PathLike[str]) -> PropertyFile:
+    """Read and parse a property file; :class:`SpecError` when unreadable or malformed."""
+    try:
+        text = Path(path).read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise SpecError(f"{path}: cannot read property file: {exc}") from None
+    return parse_properties(text, str(path))
+
+
+def default_property_files() -> list[Path]:
+    """The property files shipped in ``specs/properties/``."""
+    import specs
+
+    folder = Path(specs.__file__).resolve().parent / "properties"
+    return sorted(folder.glob("*.pctl"))
+
+
+# -- building models with Storm ----------------------------------------------------------------------
+@dataclass
+class StormModel:
+    """A model Storm built, with the map ident of each Storm state (found by label or valuation)."""
+
+    model: Any
+    kind: ModelKind
+    idents: list[int]
+    program: Any = None
+    source: str = ""
+
+    @property
+    def n_states(self) -> int:
+        """Number of states Storm built."""
+        return int(self.model.nr_states)
+
+    @property
+    def n_transitions(self) -> int:
+        """Number of transitions (matrix entries) Storm built."""
+        return int(self.model.nr_transitions)
+
+    def labels_of(self, state: int) -> set[str]:
+        """The labels of Storm state ``state``."""
+        return set(self.model.labeling.get_labels_of_state(state))
+
+    def successors(self, state: int) -> list[int]:
+        """Storm states reachable in one step from ``state``, in matrix order."""
+        out: list[int] = []
+        for action in self.model.states[state].actions:
+            for t in action.transitions:
+                if t.column not in out:
+                    out.append(int(t.column))
+        return out
+
+    def describe(self, state: int) -> str:
+        """``q12[collision]``: the map state and its interesting labels."""
+        extra = sorted(lab for lab in self.labels_of(state) if not re.fullmatch(r"q\d+", lab) and lab not in ("init", "plan", "goal_in_map"))
+        return f"q{self.idents[state]}" + (f"[{','.join(extra)}]" if extra else "")
+
+
+def _idents_from(model: Any) -> list[int]:
+    out = []
+    for s in range(model.nr_states):
+        ident = None
+        if model.has_state_valuations():
+            data = json.loads(str(model.state_valuations.to_json(s)))
+            if "q" in data:
+                ident = int(data["q"])
+        if ident is None:
+            found = [lab for lab in model.labeling.get_labels_of_state(s) if re.fullmatch(r"q\d+", lab)]
+            ident = int(found[0][1:]) if len(found) == 1 else -1
+        out.append(ident)
+    return out
+
+
+def load_storm_model(path: str | os.PathLike[str]) -> StormModel:
+    """Build a ``.prism`` or ``.drn`` file with Storm (the kind is read from the file)."""
+    stormpy = require_stormpy()
+    p = Path(path)
+    if not p.is_file():
+        raise MapError(f"{p}: no such file")
+    try:
+        if p.suffix == ".drn":
+            model = stormpy.build_model_from_drn(str(p))
+            program = None
+        elif p.suffix in (".prism", ".pm", ".nm"):
+            program = stormpy.parse_prism_program(str(p))
+            model = stormpy.build_model(program, options=stormpy.BuilderOptions(build_full=True))
+        else:
+            raise MapError(f"{p}: Storm builds .prism or .drn files (got {p.suffix or 'no suffix'})")
+    except RuntimeError as exc:
+        raise MapError(f"{p}: Storm cannot build the model: {str(exc).strip()}") from None
+    kind: ModelKind = "mdp" if "Mdp" in type(model).__name__ else "dtmc"
+    # DRN declares a label only through the states that carry it: declare the exporter's
+    # labels that no state carries (e.g. "collision" in a collision-free model) as empty
+    for name in LABELS:
+        if not model.labeling.contains_label(name):
+            model.labeling.add_label(name)
+    return StormModel(model, kind, _idents_from(model), program, str(p))
+
+
+def build_storm_model(
+    source: CognitiveMap | ExportModel,
+    kind: ModelKind = "mdp",
+    via: str = "drn",
+    workdir: str | os.PathLike[str] | None = None,
+) -> StormModel:
+    """Export ``source`` (as ``via`` = ``"drn"`` or ``"prism"``) and build it with Storm."""
+    require_stormpy()
+    m = source if isinstance(source, ExportModel) else export_model(source, kind)
+    writer = {"drn": write_drn, "prism": write_prism}.get(via)
+    if writer is None:
+        raise ValueError(f"via must be 'drn' or 'prism', got {via!r}")
+    with tempfile.TemporaryDirectory(dir=workdir) as tmp:
+        path = Path(tmp) / f"map-{m.kind}.{via}"
+        writer(m, path)
+        return load_storm_model(path)
+
+
+# -- checking -----------------------------------------------------------------------------------
+@dataclass
+class CheckResult:
+    """The outcome of one property on one model."""
+
+    spec: PropertySpec
+    kind: ModelKind
+    value: float | bool
+    passed: bool | None  # None: not required
+    witness: list[str] = field(default_factory=list)
+
+    @property
+    def verdict(self) -> str:
+        """``pass``, ``FAIL`` or ``-`` (reported only)."""
+        return "-" if self.passed is None else ("pass" if self.passed else "FAIL")
+
+    def value_text(self) -> str:
+        """The result as printed in the table."""
+        if isinstance(self.value, bool):
+            return str(self.value).lower()
+        return f"{self.value:.6g}"
+
+
+def _value(result: Any, state: int) -> float | bool:
+    if result.is_qualitative():
+        return bool(result[state])
+    return float(result.get_value(state))
+
+
+def check_properties(sm: StormModel, props: PropertyFile | Iterable[PropertySpec]) -> list[CheckResult]:
+    """Check every property on ``sm`` (values at the initial state).
+
+    A failed required property gets a witness: the shortest path (map states with their
+    labels) from the initial state to an absorbing state whose own value violates the
+    requirement, e.g. the way into a collision. Raises :class:`SpecError` when Storm
+    cannot parse a property for this model.
+    """
+    stormpy = require_stormpy()
+    specs = props.properties if isinstance(props, PropertyFile) else tuple(props)
+    source = props.source if isinstance(props, PropertyFile) else "<properties>"
+    init = int(sm.model.initial_states[0])
+    out = []
+    for spec in specs:
+        try:
+            parsed = stormpy.parse_properties(spec.formula, sm.program) if sm.program is not None else stormpy.parse_properties(spec.formula)
+            if len(parsed) != 1:
+                raise RuntimeError(f"expected one property, got {len(parsed)}")
+            result = stormpy.model_checking(sm.model, parsed[0], only_initial_states=False)
+        except RuntimeError as exc:
+            raise SpecError(f"{source}:{spec.line}: Storm cannot check {spec.formula!r}: {str(exc).strip()}") from None
+        value = _value(result, init)
+        passed = None if spec.required is None else spec.required.holds(value)
+        witness: list[str] = []
+        if passed is False:
+            witness = _witness(sm, result, spec.required)  # type: ignore[arg-type]
+        out.append(CheckResult(spec, sm.kind, value, passed, witness))
+    return out
+
+
+def _witness(sm: StormModel, result: Any, req: Requirement) -> list[str]:
+    start = int(sm.model.initial_states[0])
+    parent: dict[int, int | None] = {start: None}
+    queue = deque([start])
+    while queue:
+        s = queue.popleft()
+        succ = sm.successors(s)
+        if succ == [s] and not req.holds(_value(result, s)):
+            path = [s]
+            while parent[path[-1]] is not None:
+                path.append(parent[path[-1]])  # type: ignore[arg-type]
+            return [sm.describe(x) for x in reversed(path)]
+        for t in succ:
+            if t not in parent:
+                parent[t] = s
+                queue.append(t)
+    return [sm.describe(start)]
+
+
+def check_map_properties(
+    cmap: CognitiveMap,
+    files: Sequence[PropertyFile] | None = None,
+    via: str = "drn",
+) -> list[CheckResult]:
+    """Export ``cmap`` for every model kind the property files ask for, build it with Storm
+    and check every property (default: the files in ``specs/properties/``)."""
+    files = [read_properties(p) for p in default_property_files()] if files is None else list(files)
+    built: dict[str, StormModel] = {}
+    out: list[CheckResult] = []
+    for pf in files:
+        if pf.model not in built:
+            built[pf.model] = build_storm_model(cmap, pf.model, via)
+        out += check_properties(built[pf.model], pf)
+    return out
+
+
+# -- differential check: Storm's optimum vs the Configurator's plan -----------------------------
+def plan_distance(cmap: CognitiveMap) -> float:
+    """The distance the plan drives: Σ distance of q1 … qn (q0 is the present task)."""
+    return float(sum(cmap[i].distance for i in map_plan(cmap).states[1:]))
+
+
+@dataclass(frozen=True)
+class DistanceComparison:
+    """Storm's least expected distance to the goal over the explored map, and the plan's."""
+
+    storm_min: float
+    plan: float
+    plan_reaches_goal: bool
+
+    @property
+    def consistent(self) -> bool:
+        """The relation that must hold: when the plan reaches the goal, Storm's optimum is
+        finite and no greater than the plan's distance (the plan is one scheduler of the
+        MDP; the Configurator is greedy best-first on φ, not distance-optimal)."""
+        if not self.plan_reaches_goal:
+            return True
+        return math.isfinite(self.storm_min) and self.storm_min <= self.plan + TOLERANCE
+
+
+def compare_distance(cmap: CognitiveMap, via: str = "drn") -> DistanceComparison:
+    """``R{"distance"}min=? [F "goal"]`` on the unsupervised MDP vs :func:`plan_distance`."""
+    sm = build_storm_model(cmap, "mdp", via)
+    spec = PropertySpec('R{"distance"}min=? [F "goal"]', "min_distance")
+    (res,) = check_properties(sm, [spec])
+    rho = map_plan(cmap)
+    end = cmap[rho.end]
+    return DistanceComparison(float(res.value), plan_distance(cmap), end.reached_goal and not end.interrupted)

@@ -1,0 +1,517 @@
+"""Exporters: one intermediate model extracted from a cognitive map, then renderers.
+
+:func:`export_model` extracts an :class:`ExportModel` in one of two kinds:
+
+- ``"mdp"`` — the unsupervised map: every state, and at each state one nondeterministic
+  choice per task the Configurator explored (the action is the task kind), whose
+  branches are the map's transitions with that label;
+- ``"dtmc"`` — the supervised system: Ψ applied, so at each state only the task of the
+  plan is enabled; the states are those reachable under Ψ.
+
+States without an outgoing choice (collisions, the goal, unexpanded frontier states)
+get one absorbing self-loop, action ``stay``, so that the models are well-formed; the
+model records them in ``self_loops``. Labels: ``init``, ``goal`` (reached the goal, not
+interrupted), ``collision`` (interrupted, D_N ≠ ∅), ``plan`` (states of ρ) and
+``goal_in_map`` (on q0 when the unsupervised map holds a reachable goal state: the
+Configurator found a way). Rewards ``distance`` (metres) and ``time`` (seconds) are
+earned on choices: the expected distance / duration of the task started.
+
+Renderers (each takes a path or a text file object, networkx-style): :func:`write_prism`
+(PRISM language), :func:`write_prism_explicit` (``.tra .sta .lab .srew .trew``),
+:func:`write_drn` (Storm's DRN), :func:`write_dot` (Graphviz) and :func:`write_json` (the
+lossless map). Probabilities are printed exactly (``p/q`` where the format allows it,
+exact decimals otherwise) and every printed distribution is parsed back and checked to
+sum to 1 before it is written.
+"""
+
+from __future__ import annotations
+
+import io
+import os
+import shutil
+import subprocess
+from collections.abc import Callable, Iterator, Mapping
+from contextlib import contextmanager
+from dataclasses import dataclass
+from fractions import Fraction
+from pathlib import Path
+from typing import IO, Any, Literal
+
+from formal.lts import CognitiveMap, MapError
+from formal.model import State, TaskKind
+from formal.supervisory import Guard, Plan
+
+__all__ = [
+    "ExportError",
+    "Choice",
+    "ExportModel",
+    "export_model",
+    "write_prism",
+    "write_prism_explicit",
+    "write_drn",
+    "write_dot",
+    "write_json",
+    "render_svg",
+    "write",
+    "FORMATS",
+    "STAY",
+]
+
+ModelKind = Literal["mdp", "dtmc"]
+STAY = "stay"
+"""The action of the absorbing self-loop added to a state without successors."""
+
+Dest = str | os.PathLike[str] | IO[str]
+
+
+class ExportError(MapError):
+    """A map cannot be exported (empty, no q0, probabilities that do not sum to 1, …)."""
+
+
+@dataclass(frozen=True, slots=True)
+class Choice:
+    """One choice of a state: an action (task kind or ``stay``) and its distribution.
+
+    ``branches`` are (target index, exact probability) pairs; ``distance`` and ``time``
+    the expected reward of taking the choice; ``guarded`` is Ψ (1 on a plan step).
+    """
+
+    action: str
+    branches: tuple[tuple[int, Fraction], ...]
+    distance: float = 0.0
+    time: float = 0.0
+    guarded: bool = False
+
+
+@dataclass(frozen=True)
+class ExportModel:
+    """The intermediate model every renderer draws from (indices 0 … n−1, by ident)."""
+
+    kind: ModelKind
+    states: tuple[State, ...]
+    initial: int
+    choices: tuple[tuple[Choice, ...], ...]
+    labels: Mapping[str, frozenset[int]]
+    self_loops: tuple[int, ...]
+    plan: Plan
+    goal: tuple[float, float] | None
+
+    @property
+    def n_states(self) -> int:
+        """Number of states."""
+        return len(self.states)
+
+    @property
+    def n_choices(self) -> int:
+        """Number of choices (rows of an MDP's matrix)."""
+        return sum(len(c) for c in self.choices)
+
+    @property
+    def n_transitions(self) -> int:
+        """Number of (choice, target) entries: the map's transitions plus the self-loops."""
+        return sum(len(ch.branches) for cs in self.choices for ch in cs)
+
+    def index_of(self, ident: int) -> int:
+        """The index of the state q_ident."""
+        for k, s in enumerate(self.states):
+            if s.ident == ident:
+                return k
+        raise ExportError(f"q{ident} is not a state of the exported model")
+
+    def state_labels(self, index: int) -> list[str]:
+        """The labels of the state at ``index``, sorted."""
+        return sorted(name for name, members in self.labels.items() if index in members)
+
+
+LABELS = ("init", "goal", "collision", "plan", "goal_in_map")
+
+
+def export_model(cmap: CognitiveMap, kind: ModelKind = "mdp", plan: Plan | None = None) -> ExportModel:
+    """Extract the MDP (unsupervised) or DTMC (supervised, Ψ applied) of ``cmap``.
+
+    ``plan`` defaults to the one recorded by the Configurator (else extracted). Raises
+    :class:`ExportError` for an empty map, a map without q0, a distribution that does not
+    sum to 1, or (for the DTMC) a guard that enables two tasks in one state.
+    """
+    from formal.invariants import map_plan
+
+    if kind not in ("mdp", "dtmc"):
+        raise ExportError(f"unknown model kind {kind!r}: expected 'mdp' or 'dtmc'")
+    if len(cmap) == 0:
+        raise ExportError("cannot export an empty map")
+    if cmap.initial_id is None or cmap.initial_id not in cmap:
+        raise ExportError("cannot export a map without an initial state")
+    rho = map_plan(cmap) if plan is None else plan
+    psi = Guard(cmap, rho)
+    groups = _groups(cmap)
+    q0 = cmap.initial_id
+    if kind == "mdp":
+        idents = [s.ident for s in cmap.states()]
+        enabled = groups
+    else:
+        enabled = {}
+        for s, by_label in groups.items():
+            on = {lab: ts for lab, ts in by_label.items() if any(psi(t) for t in ts)}
+            if len(on) > 1:
+                raise ExportError(f"Ψ enables {len(on)} tasks in q{s}: the supervised system is not a DTMC")
+            enabled[s] = on
+        seen, stack = {q0}, [q0]
+        while stack:
+            for ts in enabled[stack.pop()].values():
+                for t in ts:
+                    if t.target not in seen:
+                        seen.add(t.target)
+                        stack.append(t.target)
+        idents = sorted(seen)
+    index = {ident: k for k, ident in enumerate(idents)}
+    choices: list[tuple[Choice, ...]] = []
+    loops: list[int] = []
+    for k, ident in enumerate(idents):
+        row: list[Choice] = []
+        for label in sorted(enabled.get(ident, {}), key=lambda lab: list(TaskKind).index(lab)):
+            ts = enabled[ident][label]
+            total = sum((t.probability for t in ts), Fraction(0))
+            if total != 1 or any(not 0 < t.probability <= 1 for t in ts):
+                raise ExportError(
+                    f"probabilities of ({cmap[ident].label}, {label.value}) sum to {total}, not 1: "
+                    f"{[str(t.probability) for t in ts]}"
+                )
+            row.append(
+                Choice(
+                    label.value,
+                    tuple((index[t.target], t.probability) for t in ts),
+                    float(sum(t.probability * Fraction(cmap[t.target].distance) for t in ts)),
+                    float(sum(t.probability * Fraction(cmap[t.target].duration) for t in ts)),
+                    any(psi(t) for t in ts),
+                )
+            )
+        if not row:
+            row.append(Choice(STAY, ((k, Fraction(1)),)))
+            loops.append(k)
+        choices.append(tuple(row))
+    states = tuple(cmap[i] for i in idents)
+    reach = cmap.reachable()
+    goal_in_map = any(cmap[i].reached_goal and not cmap[i].interrupted for i in reach)
+    labels = {
+        "init": frozenset({index[q0]}),
+        "goal": frozenset(k for k, s in enumerate(states) if s.reached_goal and not s.interrupted),
+        "collision": frozenset(k for k, s in enumerate(states) if s.interrupted),
+        "plan": frozenset(index[i] for i in rho.states if i in index),
+        "goal_in_map": frozenset({index[q0]}) if goal_in_map else frozenset(),
+    }
+    goal = None if cmap.goal is None else (cmap.goal.x, cmap.goal.y)
+    return ExportModel(kind, states, index[q0], tuple(choices), labels, tuple(loops), rho, goal)
+
+
+def _groups(cmap: CognitiveMap) -> dict[int, dict[TaskKind, list[Any]]]:
+    out: dict[int, dict[TaskKind, list[Any]]] = {s.ident: {} for s in cmap.states()}
+    for t in cmap.transitions():
+        out[t.source].setdefault(t.label, []).append(t)
+    return out
+
+
+# -- printing numbers exactly ---------------------------------------------------------------
+def _rational(p: Fraction) -> str:
+    return str(p.numerator) if p.denominator == 1 else f"{p.numerator}/{p.denominator}"
+
+
+def _decimal(p: Fraction, places: int = 17) -> str:
+    """``p`` as a decimal string: exact when it terminates, else rounded to ``places``."""
+    d = p.denominator
+    for f in (2, 5):
+        while d % f == 0:
+            d //= f
+    if d == 1:
+        digits = 0
+        while (p * 10**digits).denominator != 1:
+            digits += 1
+    else:
+        digits = places
+    scaled = round(p * 10**digits)
+    sign = "-" if scaled < 0 else ""
+    s = str(abs(scaled)).rjust(digits + 1, "0")
+    whole, frac = s[: len(s) - digits], s[len(s) - digits :]
+    return sign + whole + ("." + frac if frac else "")
+
+
+def _printed(probs: list[Fraction], exact_rationals: bool) -> list[str]:
+    """Print a distribution and check that what was printed sums to exactly 1."""
+    if exact_rationals:
+        text = [_rational(p) for p in probs]
+    else:
+        text = [_decimal(p) for p in probs[:-1]]
+        text.append(_decimal(1 - sum((Fraction(t) for t in text), Fraction(0))))
+    back = [Fraction(t) for t in text]
+    if sum(back) != 1 or any(not 0 < b <= 1 for b in back):
+        raise ExportError(f"printed probabilities {text} do not sum to 1")
+    return text
+
+
+def _num(x: float) -> str:
+    """A reward as the shortest decimal that reads back as the same double."""
+    return "0" if x == 0 else repr(float(x))
+
+
+# -- file handling ------------------------------------------------------------------------------
+@contextmanager
+def _open(dest: Dest) -> Iterator[IO[str]]:
+    if hasattr(dest, "write"):
+        yield dest  # type: ignore[misc]
+    else:
+        with open(dest, "w", encoding="utf-8", newline="\n") as fh:  # type: ignore[arg-type]
+            yield fh
+
+
+def _model(source: CognitiveMap | ExportModel, kind: ModelKind) -> ExportModel:
+    return source if isinstance(source, ExportModel) else export_model(source, kind)
+
+
+def _header(m: ExportModel, comment: str) -> list[str]:
+    n_map = m.n_transitions - len(m.self_loops)
+    what = "unsupervised map (MDP: actions are tasks)" if m.kind == "mdp" else "supervised system (Ψ applied, DTMC)"
+    goal = "none" if m.goal is None else f"({m.goal[0]:g}, {m.goal[1]:g})"
+    return [
+        f"{comment} clomp cognitive map, {what}",
+        f"{comment} {m.n_states} states, {n_map} map transitions + {len(m.self_loops)} absorbing self-loops; goal {goal}",
+        f"{comment} plan: {' '.join(f'q{i}' for i in m.plan.states)}",
+    ]
+
+
+# -- PRISM language ------------------------------------------------------------------------------
+def write_prism(source: CognitiveMap | ExportModel, dest: Dest, kind: ModelKind = "mdp") -> None:
+    """Write the PRISM-language model: variable ``q`` holds the state's ident (so that
+    state valuations name map states), one command per choice labelled with its action,
+    labels ``init goal collision plan goal_in_map``, rewards ``distance`` and ``time``."""
+    m = _model(source, kind)
+    idents = [s.ident for s in m.states]
+    lines = _header(m, "//")
+    lines += ["", m.kind, "", "module cognitive_map"]
+    lines.append(f"  q : [{min(idents)}..{max(idents)}] init {idents[m.initial]};")
+    for k, row in enumerate(m.choices):
+        for ch in row:
+            probs = _printed([p for _, p in ch.branches], exact_rationals=True)
+            upd = " + ".join(f"{p}:(q'={idents[j]})" for p, (j, _) in zip(probs, ch.branches))
+            lines.append(f"  [{ch.action}] q={idents[k]} -> {upd};")
+    lines += ["endmodule", ""]
+    for name in LABELS:
+        if name == "init":
+            continue  # "init" is built in
+        members = sorted(idents[k] for k in m.labels[name])
+        expr = " | ".join(f"q={i}" for i in members) if members else "false"
+        lines.append(f'label "{name}" = {expr};')
+    for reward in ("distance", "time"):
+        lines += ["", f'rewards "{reward}"']
+        for k, row in enumerate(m.choices):
+            for ch in row:
+                r = getattr(ch, reward)
+                if r:
+                    lines.append(f"  [{ch.action}] q={idents[k]} : {_num(r)};")
+        lines.append("endrewards")
+    with _open(dest) as fh:
+        fh.write("\n".join(lines) + "\n")
+
+
+# -- Storm DRN ---------------------------------------------------------------------------------
+def write_drn(source: CognitiveMap | ExportModel, dest: Dest, kind: ModelKind = "mdp") -> None:
+    """Write Storm's DRN: exact rational probabilities, action rewards ``distance time``,
+    and besides the named labels one label ``q<ident>`` per state, so that a model Storm
+    builds (and renumbers) can be matched back to the map by label."""
+    m = _model(source, kind)
+    lines = _header(m, "//")
+    lines += [f"@type: {m.kind.upper()}", "@parameters", "", "@reward_models", "distance time"]
+    lines += ["@nr_states", str(m.n_states)]
+    lines += ["@nr_choices", str(m.n_choices)]
+    lines.append("@model")
+    for k, (s, row) in enumerate(zip(m.states, m.choices)):
+        labels = " ".join([*m.state_labels(k), f"q{s.ident}"])
+        lines.append(f"state {k} [0, 0] {labels}")
+        for ch in row:
+            if m.kind == "mdp":
+                lines.append(f"\taction {ch.action} [{_num(ch.distance)}, {_num(ch.time)}]")
+            else:
+                # a DTMC has one unnamed choice per state; its rewards are the state's
+                lines[-1] = f"state {k} [{_num(ch.distance)}, {_num(ch.time)}] {labels}"
+                lines.append("\taction 0")
+            probs = _printed([p for _, p in ch.branches], exact_rationals=True)
+            lines += [f"\t\t{j} : {p}" for p, (j, _) in zip(probs, ch.branches)]
+    with _open(dest) as fh:
+        fh.write("\n".join(lines) + "\n")
+
+
+# -- PRISM explicit ------------------------------------------------------------------------------
+EXPLICIT_SUFFIXES = ("tra", "sta", "lab", "srew", "trew")
+
+
+def write_prism_explicit(
+    source: CognitiveMap | ExportModel,
+    dest: str | os.PathLike[str] | Mapping[str, IO[str]],
+    kind: ModelKind = "mdp",
+) -> list[str]:
+    """Write PRISM's explicit files ``.tra .sta .lab .srew .trew`` (and ``.time.trew``).
+
+    ``dest`` is a path stem (``model`` or ``model.tra`` → ``model.tra``, ``model.sta`` …)
+    or a mapping from suffix (``"tra"``, ``"sta"``, ``"lab"``, ``"srew"``, ``"trew"``,
+    ``"time.trew"``) to an open text file. Probabilities are exact decimals (the last
+    branch of a row is written as 1 minus the others, so each printed row sums to 1).
+    The ``.trew`` holds the distance reward, ``.time.trew`` the time; ``.srew`` is all
+    zero (rewards are earned by tasks, not by states). Returns the paths written.
+    """
+    m = _model(source, kind)
+    texts = _explicit_texts(m)
+    if isinstance(dest, Mapping):
+        for suffix, text in texts.items():
+            if suffix in dest:
+                dest[suffix].write(text)
+        return []
+    stem = Path(dest)
+    if stem.suffix.lstrip(".") in EXPLICIT_SUFFIXES:
+        stem = stem.with_suffix("")
+    written = []
+    for suffix, text in texts.items():
+        path = stem.parent / f"{stem.name}.{suffix}"
+        path.write_text(text, encoding="utf-8")
+        written.append(str(path))
+    return written
+
+
+def _explicit_texts(m: ExportModel) -> dict[str, str]:
+    n = m.n_states
+    tra: list[str] = []
+    trew: dict[str, list[str]] = {"distance": [], "time": []}
+    for k, row in enumerate(m.choices):
+        for c, ch in enumerate(row):
+            probs = _printed([p for _, p in ch.branches], exact_rationals=False)
+            for p, (j, prob) in zip(probs, ch.branches):
+                if m.kind == "mdp":
+                    tra.append(f"{k} {c} {j} {p} {ch.action}")
+                else:
+                    tra.append(f"{k} {j} {p}")
+                for reward in trew:
+                    # a transition reward per branch; the expected value is the choice's reward
+                    r = getattr(m.states[j], "distance" if reward == "distance" else "duration") if ch.action != STAY else 0.0
+                    if r:
+                        trew[reward].append(f"{k} {c} {j} {_num(r)}" if m.kind == "mdp" else f"{k} {j} {_num(r)}")
+    head = f"{n} {m.n_choices} {len(tra)}" if m.kind == "mdp" else f"{n} {len(tra)}"
+    idents = [s.ident for s in m.states]
+    names = list(LABELS)
+    lab = [" ".join(f'{i}="{name}"' for i, name in enumerate(names))]
+    for k in range(n):
+        ids = [str(i) for i, name in enumerate(names) if k in m.labels[name]]
+        if ids:
+            lab.append(f"{k}: {' '.join(ids)}")
+
+    def rew(lines: list[str]) -> str:
+        h = f"{n} {m.n_choices} {len(lines)}" if m.kind == "mdp" else f"{n} {len(lines)}"
+        return "\n".join([h, *lines]) + "\n"
+
+    return {
+        "tra": "\n".join([head, *tra]) + "\n",
+        "sta": "\n".join(["(q)", *(f"{k}:({i})" for k, i in enumerate(idents))]) + "\n",
+        "lab": "\n".join(lab) + "\n",
+        "srew": f"{n} 0\n",
+        "trew": rew(trew["distance"]),
+        "time.trew": rew(trew["time"]),
+    }
+
+
+# -- DOT -------------------------------------------------------------------------------------------
+def _dot_quote(text: str) -> str:
+    return '"' + text.replace("\\", "\\\\").replace('"', '\\"').replace("\n", "\\n") + '"'
+
+
+def write_dot(source: CognitiveMap | ExportModel, dest: Dest, kind: ModelKind = "mdp") -> None:
+    """Write Graphviz DOT: integer node ids with quoted labels (state, task, outcome, φ);
+    plan transitions bold, collision states red octagons, goal states green, q0 a double
+    border; added self-loops are dashed grey."""
+    m = _model(source, kind)
+    lines = ["digraph cognitive_map {"]
+    lines += [f"  // {h[3:]}" for h in _header(m, "//")]
+    lines.append('  graph [rankdir=LR, fontname="Helvetica"];')
+    lines.append('  node [shape=box, style="rounded", fontname="Helvetica", fontsize=10];')
+    lines.append('  edge [fontname="Helvetica", fontsize=9];')
+    for k, s in enumerate(m.states):
+        if s.interrupted:
+            outcome = "collision"
+        elif s.reached_goal:
+            outcome = "goal"
+        else:
+            outcome = "ok"
+        attrs = [f"label={_dot_quote(f'q{s.ident} {s.task.value}' + chr(10) + f'{outcome}  φ={s.cost:.3f}')}"]
+        if s.interrupted:
+            attrs += ["shape=octagon", "color=red", "fontcolor=red"]
+        elif s.reached_goal:
+            attrs += ['style="rounded,filled"', "fillcolor=palegreen"]
+        if k == m.initial:
+            attrs += ["peripheries=2", "penwidth=2"]
+        if k in m.labels["plan"]:
+            attrs.append("penwidth=2")
+        lines.append(f"  {k} [{', '.join(dict.fromkeys(attrs))}];")
+    for k, row in enumerate(m.choices):
+        for ch in row:
+            for j, p in ch.branches:
+                if ch.action == STAY:
+                    lines.append(f'  {k} -> {j} [style=dashed, color=grey, label="stay"];')
+                    continue
+                label = ch.action if p == 1 else f"{ch.action} {_rational(p)}"
+                on_plan = ch.guarded and k in m.labels["plan"] and j in m.labels["plan"]
+                style = ", style=bold, penwidth=3" if on_plan else ""
+                lines.append(f"  {k} -> {j} [label={_dot_quote(label)}{style}];")
+    lines.append("}")
+    with _open(dest) as fh:
+        fh.write("\n".join(lines) + "\n")
+
+
+def render_svg(source: CognitiveMap | ExportModel, dest: Dest, engine: str | None = None, timeout: float = 120.0) -> str:
+    """Render the DOT graph to SVG with Graphviz; returns the engine used.
+
+    The engine defaults to ``dot`` for up to 100 states and ``sfdp`` for larger maps
+    (``dot`` is slow on large cyclic graphs). Raises :class:`ExportError` when Graphviz
+    is not installed or fails.
+    """
+    m = _model(source, "mdp")
+    engine = engine or ("dot" if m.n_states <= 100 else "sfdp")
+    exe = shutil.which(engine)
+    if exe is None:
+        raise ExportError(f"Graphviz '{engine}' is not installed (e.g. apt-get install graphviz)")
+    buf = io.StringIO()
+    write_dot(m, buf)
+    try:
+        done = subprocess.run([exe, "-Tsvg"], input=buf.getvalue(), capture_output=True, text=True, timeout=timeout)
+    except subprocess.TimeoutExpired:
+        raise ExportError(f"Graphviz '{engine}' took longer than {timeout:g} s") from None
+    if done.returncode != 0:
+        raise ExportError(f"Graphviz '{engine}' failed: {done.stderr.strip()}")
+    with _open(dest) as fh:
+        fh.write(done.stdout)
+    return engine
+
+
+# -- JSON and dispatch ----------------------------------------------------------------------------
+def write_json(source: CognitiveMap, dest: Dest, kind: ModelKind = "mdp") -> None:
+    """Write the lossless JSON form of the map (``kind`` is ignored: JSON is the map itself)."""
+    if not isinstance(source, CognitiveMap):
+        raise ExportError("JSON is written from a CognitiveMap, not from an exported model")
+    source.write_json(dest)
+
+
+FORMATS: dict[str, Callable[..., Any]] = {
+    "prism": write_prism,
+    "prism-explicit": write_prism_explicit,
+    "drn": write_drn,
+    "dot": write_dot,
+    "svg": render_svg,
+    "json": write_json,
+}
+"""Format name → writer ``(map, dest, kind)``."""
+
+
+def write(cmap: CognitiveMap, dest: Any, format: str, kind: ModelKind = "mdp") -> None:
+    """Write ``cmap`` to ``dest`` in ``format`` (a key of :data:`FORMATS`)."""
+    try:
+        writer = FORMATS[format]
+    except KeyError:
+        raise ExportError(f"unknown format {format!r}: expected one of {', '.join(FORMATS)}") from None
+    if format == "svg":
+        render_svg(cmap if kind == "mdp" else export_model(cmap, kind), dest)
+    else:
+        writer(cmap, dest, kind)
