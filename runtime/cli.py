@@ -18,6 +18,7 @@ __all__ = ["main", "CliError"]
 _COMMAND_MODULES: list[str] = [
     "runtime._cli_demo",
     "runtime._cli_plan",
+    "runtime._cli_replay",
 ]
 
 

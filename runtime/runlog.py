@@ -1,0 +1,125 @@
+"""The run log: every scan, plan, task change, motor command and fault as JSON lines.
+
+One JSON object per line, flushed as it is written, so that a run cut short loses
+nothing already seen. Every record has ``t`` (seconds since the log was opened, from a
+monotonic clock) and ``event``; the other keys depend on the event:
+
+=========  ==============================================================================
+event      keys
+=========  ==============================================================================
+start      ``goal`` [x, y] (odometry frame), ``argv``, ``robot`` (RobotModel as a dict)
+scan       ``points`` [[x, y], …] (robot frame, metres), ``goal`` [x, y] (robot frame),
+           ``pose`` [x, y, theta] (odometry)
+plan       ``reached_goal``, ``states``, ``transitions``, ``planning_time_s``, ``tasks``
+state      ``from``, ``to`` (supervisor states)
+task       ``task``, ``phase`` (start / end / interrupted), ``pose``
+motor      ``left``, ``right`` (m/s)
+fault      ``reason``
+stop       ``reason``, ``status``
+=========  ==============================================================================
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import time
+from collections.abc import Iterator
+from pathlib import Path
+from typing import IO, Any
+
+import numpy as np
+
+__all__ = ["RunLog", "LogError", "read_log", "scans_from_log"]
+
+
+class LogError(ValueError):
+    """A run log cannot be read (names the line)."""
+
+
+def _clean(value: Any) -> Any:
+    if isinstance(value, float):
+        return value if math.isfinite(value) else None
+    if isinstance(value, np.ndarray):
+        return _clean(value.tolist())
+    if isinstance(value, (list, tuple)):
+        return [_clean(v) for v in value]
+    if isinstance(value, dict):
+        return {str(k): _clean(v) for k, v in value.items()}
+    if isinstance(value, (np.floating, np.integer)):
+        return _clean(value.item())
+    return value
+
+
+class RunLog:
+    """Append-only JSON-lines writer, flushed (and fsync'ed for faults) per record."""
+
+    def __init__(self, dest: str | os.PathLike[str] | IO[str]) -> None:
+        if hasattr(dest, "write"):
+            self._fh: IO[str] = dest  # type: ignore[assignment]
+            self._own = False
+            self.path: Path | None = None
+        else:
+            self.path = Path(dest)  # type: ignore[arg-type]
+            self.path.parent.mkdir(parents=True, exist_ok=True)
+            self._fh = open(self.path, "a", encoding="utf-8", buffering=1)
+            self._own = True
+        self._t0 = time.monotonic()
+
+    def write(self, event: str, **fields: Any) -> None:
+        """Append one record and flush it."""
+        rec = {"t": round(time.monotonic() - self._t0, 6), "event": event, **_clean(fields)}
+        self._fh.write(json.dumps(rec, allow_nan=False) + "\n")
+        self._fh.flush()
+        if event in ("fault", "stop") and self._own:
+            try:
+                os.fsync(self._fh.fileno())
+            except OSError:
+                pass
+
+    def close(self) -> None:
+        """Close the file (when the log opened it)."""
+        if self._own and not self._fh.closed:
+            self._fh.close()
+
+    def __enter__(self) -> "RunLog":
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+def read_log(src: str | os.PathLike[str]) -> Iterator[dict[str, Any]]:
+    """The records of a run log, in order. A truncated last line (a run cut short
+    mid-write) is skipped; any other malformed line raises :class:`LogError`."""
+    path = Path(src)
+    try:
+        lines = path.read_text(encoding="utf-8").splitlines()
+    except (OSError, UnicodeDecodeError) as exc:
+        raise LogError(f"{path}: cannot read ({exc})") from None
+    for n, line in enumerate(lines, 1):
+        if not line.strip():
+            continue
+        try:
+            rec = json.loads(line)
+        except json.JSONDecodeError:
+            if n == len(lines):
+                return
+            raise LogError(f"{path}:{n}: not a JSON record") from None
+        if not isinstance(rec, dict) or "event" not in rec:
+            raise LogError(f"{path}:{n}: a record needs an 'event' key")
+        yield rec
+
+
+def scans_from_log(src: str | os.PathLike[str]) -> Iterator[tuple[str, np.ndarray, tuple[float, float] | None]]:
+    """(label, points, goal in the robot frame or None) for every scan record of a log."""
+    k = 0
+    for rec in read_log(src):
+        if rec["event"] != "scan":
+            continue
+        k += 1
+        pts = np.asarray(rec.get("points", []), dtype=float).reshape(-1, 2)
+        goal = rec.get("goal")
+        g = (float(goal[0]), float(goal[1])) if isinstance(goal, list) and len(goal) == 2 else None
+        yield f"scan{k:04d}@{rec.get('t', 0):.3f}s", pts, g
