@@ -1,0 +1,86 @@
+"""``clomp export``: write the cognitive map of a scenario, a scan or a map file in a model format."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+from typing import Any
+
+from formal.export import FORMATS, ExportError, write
+from formal.lts import CognitiveMap, MapError
+from planner import PlanningError, ScanError
+from planner.scenarios import ScenarioError, load_scenario
+from runtime._cli_plan import add_planner_options, configurator_from_args, parse_goal
+from runtime.cli import CliError
+
+__all__ = ["register", "add_source_options", "map_from_args"]
+
+
+def add_source_options(p: argparse.ArgumentParser, required: bool = True) -> None:
+    """--scenario | --scan | --map, and --goal: where the cognitive map comes from."""
+    src = p.add_mutually_exclusive_group(required=required)
+    src.add_argument("--scenario", help="a built-in scenario name or a scenario JSON file")
+    src.add_argument("--scan", help="a scan file (x y per line, or .npy)")
+    src.add_argument("--map", metavar="JSON", help="a cognitive map written by 'clomp plan --map' or 'export --format json'")
+    p.add_argument("--goal", help="goal X,Y in the robot frame (metres); default: the scenario's, or 1.0,0.0")
+
+
+def map_from_args(args: argparse.Namespace) -> tuple[CognitiveMap, str]:
+    """Plan (or read) the cognitive map the source options name; returns (map, title)."""
+    if getattr(args, "map", None):
+        try:
+            return CognitiveMap.read_json(args.map), str(args.map)
+        except OSError as exc:
+            raise CliError(f"--map: cannot read {args.map}: {exc.strerror or exc}") from None
+        except MapError as exc:
+            raise CliError(f"--map: {args.map}: {exc}") from None
+    conf = configurator_from_args(args)
+    try:
+        if args.scenario:
+            scene = load_scenario(args.scenario)
+            goal = parse_goal(args.goal) if args.goal else tuple(scene.goal_in_robot_frame())
+            return conf.plan(scene.scan(max_range=conf.robot.sensor_range), goal).map, scene.name  # type: ignore[arg-type]
+        path = Path(args.scan)
+        if not path.is_file():
+            raise CliError(f"--scan: {path}: no such file")
+        goal = parse_goal(args.goal) if args.goal else (1.0, 0.0)
+        return conf.plan(path, goal).map, str(path)
+    except (ScenarioError, ScanError, PlanningError) as exc:
+        raise CliError(str(exc)) from None
+
+
+def register(sub: Any) -> None:
+    """Add ``export`` to the command line."""
+    p = sub.add_parser("export", help="export a cognitive map to PRISM, Storm DRN, DOT/SVG or JSON", description=__doc__)
+    add_source_options(p)
+    p.add_argument("--format", "-f", required=True, choices=sorted(FORMATS), help="output format")
+    p.add_argument(
+        "--model",
+        choices=("mdp", "dtmc"),
+        default="mdp",
+        help="mdp: the unsupervised map (actions are tasks); dtmc: the supervised system, Ψ applied (default mdp)",
+    )
+    p.add_argument("-o", "--output", required=True, metavar="FILE", help="output file ('-' for standard output; a path stem for prism-explicit)")
+    add_planner_options(p)
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    """Execute ``clomp export``."""
+    cmap, _ = map_from_args(args)
+    if args.output == "-":
+        if args.format == "prism-explicit":
+            raise CliError("prism-explicit writes several files: give a path stem with -o")
+        dest: Any = sys.stdout
+    else:
+        dest = Path(args.output)
+        if dest.parent and not dest.parent.exists():
+            raise CliError(f"-o: folder {dest.parent} does not exist")
+    try:
+        write(cmap, dest, args.format, args.model)
+    except ExportError as exc:
+        raise CliError(str(exc)) from None
+    except OSError as exc:
+        raise CliError(f"cannot write {args.output}: {exc.strerror or exc}") from None
+    return 0
