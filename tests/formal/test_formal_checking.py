@@ -1,0 +1,264 @@
+"""Storm checking: property files, required properties on scenarios and scans, the
+differential check against the plan, and the ``clomp check`` / ``clomp export`` commands."""
+
+from __future__ import annotations
+
+import math
+import sys
+from functools import lru_cache
+from pathlib import Path
+
+import pytest
+
+from formal import CognitiveMap
+from formal.checking import (
+    PropertySpec,
+    Requirement,
+    SpecError,
+    StormMissing,
+    build_storm_model,
+    check_map_properties,
+    check_properties,
+    compare_distance,
+    default_property_files,
+    parse_properties,
+    plan_distance,
+    read_properties,
+    require_stormpy,
+)
+from planner import Configurator
+from planner.scenarios import builtin_scenarios, load_scenario
+
+SCANS = Path(__file__).resolve().parents[2].parent / "shared" / "data" / "scans" / "corridor-2023-10-25"
+needs_storm = pytest.mark.skipif(
+    __import__("importlib").util.find_spec("stormpy") is None, reason="stormpy not installed: pip install 'clomp[verify]'"
+)
+
+
+@lru_cache(maxsize=None)
+def scenario_map(name: str) -> CognitiveMap:
+    conf = Configurator()
+    scene = load_scenario(name)
+    return conf.plan(scene.scan(max_range=conf.robot.sensor_range), tuple(scene.goal_in_robot_frame())).map
+
+
+def scan_maps() -> list[tuple[str, CognitiveMap]]:
+    if not SCANS.is_dir():
+        pytest.skip(f"recorded scans not found at {SCANS}")
+    conf = Configurator()
+    return [(f.name, conf.plan(f, (1.0, 0.0)).map) for f in sorted(SCANS.glob("*.dat"))[:20]]
+
+
+# -- the property-file format --------------------------------------------------------------
+def test_shipped_property_files_parse_and_have_required_properties():
+    files = [read_properties(p) for p in default_property_files()]
+    assert {pf.model for pf in files} == {"mdp", "dtmc"}
+    for pf in files:
+        assert any(p.required is not None for p in pf.properties)
+        assert all(p.description for p in pf.properties), "every property says what it means for the robot"
+
+
+def test_property_file_fields():
+    pf = parse_properties('// @model dtmc\n// never collides\n// @required = 0\n"c": P=? [F "collision"]\nP=? [F "goal"]\n', "x.pctl")
+    a, b = pf.properties
+    assert (a.name, a.formula, a.description, str(a.required), a.line) == ("c", 'P=? [F "collision"]', "never collides", "= 0", 4)
+    assert b.required is None and b.name == 'P=? [F "goal"]'
+
+
+@pytest.mark.parametrize(
+    "text, where",
+    [
+        ('// @model dtmc\n// @requird true\nP=? [F "goal"]\n', "x.pctl:2"),
+        ('// @model dtmc\nP=? [F "goal"\n', "x.pctl:2"),
+        ('// @model dtmc\nthe robot is fine\n', "x.pctl:2"),
+        ('P=? [F "goal"]\n', "x.pctl:1"),
+        ('// @model ctmc\nP=? [F "goal"]\n', "x.pctl:1"),
+        ('// @model dtmc\nP=? [F "goal"]\n// @required true\n', "x.pctl:3"),
+        ('// @model dtmc\n// @required maybe\nP=? [F "goal"]\n', "x.pctl:2"),
+        ('// @model dtmc\n"a": P=? [F "goal"]\n"a": P=? [F "goal"]\n', "x.pctl:3"),
+        ("// only comments\n", "x.pctl"),
+    ],
+)
+def test_property_file_syntax_errors_name_the_line(text, where):
+    with pytest.raises(SpecError, match=f"^{where}"):
+        parse_properties(text, "x.pctl")
+
+
+def test_requirements_use_a_tolerance():
+    assert Requirement.parse("0").holds(1e-9) and not Requirement.parse("0").holds(1e-3)
+    assert Requirement.parse("<= 1.5").holds(1.5 + 1e-9) and not Requirement.parse("< 1.5").holds(1.5)
+    assert Requirement.parse("true").holds(True) and not Requirement.parse("true").holds(1.0)
+
+
+# -- Storm ---------------------------------------------------------------------------------------------
+@needs_storm
+@pytest.mark.parametrize("via", ["drn", "prism"])
+@pytest.mark.parametrize("name", builtin_scenarios())
+def test_required_properties_hold_on_scenarios(name, via):
+    results = check_map_properties(scenario_map(name), via=via)
+    assert {r.kind for r in results} == {"mdp", "dtmc"}
+    failed = [(r.spec.name, r.value, r.witness) for r in results if r.passed is False]
+    assert not failed
+
+
+@needs_storm
+def test_required_properties_hold_on_recorded_scans():
+    for name, cmap in scan_maps():
+        failed = [(r.spec.name, r.value) for r in check_map_properties(cmap) if r.passed is False]
+        assert not failed, name
+
+
+@needs_storm
+def test_supervised_overtaking_reaches_the_goal_without_collision():
+    results = {r.spec.name: r.value for r in check_map_properties(scenario_map("overtaking"))}
+    assert results["goal"] == pytest.approx(1.0) and results["no_collision"] == pytest.approx(0.0)
+    assert results["distance"] == pytest.approx(plan_distance(scenario_map("overtaking")))
+
+
+@needs_storm
+def test_a_failed_requirement_names_a_violating_path():
+    cmap = scenario_map("overtaking")
+    sm = build_storm_model(cmap, "mdp")
+    (r,) = check_properties(sm, [PropertySpec('Pmax=? [F "collision"]', "hit", required=Requirement("=", 0.0))])
+    assert r.passed is False and r.verdict == "FAIL"
+    assert r.witness[0] == f"q{cmap.initial_id}" and r.witness[-1].endswith("[collision]")
+    idents = [int(w.split("[")[0][1:]) for w in r.witness]
+    assert all(cmap.has_transition(a, b) for a, b in zip(idents, idents[1:]))
+    assert cmap[idents[-1]].interrupted
+
+
+@needs_storm
+def test_storm_rejects_an_unknown_label_as_a_spec_error():
+    sm = build_storm_model(scenario_map("open"), "dtmc")
+    with pytest.raises(SpecError, match="x.pctl:2"):
+        check_properties(sm, parse_properties('// @model dtmc\nP=? [F "nowhere"]\n', "x.pctl"))
+
+
+@needs_storm
+def test_differential_storm_optimum_never_exceeds_the_plan():
+    """Storm's R{"distance"}min=? [F "goal"] is the least expected distance over every
+    scheduler of the explored MDP; the plan is one such scheduler, so when the plan reaches
+    the goal, Storm's optimum is finite and ≤ the plan's distance. The Configurator is
+    greedy best-first on φ (not on distance), so the inequality may be strict; when the
+    plan does not reach the goal, the goal is not in the map and the optimum is infinite."""
+    cases = [(n, scenario_map(n)) for n in builtin_scenarios()]
+    if SCANS.is_dir():
+        cases += scan_maps()
+    for name, cmap in cases:
+        cmp = compare_distance(cmap)
+        assert cmp.consistent, name
+        if cmp.plan_reaches_goal:
+            assert cmp.storm_min <= cmp.plan + 1e-6, name
+        else:
+            assert math.isinf(cmp.storm_min), name
+
+
+def test_without_stormpy_the_message_says_how_to_install(monkeypatch):
+    monkeypatch.setitem(sys.modules, "stormpy", None)
+    with pytest.raises(StormMissing, match=r"pip install 'clomp\[verify\]'"):
+        require_stormpy()
+
+
+# -- the command line ---------------------------------------------------------------------------------
+@pytest.fixture
+def clomp(monkeypatch, capsys):
+    import runtime.cli as cli
+
+    mods = list(cli._COMMAND_MODULES)
+    for m in ("runtime._cli_export", "runtime._cli_check"):
+        if m not in mods:
+            mods.append(m)
+    monkeypatch.setattr(cli, "_COMMAND_MODULES", mods)
+
+    def run(*argv: str) -> tuple[int, str, str]:
+        try:
+            code = cli.main(list(argv))
+        except SystemExit as exc:  # argparse usage errors
+            code = int(exc.code or 0)
+        out = capsys.readouterr()
+        return code, out.out, out.err
+
+    return run
+
+
+@needs_storm
+def test_cli_check_scenario_prints_a_table_and_passes(clomp):
+    code, out, _ = clomp("check", "--scenario", "overtaking")
+    assert code == 0
+    assert "no_collision" in out and "pass" in out and "FAIL" not in out
+    assert "distance: plan 1.54 m" in out and "Rmin[F goal] = 1.54 m" in out
+
+
+@needs_storm
+def test_cli_check_fails_with_a_path_when_a_requirement_fails(clomp, tmp_path):
+    spec = tmp_path / "strict.pctl"
+    spec.write_text('// @model mdp\n// no option collides\n// @required = 0\n"never": Pmax=? [F "collision"]\n')
+    code, out, _ = clomp("check", "--scenario", "overtaking", "--specs", str(spec))
+    assert code == 1
+    assert "FAIL never" in out and "violating path: q0 ->" in out and "[collision]" in out
+
+
+@needs_storm
+@pytest.mark.parametrize("fmt", ["prism", "drn"])
+def test_cli_export_then_check_the_exported_file(clomp, tmp_path, fmt):
+    path = tmp_path / f"ov.{fmt}"
+    assert clomp("export", "--scenario", "overtaking", "--format", fmt, "-o", str(path))[0] == 0
+    code, out, _ = clomp("check", str(path))
+    assert code == 0 and "mdp" in out and "dtmc" not in out.split("\n", 2)[2]
+    path = tmp_path / f"ovs.{fmt}"
+    assert clomp("export", "--scenario", "overtaking", "--format", fmt, "--model", "dtmc", "-o", str(path))[0] == 0
+    code, out, _ = clomp("check", str(path))
+    assert code == 0 and "no_collision" in out
+
+
+def test_cli_export_writes_every_format(clomp, tmp_path):
+    for fmt in ("prism", "prism-explicit", "drn", "dot", "json"):
+        assert clomp("export", "--scenario", "overtaking", "--format", fmt, "-o", str(tmp_path / f"ov.{fmt}"))[0] == 0
+    assert (tmp_path / "ov.prism-explicit.tra").is_file()
+    assert CognitiveMap.read_json(tmp_path / "ov.json") == scenario_map("overtaking")
+    scan = SCANS / "map0001.dat"
+    if scan.is_file():
+        assert clomp("export", "--scan", str(scan), "--goal", "1,0", "--format", "drn", "-o", str(tmp_path / "s.drn"))[0] == 0
+
+
+@pytest.mark.parametrize(
+    "make, argv, message",
+    [
+        ("empty", ("export", "--format", "prism"), "empty map"),
+        ("no-initial", ("export", "--format", "drn"), "initial state"),
+        ("empty", ("check",), "empty map"),
+        ("garbage", ("export", "--format", "dot"), "not valid JSON"),
+        (None, ("export", "--scenario", "overtaking", "--format", "graphml"), "invalid choice"),
+        (None, ("check", "--scenario", "nowhere-land"), "nowhere-land"),
+        ("badspec", ("check", "--scenario", "open"), "bad.pctl:2"),
+    ],
+)
+def test_cli_bad_input_is_one_clear_error_and_status_2(clomp, tmp_path, make, argv, message):
+    args = list(argv)
+    m = tmp_path / "m.json"
+    if make == "empty":
+        m.write_text('{"format": "clomp-cognitive-map", "version": 1, "states": [], "transitions": []}')
+    elif make == "no-initial":
+        d = scenario_map("open").to_dict()
+        d["initial"] = None
+        CognitiveMap.from_dict(d).write_json(m)
+    elif make == "garbage":
+        m.write_text("{not json")
+    if make in ("empty", "no-initial", "garbage"):
+        args += ["--map", str(m)]
+    if make == "badspec":
+        bad = tmp_path / "bad.pctl"
+        bad.write_text('// @model dtmc\nP=? [F "goal"\n')
+        args += ["--specs", str(bad)]
+    if args[0] == "export":
+        args += ["-o", str(tmp_path / "out")]
+    code, out, err = clomp(*args)
+    assert code == 2
+    assert message in err
+    assert "Traceback" not in err
+
+
+def test_cli_check_without_stormpy_says_how_to_install(clomp, monkeypatch):
+    monkeypatch.setitem(sys.modules, "stormpy", None)
+    code, _, err = clomp("check", "--scenario", "open")
+    assert code == 2 and "pip install 'clomp[verify]'" in err
