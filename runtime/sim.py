@@ -61,9 +61,9 @@ class NoiseConfig:
 
     range_sd: float = 0.005
     dropout: float = 0.02
-    wheel_sd: float = 0.03
-    wheel_bias: float = 0.01
-    drift: float = 0.005
+    wheel_sd: float = 0.02
+    wheel_bias: float = 0.005
+    drift: float = 0.002
 
     def __post_init__(self) -> None:
         for f in fields(self):

@@ -66,6 +66,7 @@ __all__ = [
     "TaskRecord",
     "TransitionRecord",
     "GuardViolation",
+    "RunLogLike",
     "compose",
     "relative",
     "state_machine_dot",
@@ -117,6 +118,14 @@ TRANSITIONS: dict[tuple[SupervisorState, Event], SupervisorState] = {
     (S.EXECUTING, E.DISAGREE): S.REPLANNING,
     **{(s, ev): S.HALTED for s in SupervisorState if s not in TERMINAL for ev in (E.FAULT, E.ABORT)},
 }
+
+
+class RunLogLike(Protocol):
+    """Where the supervisor records what it does (e.g. :class:`runtime.runlog.RunLog`)."""
+
+    def write(self, event: str, **fields: Any) -> None:
+        """Append one record."""
+        ...
 
 
 class GuardViolation(RuntimeError):
@@ -266,6 +275,7 @@ class Supervisor:
         lookahead: float = 0.5,
         hazard_points: int = 2,
         settle_scans: int = 2,
+        log: RunLogLike | None = None,
     ) -> None:
         gx, gy = (float(v) for v in goal)
         if not (math.isfinite(gx) and math.isfinite(gy)):
@@ -286,6 +296,7 @@ class Supervisor:
         self.hazard_points = hazard_points
         self.settle_scans = settle_scans
         self._goal_robot = (gx, gy)
+        self.log = log
 
         self.state = S.IDLE
         self.reason = ""
@@ -300,7 +311,9 @@ class Supervisor:
         self._last_update = 0.0
         self._last_scan_at = 0.0
         self._scan: np.ndarray | None = None
+        self._clean_scan: np.ndarray | None = None
         self._scan_pose = self.pose
+        self._turned = False
         self._scans_since_stop = 0
         self._moved = False
         self._queue: deque[tuple[State, tuple[int, int]]] = deque()
@@ -337,6 +350,7 @@ class Supervisor:
         odo = self.robot.odometry()
         self.pose = odo if odo is not None else Pose(0.0, 0.0, 0.0)
         self.goal = compose(self.pose, Pose(*self._goal_robot))
+        self._log("start", goal=[self.goal.x, self.goal.y], robot=self.model.to_dict())
         self._fire(E.START, "started")
 
     def step(self) -> SupervisorState:
@@ -366,7 +380,6 @@ class Supervisor:
         """Tick until a terminal state (or ``max_time`` s of clock time → HALTED)."""
         tick = self.model.tick
         try:
-            self.start() if self.state is S.IDLE else None
             t_start = self.clock.now()
             while not self.terminal:
                 t = self.clock.now()
@@ -409,6 +422,12 @@ class Supervisor:
         self.state = target
         self.reason = reason
         self.transitions.append(TransitionRecord(self._now(), source, event, target, reason))
+        if source is not target:
+            self._log("state", **{"from": source.value, "to": target.value, "trigger": event.value, "reason": reason})
+        if event is E.FAULT:
+            self._log("fault", reason=reason)
+        if target in TERMINAL:
+            self._log("stop", reason=reason, status=target.value)
 
     def _halt(self, event: Event, reason: str) -> None:
         self._stop_wheels()
@@ -426,6 +445,14 @@ class Supervisor:
         except Exception as exc:  # the device may be gone; the state still says stopped
             self.reason = f"{self.reason}; stop failed: {type(exc).__name__}: {exc}" if self.reason else str(exc)
 
+    def _log(self, event: str, **fields: Any) -> None:
+        if self.log is None:
+            return
+        try:
+            self.log.write(event, **fields)
+        except Exception:  # a full disk must not stop the robot's safety logic
+            self.log = None
+
     def _now(self) -> float:
         try:
             return self.clock.now() - (self._t0 or 0.0)
@@ -438,9 +465,15 @@ class Supervisor:
         frame = self.robot.read_scan(timeout=0.0)
         if frame is not None:
             self._scan = validate_scan(frame.points, "scan")
-            self._scan_pose = self.pose
+            if self.log is not None:
+                g = relative(self.pose, self.goal)
+                self._log("scan", points=self._scan, goal=[g.x, g.y], pose=self.pose.as_list())
             self._last_scan_at = now
             self._scans_since_stop += 1
+            if not self._turned:
+                # a revolution taken while the robot turned is smeared: keep the last clean one
+                self._clean_scan, self._scan_pose = self._scan, self.pose
+            self._turned = self._turning()
         elif now - self._last_scan_at > self.scan_timeout:
             raise RobotFault(f"sensor silent: no scan for {now - self._last_scan_at:.2f} s")
         if self.state in (S.PLANNING, S.REPLANNING):
@@ -493,6 +526,8 @@ class Supervisor:
             return
         rec = PlanRecord(now - (self._t0 or 0.0), self.pose, result)
         self.plans.append(rec)
+        self._log("plan", reached_goal=result.reached_goal, states=result.states, transitions=result.transitions,
+                  planning_time_s=result.planning_time_s, tasks=[q.task.value for q in result.steps])
         if not result.steps:
             self._fire(E.NO_PLAN, "goal unreachable: no safe task leads closer to the goal")
             return
@@ -537,6 +572,7 @@ class Supervisor:
         self._task_ticks = 0
         self._record = TaskRecord(len(self.plans) - 1, q, step, psi, now - (self._t0 or 0.0), self.pose, predicted_end)
         self.tasks.append(self._record)
+        self._log("task", task=q.task.value, phase="start", pose=self.pose.as_list())
         return True
 
     def _end_task(self, outcome: str) -> None:
@@ -544,6 +580,8 @@ class Supervisor:
             self._record.end_time = self._now()
             self._record.end_pose = self.pose
             self._record.outcome = outcome
+            phase = "end" if outcome == "done" else "interrupted"
+            self._log("task", task=self._record.state.task.value, phase=phase, pose=self.pose.as_list(), reason=outcome)
         self._record = None
         self._task = None
 
@@ -577,9 +615,16 @@ class Supervisor:
             return
         vl, vr = task.wheel_speeds(e)
         self.robot.set_wheel_speeds(vl, vr)
+        if self.log is not None and (vl, vr) != self._cmd:
+            self._log("motor", left=vl, right=vr)
         self._cmd = (vl, vr)
+        self._turned = self._turned or self._turning()
         if vl != 0 or vr != 0:
             self._moved = True
+
+    def _turning(self) -> bool:
+        vl, vr = self._cmd
+        return abs(vr - vl) > 1e-9
 
     def _plan_ended(self) -> None:
         g = relative(self.pose, self.goal)
@@ -598,9 +643,9 @@ class Supervisor:
 
     def _hazard(self, task: Task, error: float) -> str | None:
         """A reason to interrupt when the newest scan has points in the body's remaining path."""
-        if self._scan is None or len(self._scan) == 0:
+        if self._clean_scan is None or len(self._clean_scan) == 0:
             return None
-        pts = _points_to_frame(self._scan, self._scan_pose, self.pose)
+        pts = _points_to_frame(self._clean_scan, self._scan_pose, self.pose)
         m = self.model
         near = np.hypot(pts[:, 0], pts[:, 1]) <= m.length + error + 0.05
         pts = pts[near]
