@@ -72,7 +72,7 @@ def recorded_scan_source(folder: str | os.PathLike[str]) -> ScanSource:
         raise FileNotFoundError(f"scan folder not found: {root}")
     files = sorted(p for p in root.iterdir() if _MAP_FILE.match(p.name))
     if not files:
-        subdirs = sorted(p.name for p in root.iterdir() if p.is_dir())
+        subdirs = sorted(p.name for p in root.iterdir() if p.is_dir() and not p.name.startswith("."))
         hint = f" (it has subfolders: {', '.join(subdirs)})" if subdirs else ""
         raise FileNotFoundError(f"no mapNNNN.dat files in {root}{hint}")
     scans = [load_scan_file(p) for p in files]

@@ -1,0 +1,136 @@
+"""``clomp emulate lidar|maestro``: run a device emulator on a pseudo-terminal.
+
+Prints the pty path on one line, then serves until Ctrl-C, so a driver (or
+``clomp run`` on hardware settings) can be pointed at it without hardware.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from typing import Any
+
+from runtime.cli import CliError
+
+__all__ = ["register"]
+
+
+def register(subparsers: Any) -> None:
+    """Add the ``emulate`` subcommand (with ``lidar`` and ``maestro``) to the CLI."""
+    parser = subparsers.add_parser(
+        "emulate",
+        help="emulate the LiDAR or the motor controller on a pseudo-terminal",
+        description="Start a device emulator on a pseudo-terminal, print its path, run until Ctrl-C.",
+    )
+    devices = parser.add_subparsers(dest="device", metavar="DEVICE", required=True)
+
+    lidar = devices.add_parser(
+        "lidar",
+        help="an RPLIDAR A1 streaming recorded or simulated scans",
+        description="Emulate an RPLIDAR A1. Scans come from recorded mapNNNN.dat files (--scans) "
+        "or a simulated scenario (--scenario).",
+    )
+    source = lidar.add_mutually_exclusive_group()
+    source.add_argument("--scans", metavar="DIR", help="folder of recorded mapNNNN.dat scans, played in a loop")
+    source.add_argument("--scenario", metavar="NAME", help="scenario name or file to simulate scans from")
+    lidar.add_argument("--speed", type=float, default=1.0, metavar="FACTOR", help="pace factor (default 1: ~5.5 Hz)")
+    lidar.add_argument("--garbage", type=float, default=0.0, metavar="RATE", help="probability per sample of a garbage burst")
+    lidar.add_argument("--bad-check", type=float, default=0.0, metavar="RATE", help="probability per sample of a bad check bit")
+    lidar.add_argument("--silent-after", type=int, metavar="N", help="go silent after N revolutions")
+    lidar.add_argument("--vanish-after", type=float, metavar="N", help="close the pty after N (fractional) revolutions")
+    lidar.add_argument("--health", choices=("good", "warning", "error"), default="good", help="GET_HEALTH status")
+    lidar.add_argument("--error-code", type=int, default=0, metavar="CODE", help="GET_HEALTH error code")
+    lidar.add_argument("--seed", type=int, help="seed for fault injection and simulated noise")
+    lidar.set_defaults(func=_run_lidar)
+
+    maestro = devices.add_parser(
+        "maestro",
+        help="a Pololu Maestro driving the two wheel servos",
+        description="Emulate a Pololu Maestro (compact and Pololu protocol).",
+    )
+    maestro.add_argument("--device-number", type=int, default=12, help="Pololu protocol device number (default 12)")
+    maestro.add_argument("--serial-timeout", type=float, metavar="S", help="send channels home after S s without a byte")
+    maestro.add_argument("--show-speeds", action="store_true", help="print the decoded wheel speeds when they change")
+    maestro.set_defaults(func=_run_maestro)
+
+
+def _scan_source(args: argparse.Namespace) -> Any:
+    if args.scenario is not None:
+        try:
+            from runtime.sim import scenario_scan_source
+        except ImportError as exc:
+            raise CliError(f"scenario-driven emulation needs the simulation module (runtime.sim): {exc}") from exc
+        try:
+            return scenario_scan_source(args.scenario, seed=args.seed)
+        except (OSError, KeyError, ValueError) as exc:
+            raise CliError(f"cannot load scenario {args.scenario!r}: {exc}") from exc
+    if args.scans is None:
+        raise CliError("emulate lidar needs a scan source: --scans DIR (recorded mapNNNN.dat files) or --scenario NAME")
+    from runtime.devices.emulators import recorded_scan_source
+
+    try:
+        return recorded_scan_source(args.scans)
+    except (OSError, ValueError) as exc:
+        raise CliError(str(exc)) from exc
+
+
+def _serve(emulator: Any, what: str) -> int:
+    try:
+        emulator.start()
+    except OSError as exc:
+        raise CliError(f"cannot open a pseudo-terminal for the {what} emulator: {exc}") from exc
+    try:
+        print(emulator.port, flush=True)
+        while emulator.running:
+            time.sleep(0.1)
+        reason = f": {emulator.error}" if emulator.error else " (fault injection)"
+        print(f"{what} emulator closed its port{reason}", file=sys.stderr)
+    except KeyboardInterrupt:
+        pass
+    finally:
+        emulator.stop()
+    return 0
+
+
+def _run_lidar(args: argparse.Namespace) -> int:
+    from runtime.devices.emulators import LidarEmulator
+
+    status = {"good": 0, "warning": 1, "error": 2}[args.health]
+    if not 0 <= args.error_code <= 0xFFFF:
+        raise CliError("--error-code must be in 0..65535")
+    try:
+        emulator = LidarEmulator(
+            _scan_source(args),
+            speed=args.speed,
+            garbage_rate=args.garbage,
+            bad_check_rate=args.bad_check,
+            silent_after=args.silent_after,
+            vanish_after=args.vanish_after,
+            health_status=status,
+            health_error_code=args.error_code,
+            seed=args.seed,
+        )
+    except ValueError as exc:
+        raise CliError(str(exc)) from exc
+    return _serve(emulator, "LiDAR")
+
+
+def _run_maestro(args: argparse.Namespace) -> int:
+    from runtime.devices.emulators import MaestroEmulator
+
+    if not 0 <= args.device_number <= 127:
+        raise CliError("--device-number must be in 0..127")
+    last: list[tuple[float, float]] = []
+
+    def show(left: float, right: float) -> None:
+        if not last or last[0] != (left, right):
+            last[:] = [(left, right)]
+            print(f"left={left:+.3f} right={right:+.3f}", flush=True)
+
+    emulator = MaestroEmulator(
+        device_number=args.device_number,
+        serial_timeout=args.serial_timeout,
+        on_speeds=show if args.show_speeds else None,
+    )
+    return _serve(emulator, "Maestro")
