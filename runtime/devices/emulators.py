@@ -24,6 +24,7 @@ import time
 import tty
 from collections.abc import Callable
 from pathlib import Path
+from typing import Self
 
 import numpy as np
 
@@ -129,7 +130,7 @@ class _PtyEmulator:
 
     # -- lifetime
 
-    def start(self) -> _PtyEmulator:
+    def start(self) -> Self:
         """Open the pty and start serving; returns self."""
         if self._thread is not None:
             raise RuntimeError(f"{self._name} already started")
@@ -160,7 +161,7 @@ class _PtyEmulator:
         """True while the background thread serves the pty."""
         return self._thread is not None and self._thread.is_alive()
 
-    def __enter__(self):  # type: ignore[no-untyped-def]
+    def __enter__(self) -> Self:
         if self._thread is None:
             self.start()
         return self

@@ -50,7 +50,7 @@ __all__ = [
     "decode_errors",
 ]
 
-Protocol = Literal["compact", "pololu"]
+WireProtocol = Literal["compact", "pololu"]
 
 DEFAULT_DEVICE_NUMBER = 12
 POLOLU_START = 0xAA
@@ -167,7 +167,7 @@ def target_to_speed(
     return (target / 4.0 - neutral_us) / (span_us * wheel.sign * wheel.gain)
 
 
-def _frame(cmd: int, data: Sequence[int], protocol: Protocol, device: int) -> bytes:
+def _frame(cmd: int, data: Sequence[int], protocol: WireProtocol, device: int) -> bytes:
     if any(not 0 <= b <= 0x7F for b in data):
         raise ValueError(f"Maestro data bytes must be 7-bit: {list(data)}")
     if protocol == "compact":
@@ -186,7 +186,7 @@ def _target_bytes(target: int) -> tuple[int, int]:
 
 
 def encode_set_target(
-    channel: int, target: int, *, protocol: Protocol = "compact", device: int = DEFAULT_DEVICE_NUMBER
+    channel: int, target: int, *, protocol: WireProtocol = "compact", device: int = DEFAULT_DEVICE_NUMBER
 ) -> bytes:
     """Set Target: ``84 ch lo7 hi7`` (compact) or ``AA dev 04 ch lo7 hi7`` (Pololu)."""
     return _frame(CMD_SET_TARGET, (channel, *_target_bytes(target)), protocol, device)
@@ -196,7 +196,7 @@ def encode_set_multiple_targets(
     first_channel: int,
     targets: Sequence[int],
     *,
-    protocol: Protocol = "compact",
+    protocol: WireProtocol = "compact",
     device: int = DEFAULT_DEVICE_NUMBER,
 ) -> bytes:
     """Set Multiple Targets (Mini Maestro): ``9F count first lo hi lo hi …``."""
@@ -209,18 +209,18 @@ def encode_set_multiple_targets(
 
 
 def encode_get_position(
-    channel: int, *, protocol: Protocol = "compact", device: int = DEFAULT_DEVICE_NUMBER
+    channel: int, *, protocol: WireProtocol = "compact", device: int = DEFAULT_DEVICE_NUMBER
 ) -> bytes:
     """Get Position: ``90 ch``; the reply is 2 bytes, low first, quarter-µs."""
     return _frame(CMD_GET_POSITION, (channel,), protocol, device)
 
 
-def encode_get_errors(*, protocol: Protocol = "compact", device: int = DEFAULT_DEVICE_NUMBER) -> bytes:
+def encode_get_errors(*, protocol: WireProtocol = "compact", device: int = DEFAULT_DEVICE_NUMBER) -> bytes:
     """Get Errors: ``A1``; the reply is 2 bytes, low first."""
     return _frame(CMD_GET_ERRORS, (), protocol, device)
 
 
-def encode_go_home(*, protocol: Protocol = "compact", device: int = DEFAULT_DEVICE_NUMBER) -> bytes:
+def encode_go_home(*, protocol: WireProtocol = "compact", device: int = DEFAULT_DEVICE_NUMBER) -> bytes:
     """Go Home: ``A2`` (every channel to its home position, or off)."""
     return _frame(CMD_GO_HOME, (), protocol, device)
 
@@ -240,7 +240,7 @@ class Maestro:
         port: str | Any,
         *,
         baudrate: int = 115200,
-        protocol: Protocol = "compact",
+        protocol: WireProtocol = "compact",
         device_number: int = DEFAULT_DEVICE_NUMBER,
         left: WheelConfig = WheelConfig(0, 1),
         right: WheelConfig = WheelConfig(1, -1),
@@ -258,7 +258,7 @@ class Maestro:
             raise ValueError("Set Multiple Targets needs the wheels on adjacent channels")
         if watchdog_timeout is not None and not watchdog_timeout > 0:
             raise ValueError("watchdog_timeout must be positive or None")
-        self.protocol: Protocol = protocol
+        self.protocol: WireProtocol = protocol
         self.device_number = device_number
         self.left, self.right = left, right
         self.neutral_us, self.span_us = neutral_us, span_us

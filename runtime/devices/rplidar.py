@@ -449,7 +449,8 @@ class RPLidar:
 
     ``port`` is a device path (``/dev/ttyUSB0``), a pyserial URL (``loop://``,
     ``spy:///dev/ttyUSB0``) or an open serial-like object (read/write/
-    reset_input_buffer; it is not closed by :meth:`close`). ``motor_control`` is
+    reset_input_buffer; it is not closed by :meth:`close`, and its read timeout
+    bounds how late a LidarTimeout can come). ``motor_control`` is
     ``"dtr"`` (the A1's USB adapter runs the motor while DTR is low; a port that
     cannot set DTR, such as a pseudo-terminal, is tolerated), ``"none"``, or a
     callable ``motor(on: bool)``. Scans come back in the robot frame (x forward,
