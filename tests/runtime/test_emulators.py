@@ -31,7 +31,6 @@ from runtime.devices.rplidar import (
 )
 
 REPO = Path(__file__).resolve().parents[2]
-RECORDED = REPO.parent / "shared" / "data" / "scans" / "corridor-2023-10-25"
 
 # ----------------------------------------------------------------------- scan sources
 
@@ -185,11 +184,9 @@ def test_request_with_bad_checksum_is_ignored() -> None:
         assert emu.requests == [Command.GET_HEALTH]
 
 
-@pytest.mark.skipif(not RECORDED.is_dir(), reason="recorded scans not present")
-def test_recorded_scans_come_back_through_the_driver() -> None:
-    source = recorded_scan_source(RECORDED)
-    first = source()
-    with LidarEmulator(recorded_scan_source(RECORDED), speed=4.0) as emu, RPLidar(emu.port) as lidar:
+def test_recorded_scans_come_back_through_the_driver(scans_dir: Path) -> None:
+    first = recorded_scan_source(scans_dir)()
+    with LidarEmulator(recorded_scan_source(scans_dir), speed=4.0) as emu, RPLidar(emu.port) as lidar:
         scan = lidar.read_scan(timeout=1.0, newest=False)
     # the emulator keeps one return per degree: every point the driver returns is one
     # of the recorded points (to the codec's resolution)
