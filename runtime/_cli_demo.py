@@ -1,26 +1,83 @@
-"""``clomp demo``: the main job on a built-in scenario (the paper's overtaking)."""
+"""``clomp demo``: the main job — the paper's overtaking scenario planned, executed on the
+simulated robot, summarised on one screen, with the trajectory and the cognitive map
+written to an output folder."""
 
 from __future__ import annotations
 
 import argparse
+import os
+from pathlib import Path
 from typing import Any
 
-from planner import Configurator, load_scenario
-from runtime._cli_plan import _print_readable
+from planner.scenarios import ScenarioError, load_scenario
+from runtime.cli import CliError
+from runtime.experiment import run_once
+from runtime.plot import plot_run
+from runtime.supervisor import state_machine_dot, state_machine_prism
 
-__all__ = ["register"]
+__all__ = ["register", "run", "write_map"]
 
 
 def register(sub: Any) -> None:
     """Add ``demo`` to the command line."""
-    p = sub.add_parser("demo", help="plan the built-in overtaking scenario and show the plan")
-    p.add_argument("--scenario", default="overtaking", help="built-in scenario (default overtaking)")
+    p = sub.add_parser("demo", help="plan and execute the overtaking scenario on the simulated robot", description=__doc__)
+    p.add_argument("--scenario", default="overtaking", help="built-in scenario name or JSON file (default overtaking)")
+    p.add_argument("--seed", type=int, default=None, help="noise seed (default: the scenario's 'seed', else 0)")
+    p.add_argument("--out", default="clomp-demo-out", help="output folder (default ./clomp-demo-out)")
     p.set_defaults(func=run)
 
 
+def write_map(cmap: Any, folder: Path, stem: str = "cognitive_map") -> list[str]:
+    """Write the map as JSON, and as DOT and SVG when the formal exporters (and Graphviz)
+    are there; returns what was written or why not."""
+    notes = []
+    json_path = folder / f"{stem}.json"
+    cmap.write_json(json_path)
+    notes.append(str(json_path))
+    try:
+        from formal.export import render_svg, write_dot
+    except ImportError:
+        notes.append("(DOT/SVG skipped: formal.export is not available)")
+        return notes
+    dot_path = folder / f"{stem}.dot"
+    write_dot(cmap, dot_path)
+    notes.append(str(dot_path))
+    try:
+        svg_path = folder / f"{stem}.svg"
+        render_svg(cmap, svg_path)
+        notes.append(str(svg_path))
+    except Exception as exc:  # Graphviz missing or failing: the DOT file is still there
+        notes.append(f"(SVG skipped: {exc})")
+    return notes
+
+
 def run(args: argparse.Namespace) -> int:
-    """Plan the scenario and print the plan."""
-    scene = load_scenario(args.scenario)
-    r = Configurator().plan(scene.scan(), tuple(scene.goal_in_robot_frame()))  # type: ignore[arg-type]
-    _print_readable(r, f"demo — {scene.name}")
+    """Plan, execute on the simulated robot, summarise, write the pictures and models."""
+    from runtime._cli_simulate import print_summary
+
+    out = Path(args.out)
+    try:
+        scene = load_scenario(args.scenario)
+        out.mkdir(parents=True, exist_ok=True)
+    except ScenarioError as exc:
+        raise CliError(str(exc)) from None
+    except OSError as exc:
+        raise CliError(f"--out: cannot create {out}: {exc}") from None
+    seed = args.seed if args.seed is not None else scene.raw.get("seed", 0)
+    try:
+        r = run_once(scene, "planning", seed, keep_report=True)
+    except ScenarioError as exc:
+        raise CliError(str(exc)) from None
+    print_summary(r)
+    written = []
+    png = out / "trajectory.png"
+    plot_run(r.trace(), png, title=f"{scene.name}: executed (solid) vs planned (dashed); ♥ target, ★ collision")
+    written.append(str(png))
+    rep = r.report
+    if rep.plans:
+        written += write_map(rep.plans[0].result.map, out)
+    for name, text in (("supervisor.dot", state_machine_dot()), ("supervisor.prism", state_machine_prism())):
+        (out / name).write_text(text, encoding="utf-8")
+        written.append(str(out / name))
+    print(f"wrote to {out}{os.sep}: " + ", ".join(Path(w).name if not w.startswith("(") else w for w in written))
     return 0

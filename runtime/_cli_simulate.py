@@ -1,0 +1,92 @@
+"""``clomp simulate``: one scenario end to end on the simulated robot (planning or reactive)."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+from pathlib import Path
+from typing import Any
+
+from planner.scenarios import ScenarioError, load_scenario
+from runtime.cli import CliError
+from runtime.experiment import SUCCESS_RADIUS, RunResult, run_once
+from runtime.plot import plot_run
+from runtime.sim import NoiseConfig
+
+__all__ = ["register", "run", "print_summary"]
+
+
+def register(sub: Any) -> None:
+    """Add ``simulate`` to the command line."""
+    p = sub.add_parser("simulate", help="run one scenario on the simulated robot and draw the trajectory", description=__doc__)
+    p.add_argument("--scenario", default="overtaking", help="built-in scenario name or JSON file (default overtaking)")
+    p.add_argument("--reactive", action="store_true", help="run the reactive baseline instead of the planner")
+    p.add_argument("--seed", type=int, default=None, help="noise seed (default: the scenario's 'seed', else 0)")
+    p.add_argument("--no-noise", action="store_true", help="an ideal robot: no sensor or execution noise")
+    p.add_argument("--max-time", type=float, default=120.0, help="simulated seconds allowed (default 120)")
+    p.add_argument("--out", default="clomp-simulate-out", help="folder for the PNG (default ./clomp-simulate-out)")
+    p.add_argument("--json", action="store_true", help="print one JSON object")
+    p.set_defaults(func=run)
+
+
+def print_summary(r: RunResult) -> None:
+    """A few readable lines about one run."""
+    rep = r.report
+    print(f"{r.scene.name} — {r.condition}: {'GOAL REACHED' if r.reached_goal else 'goal not reached'} "
+          f"({r.end_state}: {r.reason})")
+    print(f"  {r.time_s:.1f} s simulated in {r.wall_s:.2f} s ({r.time_s / max(r.wall_s, 1e-9):.0f}× real time); "
+          f"collisions {r.collisions}; ends {r.final_distance:.3f} m from the goal (success within {SUCCESS_RADIUS} m)")
+    if r.condition == "planning" and rep is not None:
+        print(f"  {len(rep.plans)} plan(s), {len(rep.tasks)} task(s) run; first plan: {r.states} states in "
+              f"{(r.planning_time_s or 0) * 1e3:.1f} ms")
+        for k, p in enumerate(rep.plans, 1):
+            tasks = " ".join(s.task.value[0] for s in p.result.steps) or "(empty)"
+            o = p.origin
+            print(f"   plan {k} at {p.time:5.1f} s from ({o.x:+.2f}, {o.y:+.2f}, {math.degrees(o.theta):+.0f}°): "
+                  f"{tasks}  [{p.result.states} states, {'reaches' if p.result.reached_goal else 'short of'} the goal]")
+        for t in rep.transitions:
+            if t.event.value not in ("next_task", "start"):
+                print(f"   {t.time:5.1f} s  {t.source.value} → {t.target.value}: {t.reason}")
+
+
+def _summary_dict(r: RunResult, png: Path) -> dict[str, Any]:
+    return {
+        "scenario": r.scene.name,
+        "condition": r.condition,
+        "end_state": r.end_state,
+        "reason": r.reason,
+        "reached_goal": r.reached_goal,
+        "final_distance_m": r.final_distance,
+        "collisions": r.collisions,
+        "time_s": r.time_s,
+        "wall_s": r.wall_s,
+        "plans": r.plans,
+        "planning_time_s": r.planning_time_s,
+        "states": r.states,
+        "png": str(png),
+    }
+
+
+def run(args: argparse.Namespace) -> int:
+    """Execute ``clomp simulate``."""
+    try:
+        scene = load_scenario(args.scenario)
+        noise = NoiseConfig.ideal() if args.no_noise else None
+        seed = args.seed if args.seed is not None else scene.raw.get("seed", 0)
+        out = Path(args.out)
+        out.mkdir(parents=True, exist_ok=True)
+        cond = "reactive" if args.reactive else "planning"
+        r = run_once(scene, cond, seed, noise=noise, max_time=args.max_time, keep_report=True)
+    except ScenarioError as exc:
+        raise CliError(str(exc)) from None
+    except OSError as exc:
+        raise CliError(f"--out: {exc}") from None
+    png = out / f"{scene.name}_{cond}.png"
+    plot_run(r.trace(), png, title=f"{scene.name} — {cond} (solid: executed, dashed: planned, ♥ target, ★ collision)")
+    if args.json:
+        print(json.dumps(_summary_dict(r, png)))
+    else:
+        print_summary(r)
+        print(f"  trajectory: {png}")
+    return 0
