@@ -21,6 +21,7 @@ _COMMAND_MODULES: list[str] = [
     "runtime._cli_replay",
     "runtime._cli_export",
     "runtime._cli_check",
+    "runtime._cli_emulate",
 ]
 
 
