@@ -1,0 +1,291 @@
+"""The supervisor: scenario outcomes, faults, the guard, replanning, frames, its exported machine."""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from formal.model import Pose
+from planner import Configurator, load_scenario
+from runtime.robot import RobotFault, ScanFrame
+from runtime.sim import SimRobot
+from runtime.supervisor import (
+    MOTOR_STATES,
+    TERMINAL,
+    TRANSITIONS,
+    Event,
+    GuardViolation,
+    Supervisor,
+    SupervisorState,
+    compose,
+    relative,
+    state_machine_dot,
+    state_machine_prism,
+)
+
+S = SupervisorState
+
+
+def run_scenario(name: str, **kw: Any) -> tuple[Supervisor, SimRobot]:
+    scene = load_scenario(name)
+    sim = SimRobot(scene)  # the scenario file's seed and noise
+    sup = Supervisor(sim, scene.goal_in_robot_frame(), **kw)
+    sup.run(max_time=150)
+    return sup, sim
+
+
+@pytest.mark.parametrize("name", ["overtaking", "corridor", "doorway", "slalom"])
+def test_reaches_the_goal_without_collision(name):
+    sup, sim = run_scenario(name)
+    assert sup.state is S.GOAL_REACHED, sup.reason
+    gx, gy = sim.scene.goal
+    assert math.hypot(sim.pose.x - gx, sim.pose.y - gy) <= 0.1  # truly there, not only by its own estimate
+    assert sim.collisions == 0
+    assert sim.commanded == (0.0, 0.0)
+
+
+def test_cul_de_sac_stops_safely_and_says_unreachable():
+    sup, sim = run_scenario("cul-de-sac")
+    assert sup.state is S.UNREACHABLE
+    assert "unreachable" in sup.reason
+    assert sim.collisions == 0 and sim.commanded == (0.0, 0.0)
+
+
+def test_a_task_ends_by_its_own_criterion_on_the_robot():
+    """Every finished task ended where its plan predicted, and each started over a Ψ=1 transition."""
+    sup, _ = run_scenario("overtaking")
+    done = [t for t in sup.tasks if t.outcome == "done"]
+    assert len(done) >= 5
+    for t in done:
+        assert t.psi == 1
+        assert t.end_pose is not None
+        assert t.end_pose.distance_to(t.predicted_end.x, t.predicted_end.y) < 0.02
+
+
+# -- faults --------------------------------------------------------------------------------------
+class Faulty:
+    """Wraps a SimRobot; from tick ``at`` on, misbehaves as ``kind``."""
+
+    def __init__(self, sim: SimRobot, kind: str, at: float) -> None:
+        self.sim, self.kind, self.at = sim, kind, at
+
+    def _on(self) -> bool:
+        return self.sim.now() >= self.at
+
+    def read_scan(self, timeout: float | None = None) -> ScanFrame | None:
+        frame = self.sim.read_scan(timeout)
+        if not self._on():
+            return frame
+        if self.kind == "silent":
+            return None
+        if self.kind == "nan" and frame is not None:
+            pts = frame.points.copy()
+            pts[0, 0] = np.nan
+            return ScanFrame(pts, frame.timestamp)
+        if self.kind == "device":
+            raise RobotFault("LiDAR unplugged")
+        return frame
+
+    def set_wheel_speeds(self, left: float, right: float) -> None:
+        if self._on() and self.kind == "motor":
+            raise OSError("serial port gone")
+        self.sim.set_wheel_speeds(left, right)
+
+    def stop(self) -> None:
+        self.sim.stop()
+
+    def odometry(self) -> Pose | None:
+        return self.sim.odometry()
+
+    def close(self) -> None:
+        self.sim.close()
+
+    def now(self) -> float:
+        return self.sim.now()
+
+    def sleep(self, seconds: float) -> None:
+        self.sim.sleep(seconds)
+
+
+class Exploding(Configurator):
+    """A Configurator whose planning raises from the ``after``-th call on."""
+
+    def __init__(self, after: int = 0) -> None:
+        super().__init__()
+        self.after, self.calls, self.raised = after, 0, False
+
+    def plan(self, scan: Any, goal: Any) -> Any:
+        self.calls += 1
+        if self.calls > self.after:
+            self.raised = True
+            raise RuntimeError("planner crashed")
+        return super().plan(scan, goal)
+
+
+@pytest.mark.parametrize("kind", ["silent", "nan", "device", "motor"])
+@pytest.mark.parametrize("at", [0.0, 3.05, 12.3])
+def test_fault_halts_with_wheels_stopped(kind, at):
+    scene = load_scenario("overtaking")
+    sim = SimRobot(scene, seed=1)
+    sup = Supervisor(Faulty(sim, kind, at), (1.0, 0.0))
+    rep = sup.run(max_time=60)
+    assert rep.state is S.HALTED
+    assert sim.commanded == (0.0, 0.0) and sup.commanded == (0.0, 0.0)
+    halted_at = rep.transitions[-1].time
+    limit = sup.scan_timeout + 2 * sim.model.tick if kind == "silent" else sim.model.tick + 1e-9
+    assert halted_at - at <= limit + 0.2  # the first tick at or after the fault (ticks are 0.1 s apart)
+    assert rep.transitions[-1].event is Event.FAULT
+    assert sim.collisions == 0
+
+
+def test_planner_exception_halts():
+    scene = load_scenario("overtaking")
+    sim = SimRobot(scene, seed=0)
+    conf = Exploding()
+    rep = Supervisor(sim, (1.0, 0.0), conf).run(max_time=30)
+    assert conf.raised and rep.state is S.HALTED and "planner crashed" in rep.reason
+    assert sim.commanded == (0.0, 0.0)
+
+
+def test_ctrl_c_stops_the_wheels_and_propagates():
+    scene = load_scenario("overtaking")
+    sim = SimRobot(scene, seed=0)
+
+    class Interrupting(Faulty):
+        def read_scan(self, timeout: float | None = None) -> ScanFrame | None:
+            if self._on():
+                raise KeyboardInterrupt
+            return self.sim.read_scan(timeout)
+
+    sup = Supervisor(Interrupting(sim, "ctrl-c", 2.0), (1.0, 0.0))
+    with pytest.raises(KeyboardInterrupt):
+        sup.run(max_time=30)
+    assert sup.state is S.HALTED and sup.transitions[-1].event is Event.ABORT
+    assert sim.commanded == (0.0, 0.0)
+
+
+def test_no_task_starts_without_the_guard():
+    """A plan whose Ψ enables nothing starts no task: the supervisor halts, wheels never turned."""
+
+    class Unguarded(Configurator):
+        def plan(self, scan: Any, goal: Any) -> Any:
+            r = super().plan(scan, goal)
+            r.psi = {t: 0 for t in r.psi}
+            return r
+
+    scene = load_scenario("overtaking")
+    sim = SimRobot(scene, seed=0)
+    rep = Supervisor(sim, (1.0, 0.0), Unguarded()).run(max_time=30)
+    assert rep.state is S.HALTED and GuardViolation.__name__ in rep.reason
+    assert rep.tasks == [] and sim.trajectory[-1][1:3] == (0.0, 0.0)
+
+
+def test_an_obstacle_appearing_in_the_way_interrupts_and_replans():
+    """Phantom returns 0.3 m ahead appear mid-straight: the task is interrupted, the robot replans."""
+    scene = load_scenario("open")
+    sim = SimRobot(scene, seed=0)
+
+    class Appearing(Faulty):
+        def read_scan(self, timeout: float | None = None) -> ScanFrame | None:
+            frame = self.sim.read_scan(timeout)
+            if frame is None or not self._on() or self.sim.pose.x > 0.6:
+                return frame
+            # a wall across the way, 0.35 m ahead of the robot
+            ys = np.arange(-0.3, 0.31, 0.01)
+            wall = np.c_[np.full(len(ys), 0.35), ys]
+            return ScanFrame(np.r_[frame.points, wall], frame.timestamp)
+
+    sup = Supervisor(Appearing(sim, "wall", 2.0), (1.0, 0.0))
+    rep = sup.run(max_time=120)
+    disagree = [t for t in rep.transitions if t.event is Event.DISAGREE]
+    assert disagree and ("in the way" in disagree[0].reason or "imminent" in disagree[0].reason)
+    assert len(rep.plans) >= 2
+    assert rep.state in (S.GOAL_REACHED, S.UNREACHABLE)
+    assert sim.commanded == (0.0, 0.0)
+
+
+# -- frames ----------------------------------------------------------------------------------------
+poses = st.builds(Pose, st.floats(-5, 5), st.floats(-5, 5), st.floats(-math.pi, math.pi))
+
+
+@given(base=poses, other=poses)
+@settings(max_examples=100)
+def test_relative_inverts_compose(base, other):
+    back = compose(base, relative(base, other))
+    assert back.x == pytest.approx(other.x, abs=1e-9) and back.y == pytest.approx(other.y, abs=1e-9)
+    assert math.remainder(back.theta - other.theta, 2 * math.pi) == pytest.approx(0.0, abs=1e-9)
+
+
+def test_goal_in_robot_frame_follows_the_pose_estimate():
+    sim = SimRobot(load_scenario("open"), seed=0)
+    sup = Supervisor(sim, (1.0, 0.0))
+    sup.start()
+    sup.pose = Pose(0.5, 0.0, math.pi / 2)
+    gx, gy = sup.goal_in_robot_frame()
+    assert gx == pytest.approx(0.0, abs=1e-12) and gy == pytest.approx(-0.5)
+
+
+# -- the machine itself -----------------------------------------------------------------------------
+def test_transition_table_invariants():
+    states = set(SupervisorState)
+    assert MOTOR_STATES == {S.EXECUTING}
+    for s in states - TERMINAL:
+        assert TRANSITIONS[(s, Event.FAULT)] is S.HALTED
+        assert TRANSITIONS[(s, Event.ABORT)] is S.HALTED
+    assert not [k for k in TRANSITIONS if k[0] in TERMINAL]  # terminal states are final
+    # every state is reachable from IDLE
+    seen, todo = {S.IDLE}, [S.IDLE]
+    while todo:
+        u = todo.pop()
+        for (src, _), dst in TRANSITIONS.items():
+            if src is u and dst not in seen:
+                seen.add(dst)
+                todo.append(dst)
+    assert seen == states
+    # the only ways into EXECUTING are a plan or the next task of a plan
+    assert {ev for (_, ev), dst in TRANSITIONS.items() if dst is S.EXECUTING} == {Event.PLANNED, Event.NEXT_TASK}
+
+
+def test_dot_export_names_every_state_and_transition():
+    dot = state_machine_dot()
+    assert dot.startswith("digraph supervisor {") and dot.rstrip().endswith("}")
+    for s in SupervisorState:
+        assert f'label="{s.value}"' in dot
+    for ev in Event:
+        assert ev.value in dot
+
+
+def test_dot_export_is_valid_graphviz():
+    import shutil
+    import subprocess
+
+    if shutil.which("dot") is None:
+        pytest.skip("graphviz not installed")
+    done = subprocess.run(["dot", "-Tcanon"], input=state_machine_dot(), capture_output=True, text=True, timeout=30)
+    assert done.returncode == 0, done.stderr
+
+
+def test_prism_export_checks_in_storm(tmp_path):
+    stormpy = pytest.importorskip("stormpy")
+    path = tmp_path / "supervisor.prism"
+    path.write_text(state_machine_prism())
+    program = stormpy.parse_prism_program(str(path))
+    props = stormpy.parse_properties(
+        'Pmax=? [F (m=1 & s!=EXECUTING)]; Pmax=? [F (s=HALTED & m=1)]; Pmax=? [F s=GOAL_REACHED]; '
+        'Pmax=? [F "halted"]; Pmax=? [F (s=EXECUTING & m=0)]',
+        program,
+    )
+    model = stormpy.build_model(program, props)
+    assert model.nr_states == len(SupervisorState)  # m is a function of s: one model state per state
+    init = model.initial_states[0]
+    values = [stormpy.model_checking(model, p).get_value(init) for p in props]
+    assert values[0] == pytest.approx(0.0)  # the wheels turn only in EXECUTING
+    assert values[1] == pytest.approx(0.0)  # never halted with the wheels on
+    assert values[2] == pytest.approx(1.0)  # the goal can be reached
+    assert values[3] == pytest.approx(1.0)  # a fault can be taken
+    assert values[4] == pytest.approx(0.0)  # EXECUTING always drives
