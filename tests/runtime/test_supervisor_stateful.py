@@ -1,0 +1,206 @@
+"""Property-based and stateful tests of the supervisor's state machine on the simulated robot.
+
+Rules are control ticks and injected faults; the invariants are the supervisor's safety
+contract: the wheels turn only while EXECUTING; every task starts over a transition the
+guard Ψ enables; a fault ends in HALTED with the wheels stopped within one tick of being
+observable (a silent sensor is observable once ``scan_timeout`` has passed).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from hypothesis.stateful import RuleBasedStateMachine, initialize, invariant, precondition, rule
+
+from formal.model import Pose
+from planner import Configurator, load_scenario
+from runtime.robot import RobotFault, ScanFrame
+from runtime.sim import SimRobot
+from runtime.supervisor import TRANSITIONS, Event, Supervisor, SupervisorState
+
+S = SupervisorState
+FAULTS = ("silent", "nan", "device", "motor", "planner")
+
+
+class Switchable:
+    """A SimRobot whose sensor or motors can be made to fail from a given moment on."""
+
+    def __init__(self, sim: SimRobot) -> None:
+        self.sim = sim
+        self.fault: str | None = None
+
+    def read_scan(self, timeout: float | None = None) -> ScanFrame | None:
+        frame = self.sim.read_scan(timeout)
+        if self.fault == "silent":
+            return None
+        if self.fault == "nan" and frame is not None:
+            pts = frame.points.copy()
+            if len(pts):
+                pts[len(pts) // 2, 1] = np.inf
+            else:
+                pts = np.array([[np.nan, 0.0]])
+            return ScanFrame(pts, frame.timestamp)
+        if self.fault == "device":
+            raise RobotFault("LiDAR unplugged")
+        if self.fault == "phantom" and frame is not None:
+            # something appears right in front of the body: every next move would touch it
+            ys = np.arange(-0.2, 0.201, 0.01)
+            return ScanFrame(np.r_[frame.points, np.c_[np.full(len(ys), 0.12), ys]], frame.timestamp)
+        return frame
+
+    def set_wheel_speeds(self, left: float, right: float) -> None:
+        if self.fault == "motor":
+            raise RobotFault("motor controller gone")
+        self.sim.set_wheel_speeds(left, right)
+
+    def stop(self) -> None:
+        self.sim.stop()
+
+    def odometry(self) -> Pose | None:
+        return self.sim.odometry()
+
+    def close(self) -> None:
+        self.sim.close()
+
+    def now(self) -> float:
+        return self.sim.now()
+
+    def sleep(self, seconds: float) -> None:
+        self.sim.sleep(seconds)
+
+
+class Breakable(Configurator):
+    """A Configurator that raises once ``broken`` is set."""
+
+    broken = False
+    raised = 0
+
+    def plan(self, scan: Any, goal: Any) -> Any:
+        if self.broken:
+            self.raised += 1
+            raise RuntimeError("planner crashed")
+        return super().plan(scan, goal)
+
+
+def _wheels_still(sim: SimRobot) -> bool:
+    return sim.commanded == (0.0, 0.0)
+
+
+class SupervisorMachine(RuleBasedStateMachine):
+    @initialize(scenario=st.sampled_from(["overtaking", "open", "corridor"]), seed=st.integers(0, 50))
+    def setup(self, scenario: str, seed: int) -> None:
+        scene = load_scenario(scenario)
+        self.sim = SimRobot(scene, seed=seed)
+        self.robot = Switchable(self.sim)
+        self.conf = Breakable()
+        self.sup = Supervisor(self.robot, scene.goal_in_robot_frame(), self.conf)
+        self.fault_at: float | None = None
+        self.kind: str | None = None
+
+    def _tick(self) -> None:
+        if self.sup.terminal:
+            return
+        t = self.sim.now()
+        self.sup.step()
+        self.sim.sleep(t + self.sim.model.tick - self.sim.now())
+
+    @rule(n=st.integers(1, 40))
+    def ticks(self, n: int) -> None:
+        for _ in range(n):
+            self._tick()
+
+    @precondition(lambda self: self.kind is None)
+    @rule(kind=st.sampled_from(FAULTS))
+    def inject(self, kind: str) -> None:
+        self.kind = kind
+        self.fault_at = self.sim.now()
+        if kind == "planner":
+            self.conf.broken = True
+        else:
+            self.robot.fault = kind
+
+    @invariant()
+    def wheels_turn_only_while_executing(self) -> None:
+        if not hasattr(self, "sup"):
+            return
+        if not _wheels_still(self.sim):
+            assert self.sup.state is S.EXECUTING
+        if self.sup.state is not S.EXECUTING:
+            assert self.sup.commanded == (0.0, 0.0)
+
+    @invariant()
+    def tasks_start_only_over_enabled_transitions(self) -> None:
+        if not hasattr(self, "sup"):
+            return
+        for t in self.sup.tasks:
+            assert t.psi == 1
+            plan = self.sup.plans[t.plan_index].result
+            enabled = {(tr.source, tr.target) for tr, v in plan.psi.items() if v == 1}
+            assert t.transition in enabled
+            assert t.transition in plan.plan.steps()
+
+    @invariant()
+    def transitions_follow_the_table(self) -> None:
+        if not hasattr(self, "sup"):
+            return
+        for r in self.sup.transitions:
+            assert TRANSITIONS[(r.source, r.event)] is r.target
+
+    @invariant()
+    def faults_halt_in_time(self) -> None:
+        if not hasattr(self, "sup") or self.kind is None or self.fault_at is None:
+            return
+        waited = self.sim.now() - self.fault_at
+        tick = self.sim.model.tick
+        if self.kind == "planner":
+            if self.conf.raised:
+                assert self.sup.state is S.HALTED and _wheels_still(self.sim)
+            return
+        if self.sup.state in (S.GOAL_REACHED, S.UNREACHABLE) and self.sup.transitions[-1].time <= self.fault_at + tick:
+            return  # it had already finished
+        deadline = (self.sup.scan_timeout + 2 * tick) if self.kind == "silent" else tick
+        if waited >= deadline + 1e-9:
+            assert self.sup.state is S.HALTED, (self.kind, waited, self.sup.state)
+            assert _wheels_still(self.sim)
+            assert self.sup.transitions[-1].event is Event.FAULT
+
+
+TestSupervisorMachine = SupervisorMachine.TestCase
+TestSupervisorMachine.settings = settings(max_examples=25, stateful_step_count=12, deadline=None)
+
+
+@given(
+    tick=st.integers(0, 240),
+    kind=st.sampled_from(["silent", "nan", "planner"]),
+    seed=st.integers(0, 20),
+)
+@settings(max_examples=20, deadline=None)
+def test_a_fault_at_any_tick_ends_halted_with_wheels_stopped(tick, kind, seed):
+    """Sensor silent, a scan with NaN/inf, or the planner raising, injected at tick k of the
+    overtaking run (about 270 ticks): the run ends in HALTED with the wheels stopped. For
+    the planner, an obstacle appears in front of the robot at the same tick, so that the
+    supervisor must replan and meets the crash."""
+    scene = load_scenario("overtaking")
+    sim = SimRobot(scene, seed=seed)
+    robot = Switchable(sim)
+    conf = Breakable()
+    sup = Supervisor(robot, (1.0, 0.0), conf)
+    k = 0
+    while not sup.terminal and k < 1500:
+        if k == tick:
+            if kind == "planner":
+                conf.broken = True
+                robot.fault = "phantom"
+            else:
+                robot.fault = kind
+        t = sim.now()
+        sup.step()
+        sim.sleep(t + sim.model.tick - sim.now())
+        k += 1
+    assert sup.state is S.HALTED, (sup.state, sup.reason)
+    assert _wheels_still(sim) and sup.commanded == (0.0, 0.0)
+    if kind == "planner":
+        assert conf.raised and "planner crashed" in sup.reason
