@@ -3,7 +3,8 @@
 Rules are control ticks and injected faults; the invariants are the supervisor's safety
 contract: the wheels turn only while EXECUTING; every task starts over a transition the
 guard Ψ enables; a fault ends in HALTED with the wheels stopped within one tick of being
-observable (a silent sensor is observable once ``scan_timeout`` has passed).
+observable (a failing device at once, a bad scan when the next revolution arrives, a
+silent sensor once ``scan_timeout`` has passed).
 """
 
 from __future__ import annotations
@@ -161,7 +162,12 @@ class SupervisorMachine(RuleBasedStateMachine):
             return
         if self.sup.state in (S.GOAL_REACHED, S.UNREACHABLE) and self.sup.transitions[-1].time <= self.fault_at + tick:
             return  # it had already finished
-        deadline = (self.sup.scan_timeout + 2 * tick) if self.kind == "silent" else tick
+        if self.kind == "silent":  # observable once no scan came for scan_timeout
+            deadline = self.sup.scan_timeout + 2 * tick
+        elif self.kind == "nan":  # observable when the next revolution arrives
+            deadline = 1 / self.sim.scan_rate + tick
+        else:  # the device raises on the very next call
+            deadline = tick
         if waited >= deadline + 1e-9:
             assert self.sup.state is S.HALTED, (self.kind, waited, self.sup.state)
             assert _wheels_still(self.sim)
