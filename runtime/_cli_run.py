@@ -1,0 +1,286 @@
+"""``clomp run``: run the supervisor on the hardware robot (RPLIDAR A1 + Pololu Maestro).
+
+Every scan, plan, task change and motor command goes to a JSON-lines run log, flushed
+record by record (``--log FILE``, default a timestamped file in ./clomp-runs/). The
+wheels are stopped on every way out: the goal, a fault, the time limit, an exception,
+Ctrl-C or SIGTERM. Exit status: 0 goal reached, 1 halted (a fault or --max-time),
+2 a usage or start-up error, 3 goal unreachable, 130 interrupted.
+
+Without hardware, ``clomp emulate world --scenario overtaking`` serves a simulated world
+on two pseudo-terminals to point ``--lidar`` and ``--motors`` at.
+"""
+
+from __future__ import annotations
+
+import argparse
+import datetime as _dt
+import math
+import signal
+import sys
+import threading
+import time
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from pathlib import Path
+from typing import Any
+
+from runtime._cli_plan import add_planner_options, configurator_from_args, parse_goal
+from runtime.cli import CliError
+
+__all__ = ["register", "add_emulate_world", "default_log_path"]
+
+EXIT_STATUS = {"GOAL_REACHED": 0, "HALTED": 1, "UNREACHABLE": 3}
+
+
+def register(sub: Any) -> None:
+    """Add ``run`` to the command line."""
+    p = sub.add_parser(
+        "run",
+        help="run the planner and supervisor on the robot (LiDAR + Maestro serial ports)",
+        description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    p.add_argument("--lidar", required=True, metavar="PORT", help="RPLIDAR A1 serial port (path or pyserial URL)")
+    p.add_argument("--motors", metavar="PORT", help="Pololu Maestro serial port (optional with --dry-run)")
+    p.add_argument("--goal", required=True, help="goal X,Y in metres in the robot's frame at start (x forward, y left)")
+    p.add_argument("--dry-run", action="store_true", help="read the LiDAR and plan, but hold the wheels stopped")
+    p.add_argument("--log", metavar="FILE", help="run log (JSON lines); default clomp-runs/run-<time>.jsonl")
+    p.add_argument("--max-time", type=float, metavar="S", help="halt after S seconds")
+    p.add_argument("--no-odometry", action="store_true",
+                   help="the backend reports no odometry (the supervisor dead-reckons itself)")
+    p.add_argument("--time-scale", type=float, default=1.0, metavar="K",
+                   help="run the controller's clock K times faster than wall time; only for an emulated "
+                        "world running at the same scale (default 1)")
+    d = p.add_argument_group("devices")
+    d.add_argument("--lidar-baud", type=int, default=115200, help="LiDAR baud rate (default 115200)")
+    d.add_argument("--lidar-motor", choices=("dtr", "none"), default="dtr",
+                   help="how the LiDAR's motor is switched: DTR line (A1 USB adapter) or not at all")
+    d.add_argument("--motor-baud", type=int, default=115200, help="Maestro baud rate (default 115200)")
+    d.add_argument("--protocol", choices=("compact", "pololu"), default="compact", help="Maestro serial protocol")
+    d.add_argument("--device-number", type=int, default=12, help="Maestro device number (Pololu protocol, default 12)")
+    d.add_argument("--left-channel", type=int, default=0, help="left wheel servo channel (default 0)")
+    d.add_argument("--right-channel", type=int, default=1, help="right wheel servo channel (default 1)")
+    d.add_argument("--left-sign", type=int, choices=(1, -1), default=1, help="left servo direction (default 1)")
+    d.add_argument("--right-sign", type=int, choices=(1, -1), default=-1, help="right servo direction (default -1: mirrored)")
+    d.add_argument("--left-gain", type=float, default=1.0, help="left pulse span gain (default 1)")
+    d.add_argument("--right-gain", type=float, default=1.0, help="right pulse span gain (default 1)")
+    d.add_argument("--neutral-us", type=float, default=1500.0, help="stop pulse width in µs (default 1500)")
+    d.add_argument("--span-us", type=float, default=100.0, help="pulse offset at full speed in µs (default 100)")
+    d.add_argument("--multiple-targets", action="store_true", help="use Set Multiple Targets (Mini Maestro)")
+    d.add_argument("--watchdog", type=float, default=0.3, metavar="S",
+                   help="stop the wheels when no command came for S seconds (default 0.3; 0 disables)")
+    add_planner_options(p)
+    p.set_defaults(func=run)
+
+
+def default_log_path(folder: str | Path = "clomp-runs") -> Path:
+    """A new timestamped log file name in ``folder`` (not yet existing)."""
+    stamp = _dt.datetime.now().strftime("%Y%m%d-%H%M%S")
+    base = Path(folder) / f"run-{stamp}.jsonl"
+    path, k = base, 1
+    while path.exists():
+        k += 1
+        path = base.with_name(f"run-{stamp}-{k}.jsonl")
+    return path
+
+
+class _SharedLog:
+    """One run log written from the control loop and the LiDAR reader thread.
+
+    ``drop`` names events this writer leaves out: the supervisor's ``motor`` records are
+    dropped because the hardware robot logs every command it actually sends.
+    """
+
+    def __init__(self, log: Any, lock: threading.Lock, drop: frozenset[str] = frozenset()) -> None:
+        self._log, self._lock, self._drop = log, lock, drop
+
+    def write(self, event: str, **fields: Any) -> None:
+        if event in self._drop:
+            return
+        with self._lock:
+            self._log.write(event, **fields)
+
+
+@contextmanager
+def _interrupts_raise() -> Iterator[Callable[[], str | None]]:
+    """SIGINT/SIGTERM raise KeyboardInterrupt once; later ones are ignored while stopping."""
+    got: list[str] = []
+
+    def handler(signum: int, frame: Any) -> None:
+        if got:
+            return
+        got.append(signal.Signals(signum).name)
+        raise KeyboardInterrupt
+
+    previous = {s: signal.getsignal(s) for s in (signal.SIGINT, signal.SIGTERM)}
+    installed = threading.current_thread() is threading.main_thread()
+    if installed:
+        for s in previous:
+            signal.signal(s, handler)
+    try:
+        yield lambda: got[0] if got else None
+    finally:
+        if installed:
+            for s, h in previous.items():
+                signal.signal(s, h)
+
+
+def _config(args: argparse.Namespace) -> Any:
+    from runtime.devices.maestro import WheelConfig
+    from runtime.hardware import HardwareConfig
+
+    if args.motors is None and not args.dry_run:
+        raise CliError("--motors PORT is required (or --dry-run to only read the LiDAR and plan)")
+    if args.max_time is not None and not (math.isfinite(args.max_time) and args.max_time > 0):
+        raise CliError(f"--max-time must be a positive number of seconds, got {args.max_time}")
+    if not (math.isfinite(args.time_scale) and args.time_scale > 0):
+        raise CliError(f"--time-scale must be a positive number, got {args.time_scale}")
+    if not 0 <= args.device_number <= 127:
+        raise CliError("--device-number must be in 0..127")
+    if not (math.isfinite(args.watchdog) and args.watchdog >= 0):
+        raise CliError("--watchdog must be a number of seconds >= 0")
+    try:
+        return HardwareConfig(
+            lidar_baudrate=args.lidar_baud,
+            motor_control=args.lidar_motor,
+            maestro_baudrate=args.motor_baud,
+            protocol=args.protocol,
+            device_number=args.device_number,
+            left=WheelConfig(args.left_channel, args.left_sign, args.left_gain),
+            right=WheelConfig(args.right_channel, args.right_sign, args.right_gain),
+            neutral_us=args.neutral_us,
+            span_us=args.span_us,
+            multiple_targets=args.multiple_targets,
+            watchdog_timeout=args.watchdog or None,
+            dry_run=args.dry_run,
+            odometry=not args.no_odometry,
+        )
+    except ValueError as exc:
+        raise CliError(str(exc)) from None
+
+
+def _say(text: str) -> None:
+    print(f"clomp run: {text}", file=sys.stderr, flush=True)
+
+
+def run(args: argparse.Namespace) -> int:
+    """Execute ``clomp run``."""
+    from runtime.hardware import HardwareRobot
+    from runtime.hwsim import ScaledClock
+    from runtime.robot import RobotFault
+    from runtime.runlog import RunLog
+    from runtime.supervisor import Supervisor, SupervisorState, WallClock
+
+    goal = parse_goal(args.goal)
+    config = _config(args)
+    conf = configurator_from_args(args)
+    path = Path(args.log) if args.log else default_log_path()
+    try:
+        runlog = RunLog(path)
+    except OSError as exc:
+        raise CliError(f"cannot write the run log {path}: {exc}") from None
+    print(f"log: {path}", flush=True)
+    lock = threading.Lock()
+    log = _SharedLog(runlog, lock)
+    clock = WallClock() if args.time_scale == 1.0 else ScaledClock(args.time_scale)
+    log.write("run", argv=sys.argv[1:], lidar=args.lidar, motors=args.motors, dry_run=args.dry_run,
+              goal=list(goal), max_time=args.max_time, time_scale=args.time_scale,
+              config=config.to_dict(), monotonic=time.monotonic())
+    robot = sup = None
+    try:
+        with _interrupts_raise() as signalled:
+            try:
+                try:
+                    robot = HardwareRobot(args.lidar, args.motors, config, model=conf.robot, log=log, clock=clock)
+                except RobotFault as exc:
+                    log.write("fault", reason=str(exc), source="start")
+                    log.write("stop", reason=str(exc), status="NOT_STARTED")
+                    raise CliError(f"{exc} (log: {path})") from None
+                if args.dry_run:
+                    _say("dry run: the wheels are held stopped")
+                sup = Supervisor(robot, goal, conf, clock=clock, log=_SharedLog(runlog, lock, frozenset({"motor"})))
+                report = sup.run(max_time=args.max_time)
+            except KeyboardInterrupt:
+                why = signalled() or "KeyboardInterrupt"
+                reason = f"interrupted by {why}"
+                if sup is not None and not sup.terminal:
+                    sup.abort(reason)
+                elif sup is None:
+                    log.write("stop", reason=reason, status="NOT_STARTED")
+                _say(f"{reason}: wheels stopped (log: {path})")
+                return 130
+            except CliError:
+                raise
+            except Exception as exc:  # anything unexpected: halt, say why in one line
+                reason = f"{type(exc).__name__}: {exc}"
+                if sup is not None and not sup.terminal:
+                    sup.fault(reason)
+                else:
+                    log.write("fault", reason=reason, source="run")
+                    log.write("stop", reason=reason, status="HALTED")
+                _say(f"halted: {reason}; wheels stopped (log: {path})")
+                return 1
+            finally:
+                if robot is not None:
+                    robot.close()
+    finally:
+        runlog.close()
+    state = report.state
+    summary = f"{len(report.plans)} plans, {len(report.tasks)} tasks, {report.time_s:.1f} s"
+    if state is SupervisorState.GOAL_REACHED:
+        print(f"goal reached: {report.reason} ({summary})", flush=True)
+    elif state is SupervisorState.UNREACHABLE:
+        _say(f"goal unreachable: {report.reason}; wheels stopped ({summary}; log: {path})")
+    else:
+        _say(f"halted: {report.reason}; wheels stopped ({summary}; log: {path})")
+    return EXIT_STATUS.get(state.value, 1)
+
+
+# -- clomp emulate world ----------------------------------------------------------------------------
+def add_emulate_world(devices: Any) -> None:
+    """Add ``world`` to ``clomp emulate``'s device subparsers: both emulators over a simulated world."""
+    w = devices.add_parser(
+        "world",
+        help="a simulated robot in a scenario behind an emulated LiDAR and Maestro",
+        description="Serve a scenario's world on two pseudo-terminals: the LiDAR sees the simulated robot's "
+        "surroundings, the Maestro drives its wheels. Prints both paths and a clomp run command, runs until "
+        "Ctrl-C, then prints where the robot ended and whether it touched anything.",
+    )
+    w.add_argument("--scenario", default="overtaking", help="scenario name or file (default overtaking)")
+    w.add_argument("--seed", type=int, help="seed of the simulated robot's noise")
+    w.add_argument("--time-scale", type=float, default=1.0, metavar="K",
+                   help="run the world K times faster than real time (pass the same to clomp run)")
+    w.set_defaults(func=_run_world)
+
+
+def _run_world(args: argparse.Namespace) -> int:
+    from planner.scenarios import ScenarioError
+    from runtime.hwsim import EmulatedWorld
+
+    try:
+        world = EmulatedWorld(args.scenario, seed=args.seed, time_scale=args.time_scale)
+    except (OSError, ScenarioError, ValueError) as exc:
+        raise CliError(f"cannot load scenario {args.scenario!r}: {exc}") from None
+    try:
+        world.start()
+    except OSError as exc:
+        raise CliError(f"cannot open the pseudo-terminals: {exc}") from None
+    try:
+        gx, gy = world.scene.goal_in_robot_frame()
+        print(f"lidar: {world.lidar_port}", flush=True)
+        print(f"motors: {world.motor_port}", flush=True)
+        scale = f" --time-scale {args.time_scale:g}" if args.time_scale != 1.0 else ""
+        print(f"run: clomp run --lidar {world.lidar_port} --motors {world.motor_port} --goal {gx:g},{gy:g}{scale}",
+              flush=True)
+        while world.lidar.running and world.maestro.running and world.error is None:
+            time.sleep(0.1)
+    except KeyboardInterrupt:
+        pass
+    finally:
+        world.stop()
+    p = world.pose
+    print(f"robot at ({p.x:.3f}, {p.y:.3f}, {math.degrees(p.theta):.0f}°), {world.goal_distance:.3f} m from the goal, "
+          f"{world.collisions} collision(s)", flush=True)
+    if world.error is not None:
+        raise CliError(f"the emulated world failed: {world.error}")
+    return 0

@@ -1,0 +1,458 @@
+"""The hardware robot: a :class:`~runtime.robot.Robot` backend over an RPLIDAR A1 and a
+Pololu Maestro driving two continuous-rotation wheel servos.
+
+Wheel speeds in m/s become the Maestro's normalised speeds in [-1, 1] by dividing by the
+robot model's ``max_speed`` (0.2 m/s on the paper's robot). The paper's robot has no
+wheel encoders, so :meth:`HardwareRobot.odometry` is dead reckoning from the commanded
+speeds and the times they were sent (or None when disabled).
+
+A background thread reads the LiDAR all the time, so the control loop never blocks on
+the serial line and the device layer watches the stream on its own: a port failure,
+no byte for ``byte_timeout`` s, or a stream that is mostly undecodable (more than
+``garbage_fraction`` of the bytes of the last ``garbage_window`` s) *trips* the robot —
+the wheels are stopped from that thread at once, and every later :meth:`read_scan` /
+:meth:`set_wheel_speeds` raises :class:`~runtime.robot.RobotFault` with the reason. A
+little garbage is resynchronised by the decoder and tolerated.
+
+Every device error (LidarError, MaestroError, serial and OS errors) surfaces as a
+RobotFault naming the device and port; :meth:`stop` always tries to stop the wheels.
+In ``dry_run`` mode the LiDAR is read and the supervisor plans as usual, but the wheels
+are held stopped (neutral is sent instead of every command); the dead-reckoned pose
+still follows the commands, i.e. it is where the robot *would* be.
+"""
+
+from __future__ import annotations
+
+import math
+import threading
+import time
+from collections import deque
+from dataclasses import asdict, dataclass, field
+from typing import Any, Literal
+
+from formal.model import Pose
+from planner.robot import RobotModel
+from planner.tasks import wrap_angle
+from runtime.devices.maestro import Maestro, MaestroError, WheelConfig
+from runtime.devices.rplidar import DEFAULT_BAUDRATE, LidarError, LidarTimeout, RPLidar
+from runtime.robot import RobotFault, ScanFrame
+from runtime.supervisor import Clock, RunLogLike, WallClock
+
+try:  # termios.error is not an OSError: a vanished pty raises it from tcflush
+    import termios
+
+    _TERMIOS_ERRORS: tuple[type[BaseException], ...] = (termios.error,)
+except ImportError:  # pragma: no cover - Windows
+    _TERMIOS_ERRORS = ()
+
+__all__ = ["HardwareConfig", "HardwareRobot", "open_lidar_port"]
+
+_DEVICE_ERRORS: tuple[type[BaseException], ...] = (LidarError, MaestroError, OSError, ValueError, *_TERMIOS_ERRORS)
+_READ_SLICE = 0.05  # seconds one blocking read of the LiDAR port may take
+
+
+@dataclass(frozen=True)
+class HardwareConfig:
+    """Settings of the two devices and of the stream watch (SI units).
+
+    Maestro: ``protocol`` (compact / pololu), ``device_number``, the two wheels'
+    channels, signs and gains, ``neutral_us`` ± ``span_us`` pulse mapping,
+    ``multiple_targets`` (Mini Maestro command), ``watchdog_timeout`` (the driver stops
+    the wheels when no command came for that long). LiDAR: ``lidar_baudrate``,
+    ``motor_control`` (``dtr`` on the A1's USB adapter), ``start_timeout`` for the
+    first reply. Watch: ``byte_timeout``, ``garbage_window``, ``garbage_fraction``.
+    """
+
+    lidar_baudrate: int = DEFAULT_BAUDRATE
+    motor_control: Literal["dtr", "none"] = "dtr"
+    start_timeout: float = 2.0
+    maestro_baudrate: int = 115200
+    protocol: Literal["compact", "pololu"] = "compact"
+    device_number: int = 12
+    left: WheelConfig = field(default_factory=lambda: WheelConfig(0, 1))
+    right: WheelConfig = field(default_factory=lambda: WheelConfig(1, -1))
+    neutral_us: float = 1500.0
+    span_us: float = 100.0
+    multiple_targets: bool = False
+    watchdog_timeout: float | None = 0.3
+    dry_run: bool = False
+    odometry: bool = True
+    byte_timeout: float = 0.15
+    garbage_window: float = 0.1
+    garbage_fraction: float = 0.5
+    min_window_bytes: int = 200
+
+    def __post_init__(self) -> None:
+        for name in ("start_timeout", "byte_timeout", "garbage_window"):
+            v = getattr(self, name)
+            if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
+                raise ValueError(f"{name} must be a positive number of seconds, got {v!r}")
+        if not 0 < self.garbage_fraction <= 1:
+            raise ValueError(f"garbage_fraction must be in (0, 1], got {self.garbage_fraction!r}")
+        if self.left.channel == self.right.channel:
+            raise ValueError("the left and right wheels need different Maestro channels")
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready form (for the run log)."""
+        return asdict(self)
+
+
+class _CountingPort:
+    """A serial-like port that counts the bytes read through it (the stream watch needs it)."""
+
+    def __init__(self, port: Any) -> None:
+        self._port = port
+        self.bytes_read = 0
+
+    def read(self, size: int = 1) -> bytes:
+        data = self._port.read(size)
+        self.bytes_read += len(data)
+        return data
+
+    @property
+    def dtr(self) -> Any:
+        return self._port.dtr
+
+    @dtr.setter
+    def dtr(self, value: bool) -> None:
+        self._port.dtr = value
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self._port, name)
+
+
+def open_lidar_port(spec: str, baudrate: int = DEFAULT_BAUDRATE) -> Any:
+    """Open a LiDAR serial port (path or pyserial URL) with a short read timeout.
+
+    Raises :class:`RobotFault` with the port's name when it cannot be opened.
+    """
+    import serial
+
+    try:
+        return serial.serial_for_url(spec, baudrate=baudrate, timeout=_READ_SLICE)
+    except (ValueError, *_TERMIOS_ERRORS, OSError) as exc:
+        raise RobotFault(f"cannot open the LiDAR port {spec}: {exc}") from exc
+
+
+def _describe(exc: BaseException) -> str:
+    return f"{type(exc).__name__}: {exc}"
+
+
+class HardwareRobot:
+    """The paper's robot on serial ports: RPLIDAR A1 scans in, Maestro wheel commands out.
+
+    ``lidar_port`` and ``motor_port`` are device paths, pyserial URLs or open serial-like
+    objects (objects are not closed by :meth:`close`). ``motor_port`` may be None only
+    in dry-run mode. ``log`` receives ``device``, ``motor`` and ``fault`` records (see
+    :mod:`runtime.runlog`); ``clock`` times the dead reckoning (wall time by default).
+    Opening checks the LiDAR's health, stops the wheels and starts the scan; a device
+    that cannot be opened or does not answer raises :class:`RobotFault`.
+    """
+
+    def __init__(
+        self,
+        lidar_port: str | Any,
+        motor_port: str | Any | None,
+        config: HardwareConfig | None = None,
+        *,
+        model: RobotModel | None = None,
+        log: RunLogLike | None = None,
+        clock: Clock | None = None,
+    ) -> None:
+        self.config = cfg = config or HardwareConfig()
+        self.model = model or RobotModel()
+        self.dry_run = cfg.dry_run
+        self.clock: Clock = clock or WallClock()
+        self._log_sink = log
+        self._log_lock = threading.Lock()
+        self._lock = threading.Condition()
+        self._fault: str | None = None
+        self._closing = threading.Event()
+        self._latest: ScanFrame | None = None
+        self._delivered = True
+        self.scans = 0
+        self._cmd = (0.0, 0.0)
+        self._pose = (0.0, 0.0, 0.0)
+        self._pose_t = self.clock.now()
+        self._sent: tuple[tuple[float, float], tuple[float, float]] | None = None
+        self._thread: threading.Thread | None = None
+        self._owned_lidar_port: Any = None
+        self.maestro: Maestro | None = None
+        if motor_port is None and not cfg.dry_run:
+            raise ValueError("a motor port is needed unless dry_run is set")
+        try:
+            if motor_port is not None:
+                self.maestro = self._open_maestro(motor_port)
+                self._maestro_stop()  # wheels stopped before anything else happens
+            self.lidar, self._counter = self._open_lidar(lidar_port)
+        except BaseException:
+            self._release()
+            raise
+        self._thread = threading.Thread(target=self._watch, name="lidar-reader", daemon=True)
+        self._thread.start()
+
+    # -- opening ------------------------------------------------------------------------------
+    def _open_maestro(self, port: str | Any) -> Maestro:
+        cfg = self.config
+        try:
+            return Maestro(
+                port,
+                baudrate=cfg.maestro_baudrate,
+                protocol=cfg.protocol,
+                device_number=cfg.device_number,
+                left=cfg.left,
+                right=cfg.right,
+                neutral_us=cfg.neutral_us,
+                span_us=cfg.span_us,
+                watchdog_timeout=cfg.watchdog_timeout,
+                multiple_targets=cfg.multiple_targets,
+            )
+        except (MaestroError, ValueError, TypeError) as exc:
+            raise RobotFault(f"motor controller: {exc}") from exc
+
+    def _open_lidar(self, port: str | Any) -> tuple[RPLidar, _CountingPort]:
+        cfg = self.config
+        if isinstance(port, str):
+            raw = open_lidar_port(port, cfg.lidar_baudrate)
+            self._owned_lidar_port = raw
+        else:
+            raw = port
+        counter = _CountingPort(raw)
+        try:
+            lidar = RPLidar(counter, timeout=cfg.start_timeout, motor_control=cfg.motor_control,
+                            max_range=self.model.sensor_range)
+            health = lidar.health()
+            info = lidar.info()
+            self._write_log("device", device="lidar", port=lidar.port_name, model=info.model,
+                            firmware=info.firmware, hardware=info.hardware, serial=info.serial_hex,
+                            health=health.name, error_code=health.error_code)
+            lidar.start_scan()
+        except LidarTimeout as exc:
+            raise RobotFault(f"LiDAR does not answer: {exc}") from exc
+        except _DEVICE_ERRORS as exc:
+            raise RobotFault(f"LiDAR on {getattr(raw, 'port', None) or raw}: {exc}") from exc
+        return lidar, counter
+
+    # -- the reader thread ----------------------------------------------------------------------
+    def _watch(self) -> None:
+        """Read revolutions and watch the stream until closed or tripped."""
+        cfg = self.config
+        lidar, counter = self.lidar, self._counter
+        last_bytes, last_byte_t = counter.bytes_read, time.monotonic()
+        window: deque[tuple[float, int, int]] = deque([(last_byte_t, counter.bytes_read, lidar.dropped_bytes)])
+        while not self._closing.is_set():
+            try:
+                frame: ScanFrame | None = lidar.read_scan(timeout=_READ_SLICE)
+            except LidarTimeout:
+                frame = None
+            except Exception as exc:  # port gone, protocol error, anything: the stream is dead
+                if not self._closing.is_set():
+                    self._trip(f"LiDAR on {lidar.port_name} failed: {_describe(exc)}", source="lidar")
+                return
+            now = time.monotonic()
+            if frame is not None:
+                with self._lock:
+                    self._latest, self._delivered = frame, False
+                    self.scans += 1
+                    self._lock.notify_all()
+            nbytes, dropped = counter.bytes_read, lidar.dropped_bytes
+            if nbytes != last_bytes:
+                last_bytes, last_byte_t = nbytes, now
+            elif now - last_byte_t > cfg.byte_timeout:
+                self._trip(f"LiDAR on {lidar.port_name} fell silent: no byte for {now - last_byte_t:.2f} s", source="lidar")
+                return
+            window.append((now, nbytes, dropped))
+            while len(window) > 2 and now - window[1][0] >= cfg.garbage_window:
+                window.popleft()
+            t0, b0, d0 = window[0]
+            got, bad = nbytes - b0, dropped - d0
+            if now - t0 >= cfg.garbage_window and got >= cfg.min_window_bytes and bad > cfg.garbage_fraction * got:
+                self._trip(
+                    f"LiDAR stream on {lidar.port_name} is corrupt: {bad} of {got} bytes in the last "
+                    f"{now - t0:.2f} s could not be decoded (wrong baud rate, bad cable or noise?)",
+                    source="lidar",
+                )
+                return
+
+    def _trip(self, reason: str, *, source: str) -> None:
+        """Latch a fault and stop the wheels now (from whichever thread found it)."""
+        with self._lock:
+            if self._fault is not None:
+                return
+            self._fault = reason
+            self._lock.notify_all()
+        self._write_log("fault", reason=reason, source=source)
+        try:
+            self._halt_wheels("fault")
+        except RobotFault:
+            pass  # logged by _halt_wheels
+
+    @property
+    def fault(self) -> str | None:
+        """Why the robot tripped, or None while it is healthy."""
+        return self._fault
+
+    def _check(self) -> None:
+        if self._fault is not None:
+            raise RobotFault(self._fault)
+
+    # -- Robot protocol ---------------------------------------------------------------------------
+    def read_scan(self, timeout: float | None = None) -> ScanFrame | None:
+        """The newest revolution not returned before, or None if none arrived in ``timeout`` s.
+
+        ``None`` waits until one arrives (the stream watch guarantees an end: a silent
+        LiDAR trips the robot). Raises RobotFault once the robot has tripped.
+        """
+        deadline = None if timeout is None else time.monotonic() + max(0.0, timeout)
+        with self._lock:
+            while True:
+                self._check()
+                if not self._delivered and self._latest is not None:
+                    self._delivered = True
+                    return self._latest
+                if self._closing.is_set():
+                    raise RobotFault("the hardware robot is closed")
+                remaining = None if deadline is None else deadline - time.monotonic()
+                if remaining is not None and remaining <= 0:
+                    return None
+                self._lock.wait(remaining if remaining is not None else 0.5)
+
+    def set_wheel_speeds(self, left: float, right: float) -> None:
+        """Command the wheels (m/s, saturated at the model's ``max_speed``).
+
+        In dry-run mode the wheels are held stopped instead. Raises RobotFault (after
+        stopping the wheels) on a non-finite speed, a device error, or once tripped.
+        """
+        self._check()
+        if self._closing.is_set():
+            raise RobotFault("the hardware robot is closed")
+        if not (math.isfinite(left) and math.isfinite(right)):
+            self._trip(f"non-finite wheel speeds commanded ({left}, {right})", source="control")
+            self._check()
+        vmax = self.model.max_speed
+        vl, vr = (min(max(float(v), -vmax), vmax) for v in (left, right))
+        self._set_command((vl, vr))
+        if self.maestro is None:
+            return
+        try:
+            if self.dry_run:
+                self._maestro_stop()
+                sent = (0.0, 0.0)
+            else:
+                self.maestro.set_speeds(vl / vmax, vr / vmax)
+                sent = (vl / vmax, vr / vmax)
+        except _DEVICE_ERRORS as exc:
+            reason = f"motor controller on {self.maestro.port_name} failed: {_describe(exc)}"
+            self._trip(reason, source="motors")
+            raise RobotFault(self._fault or reason) from exc
+        self._log_motor((vl, vr), sent)
+
+    def stop(self) -> None:
+        """Stop the wheels now; raises RobotFault if the motor controller cannot be reached."""
+        self._halt_wheels("stop")
+
+    def odometry(self) -> Pose | None:
+        """Dead reckoning from the commanded speeds (start = origin), or None when disabled."""
+        if not self.config.odometry:
+            return None
+        with self._lock:
+            self._integrate(self.clock.now())
+            x, y, th = self._pose
+        return Pose(x, y, wrap_angle(th))
+
+    def close(self) -> None:
+        """Stop the wheels (best effort), end the reader, stop the LiDAR, release the ports."""
+        if self._closing.is_set():
+            return
+        try:
+            self._halt_wheels("close")
+        except RobotFault:
+            pass
+        self._closing.set()
+        with self._lock:
+            self._lock.notify_all()
+        if self._thread is not None and self._thread is not threading.current_thread():
+            self._thread.join(timeout=2.0)
+        self._release()
+
+    def __enter__(self) -> HardwareRobot:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    # -- internals ---------------------------------------------------------------------------------
+    def _release(self) -> None:
+        if self.maestro is not None:
+            try:
+                self.maestro.close()  # stops the wheels (best effort) and ends its watchdog
+            except _DEVICE_ERRORS:
+                pass
+        lidar = getattr(self, "lidar", None)
+        if lidar is not None:
+            try:
+                lidar.close()
+            except _DEVICE_ERRORS:
+                pass
+        if self._owned_lidar_port is not None:
+            try:
+                self._owned_lidar_port.close()
+            except _DEVICE_ERRORS:
+                pass
+            self._owned_lidar_port = None
+
+    def _maestro_stop(self) -> None:
+        assert self.maestro is not None
+        self.maestro.stop()
+
+    def _halt_wheels(self, reason: str) -> None:
+        self._set_command((0.0, 0.0))
+        if self.maestro is None:
+            return
+        try:
+            self._maestro_stop()
+        except _DEVICE_ERRORS as exc:
+            msg = f"could not stop the wheels: motor controller on {self.maestro.port_name} failed: {_describe(exc)}"
+            self._write_log("motor", left=0.0, right=0.0, sent=None, reason=reason, error=msg)
+            raise RobotFault(msg) from exc
+        self._log_motor((0.0, 0.0), (0.0, 0.0), reason=reason)
+
+    def _set_command(self, cmd: tuple[float, float]) -> None:
+        with self._lock:
+            self._integrate(self.clock.now())
+            self._cmd = cmd
+
+    def _integrate(self, now: float) -> None:
+        dt = now - self._pose_t
+        self._pose_t = now
+        vl, vr = self._cmd
+        if dt <= 0 or (vl == 0.0 and vr == 0.0):
+            return
+        x, y, th = self._pose
+        v, w = (vl + vr) / 2, (vr - vl) / self.model.wheel_base
+        if abs(w) < 1e-12:
+            self._pose = (x + v * dt * math.cos(th), y + v * dt * math.sin(th), th)
+        else:
+            th2 = th + w * dt
+            r = v / w
+            self._pose = (x + r * (math.sin(th2) - math.sin(th)), y - r * (math.cos(th2) - math.cos(th)), th2)
+
+    def _log_motor(self, cmd: tuple[float, float], sent: tuple[float, float], reason: str | None = None) -> None:
+        if self._log_sink is None or ((cmd, sent) == self._sent and reason != "fault"):
+            return
+        self._sent = (cmd, sent)
+        extra = {"reason": reason} if reason else {}
+        self._write_log("motor", left=cmd[0], right=cmd[1], sent=list(sent), dry_run=self.dry_run, **extra)
+
+    def _write_log(self, event: str, **fields: Any) -> None:
+        if self._log_sink is None:
+            return
+        with self._log_lock:
+            try:
+                self._log_sink.write(event, **fields)
+            except Exception:  # a full disk must not stop the safety logic
+                self._log_sink = None
+
+    def __repr__(self) -> str:
+        motors = self.maestro.port_name if self.maestro is not None else None
+        return f"HardwareRobot(lidar={self.lidar.port_name!r}, motors={motors!r}, dry_run={self.dry_run})"
