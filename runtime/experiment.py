@@ -33,7 +33,7 @@ from planner.scenarios import Scene, load_scenario, parse_scenario
 from runtime.plot import RunTrace, plot_runs
 from runtime.reactive import ReactiveController
 from runtime.sim import NoiseConfig, SimRobot
-from runtime.supervisor import Supervisor, SupervisorReport, compose
+from runtime.supervisor import Supervisor, compose
 
 __all__ = [
     "CONDITIONS",
