@@ -19,6 +19,8 @@ _COMMAND_MODULES: list[str] = [
     "runtime._cli_demo",
     "runtime._cli_plan",
     "runtime._cli_replay",
+    "runtime._cli_simulate",
+    "runtime._cli_experiment",
     "runtime._cli_export",
     "runtime._cli_check",
     "runtime._cli_emulate",
