@@ -1,0 +1,215 @@
+"""The hardware robot backend against the device emulators on real pseudo-terminals."""
+
+from __future__ import annotations
+
+import json
+import math
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from formal.model import Pose
+from runtime.devices.emulators import LidarEmulator, MaestroEmulator
+from runtime.hardware import HardwareConfig, HardwareRobot
+from runtime.robot import Robot, RobotFault
+from runtime.runlog import RunLog
+
+NEUTRAL = 6000  # 1500 µs in quarter-µs
+WALL = np.array([[0.6, y] for y in np.linspace(-0.3, 0.3, 13)])
+
+
+def stopped(emu: MaestroEmulator) -> bool:
+    return emu.targets[0] in (0, NEUTRAL) and emu.targets[1] in (0, NEUTRAL)
+
+
+@pytest.fixture
+def devices():
+    with LidarEmulator(lambda: WALL, speed=2.0) as lidar, MaestroEmulator() as maestro:
+        yield lidar, maestro
+
+
+def open_robot(lidar: LidarEmulator, maestro: MaestroEmulator | None, **config) -> HardwareRobot:
+    return HardwareRobot(lidar.port, maestro.port if maestro else None, HardwareConfig(**config))
+
+
+def records(path: Path) -> list[dict]:
+    return [json.loads(line) for line in path.read_text().splitlines()]
+
+
+def test_is_a_robot_and_reads_robot_frame_scans(devices) -> None:
+    lidar, maestro = devices
+    with open_robot(lidar, maestro) as robot:
+        assert isinstance(robot, Robot)
+        frame = robot.read_scan(timeout=2.0)
+        assert frame is not None
+        assert len(frame.points) >= 10
+        assert np.allclose(frame.points[:, 0], 0.6, atol=0.01)  # the wall ahead, x forward
+        assert robot.read_scan(timeout=0.0) is None or robot.scans >= 2  # each frame is returned once
+        assert stopped(maestro)  # opening stops the wheels first
+
+
+def test_speeds_in_metres_per_second_map_to_normalised_servo_speeds(devices) -> None:
+    lidar, maestro = devices
+    with open_robot(lidar, maestro) as robot:
+        robot.set_wheel_speeds(0.1, -0.05)  # max_speed 0.2 m/s
+        assert maestro.wait_for(lambda e: e.speeds != (0.0, 0.0), 1.0)
+        assert maestro.speeds == pytest.approx((0.5, -0.25), abs=0.01)
+        robot.set_wheel_speeds(0.5, -0.5)  # beyond the top speed: saturated
+        assert maestro.wait_for(lambda e: e.speeds[0] > 0.9, 1.0)
+        assert maestro.speeds == pytest.approx((1.0, -1.0), abs=0.01)
+        robot.stop()
+        assert maestro.wait_for(stopped, 1.0)
+    assert stopped(maestro)
+
+
+def test_dead_reckoning_follows_the_commands_and_can_be_disabled(devices) -> None:
+    lidar, maestro = devices
+    with open_robot(lidar, maestro) as robot:
+        assert robot.odometry() == Pose(0.0, 0.0, 0.0)
+        robot.set_wheel_speeds(0.1, 0.1)
+        t0 = time.monotonic()
+        time.sleep(0.25)
+        robot.set_wheel_speeds(0.1, 0.1)  # the supervisor repeats its command every tick
+        time.sleep(0.25)
+        robot.stop()
+        elapsed = time.monotonic() - t0
+        pose = robot.odometry()
+        assert pose.x == pytest.approx(0.1 * elapsed, abs=0.01)
+        assert pose.y == pytest.approx(0.0) and pose.theta == pytest.approx(0.0)
+        time.sleep(0.1)
+        assert robot.odometry().x == pytest.approx(pose.x)  # stopped: the pose stays
+    with open_robot(lidar, maestro, odometry=False) as robot:
+        assert robot.odometry() is None
+
+
+def test_dry_run_holds_the_wheels_stopped_but_reads_and_reckons(devices, tmp_path: Path) -> None:
+    lidar, maestro = devices
+    with RunLog(tmp_path / "log.jsonl") as log:
+        robot = HardwareRobot(lidar.port, maestro.port, HardwareConfig(dry_run=True), log=log)
+        with robot:
+            assert robot.read_scan(timeout=2.0) is not None
+            for _ in range(3):
+                robot.set_wheel_speeds(0.1, 0.1)
+                time.sleep(0.1)
+            assert robot.odometry().x > 0.02  # where it would be
+    assert maestro.events and all(target == NEUTRAL for _, _, target in maestro.events)
+    motor = [r for r in records(tmp_path / "log.jsonl") if r["event"] == "motor"]
+    assert any(r["left"] == 0.1 and r["sent"] == [0.0, 0.0] and r["dry_run"] for r in motor)
+
+
+def test_dry_run_needs_no_motor_port(devices) -> None:
+    lidar, _ = devices
+    with open_robot(lidar, None, dry_run=True) as robot:
+        robot.set_wheel_speeds(0.1, 0.1)
+        robot.stop()
+        assert robot.read_scan(timeout=2.0) is not None
+    with pytest.raises(ValueError, match="motor port"):
+        open_robot(lidar, None)
+
+
+def test_ports_that_cannot_be_opened_are_robot_faults(devices, tmp_path: Path) -> None:
+    lidar, maestro = devices
+    with pytest.raises(RobotFault, match="LiDAR port .*missing"):
+        HardwareRobot(str(tmp_path / "missing"), maestro.port)
+    assert stopped(maestro)
+    with pytest.raises(RobotFault, match="motor controller.*missing"):
+        HardwareRobot(lidar.port, str(tmp_path / "missing"))
+
+
+def test_an_unhealthy_or_silent_lidar_fails_at_start(devices) -> None:
+    _, maestro = devices
+    with LidarEmulator(lambda: WALL, health_status=2, health_error_code=0x8001) as sick:
+        with pytest.raises(RobotFault, match="health status 2"):
+            HardwareRobot(sick.port, maestro.port)
+    with LidarEmulator(lambda: WALL, silent_after=0) as mute:
+        mute.silent = True
+        t0 = time.monotonic()
+        with pytest.raises(RobotFault, match="does not answer"):
+            HardwareRobot(mute.port, maestro.port, HardwareConfig(start_timeout=0.3))
+        assert time.monotonic() - t0 < 2.0
+    assert stopped(maestro)
+
+
+@pytest.mark.parametrize("fault", ["silent", "garbage", "bad_check", "vanish"])
+def test_a_broken_lidar_stream_trips_the_robot_and_stops_the_wheels(devices, fault: str, tmp_path: Path) -> None:
+    lidar, maestro = devices
+    with RunLog(tmp_path / "log.jsonl") as log, HardwareRobot(lidar.port, maestro.port, log=log) as robot:
+        assert robot.read_scan(timeout=2.0) is not None
+        robot.set_wheel_speeds(0.1, 0.1)
+        assert maestro.wait_for(lambda e: not stopped(e), 1.0)
+        t0 = time.monotonic()
+        if fault == "silent":
+            lidar.silent = True
+        elif fault == "garbage":
+            lidar.garbage_rate = 1.0
+        elif fault == "bad_check":
+            lidar.bad_check_rate = 1.0
+        else:
+            lidar.vanish()
+        assert maestro.wait_for(stopped, 1.0)
+        latency = next(t for t, _, target in maestro.events if t >= t0 and target == NEUTRAL) - t0
+        assert latency < 0.3, f"wheels stopped {latency:.3f} s after the {fault} fault"
+        with pytest.raises(RobotFault, match="LiDAR") as err:
+            robot.read_scan(timeout=0.5)
+        with pytest.raises(RobotFault):
+            robot.set_wheel_speeds(0.1, 0.1)  # a tripped robot does not drive again
+        assert stopped(maestro)
+    faults = [r for r in records(tmp_path / "log.jsonl") if r["event"] == "fault"]
+    assert faults and faults[0]["reason"] == str(err.value)
+    expected = {"silent": "silent", "garbage": "corrupt", "bad_check": "corrupt", "vanish": "failed"}[fault]
+    assert expected in faults[0]["reason"]
+
+
+def test_a_little_garbage_is_resynchronised_and_tolerated() -> None:
+    with LidarEmulator(lambda: WALL, speed=2.0, garbage_rate=0.02, bad_check_rate=0.01, seed=3) as lidar, \
+            MaestroEmulator() as maestro, HardwareRobot(lidar.port, maestro.port) as robot:
+        frames = []
+        deadline = time.monotonic() + 1.5
+        while time.monotonic() < deadline:
+            frame = robot.read_scan(timeout=0.5)
+            if frame is not None:
+                frames.append(frame)
+        assert robot.fault is None
+        assert lidar.garbage_bytes_sent > 0 and robot.lidar.dropped_bytes > 0
+        assert len(frames) >= 5
+        assert all(np.allclose(f.points[:, 0], 0.6, atol=0.01) for f in frames)
+
+
+def test_a_vanished_motor_controller_is_a_fault_and_stop_says_so(devices, tmp_path: Path) -> None:
+    lidar, maestro = devices
+    with RunLog(tmp_path / "log.jsonl") as log:
+        robot = HardwareRobot(lidar.port, maestro.port, log=log)
+        robot.set_wheel_speeds(0.1, 0.1)
+        maestro.vanish()
+        with pytest.raises(RobotFault, match="motor controller on .* failed"):
+            robot.set_wheel_speeds(0.1, 0.1)
+        with pytest.raises(RobotFault, match="could not stop the wheels"):
+            robot.stop()
+        robot.close()  # never raises
+        robot.close()
+    recs = records(tmp_path / "log.jsonl")
+    assert any(r["event"] == "fault" and r["source"] == "motors" for r in recs)
+    assert any(r["event"] == "motor" and "could not stop" in r.get("error", "") for r in recs)
+
+
+def test_non_finite_speeds_stop_the_wheels(devices) -> None:
+    lidar, maestro = devices
+    with open_robot(lidar, maestro) as robot:
+        robot.set_wheel_speeds(0.1, 0.1)
+        assert maestro.wait_for(lambda e: not stopped(e), 1.0)
+        with pytest.raises(RobotFault, match="non-finite"):
+            robot.set_wheel_speeds(math.nan, 0.1)
+        assert maestro.wait_for(stopped, 0.3)
+
+
+def test_config_rejects_nonsense() -> None:
+    from runtime.devices.maestro import WheelConfig
+
+    with pytest.raises(ValueError, match="different Maestro channels"):
+        HardwareConfig(left=WheelConfig(2), right=WheelConfig(2, -1))
+    with pytest.raises(ValueError, match="byte_timeout"):
+        HardwareConfig(byte_timeout=0)
+    with pytest.raises(ValueError, match="garbage_fraction"):
+        HardwareConfig(garbage_fraction=1.5)
