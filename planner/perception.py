@@ -170,8 +170,13 @@ def _clusters(points: np.ndarray, eps: float) -> list[np.ndarray]:
     return [points[idx] for idx in np.split(order, bounds)]
 
 
-def _cover(points: np.ndarray, out: list[np.ndarray], depth: int = 0) -> None:
-    """Cover ``points`` with thin oriented boxes, splitting at the median along the axis."""
+def _cover(points: np.ndarray, out: list[np.ndarray], gap: float, depth: int = 0) -> None:
+    """Cover ``points`` with thin oriented boxes.
+
+    A piece is split where its points leave a gap wider than ``gap`` along its principal
+    axis (two parallel walls of one cluster must not be bridged by a box across the
+    space between them), else at the median while it is thicker than a thin slab.
+    """
     centre = points.mean(axis=0)
     rel = points - centre
     if len(points) >= 2:
@@ -186,12 +191,21 @@ def _cover(points: np.ndarray, out: list[np.ndarray], depth: int = 0) -> None:
     normal = np.array([-axis[1], axis[0]])
     u = rel @ axis
     t = rel @ normal
-    if len(points) > 2 and depth < 12 and (t.max() - t.min()) > 2 * _THIN:
+    if len(points) > 1 and depth < 24:
+        us = np.sort(u)
+        gaps = np.diff(us)
+        k = int(np.argmax(gaps))
+        if gaps[k] > gap:
+            below = u <= us[k]
+            _cover(points[below], out, gap, depth + 1)
+            _cover(points[~below], out, gap, depth + 1)
+            return
+    if len(points) > 2 and depth < 24 and (t.max() - t.min()) > 2 * _THIN:
         cut = np.median(u)
         below = u <= cut
         if below.any() and not below.all():
-            _cover(points[below], out, depth + 1)
-            _cover(points[~below], out, depth + 1)
+            _cover(points[below], out, gap, depth + 1)
+            _cover(points[~below], out, gap, depth + 1)
             return
     u0, u1 = u.min() - _MIN_HALF, u.max() + _MIN_HALF
     t0, t1 = t.min() - _MIN_HALF, t.max() + _MIN_HALF
@@ -221,5 +235,5 @@ def perceive(
         pts = pts[np.sort(first)]
     boxes: list[np.ndarray] = []
     for cluster in _clusters(pts, cluster_distance):
-        _cover(cluster, boxes)
+        _cover(cluster, boxes, cluster_distance)
     return Obstacles.from_boxes(boxes)

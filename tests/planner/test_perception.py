@@ -109,3 +109,15 @@ def test_every_point_in_range_is_covered(points):
     for x, y in pts:
         if 1e-3 < math.hypot(x, y) <= 1.1:
             assert obs.contains_point(x, y, margin=1e-9) is not None
+
+
+def test_parallel_walls_of_one_cluster_are_not_bridged():
+    # a cul-de-sac: two walls 0.6 m apart joined by an end wall form one cluster; no box
+    # may span the corridor between them
+    left = np.c_[np.linspace(-0.4, 0.6, 60), np.full(60, 0.3)]
+    right = np.c_[np.linspace(-0.4, 0.6, 60), np.full(60, -0.3)]
+    end = np.c_[np.full(40, 0.6), np.linspace(-0.3, 0.3, 40)]
+    obs = perceive(np.r_[left, right, end])
+    for x in np.linspace(-0.35, 0.5, 18):
+        assert obs.contains_point(x, 0.0) is None, f"corridor closed at x={x:.2f}"
+        assert obs.contains_point(x, 0.15) is None and obs.contains_point(x, -0.15) is None
