@@ -5,10 +5,17 @@ of the task (a corridor ahead of a STRAIGHT, the disc a turn sweeps), as in the 
 the raw scan is resampled so that only what the task could meet is represented.
 The robot is a kinematic pymunk body with the robot's (inflated) footprint, driven each
 tick by the velocity its wheel speeds give; the space steps with the control tick.
-After each step the robot shape is queried against the obstacles: an overlap is a
+After each step the robot shape is queried against the obstacles: a new overlap (or
+pushing deeper into something the robot already touched when the task began) is a
 collision, which ends the task at the last collision-free pose, with D_N naming the
-obstacle and the contact point. With nothing in the way the engine has nothing to
-say, and the same controller is integrated without it (same update rule).
+obstacle and the contact point.
+
+How often the engine is asked decides the cost, so it is asked once per task when it
+can: one shape query of the area the whole task sweeps (exact for a STRAIGHT, a tight
+superset for a turn). When that area is clear — or nothing is in the way at all —
+nothing can interrupt the task and its outcome is computed in closed form (the
+controllers drive their error down linearly; tests check this against the tick loop).
+Only a task whose sweep touches something is stepped tick by tick.
 
 Rollouts are deterministic: the same inputs give bit-identical outcomes.
 """
