@@ -163,6 +163,13 @@ def _say(text: str) -> None:
     print(f"clomp run: {text}", file=sys.stderr, flush=True)
 
 
+def _wheels(robot: Any) -> str:
+    if robot is None or robot.wheels_stopped:
+        return "wheels stopped"
+    return ("could NOT command the wheels to stop: the motor controller is unreachable "
+            "(its serial timeout must stop them; check the robot)")
+
+
 def run(args: argparse.Namespace) -> int:
     """Execute ``clomp run``."""
     from runtime.hardware import HardwareRobot
@@ -207,7 +214,7 @@ def run(args: argparse.Namespace) -> int:
                     sup.abort(reason)
                 elif sup is None:
                     log.write("stop", reason=reason, status="NOT_STARTED")
-                _say(f"{reason}: wheels stopped (log: {path})")
+                _say(f"{reason}: {_wheels(robot)} (log: {path})")
                 return 130
             except CliError:
                 raise
@@ -218,7 +225,7 @@ def run(args: argparse.Namespace) -> int:
                 else:
                     log.write("fault", reason=reason, source="run")
                     log.write("stop", reason=reason, status="HALTED")
-                _say(f"halted: {reason}; wheels stopped (log: {path})")
+                _say(f"halted: {reason}; {_wheels(robot)} (log: {path})")
                 return 1
             finally:
                 if robot is not None:
@@ -230,9 +237,9 @@ def run(args: argparse.Namespace) -> int:
     if state is SupervisorState.GOAL_REACHED:
         print(f"goal reached: {report.reason} ({summary})", flush=True)
     elif state is SupervisorState.UNREACHABLE:
-        _say(f"goal unreachable: {report.reason}; wheels stopped ({summary}; log: {path})")
+        _say(f"goal unreachable: {report.reason}; {_wheels(robot)} ({summary}; log: {path})")
     else:
-        _say(f"halted: {report.reason}; wheels stopped ({summary}; log: {path})")
+        _say(f"halted: {report.reason}; {_wheels(robot)} ({summary}; log: {path})")
     return EXIT_STATUS.get(state.value, 1)
 
 

@@ -175,6 +175,7 @@ class HardwareRobot:
         self._pose = (0.0, 0.0, 0.0)
         self._pose_t = self.clock.now()
         self._sent: tuple[tuple[float, float], tuple[float, float]] | None = None
+        self._stop_failed = False
         self._thread: threading.Thread | None = None
         self._owned_lidar_port: Any = None
         self.maestro: Maestro | None = None
@@ -288,6 +289,12 @@ class HardwareRobot:
             pass  # logged by _halt_wheels
 
     @property
+    def wheels_stopped(self) -> bool:
+        """False while driving, and when the last attempt to stop the wheels could not reach
+        the motor controller (then only its own serial timeout, or power, stops them)."""
+        return self._cmd == (0.0, 0.0) and not self._stop_failed
+
+    @property
     def fault(self) -> str | None:
         """Why the robot tripped, or None while it is healthy."""
         return self._fault
@@ -341,6 +348,7 @@ class HardwareRobot:
             else:
                 self.maestro.set_speeds(vl / vmax, vr / vmax)
                 sent = (vl / vmax, vr / vmax)
+            self._stop_failed = False
         except _DEVICE_ERRORS as exc:
             reason = f"motor controller on {self.maestro.port_name} failed: {_describe(exc)}"
             self._trip(reason, source="motors")
@@ -411,7 +419,9 @@ class HardwareRobot:
             return
         try:
             self._maestro_stop()
+            self._stop_failed = False
         except _DEVICE_ERRORS as exc:
+            self._stop_failed = True
             msg = f"could not stop the wheels: motor controller on {self.maestro.port_name} failed: {_describe(exc)}"
             self._write_log("motor", left=0.0, right=0.0, sent=None, reason=reason, error=msg)
             raise RobotFault(msg) from exc

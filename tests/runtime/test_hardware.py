@@ -59,7 +59,9 @@ def test_speeds_in_metres_per_second_map_to_normalised_servo_speeds(devices) -> 
         robot.set_wheel_speeds(0.5, -0.5)  # beyond the top speed: saturated
         assert maestro.wait_for(lambda e: e.speeds[0] > 0.9, 1.0)
         assert maestro.speeds == pytest.approx((1.0, -1.0), abs=0.01)
+        assert not robot.wheels_stopped
         robot.stop()
+        assert robot.wheels_stopped
         assert maestro.wait_for(stopped, 1.0)
     assert stopped(maestro)
 
@@ -187,8 +189,10 @@ def test_a_vanished_motor_controller_is_a_fault_and_stop_says_so(devices, tmp_pa
             robot.set_wheel_speeds(0.1, 0.1)
         with pytest.raises(RobotFault, match="could not stop the wheels"):
             robot.stop()
+        assert not robot.wheels_stopped  # nobody may believe they are
         robot.close()  # never raises
         robot.close()
+        assert not robot.wheels_stopped
     recs = records(tmp_path / "log.jsonl")
     assert any(r["event"] == "fault" and r["source"] == "motors" for r in recs)
     assert any(r["event"] == "motor" and "could not stop" in r.get("error", "") for r in recs)
