@@ -6,7 +6,6 @@ the wheels were commanded to stop."""
 from __future__ import annotations
 
 import inspect
-import json
 import math
 import signal
 import subprocess
