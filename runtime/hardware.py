@@ -60,7 +60,8 @@ class HardwareConfig:
     ``multiple_targets`` (Mini Maestro command), ``watchdog_timeout`` (the driver stops
     the wheels when no command came for that long). LiDAR: ``lidar_baudrate``,
     ``motor_control`` (``dtr`` on the A1's USB adapter), ``start_timeout`` for the
-    first reply. Watch: ``byte_timeout``, ``garbage_window``, ``garbage_fraction``.
+    first reply and the first revolution (a motor spinning up). Watch: ``byte_timeout``
+    (once revolutions flow), ``garbage_window``, ``garbage_fraction``.
     """
 
     lidar_baudrate: int = DEFAULT_BAUDRATE
@@ -259,7 +260,8 @@ class HardwareRobot:
             nbytes, dropped = counter.bytes_read, lidar.dropped_bytes
             if nbytes != last_bytes:
                 last_bytes, last_byte_t = nbytes, now
-            elif now - last_byte_t > cfg.byte_timeout:
+            elif now - last_byte_t > (cfg.byte_timeout if self.scans else cfg.start_timeout):
+                # before the first revolution the motor may still be spinning up
                 self._trip(f"LiDAR on {lidar.port_name} fell silent: no byte for {now - last_byte_t:.2f} s", source="lidar")
                 return
             window.append((now, nbytes, dropped))
