@@ -20,7 +20,7 @@ def register(subparsers: Any) -> None:
     """Add the ``emulate`` subcommand (with ``lidar`` and ``maestro``) to the CLI."""
     parser = subparsers.add_parser(
         "emulate",
-        help="emulate the LiDAR or the motor controller on a pseudo-terminal",
+        help="emulate the LiDAR, the motor controller, or both over a simulated world, on pseudo-terminals",
         description="Start a device emulator on a pseudo-terminal, print its path, run until Ctrl-C.",
     )
     devices = parser.add_subparsers(dest="device", metavar="DEVICE", required=True)
@@ -53,6 +53,11 @@ def register(subparsers: Any) -> None:
     maestro.add_argument("--serial-timeout", type=float, metavar="S", help="send channels home after S s without a byte")
     maestro.add_argument("--show-speeds", action="store_true", help="print the decoded wheel speeds when they change")
     maestro.set_defaults(func=_run_maestro)
+
+    # both devices over one simulated world: the whole stack without hardware
+    from runtime._cli_run import add_emulate_world
+
+    add_emulate_world(devices)
 
 
 def _scan_source(args: argparse.Namespace) -> Any:

@@ -24,6 +24,7 @@ _COMMAND_MODULES: list[str] = [
     "runtime._cli_export",
     "runtime._cli_check",
     "runtime._cli_emulate",
+    "runtime._cli_run",
 ]
 
 
