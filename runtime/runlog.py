@@ -7,16 +7,22 @@ monotonic clock) and ``event``; the other keys depend on the event:
 =========  ==============================================================================
 event      keys
 =========  ==============================================================================
-start      ``goal`` [x, y] (odometry frame), ``argv``, ``robot`` (RobotModel as a dict)
+run        ``argv``, ``lidar``, ``motors`` (ports), ``dry_run``, ``goal``, ``config``,
+           ``monotonic`` (the clock origin, to line log times up with other clocks)
+start      ``goal`` [x, y] (odometry frame), ``robot`` (RobotModel as a dict)
+device     ``device``, ``port``, and what the device reported (LiDAR info and health)
 scan       ``points`` [[x, y], …] (robot frame, metres), ``goal`` [x, y] (robot frame),
            ``pose`` [x, y, theta] (odometry)
 plan       ``reached_goal``, ``states``, ``transitions``, ``planning_time_s``, ``tasks``
 state      ``from``, ``to`` (supervisor states)
 task       ``task``, ``phase`` (start / end / interrupted), ``pose``
-motor      ``left``, ``right`` (m/s)
-fault      ``reason``
+motor      ``left``, ``right`` (m/s); from the hardware robot also ``sent`` (what reached
+           the Maestro), ``dry_run``, ``reason`` and ``error``
+fault      ``reason``, ``source`` (lidar, motors, control, start, run …)
 stop       ``reason``, ``status``
 =========  ==============================================================================
+
+Readers ignore keys they do not know, so records may carry more than listed here.
 """
 
 from __future__ import annotations
