@@ -15,6 +15,7 @@ True
 
 from __future__ import annotations
 
+import abc
 import os
 import random
 import re
@@ -112,7 +113,7 @@ def scan_to_samples(points: np.ndarray, bins: int = 360) -> tuple[np.ndarray, np
     return angle, dist
 
 
-class _PtyEmulator:
+class _PtyEmulator(abc.ABC):
     """A pty whose master side is served by a background thread."""
 
     _name = "emulator"
@@ -219,8 +220,9 @@ class _PtyEmulator:
     def _next_wakeup(self, now: float) -> float:
         return now + 0.05
 
+    @abc.abstractmethod
     def _on_bytes(self, data: bytes, now: float) -> None:
-        raise NotImplementedError
+        """Handle bytes the driver wrote (each device decodes its own protocol)."""
 
     def _tick(self, now: float) -> None:
         pass
