@@ -33,21 +33,15 @@ from typing import Any, Literal
 from formal.model import Pose
 from planner.robot import RobotModel
 from planner.tasks import wrap_angle
+from runtime.devices._port import PORT_ERRORS, open_serial
 from runtime.devices.maestro import Maestro, MaestroError, WheelConfig
 from runtime.devices.rplidar import DEFAULT_BAUDRATE, LidarError, LidarTimeout, RPLidar
 from runtime.robot import RobotFault, ScanFrame
 from runtime.supervisor import Clock, RunLogLike, WallClock
 
-try:  # termios.error is not an OSError: a vanished pty raises it from tcflush
-    import termios
-
-    _TERMIOS_ERRORS: tuple[type[BaseException], ...] = (termios.error,)
-except ImportError:  # pragma: no cover - Windows
-    _TERMIOS_ERRORS = ()
-
 __all__ = ["HardwareConfig", "HardwareRobot", "open_lidar_port"]
 
-_DEVICE_ERRORS: tuple[type[BaseException], ...] = (LidarError, MaestroError, OSError, ValueError, *_TERMIOS_ERRORS)
+_DEVICE_ERRORS: tuple[type[BaseException], ...] = (LidarError, MaestroError, ValueError, *PORT_ERRORS)
 _READ_SLICE = 0.05  # seconds one blocking read of the LiDAR port may take
 
 
@@ -127,11 +121,9 @@ def open_lidar_port(spec: str, baudrate: int = DEFAULT_BAUDRATE) -> Any:
 
     Raises :class:`RobotFault` with the port's name when it cannot be opened.
     """
-    import serial
-
     try:
-        return serial.serial_for_url(spec, baudrate=baudrate, timeout=_READ_SLICE)
-    except (ValueError, *_TERMIOS_ERRORS, OSError) as exc:
+        return open_serial(spec, baudrate, _READ_SLICE)
+    except (ValueError, *PORT_ERRORS) as exc:
         raise RobotFault(f"cannot open the LiDAR port {spec}: {exc}") from exc
 
 

@@ -23,12 +23,8 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any, Literal
 
-try:  # termios.error is not an OSError: a vanished pty raises it from tcflush
-    import termios
-
-    _TERMIOS_ERRORS: tuple[type[BaseException], ...] = (termios.error,)
-except ImportError:  # pragma: no cover - Windows
-    _TERMIOS_ERRORS = ()
+from runtime.devices._port import PORT_ERRORS as _PORT_ERRORS
+from runtime.devices._port import open_serial
 
 __all__ = [
     "Maestro",
@@ -75,7 +71,6 @@ ERROR_BITS: dict[int, str] = {
     8: "script program counter error",
 }
 
-_PORT_ERRORS: tuple[type[BaseException], ...] = (OSError, *_TERMIOS_ERRORS)
 
 
 class MaestroError(Exception):
@@ -289,12 +284,8 @@ class Maestro:
     # -- port plumbing
 
     def _open(self, spec: str, baudrate: int) -> Any:
-        import serial
-
         try:
-            if "://" in spec:
-                return serial.serial_for_url(spec, baudrate=baudrate, timeout=self.reply_timeout)
-            return serial.Serial(spec, baudrate, timeout=self.reply_timeout)
+            return open_serial(spec, baudrate, self.reply_timeout)
         except (ValueError, *_PORT_ERRORS) as exc:
             raise MaestroPortError(f"cannot open Maestro port {spec}: {exc}") from exc
 

@@ -25,12 +25,8 @@ import numpy as np
 
 from runtime.robot import ScanFrame
 
-try:  # termios.error is not an OSError: a vanished pty raises it from tcflush
-    import termios
-
-    _TERMIOS_ERRORS: tuple[type[BaseException], ...] = (termios.error,)
-except ImportError:  # pragma: no cover - Windows
-    _TERMIOS_ERRORS = ()
+from runtime.devices._port import PORT_ERRORS as _PORT_ERRORS
+from runtime.devices._port import open_serial
 
 __all__ = [
     "Command",
@@ -75,7 +71,6 @@ _RECENT_BYTES = 3 * SAMPLE_SIZE + 1
 
 # seconds one blocking read may take; bounds how far a deadline can be overshot
 _READ_SLICE = 0.05
-_PORT_ERRORS: tuple[type[BaseException], ...] = (OSError, *_TERMIOS_ERRORS)
 
 
 class Command(enum.IntEnum):
@@ -511,16 +506,9 @@ class RPLidar:
         return self._decoder.dropped_bytes
 
     def _open(self) -> None:
-        import serial
-
         assert self._spec is not None
         try:
-            if "://" in self._spec:
-                self._port = serial.serial_for_url(
-                    self._spec, baudrate=self.baudrate, timeout=_READ_SLICE
-                )
-            else:
-                self._port = serial.Serial(self._spec, self.baudrate, timeout=_READ_SLICE)
+            self._port = open_serial(self._spec, self.baudrate, _READ_SLICE)
         except (ValueError, *_PORT_ERRORS) as exc:
             raise LidarPortError(f"cannot open LiDAR port {self._spec}: {exc}") from exc
 

@@ -182,7 +182,7 @@ def test_default_watchdog_fires_at_its_timeout(emu: MaestroEmulator) -> None:
         assert m.watchdog_timeout == 0.3
         latency = _stop_latency(emu, m)
         assert m.watchdog_stops == 1
-    assert 0.29 <= latency < 0.4
+    assert 0.29 <= latency < 0.5  # fires at its timeout, not before; slack for a loaded 2-core machine
 
 
 def test_watchdog_stays_quiet_while_commands_keep_coming(emu: MaestroEmulator) -> None:
