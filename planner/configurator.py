@@ -28,7 +28,7 @@ from formal.lts import CognitiveMap
 from formal.model import Disturbance, Pose, State, TaskKind
 from formal.supervisory import Plan, extract_plan, guard
 from planner.perception import Obstacles, load_scan, perceive
-from planner.physics import Outcome, simulate
+from planner.physics import Outcome, World, simulate
 from planner.robot import RobotModel
 
 __all__ = [
@@ -213,6 +213,7 @@ class Configurator:
         q0 = State(0, TaskKind.STRAIGHT, g, None, origin, origin, cost=self.cost(q0, ctx))
         cmap.add_state(q0)
         index: dict[tuple[TaskKind, int, int, int], int] = {}
+        worlds: dict[tuple[int, ...], World] = {}
         pq: list[tuple[float, int]] = [(q0.cost, 0)]
         reached: int | None = None
         stop = "exhausted"
@@ -228,7 +229,7 @@ class Configurator:
                 cmap.add_transition(parent.ident, s.ident)
                 return s, False
             d_i = reset_goal(parent)
-            out = simulate(kind, parent.end, d_i, obstacles, robot)
+            out = simulate(kind, parent.end, d_i, obstacles, robot, worlds)
             s = _state(len(cmap), out, d_i)
             s = State(**{**_fields(s), "cost": self.cost(s, ctx)})
             cmap.add_state(s)

@@ -22,6 +22,7 @@ Rollouts are deterministic: the same inputs give bit-identical outcomes.
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
@@ -108,8 +109,25 @@ _ROBOT_FILTER = pymunk.ShapeFilter(group=1)
 _DEEPER = 1e-4
 
 
+@functools.lru_cache(maxsize=64)
+def _turn_sweep(footprint: tuple[tuple[float, float], ...], angle: float, n: int = 16) -> tuple[tuple[float, float], ...]:
+    """The footprint's corners at ``n + 1`` headings from 0 to ``angle`` (robot frame)."""
+    verts: list[tuple[float, float]] = []
+    for k in range(n + 1):
+        a = angle * k / n
+        c, s = math.cos(a), math.sin(a)
+        verts.extend((x * c - y * s, x * s + y * c) for x, y in footprint)
+    return tuple(verts)
+
+
 class World:
-    """A pymunk space with some obstacles and the robot, rebuilt for each rollout."""
+    """A pymunk space with some obstacles (static boxes) and the robot (a kinematic body).
+
+    Built from the obstacle disturbances in the way of a task. Rollouts only place the
+    robot and step it, so a world built for one set of obstacles can serve every
+    rollout that meets the same set: :func:`simulate` reuses it within one planning run
+    (``worlds=``), with outcomes identical to a fresh build (tested).
+    """
 
     def __init__(self, obstacles: Obstacles, robot: RobotModel, indices: np.ndarray | list[int] | None = None) -> None:
         self.robot = robot
@@ -118,9 +136,10 @@ class World:
         space.collision_slop = 0.0005
         idx = range(len(obstacles)) if indices is None else indices
         shapes = []
+        self._index: dict[pymunk.Shape, int] = {}
         for i in idx:
             shape = pymunk.Poly(space.static_body, [tuple(p) for p in obstacles.boxes[i]])
-            shape.obstacle_index = int(i)  # type: ignore[attr-defined]
+            self._index[shape] = int(i)
             shapes.append(shape)
         self.body = pymunk.Body(body_type=pymunk.Body.KINEMATIC)
         self.shape = pymunk.Poly(self.body, list(robot.footprint))
@@ -141,7 +160,7 @@ class World:
         """
         out: dict[int, tuple[float, float, float]] = {}
         for h in self.space.shape_query(self.shape):
-            i = h.shape.obstacle_index  # type: ignore[attr-defined]
+            i = self._index[h.shape]
             pts = h.contact_point_set.points
             if pts:
                 deepest = min(pts, key=lambda p: p.distance)
@@ -177,11 +196,7 @@ class World:
         else:
             sign = 1.0 if task.kind is TaskKind.LEFT else -1.0
             n = 16
-            verts = []
-            for k in range(n + 1):
-                a = sign * task.limit * k / n
-                c, s = math.cos(a), math.sin(a)
-                verts.extend((x * c - y * s, x * s + y * c) for x, y in fp)
+            verts = list(_turn_sweep(fp, sign * task.limit, n))
             grow = self.robot.swept_radius * (1 - math.cos(task.limit / n / 2)) + 1e-6
         sweep = pymunk.Poly(self.body, verts, radius=grow)
         sweep.filter = _ROBOT_FILTER
@@ -275,16 +290,26 @@ def simulate(
     goal: Disturbance | None,
     obstacles: Obstacles,
     robot: RobotModel,
+    worlds: dict[tuple[int, ...], World] | None = None,
 ) -> Outcome:
-    """Roll one task of ``kind`` forward from ``start`` in a world rebuilt for it.
+    """Roll one task of ``kind`` forward from ``start`` in a world of what is in its way.
 
     Only the obstacles in the way of the task enter the world; the outcome's
-    ``reached_goal`` says whether the task ended within the goal tolerance.
+    ``reached_goal`` says whether the task ended within the goal tolerance. ``worlds``
+    is an optional cache (one per planning run, for the same obstacles and robot) of
+    worlds keyed by the set of obstacles they hold.
     """
     task = make_task(kind, obstacles, robot, start, goal)
     length = task.limit if kind is TaskKind.STRAIGHT else 0.0
     idx = in_the_way(obstacles, robot, start, kind, length)
-    world = World(obstacles, robot, idx) if len(idx) else None
+    world: World | None = None
+    if len(idx):
+        key = tuple(idx.tolist())
+        world = worlds.get(key) if worlds is not None else None
+        if world is None:
+            world = World(obstacles, robot, idx)
+            if worlds is not None:
+                worlds[key] = world
     if world is None or world.sweep_is_clear(task):
         out = _unobstructed(task)  # nothing can interrupt it: no contact to check per tick
     else:

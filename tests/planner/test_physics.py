@@ -111,3 +111,16 @@ def test_a_clear_sweep_means_no_tick_collides(start, kind, boxes):
         assert not ticked.collided
     if ticked.collided:
         assert not clear
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    st.lists(st.tuples(poses, st.sampled_from(list(TaskKind))), min_size=2, max_size=8),
+    st.lists(st.tuples(st.floats(-0.8, 0.8), st.floats(-0.8, 0.8), st.floats(0.02, 0.2), st.floats(0.02, 0.2)), min_size=1, max_size=4),
+)
+def test_a_reused_world_gives_the_outcomes_of_fresh_ones(rollouts, boxes):
+    """Reusing one world per set of obstacles (as the Configurator does) changes no outcome."""
+    obs = Obstacles.from_boxes([_box(*b) for b in boxes])
+    cache: dict = {}
+    for start, kind in rollouts:
+        assert simulate(kind, start, GOAL, obs, ROBOT, cache) == simulate(kind, start, GOAL, obs, ROBOT)
