@@ -49,9 +49,11 @@ def test_open_is_a_single_straight():
     assert {s.task for s in r.steps} == {TaskKind.STRAIGHT}
 
 
-def test_corridor_reaches_the_goal():
+def test_corridor_reaches_the_goal_in_one_clear_run():
+    # walls beside the way do not cut the straight into steps: nothing is in its corridor
     r = _plan_scenario("corridor")
     assert r.reached_goal and r.collision_free
+    assert [s.task for s in r.steps] == [TaskKind.STRAIGHT]
 
 
 def test_blocked_gives_the_best_partial_plan():
