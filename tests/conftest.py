@@ -16,3 +16,37 @@ def scans_dir() -> Path:
     if not SCANS.is_dir():
         pytest.skip(f"recorded scans not found at {SCANS}")
     return SCANS
+
+
+@pytest.fixture(scope="session")
+def scenario_map():
+    """``scenario_map(name)``: the cognitive map of a built-in scenario (built once per session)."""
+    from functools import lru_cache
+
+    from planner import Configurator, load_scenario
+
+    @lru_cache(maxsize=None)
+    def build(name: str):
+        conf = Configurator()
+        scene = load_scenario(name)
+        return conf.plan(scene.scan(max_range=conf.robot.sensor_range), tuple(scene.goal_in_robot_frame())).map
+
+    return build
+
+
+@pytest.fixture(scope="session")
+def scan_maps():
+    """``scan_maps()``: (file name, cognitive map) for the first 20 recorded scans, goal 1 m ahead."""
+    from planner import Configurator
+
+    cache: list = []
+
+    def build():
+        if not SCANS.is_dir():
+            pytest.skip(f"recorded scans not found at {SCANS}")
+        if not cache:
+            conf = Configurator()
+            cache.extend((f.name, conf.plan(f, (1.0, 0.0)).map) for f in sorted(SCANS.glob("*.dat"))[:20])
+        return list(cache)
+
+    return build

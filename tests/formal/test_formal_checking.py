@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import math
 import sys
-from functools import lru_cache
 from pathlib import Path
 
 import pytest
@@ -26,8 +25,7 @@ from formal.checking import (
     read_properties,
     require_stormpy,
 )
-from planner import Configurator
-from planner.scenarios import builtin_scenarios, load_scenario
+from planner.scenarios import builtin_scenarios
 
 SCANS = Path(__file__).resolve().parents[2].parent / "shared" / "data" / "scans" / "corridor-2023-10-25"
 needs_storm = pytest.mark.skipif(
@@ -35,18 +33,8 @@ needs_storm = pytest.mark.skipif(
 )
 
 
-@lru_cache(maxsize=None)
-def scenario_map(name: str) -> CognitiveMap:
-    conf = Configurator()
-    scene = load_scenario(name)
-    return conf.plan(scene.scan(max_range=conf.robot.sensor_range), tuple(scene.goal_in_robot_frame())).map
 
 
-def scan_maps() -> list[tuple[str, CognitiveMap]]:
-    if not SCANS.is_dir():
-        pytest.skip(f"recorded scans not found at {SCANS}")
-    conf = Configurator()
-    return [(f.name, conf.plan(f, (1.0, 0.0)).map) for f in sorted(SCANS.glob("*.dat"))[:20]]
 
 
 # -- the property-file format --------------------------------------------------------------
@@ -94,7 +82,7 @@ def test_requirements_use_a_tolerance():
 @needs_storm
 @pytest.mark.parametrize("via", ["drn", "prism"])
 @pytest.mark.parametrize("name", builtin_scenarios())
-def test_required_properties_hold_on_scenarios(name, via):
+def test_required_properties_hold_on_scenarios(scenario_map, name, via):
     results = check_map_properties(scenario_map(name), via=via)
     assert {r.kind for r in results} == {"mdp", "dtmc"}
     failed = [(r.spec.name, r.value, r.witness) for r in results if r.passed is False]
@@ -102,21 +90,21 @@ def test_required_properties_hold_on_scenarios(name, via):
 
 
 @needs_storm
-def test_required_properties_hold_on_recorded_scans():
+def test_required_properties_hold_on_recorded_scans(scan_maps):
     for name, cmap in scan_maps():
         failed = [(r.spec.name, r.value) for r in check_map_properties(cmap) if r.passed is False]
         assert not failed, name
 
 
 @needs_storm
-def test_supervised_overtaking_reaches_the_goal_without_collision():
+def test_supervised_overtaking_reaches_the_goal_without_collision(scenario_map):
     results = {r.spec.name: r.value for r in check_map_properties(scenario_map("overtaking"))}
     assert results["goal"] == pytest.approx(1.0) and results["no_collision"] == pytest.approx(0.0)
     assert results["distance"] == pytest.approx(plan_distance(scenario_map("overtaking")))
 
 
 @needs_storm
-def test_a_failed_requirement_names_a_violating_path():
+def test_a_failed_requirement_names_a_violating_path(scenario_map):
     cmap = scenario_map("overtaking")
     sm = build_storm_model(cmap, "mdp")
     (r,) = check_properties(sm, [PropertySpec('Pmax=? [F "collision"]', "hit", required=Requirement("=", 0.0))])
@@ -128,14 +116,14 @@ def test_a_failed_requirement_names_a_violating_path():
 
 
 @needs_storm
-def test_storm_rejects_an_unknown_label_as_a_spec_error():
+def test_storm_rejects_an_unknown_label_as_a_spec_error(scenario_map):
     sm = build_storm_model(scenario_map("open"), "dtmc")
     with pytest.raises(SpecError, match="x.pctl:2"):
         check_properties(sm, parse_properties('// @model dtmc\nP=? [F "nowhere"]\n', "x.pctl"))
 
 
 @needs_storm
-def test_differential_storm_optimum_never_exceeds_the_plan():
+def test_differential_storm_optimum_never_exceeds_the_plan(scenario_map, scan_maps):
     """Storm's R{"distance"}min=? [F "goal"] is the least expected distance over every
     scheduler of the explored MDP; the plan is one such scheduler, so when the plan reaches
     the goal, Storm's optimum is finite and ≤ the plan's distance. The Configurator is
@@ -211,7 +199,7 @@ def test_cli_export_then_check_the_exported_file(clomp, tmp_path, fmt):
     assert code == 0 and "no_collision" in out
 
 
-def test_cli_export_writes_every_format(clomp, tmp_path):
+def test_cli_export_writes_every_format(scenario_map, clomp, tmp_path):
     for fmt in ("prism", "prism-explicit", "drn", "dot", "json"):
         assert clomp("export", "--scenario", "overtaking", "--format", fmt, "-o", str(tmp_path / f"ov.{fmt}"))[0] == 0
     assert (tmp_path / "ov.prism-explicit.tra").is_file()
@@ -233,7 +221,7 @@ def test_cli_export_writes_every_format(clomp, tmp_path):
         ("badspec", ("check", "--scenario", "open"), "bad.pctl:2"),
     ],
 )
-def test_cli_bad_input_is_one_clear_error_and_status_2(clomp, tmp_path, make, argv, message):
+def test_cli_bad_input_is_one_clear_error_and_status_2(scenario_map, clomp, tmp_path, make, argv, message):
     args = list(argv)
     m = tmp_path / "m.json"
     if make == "empty":

@@ -7,7 +7,6 @@ import io
 import shutil
 import subprocess
 from fractions import Fraction
-from functools import lru_cache
 from pathlib import Path
 
 import pytest
@@ -27,8 +26,7 @@ from formal.export import (
     write_prism,
     write_prism_explicit,
 )
-from planner import Configurator
-from planner.scenarios import builtin_scenarios, load_scenario
+from planner.scenarios import builtin_scenarios
 
 stormpy = pytest.importorskip("stormpy", reason="stormpy not installed: pip install 'clomp[verify]'")
 
@@ -37,19 +35,8 @@ from formal.checking import build_storm_model, load_storm_model  # noqa: E402
 SCANS = Path(__file__).resolve().parents[2].parent / "shared" / "data" / "scans" / "corridor-2023-10-25"
 
 
-@lru_cache(maxsize=None)
-def scenario_map(name: str) -> CognitiveMap:
-    conf = Configurator()
-    scene = load_scenario(name)
-    return conf.plan(scene.scan(max_range=conf.robot.sensor_range), tuple(scene.goal_in_robot_frame())).map
 
 
-def scan_maps() -> list[tuple[str, CognitiveMap]]:
-    if not SCANS.is_dir():
-        pytest.skip(f"recorded scans not found at {SCANS}")
-    conf = Configurator()
-    files = sorted(SCANS.glob("*.dat"))[:20]
-    return [(f.name, conf.plan(f, (1.0, 0.0)).map) for f in files]
 
 
 def _idents_and_labels(sm) -> dict[int, set[str]]:
@@ -80,12 +67,12 @@ def _assert_storm_matches(cmap: CognitiveMap, via: str) -> None:
 
 @pytest.mark.parametrize("via", ["prism", "drn"])
 @pytest.mark.parametrize("name", builtin_scenarios())
-def test_storm_builds_scenario_maps_with_the_same_states_and_transitions(name, via):
+def test_storm_builds_scenario_maps_with_the_same_states_and_transitions(scenario_map, name, via):
     _assert_storm_matches(scenario_map(name), via)
 
 
 @pytest.mark.parametrize("via", ["prism", "drn"])
-def test_storm_builds_scan_maps_with_the_same_states_and_transitions(via):
+def test_storm_builds_scan_maps_with_the_same_states_and_transitions(scan_maps, via):
     for name, cmap in scan_maps():
         try:
             _assert_storm_matches(cmap, via)
@@ -93,7 +80,7 @@ def test_storm_builds_scan_maps_with_the_same_states_and_transitions(via):
             raise AssertionError(f"{name}: {exc}") from exc
 
 
-def test_drn_round_trip_state_labels_match_by_label(tmp_path):
+def test_drn_round_trip_state_labels_match_by_label(scenario_map, tmp_path):
     cmap = scenario_map("overtaking")
     path = tmp_path / "ov.drn"
     write_drn(cmap, path)
@@ -103,7 +90,7 @@ def test_drn_round_trip_state_labels_match_by_label(tmp_path):
     assert _idents_and_labels(sm) == expected
 
 
-def test_json_round_trip(tmp_path):
+def test_json_round_trip(scenario_map, tmp_path):
     cmap = scenario_map("overtaking")
     buf = io.StringIO()
     write(cmap, buf, "json")
@@ -114,7 +101,7 @@ def test_json_round_trip(tmp_path):
     assert back == cmap and back.metadata["plan"] == cmap.metadata["plan"]
 
 
-def test_writers_take_a_path_or_a_file_object(tmp_path):
+def test_writers_take_a_path_or_a_file_object(scenario_map, tmp_path):
     cmap = scenario_map("open")
     for writer in (write_prism, write_drn, write_dot):
         buf = io.StringIO()
@@ -124,7 +111,7 @@ def test_writers_take_a_path_or_a_file_object(tmp_path):
         assert path.read_text(encoding="utf-8") == buf.getvalue()
 
 
-def test_prism_explicit_files_describe_the_map(tmp_path):
+def test_prism_explicit_files_describe_the_map(scenario_map, tmp_path):
     cmap = scenario_map("overtaking")
     m = export_model(cmap)
     written = write_prism_explicit(cmap, tmp_path / "ov.tra")
@@ -189,7 +176,7 @@ def test_exporter_refuses_probabilities_that_do_not_sum_to_one():
 
 
 @pytest.mark.parametrize("bad", ["empty", "no-initial"])
-def test_exporter_refuses_maps_without_an_initial_state(bad):
+def test_exporter_refuses_maps_without_an_initial_state(scenario_map, bad):
     cmap = CognitiveMap(goal=Disturbance.goal(1, 0))
     if bad == "no-initial":
         cmap = CognitiveMap.from_dict({**scenario_map("open").to_dict(), "initial": None})
@@ -200,7 +187,7 @@ def test_exporter_refuses_maps_without_an_initial_state(bad):
         write(scenario_map("open"), io.StringIO(), "graphml")
 
 
-def test_every_format_renders_the_same_fixture(tmp_path):
+def test_every_format_renders_the_same_fixture(scenario_map, tmp_path):
     cmap = scenario_map("overtaking")
     for fmt in FORMATS:
         if fmt == "svg" and shutil.which("dot") is None:
@@ -211,7 +198,7 @@ def test_every_format_renders_the_same_fixture(tmp_path):
             assert dest.stat().st_size > 0, fmt
 
 
-def test_dot_marks_plan_collisions_and_initial_state():
+def test_dot_marks_plan_collisions_and_initial_state(scenario_map):
     cmap = scenario_map("overtaking")
     buf = io.StringIO()
     write_dot(cmap, buf)
@@ -227,7 +214,7 @@ def test_dot_marks_plan_collisions_and_initial_state():
 
 @pytest.mark.skipif(shutil.which("nop") is None, reason="Graphviz is not installed (apt-get install graphviz)")
 @pytest.mark.parametrize("name", builtin_scenarios())
-def test_dot_parses_with_graphviz(name, tmp_path):
+def test_dot_parses_with_graphviz(scenario_map, name, tmp_path):
     path = tmp_path / "m.dot"
     write_dot(scenario_map(name), path)
     done = subprocess.run(["nop", str(path)], capture_output=True, text=True, timeout=60)
@@ -235,7 +222,7 @@ def test_dot_parses_with_graphviz(name, tmp_path):
 
 
 @pytest.mark.skipif(shutil.which("dot") is None, reason="Graphviz is not installed (apt-get install graphviz)")
-def test_overtaking_map_renders_to_svg(tmp_path):
+def test_overtaking_map_renders_to_svg(scenario_map, tmp_path):
     engine = render_svg(scenario_map("overtaking"), tmp_path / "ov.svg")
     svg = (tmp_path / "ov.svg").read_text()
     assert engine == "dot" and "<svg" in svg and "q27 STRAIGHT" in svg
