@@ -6,6 +6,10 @@ wheels are stopped on every way out: the goal, a fault, the time limit, an excep
 Ctrl-C or SIGTERM. Exit status: 0 goal reached, 1 halted (a fault or --max-time),
 2 a usage or start-up error, 3 goal unreachable, 130 interrupted.
 
+``--dry-run`` reads the LiDAR and plans on every scan — the robot standing still, the
+goal where it is — logging and printing each plan, and sends no motion (the wheels are
+held at neutral). It ends at ``--max-time`` (exit 0) or on Ctrl-C (130), or on a fault (1).
+
 Without hardware, ``clomp emulate world --scenario overtaking`` serves a simulated world
 on two pseudo-terminals to point ``--lidar`` and ``--motors`` at.
 """
@@ -43,7 +47,8 @@ def register(sub: Any) -> None:
     p.add_argument("--lidar", required=True, metavar="PORT", help="RPLIDAR A1 serial port (path or pyserial URL)")
     p.add_argument("--motors", metavar="PORT", help="Pololu Maestro serial port (optional with --dry-run)")
     p.add_argument("--goal", required=True, help="goal X,Y in metres in the robot's frame at start (x forward, y left)")
-    p.add_argument("--dry-run", action="store_true", help="read the LiDAR and plan, but hold the wheels stopped")
+    p.add_argument("--dry-run", action="store_true",
+                   help="plan on every LiDAR scan and log the plans, but send no motion (wheels held stopped)")
     p.add_argument("--log", metavar="FILE", help="run log (JSON lines); default clomp-runs/run-<time>.jsonl")
     p.add_argument("--max-time", type=float, metavar="S", help="halt after S seconds")
     p.add_argument("--no-odometry", action="store_true",
@@ -204,7 +209,8 @@ def run(args: argparse.Namespace) -> int:
                     log.write("stop", reason=str(exc), status="NOT_STARTED")
                     raise CliError(f"{exc} (log: {path})") from None
                 if args.dry_run:
-                    _say("dry run: the wheels are held stopped")
+                    _say("dry run: planning on every scan, the wheels are held stopped")
+                    return _dry_run(robot, conf, goal, clock, log, args.max_time, path)
                 sup = Supervisor(robot, goal, conf, clock=clock, log=_SharedLog(runlog, lock, frozenset({"motor"})))
                 report = sup.run(max_time=args.max_time)
             except KeyboardInterrupt:
@@ -241,6 +247,44 @@ def run(args: argparse.Namespace) -> int:
     else:
         _say(f"halted: {report.reason}; {_wheels(robot)} ({summary}; log: {path})")
     return EXIT_STATUS.get(state.value, 1)
+
+
+def _dry_run(robot: Any, conf: Any, goal: tuple[float, float], clock: Any, log: Any,
+             max_time: float | None, path: Path) -> int:
+    """Plan on every scan without moving: one ``scan`` and one ``plan`` record per scan."""
+    from planner import PlanningError, ScanError
+    from runtime.robot import RobotFault
+
+    t0 = clock.now()
+    n = 0
+    while max_time is None or clock.now() - t0 < max_time:
+        try:
+            robot.stop()  # keep the wheels at neutral (and the Maestro's watchdog fed)
+            frame = robot.read_scan(timeout=1.0)
+        except RobotFault as exc:
+            log.write("fault", reason=str(exc), source="dry-run")
+            log.write("stop", reason=str(exc), status="HALTED")
+            _say(f"halted: {exc}; {_wheels(robot)} (log: {path})")
+            return 1
+        if frame is None:
+            continue
+        log.write("scan", points=frame.points, goal=list(goal), pose=[0.0, 0.0, 0.0])
+        try:
+            r = conf.plan(frame.points, goal)
+        except (PlanningError, ScanError) as exc:
+            log.write("plan", error=str(exc))
+            print(f"scan {n + 1}: cannot plan: {exc}", flush=True)
+            n += 1
+            continue
+        n += 1
+        tasks = [s.task.value for s in r.steps]
+        log.write("plan", reached_goal=r.reached_goal, states=r.states, transitions=r.transitions,
+                  planning_time_s=r.planning_time_s, tasks=tasks)
+        print(f"scan {n}: {'goal' if r.reached_goal else 'partial' if tasks else 'no move'}  {r.states} states  "
+              f"{r.planning_time_s * 1e3:.2f} ms  [{' '.join(t[0] for t in tasks)}]", flush=True)
+    log.write("stop", reason="dry run: time limit", status="DRY_RUN")
+    print(f"dry run: {n} scans planned (log: {path})", flush=True)
+    return 0
 
 
 # -- clomp emulate world ----------------------------------------------------------------------------

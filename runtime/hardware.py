@@ -16,9 +16,10 @@ little garbage is resynchronised by the decoder and tolerated.
 
 Every device error (LidarError, MaestroError, serial and OS errors) surfaces as a
 RobotFault naming the device and port; :meth:`stop` always tries to stop the wheels.
-In ``dry_run`` mode the LiDAR is read and the supervisor plans as usual, but the wheels
-are held stopped (neutral is sent instead of every command); the dead-reckoned pose
-still follows the commands, i.e. it is where the robot *would* be.
+In ``dry_run`` mode the LiDAR is read as usual but the wheels are held stopped (neutral
+is sent instead of every command); the dead-reckoned pose still follows the commands,
+i.e. it is where the robot *would* be. ``clomp run --dry-run`` does not execute plans at
+all: it plans on every scan with the robot standing still (see ``runtime._cli_run``).
 """
 
 from __future__ import annotations

@@ -147,13 +147,17 @@ def test_dry_run_plans_on_real_scans_but_never_moves_the_wheels(tmp_path: Path) 
     with EmulatedWorld("open") as world:
         run = Run(world, tmp_path / "run.jsonl", "--dry-run", "--max-time", "1.5")
         rc = run.finish(timeout=20)
-        assert rc == 1 and "time limit" in run.stderr  # --max-time halts: non-zero
+        assert rc == 0, run.stderr  # a dry run ends at its time limit
         assert world.maestro.events and all(target == NEUTRAL for _, _, target in world.maestro.events)
         assert world.pose.x == pytest.approx(0.0, abs=1e-9)
     recs = run.records()
     assert recs[0]["dry_run"] is True
-    assert any(r["event"] == "plan" for r in recs) and any(r["event"] == "scan" for r in recs)
-    assert any(r["event"] == "motor" and r["left"] > 0 and r["sent"] == [0.0, 0.0] for r in recs)
+    scans = [r for r in recs if r["event"] == "scan"]
+    plans = [r for r in recs if r["event"] == "plan"]
+    assert len(scans) >= 3 and len(plans) == len(scans)  # ~5.5 scans/s, each planned
+    assert all(p["reached_goal"] and p["tasks"] == ["STRAIGHT"] for p in plans)  # open: one clear run
+    assert "scans planned" in run.stdout
+    assert not any(r["event"] == "motor" and r.get("sent") not in (None, [0.0, 0.0]) for r in recs)
 
 
 # ---------------------------------------------------------------------------------- faults
