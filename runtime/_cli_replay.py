@@ -10,7 +10,7 @@ from typing import Any
 
 import numpy as np
 
-from planner import PlanningError, ScanError, load_scan
+from planner import PlanningError, ScanError
 from runtime._cli_plan import add_planner_options, configurator_from_args, parse_goal
 from runtime.cli import CliError
 from runtime.runlog import LogError, scans_from_log
