@@ -31,6 +31,12 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--repeat", type=int, default=50, help="runs per scenario (default 50)")
     ap.add_argument("--scans", type=Path, default=DEFAULT_SCANS, help="folder of recorded scans")
+    ap.add_argument(
+        "--single",
+        nargs="*",
+        default=["map0001.dat", "map0141.dat"],
+        help="recorded scans (with something ahead) each planned --repeat times, for a per-scan median/p90",
+    )
     args = ap.parse_args(argv)
     conf = Configurator()
     conf.plan(np.zeros((0, 2)), (1.0, 0.0))  # warm up imports
@@ -60,6 +66,18 @@ def main(argv: list[str] | None = None) -> int:
                 times.append(min(best))
                 states.append(r.states)
             print(_row(label, times, states))
+        for name in args.single:
+            f = args.scans / name
+            if not f.is_file():
+                continue
+            s = load_scan(f)
+            times, states = [], []
+            for _ in range(args.repeat):
+                t0 = time.perf_counter()
+                r = conf.plan(s, (1.0, 0.0))
+                times.append(time.perf_counter() - t0)
+                states.append(r.states)
+            print(_row(f"scan {name} (repeated)", times, states) + f"  reached={r.reached_goal}")
     else:
         print(f"(recorded scans not found at {args.scans})")
     return 0
