@@ -167,6 +167,9 @@ def _guard(cmap: CognitiveMap, plan: Plan | None, psi: Mapping[Transition, int] 
         out.append(Violation(Invariant.GUARD, tuple(wrong), "Ψ = 1 is not exactly the plan's transitions"))
     # the guarded map: follow Ψ = 1 from q0; it must be one path, without branches or cycles
     q0 = cmap.initial_id
+    if q0 is None:
+        out.append(Violation(Invariant.GUARD, (), "the map has no initial state to start the guarded path from"))
+        return out
     if rho.states[0] != q0:
         out.append(Violation(Invariant.GUARD, (rho.states[0],), f"the plan does not start at q{q0}"))
     enabled: dict[int, set[int]] = defaultdict(set)

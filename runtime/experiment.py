@@ -50,7 +50,7 @@ __all__ = [
 CONDITIONS = ("planning", "reactive")
 SUCCESS_RADIUS = 0.1
 # the paper's figures (overtaking, real robot, 10 runs per condition)
-PAPER = {
+PAPER: dict[str, dict[str, Any]] = {
     "planning": {"reached_goal": 10, "runs": 10, "collisions": 2, "planning_time_s": (0.064, 0.009), "states": (32.9, 1.758)},
     "reactive": {"reached_goal": 0, "runs": 10, "collisions": 8},
     "ttest": {"t": -1.747, "p": 0.111},

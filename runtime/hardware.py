@@ -34,7 +34,7 @@ from typing import Any, Literal
 from formal.model import Pose
 from planner.robot import RobotModel
 from planner.tasks import wrap_angle
-from runtime.devices._port import PORT_ERRORS, open_serial
+from runtime.devices._port import OPEN_ERRORS, PORT_ERRORS, open_serial
 from runtime.devices.maestro import Maestro, MaestroError, WheelConfig
 from runtime.devices.rplidar import DEFAULT_BAUDRATE, LidarError, LidarTimeout, RPLidar
 from runtime.robot import RobotFault, ScanFrame
@@ -124,7 +124,7 @@ def open_lidar_port(spec: str, baudrate: int = DEFAULT_BAUDRATE) -> Any:
     """
     try:
         return open_serial(spec, baudrate, _READ_SLICE)
-    except (ValueError, *PORT_ERRORS) as exc:
+    except OPEN_ERRORS as exc:
         raise RobotFault(f"cannot open the LiDAR port {spec}: {exc}") from exc
 
 

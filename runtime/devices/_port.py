@@ -17,10 +17,12 @@ try:
 except ImportError:  # pragma: no cover - Windows
     _TERMIOS_ERRORS = ()
 
-__all__ = ["PORT_ERRORS", "TERMIOS_ERRORS", "open_serial"]
+__all__ = ["OPEN_ERRORS", "PORT_ERRORS", "TERMIOS_ERRORS", "open_serial"]
 
 #: errors a port raises when its device goes away (serial.SerialException is an OSError)
 PORT_ERRORS: tuple[type[BaseException], ...] = (OSError, *_TERMIOS_ERRORS)
+#: the same, plus the ValueError pyserial raises for a malformed port name or setting
+OPEN_ERRORS: tuple[type[BaseException], ...] = (ValueError, *PORT_ERRORS)
 TERMIOS_ERRORS = _TERMIOS_ERRORS
 
 

@@ -23,6 +23,7 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any, Literal
 
+from runtime.devices._port import OPEN_ERRORS as _OPEN_ERRORS
 from runtime.devices._port import PORT_ERRORS as _PORT_ERRORS
 from runtime.devices._port import open_serial
 
@@ -286,7 +287,7 @@ class Maestro:
     def _open(self, spec: str, baudrate: int) -> Any:
         try:
             return open_serial(spec, baudrate, self.reply_timeout)
-        except (ValueError, *_PORT_ERRORS) as exc:
+        except _OPEN_ERRORS as exc:
             raise MaestroPortError(f"cannot open Maestro port {spec}: {exc}") from exc
 
     @property

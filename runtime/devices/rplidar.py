@@ -25,6 +25,7 @@ import numpy as np
 
 from runtime.robot import ScanFrame
 
+from runtime.devices._port import OPEN_ERRORS as _OPEN_ERRORS
 from runtime.devices._port import PORT_ERRORS as _PORT_ERRORS
 from runtime.devices._port import open_serial
 
@@ -509,7 +510,7 @@ class RPLidar:
         assert self._spec is not None
         try:
             self._port = open_serial(self._spec, self.baudrate, _READ_SLICE)
-        except (ValueError, *_PORT_ERRORS) as exc:
+        except _OPEN_ERRORS as exc:
             raise LidarPortError(f"cannot open LiDAR port {self._spec}: {exc}") from exc
 
     def _port_failed(self, what: str, exc: BaseException) -> LidarPortError:
