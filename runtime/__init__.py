@@ -37,6 +37,11 @@ _LAZY = {
     "run_experiment": "runtime.experiment",
     "ExperimentResult": "runtime.experiment",
     "RunResult": "runtime.experiment",
+    "FaultyRobot": "runtime.faults",
+    "HardwareRobot": "runtime.hardware",
+    "HardwareConfig": "runtime.hardware",
+    "RunLog": "runtime.runlog",
+    "read_log": "runtime.runlog",
     "plot_run": "runtime.plot",
     "plot_runs": "runtime.plot",
 }

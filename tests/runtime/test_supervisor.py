@@ -12,7 +12,8 @@ from hypothesis import strategies as st
 
 from formal.model import Pose
 from planner import Configurator, load_scenario
-from runtime.robot import RobotFault, ScanFrame
+from runtime.robot import ScanFrame
+from runtime.faults import FaultyRobot
 from runtime.sim import SimRobot
 from runtime.supervisor import (
     MOTOR_STATES,
@@ -68,50 +69,6 @@ def test_a_task_ends_by_its_own_criterion_on_the_robot():
 
 
 # -- faults --------------------------------------------------------------------------------------
-class Faulty:
-    """Wraps a SimRobot; from tick ``at`` on, misbehaves as ``kind``."""
-
-    def __init__(self, sim: SimRobot, kind: str, at: float) -> None:
-        self.sim, self.kind, self.at = sim, kind, at
-
-    def _on(self) -> bool:
-        return self.sim.now() >= self.at
-
-    def read_scan(self, timeout: float | None = None) -> ScanFrame | None:
-        frame = self.sim.read_scan(timeout)
-        if not self._on():
-            return frame
-        if self.kind == "silent":
-            return None
-        if self.kind == "nan" and frame is not None:
-            pts = frame.points.copy()
-            pts[0, 0] = np.nan
-            return ScanFrame(pts, frame.timestamp)
-        if self.kind == "device":
-            raise RobotFault("LiDAR unplugged")
-        return frame
-
-    def set_wheel_speeds(self, left: float, right: float) -> None:
-        if self._on() and self.kind == "motor":
-            raise OSError("serial port gone")
-        self.sim.set_wheel_speeds(left, right)
-
-    def stop(self) -> None:
-        self.sim.stop()
-
-    def odometry(self) -> Pose | None:
-        return self.sim.odometry()
-
-    def close(self) -> None:
-        self.sim.close()
-
-    def now(self) -> float:
-        return self.sim.now()
-
-    def sleep(self, seconds: float) -> None:
-        self.sim.sleep(seconds)
-
-
 class Exploding(Configurator):
     """A Configurator whose planning raises from the ``after``-th call on."""
 
@@ -127,12 +84,12 @@ class Exploding(Configurator):
         return super().plan(scan, goal)
 
 
-@pytest.mark.parametrize("kind", ["silent", "nan", "device", "motor"])
+@pytest.mark.parametrize("kind", ["silent", "nan", "device", "motor", "port"])
 @pytest.mark.parametrize("at", [0.0, 3.05, 12.3])
 def test_fault_halts_with_wheels_stopped(kind, at):
     scene = load_scenario("overtaking")
     sim = SimRobot(scene, seed=1)
-    sup = Supervisor(Faulty(sim, kind, at), (1.0, 0.0))
+    sup = Supervisor(FaultyRobot(sim, kind, at), (1.0, 0.0))
     rep = sup.run(max_time=60)
     assert rep.state is S.HALTED
     assert sim.commanded == (0.0, 0.0) and sup.commanded == (0.0, 0.0)
@@ -156,13 +113,7 @@ def test_ctrl_c_stops_the_wheels_and_propagates():
     scene = load_scenario("overtaking")
     sim = SimRobot(scene, seed=0)
 
-    class Interrupting(Faulty):
-        def read_scan(self, timeout: float | None = None) -> ScanFrame | None:
-            if self._on():
-                raise KeyboardInterrupt
-            return self.sim.read_scan(timeout)
-
-    sup = Supervisor(Interrupting(sim, "ctrl-c", 2.0), (1.0, 0.0))
+    sup = Supervisor(FaultyRobot(sim, "interrupt", 2.0), (1.0, 0.0))
     with pytest.raises(KeyboardInterrupt):
         sup.run(max_time=30)
     assert sup.state is S.HALTED and sup.transitions[-1].event is Event.ABORT
@@ -190,17 +141,17 @@ def test_an_obstacle_appearing_in_the_way_interrupts_and_replans():
     scene = load_scenario("open")
     sim = SimRobot(scene, seed=0)
 
-    class Appearing(Faulty):
+    class Appearing(FaultyRobot):
         def read_scan(self, timeout: float | None = None) -> ScanFrame | None:
-            frame = self.sim.read_scan(timeout)
-            if frame is None or not self._on() or self.sim.pose.x > 0.6:
+            frame = sim.read_scan(timeout)
+            if frame is None or sim.now() < 2.0 or sim.pose.x > 0.6:
                 return frame
             # a wall across the way, 0.35 m ahead of the robot
             ys = np.arange(-0.3, 0.31, 0.01)
             wall = np.c_[np.full(len(ys), 0.35), ys]
             return ScanFrame(np.r_[frame.points, wall], frame.timestamp)
 
-    sup = Supervisor(Appearing(sim, "wall", 2.0), (1.0, 0.0))
+    sup = Supervisor(Appearing(sim), (1.0, 0.0))
     rep = sup.run(max_time=120)
     disagree = [t for t in rep.transitions if t.event is Event.DISAGREE]
     assert disagree and ("in the way" in disagree[0].reason or "imminent" in disagree[0].reason)

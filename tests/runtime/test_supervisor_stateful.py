@@ -11,66 +11,17 @@ from __future__ import annotations
 
 from typing import Any
 
-import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.stateful import RuleBasedStateMachine, initialize, invariant, precondition, rule
 
-from formal.model import Pose
 from planner import Configurator, load_scenario
-from runtime.robot import RobotFault, ScanFrame
+from runtime.faults import FaultyRobot
 from runtime.sim import SimRobot
 from runtime.supervisor import TRANSITIONS, Event, Supervisor, SupervisorState
 
 S = SupervisorState
 FAULTS = ("silent", "nan", "device", "motor", "planner")
-
-
-class Switchable:
-    """A SimRobot whose sensor or motors can be made to fail from a given moment on."""
-
-    def __init__(self, sim: SimRobot) -> None:
-        self.sim = sim
-        self.fault: str | None = None
-
-    def read_scan(self, timeout: float | None = None) -> ScanFrame | None:
-        frame = self.sim.read_scan(timeout)
-        if self.fault == "silent":
-            return None
-        if self.fault == "nan" and frame is not None:
-            pts = frame.points.copy()
-            if len(pts):
-                pts[len(pts) // 2, 1] = np.inf
-            else:
-                pts = np.array([[np.nan, 0.0]])
-            return ScanFrame(pts, frame.timestamp)
-        if self.fault == "device":
-            raise RobotFault("LiDAR unplugged")
-        if self.fault == "phantom" and frame is not None:
-            # something appears right in front of the body: every next move would touch it
-            ys = np.arange(-0.2, 0.201, 0.01)
-            return ScanFrame(np.r_[frame.points, np.c_[np.full(len(ys), 0.12), ys]], frame.timestamp)
-        return frame
-
-    def set_wheel_speeds(self, left: float, right: float) -> None:
-        if self.fault == "motor":
-            raise RobotFault("motor controller gone")
-        self.sim.set_wheel_speeds(left, right)
-
-    def stop(self) -> None:
-        self.sim.stop()
-
-    def odometry(self) -> Pose | None:
-        return self.sim.odometry()
-
-    def close(self) -> None:
-        self.sim.close()
-
-    def now(self) -> float:
-        return self.sim.now()
-
-    def sleep(self, seconds: float) -> None:
-        self.sim.sleep(seconds)
 
 
 class Breakable(Configurator):
@@ -95,7 +46,7 @@ class SupervisorMachine(RuleBasedStateMachine):
     def setup(self, scenario: str, seed: int) -> None:
         scene = load_scenario(scenario)
         self.sim = SimRobot(scene, seed=seed)
-        self.robot = Switchable(self.sim)
+        self.robot = FaultyRobot(self.sim)
         self.conf = Breakable()
         self.sup = Supervisor(self.robot, scene.goal_in_robot_frame(), self.conf)
         self.fault_at: float | None = None
@@ -191,7 +142,7 @@ def test_a_fault_at_any_tick_ends_halted_with_wheels_stopped(tick, kind, seed):
     supervisor must replan and meets the crash."""
     scene = load_scenario("overtaking")
     sim = SimRobot(scene, seed=seed)
-    robot = Switchable(sim)
+    robot = FaultyRobot(sim)
     conf = Breakable()
     sup = Supervisor(robot, (1.0, 0.0), conf)
     k = 0
