@@ -23,7 +23,7 @@ from planner.perception import validate_scan
 from planner.robot import RobotModel
 from planner.tasks import wrap_angle
 from runtime.robot import Robot, RobotFault
-from runtime.supervisor import Clock, WallClock, compose, relative
+from runtime.supervisor import Clock, clock_for, compose, finite_goal, relative
 
 __all__ = ["ReactiveController", "ReactiveReport"]
 
@@ -67,15 +67,13 @@ class ReactiveController:
     ) -> None:
         self.robot = robot
         self.model = model or RobotModel()
-        if clock is None:
-            clock = robot if isinstance(robot, Clock) else WallClock()  # type: ignore[assignment]
-        self.clock: Clock = clock  # type: ignore[assignment]
+        self.clock: Clock = clock_for(robot, clock)
         self.goal_radius = goal_radius
         self.ahead_ticks = ahead_ticks
         self.gain = gain
         self.hazard_points = hazard_points
         self.scan_timeout = scan_timeout
-        self._goal_robot = (float(goal[0]), float(goal[1]))
+        self._goal_robot = finite_goal(goal)
         self.pose = Pose(0.0, 0.0, 0.0)
         self.goal = Pose(*self._goal_robot)
         self.trajectory: list[tuple[float, float, float, float]] = []

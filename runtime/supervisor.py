@@ -67,7 +67,9 @@ __all__ = [
     "TransitionRecord",
     "GuardViolation",
     "RunLogLike",
+    "clock_for",
     "compose",
+    "finite_goal",
     "relative",
     "state_machine_dot",
     "state_machine_prism",
@@ -251,6 +253,24 @@ class SupervisorReport:
         return max(0, len(self.plans) - 1)
 
 
+def clock_for(robot: Robot, clock: Clock | None = None) -> Clock:
+    """``clock`` if given; else the robot itself when it keeps (simulated) time; else wall time."""
+    if clock is not None:
+        return clock
+    return robot if isinstance(robot, Clock) else WallClock()  # type: ignore[return-value]
+
+
+def finite_goal(goal: tuple[float, float]) -> tuple[float, float]:
+    """``goal`` as two floats; ValueError when it is not two finite numbers."""
+    try:
+        gx, gy = (float(v) for v in goal)
+    except (TypeError, ValueError):
+        raise ValueError(f"goal must be two numbers x, y, got {goal!r}") from None
+    if not (math.isfinite(gx) and math.isfinite(gy)):
+        raise ValueError(f"goal must be finite, got {goal!r}")
+    return gx, gy
+
+
 # -- the supervisor -------------------------------------------------------------------------
 class Supervisor:
     """Runs plans of a :class:`~planner.Configurator` closed-loop on a :class:`~runtime.robot.Robot`.
@@ -277,15 +297,11 @@ class Supervisor:
         settle_scans: int = 2,
         log: RunLogLike | None = None,
     ) -> None:
-        gx, gy = (float(v) for v in goal)
-        if not (math.isfinite(gx) and math.isfinite(gy)):
-            raise ValueError(f"goal must be finite, got {goal!r}")
+        gx, gy = finite_goal(goal)
         self.robot = robot
         self.configurator = configurator or Configurator()
         self.model: RobotModel = self.configurator.robot
-        if clock is None:
-            clock = robot if isinstance(robot, Clock) else WallClock()  # type: ignore[assignment]
-        self.clock: Clock = clock  # type: ignore[assignment]
+        self.clock: Clock = clock_for(robot, clock)
         self.goal_radius = goal_radius
         self.scan_timeout = scan_timeout
         self.max_plans = max_plans

@@ -58,3 +58,14 @@ def test_times_out_with_wheels_stopped():
     rep = ReactiveController(sim, (1.0, 0.0)).run(max_time=5.0)
     assert rep.state == "TIMEOUT" and rep.time_s == pytest.approx(5.0, abs=0.11)
     assert sim.commanded == (0.0, 0.0)
+
+
+def test_reactive_rejects_a_non_finite_goal():
+    import math as _math
+
+    from planner import load_scenario
+    from runtime.reactive import ReactiveController
+    from runtime.sim import SimRobot
+
+    with pytest.raises(ValueError, match="finite"):
+        ReactiveController(SimRobot(load_scenario("open"), seed=0), (_math.nan, 0.0))
