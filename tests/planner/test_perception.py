@@ -121,3 +121,18 @@ def test_parallel_walls_of_one_cluster_are_not_bridged():
     for x in np.linspace(-0.35, 0.5, 18):
         assert obs.contains_point(x, 0.0) is None, f"corridor closed at x={x:.2f}"
         assert obs.contains_point(x, 0.15) is None and obs.contains_point(x, -0.15) is None
+
+
+def test_a_piece_is_split_at_a_gap_along_its_axis():
+    # what median splits leave of two parallel walls joined far away: two short stubs
+    # 0.6 m apart. Their principal axis runs across the gap and they are thin along it,
+    # so only the gap rule keeps one box from bridging the corridor between them.
+    from planner.perception import _cover
+
+    stub = np.linspace(0.0, 0.03, 3)
+    pts = np.r_[np.c_[stub, np.full(3, 0.3)], np.c_[stub, np.full(3, -0.3)]]
+    boxes: list = []
+    _cover(pts, boxes, gap=0.1)
+    assert len(boxes) == 2
+    for box in boxes:
+        assert np.ptp(box[:, 1]) < 0.1  # each box stays on its own wall
