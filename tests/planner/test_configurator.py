@@ -162,3 +162,17 @@ def test_robot_model_is_configurable_and_validated():
     r = plan(np.zeros((0, 2)), goal=(0.0, 1.0), robot=RobotModel(turn_angle=np.pi / 2))
     assert r.reached_goal
     assert [s.task for s in r.steps] == [TaskKind.LEFT, TaskKind.STRAIGHT]
+
+
+def test_map_equality_and_json_keep_every_transition(tmp_path):
+    from formal.lts import CognitiveMap
+
+    r = _plan_scenario("overtaking")
+    p = tmp_path / "m.json"
+    r.map.write_json(p)
+    back = CognitiveMap.read_json(p)
+    assert back.transitions() == r.map.transitions() and back.n_transitions == r.transitions
+    # a map that lost one transition is not equal to the original
+    d = r.map.to_dict()
+    d["transitions"] = d["transitions"][:-1]
+    assert CognitiveMap.from_dict(d) != r.map
