@@ -226,3 +226,17 @@ def test_overtaking_map_renders_to_svg(scenario_map, tmp_path):
     engine = render_svg(scenario_map("overtaking"), tmp_path / "ov.svg")
     svg = (tmp_path / "ov.svg").read_text()
     assert engine == "dot" and "<svg" in svg and "q27 STRAIGHT" in svg
+
+
+def test_printed_probabilities_are_checked_after_printing():
+    """A branch too small to survive printing is refused, not written as probability 0."""
+    from fractions import Fraction
+
+    from formal.export import ExportError, _printed
+
+    tiny = Fraction(1, 3 * 10**40)  # not a finite decimal: printed to a fixed number of places
+    assert _printed([Fraction(1, 3), Fraction(2, 3)], exact_rationals=True) == ["1/3", "2/3"]
+    printed = _printed([Fraction(1, 3), Fraction(1, 3), Fraction(1, 3)], exact_rationals=False)
+    assert sum(Fraction(t) for t in printed) == 1
+    with pytest.raises(ExportError, match="do not sum to 1"):
+        _printed([1 - tiny, tiny], exact_rationals=False)
