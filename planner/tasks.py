@@ -20,20 +20,13 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+from formal.geometry import wrap_angle
 from formal.model import Disturbance, Pose, TaskKind
 from planner.robot import RobotModel
 
 __all__ = ["Task", "wrap_angle"]
 
 _EPS = 1e-9
-
-
-def wrap_angle(a: float) -> float:
-    """Wrap an angle to (-pi, pi]."""
-    a = math.fmod(a + math.pi, 2 * math.pi)
-    if a <= 0:
-        a += 2 * math.pi
-    return a - math.pi
 
 
 @dataclass

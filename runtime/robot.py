@@ -8,31 +8,18 @@ backend chose at start-up (x forward, y left, theta counter-clockwise).
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
 from typing import Protocol, runtime_checkable
 
 import numpy as np
 
 from formal.model import Pose
+from runtime.devices.frame import ScanFrame
 
 __all__ = ["ScanFrame", "Robot", "RobotFault"]
 
 
 class RobotFault(RuntimeError):
     """A backend cannot go on: a device vanished, a sensor fell silent, a bad reply."""
-
-
-@dataclass(frozen=True)
-class ScanFrame:
-    """One LiDAR revolution: N×2 points (metres, robot frame) and when it was taken.
-
-    ``timestamp`` is in the backend's clock (seconds, monotonic). ``quality`` is the
-    per-point return strength when the sensor reports one.
-    """
-
-    points: np.ndarray
-    timestamp: float
-    quality: np.ndarray | None = field(default=None)
 
 
 @runtime_checkable

@@ -23,7 +23,7 @@ from typing import Any, Literal
 
 import numpy as np
 
-from runtime.robot import ScanFrame
+from runtime.devices.frame import ScanFrame
 
 from runtime.devices._port import OPEN_ERRORS as _OPEN_ERRORS
 from runtime.devices._port import PORT_ERRORS as _PORT_ERRORS

@@ -153,7 +153,7 @@ def clomp(monkeypatch, capsys):
     import runtime.cli as cli
 
     mods = list(cli._COMMAND_MODULES)
-    for m in ("runtime._cli_export", "runtime._cli_check"):
+    for m in ("runtime.cli.export", "runtime.cli.check"):
         if m not in mods:
             mods.append(m)
     monkeypatch.setattr(cli, "_COMMAND_MODULES", mods)

@@ -8,7 +8,7 @@ import pytest
 
 import runtime.cli as cli
 
-MINE = ("runtime._cli_demo", "runtime._cli_simulate", "runtime._cli_experiment")
+MINE = ("runtime.cli.demo", "runtime.cli.simulate", "runtime.cli.experiment")
 
 
 @pytest.fixture(autouse=True)

@@ -255,7 +255,7 @@ def test_maestro_emulator_records_timed_events() -> None:
 _HARNESS = textwrap.dedent(
     """
     import argparse, sys
-    from runtime import _cli_emulate
+    from runtime.cli import emulate as _cli_emulate
     from runtime.cli import CliError
     parser = argparse.ArgumentParser(prog="clomp")
     _cli_emulate.register(parser.add_subparsers())

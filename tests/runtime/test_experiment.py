@@ -13,7 +13,7 @@ from hypothesis import strategies as st
 from scipy.stats import ttest_rel
 
 from planner import load_scenario
-from runtime.experiment import SUCCESS_RADIUS, jitter_scene, paired_ttest, run_experiment, run_once
+from runtime.experiment.runner import SUCCESS_RADIUS, jitter_scene, paired_ttest, run_experiment, run_once
 
 
 @given(seed=st.integers(0, 10_000))

@@ -12,9 +12,9 @@ import pytest
 
 from formal.model import Pose
 from runtime.devices.emulators import LidarEmulator, MaestroEmulator
-from runtime.hardware import HardwareConfig, HardwareRobot
+from runtime.robots.hardware import HardwareConfig, HardwareRobot
 from runtime.robot import Robot, RobotFault
-from runtime.runlog import RunLog
+from runtime.records.runlog import RunLog
 
 NEUTRAL = 6000  # 1500 µs in quarter-µs
 WALL = np.array([[0.6, y] for y in np.linspace(-0.3, 0.3, 13)])

@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 
 from planner import load_scenario
-from runtime.reactive import ReactiveController
+from runtime.experiment.reactive import ReactiveController
 from runtime.robot import ScanFrame
-from runtime.sim import SimRobot
+from runtime.robots.sim import SimRobot
 
 
 def test_reaches_a_goal_in_free_space_without_collision():
@@ -64,8 +64,8 @@ def test_reactive_rejects_a_non_finite_goal():
     import math as _math
 
     from planner import load_scenario
-    from runtime.reactive import ReactiveController
-    from runtime.sim import SimRobot
+    from runtime.experiment.reactive import ReactiveController
+    from runtime.robots.sim import SimRobot
 
     with pytest.raises(ValueError, match="finite"):
         ReactiveController(SimRobot(load_scenario("open"), seed=0), (_math.nan, 0.0))

@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from runtime.runlog import LogError, RunLog, read_log, scans_from_log
+from runtime.records.runlog import LogError, RunLog, read_log, scans_from_log
 
 
 def clomp(*args: str) -> subprocess.CompletedProcess[str]:

@@ -1,5 +1,5 @@
 """``clomp run`` end to end over pseudo-terminals: the device emulators in front of a simulated
-world (runtime.hwsim), the real drivers, the hardware robot and the supervisor in a
+world (runtime.robots.emulated), the real drivers, the hardware robot and the supervisor in a
 subprocess. Fault tests measure, on the Maestro emulator's side, how long after the fault
 the wheels were commanded to stop."""
 
@@ -18,11 +18,11 @@ import pytest
 
 import runtime.cli as cli
 from runtime.devices.emulators import MaestroEmulator
-from runtime.hwsim import EmulatedWorld
-from runtime.runlog import read_log
+from runtime.robots.emulated import EmulatedWorld
+from runtime.records.runlog import read_log
 
 NEUTRAL = 6000
-_RUN_MODULE = "runtime._cli_run"
+_RUN_MODULE = "runtime.cli.run"
 _UNREGISTERED = f"import runtime.cli as c; c._COMMAND_MODULES.append({_RUN_MODULE!r}); raise SystemExit(c.main())"
 
 
@@ -273,12 +273,12 @@ def test_start_up_errors_are_one_line_and_still_logged(
 
 
 def test_emulate_world_serves_a_whole_stack_a_user_can_run(tmp_path: Path) -> None:
-    import runtime._cli_emulate as emulate
+    import runtime.cli.emulate as emulate
 
     if "add_emulate_world" in inspect.getsource(emulate):
         argv = clomp("emulate", "world", "--scenario", "open", "--time-scale", "2")
     else:  # not wired into `clomp emulate` yet: the same parser, stand-alone
-        code = ("import argparse, sys; from runtime._cli_run import add_emulate_world; "
+        code = ("import argparse, sys; from runtime.cli.run import add_emulate_world; "
                 "p = argparse.ArgumentParser(); add_emulate_world(p.add_subparsers(required=True)); "
                 "a = p.parse_args(sys.argv[1:]); raise SystemExit(a.func(a))")
         argv = [sys.executable, "-c", code, "world", "--scenario", "open", "--time-scale", "2"]

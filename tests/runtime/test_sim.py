@@ -13,7 +13,7 @@ from formal.model import Pose
 from planner import load_scenario
 from planner.scenarios import ScenarioError, parse_scenario
 from runtime.robot import Robot, RobotFault
-from runtime.sim import NoiseConfig, SimRobot, scenario_noise, scenario_scan_source, scenario_seed
+from runtime.robots.sim import NoiseConfig, SimRobot, scenario_noise, scenario_scan_source, scenario_seed
 
 IDEAL = NoiseConfig.ideal()
 

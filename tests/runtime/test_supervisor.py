@@ -13,9 +13,10 @@ from hypothesis import strategies as st
 from formal.model import Pose
 from planner import Configurator, load_scenario
 from runtime.robot import ScanFrame
-from runtime.faults import FaultyRobot
-from runtime.sim import SimRobot
-from runtime.supervisor import (
+from runtime.robots.faults import FaultyRobot
+from runtime.robots.sim import SimRobot
+from formal.geometry import compose, relative
+from runtime.supervision import (
     MOTOR_STATES,
     TERMINAL,
     TRANSITIONS,
@@ -23,8 +24,6 @@ from runtime.supervisor import (
     GuardViolation,
     Supervisor,
     SupervisorState,
-    compose,
-    relative,
     state_machine_dot,
     state_machine_prism,
 )

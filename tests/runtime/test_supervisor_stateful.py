@@ -16,9 +16,9 @@ from hypothesis import strategies as st
 from hypothesis.stateful import RuleBasedStateMachine, initialize, invariant, precondition, rule
 
 from planner import Configurator, load_scenario
-from runtime.faults import FaultyRobot
-from runtime.sim import SimRobot
-from runtime.supervisor import TRANSITIONS, Event, Supervisor, SupervisorState
+from runtime.robots.faults import FaultyRobot
+from runtime.robots.sim import SimRobot
+from runtime.supervision import TRANSITIONS, Event, Supervisor, SupervisorState
 
 S = SupervisorState
 FAULTS = ("silent", "nan", "device", "motor", "planner")

@@ -28,7 +28,7 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
-from runtime._cli_plan import add_planner_options, configurator_from_args, parse_goal
+from runtime.cli.plan import add_planner_options, configurator_from_args, parse_goal
 from runtime.cli import CliError
 
 __all__ = ["register", "add_emulate_world", "default_log_path"]
@@ -132,7 +132,7 @@ def _interrupts_raise() -> Iterator[Callable[[], str | None]]:
 
 def _config(args: argparse.Namespace) -> Any:
     from runtime.devices.maestro import WheelConfig
-    from runtime.hardware import HardwareConfig
+    from runtime.robots.hardware import HardwareConfig
 
     if args.motors is None and not args.dry_run:
         raise CliError("--motors PORT is required (or --dry-run to only read the LiDAR and plan)")
@@ -177,11 +177,11 @@ def _wheels(robot: Any) -> str:
 
 def run(args: argparse.Namespace) -> int:
     """Execute ``clomp run``."""
-    from runtime.hardware import HardwareRobot
-    from runtime.hwsim import ScaledClock
+    from runtime.robots.hardware import HardwareRobot
+    from runtime.clock import ScaledClock, WallClock
     from runtime.robot import RobotFault
-    from runtime.runlog import RunLog
-    from runtime.supervisor import Supervisor, SupervisorState, WallClock
+    from runtime.records.runlog import RunLog
+    from runtime.supervision import Supervisor, SupervisorState
 
     goal = parse_goal(args.goal)
     config = _config(args)
@@ -306,7 +306,7 @@ def add_emulate_world(devices: Any) -> None:
 
 def _run_world(args: argparse.Namespace) -> int:
     from planner.scenarios import ScenarioError
-    from runtime.hwsim import EmulatedWorld
+    from runtime.robots.emulated import EmulatedWorld
 
     try:
         world = EmulatedWorld(args.scenario, seed=args.seed, time_scale=args.time_scale)

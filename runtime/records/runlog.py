@@ -33,11 +33,19 @@ import os
 import time
 from collections.abc import Iterator
 from pathlib import Path
-from typing import IO, Any
+from typing import IO, Any, Protocol
 
 import numpy as np
 
-__all__ = ["RunLog", "LogError", "read_log", "scans_from_log"]
+__all__ = ["RunLog", "RunLogLike", "LogError", "read_log", "scans_from_log"]
+
+
+class RunLogLike(Protocol):
+    """Where the supervisor and the robots record what they do (e.g. :class:`RunLog`)."""
+
+    def write(self, event: str, **fields: Any) -> None:
+        """Append one record."""
+        ...
 
 
 class LogError(ValueError):

@@ -10,9 +10,9 @@ from typing import Any
 
 from planner.scenarios import ScenarioError, load_scenario
 from runtime.cli import CliError
-from runtime.experiment import SUCCESS_RADIUS, RunResult, run_once
-from runtime.plot import plot_run
-from runtime.sim import NoiseConfig
+from runtime.experiment.runner import SUCCESS_RADIUS, RunResult, run_once
+from runtime.experiment.plots import plot_run
+from runtime.robots.sim import NoiseConfig
 
 __all__ = ["register", "run", "print_summary"]
 

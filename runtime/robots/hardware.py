@@ -19,7 +19,7 @@ RobotFault naming the device and port; :meth:`stop` always tries to stop the whe
 In ``dry_run`` mode the LiDAR is read as usual but the wheels are held stopped (neutral
 is sent instead of every command); the dead-reckoned pose still follows the commands,
 i.e. it is where the robot *would* be. ``clomp run --dry-run`` does not execute plans at
-all: it plans on every scan with the robot standing still (see ``runtime._cli_run``).
+all: it plans on every scan with the robot standing still (see ``runtime.cli.run``).
 """
 
 from __future__ import annotations
@@ -31,14 +31,15 @@ from collections import deque
 from dataclasses import asdict, dataclass, field
 from typing import Any, Literal
 
+from formal.geometry import arc_step, wheel_twist, wrap_angle
 from formal.model import Pose
 from planner.robot import RobotModel
-from planner.tasks import wrap_angle
 from runtime.devices._port import OPEN_ERRORS, PORT_ERRORS, open_serial
 from runtime.devices.maestro import Maestro, MaestroError, WheelConfig
 from runtime.devices.rplidar import DEFAULT_BAUDRATE, LidarError, LidarTimeout, RPLidar
+from runtime.clock import Clock, WallClock
 from runtime.robot import RobotFault, ScanFrame
-from runtime.supervisor import Clock, RunLogLike, WallClock
+from runtime.records.runlog import RunLogLike
 
 __all__ = ["HardwareConfig", "HardwareRobot", "open_lidar_port"]
 
@@ -138,7 +139,7 @@ class HardwareRobot:
     ``lidar_port`` and ``motor_port`` are device paths, pyserial URLs or open serial-like
     objects (objects are not closed by :meth:`close`). ``motor_port`` may be None only
     in dry-run mode. ``log`` receives ``device``, ``motor`` and ``fault`` records (see
-    :mod:`runtime.runlog`); ``clock`` times the dead reckoning (wall time by default).
+    :mod:`runtime.records.runlog`); ``clock`` times the dead reckoning (wall time by default).
     Opening checks the LiDAR's health, stops the wheels and starts the scan; a device
     that cannot be opened or does not answer raises :class:`RobotFault`.
     """
@@ -434,13 +435,8 @@ class HardwareRobot:
         if dt <= 0 or (vl == 0.0 and vr == 0.0):
             return
         x, y, th = self._pose
-        v, w = (vl + vr) / 2, (vr - vl) / self.model.wheel_base
-        if abs(w) < 1e-12:
-            self._pose = (x + v * dt * math.cos(th), y + v * dt * math.sin(th), th)
-        else:
-            th2 = th + w * dt
-            r = v / w
-            self._pose = (x + r * (math.sin(th2) - math.sin(th)), y - r * (math.cos(th2) - math.cos(th)), th2)
+        v, w = wheel_twist(vl, vr, self.model.wheel_base)
+        self._pose = arc_step(x, y, th, v, w, dt)
 
     def _log_motor(self, cmd: tuple[float, float], sent: tuple[float, float], reason: str | None = None) -> None:
         if self._log_sink is None or ((cmd, sent) == self._sent and reason != "fault"):

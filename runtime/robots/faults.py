@@ -3,10 +3,10 @@
 For testing a supervisor (or any controller on the :class:`~runtime.robot.Robot`
 interface) against the faults a real robot has: wrap a backend, then set ``fault`` (now,
 or from the backend's time ``at`` on). The wrapped backend must keep its own clock
-(``now()``/``sleep()``, as :class:`runtime.sim.SimRobot` does) for ``at`` to apply.
+(``now()``/``sleep()``, as :class:`runtime.robots.sim.SimRobot` does) for ``at`` to apply.
 
 >>> from planner import load_scenario
->>> from runtime.sim import SimRobot
+>>> from runtime.robots.sim import SimRobot
 >>> robot = FaultyRobot(SimRobot(load_scenario("open"), seed=0), "silent", at=2.0)
 >>> robot.read_scan() is not None   # before 2 s of simulated time: a normal scan
 True

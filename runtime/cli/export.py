@@ -11,7 +11,7 @@ from formal.export import FORMATS, ExportError, write
 from formal.lts import CognitiveMap, MapError
 from planner import PlanningError, ScanError
 from planner.scenarios import ScenarioError, load_scenario
-from runtime._cli_plan import add_planner_options, configurator_from_args, parse_goal
+from runtime.cli.plan import add_planner_options, configurator_from_args, parse_goal
 from runtime.cli import CliError
 
 __all__ = ["register", "add_source_options", "map_from_args"]

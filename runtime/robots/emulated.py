@@ -1,6 +1,6 @@
 """An emulated world for the hardware stack: the device emulators wired to a simulated robot.
 
-:class:`EmulatedWorld` runs a :class:`~runtime.sim.SimRobot` (the ground truth of a
+:class:`EmulatedWorld` runs a :class:`~runtime.robots.sim.SimRobot` (the ground truth of a
 scenario) in real time — a thread advances it every ``tick`` seconds of wall time — and
 puts the two device emulators on pseudo-terminals in front of it: the Maestro
 emulator's decoded wheel speeds drive the simulated robot's wheels, and each LiDAR
@@ -10,7 +10,7 @@ robot, the supervisor) without hardware, and the world tells whether it reached 
 and whether it touched anything.
 
 ``time_scale`` > 1 runs the world (and the LiDAR's pace) faster than real time; the
-controller must then use a :class:`ScaledClock` of the same scale.
+controller must then use a :class:`runtime.clock.ScaledClock` of the same scale.
 """
 
 from __future__ import annotations
@@ -28,28 +28,9 @@ from planner.robot import RobotModel
 from planner.scenarios import Scene, load_scenario
 from runtime.devices.emulators import LidarEmulator, MaestroEmulator
 from runtime.devices.maestro import WheelConfig
-from runtime.sim import NoiseConfig, SimRobot
+from runtime.robots.sim import NoiseConfig, SimRobot
 
-__all__ = ["EmulatedWorld", "ScaledClock"]
-
-
-class ScaledClock:
-    """A clock running ``scale`` times faster than wall time (``scale`` = 1: wall time)."""
-
-    def __init__(self, scale: float = 1.0) -> None:
-        if not (math.isfinite(scale) and scale > 0):
-            raise ValueError(f"time scale must be a positive number, got {scale!r}")
-        self.scale = float(scale)
-        self._origin = time.monotonic()
-
-    def now(self) -> float:
-        """Scaled seconds since the clock was made."""
-        return (time.monotonic() - self._origin) * self.scale
-
-    def sleep(self, seconds: float) -> None:
-        """Let ``seconds`` of scaled time pass."""
-        if seconds > 0:
-            time.sleep(seconds / self.scale)
+__all__ = ["EmulatedWorld"]
 
 
 class EmulatedWorld:

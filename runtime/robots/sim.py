@@ -35,10 +35,10 @@ from typing import Any
 import numpy as np
 import pymunk
 
+from formal.geometry import arc_step, wrap_angle
 from formal.model import Pose
 from planner.robot import RobotModel
 from planner.scenarios import Scene, ScenarioError, load_scenario
-from planner.tasks import wrap_angle
 from runtime.robot import RobotFault, ScanFrame
 
 __all__ = ["NoiseConfig", "SimRobot", "Contact", "scenario_noise", "scenario_seed", "scenario_scan_source"]
@@ -306,11 +306,11 @@ class SimRobot:
         w = (vr - vl) / b
         # encoders see the actual wheel speeds
         ox, oy, oth = self._odo
-        self._odo = _integrate(ox, oy, oth, v, w, dt)
+        self._odo = arc_step(ox, oy, oth, v, w, dt)
         if vl != 0.0 or vr != 0.0:
             w += self._drift
         if v != 0.0 or w != 0.0:
-            nx, ny, nth = _integrate(self._x, self._y, self._th, v, w, dt)
+            nx, ny, nth = arc_step(self._x, self._y, self._th, v, w, dt)
             self._move_to(nx, ny, nth)
         self._t += dt
         self.trajectory.append((self._t, self._x, self._y, self._th))
@@ -383,14 +383,6 @@ class SimRobot:
         """A complete noise-free revolution from the current pose, taken instantly (robot frame)."""
         return self.scene.scan(self.pose, self.rays, self.max_range)
 
-
-def _integrate(x: float, y: float, th: float, v: float, w: float, dt: float) -> tuple[float, float, float]:
-    """Exact unicycle motion over ``dt`` at linear speed ``v`` and turn rate ``w``."""
-    if abs(w) < 1e-12:
-        return x + v * dt * math.cos(th), y + v * dt * math.sin(th), th
-    th2 = th + w * dt
-    r = v / w
-    return x + r * (math.sin(th2) - math.sin(th)), y - r * (math.cos(th2) - math.cos(th)), th2
 
 
 def scenario_scan_source(

@@ -18,12 +18,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from formal.geometry import compose, relative, wrap_angle
 from formal.model import Pose
 from planner.perception import validate_scan
 from planner.robot import RobotModel
-from planner.tasks import wrap_angle
 from runtime.robot import Robot, RobotFault
-from runtime.supervisor import Clock, clock_for, compose, finite_goal, relative
+from runtime.clock import Clock, clock_for
+from runtime.supervision.supervisor import finite_goal
 
 __all__ = ["ReactiveController", "ReactiveReport"]
 

@@ -1,8 +1,8 @@
 """The paper's experiment: planning vs a single reactive loop on randomised layouts.
 
-:func:`run_once` drives one condition (``"planning"``: the :class:`~runtime.supervisor.
+:func:`run_once` drives one condition (``"planning"``: the :class:`~runtime.supervision.supervisor.
 Supervisor` with a :class:`~planner.Configurator`; ``"reactive"``: the
-:class:`~runtime.reactive.ReactiveController`) on a :class:`~runtime.sim.SimRobot` in one
+:class:`~runtime.experiment.reactive.ReactiveController`) on a :class:`~runtime.robots.sim.SimRobot` in one
 scene and measures it on the ground truth. :func:`run_experiment` jitters the scenario's
 boxes (position and size) once per run, runs both conditions on the same layouts with the
 same noise seed (paired), in several processes if asked, and summarises them as the
@@ -27,13 +27,14 @@ from typing import Any
 
 import numpy as np
 
+from formal.geometry import compose
 from formal.model import Pose
 from planner.configurator import Configurator
 from planner.scenarios import Scene, load_scenario, parse_scenario
-from runtime.plot import RunTrace, plot_runs
-from runtime.reactive import ReactiveController
-from runtime.sim import NoiseConfig, SimRobot
-from runtime.supervisor import Supervisor, compose
+from runtime.experiment.plots import RunTrace, plot_runs
+from runtime.experiment.reactive import ReactiveController
+from runtime.robots.sim import NoiseConfig, SimRobot
+from runtime.supervision.supervisor import Supervisor
 
 __all__ = [
     "CONDITIONS",

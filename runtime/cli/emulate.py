@@ -55,7 +55,7 @@ def register(subparsers: Any) -> None:
     maestro.set_defaults(func=_run_maestro)
 
     # both devices over one simulated world: the whole stack without hardware
-    from runtime._cli_run import add_emulate_world
+    from runtime.cli.run import add_emulate_world
 
     add_emulate_world(devices)
 
@@ -63,9 +63,9 @@ def register(subparsers: Any) -> None:
 def _scan_source(args: argparse.Namespace) -> Any:
     if args.scenario is not None:
         try:
-            from runtime.sim import scenario_scan_source
+            from runtime.robots.sim import scenario_scan_source
         except ImportError as exc:
-            raise CliError(f"scenario-driven emulation needs the simulation module (runtime.sim): {exc}") from exc
+            raise CliError(f"scenario-driven emulation needs the simulation module (runtime.robots.sim): {exc}") from exc
         try:
             return scenario_scan_source(args.scenario, seed=args.seed)
         except (OSError, KeyError, ValueError) as exc:

@@ -25,8 +25,8 @@ from formal.checking import (
 )
 from formal.export import ExportError
 from formal.lts import CognitiveMap, MapError
-from runtime._cli_export import add_source_options, map_from_args
-from runtime._cli_plan import add_planner_options
+from runtime.cli.export import add_source_options, map_from_args
+from runtime.cli.plan import add_planner_options
 from runtime.cli import CliError
 
 __all__ = ["register"]

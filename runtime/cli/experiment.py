@@ -10,7 +10,7 @@ from typing import Any
 
 from planner.scenarios import ScenarioError
 from runtime.cli import CliError
-from runtime.experiment import CONDITIONS, run_experiment
+from runtime.experiment.runner import CONDITIONS, run_experiment
 
 __all__ = ["register", "run"]
 

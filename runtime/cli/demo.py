@@ -11,9 +11,9 @@ from typing import Any
 
 from planner.scenarios import ScenarioError, load_scenario
 from runtime.cli import CliError
-from runtime.experiment import run_once
-from runtime.plot import plot_run
-from runtime.supervisor import state_machine_dot, state_machine_prism
+from runtime.experiment.runner import run_once
+from runtime.experiment.plots import plot_run
+from runtime.supervision.machine import state_machine_dot, state_machine_prism
 
 __all__ = ["register", "run", "write_map"]
 
@@ -53,7 +53,7 @@ def write_map(cmap: Any, folder: Path, stem: str = "cognitive_map") -> list[str]
 
 def run(args: argparse.Namespace) -> int:
     """Plan, execute on the simulated robot, summarise, write the pictures and models."""
-    from runtime._cli_simulate import print_summary
+    from runtime.cli.simulate import print_summary
 
     out = Path(args.out)
     try:

@@ -1,12 +1,7 @@
 """The supervisor: executes the Configurator's plans closed-loop on a robot and replans.
 
-An explicit state machine (:data:`TRANSITIONS`)::
-
-    IDLE ─start→ PLANNING ─planned→ EXECUTING ─next_task→ EXECUTING
-                 PLANNING ─at_goal→ GOAL_REACHED      EXECUTING ─at_goal→ GOAL_REACHED
-                 PLANNING ─no_plan→ UNREACHABLE       EXECUTING ─plan_short / disagree→ REPLANNING
-                 REPLANNING ─planned / at_goal / no_plan→ (as from PLANNING)
-    any non-terminal state ─fault / abort→ HALTED
+It follows the state machine of :mod:`runtime.supervision.machine` (IDLE → PLANNING →
+EXECUTING ⇄ REPLANNING → GOAL_REACHED / UNREACHABLE, any → HALTED on a fault or abort).
 
 Each control tick (:meth:`Supervisor.step`) reads the newest scan, updates the pose
 estimate (the backend's odometry when it has one, else dead reckoning from the commanded
@@ -29,18 +24,14 @@ wheel speeds) and acts on the state:
 The goal is unreachable (→ UNREACHABLE, wheels stopped) when the planner finds no safe
 task that leads closer to it, when ``patience`` plans in a row bring the robot no closer,
 or after ``max_plans`` plans.
-
-:func:`state_machine_dot` and :func:`state_machine_prism` export the machine itself.
 """
 
 from __future__ import annotations
 
-import enum
 import math
-import time
 from collections import deque
 from dataclasses import dataclass
-from typing import Any, Protocol, runtime_checkable
+from typing import Any
 
 import numpy as np
 
@@ -49,107 +40,35 @@ from planner.configurator import Configurator, PlanningError, PlanResult
 from planner.perception import validate_scan
 from planner.physics import make_task
 from planner.robot import RobotModel
-from planner.tasks import Task, wrap_angle
+from formal.geometry import compose, drive, relative, wheel_twist, wrap_angle
+from planner.tasks import Task
+from runtime.clock import Clock, clock_for
+from runtime.records.runlog import RunLogLike
 from runtime.robot import Robot, RobotFault
+from runtime.supervision.machine import (
+    MOTOR_STATES,
+    TERMINAL,
+    TRANSITIONS,
+    Event,
+    SupervisorState,
+    TransitionRecord,
+)
 
 __all__ = [
-    "SupervisorState",
-    "Event",
-    "TRANSITIONS",
-    "TERMINAL",
-    "MOTOR_STATES",
-    "Clock",
-    "WallClock",
+    "GuardViolation",
+    "PlanRecord",
     "Supervisor",
     "SupervisorReport",
-    "PlanRecord",
     "TaskRecord",
-    "TransitionRecord",
-    "GuardViolation",
-    "RunLogLike",
-    "clock_for",
-    "compose",
     "finite_goal",
-    "relative",
-    "state_machine_dot",
-    "state_machine_prism",
 ]
 
 
-class SupervisorState(str, enum.Enum):
-    """The supervisor's states."""
-
-    IDLE = "IDLE"
-    PLANNING = "PLANNING"
-    EXECUTING = "EXECUTING"
-    REPLANNING = "REPLANNING"
-    GOAL_REACHED = "GOAL_REACHED"
-    UNREACHABLE = "UNREACHABLE"
-    HALTED = "HALTED"
-
-
-class Event(str, enum.Enum):
-    """What moves the supervisor from one state to the next."""
-
-    START = "start"
-    PLANNED = "planned"
-    AT_GOAL = "at_goal"
-    NO_PLAN = "no_plan"
-    NEXT_TASK = "next_task"
-    PLAN_SHORT = "plan_short"
-    DISAGREE = "disagree"
-    FAULT = "fault"
-    ABORT = "abort"
-
-
 S, E = SupervisorState, Event
-TERMINAL: frozenset[SupervisorState] = frozenset({S.GOAL_REACHED, S.UNREACHABLE, S.HALTED})
-MOTOR_STATES: frozenset[SupervisorState] = frozenset({S.EXECUTING})
-
-TRANSITIONS: dict[tuple[SupervisorState, Event], SupervisorState] = {
-    (S.IDLE, E.START): S.PLANNING,
-    (S.PLANNING, E.PLANNED): S.EXECUTING,
-    (S.PLANNING, E.AT_GOAL): S.GOAL_REACHED,
-    (S.PLANNING, E.NO_PLAN): S.UNREACHABLE,
-    (S.REPLANNING, E.PLANNED): S.EXECUTING,
-    (S.REPLANNING, E.AT_GOAL): S.GOAL_REACHED,
-    (S.REPLANNING, E.NO_PLAN): S.UNREACHABLE,
-    (S.EXECUTING, E.NEXT_TASK): S.EXECUTING,
-    (S.EXECUTING, E.AT_GOAL): S.GOAL_REACHED,
-    (S.EXECUTING, E.PLAN_SHORT): S.REPLANNING,
-    (S.EXECUTING, E.DISAGREE): S.REPLANNING,
-    **{(s, ev): S.HALTED for s in SupervisorState if s not in TERMINAL for ev in (E.FAULT, E.ABORT)},
-}
-
-
-class RunLogLike(Protocol):
-    """Where the supervisor records what it does (e.g. :class:`runtime.runlog.RunLog`)."""
-
-    def write(self, event: str, **fields: Any) -> None:
-        """Append one record."""
-        ...
 
 
 class GuardViolation(RuntimeError):
     """A task was about to start over a transition the guard Ψ does not enable."""
-
-
-# -- frames -------------------------------------------------------------------------------
-def compose(base: Pose, local: Pose) -> Pose:
-    """The pose ``local`` (given in the frame of a robot at ``base``) in ``base``'s frame."""
-    c, s = math.cos(base.theta), math.sin(base.theta)
-    return Pose(
-        base.x + c * local.x - s * local.y,
-        base.y + s * local.x + c * local.y,
-        wrap_angle(base.theta + local.theta),
-    )
-
-
-def relative(base: Pose, other: Pose) -> Pose:
-    """The pose ``other`` seen from a robot at ``base`` (inverse of :func:`compose`)."""
-    c, s = math.cos(base.theta), math.sin(base.theta)
-    dx, dy = other.x - base.x, other.y - base.y
-    return Pose(c * dx + s * dy, -s * dx + c * dy, wrap_angle(other.theta - base.theta))
 
 
 def _points_to_frame(points: np.ndarray, source: Pose, target: Pose) -> np.ndarray:
@@ -161,45 +80,7 @@ def _points_to_frame(points: np.ndarray, source: Pose, target: Pose) -> np.ndarr
     return np.c_[rel.x + c * points[:, 0] - s * points[:, 1], rel.y + s * points[:, 0] + c * points[:, 1]]
 
 
-# -- clocks -----------------------------------------------------------------------------
-@runtime_checkable
-class Clock(Protocol):
-    """Where the supervisor's time comes from: wall time on hardware, simulated time in sim."""
-
-    def now(self) -> float:
-        """Seconds, monotonic."""
-        ...
-
-    def sleep(self, seconds: float) -> None:
-        """Let ``seconds`` pass."""
-        ...
-
-
-class WallClock:
-    """Real time (``time.monotonic`` / ``time.sleep``), for hardware backends."""
-
-    def now(self) -> float:
-        """Seconds since an arbitrary origin."""
-        return time.monotonic()
-
-    def sleep(self, seconds: float) -> None:
-        """Sleep ``seconds`` of wall time."""
-        if seconds > 0:
-            time.sleep(seconds)
-
-
 # -- records ------------------------------------------------------------------------------
-@dataclass(frozen=True)
-class TransitionRecord:
-    """One transition the supervisor took, with the reason."""
-
-    time: float
-    source: SupervisorState
-    event: Event
-    target: SupervisorState
-    reason: str
-
-
 @dataclass(frozen=True)
 class PlanRecord:
     """One plan: when, from which pose estimate (the planner frame's origin), and what."""
@@ -251,13 +132,6 @@ class SupervisorReport:
     def replans(self) -> int:
         """Plans made after the first."""
         return max(0, len(self.plans) - 1)
-
-
-def clock_for(robot: Robot, clock: Clock | None = None) -> Clock:
-    """``clock`` if given; else the robot itself when it keeps (simulated) time; else wall time."""
-    if clock is not None:
-        return clock
-    return robot if isinstance(robot, Clock) else WallClock()  # type: ignore[return-value]
 
 
 def finite_goal(goal: tuple[float, float]) -> tuple[float, float]:
@@ -508,19 +382,8 @@ class Supervisor:
         vl, vr = self._cmd
         if dt <= 0 or (vl == 0 and vr == 0):
             return
-        v = (vl + vr) / 2
-        w = (vr - vl) / self.model.wheel_base
-        p = self.pose
-        if abs(w) < 1e-12:
-            self.pose = Pose(p.x + v * dt * math.cos(p.theta), p.y + v * dt * math.sin(p.theta), p.theta)
-        else:
-            th2 = p.theta + w * dt
-            r = v / w
-            self.pose = Pose(
-                p.x + r * (math.sin(th2) - math.sin(p.theta)),
-                p.y - r * (math.cos(th2) - math.cos(p.theta)),
-                wrap_angle(th2),
-            )
+        v, w = wheel_twist(vl, vr, self.model.wheel_base)
+        self.pose = drive(self.pose, v, w, dt)
 
     # -- planning ---------------------------------------------------------------------------------
     def _plan_tick(self, now: float) -> None:
@@ -712,58 +575,3 @@ def _hits(points: np.ndarray, poses: np.ndarray, m: RobotModel) -> int:
         u, v = c * dx + s * dy, -s * dx + c * dy
         inside |= (u >= -m.rear_offset) & (u <= m.front_offset) & (np.abs(v) <= m.width / 2)
     return int(inside.sum())
-
-
-# -- export of the machine ------------------------------------------------------------------------
-def state_machine_dot() -> str:
-    """The supervisor's state machine as Graphviz DOT (integer node ids, quoted labels).
-
-    States where the wheels may turn are filled; terminal states are double circles.
-    """
-    ids = {s: i for i, s in enumerate(SupervisorState)}
-    lines = ["digraph supervisor {", "  rankdir=LR;", '  node [shape=circle, fontname="Helvetica"];', "  init [shape=point];"]
-    for s, i in ids.items():
-        attrs = [f'label="{s.value}"']
-        if s in TERMINAL:
-            attrs.append("shape=doublecircle")
-        if s in MOTOR_STATES:
-            attrs.append('style=filled, fillcolor="#c6e5c6"')
-        if s is S.HALTED:
-            attrs.append('color="#b22222"')
-        lines.append(f"  {i} [{', '.join(attrs)}];")
-    lines.append(f"  init -> {ids[S.IDLE]};")
-    grouped: dict[tuple[int, int], list[str]] = {}
-    for (src, ev), dst in TRANSITIONS.items():
-        grouped.setdefault((ids[src], ids[dst]), []).append(ev.value)
-    for (a, b), evs in sorted(grouped.items()):
-        lines.append(f'  {a} -> {b} [label="{" | ".join(evs)}"];')
-    lines.append("}")
-    return "\n".join(lines) + "\n"
-
-
-def state_machine_prism() -> str:
-    """The supervisor's state machine as a PRISM MDP (events are nondeterministic choices).
-
-    ``s`` is the state (numbered in :class:`SupervisorState` order), ``m`` is 1 while the
-    wheels may turn. Terminal states loop on ``done``. Properties to check, e.g. with
-    Storm: ``Pmax=? [F (m=1 & s!=EXECUTING)]`` = 0 (the wheels turn only in EXECUTING),
-    ``Pmax=? [F (s=HALTED & m=1)]`` = 0, ``Pmax=? [F s=GOAL_REACHED]`` = 1.
-    """
-    ids = {s: i for i, s in enumerate(SupervisorState)}
-    out = ["// clomp supervisor state machine (runtime.supervisor.state_machine_prism)", "mdp", ""]
-    for s, i in ids.items():
-        out.append(f"const int {s.value} = {i};")
-    out += ["", "module supervisor", f"  s : [0..{len(ids) - 1}] init IDLE;", "  m : [0..1] init 0;"]
-    for (src, ev), dst in TRANSITIONS.items():
-        m = 1 if dst in MOTOR_STATES else 0
-        out.append(f"  [{ev.value}] s={src.value} -> (s'={dst.value}) & (m'={m});")
-    term = "|".join(f"s={s.value}" for s in SupervisorState if s in TERMINAL)
-    out.append(f"  [done] {term} -> true;")
-    out += ["endmodule", ""]
-    out.append('label "motors" = m=1;')
-    out.append('label "executing" = s=EXECUTING;')
-    out.append('label "halted" = s=HALTED;')
-    out.append('label "goal" = s=GOAL_REACHED;')
-    out.append(f'label "terminal" = {term};')
-    return "\n".join(out) + "\n"
-

@@ -1,6 +1,6 @@
 """The ``clomp`` command line.
 
-Each subcommand lives in its own module that defines ``register(subparsers)`` (adding
+Each subcommand lives in its own module of this package (``runtime/cli/<command>.py``) that defines ``register(subparsers)`` (adding
 its parser with ``set_defaults(func=...)``) so that commands can grow independently.
 A handled error (:class:`CliError`) prints one line and exits with status 2.
 """
@@ -16,15 +16,15 @@ __all__ = ["main", "CliError"]
 
 # subcommand modules, in the order they appear in --help
 _COMMAND_MODULES: list[str] = [
-    "runtime._cli_demo",
-    "runtime._cli_plan",
-    "runtime._cli_replay",
-    "runtime._cli_simulate",
-    "runtime._cli_experiment",
-    "runtime._cli_export",
-    "runtime._cli_check",
-    "runtime._cli_emulate",
-    "runtime._cli_run",
+    "runtime.cli.demo",
+    "runtime.cli.plan",
+    "runtime.cli.replay",
+    "runtime.cli.simulate",
+    "runtime.cli.experiment",
+    "runtime.cli.export",
+    "runtime.cli.check",
+    "runtime.cli.emulate",
+    "runtime.cli.run",
 ]
 
 
@@ -62,9 +62,3 @@ def main(argv: Sequence[str] | None = None) -> int:
     except BrokenPipeError:
         return 0
 
-
-if __name__ == "__main__":  # pragma: no cover
-    # run through the canonical module so that CliError is the one the commands raise
-    from runtime.cli import main as _main
-
-    sys.exit(_main())

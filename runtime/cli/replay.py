@@ -11,9 +11,9 @@ from typing import Any
 import numpy as np
 
 from planner import PlanningError, ScanError
-from runtime._cli_plan import add_planner_options, configurator_from_args, parse_goal
+from runtime.cli.plan import add_planner_options, configurator_from_args, parse_goal
 from runtime.cli import CliError
-from runtime.runlog import LogError, scans_from_log
+from runtime.records.runlog import LogError, scans_from_log
 
 __all__ = ["register"]
 

@@ -1,0 +1,105 @@
+"""Planar geometry of a differential-drive robot: the one place for frames and motion.
+
+Poses are :class:`formal.model.Pose` (x forward, y left, theta counter-clockwise, in
+metres and radians). Everything in clomp that composes frames, wraps angles or moves a
+pose by wheel speeds uses these functions; nothing else re-implements them (a test scans
+the source for it).
+
+- :func:`wrap_angle` — an angle in (-pi, pi].
+- :func:`compose` / :func:`relative` — a pose from a robot's frame into the world's and back.
+- :func:`arc_step` / :func:`drive` — the exact motion of a unicycle at constant linear speed
+  ``v`` and turn rate ``w`` over ``dt`` (a circular arc, a straight line when ``w`` = 0).
+
+>>> from formal.model import Pose
+>>> p = compose(Pose(1.0, 0.0, math.pi / 2), Pose(2.0, 0.0))
+>>> round(p.x, 9), round(p.y, 9), round(p.theta, 9)
+(1.0, 2.0, 1.570796327)
+>>> q = relative(Pose(1.0, 0.0, math.pi / 2), p)
+>>> round(q.x, 9), round(q.y, 9), round(q.theta, 9)
+(2.0, 0.0, 0.0)
+"""
+
+from __future__ import annotations
+
+import math
+
+from formal.model import Pose
+
+__all__ = ["arc_step", "compose", "drive", "relative", "wheel_twist", "wrap_angle"]
+
+
+def wrap_angle(a: float) -> float:
+    """Wrap an angle to (-pi, pi].
+
+    >>> wrap_angle(3 * math.pi / 2) == -math.pi / 2
+    True
+    >>> wrap_angle(-math.pi) == math.pi
+    True
+    """
+    a = math.fmod(a + math.pi, 2 * math.pi)
+    if a <= 0:
+        a += 2 * math.pi
+    return a - math.pi
+
+
+def compose(base: Pose, local: Pose) -> Pose:
+    """The pose ``local`` (given in the frame of a robot at ``base``) in ``base``'s frame.
+
+    >>> compose(Pose(1.0, 2.0), Pose(0.5, 0.0))
+    Pose(x=1.5, y=2.0, theta=0.0)
+    """
+    c, s = math.cos(base.theta), math.sin(base.theta)
+    return Pose(
+        base.x + c * local.x - s * local.y,
+        base.y + s * local.x + c * local.y,
+        wrap_angle(base.theta + local.theta),
+    )
+
+
+def relative(base: Pose, other: Pose) -> Pose:
+    """The pose ``other`` seen from a robot at ``base`` (inverse of :func:`compose`).
+
+    >>> relative(Pose(1.0, 2.0), Pose(1.5, 2.0))
+    Pose(x=0.5, y=0.0, theta=0.0)
+    """
+    c, s = math.cos(base.theta), math.sin(base.theta)
+    dx, dy = other.x - base.x, other.y - base.y
+    return Pose(c * dx + s * dy, -s * dx + c * dy, wrap_angle(other.theta - base.theta))
+
+
+def wheel_twist(left: float, right: float, wheel_base: float) -> tuple[float, float]:
+    """Wheel speeds (m/s) → (linear speed v, turn rate w) of a differential drive.
+
+    >>> wheel_twist(0.1, 0.3, 0.2)
+    (0.2, 1.0)
+    """
+    return (left + right) / 2, (right - left) / wheel_base
+
+
+def arc_step(x: float, y: float, th: float, v: float, w: float, dt: float) -> tuple[float, float, float]:
+    """Exact unicycle motion over ``dt`` at linear speed ``v`` and turn rate ``w``.
+
+    The heading is returned unwrapped (``th + w * dt``); :func:`drive` wraps it.
+
+    >>> arc_step(0.0, 0.0, 0.0, 0.2, 0.0, 1.0)
+    (0.2, 0.0, 0.0)
+    >>> x, y, th = arc_step(0.0, 0.0, 0.0, math.pi / 2, math.pi / 2, 1.0)  # a quarter circle, r = 1
+    >>> round(x, 9), round(y, 9), round(th, 9)
+    (1.0, 1.0, 1.570796327)
+    """
+    if abs(w) < 1e-12:
+        return x + v * dt * math.cos(th), y + v * dt * math.sin(th), th
+    th2 = th + w * dt
+    r = v / w
+    return x + r * (math.sin(th2) - math.sin(th)), y - r * (math.cos(th2) - math.cos(th)), th2
+
+
+def drive(pose: Pose, v: float, w: float, dt: float) -> Pose:
+    """``pose`` after ``dt`` seconds at linear speed ``v`` and turn rate ``w`` (exact arc).
+
+    >>> drive(Pose(0.0, 0.0, 0.0), 0.0, math.pi, 1.0) == Pose(0.0, 0.0, math.pi)
+    True
+    """
+    x, y, th = arc_step(pose.x, pose.y, pose.theta, v, w, dt)
+    # a straight step keeps the (already wrapped) heading bit for bit
+    return Pose(x, y, th if abs(w) < 1e-12 else wrap_angle(th))

@@ -1,0 +1,112 @@
+"""Clocks: where the runtime's time comes from — the one clock module.
+
+A :class:`Clock` has ``now()`` (seconds, monotonic) and ``sleep(seconds)``. Hardware runs
+on :class:`WallClock`; an emulated world running faster than real time on
+:class:`ScaledClock`; simulated robots keep their own time (they are clocks themselves:
+``sleep`` advances the simulation), and :class:`ManualClock` is a clock that moves only
+when told, for tests and tools that step time by hand.
+
+>>> c = ManualClock()
+>>> c.sleep(0.25); c.now()
+0.25
+>>> isinstance(WallClock(), Clock)
+True
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from typing import Protocol, runtime_checkable
+
+__all__ = ["Clock", "ManualClock", "ScaledClock", "WallClock", "clock_for"]
+
+
+@runtime_checkable
+class Clock(Protocol):
+    """Where the supervisor's time comes from: wall time on hardware, simulated time in sim."""
+
+    def now(self) -> float:
+        """Seconds, monotonic."""
+        ...
+
+    def sleep(self, seconds: float) -> None:
+        """Let ``seconds`` pass."""
+        ...
+
+
+class WallClock:
+    """Real time (``time.monotonic`` / ``time.sleep``), for hardware backends.
+
+    >>> c = WallClock(); t = c.now(); c.sleep(0); c.now() >= t
+    True
+    """
+
+    def now(self) -> float:
+        """Seconds since an arbitrary origin."""
+        return time.monotonic()
+
+    def sleep(self, seconds: float) -> None:
+        """Sleep ``seconds`` of wall time."""
+        if seconds > 0:
+            time.sleep(seconds)
+
+
+class ScaledClock:
+    """A clock running ``scale`` times faster than wall time (``scale`` = 1: wall time).
+
+    >>> ScaledClock(10.0).scale
+    10.0
+    """
+
+    def __init__(self, scale: float = 1.0) -> None:
+        if not (math.isfinite(scale) and scale > 0):
+            raise ValueError(f"time scale must be a positive number, got {scale!r}")
+        self.scale = float(scale)
+        self._origin = time.monotonic()
+
+    def now(self) -> float:
+        """Scaled seconds since the clock was made."""
+        return (time.monotonic() - self._origin) * self.scale
+
+    def sleep(self, seconds: float) -> None:
+        """Let ``seconds`` of scaled time pass."""
+        if seconds > 0:
+            time.sleep(seconds / self.scale)
+
+
+class ManualClock:
+    """A clock that advances only by :meth:`sleep` (or :meth:`advance`): time under test control.
+
+    >>> c = ManualClock(start=1.0); c.advance(0.5); c.now()
+    1.5
+    """
+
+    def __init__(self, start: float = 0.0) -> None:
+        self._t = float(start)
+
+    def now(self) -> float:
+        """The current manual time."""
+        return self._t
+
+    def sleep(self, seconds: float) -> None:
+        """Advance by ``seconds`` (negative values are ignored), immediately."""
+        if seconds > 0:
+            self._t += seconds
+
+    def advance(self, seconds: float) -> None:
+        """Same as :meth:`sleep`."""
+        self.sleep(seconds)
+
+
+def clock_for(robot: object, clock: Clock | None = None) -> Clock:
+    """``clock`` if given; else the robot itself when it keeps (simulated) time; else wall time.
+
+    >>> c = ManualClock(); clock_for(object(), c) is c
+    True
+    >>> type(clock_for(object())).__name__
+    'WallClock'
+    """
+    if clock is not None:
+        return clock
+    return robot if isinstance(robot, Clock) else WallClock()

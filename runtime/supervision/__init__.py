@@ -1,0 +1,43 @@
+"""Supervision: the state machine (:mod:`.machine`) and the supervisor that runs it (:mod:`.supervisor`).
+
+May import: formal, planner, :mod:`runtime.robot`, :mod:`runtime.clock`, :mod:`runtime.records`.
+Devices, robots and the command line's lower layers do not import this room.
+
+>>> from runtime.supervision import SupervisorState
+>>> SupervisorState.HALTED.value
+'HALTED'
+"""
+
+from runtime.supervision.machine import (
+    MOTOR_STATES,
+    TERMINAL,
+    TRANSITIONS,
+    Event,
+    SupervisorState,
+    TransitionRecord,
+    state_machine_dot,
+    state_machine_prism,
+)
+from runtime.supervision.supervisor import (
+    GuardViolation,
+    PlanRecord,
+    Supervisor,
+    SupervisorReport,
+    TaskRecord,
+)
+
+__all__ = [
+    "Event",
+    "GuardViolation",
+    "MOTOR_STATES",
+    "PlanRecord",
+    "Supervisor",
+    "SupervisorReport",
+    "SupervisorState",
+    "TERMINAL",
+    "TRANSITIONS",
+    "TaskRecord",
+    "TransitionRecord",
+    "state_machine_dot",
+    "state_machine_prism",
+]
