@@ -10,7 +10,6 @@ from __future__ import annotations
 
 from typing import Protocol, runtime_checkable
 
-import numpy as np
 
 from formal.model import Pose
 from runtime.devices.frame import ScanFrame

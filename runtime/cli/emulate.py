@@ -72,7 +72,7 @@ def _scan_source(args: argparse.Namespace) -> Any:
             raise CliError(f"cannot load scenario {args.scenario!r}: {exc}") from exc
     if args.scans is None:
         raise CliError("emulate lidar needs a scan source: --scans DIR (recorded mapNNNN.dat files) or --scenario NAME")
-    from runtime.devices.emulators import recorded_scan_source
+    from runtime.devices.rplidar_emulator import recorded_scan_source
 
     try:
         return recorded_scan_source(args.scans)
@@ -99,7 +99,7 @@ def _serve(emulator: Any, what: str) -> int:
 
 
 def _run_lidar(args: argparse.Namespace) -> int:
-    from runtime.devices.emulators import LidarEmulator
+    from runtime.devices.rplidar_emulator import LidarEmulator
 
     status = {"good": 0, "warning": 1, "error": 2}[args.health]
     if not 0 <= args.error_code <= 0xFFFF:
@@ -122,7 +122,7 @@ def _run_lidar(args: argparse.Namespace) -> int:
 
 
 def _run_maestro(args: argparse.Namespace) -> int:
-    from runtime.devices.emulators import MaestroEmulator
+    from runtime.devices.maestro_emulator import MaestroEmulator
 
     if not 0 <= args.device_number <= 127:
         raise CliError("--device-number must be in 0..127")

@@ -1,9 +1,21 @@
 """Hardware devices of the runtime: the RPLIDAR A1 and the Pololu Maestro over pyserial,
-and pseudo-terminal emulators of both for tests and demos without hardware."""
+and pseudo-terminal emulators of both for tests and demos without hardware.
 
-from runtime.devices.emulators import (
+Per device: a pure-bytes codec (``rplidar_codec``, ``maestro_codec``), a driver doing the
+port I/O (``rplidar``, ``maestro``) and an emulator (``rplidar_emulator``,
+``maestro_emulator``); :class:`ScanFrame` (``frame``) is what a LiDAR delivers.
+May import: numpy, pyserial and itself only — never the robots, the supervisor or the
+planner (a test checks it), so the devices can be used on their own.
+
+>>> from runtime.devices import ScanDecoder
+>>> ScanDecoder().feed(b"") == []
+True
+"""
+
+from runtime.devices.frame import ScanFrame
+from runtime.devices.maestro_emulator import MaestroEmulator
+from runtime.devices.rplidar_emulator import (
     LidarEmulator,
-    MaestroEmulator,
     ScanSource,
     load_scan_file,
     recorded_scan_source,
@@ -31,6 +43,7 @@ from runtime.devices.rplidar import (
 )
 
 __all__ = [
+    "ScanFrame",
     "RPLidar",
     "ScanDecoder",
     "DeviceInfo",

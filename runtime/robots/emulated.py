@@ -26,7 +26,8 @@ import numpy as np
 from formal.model import Pose
 from planner.robot import RobotModel
 from planner.scenarios import Scene, load_scenario
-from runtime.devices.emulators import LidarEmulator, MaestroEmulator
+from runtime.devices.maestro_emulator import MaestroEmulator
+from runtime.devices.rplidar_emulator import LidarEmulator
 from runtime.devices.maestro import WheelConfig
 from runtime.robots.sim import NoiseConfig, SimRobot
 

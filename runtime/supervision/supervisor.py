@@ -46,7 +46,6 @@ from runtime.clock import Clock, clock_for
 from runtime.records.runlog import RunLogLike
 from runtime.robot import Robot, RobotFault
 from runtime.supervision.machine import (
-    MOTOR_STATES,
     TERMINAL,
     TRANSITIONS,
     Event,

@@ -1,0 +1,135 @@
+"""The common part of the device emulators: a pty whose master side a background thread serves.
+
+Each emulator owns the master side of a pseudo-terminal and runs in a background thread;
+its ``.port`` is the slave's path, which the real drivers open like a USB serial device.
+Subclasses implement the device (:mod:`runtime.devices.rplidar_emulator`,
+:mod:`runtime.devices.maestro_emulator`).
+"""
+
+from __future__ import annotations
+
+import abc
+import os
+import select
+import threading
+import time
+import tty
+from typing import Self
+
+
+__all__ = ["PtyEmulator"]
+
+
+class PtyEmulator(abc.ABC):
+    """A pty whose master side is served by a background thread."""
+
+    _name = "emulator"
+
+    def __init__(self) -> None:
+        self.port: str = ""
+        self.error: BaseException | None = None
+        self._master = -1
+        self._slave = -1
+        self._out = bytearray()
+        self._stop = threading.Event()
+        self._vanish = threading.Event()
+        self._thread: threading.Thread | None = None
+        self._lock = threading.RLock()
+
+    # -- lifetime
+
+    def start(self) -> Self:
+        """Open the pty and start serving; returns self."""
+        if self._thread is not None:
+            raise RuntimeError(f"{self._name} already started")
+        self._master, self._slave = os.openpty()
+        tty.setraw(self._slave)  # no echo or line editing before the driver opens it
+        os.set_blocking(self._master, False)
+        self.port = os.ttyname(self._slave)
+        self._thread = threading.Thread(target=self._run, name=self._name, daemon=True)
+        self._thread.start()
+        return self
+
+    def stop(self) -> None:
+        """Stop serving and close the pty (idempotent)."""
+        self._stop.set()
+        if self._thread is not None and self._thread is not threading.current_thread():
+            self._thread.join(timeout=2.0)
+        self._close_fds()
+
+    def vanish(self) -> None:
+        """Fault: close the pty now, as if the USB device was unplugged."""
+        self._vanish.set()
+        if self._thread is not None and self._thread is not threading.current_thread():
+            self._thread.join(timeout=2.0)
+        self._close_fds()
+
+    @property
+    def running(self) -> bool:
+        """True while the background thread serves the pty."""
+        return self._thread is not None and self._thread.is_alive()
+
+    def __enter__(self) -> Self:
+        if self._thread is None:
+            self.start()
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.stop()
+
+    def _close_fds(self) -> None:
+        with self._lock:
+            for fd in (self._master, self._slave):
+                if fd >= 0:
+                    try:
+                        os.close(fd)
+                    except OSError:
+                        pass
+            self._master = self._slave = -1
+
+    # -- the serving loop
+
+    def _run(self) -> None:
+        try:
+            while not self._stop.is_set():
+                if self._vanish.is_set():
+                    self._close_fds()
+                    return
+                now = time.monotonic()
+                timeout = max(0.0, min(0.05, self._next_wakeup(now) - now))
+                wfds = [self._master] if self._out else []
+                readable, writable, _ = select.select([self._master], wfds, [], timeout)
+                if readable:
+                    try:
+                        data = os.read(self._master, 4096)
+                    except BlockingIOError:
+                        data = b""
+                    if data:
+                        self._on_bytes(data, time.monotonic())
+                self._tick(time.monotonic())
+                self._flush()
+        except Exception as exc:  # keep the failure for the test instead of a thread traceback
+            self.error = exc
+            self._close_fds()
+
+    def _send(self, data: bytes) -> None:
+        self._out += data
+
+    def _flush(self) -> None:
+        if not self._out or self._master < 0:
+            return
+        try:
+            n = os.write(self._master, self._out)
+        except BlockingIOError:
+            return
+        del self._out[:n]
+
+    def _next_wakeup(self, now: float) -> float:
+        return now + 0.05
+
+    @abc.abstractmethod
+    def _on_bytes(self, data: bytes, now: float) -> None:
+        """Handle bytes the driver wrote (each device decodes its own protocol)."""
+
+    def _tick(self, now: float) -> None:
+        pass

@@ -1,0 +1,423 @@
+"""The SLAMTEC RPLIDAR A1 serial protocol as pure functions: bytes in, values out.
+
+No port, no clock: requests, response descriptors, scan samples, device info and health
+encode and decode here, and :class:`ScanDecoder` turns an arbitrary byte stream into
+full revolutions. The driver (:mod:`runtime.devices.rplidar`) and the emulator
+(:mod:`runtime.devices.rplidar_emulator`) are both built on it, and so are the tests.
+
+>>> encode_request(Command.GET_HEALTH).hex(" ")
+'a5 52'
+>>> decode_sample(bytes([0x3D, 0x01, 0x2D, 0xE8, 0x03]))
+(True, 15, 90.0, 250.0)
+"""
+
+from __future__ import annotations
+
+import enum
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = [
+    "Command",
+    "Descriptor",
+    "DeviceInfo",
+    "HealthStatus",
+    "Revolution",
+    "ScanDecoder",
+    "LidarError",
+    "LidarPortError",
+    "LidarProtocolError",
+    "LidarSampleError",
+    "LidarTimeout",
+    "LidarHealthError",
+    "encode_request",
+    "encode_descriptor",
+    "parse_descriptor",
+    "encode_sample",
+    "decode_sample",
+    "encode_info",
+    "decode_info",
+    "encode_health",
+    "decode_health",
+    "polar_to_robot",
+    "SCAN_DESCRIPTOR",
+    "INFO_DESCRIPTOR",
+    "HEALTH_DESCRIPTOR",
+    "SAMPLERATE_DESCRIPTOR",
+    "DEFAULT_BAUDRATE",
+    "SAMPLE_SIZE",
+    "SYNC_BYTE",
+    "SYNC_BYTE2",
+]
+
+SYNC_BYTE = 0xA5
+SYNC_BYTE2 = 0x5A
+DEFAULT_BAUDRATE = 115200
+SAMPLE_SIZE = 5
+FULL_CIRCLE_Q6 = 360 * 64
+# plausible angle step between consecutive samples (A1: 0.2-2° apart, a few may be lost)
+_MAX_STEP_Q6 = 10 * 64
+_BACK_STEP_Q6 = 2 * 64
+_RECENT_BYTES = 3 * SAMPLE_SIZE + 1
+
+
+class Command(enum.IntEnum):
+    """Request command bytes (sent after ``A5``)."""
+
+    STOP = 0x25
+    RESET = 0x40
+    SCAN = 0x20
+    FORCE_SCAN = 0x21
+    GET_INFO = 0x50
+    GET_HEALTH = 0x52
+    GET_SAMPLERATE = 0x59
+    SET_MOTOR_PWM = 0xF0
+
+
+# ---------------------------------------------------------------------------- errors
+
+
+class LidarError(Exception):
+    """Base class of every error raised by the LiDAR layer."""
+
+
+class LidarPortError(LidarError):
+    """The serial port cannot be opened, or it failed (device unplugged, pty closed)."""
+
+
+class LidarProtocolError(LidarError):
+    """The device sent bytes that do not follow the protocol (bad descriptor, sample)."""
+
+
+class LidarSampleError(LidarProtocolError):
+    """A 5-byte scan sample is malformed: S == not-S, or the check bit C is 0."""
+
+
+class LidarTimeout(LidarError):
+    """The device did not answer, or sent no full revolution, within the timeout."""
+
+
+class LidarHealthError(LidarError):
+    """GET_HEALTH reported status 2 (error): the device needs a reset or service."""
+
+    def __init__(self, status: int, error_code: int) -> None:
+        self.status = status
+        self.error_code = error_code
+        super().__init__(
+            f"RPLIDAR reports health status {status} (error) with error code "
+            f"{error_code} (0x{error_code:04X}); try reset() or power-cycle the device"
+        )
+
+
+# ----------------------------------------------------------------------------- codec
+
+
+def encode_request(cmd: int, payload: bytes = b"") -> bytes:
+    """The bytes of a request: ``A5 cmd`` or ``A5 cmd len payload checksum``.
+
+    A payload is sent only for commands with bit 7 set; the checksum is the XOR of
+    every byte before it, ``A5`` included.
+
+    >>> encode_request(Command.SET_MOTOR_PWM, (660).to_bytes(2, "little")).hex(" ")
+    'a5 f0 02 94 02 c1'
+    """
+    if not 0 <= cmd <= 0xFF:
+        raise ValueError(f"command byte out of range: {cmd}")
+    if not cmd & 0x80:
+        if payload:
+            raise ValueError(f"command 0x{cmd:02X} has bit 7 clear and takes no payload")
+        return bytes((SYNC_BYTE, cmd))
+    if len(payload) > 0xFF:
+        raise ValueError(f"payload too long ({len(payload)} bytes, at most 255)")
+    body = bytes((SYNC_BYTE, cmd, len(payload))) + bytes(payload)
+    checksum = 0
+    for b in body:
+        checksum ^= b
+    return body + bytes((checksum,))
+
+
+@dataclass(frozen=True)
+class Descriptor:
+    """A response descriptor: packet length, send mode (0 single, 1 multiple), data type."""
+
+    length: int
+    mode: int
+    data_type: int
+
+
+SCAN_DESCRIPTOR = Descriptor(5, 1, 0x81)
+INFO_DESCRIPTOR = Descriptor(20, 0, 0x04)
+HEALTH_DESCRIPTOR = Descriptor(3, 0, 0x06)
+SAMPLERATE_DESCRIPTOR = Descriptor(4, 0, 0x15)
+
+
+def encode_descriptor(descriptor: Descriptor) -> bytes:
+    """The 7 bytes ``A5 5A <u32 LE: length | mode << 30> <type>``."""
+    if not 0 <= descriptor.length < 1 << 30 or not 0 <= descriptor.mode <= 3:
+        raise ValueError(f"descriptor fields out of range: {descriptor}")
+    word = descriptor.length | (descriptor.mode << 30)
+    return bytes((SYNC_BYTE, SYNC_BYTE2)) + word.to_bytes(4, "little") + bytes(
+        (descriptor.data_type,)
+    )
+
+
+def parse_descriptor(data: bytes) -> Descriptor:
+    """Decode a 7-byte response descriptor; raises LidarProtocolError if not one.
+
+    >>> parse_descriptor(bytes.fromhex("a55a0500004081"))
+    Descriptor(length=5, mode=1, data_type=129)
+    """
+    if len(data) != 7:
+        raise LidarProtocolError(f"a descriptor is 7 bytes, got {len(data)}: {data.hex(' ')}")
+    if data[0] != SYNC_BYTE or data[1] != SYNC_BYTE2:
+        raise LidarProtocolError(f"descriptor does not start with A5 5A: {data.hex(' ')}")
+    word = int.from_bytes(data[2:6], "little")
+    return Descriptor(length=word & 0x3FFFFFFF, mode=word >> 30, data_type=data[6])
+
+
+def encode_sample(
+    start: bool, quality: int, angle_q6: int, distance_q2: int, *, check_bit: bool = True
+) -> bytes:
+    """The 5 bytes of one scan sample (``check_bit=False`` makes a malformed one)."""
+    if not 0 <= quality <= 63:
+        raise ValueError(f"quality must be in 0..63, got {quality}")
+    if not 0 <= angle_q6 <= 0x7FFF:
+        raise ValueError(f"angle_q6 must be in 0..32767, got {angle_q6}")
+    if not 0 <= distance_q2 <= 0xFFFF:
+        raise ValueError(f"distance_q2 must be in 0..65535, got {distance_q2}")
+    b0 = (quality << 2) | (0b01 if start else 0b10)
+    b1 = ((angle_q6 & 0x7F) << 1) | (1 if check_bit else 0)
+    b2 = angle_q6 >> 7
+    return bytes((b0, b1, b2)) + distance_q2.to_bytes(2, "little")
+
+
+def _well_formed(b0: int, b1: int) -> bool:
+    return ((b0 ^ (b0 >> 1)) & 1) == 1 and (b1 & 1) == 1
+
+
+def decode_sample(data: bytes) -> tuple[bool, int, float, float]:
+    """Decode one 5-byte sample into (start_flag, quality, angle_deg, distance_mm).
+
+    The angle is clockwise from the sensor's front; distance 0 means no return.
+    Raises LidarSampleError when S == not-S or the check bit is 0.
+    """
+    if len(data) != SAMPLE_SIZE:
+        raise ValueError(f"a scan sample is 5 bytes, got {len(data)}")
+    b0, b1, b2, b3, b4 = data
+    s, not_s = b0 & 1, (b0 >> 1) & 1
+    if s == not_s:
+        raise LidarSampleError(
+            f"bad start flags S={s} not-S={not_s} in sample {bytes(data).hex(' ')}"
+        )
+    if not b1 & 1:
+        raise LidarSampleError(f"check bit C=0 in sample {bytes(data).hex(' ')}")
+    angle_q6 = (b1 >> 1) | (b2 << 7)
+    distance_q2 = b3 | (b4 << 8)
+    return bool(s), b0 >> 2, angle_q6 / 64.0, distance_q2 / 4.0
+
+
+@dataclass(frozen=True)
+class DeviceInfo:
+    """GET_INFO reply: model, firmware version, hardware revision, 16-byte serial."""
+
+    model: int
+    firmware_minor: int
+    firmware_major: int
+    hardware: int
+    serial_number: bytes
+
+    @property
+    def firmware(self) -> str:
+        """Firmware version as ``major.minor`` (minor zero-padded, like SLAMTEC's tools)."""
+        return f"{self.firmware_major}.{self.firmware_minor:02d}"
+
+    @property
+    def serial_hex(self) -> str:
+        """The serial number as 32 upper-case hex digits."""
+        return self.serial_number.hex().upper()
+
+
+def encode_info(info: DeviceInfo) -> bytes:
+    """The 20 payload bytes of a GET_INFO reply."""
+    if len(info.serial_number) != 16:
+        raise ValueError("the serial number is 16 bytes")
+    return (
+        bytes((info.model, info.firmware_minor, info.firmware_major, info.hardware))
+        + info.serial_number
+    )
+
+
+def decode_info(data: bytes) -> DeviceInfo:
+    """Decode the 20 payload bytes of a GET_INFO reply."""
+    if len(data) != 20:
+        raise LidarProtocolError(f"GET_INFO payload is 20 bytes, got {len(data)}")
+    return DeviceInfo(data[0], data[1], data[2], data[3], bytes(data[4:20]))
+
+
+_HEALTH_NAMES = {0: "good", 1: "warning", 2: "error"}
+
+
+@dataclass(frozen=True)
+class HealthStatus:
+    """GET_HEALTH reply: status (0 good, 1 warning, 2 error) and a device error code."""
+
+    status: int
+    error_code: int
+
+    @property
+    def name(self) -> str:
+        """``good``, ``warning``, ``error`` or ``unknown``."""
+        return _HEALTH_NAMES.get(self.status, "unknown")
+
+
+def encode_health(health: HealthStatus) -> bytes:
+    """The 3 payload bytes of a GET_HEALTH reply (error code u16 little-endian)."""
+    return bytes((health.status,)) + health.error_code.to_bytes(2, "little")
+
+
+def decode_health(data: bytes) -> HealthStatus:
+    """Decode the 3 payload bytes of GET_HEALTH; the error code is u16 little-endian.
+
+    >>> decode_health(bytes([2, 0x34, 0x12]))
+    HealthStatus(status=2, error_code=4660)
+    """
+    if len(data) != 3:
+        raise LidarProtocolError(f"GET_HEALTH payload is 3 bytes, got {len(data)}")
+    return HealthStatus(data[0], data[1] | (data[2] << 8))
+
+
+def polar_to_robot(angle_deg: np.ndarray, distance_mm: np.ndarray) -> np.ndarray:
+    """N×2 robot-frame points (x forward, y left, metres) from the A1's polar samples.
+
+    The A1 measures angles clockwise seen from above, so y = -r·sin(angle).
+    """
+    a = np.radians(np.asarray(angle_deg, dtype=float))
+    r = np.asarray(distance_mm, dtype=float) / 1000.0
+    return np.column_stack((r * np.cos(a), -r * np.sin(a)))
+
+
+# --------------------------------------------------------------------- stream decoder
+
+
+@dataclass(frozen=True)
+class Revolution:
+    """The samples of one 360° revolution, in the order received."""
+
+    angle_deg: np.ndarray
+    distance_mm: np.ndarray
+    quality: np.ndarray
+
+    def __len__(self) -> int:
+        return len(self.angle_deg)
+
+    def to_points(self, max_range: float | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """(points N×2 in metres, quality N) without zero distances, cropped to max_range."""
+        keep = self.distance_mm > 0
+        if max_range is not None:
+            keep &= self.distance_mm <= max_range * 1000.0
+        points = polar_to_robot(self.angle_deg[keep], self.distance_mm[keep])
+        return points, self.quality[keep]
+
+
+class ScanDecoder:
+    """Incremental decoder of the SCAN sample stream: bytes in, full revolutions out.
+
+    A sample is accepted when it is well-formed (S ≠ not-S, C = 1, angle < 360°) and
+    its angle is a plausible step (-2°..+10° per sample; consecutive A1 samples are
+    0.2-2° apart) from the sample accepted just before it. After skipped bytes it must
+    in addition be confirmed by the well-formed sample right after it; the check
+    against the last accepted sample is dropped once more than 3 samples' worth of
+    bytes were skipped. Otherwise one byte is skipped (counted in ``dropped_bytes``).
+    Checking single samples is not enough: one byte off, C = 1 reads as S = 1, so a
+    decoder would lock onto misaligned data and split revolutions.
+
+    A start flag begins a new revolution only where the angle wraps past 0° (more
+    than 180° below the previous sample); others are counted in
+    ``ignored_start_flags``. Samples before the first start flag belong to a partial
+    revolution and are discarded (``discarded_samples``).
+    """
+
+    def __init__(self) -> None:
+        self._buf = bytearray()
+        self._started = False
+        self._since_accept = _RECENT_BYTES  # bytes skipped since the last accepted sample
+        self._last_q6 = 0
+        self._angle: list[float] = []
+        self._dist: list[float] = []
+        self._qual: list[int] = []
+        self.dropped_bytes = 0
+        self.samples = 0
+        self.discarded_samples = 0
+        self.ignored_start_flags = 0
+        self.revolutions = 0
+
+    @staticmethod
+    def _angle_at(buf: bytearray, i: int) -> int:
+        """angle_q6 of a well-formed sample at i, or -1 if it is malformed."""
+        b0, b1 = buf[i], buf[i + 1]
+        if not _well_formed(b0, b1):
+            return -1
+        a = (b1 >> 1) | (buf[i + 2] << 7)
+        return a if a < FULL_CIRCLE_Q6 else -1
+
+    @staticmethod
+    def _plausible_step(a: int, b: int, skipped: int = 0) -> bool:
+        # after skipping bytes, samples may have been lost: allow a larger forward step
+        forward = _MAX_STEP_Q6 * (1 + (skipped + SAMPLE_SIZE - 1) // SAMPLE_SIZE)
+        return (b - a + _BACK_STEP_Q6) % FULL_CIRCLE_Q6 < _BACK_STEP_Q6 + forward
+
+    def feed(self, data: bytes) -> list[Revolution]:
+        """Add a chunk of bytes; return the revolutions it completed (oldest first)."""
+        buf = self._buf
+        buf += data
+        done: list[Revolution] = []
+        i, n = 0, len(buf)
+        angle_at, step_ok = self._angle_at, self._plausible_step
+        while n - i >= SAMPLE_SIZE:
+            a = angle_at(buf, i)
+            since = self._since_accept
+            if a >= 0 and since < _RECENT_BYTES and not step_ok(self._last_q6, a, since):
+                a = -1
+            if a >= 0 and self._since_accept > 0:
+                if n - i < 2 * SAMPLE_SIZE:
+                    break  # wait for the next sample to confirm this one
+                b = angle_at(buf, i + SAMPLE_SIZE)
+                if b < 0 or not step_ok(a, b):
+                    a = -1
+            if a < 0:
+                i += 1
+                self.dropped_bytes += 1
+                self._since_accept += 1
+                continue
+            b0, b3, b4 = buf[i], buf[i + 3], buf[i + 4]
+            i += SAMPLE_SIZE
+            prev, self._last_q6 = self._last_q6, a
+            self._since_accept = 0
+            self.samples += 1
+            if b0 & 1:
+                if not self._started:
+                    self._started = True
+                elif prev - a > FULL_CIRCLE_Q6 // 2:  # the angle wrapped: a new revolution
+                    if self._angle:
+                        done.append(self._close_revolution())
+                else:
+                    self.ignored_start_flags += 1
+            if not self._started:
+                self.discarded_samples += 1
+                continue
+            self._angle.append(a / 64.0)
+            self._dist.append((b3 | (b4 << 8)) / 4.0)
+            self._qual.append(b0 >> 2)
+        del buf[:i]
+        return done
+
+    def _close_revolution(self) -> Revolution:
+        rev = Revolution(
+            np.array(self._angle, dtype=float),
+            np.array(self._dist, dtype=float),
+            np.array(self._qual, dtype=np.uint8),
+        )
+        self._angle, self._dist, self._qual = [], [], []
+        self.revolutions += 1
+        return rev
