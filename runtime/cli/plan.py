@@ -13,6 +13,7 @@ from formal.lts import MapError
 from planner import Configurator, PlanningError, PlanResult, RobotModel, ScanError
 from planner.scenarios import ScenarioError, load_scenario
 from runtime.cli import CliError
+from runtime.cli._progress import progress
 
 __all__ = ["register", "parse_goal", "configurator_from_args", "add_planner_options"]
 
@@ -127,25 +128,20 @@ def _plan_folder(conf: Configurator, folder: Path, goal: tuple[float, float], ar
     files = sorted(p for p in folder.iterdir() if p.is_file() and p.suffix in (".dat", ".txt", ".npy", ".xy"))
     if not files:
         raise CliError(f"{folder}: no scan files (*.dat, *.txt, *.npy) in this folder")
-    tty = sys.stderr.isatty()
     times: list[float] = []
     reached = 0
-    for k, f in enumerate(files, 1):
+    bar = progress(files, desc="plan", unit="scan")
+    for f in bar:
         r = _plan_one(conf, f, goal)
         times.append(r.planning_time_s)
         reached += r.reached_goal
         if args.json:
-            print(json.dumps({"scan": str(f), **r.to_dict()}), flush=True)
+            bar.write(json.dumps({"scan": str(f), **r.to_dict()}))
         else:
-            print(
+            bar.write(
                 f"{f.name}: {'goal' if r.reached_goal else 'partial'}  {len(r.steps)} tasks  {r.states} states  "
-                f"{r.planning_time_s * 1e3:.2f} ms  [{' '.join(s.task.value[0] for s in r.steps)}]",
-                flush=True,
+                f"{r.planning_time_s * 1e3:.2f} ms  [{' '.join(s.task.value[0] for s in r.steps)}]"
             )
-        if tty:
-            print(f"\r  {k}/{len(files)} scans planned", end="", file=sys.stderr, flush=True)
-    if tty:
-        print(file=sys.stderr)
     if not args.json:
         times.sort()
         print(f"{len(files)} scans, {reached} plans reach the goal, median {times[len(times) // 2] * 1e3:.2f} ms")

@@ -4,13 +4,13 @@ from __future__ import annotations
 
 import argparse
 import json
-import sys
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from planner import PlanningError, ScanError
+from runtime.cli._progress import progress
 from runtime.cli.plan import add_planner_options, configurator_from_args, parse_goal
 from runtime.cli import CliError
 from runtime.records.runlog import LogError, scans_from_log
@@ -53,18 +53,18 @@ def run(args: argparse.Namespace) -> int:
         raise CliError(f"{path}: no such file or folder")
     goal = parse_goal(args.goal) if args.goal else None
     total, items = _sources(path, goal)
-    tty = sys.stderr.isatty()
     times: list[float] = []
     plans = reached = failed = 0
-    for k, (label, scan, g) in enumerate(items, 1):
+    bar = progress(items, total=total, desc="replay", unit="scan")
+    for label, scan, g in bar:
         try:
             r = conf.plan(scan, g)
         except (ScanError, PlanningError) as exc:
             failed += 1
             if args.json:
-                print(json.dumps({"scan": label, "error": str(exc)}), flush=True)
+                bar.write(json.dumps({"scan": label, "error": str(exc)}))
             else:
-                print(f"{label}: error: {exc}", flush=True)
+                bar.write(f"{label}: error: {exc}")
             continue
         times.append(r.planning_time_s)
         plans += bool(r.steps) or r.reached_goal
@@ -78,17 +78,12 @@ def run(args: argparse.Namespace) -> int:
                 "planning_time_s": r.planning_time_s,
                 "plan": [s.task.value for s in r.steps],
             }
-            print(json.dumps(rec), flush=True)
+            bar.write(json.dumps(rec))
         else:
-            print(
+            bar.write(
                 f"{label}: {'goal' if r.reached_goal else 'partial' if r.steps else 'no move'}  "
-                f"{r.states:3d} states  {r.planning_time_s * 1e3:7.2f} ms  [{' '.join(s.task.value[0] for s in r.steps)}]",
-                flush=True,
+                f"{r.states:3d} states  {r.planning_time_s * 1e3:7.2f} ms  [{' '.join(s.task.value[0] for s in r.steps)}]"
             )
-        if tty:
-            print(f"\r  {k}/{total}", end="", file=sys.stderr, flush=True)
-    if tty:
-        print(file=sys.stderr)
     t = np.array(times) if times else np.array([np.nan])
     summary = {
         "scans": total,
