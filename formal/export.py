@@ -258,7 +258,7 @@ def _open(dest: Dest) -> Iterator[IO[str]]:
     if hasattr(dest, "write"):
         yield dest  # type: ignore[misc]
     else:
-        with open(dest, "w", encoding="utf-8", newline="\n") as fh:  # type: ignore[arg-type]
+        with open(dest, "w", encoding="utf-8", newline="\n") as fh:
             yield fh
 
 
@@ -381,7 +381,7 @@ def _explicit_texts(m: ExportModel) -> dict[str, str]:
     for k, row in enumerate(m.choices):
         for c, ch in enumerate(row):
             probs = _printed([p for _, p in ch.branches], exact_rationals=False)
-            for p, (j, prob) in zip(probs, ch.branches):
+            for p, (j, _prob) in zip(probs, ch.branches):
                 if m.kind == "mdp":
                     tra.append(f"{k} {c} {j} {p} {ch.action}")
                 else:

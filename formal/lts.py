@@ -291,9 +291,9 @@ class CognitiveMap:
         """Write the JSON form to a path or an open text file."""
         text = json.dumps(self.to_dict(), indent=indent, allow_nan=False)
         if hasattr(dest, "write"):
-            dest.write(text + "\n")  # type: ignore[union-attr]
+            dest.write(text + "\n")
         else:
-            with open(dest, "w", encoding="utf-8") as fh:  # type: ignore[arg-type]
+            with open(dest, "w", encoding="utf-8") as fh:
                 fh.write(text + "\n")
 
     @classmethod
@@ -303,7 +303,7 @@ class CognitiveMap:
             if hasattr(src, "read"):
                 data = json.load(src)  # type: ignore[arg-type]
             else:
-                with open(src, encoding="utf-8") as fh:  # type: ignore[arg-type]
+                with open(src, encoding="utf-8") as fh:
                     data = json.load(fh)
         except json.JSONDecodeError as exc:
             raise MapError(f"not valid JSON: {exc}") from None

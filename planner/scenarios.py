@@ -62,7 +62,8 @@ class Scene:
     def goal_in_robot_frame(self, pose: Pose | None = None) -> tuple[float, float]:
         """The goal seen from ``pose`` (default the start): x forward, y left."""
         p = self.start if pose is None else pose
-        return to_robot_frame(p, np.array([self.goal]))[0].tolist()  # type: ignore[return-value]
+        x, y = to_robot_frame(p, np.array([self.goal]))[0].tolist()
+        return x, y
 
     def scan(self, pose: Pose | None = None, rays: int = 360, max_range: float = 1.1) -> np.ndarray:
         """The points a 2-D LiDAR at ``pose`` would return (robot frame), ``rays`` per turn.
@@ -75,7 +76,8 @@ class Scene:
         ranges = self.raycast(np.array([p.x, p.y]), angles, max_range)
         ok = np.isfinite(ranges)
         local = angles[ok] - p.theta
-        return np.c_[ranges[ok] * np.cos(local), ranges[ok] * np.sin(local)]
+        pts: np.ndarray = np.c_[ranges[ok] * np.cos(local), ranges[ok] * np.sin(local)]
+        return pts
 
     def raycast(self, origin: np.ndarray, angles: np.ndarray, max_range: float) -> np.ndarray:
         """Distance to the first hit along each angle (world frame), inf when none."""
@@ -120,7 +122,8 @@ def to_robot_frame(pose: Pose, pts: np.ndarray) -> np.ndarray:
     """World points → the frame of a robot at ``pose``."""
     c, s = math.cos(pose.theta), math.sin(pose.theta)
     rel = np.asarray(pts, dtype=float) - np.array([pose.x, pose.y])
-    return np.c_[rel[:, 0] * c + rel[:, 1] * s, -rel[:, 0] * s + rel[:, 1] * c]
+    out: np.ndarray = np.c_[rel[:, 0] * c + rel[:, 1] * s, -rel[:, 0] * s + rel[:, 1] * c]
+    return out
 
 
 # -- the file format ---------------------------------------------------------------------

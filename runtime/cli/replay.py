@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import json
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -30,7 +31,9 @@ def register(sub: Any) -> None:
     p.set_defaults(func=run)
 
 
-def _sources(path: Path, goal: tuple[float, float] | None):
+def _sources(
+    path: Path, goal: tuple[float, float] | None
+) -> tuple[int, Iterator[tuple[str, Path | np.ndarray, tuple[float, float]]]]:
     if path.is_dir():
         files = sorted(f for f in path.iterdir() if f.is_file() and f.suffix in _SCAN_SUFFIXES)
         if not files:
@@ -85,19 +88,21 @@ def run(args: argparse.Namespace) -> int:
                 f"{r.states:3d} states  {r.planning_time_s * 1e3:7.2f} ms  [{' '.join(s.task.value[0] for s in r.steps)}]"
             )
     t = np.array(times) if times else np.array([np.nan])
+    median_s = float(np.median(t)) if times else None
+    p90_s = float(np.percentile(t, 90)) if times else None
     summary = {
         "scans": total,
         "plans": plans,
         "reached_goal": reached,
         "errors": failed,
-        "median_planning_time_s": float(np.median(t)) if times else None,
-        "p90_planning_time_s": float(np.percentile(t, 90)) if times else None,
+        "median_planning_time_s": median_s,
+        "p90_planning_time_s": p90_s,
     }
     if args.json:
         print(json.dumps({"summary": summary}))
     else:
-        med = f"{summary['median_planning_time_s'] * 1e3:.2f} ms" if times else "n/a"
-        p90 = f"{summary['p90_planning_time_s'] * 1e3:.2f} ms" if times else "n/a"
+        med = f"{median_s * 1e3:.2f} ms" if median_s is not None else "n/a"
+        p90 = f"{p90_s * 1e3:.2f} ms" if p90_s is not None else "n/a"
         print(
             f"summary: {total} scans, {plans} plans found ({reached} reach the goal), {failed} errors; "
             f"planning time median {med}, p90 {p90}"

@@ -131,5 +131,5 @@ class PtyEmulator(abc.ABC):
     def _on_bytes(self, data: bytes, now: float) -> None:
         """Handle bytes the driver wrote (each device decodes its own protocol)."""
 
-    def _tick(self, now: float) -> None:
-        pass
+    def _tick(self, now: float) -> None:  # noqa: B027 - optional hook, a no-op by default
+        """Called by the serving thread whenever it wakes; devices that emit on their own override it."""

@@ -75,7 +75,7 @@ class RunLog:
             self._own = False
             self.path: Path | None = None
         else:
-            self.path = Path(dest)  # type: ignore[arg-type]
+            self.path = Path(dest)
             self.path.parent.mkdir(parents=True, exist_ok=True)
             self._fh = open(self.path, "a", encoding="utf-8", buffering=1)
             self._own = True

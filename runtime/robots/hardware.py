@@ -102,7 +102,7 @@ class _CountingPort:
         self.bytes_read = 0
 
     def read(self, size: int = 1) -> bytes:
-        data = self._port.read(size)
+        data: bytes = self._port.read(size)
         self.bytes_read += len(data)
         return data
 

@@ -76,7 +76,8 @@ def _points_to_frame(points: np.ndarray, source: Pose, target: Pose) -> np.ndarr
         return points
     rel = relative(target, source)
     c, s = math.cos(rel.theta), math.sin(rel.theta)
-    return np.c_[rel.x + c * points[:, 0] - s * points[:, 1], rel.y + s * points[:, 0] + c * points[:, 1]]
+    out: np.ndarray = np.c_[rel.x + c * points[:, 0] - s * points[:, 1], rel.y + s * points[:, 0] + c * points[:, 1]]
+    return out
 
 
 # -- records ------------------------------------------------------------------------------
@@ -559,10 +560,12 @@ def _sweep(kind: TaskKind, amount: float) -> np.ndarray:
     if kind is TaskKind.STRAIGHT:
         n = max(2, int(math.ceil(amount / 0.02)) + 1)
         xs = np.linspace(0.0, max(amount, 0.0), n)
-        return np.c_[xs, np.zeros(n), np.zeros(n)]
+        line: np.ndarray = np.c_[xs, np.zeros(n), np.zeros(n)]
+        return line
     n = max(2, int(math.ceil(amount / math.radians(5))) + 1)
     th = np.linspace(0.0, max(amount, 0.0), n) * (1 if kind is TaskKind.LEFT else -1)
-    return np.c_[np.zeros(n), np.zeros(n), th]
+    spin: np.ndarray = np.c_[np.zeros(n), np.zeros(n), th]
+    return spin
 
 
 def _hits(points: np.ndarray, poses: np.ndarray, m: RobotModel) -> int:

@@ -203,7 +203,7 @@ def _raw(emu: MaestroEmulator) -> serial.Serial:
 
 def test_maestro_emulator_decodes_both_protocols() -> None:
     seen: list[tuple[float, float]] = []
-    with MaestroEmulator(on_speeds=lambda l, r: seen.append((l, r))) as emu, _raw(emu) as port:
+    with MaestroEmulator(on_speeds=lambda left, right: seen.append((left, right))) as emu, _raw(emu) as port:
         port.write(bytes.fromhex("84 00 70 31"))  # channel 0: 6384 -> 1596 µs
         port.write(bytes.fromhex("AA 0C 04 01 10 2B"))  # channel 1: 5520 -> 1380 µs
         port.write(bytes.fromhex("AA 05 04 02 70 2E"))  # another device: ignored
