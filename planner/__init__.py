@@ -19,7 +19,7 @@ from planner.configurator import (
     gamma,
     plan,
 )
-from planner.perception import Obstacles, ScanError, load_scan, perceive, validate_scan
+from planner.perception import Obstacles, ScanError, ScanWarning, load_scan, perceive, scan_files, validate_scan
 from planner.physics import Outcome, World, in_the_way, simulate, straight_limit
 from planner.robot import RobotModel
 from planner.scenarios import Scene, ScenarioError, builtin_scenarios, load_scenario
@@ -38,6 +38,7 @@ __all__ = [
     "Pose",
     "RobotModel",
     "ScanError",
+    "ScanWarning",
     "Scene",
     "ScenarioError",
     "State",
@@ -53,6 +54,7 @@ __all__ = [
     "load_scenario",
     "perceive",
     "plan",
+    "scan_files",
     "simulate",
     "straight_limit",
     "validate_scan",

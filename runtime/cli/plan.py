@@ -10,7 +10,7 @@ from pathlib import Path
 from typing import Any
 
 from formal.lts import MapError
-from planner import Configurator, PlanningError, PlanResult, RobotModel, ScanError
+from planner import Configurator, PlanningError, PlanResult, RobotModel, ScanError, scan_files
 from planner.scenarios import ScenarioError, load_scenario
 from runtime.cli import CliError
 from runtime.cli._progress import progress
@@ -125,9 +125,10 @@ def _emit(r: PlanResult, args: argparse.Namespace, title: str) -> None:
 
 
 def _plan_folder(conf: Configurator, folder: Path, goal: tuple[float, float], args: argparse.Namespace) -> int:
-    files = sorted(p for p in folder.iterdir() if p.is_file() and p.suffix in (".dat", ".txt", ".npy", ".xy"))
-    if not files:
-        raise CliError(f"{folder}: no scan files (*.dat, *.txt, *.npy) in this folder")
+    try:
+        files = scan_files(folder)
+    except ScanError as exc:
+        raise CliError(str(exc)) from None
     times: list[float] = []
     reached = 0
     bar = progress(files, desc="plan", unit="scan")

@@ -10,16 +10,13 @@ from typing import Any
 
 import numpy as np
 
-from planner import PlanningError, ScanError
+from planner import PlanningError, ScanError, scan_files
 from runtime.cli._progress import progress
 from runtime.cli.plan import add_planner_options, configurator_from_args, parse_goal
 from runtime.cli import CliError
 from runtime.records.runlog import LogError, scans_from_log
 
 __all__ = ["register"]
-
-_SCAN_SUFFIXES = (".dat", ".txt", ".npy", ".xy")
-
 
 def register(sub: Any) -> None:
     """Add ``replay`` to the command line."""
@@ -35,9 +32,10 @@ def _sources(
     path: Path, goal: tuple[float, float] | None
 ) -> tuple[int, Iterator[tuple[str, Path | np.ndarray, tuple[float, float]]]]:
     if path.is_dir():
-        files = sorted(f for f in path.iterdir() if f.is_file() and f.suffix in _SCAN_SUFFIXES)
-        if not files:
-            raise CliError(f"{path}: no scan files (*.dat, *.txt, *.npy) in this folder")
+        try:
+            files = scan_files(path)
+        except ScanError as exc:
+            raise CliError(str(exc)) from None
         return len(files), ((f.name, f, goal or (1.0, 0.0)) for f in files)
     try:
         records = list(scans_from_log(path))
