@@ -308,7 +308,7 @@ class RPLidar:
             raise LidarTimeout(
                 f"no full revolution from the LiDAR on {self.port_name} within "
                 f"{timeout:.2f} s ({d.samples} samples decoded, {d.dropped_bytes} bytes "
-                f"dropped so far)"
+                f"dropped, {d.rejected_revolutions} implausible revolutions rejected so far)"
             )
         self._feed(self._read_some(max(1, self._waiting())))
 

@@ -60,6 +60,10 @@ FULL_CIRCLE_Q6 = 360 * 64
 _MAX_STEP_Q6 = 10 * 64
 _BACK_STEP_Q6 = 2 * 64
 _RECENT_BYTES = 3 * SAMPLE_SIZE + 1
+# at most this many samples at the end of a sweep are taken for strays (see ScanDecoder)
+_MAX_STRAYS = 8
+# this many samples in a row without a new furthest angle: a misaligned lock, not a sweep
+_MAX_STALL = 6
 
 
 class Command(enum.IntEnum):
@@ -323,27 +327,66 @@ class Revolution:
 class ScanDecoder:
     """Incremental decoder of the SCAN sample stream: bytes in, full revolutions out.
 
-    A sample is accepted when it is well-formed (S ≠ not-S, C = 1, angle < 360°) and
-    its angle is a plausible step (-2°..+10° per sample; consecutive A1 samples are
-    0.2-2° apart) from the sample accepted just before it. After skipped bytes it must
-    in addition be confirmed by the well-formed sample right after it; the check
-    against the last accepted sample is dropped once more than 3 samples' worth of
-    bytes were skipped. Otherwise one byte is skipped (counted in ``dropped_bytes``).
+    **Samples.** A sample is accepted when it is well-formed (S ≠ not-S, C = 1, angle <
+    360°) and its angle is a plausible step (-2°..+10° per sample; consecutive A1
+    samples are 0.2-2° apart) from the sample accepted just before it. After skipped
+    bytes it must in addition be confirmed by the well-formed sample right after it,
+    a step forward of less than 10° (misaligned bytes of samples with equal fields
+    read as a steady run at one angle, which such a check refuses);
+    the check against the last accepted sample is dropped once more than 3 samples'
+    worth of bytes were skipped. Otherwise one byte is skipped (``dropped_bytes``).
     Checking single samples is not enough: one byte off, C = 1 reads as S = 1, so a
     decoder would lock onto misaligned data and split revolutions.
 
-    A start flag begins a new revolution only where the angle wraps past 0° (more
-    than 180° below the previous sample); others are counted in
-    ``ignored_start_flags``. Samples before the first start flag belong to a partial
-    revolution and are discarded (``discarded_samples``).
+    **Revolutions.** A revolution is one sweep of rising angles. It ends at the first
+    accepted sample more than 2° below the furthest angle of the sweep so far, with or
+    without its start flag: normally the wrap past 0° (the flagged sample may be lost
+    in garbage), otherwise a sweep broken off by garbage. Comparing with the furthest
+    angle rather than the last sample means one stray sample between two revolutions
+    cannot hide the wrap and merge them. When the new sample is not flagged and at most
+    8 samples at the end of the sweep lie above it, those are strays taken from garbage
+    (misaligned bytes can pass as a short run of samples): they are dropped and the
+    sweep goes on. A start flag within the first few degrees of a sweep restarts it
+    there (the samples before it were strays); other start flags are counted in
+    ``ignored_start_flags``. Samples before the first start flag are discarded
+    (``discarded_samples``). A sweep that stops turning (6 samples in a row without a
+    new furthest angle) is a misaligned lock: those samples are dropped and the
+    decoder resynchronises.
+
+    **Only revolutions that look like one are handed on**: at least ``min_samples``
+    samples covering at least ``min_coverage_deg`` degrees (counted in 10° sectors).
+    Others are dropped and counted in ``rejected_revolutions``, so pure noise yields
+    none. A revolution growing beyond ``max_samples`` without wrapping (a stream stuck
+    at one angle) is dropped as it grows, so pending samples stay bounded.
+
+    >>> rev = [encode_sample(k == 0, 10, k * 9 * 64, 400) for k in range(40)]  # 9° apart
+    >>> d = ScanDecoder(min_samples=40)
+    >>> [len(r) for r in d.feed(b"".join(rev * 3) + rev[0])]
+    [40, 40, 40]
+    >>> [len(r) for r in d.feed(b"".join(rev[:20]) + b"".join(rev))], d.rejected_revolutions
+    ([], 1)
     """
 
-    def __init__(self) -> None:
+    def __init__(
+        self,
+        *,
+        min_samples: int = 50,
+        min_coverage_deg: float = 320.0,
+        max_samples: int = 2000,
+    ) -> None:
+        if not 1 <= min_samples <= max_samples:
+            raise ValueError(f"need 1 <= min_samples <= max_samples, got {min_samples}, {max_samples}")
+        self.min_samples = min_samples
+        self.min_coverage_deg = float(min_coverage_deg)
+        self.max_samples = max_samples
         self._buf = bytearray()
         self._started = False
         self._since_accept = _RECENT_BYTES  # bytes skipped since the last accepted sample
         self._last_q6 = 0
-        self._angle: list[float] = []
+        self._first_q6 = 0  # first and furthest angle of the current revolution
+        self._max_q6 = 0
+        self._stall = 0  # consecutive samples that did not turn the sweep further
+        self._angle: list[int] = []  # angle_q6 of each sample of the revolution
         self._dist: list[float] = []
         self._qual: list[int] = []
         self.dropped_bytes = 0
@@ -351,6 +394,12 @@ class ScanDecoder:
         self.discarded_samples = 0
         self.ignored_start_flags = 0
         self.revolutions = 0
+        self.rejected_revolutions = 0
+
+    @property
+    def pending_samples(self) -> int:
+        """Samples of the revolution in progress (never more than ``max_samples``)."""
+        return len(self._angle)
 
     @staticmethod
     def _angle_at(buf: bytearray, i: int) -> int:
@@ -383,7 +432,9 @@ class ScanDecoder:
                 if n - i < 2 * SAMPLE_SIZE:
                     break  # wait for the next sample to confirm this one
                 b = angle_at(buf, i + SAMPLE_SIZE)
-                if b < 0 or not step_ok(a, b):
+                if b < 0 or not 0 < (b - a) % FULL_CIRCLE_Q6 < _MAX_STEP_Q6:
+                    # a confirming sample must move on: bytes one off a run of samples
+                    # with equal fields read as samples of one constant angle
                     a = -1
             if a < 0:
                 i += 1
@@ -392,32 +443,91 @@ class ScanDecoder:
                 continue
             b0, b3, b4 = buf[i], buf[i + 3], buf[i + 4]
             i += SAMPLE_SIZE
-            prev, self._last_q6 = self._last_q6, a
+            self._last_q6 = a
             self._since_accept = 0
             self.samples += 1
-            if b0 & 1:
-                if not self._started:
-                    self._started = True
-                elif prev - a > FULL_CIRCLE_Q6 // 2:  # the angle wrapped: a new revolution
-                    if self._angle:
-                        done.append(self._close_revolution())
+            flagged = bool(b0 & 1)
+            if not self._started:
+                if not flagged:
+                    self.discarded_samples += 1
+                    continue
+                self._started = True
+                self._begin(a)
+            elif a < self._max_q6 - _BACK_STEP_Q6 and (flagged or not self._drop_strays_above(a)):
+                # the sweep wrapped past 0° (or broke off): a new revolution
+                rev = self._close_revolution()
+                if rev is not None:
+                    done.append(rev)
+                self._begin(a)
+            elif flagged:
+                if self._max_q6 - self._first_q6 <= _MAX_STEP_Q6 and a < self._max_q6:
+                    # a revolution begins with its flagged sample: what came before were strays
+                    self.discarded_samples += len(self._angle)
+                    stall = self._stall
+                    self._begin(a)
+                    self._stall = stall + 1  # a flagged run at one angle is still a stall
                 else:
                     self.ignored_start_flags += 1
-            if not self._started:
-                self.discarded_samples += 1
-                continue
-            self._angle.append(a / 64.0)
+            if self._angle:
+                self._stall = self._stall + 1 if a <= self._max_q6 else 0
+            self._max_q6 = max(self._max_q6, a)
+            self._angle.append(a)
             self._dist.append((b3 | (b4 << 8)) / 4.0)
             self._qual.append(b0 >> 2)
+            if self._stall >= _MAX_STALL:
+                # a sweep that stopped turning is misaligned bytes read as samples: drop
+                # the run and look for the true alignment from the byte after its last start
+                keep = len(self._angle) - self._stall
+                self.discarded_samples += self._stall
+                del self._angle[keep:], self._dist[keep:], self._qual[keep:]
+                self._max_q6 = max(self._angle, default=a)
+                self._stall = 0
+                self._since_accept = _RECENT_BYTES
+                i -= SAMPLE_SIZE - 1
+                continue
+            if len(self._angle) > self.max_samples:
+                # no wrap in far more samples than a revolution has: not a revolution
+                self.rejected_revolutions += 1
+                self.discarded_samples += len(self._angle)
+                self._started = False
+                self._begin(a)
         del buf[:i]
         return done
 
-    def _close_revolution(self) -> Revolution:
+    def _begin(self, a: int) -> None:
+        self._angle, self._dist, self._qual = [], [], []
+        self._stall = 0
+        self._first_q6 = self._max_q6 = a
+
+    def _drop_strays_above(self, a: int) -> bool:
+        """Drop the last few samples when they alone lie above ``a`` (strays from garbage
+        that a real sample has just contradicted); False when more would have to go."""
+        k = len(self._angle)
+        while k and self._angle[k - 1] > a and len(self._angle) - k < _MAX_STRAYS:
+            k -= 1
+        if k == 0 or max(self._angle[:k]) > a + _BACK_STEP_Q6:
+            return False
+        self.discarded_samples += len(self._angle) - k
+        del self._angle[k:], self._dist[k:], self._qual[k:]
+        self._max_q6 = max(self._angle)
+        return True
+
+    def _looks_like_a_revolution(self) -> bool:
+        if len(self._angle) < self.min_samples:
+            return False
+        sectors = np.unique(np.asarray(self._angle) // (10 * 64))
+        return 10.0 * len(sectors) >= self.min_coverage_deg
+
+    def _close_revolution(self) -> Revolution | None:
+        if not self._looks_like_a_revolution():
+            self.rejected_revolutions += 1
+            self.discarded_samples += len(self._angle)
+            return None
         rev = Revolution(
-            np.array(self._angle, dtype=float),
+            np.array(self._angle, dtype=float) / 64.0,
             np.array(self._dist, dtype=float),
             np.array(self._qual, dtype=np.uint8),
         )
-        self._angle, self._dist, self._qual = [], [], []
         self.revolutions += 1
         return rev
+
