@@ -14,6 +14,7 @@ import select
 import threading
 import time
 import tty
+from collections.abc import Callable
 from typing import Self
 
 
@@ -25,7 +26,11 @@ class PtyEmulator(abc.ABC):
 
     _name = "emulator"
 
-    def __init__(self) -> None:
+    def __init__(self, clock: Callable[[], float] | None = None) -> None:
+        #: the device's own time (seconds); a test may pass a manual clock's ``now``
+        self.clock: Callable[[], float] = clock or time.monotonic
+        #: passes of the serving loop so far (a test can wait for the device to have looked)
+        self.passes = 0
         self.port: str = ""
         self.error: BaseException | None = None
         self._master = -1
@@ -35,6 +40,7 @@ class PtyEmulator(abc.ABC):
         self._vanish = threading.Event()
         self._thread: threading.Thread | None = None
         self._lock = threading.RLock()
+        self._served = threading.Condition()  # notified after every pass of the serving loop
 
     # -- lifetime
 
@@ -63,6 +69,23 @@ class PtyEmulator(abc.ABC):
         if self._thread is not None and self._thread is not threading.current_thread():
             self._thread.join(timeout=2.0)
         self._close_fds()
+
+    def wait_for(self, predicate: Callable[[Self], bool], timeout: float) -> bool:
+        """Wait until ``predicate(self)`` holds, re-checked after each pass of the serving loop.
+
+        For tests and tools that must see what the device received or did
+        (``emu.wait_for(lambda e: Command.STOP in e.requests, 5.0)``) rather than assume
+        the serving thread has already run. False after ``timeout`` seconds or once the
+        emulator stopped with the predicate still false.
+        """
+        deadline = time.monotonic() + timeout
+        with self._served:
+            while not predicate(self):
+                left = deadline - time.monotonic()
+                if left <= 0 or not self.running:
+                    return predicate(self)
+                self._served.wait(min(left, 0.1))
+        return True
 
     @property
     def running(self) -> bool:
@@ -95,7 +118,7 @@ class PtyEmulator(abc.ABC):
                 if self._vanish.is_set():
                     self._close_fds()
                     return
-                now = time.monotonic()
+                now = self.clock()
                 timeout = max(0.0, min(0.05, self._next_wakeup(now) - now))
                 wfds = [self._master] if self._out else []
                 readable, writable, _ = select.select([self._master], wfds, [], timeout)
@@ -105,12 +128,18 @@ class PtyEmulator(abc.ABC):
                     except BlockingIOError:
                         data = b""
                     if data:
-                        self._on_bytes(data, time.monotonic())
-                self._tick(time.monotonic())
+                        self._on_bytes(data, self.clock())
+                self._tick(self.clock())
                 self._flush()
+                with self._served:
+                    self.passes += 1
+                    self._served.notify_all()
         except Exception as exc:  # keep the failure for the test instead of a thread traceback
             self.error = exc
             self._close_fds()
+        finally:
+            with self._served:
+                self._served.notify_all()
 
     def _send(self, data: bytes) -> None:
         self._out += data

@@ -13,7 +13,6 @@ True
 from __future__ import annotations
 
 import threading
-import time
 from collections.abc import Callable
 
 
@@ -27,7 +26,8 @@ class MaestroEmulator(PtyEmulator):
     """A Pololu Maestro: compact and Pololu protocol Set Target, Set Multiple Targets,
     Set Speed/Acceleration, Get Position, Get Moving State, Get Errors and Go Home.
 
-    ``events`` records ``(time.monotonic(), channel, target)`` for every target change
+    ``events`` records ``(time, channel, target)`` for every target change, in the
+    emulator's ``clock`` (``time.monotonic`` unless a test passes its own),
     so a test can tell when the wheels were told to stop; ``on_speeds(left, right)`` is
     called with the decoded wheel speeds (the inverse of the driver's mapping, with
     the same defaults). ``serial_timeout`` emulates the Maestro's own fail-safe: no
@@ -57,8 +57,9 @@ class MaestroEmulator(PtyEmulator):
         span_us: float = 100.0,
         on_speeds: Callable[[float, float], None] | None = None,
         serial_timeout: float | None = None,
+        clock: Callable[[], float] | None = None,
     ) -> None:
-        super().__init__()
+        super().__init__(clock)
         self.device_number = device_number
         self.channels = channels
         self.home = dict(home or {})
@@ -78,7 +79,7 @@ class MaestroEmulator(PtyEmulator):
         self._addressed = True
         self._pololu = 0  # 0: none, 1: got AA, 2: got the device number
         self._pololu_device = 0
-        self._last_byte = time.monotonic()
+        self._last_byte = self.clock()
         self._timed_out = False
 
     # -- what tests look at
@@ -95,17 +96,6 @@ class MaestroEmulator(PtyEmulator):
             _m.target_to_speed(self.targets[self.left.channel], self.left, **kw),
             _m.target_to_speed(self.targets[self.right.channel], self.right, **kw),
         )
-
-    def wait_for(self, predicate: Callable[[MaestroEmulator], bool], timeout: float) -> bool:
-        """Wait until ``predicate(self)`` holds (re-checked on every target change)."""
-        deadline = time.monotonic() + timeout
-        with self._cond:
-            while not predicate(self):
-                remaining = deadline - time.monotonic()
-                if remaining <= 0:
-                    return False
-                self._cond.wait(remaining)
-            return True
 
     def inject_errors(self, code: int) -> None:
         """Set error bits, as if the device had detected them."""

@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 import serial
 
+from runtime.clock import ManualClock
 from runtime.devices.emulators import (
     LidarEmulator,
     MaestroEmulator,
@@ -86,7 +87,8 @@ def test_lidar_info_health_and_scan_round_trip() -> None:
         np.testing.assert_allclose(got, want, atol=0.001)
         assert scan.quality is not None and (scan.quality == 15).all()
         lidar.stop()
-        assert Command.STOP in emu.requests
+        # the emulator's thread reads the request when it gets the CPU: wait for it
+        assert emu.wait_for(lambda e: Command.STOP in e.requests, 10.0)
 
 
 def test_lidar_health_error_code_end_to_end() -> None:
@@ -231,12 +233,19 @@ def test_maestro_emulator_flags_protocol_errors_and_goes_home() -> None:
 
 
 def test_maestro_emulator_serial_timeout_sends_channels_home() -> None:
-    with MaestroEmulator(serial_timeout=0.1) as emu, _raw(emu) as port:
+    # the device's own clock is under the test's control: no scheduling luck involved
+    clock = ManualClock(100.0)
+    with MaestroEmulator(serial_timeout=0.1, clock=clock.now) as emu, _raw(emu) as port:
         port.write(encode_set_target(0, 6400))
-        assert emu.wait_for(lambda e: e.targets[0] == 6400, 1.0)
+        assert emu.wait_for(lambda e: e.targets[0] == 6400, 10.0)
         commanded = emu.events[-1][0]
-        assert emu.wait_for(lambda e: e.targets[0] == 0, 1.0)
-        assert 0.1 <= emu.events[-1][0] - commanded < 0.2
+        clock.advance(0.099)
+        seen = emu.passes
+        assert emu.wait_for(lambda e: e.passes >= seen + 2, 10.0)  # it looked at the new time
+        assert emu.targets[0] == 6400  # not yet
+        clock.advance(0.001)
+        assert emu.wait_for(lambda e: e.targets[0] == 0, 10.0)
+        assert emu.events[-1][0] - commanded == pytest.approx(0.1)
         port.write(bytes.fromhex("A1"))
         assert int.from_bytes(port.read(2), "little") == 1 << 5
 
