@@ -9,10 +9,8 @@ scans. Whatever comes in, :func:`load_scan` returns a finite N×2 array or raise
 from __future__ import annotations
 
 import contextlib
-import io
 import os
 import shutil
-import stat
 import struct
 import tempfile
 import threading
