@@ -1,65 +1,151 @@
-"""``clomp experiment``: the paper's comparison, planning vs a reactive loop, on randomised layouts."""
+"""``clomp experiment``: the paper's comparison, planning vs the reactive loop, on layout families.
+
+Each run is a pure function of (family, seed, run index, condition, noise), so results
+do not depend on the number of workers. Runs stream to OUT/runs.jsonl as they finish;
+Ctrl-C keeps them and ``--resume`` runs only the rest. At the end OUT holds runs.csv
+(schema in runs_schema.md), summary.json and the plots.
+"""
 
 from __future__ import annotations
 
 import argparse
 import json
+import math
+import os
 import sys
 from pathlib import Path
 from typing import Any
 
 from planner.scenarios import ScenarioError
 from runtime.cli import CliError
-from runtime.experiment.runner import CONDITIONS, run_experiment
+from runtime.experiment.layouts import FAMILIES
 
-__all__ = ["register", "run"]
+__all__ = ["parse_scales", "register", "run"]
 
 
 def register(sub: Any) -> None:
     """Add ``experiment`` to the command line."""
     p = sub.add_parser(
         "experiment",
-        help="planning vs reactive on randomised layouts of a scenario (the paper's table)",
+        help="planning vs reactive on a layout family (the paper's table), locally or on Dask",
         description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    p.add_argument("scenario", nargs="?", default="overtaking", help="built-in scenario name or JSON file (default overtaking)")
-    p.add_argument("--runs", type=int, default=10, help="randomised layouts, each run in both conditions (default 10)")
+    p.add_argument("family", nargs="?", default="overtaking",
+                   help=f"layout family ({', '.join(FAMILIES)}) or a scenario name/JSON file for one fixed layout "
+                        "(default overtaking)")
+    p.add_argument("--runs", type=int, default=10, help="layouts, each run in both conditions (default 10)")
     p.add_argument("--seed", type=int, default=0, help="seed of the layouts and the noise (default 0)")
-    p.add_argument("--jobs", type=int, default=None, help="worker processes (default: one per CPU)")
+    p.add_argument("--noise", choices=("ideal", "paper", "harsh"), default="paper",
+                   help="noise preset of the execution world (default paper)")
+    p.add_argument("--noise-scale", type=float, default=1.0, help="factor on every noise term (default 1)")
+    p.add_argument("--noise-sweep", metavar="X,Y,...", default=None,
+                   help="run every noise scale in the list (e.g. 0,0.5,1,2,4) and plot success against it")
+    p.add_argument("--workers", type=int, default=None,
+                   help="Dask worker processes of a local cluster (default: one per CPU; 0: run in this process)")
+    p.add_argument("--scheduler", default=None, metavar="ADDRESS",
+                   help="use an existing Dask scheduler (e.g. tcp://host:8786) instead of a local cluster")
     p.add_argument("--max-time", type=float, default=120.0, help="simulated seconds a run may take (default 120)")
-    p.add_argument("--condition", choices=CONDITIONS, action="append", help="run only this condition (repeatable)")
-    p.add_argument("--out", default="clomp-experiment-out", help="folder for the CSV and PNGs (default ./clomp-experiment-out)")
-    p.add_argument("--json", action="store_true", help="print one JSON object instead of the table")
+    p.add_argument("--condition", choices=("planning", "reactive"), action="append",
+                   help="run only this condition (repeatable)")
+    p.add_argument("--out", default="clomp-experiment-out", help="output folder (default ./clomp-experiment-out)")
+    p.add_argument("--resume", action="store_true", help="keep the finished runs in OUT/runs.jsonl, run the rest")
+    p.add_argument("--no-plots", action="store_true", help="skip the PNGs")
+    p.add_argument("--gallery", action="store_true", help="only draw OUT/gallery.png: sample layouts of every family")
+    p.add_argument("--json", action="store_true", help="print the summary as one JSON object instead of the table")
+    p.add_argument("--markdown", action="store_true", help="print the summary as a row of the README's table")
     p.set_defaults(func=run)
+
+
+def parse_scales(text: str) -> list[float]:
+    """``"0,0.5,1"`` → [0.0, 0.5, 1.0]; CliError naming the bad item."""
+    out = []
+    for item in text.split(","):
+        item = item.strip()
+        try:
+            v = float(item)
+        except ValueError:
+            raise CliError(f"--noise-sweep: {item!r} is not a number") from None
+        if not (math.isfinite(v) and v >= 0):
+            raise CliError(f"--noise-sweep: {item!r} must be a finite number >= 0")
+        out.append(v)
+    if not out:
+        raise CliError("--noise-sweep: give at least one scale")
+    return sorted(set(out))
+
+
+def _write_outputs(records: list[dict[str, Any]], out: Path, plots: bool) -> dict[str, Any]:
+    from runtime.experiment.results import summarise, write_csv, write_schema
+
+    files: dict[str, Any] = {"jsonl": str(out / "runs.jsonl"), "csv": str(write_csv(records, out / "runs.csv")),
+                             "schema": str(write_schema(out / "runs_schema.md"))}
+    summary = summarise(records)
+    if plots and records:
+        from runtime.experiment.report import write_plots
+
+        files["png"] = [str(p) for p in write_plots(records, out)]
+    summary["files"] = files
+    (out / "summary.json").write_text(json.dumps(summary, indent=1, allow_nan=False) + "\n", encoding="utf-8")
+    return summary
 
 
 def run(args: argparse.Namespace) -> int:
     """Execute ``clomp experiment``."""
+    from runtime.experiment.runner import (
+        CONDITIONS,
+        PAPER,
+        ExperimentInterrupted,
+        run_experiment,
+    )
+
     if args.runs < 1:
         raise CliError("--runs: must be at least 1")
-    if args.jobs is not None and args.jobs < 1:
-        raise CliError("--jobs: must be at least 1")
+    if args.workers is not None and args.workers < 0:
+        raise CliError("--workers: must be 0 (this process) or more")
     if not args.max_time > 0:
         raise CliError("--max-time: must be positive")
+    if not (math.isfinite(args.noise_scale) and args.noise_scale >= 0):
+        raise CliError("--noise-scale: must be a finite number >= 0")
     out = Path(args.out)
     try:
         out.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
         raise CliError(f"--out: cannot create {out}: {exc}") from None
+    if args.gallery:
+        from runtime.experiment.plots import plot_gallery
+
+        path = out / "gallery.png"
+        plot_gallery(path, seed=args.seed)
+        print(f"wrote {path}")
+        return 0
+    scales = parse_scales(args.noise_sweep) if args.noise_sweep else [args.noise_scale]
     conditions = tuple(dict.fromkeys(args.condition)) if args.condition else CONDITIONS
+    workers = (os.cpu_count() or 1) if args.workers is None else args.workers
     try:
-        res = run_experiment(args.scenario, args.runs, args.seed, jobs=args.jobs, max_time=args.max_time,
-                             conditions=conditions)
+        records = run_experiment(args.family, args.runs, args.seed, noise=args.noise, noise_scales=scales,
+                                 conditions=conditions, max_time=args.max_time, workers=workers,
+                                 scheduler=args.scheduler, out=out, resume=args.resume)
     except ScenarioError as exc:
+        raise CliError(f"{exc} (or a layout family: {', '.join(FAMILIES)})") from None
+    except ExperimentInterrupted as exc:
+        _write_outputs(exc.records, out, plots=False)
+        print(f"clomp: interrupted: {len(exc.records)} of {exc.total} runs finished and kept in {out / 'runs.jsonl'}; "
+              f"run the same command with --resume to finish", file=sys.stderr)
+        return 130
+    except (RuntimeError, OSError) as exc:
         raise CliError(str(exc)) from None
-    csv_path = out / f"{res.scenario}_runs.csv"
-    res.write_csv(csv_path)
-    pngs = res.write_plots(out)
-    summary = res.summary()
-    summary["files"] = {"csv": str(csv_path), "png": [str(p) for p in pngs]}
+    summary = _write_outputs(records, out, plots=not args.no_plots)
     if args.json:
         print(json.dumps(summary, allow_nan=False))
+    elif args.markdown:
+        from runtime.experiment.results import markdown_rows
+
+        print(markdown_rows(summary))
     else:
-        print(res.table())
-        print(f"wrote {csv_path} and {', '.join(str(p) for p in pngs)}  ({res.wall_s:.1f} s)", file=sys.stdout)
+        from runtime.experiment.results import table
+
+        paper = PAPER if args.family == "overtaking" else None
+        print(table(summary, paper))
+        print(f"wrote {out}{os.sep}: runs.jsonl, runs.csv, runs_schema.md, summary.json"
+              + (", " + ", ".join(Path(p).name for p in summary["files"].get("png", [])) if summary["files"].get("png") else ""))
     return 0

@@ -1,14 +1,37 @@
-"""The paper's baseline: a single reactive closed loop with one-loop-ahead disturbance detection.
+"""The paper's baseline: one closed-loop controller with one-loop-ahead disturbance detection.
 
-One controller runs for the whole trip, on the same :class:`~runtime.robot.Robot`
-interface as the supervisor. Every control tick it reads the newest scan, updates the
-pose estimate (odometry, else dead reckoning from the commanded wheel speeds) and
-predicts where the body will be one loop ahead (``ahead_ticks`` control ticks of the
-motion it is about to command). If scan points fall inside the body there — a
-disturbance one loop ahead — it spins in place away from them (to the side with fewer
-points) instead; otherwise it drives toward the goal, steering in proportion to the
-goal's bearing (spinning towards it first when it lies far off the heading). It has no
-map and no memory: it cannot plan around an obstacle, only bounce off its edge.
+The paper contrasts planning with "a reactive control strategy which uses a single
+closed-loop controller", drawn in its figure 3B as "one-loop-ahead disturbance
+detection". This is that controller, on the same :class:`~runtime.robot.Robot`
+interface as the supervisor, with no plan and no map. Every control tick it
+
+1. updates its pose estimate (odometry when the robot has it, else dead reckoning from
+   the commanded wheel speeds, as the paper's robot did) and moves the newest scan into
+   the body frame;
+2. looks *one loop ahead*: the loop is one straight task of the planner, so the
+   look-ahead is the corridor the body sweeps over one straight step —
+   ``front_offset < x <= front_offset + look_ahead``, ``|y| <= width / 2 + clearance``
+   with ``look_ahead`` = the model's ``step_length`` (0.27 m, one body length, the
+   authors' step; DESIGN.md). ``hazard_points`` (2) or more scan points there are a
+   disturbance (a single point may be noise);
+3. if there is one, spins in place at the turn tasks' rate (0.58 rad/s) *away from the
+   nearest such point* (it is left of the heading → turn right, and the reverse) and
+   keeps that direction until the corridor is clear;
+4. otherwise drives towards the goal at the straight task's speed (0.1 m/s), steering
+   in proportion to the goal's bearing (``gain`` 1.5 /s, saturated at the turn rate; the
+   straight task's error signal is that bearing) and spinning towards the goal first
+   when it lies more than 60° off the heading.
+
+It stops when it believes it is within ``goal_radius`` of the goal (the model's goal
+tolerance, 0.05 m: the same the planner's tasks end at). It cannot plan round an
+obstacle, only bounce off its edge: with nothing remembered, turning back towards the
+goal brings the obstacle back into view.
+
+>>> from planner import load_scenario
+>>> from runtime.robots.sim import SimRobot
+>>> scene = load_scenario("open")
+>>> ReactiveController(SimRobot(scene, seed=0), scene.goal_in_robot_frame()).run(60).state
+'GOAL_REACHED'
 """
 
 from __future__ import annotations
@@ -18,12 +41,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from formal.geometry import compose, relative, wrap_angle
+from formal.geometry import compose, drive, relative, wheel_twist
 from formal.model import Pose
 from planner.perception import validate_scan
 from planner.robot import RobotModel
-from runtime.robot import Robot, RobotFault
 from runtime.clock import Clock, clock_for
+from runtime.robot import Robot, RobotFault
 from runtime.supervision.supervisor import finite_goal
 
 __all__ = ["ReactiveController", "ReactiveReport"]
@@ -60,8 +83,8 @@ class ReactiveController:
         model: RobotModel | None = None,
         *,
         clock: Clock | None = None,
-        goal_radius: float = 0.08,
-        ahead_ticks: int = 1,
+        goal_radius: float | None = None,
+        look_ahead: float | None = None,
         gain: float = 1.5,
         hazard_points: int = 2,
         scan_timeout: float = 1.0,
@@ -69,16 +92,22 @@ class ReactiveController:
         self.robot = robot
         self.model = model or RobotModel()
         self.clock: Clock = clock_for(robot, clock)
-        self.goal_radius = goal_radius
-        self.ahead_ticks = ahead_ticks
-        self.gain = gain
-        self.hazard_points = hazard_points
+        self.goal_radius = self.model.goal_tolerance if goal_radius is None else float(goal_radius)
+        self.look_ahead = float(look_ahead if look_ahead is not None else (self.model.step_length or self.model.length))
+        for name, v in (("goal_radius", self.goal_radius), ("look_ahead", self.look_ahead), ("gain", gain)):
+            if not (math.isfinite(v) and v > 0):
+                raise ValueError(f"{name} must be a positive finite number, got {v!r}")
+        if hazard_points < 1:
+            raise ValueError(f"hazard_points must be at least 1, got {hazard_points!r}")
+        self.gain = float(gain)
+        self.hazard_points = int(hazard_points)
         self.scan_timeout = scan_timeout
         self._goal_robot = finite_goal(goal)
         self.pose = Pose(0.0, 0.0, 0.0)
         self.goal = Pose(*self._goal_robot)
         self.trajectory: list[tuple[float, float, float, float]] = []
         self.avoid_ticks = 0
+        self._avoid_dir = 0.0  # +1 turning left, -1 right, 0 not avoiding
         self._cmd = (0.0, 0.0)
         self._scan = np.zeros((0, 2))
         self._scan_pose = self.pose
@@ -128,41 +157,36 @@ class ReactiveController:
     # -- the loop ---------------------------------------------------------------------------
     def _control(self, g: Pose) -> tuple[float, float]:
         m = self.model
-        bearing = math.atan2(g.y, g.x)
         spin = m.turn_wheel_speed
+        nearest_y = self._disturbance_ahead()
+        if nearest_y is not None:
+            if self._avoid_dir == 0.0:  # turn away from the nearest point, and keep to it until clear
+                self._avoid_dir = -1.0 if nearest_y > 0 else 1.0
+            self.avoid_ticks += 1
+            return (-spin, spin) if self._avoid_dir > 0 else (spin, -spin)
+        self._avoid_dir = 0.0
+        bearing = math.atan2(g.y, g.x)
         if abs(bearing) > math.radians(60):
-            wheels = (-spin, spin) if bearing > 0 else (spin, -spin)
-        else:
-            v = min(m.straight_speed, math.hypot(g.x, g.y) / m.tick)
-            w = max(-m.turn_rate, min(m.turn_rate, self.gain * bearing))
-            wheels = (v - w * m.wheel_base / 2, v + w * m.wheel_base / 2)
-        blocked, side = self._disturbance_ahead(wheels)
-        if not blocked:
-            return wheels
-        self.avoid_ticks += 1
-        # spin away from the side the disturbance is on
-        return (-spin, spin) if side < 0 else (spin, -spin)
+            return (-spin, spin) if bearing > 0 else (spin, -spin)
+        v = min(m.straight_speed, math.hypot(g.x, g.y) / m.tick)
+        w = max(-m.turn_rate, min(m.turn_rate, self.gain * bearing))
+        return (v - w * m.wheel_base / 2, v + w * m.wheel_base / 2)
 
-    def _disturbance_ahead(self, wheels: tuple[float, float]) -> tuple[bool, float]:
-        """(any points inside the body one loop ahead?, mean lateral position of those points)."""
+    def _disturbance_ahead(self) -> float | None:
+        """Lateral position (m, left +) of the nearest scan point in the body's corridor one
+        straight step ahead, or None when fewer than ``hazard_points`` points are there."""
         if len(self._scan) == 0:
-            return False, 0.0
+            return None
         m = self.model
         rel = relative(self.pose, self._scan_pose)
         c, s = math.cos(rel.theta), math.sin(rel.theta)
-        pts = np.c_[rel.x + c * self._scan[:, 0] - s * self._scan[:, 1], rel.y + s * self._scan[:, 0] + c * self._scan[:, 1]]
-        vl, vr = wheels
-        v, w = (vl + vr) / 2, (vr - vl) / m.wheel_base
-        dt = self.ahead_ticks * m.tick
-        th = w * dt
-        x, y = v * dt * math.cos(th / 2), v * dt * math.sin(th / 2)
-        ct, st = math.cos(th), math.sin(th)
-        dx, dy = pts[:, 0] - x, pts[:, 1] - y
-        u, vv = ct * dx + st * dy, -st * dx + ct * dy
-        inside = (u >= -m.rear_offset) & (u <= m.front_offset) & (np.abs(vv) <= m.width / 2)
+        x = rel.x + c * self._scan[:, 0] - s * self._scan[:, 1]
+        y = rel.y + s * self._scan[:, 0] + c * self._scan[:, 1]
+        inside = (x > m.front_offset) & (x <= m.front_offset + self.look_ahead) & (np.abs(y) <= m.width / 2 + m.clearance)
         if int(inside.sum()) < self.hazard_points:
-            return False, 0.0
-        return True, float(pts[inside, 1].mean())
+            return None
+        xi, yi = x[inside], y[inside]
+        return float(yi[int(np.argmin(np.hypot(xi, yi)))])
 
     def _dead_reckon(self, dt: float) -> None:
         odo = self.robot.odometry()
@@ -172,11 +196,8 @@ class ReactiveController:
         vl, vr = self._cmd
         if dt <= 0 or (vl == 0 and vr == 0):
             return
-        m = self.model
-        v, w = (vl + vr) / 2, (vr - vl) / m.wheel_base
-        p = self.pose
-        th = p.theta + w * dt / 2
-        self.pose = Pose(p.x + v * dt * math.cos(th), p.y + v * dt * math.sin(th), wrap_angle(p.theta + w * dt))
+        v, w = wheel_twist(vl, vr, self.model.wheel_base)
+        self.pose = drive(self.pose, v, w, dt)
 
     def _stop(self) -> None:
         self._cmd = (0.0, 0.0)

@@ -1,27 +1,38 @@
-"""The paper's experiment: planning vs a single reactive loop on randomised layouts.
+"""The paper's experiment: planning vs the reactive loop, one run as a pure function, many on Dask.
 
 :func:`run_once` drives one condition (``"planning"``: the :class:`~runtime.supervision.supervisor.
-Supervisor` with a :class:`~planner.Configurator`; ``"reactive"``: the
-:class:`~runtime.experiment.reactive.ReactiveController`) on a :class:`~runtime.robots.sim.SimRobot` in one
-scene and measures it on the ground truth. :func:`run_experiment` jitters the scenario's
-boxes (position and size) once per run, runs both conditions on the same layouts with the
-same noise seed (paired), in several processes if asked, and summarises them as the
-paper's table, with a paired t-test on collisions.
+Supervisor` with a :class:`~planner.Configurator`; ``"reactive"``: the :class:`~runtime.
+experiment.reactive.ReactiveController`) on a fresh robot of the execution world
+(:func:`~runtime.experiment.world.make_robot`) and measures it on the world's ground
+truth: contact episodes (:mod:`runtime.experiment.contacts`) and the true final distance
+to the goal.
 
-A run *reaches the goal* when its controller stops at the goal and the robot truly is
-within ``SUCCESS_RADIUS`` of it (a robot that was knocked about can believe it is there
-when it is not).
+:func:`run_spec` is one run of an experiment as a pure function of its
+:class:`RunSpec` — (family, seed, run index, condition, noise preset, noise scale):
+the layout is :func:`~runtime.experiment.layouts.make_layout` (family, seed, run) and
+the world's noise seed depends on (seed, run) only, so the two conditions of a run meet
+the same world and the same noise (paired), and a result does not depend on which
+process computed it or when. :func:`run_experiment` maps it over every run, in this
+process (``workers=0``) or on Dask (a local cluster of ``workers`` processes, or an
+existing scheduler), streaming each record to ``runs.jsonl`` in the output folder as it
+finishes, skipping the ones already there with ``resume=True``.
+
+Success (``success``): for a family whose goal can be reached, the robot truly ends
+within :data:`SUCCESS_RADIUS` of it (ground truth, whatever the controller believed);
+for one whose goal cannot be reached (cul-de-sac), the controller stops by itself saying
+so (``UNREACHABLE``) with no collision.
 """
 
 from __future__ import annotations
 
-import csv
+import importlib
 import json
 import math
 import os
+import sys
 import time
-from concurrent.futures import ProcessPoolExecutor
-from dataclasses import dataclass, field
+from collections.abc import Callable, Sequence
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -30,29 +41,37 @@ import numpy as np
 from formal.geometry import compose
 from formal.model import Pose
 from planner.configurator import Configurator
-from planner.scenarios import Scene, load_scenario, parse_scenario
-from runtime.experiment.plots import RunTrace, plot_runs
+from planner.scenarios import Scene, load_scenario
+from runtime.experiment.contacts import Episode, contact_episodes
+from runtime.experiment.layouts import FAMILIES, make_layout, shape_distance
+from runtime.experiment.plots import RunTrace
 from runtime.experiment.reactive import ReactiveController
-from runtime.robots.sim import NoiseConfig, SimRobot
+from runtime.experiment.world import NOISE_PRESETS, make_robot, world_name
+from runtime.robots.sim import NoiseConfig
 from runtime.supervision.supervisor import Supervisor
 
 __all__ = [
     "CONDITIONS",
-    "SUCCESS_RADIUS",
     "PAPER",
+    "SUCCESS_RADIUS",
+    "ExperimentInterrupted",
     "RunResult",
-    "ExperimentResult",
-    "jitter_scene",
-    "run_once",
+    "RunSpec",
+    "experiment_specs",
+    "load_records",
     "run_experiment",
-    "paired_ttest",
+    "run_once",
+    "run_spec",
 ]
 
 CONDITIONS = ("planning", "reactive")
 SUCCESS_RADIUS = 0.1
+"""Ground-truth distance (m) to the goal within which a run reached it: twice the planner's
+goal tolerance (0.05 m), about half the body's width; the paper gives none."""
 # the paper's figures (overtaking, real robot, 10 runs per condition)
 PAPER: dict[str, dict[str, Any]] = {
-    "planning": {"reached_goal": 10, "runs": 10, "collisions": 2, "planning_time_s": (0.064, 0.009), "states": (32.9, 1.758)},
+    "planning": {"reached_goal": 10, "runs": 10, "collisions": 0, "brushes": 2, "planning_time_s": (0.064, 0.009),
+                 "states": (32.9, 1.758)},
     "reactive": {"reached_goal": 0, "runs": 10, "collisions": 8},
     "ttest": {"t": -1.747, "p": 0.111},
 }
@@ -60,7 +79,7 @@ PAPER: dict[str, dict[str, Any]] = {
 
 @dataclass
 class RunResult:
-    """One run of one condition, measured on the simulator's ground truth (world frame)."""
+    """One run of one condition, measured on the world's ground truth (world frame)."""
 
     condition: str
     run: int
@@ -69,8 +88,9 @@ class RunResult:
     end_state: str
     reason: str
     reached_goal: bool
+    believed_goal: bool
     final_distance: float
-    collisions: int
+    episodes: list[Episode]
     contacts: list[tuple[float, float]]
     time_s: float
     time_to_goal_s: float | None
@@ -81,56 +101,85 @@ class RunResult:
     estimate: list[tuple[float, float]]
     planned: list[list[tuple[float, float]]]
     wall_s: float
+    cpu_s: float
     final_pose: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    counters: dict[str, int | None] = field(default_factory=dict)
     report: Any = field(default=None, repr=False)
+
+    @property
+    def collisions(self) -> int:
+        """Contact episodes that are not brushes."""
+        return sum(not e.brush for e in self.episodes)
+
+    @property
+    def brushes(self) -> int:
+        """Short, shallow contact episodes."""
+        return sum(e.brush for e in self.episodes)
 
     def trace(self) -> RunTrace:
         """The run as a picture."""
         verdict = "goal" if self.reached_goal else "failed"
-        title = f"run {self.run}: {verdict}, {self.collisions} collision{'s' if self.collisions != 1 else ''}"
+        title = f"run {self.run}: {verdict}, {self.collisions} coll., {self.brushes} brush."
         st = self.scene.start
         poses = [(st.x, st.y, st.theta), self.final_pose]
-        return RunTrace(self.scene, title, self.path, self.contacts, self.planned, self.estimate, poses, self.reached_goal)
-
-    def row(self) -> dict[str, Any]:
-        """The CSV row."""
-        return {
-            "condition": self.condition,
-            "run": self.run,
-            "seed": self.seed,
-            "reached_goal": int(self.reached_goal),
-            "end_state": self.end_state,
-            "collisions": self.collisions,
-            "planning_time_s": "" if self.planning_time_s is None else f"{self.planning_time_s:.6f}",
-            "states": "" if self.states is None else self.states,
-            "plans": self.plans,
-            "time_s": f"{self.time_s:.2f}",
-            "time_to_goal_s": "" if self.time_to_goal_s is None else f"{self.time_to_goal_s:.2f}",
-            "final_distance_m": f"{self.final_distance:.4f}",
-            "wall_s": f"{self.wall_s:.3f}",
-            "obstacles": json.dumps(self.scene.raw.get("obstacles", []), separators=(",", ":")),
-            "reason": self.reason,
-        }
-
-
-def jitter_scene(scene: Scene, rng: np.random.Generator, position: float = 0.05,
-                 size: tuple[float, float] = (0.8, 1.5)) -> Scene:
-    """A copy of ``scene`` whose boxes are moved by up to ``position`` m in x and y and
-    scaled by a factor in ``size`` along each side (walls, circles, polygons stay)."""
-    raw = json.loads(json.dumps(scene.raw))
-    for o in raw.get("obstacles", []):
-        if o.get("type") != "box":
-            continue
-        cx, cy = o["center"]
-        sx, sy = o["size"]
-        o["center"] = [round(cx + rng.uniform(-position, position), 4), round(cy + rng.uniform(-position, position), 4)]
-        o["size"] = [round(sx * rng.uniform(*size), 4), round(sy * rng.uniform(*size), 4)]
-    return parse_scenario(raw, scene.name)
+        return RunTrace(self.scene, title, self.path, self.contacts, self.planned, self.estimate, poses,
+                        self.reached_goal)
 
 
 def _world(start: Pose, p: Pose) -> tuple[float, float]:
     w = compose(start, p)
     return (w.x, w.y)
+
+
+def _count(report: Any, name: str) -> int | None:
+    v = getattr(report, name, None)
+    if v is None:
+        return None
+    if isinstance(v, (int, np.integer)):
+        return int(v)
+    try:
+        return len(v)
+    except TypeError:
+        return None
+
+
+def _ground_truth_path(robot: Any, pose: Pose) -> list[tuple[float, float, float, float]]:
+    for name in ("ground_truth_trajectory", "trajectory"):
+        v = getattr(robot, name, None)
+        if callable(v):
+            v = v()
+        if v:
+            return [(float(a), float(b), float(c), float(d)) for a, b, c, d in v]
+    return [(0.0, pose.x, pose.y, pose.theta)]
+
+
+def _contact_point(scene: Scene, path: list[tuple[float, float, float, float]], t: float) -> tuple[float, float]:
+    """Where the body touched at time ``t``: the obstacle point nearest the true position then."""
+    times = [p[0] for p in path]
+    k = min(max(int(np.searchsorted(times, t)), 0), len(path) - 1)
+    x, y = path[k][1], path[k][2]
+    best, where = math.inf, (x, y)
+    for s in scene.shapes:
+        d = shape_distance(s, x, y)
+        if d < best:
+            best = d
+            if s.kind == "circle":
+                cx, cy = s.center
+                r = math.hypot(x - cx, y - cy) or 1.0
+                where = (cx + s.radius * (x - cx) / r, cy + s.radius * (y - cy) / r)
+            else:
+                v = s.vertices
+                bq, bp = math.inf, (x, y)
+                for i in range(len(v)):
+                    ax, ay = v[i]
+                    ex, ey = v[(i + 1) % len(v)][0] - ax, v[(i + 1) % len(v)][1] - ay
+                    u = max(0.0, min(1.0, ((x - ax) * ex + (y - ay) * ey) / (ex * ex + ey * ey)))
+                    q = (ax + u * ex, ay + u * ey)
+                    dq = math.hypot(x - q[0], y - q[1])
+                    if dq < bq:
+                        bq, bp = dq, q
+                where = bp
+    return (float(where[0]), float(where[1]))
 
 
 def run_once(
@@ -139,233 +188,317 @@ def run_once(
     seed: int | None = 0,
     *,
     run: int = 0,
-    noise: NoiseConfig | None = None,
+    noise: str | NoiseConfig | None = None,
+    noise_scale: float = 1.0,
     max_time: float = 120.0,
+    expect: str = "reach",
     configurator: Configurator | None = None,
     keep_report: bool = False,
 ) -> RunResult:
-    """Run one condition in ``scene`` on a fresh simulated robot; see the module docstring."""
+    """Run one condition in ``scene`` on a fresh robot; see the module docstring.
+
+    ``noise``: a preset name (``ideal``, ``paper``, ``harsh``; the execution world of
+    :func:`~runtime.experiment.world.make_robot`), a :class:`~runtime.robots.sim.NoiseConfig`
+    for the simulated robot, or None for the simulated robot with the scene's own noise.
+
+    >>> from planner import load_scenario
+    >>> r = run_once(load_scenario("open"), "reactive", 0, noise="ideal")
+    >>> r.reached_goal, r.collisions, r.brushes
+    (True, 0, 0)
+    """
     if condition not in CONDITIONS:
         raise ValueError(f"condition must be one of {', '.join(CONDITIONS)}, got {condition!r}")
     conf = configurator or Configurator()
-    sim = SimRobot(scene, conf.robot, noise=noise, seed=seed)
+    seed_ = 0 if seed is None else int(seed)
+    robot: Any
+    if isinstance(noise, str):
+        robot = make_robot(scene, noise=noise, noise_scale=noise_scale, seed=seed_, model=conf.robot)
+    else:
+        from runtime.experiment.world import _TracedSimRobot
+
+        robot = _TracedSimRobot(scene, conf.robot, noise=noise, seed=seed)
+    start = scene.start
     goal = tuple(scene.goal_in_robot_frame())
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.thread_time()
     planned: list[list[tuple[float, float]]] = []
     plan_time = states = None
     plans = 0
+    report: Any
     if condition == "planning":
-        sup = Supervisor(sim, goal, conf)  # type: ignore[arg-type]
-        report: Any = sup.run(max_time=max_time)
+        report = Supervisor(robot, goal, conf).run(max_time=max_time)  # type: ignore[arg-type]
         for rec in report.plans:
-            poly = [_world(sim.start_pose, rec.to_frame(rec.result.map[i].end)) for i in rec.result.plan.states]
-            planned.append(poly)
+            planned.append([_world(start, rec.to_frame(rec.result.map[i].end)) for i in rec.result.plan.states])
         if report.plans:
             plan_time = report.plans[0].result.planning_time_s
             states = report.plans[0].result.states
         plans = len(report.plans)
         end_state, reason = report.state.value, report.reason
     else:
-        report = ReactiveController(sim, goal, conf.robot).run(max_time=max_time)  # type: ignore[arg-type]
+        report = ReactiveController(robot, goal, conf.robot).run(max_time=max_time)  # type: ignore[arg-type]
         end_state, reason = report.state, report.reason
-    wall = time.perf_counter() - t0
-    true = sim.pose
+    wall, cpu = time.perf_counter() - t0, time.thread_time() - c0
+    true = robot.ground_truth_pose()
     dist = math.hypot(true.x - scene.goal[0], true.y - scene.goal[1])
-    reached = bool(report.reached_goal and dist <= SUCCESS_RADIUS)
-    if report.reached_goal and not reached:
+    believed = bool(report.reached_goal)
+    episodes = contact_episodes(robot.contact_trace())
+    truth = _ground_truth_path(robot, true)
+    if expect == "unreachable":
+        reached = end_state == "UNREACHABLE" and not any(not e.brush for e in episodes)
+    else:
+        reached = dist <= SUCCESS_RADIUS
+    if believed and dist > SUCCESS_RADIUS:
         reason = f"{reason}, but truly {dist:.3f} m from the goal"
-    path = [(x, y) for _, x, y, _ in sim.trajectory[::5]] + [(true.x, true.y)]
-    estimate = [_world(sim.start_pose, Pose(x, y, th)) for _, x, y, th in report.trajectory]
+    path = [(x, y) for _, x, y, _ in truth[::10]] + [(true.x, true.y)]
+    estimate = [_world(start, Pose(x, y, th)) for _, x, y, th in report.trajectory]
+    contacts = [_contact_point(scene, truth, e.start_s) for e in episodes]
+    counters = {name: _count(report, name) for name in ("checks", "recalls", "fresh_plans")}
     return RunResult(
-        condition, run, -1 if seed is None else seed, scene, end_state, reason, reached, dist, sim.collisions,
-        [(c.x, c.y) for c in sim.contacts], report.time_s, report.time_s if reached else None, plan_time, states,
-        plans, path, estimate, planned, wall, (true.x, true.y, true.theta), report if keep_report else None,
+        condition, run, seed_, scene, end_state, reason, reached, believed, dist, episodes, contacts,
+        report.time_s, report.time_s if reached and expect == "reach" else None, plan_time, states, plans, path,
+        estimate, planned, wall, cpu, (true.x, true.y, true.theta), counters, report if keep_report else None,
     )
 
 
-def paired_ttest(a: list[float], b: list[float]) -> dict[str, Any]:
-    """Paired t-test (``scipy.stats.ttest_rel``) of ``a`` against ``b``.
+# -- one run of an experiment, as a pure function ---------------------------------------------
+@dataclass(frozen=True)
+class RunSpec:
+    """Everything one run depends on. ``family`` is a layout family or a scenario (name or file)."""
 
-    When every paired difference is the same the statistic is undefined; the result then
-    has ``t`` and ``p`` None and a ``note`` saying so (no difference at all when the
-    common difference is 0).
-    """
-    from scipy.stats import ttest_rel
-
-    if len(a) != len(b):
-        raise ValueError("paired samples must have the same length")
-    d = np.asarray(a, float) - np.asarray(b, float)
-    if len(d) < 2:
-        return {"t": None, "p": None, "n": len(d), "note": "fewer than two pairs"}
-    if np.all(d == d[0]):
-        note = "no difference in any pair" if d[0] == 0 else f"every pair differs by {d[0]:g}"
-        return {"t": None, "p": None, "n": len(d), "note": f"undefined: {note} (zero variance)"}
-    res = ttest_rel(a, b)
-    return {"t": float(res.statistic), "p": float(res.pvalue), "n": len(d), "note": ""}
-
-
-def _mean_sd(values: list[float]) -> dict[str, float | None]:
-    if not values:
-        return {"mean": None, "sd": None}
-    arr = np.asarray(values, float)
-    return {"mean": float(arr.mean()), "sd": float(arr.std(ddof=1)) if len(arr) > 1 else 0.0}
-
-
-@dataclass
-class ExperimentResult:
-    """All runs of an experiment and their summary."""
-
-    scenario: str
+    family: str
     seed: int
-    runs: list[RunResult]
-    wall_s: float
+    run: int
+    condition: str
+    noise: str = "paper"
+    noise_scale: float = 1.0
+    max_time: float = 120.0
 
-    def condition(self, name: str) -> list[RunResult]:
-        """The runs of one condition, by run number."""
-        return sorted((r for r in self.runs if r.condition == name), key=lambda r: r.run)
-
-    def summary(self) -> dict[str, Any]:
-        """The JSON form: ``{"conditions": {name: {...}}, "ttest_collisions": {...}, ...}``."""
-        conds: dict[str, Any] = {}
-        for name in CONDITIONS:
-            rs = self.condition(name)
-            if not rs:
-                continue
-            sim_time = sum(r.time_s for r in rs)
-            wall = sum(r.wall_s for r in rs)
-            conds[name] = {
-                "runs": len(rs),
-                "reached_goal": sum(r.reached_goal for r in rs),
-                "collisions": sum(r.collisions for r in rs),
-                "runs_with_collision": sum(r.collisions > 0 for r in rs),
-                "planning_time_s": _mean_sd([r.planning_time_s for r in rs if r.planning_time_s is not None]),
-                "states": _mean_sd([float(r.states) for r in rs if r.states is not None]),
-                "plans": _mean_sd([float(r.plans) for r in rs]) if name == "planning" else {"mean": None, "sd": None},
-                "time_to_goal_s": _mean_sd([r.time_to_goal_s for r in rs if r.time_to_goal_s is not None]),
-                "speedup_vs_real_time": sim_time / wall if wall > 0 else None,
-            }
-        out: dict[str, Any] = {"scenario": self.scenario, "seed": self.seed, "conditions": conds}
-        p, r = self.condition("planning"), self.condition("reactive")
-        if p and r and len(p) == len(r):
-            out["ttest_collisions"] = paired_ttest([x.collisions for x in p], [x.collisions for x in r])
-        out["success_radius_m"] = SUCCESS_RADIUS
-        out["wall_s"] = self.wall_s
-        return out
-
-    def table(self) -> str:
-        """The paper's table, this experiment next to the paper's figures."""
-        s = self.summary()
-        c = s["conditions"]
-
-        def ms(d: dict[str, Any], fmt: str) -> str:
-            return "—" if d["mean"] is None else f"{d['mean']:{fmt}} ± {d['sd']:{fmt}}"
-
-        def col(name: str, key: str) -> str:
-            if name not in c:
-                return "—"
-            d = c[name]
-            if key == "reached":
-                return f"{d['reached_goal']}/{d['runs']}"
-            if key == "collisions":
-                return f"{d['collisions']} (in {d['runs_with_collision']} runs)"
-            if key == "plan_t":
-                return ms(d["planning_time_s"], ".3f")
-            if key == "states":
-                return ms(d["states"], ".1f")
-            return ms(d["time_to_goal_s"], ".1f")
-
-        pp, pr = PAPER["planning"], PAPER["reactive"]
-        paper = {
-            "reached": f"{pp['reached_goal']}/{pp['runs']} | {pr['reached_goal']}/{pr['runs']}",
-            "collisions": f"{pp['collisions']} brushes | {pr['collisions']}",
-            "plan_t": f"{pp['planning_time_s'][0]:.3f} ± {pp['planning_time_s'][1]:.3f} | —",
-            "states": f"{pp['states'][0]:.1f} ± {pp['states'][1]:.1f} | —",
-            "ttg": "— | —",
-        }
-        rows = [
-            ("runs reaching the goal", "reached"),
-            ("collisions (total)", "collisions"),
-            ("planning time (s, first plan)", "plan_t"),
-            ("states (first plan)", "states"),
-            ("time to goal (s, simulated)", "ttg"),
-        ]
-        w0, w1, w2 = 30, 20, 22
-        lines = [
-            f"{self.scenario}: {len(self.condition('planning')) or len(self.condition('reactive'))} randomised layouts, seed {self.seed}",
-            f"{'':<{w0}} {'planning':<{w1}} {'reactive':<{w2}} paper (planning | reactive)",
-        ]
-        for label, key in rows:
-            lines.append(f"{label:<{w0}} {col('planning', key):<{w1}} {col('reactive', key):<{w2}} {paper[key]}")
-        if "planning" in c:
-            lines.append(f"{'replans (plans per run − 1)':<{w0}} {ms({k: (v - 1 if k == 'mean' and v is not None else v) for k, v in c['planning']['plans'].items()}, '.1f'):<{w1}}")
-        t = s.get("ttest_collisions")
-        if t is not None:
-            mine = f"T = {t['t']:.3f}, p = {t['p']:.4f}" if t["t"] is not None else t["note"]
-            lines.append(f"paired t-test on collisions (planning − reactive, n={t['n']}): {mine}"
-                         f"   [paper: T = {PAPER['ttest']['t']}, p = {PAPER['ttest']['p']}]")
-        speed = [f"{n} {c[n]['speedup_vs_real_time']:.0f}×" for n in c if c[n]["speedup_vs_real_time"]]
-        lines.append(f"goal reached = controller stopped at the goal and truly within {SUCCESS_RADIUS} m of it; "
-                     f"simulated vs real time: {', '.join(speed)}")
-        return "\n".join(lines)
-
-    def write_csv(self, path: str | os.PathLike[str]) -> None:
-        """One row per run and condition."""
-        rows = [r.row() for name in CONDITIONS for r in self.condition(name)]
-        with open(path, "w", newline="", encoding="utf-8") as fh:
-            if not rows:
-                return
-            w = csv.DictWriter(fh, fieldnames=list(rows[0]))
-            w.writeheader()
-            w.writerows(rows)
-
-    def write_plots(self, folder: str | os.PathLike[str]) -> list[Path]:
-        """One PNG per condition (a panel per run); returns the files written."""
-        out = []
-        for name in CONDITIONS:
-            rs = self.condition(name)
-            if not rs:
-                continue
-            p = Path(folder) / f"{self.scenario}_{name}.png"
-            reached = sum(r.reached_goal for r in rs)
-            hits = sum(r.collisions for r in rs)
-            plot_runs([r.trace() for r in rs], p,
-                      f"{self.scenario} — {name}: goal reached in {reached}/{len(rs)} runs, {hits} collisions "
-                      f"(solid: executed, dashed: planned, ♥ target, ★ collision)")
-            out.append(p)
-        return out
+    @property
+    def key(self) -> str:
+        """A stable name for the run (the Dask task key and the resume key)."""
+        return f"{self.family}/{self.seed}/{self.run}/{self.condition}/{self.noise}/{self.noise_scale:g}/{self.max_time:g}"
 
 
-def _job(args: tuple[Scene, str, int, int, float]) -> RunResult:
-    scene, condition, run, seed, max_time = args
-    return run_once(scene, condition, seed, run=run, max_time=max_time)
+def noise_seed(seed: int, run: int) -> int:
+    """The world's noise seed of run ``run`` (the same for both conditions: paired)."""
+    return int(np.random.default_rng([int(seed), int(run), 1]).integers(2**31))
+
+
+def _scene_for(spec: RunSpec) -> tuple[Scene, str]:
+    if spec.family in FAMILIES:
+        lay = make_layout(spec.family, spec.seed, spec.run)
+        return lay.scene, lay.expect
+    scene = load_scenario(spec.family)
+    expect = "unreachable" if scene.raw.get("expect") == "unreachable" else "reach"
+    return scene, expect
+
+
+def _r(v: float | None, nd: int) -> float | None:
+    return None if v is None else round(float(v), nd)
+
+
+def run_spec(spec: RunSpec) -> dict[str, Any]:
+    """One run as a JSON-ready record (the CSV columns plus what the plots need)."""
+    scene, expect = _scene_for(spec)
+    r = run_once(scene, spec.condition, noise_seed(spec.seed, spec.run), run=spec.run, noise=spec.noise,
+                 noise_scale=spec.noise_scale, max_time=spec.max_time, expect=expect)
+    return {
+        "key": spec.key,
+        "family": spec.family,
+        "seed": spec.seed,
+        "run": spec.run,
+        "condition": spec.condition,
+        "noise": spec.noise,
+        "noise_scale": spec.noise_scale,
+        "world": world_name(),
+        "layout": scene.name,
+        "expect": expect,
+        "success": int(r.reached_goal),
+        "reached_goal": int(r.final_distance <= SUCCESS_RADIUS),
+        "believed_goal": int(r.believed_goal),
+        "end_state": r.end_state,
+        "final_error_m": _r(r.final_distance, 4),
+        "collisions": r.collisions,
+        "brushes": r.brushes,
+        "max_penetration_m": _r(max((e.max_penetration_m for e in r.episodes), default=0.0), 4),
+        "contact_s": _r(sum(e.duration_s for e in r.episodes), 3),
+        "time_s": _r(r.time_s, 2),
+        "time_to_goal_s": _r(r.time_to_goal_s, 2),
+        "planning_time_s": _r(r.planning_time_s, 6),
+        "states": r.states,
+        "plans": r.plans,
+        "checks": r.counters.get("checks"),
+        "recalls": r.counters.get("recalls"),
+        "fresh_plans": r.counters.get("fresh_plans"),
+        "wall_s": _r(r.wall_s, 3),
+        "cpu_s": _r(r.cpu_s, 3),
+        "reason": r.reason,
+        # for the plots (not in the CSV)
+        "obstacles": scene.raw.get("obstacles", []),
+        "goal": list(scene.goal),
+        "start": [scene.start.x, scene.start.y, scene.start.theta],
+        "path": [[round(x, 4), round(y, 4)] for x, y in r.path],
+        "estimate": [[round(x, 4), round(y, 4)] for x, y in r.estimate[::3]],
+        "planned": [[[round(x, 4), round(y, 4)] for x, y in poly] for poly in r.planned],
+        "contacts": [[round(x, 4), round(y, 4)] for x, y in r.contacts],
+        "episodes": [asdict(e) for e in r.episodes],
+        "final_pose": [round(v, 4) for v in r.final_pose],
+    }
+
+
+def experiment_specs(family: str, runs: int, seed: int = 0, *, noise: str = "paper",
+                     noise_scales: Sequence[float] = (1.0,), conditions: Sequence[str] = CONDITIONS,
+                     max_time: float = 120.0) -> list[RunSpec]:
+    """Every run of an experiment, in a fixed order (scale, run, condition)."""
+    if runs < 1:
+        raise ValueError("runs must be at least 1")
+    if noise not in NOISE_PRESETS:
+        raise ValueError(f"unknown noise preset {noise!r} (known: {', '.join(NOISE_PRESETS)})")
+    for c in conditions:
+        if c not in CONDITIONS:
+            raise ValueError(f"condition must be one of {', '.join(CONDITIONS)}, got {c!r}")
+    for s in noise_scales:
+        if not (math.isfinite(s) and s >= 0):
+            raise ValueError(f"noise scale must be a finite number >= 0, got {s!r}")
+    if family not in FAMILIES:
+        load_scenario(family)  # a clear ScenarioError now rather than in every worker
+    return [RunSpec(family, seed, k, c, noise, float(s), max_time) for s in noise_scales for k in range(runs)
+            for c in conditions]
+
+
+# -- many runs -----------------------------------------------------------------------------------
+class ExperimentInterrupted(KeyboardInterrupt):
+    """Ctrl-C during an experiment: ``records`` holds the runs that finished (all saved)."""
+
+    def __init__(self, records: list[dict[str, Any]], total: int) -> None:
+        super().__init__(f"interrupted: {len(records)} of {total} runs finished")
+        self.records = records
+        self.total = total
+
+
+def load_records(path: str | os.PathLike[str]) -> list[dict[str, Any]]:
+    """The records of a ``runs.jsonl`` (a line cut short by a crash is skipped)."""
+    p = Path(path)
+    if not p.exists():
+        return []
+    out = []
+    for line in p.read_text(encoding="utf-8").splitlines():
+        try:
+            rec = json.loads(line)
+        except json.JSONDecodeError:
+            continue
+        if isinstance(rec, dict) and "key" in rec:
+            out.append(rec)
+    return out
+
+
+def _progress(total: int, initial: int, desc: str) -> Any:
+    try:
+        from runtime.cli._progress import progress  # type: ignore[import-not-found,unused-ignore]
+
+        return progress(total=total, initial=initial, desc=desc)
+    except ImportError:
+        pass
+    from tqdm import tqdm
+
+    return tqdm(total=total, initial=initial, desc=desc, unit="run", disable=not sys.stderr.isatty(),
+                file=sys.stderr, dynamic_ncols=True)
+
+
+def _dask_client(workers: int, scheduler: str | None) -> tuple[Any, Any]:
+    import logging
+
+    try:
+        distributed: Any = importlib.import_module("distributed")
+    except ImportError:
+        raise RuntimeError("running on Dask needs dask.distributed: pip install 'clomp[dask]' "
+                           "(or --workers 0 to run in this process)") from None
+    if scheduler:
+        return distributed.Client(scheduler), None
+    cluster = distributed.LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None,
+                           silence_logs=logging.ERROR)
+    return distributed.Client(cluster), cluster
 
 
 def run_experiment(
-    scenario: str | os.PathLike[str] = "overtaking",
+    family: str = "overtaking",
     runs: int = 10,
     seed: int = 0,
     *,
-    jobs: int | None = None,
+    noise: str = "paper",
+    noise_scales: Sequence[float] = (1.0,),
+    conditions: Sequence[str] = CONDITIONS,
     max_time: float = 120.0,
-    conditions: tuple[str, ...] = CONDITIONS,
-    jitter: bool = True,
-) -> ExperimentResult:
-    """Run every condition on ``runs`` jittered layouts of ``scenario`` (paired by run)."""
-    if runs < 1:
-        raise ValueError("runs must be at least 1")
-    base = load_scenario(scenario)
-    tasks = []
-    for k in range(runs):
-        rng = np.random.default_rng([seed, k])
-        scene = jitter_scene(base, rng) if jitter else base
-        noise_seed = int(np.random.default_rng([seed, k, 1]).integers(2**31))
-        for cond in conditions:
-            tasks.append((scene, cond, k, noise_seed, max_time))
-    t0 = time.perf_counter()
-    jobs = jobs if jobs is not None else min(len(tasks), os.cpu_count() or 1)
-    if jobs <= 1:
-        results = [_job(t) for t in tasks]
-    else:
-        with ProcessPoolExecutor(max_workers=jobs) as pool:
-            results = list(pool.map(_job, tasks))
-    return ExperimentResult(base.name, seed, results, time.perf_counter() - t0)
+    workers: int = 0,
+    scheduler: str | None = None,
+    out: str | os.PathLike[str] | None = None,
+    resume: bool = False,
+    progress: bool = True,
+    on_record: Callable[[dict[str, Any]], None] | None = None,
+) -> list[dict[str, Any]]:
+    """Run an experiment; the records of every run (finished before or now), in spec order.
+
+    ``workers=0`` runs in this process; ``workers=K`` starts a local Dask cluster of K
+    processes; ``scheduler`` uses an existing one. With ``out``, each record is appended
+    to ``out/runs.jsonl`` as it finishes; ``resume`` keeps the ones already there (same
+    specs) and runs only the rest. Ctrl-C raises :class:`ExperimentInterrupted` holding
+    what finished. A worker lost mid-run has its runs retried on another.
+
+    >>> recs = run_experiment("overtaking", runs=1, noise="ideal", conditions=("reactive",), progress=False)
+    >>> [(r["condition"], r["run"]) for r in recs]
+    [('reactive', 0)]
+    """
+    specs = experiment_specs(family, runs, seed, noise=noise, noise_scales=noise_scales, conditions=conditions,
+                             max_time=max_time)
+    wanted = {s.key: s for s in specs}
+    done: dict[str, dict[str, Any]] = {}
+    sink = None
+    if out is not None:
+        folder = Path(out)
+        folder.mkdir(parents=True, exist_ok=True)
+        path = folder / "runs.jsonl"
+        if resume:
+            for rec in load_records(path):
+                if rec["key"] in wanted:
+                    done[rec["key"]] = rec
+            # rewrite clean (drops a line cut short by a crash)
+            path.write_text("".join(json.dumps(r, allow_nan=False) + "\n" for r in done.values()), encoding="utf-8")
+        else:
+            path.write_text("", encoding="utf-8")
+        sink = open(path, "a", encoding="utf-8")
+    todo = [s for s in specs if s.key not in done]
+    bar = _progress(len(specs), len(done), f"{family} {noise}") if progress else None
+
+    def keep(rec: dict[str, Any]) -> None:
+        done[rec["key"]] = rec
+        if sink is not None:
+            sink.write(json.dumps(rec, allow_nan=False) + "\n")
+            sink.flush()
+        if bar is not None:
+            bar.update(1)
+        if on_record is not None:
+            on_record(rec)
+
+    client = cluster = None
+    try:
+        if todo and (workers > 0 or scheduler):
+            client, cluster = _dask_client(workers, scheduler)
+            as_completed: Any = importlib.import_module("distributed").as_completed
+            futures = client.map(run_spec, todo, key=["clomp-" + s.key for s in todo], pure=False, retries=2)
+            for fut in as_completed(futures):
+                keep(fut.result())
+        else:
+            for s in todo:
+                keep(run_spec(s))
+    except KeyboardInterrupt:
+        raise ExperimentInterrupted([done[s.key] for s in specs if s.key in done], len(specs)) from None
+    finally:
+        if bar is not None:
+            bar.close()
+        if sink is not None:
+            sink.close()
+        if client is not None:
+            client.close()
+        if cluster is not None:
+            cluster.close()
+    return [done[s.key] for s in specs]
+

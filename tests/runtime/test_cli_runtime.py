@@ -47,7 +47,7 @@ def test_simulate_reactive(tmp_path, capsys):
 
 
 def test_experiment_json(tmp_path, capsys):
-    assert cli.main(["experiment", "overtaking", "--runs", "2", "--seed", "0", "--jobs", "1", "--json",
+    assert cli.main(["experiment", "overtaking", "--runs", "2", "--seed", "0", "--workers", "0", "--json",
                      "--out", str(tmp_path)]) == 0
     d = json.loads(capsys.readouterr().out)
     for name in ("planning", "reactive"):
@@ -55,8 +55,8 @@ def test_experiment_json(tmp_path, capsys):
         assert c["runs"] == 2
         for key in ("reached_goal", "collisions", "planning_time_s", "states", "time_to_goal_s"):
             assert key in c
-    assert (tmp_path / "overtaking_runs.csv").is_file()
-    assert (tmp_path / "overtaking_planning.png").is_file() and (tmp_path / "overtaking_reactive.png").is_file()
+    assert (tmp_path / "runs.csv").is_file()
+    assert (tmp_path / "trajectories_planning.png").is_file() and (tmp_path / "trajectories_reactive.png").is_file()
 
 
 @pytest.mark.parametrize(
@@ -66,7 +66,7 @@ def test_experiment_json(tmp_path, capsys):
         (["demo", "--scenario", "nowhere"], "unknown scenario"),
         (["experiment", "nowhere", "--runs", "1"], "unknown scenario"),
         (["experiment", "overtaking", "--runs", "0"], "--runs"),
-        (["experiment", "overtaking", "--jobs", "0"], "--jobs"),
+        (["experiment", "overtaking", "--workers", "-1"], "--workers"),
     ],
 )
 def test_user_errors_are_one_line_exit_2(argv, message, capsys, tmp_path, monkeypatch):

@@ -1,4 +1,4 @@
-"""The experiment: layouts, the paired t-test, the summary, CSV and plots; the paper's claim (slow)."""
+"""The experiment: one run on ground truth, pure run specs, streaming/resume, Dask, summary, CSV, plots."""
 
 from __future__ import annotations
 
@@ -6,91 +6,215 @@ import csv
 import json
 import math
 
-import numpy as np
 import pytest
-from hypothesis import given, settings
-from hypothesis import strategies as st
-from scipy.stats import ttest_rel
+from scipy.stats import binomtest, ttest_rel
 
 from planner import load_scenario
-from runtime.experiment.runner import SUCCESS_RADIUS, jitter_scene, paired_ttest, run_experiment, run_once
+from runtime.experiment import runner
+from runtime.experiment.results import (
+    CSV_COLUMNS,
+    markdown_rows,
+    summarise,
+    table,
+    write_csv,
+)
+from runtime.experiment.runner import (
+    SUCCESS_RADIUS,
+    ExperimentInterrupted,
+    RunSpec,
+    experiment_specs,
+    load_records,
+    run_experiment,
+    run_once,
+    run_spec,
+)
+from runtime.experiment.stats import mcnemar, mean_ci, paired_ttest, wilson
 
 
-@given(seed=st.integers(0, 10_000))
-@settings(max_examples=30, deadline=None)
-def test_jitter_moves_and_scales_boxes_within_bounds(seed):
-    base = load_scenario("slalom")
-    scene = jitter_scene(base, np.random.default_rng(seed))
-    for a, b in zip(base.raw["obstacles"], scene.raw["obstacles"]):
-        assert a["type"] == b["type"]
-        if a["type"] != "box":
-            assert a == b
-            continue
-        assert all(abs(p - q) <= 0.05 + 1e-4 for p, q in zip(a["center"], b["center"]))
-        assert all(0.8 - 1e-3 <= q / p <= 1.5 + 1e-3 for p, q in zip(a["size"], b["size"]))
-    assert scene.goal == base.goal and scene.start == base.start
+def test_wilson_interval_known_values():
+    assert wilson(0, 10) == (0.0, pytest.approx(0.2775, abs=1e-4))
+    lo, hi = wilson(5, 10)
+    assert (lo, hi) == (pytest.approx(0.2366, abs=1e-4), pytest.approx(0.7634, abs=1e-4))
+    assert wilson(0, 0) == (0.0, 1.0)
+    with pytest.raises(ValueError):
+        wilson(3, 2)
 
 
-def test_jitter_is_reproducible():
-    base = load_scenario("overtaking")
-    a = jitter_scene(base, np.random.default_rng([0, 3]))
-    b = jitter_scene(base, np.random.default_rng([0, 3]))
-    assert a.raw == b.raw and a.raw != base.raw
-
-
-def test_paired_ttest_matches_scipy():
+def test_mean_ci_and_paired_ttest_match_scipy():
+    m = mean_ci([1.0, 2.0, 3.0, 4.0])
+    assert m["mean"] == 2.5 and m["lo"] == pytest.approx(2.5 - 3.182446 * 1.290994 / 2, abs=1e-5)
     a, b = [0, 1, 0, 2, 0], [3, 1, 4, 2, 5]
-    got = paired_ttest(a, b)
-    ref = ttest_rel(a, b)
+    got, ref = paired_ttest(a, b), ttest_rel(a, b)
     assert got["t"] == pytest.approx(ref.statistic) and got["p"] == pytest.approx(ref.pvalue)
+    assert paired_ttest([0, 0], [0, 0])["t"] is None
 
 
-@pytest.mark.parametrize("a, b, note", [([0, 0, 0], [0, 0, 0], "no difference"), ([0, 0, 0], [2, 2, 2], "differs by -2")])
-def test_paired_ttest_degenerate_is_defined(a, b, note):
-    got = paired_ttest(a, b)
-    assert got["t"] is None and got["p"] is None and note in got["note"]
-    json.dumps(got, allow_nan=False)
+def test_mcnemar_counts_discordant_pairs_only():
+    a = [1, 1, 1, 1, 1, 1, 0, 1, 1, 0]
+    b = [0, 0, 0, 0, 0, 1, 0, 1, 0, 1]
+    r = mcnemar(a, b)
+    assert (r["b10"], r["b01"]) == (6, 1)
+    assert r["p"] == pytest.approx(binomtest(6, 7, 0.5).pvalue)
+    assert mcnemar([1, 0], [1, 0])["p"] == 1.0
 
 
 def test_run_once_measures_on_ground_truth():
     scene = load_scenario("overtaking")
-    r = run_once(scene, "planning", 1)
+    r = run_once(scene, "planning", 1, noise="paper")
     assert r.reached_goal and r.final_distance <= SUCCESS_RADIUS and r.collisions == 0
     assert r.states is not None and r.states > 5 and r.planning_time_s is not None and r.planning_time_s > 0
-    assert r.planned and r.path[0] == (0.0, 0.0)
-    assert r.time_to_goal_s == pytest.approx(r.time_s)
+    assert r.planned and r.path[0] == (0.0, 0.0) and r.cpu_s > 0
     with pytest.raises(ValueError):
         run_once(scene, "psychic", 1)
 
 
-def test_small_experiment_summary_csv_and_plots(tmp_path):
-    res = run_experiment("overtaking", runs=2, seed=5, jobs=1, max_time=60)
-    s = res.summary()
+def test_belief_and_ground_truth_are_reported_apart():
+    """A robot whose dead reckoning is wrong believes it arrived; the truth says where it is."""
+    from runtime.robots.sim import NoiseConfig
+
+    scene = load_scenario("open")
+    skewed = NoiseConfig(range_sd=0.0, dropout=0.0, wheel_sd=0.0, wheel_bias=0.25, drift=0.0)
+    r = run_once(scene, "reactive", 3, noise=skewed)
+    assert r.believed_goal and not r.reached_goal and r.final_distance > SUCCESS_RADIUS
+    assert "truly" in r.reason
+
+
+def test_cul_de_sac_success_is_saying_unreachable():
+    rec = run_spec(RunSpec("cul-de-sac", 0, 2, "planning", "ideal", max_time=60))
+    assert rec["expect"] == "unreachable" and rec["end_state"] == "UNREACHABLE"
+    assert rec["success"] == 1 and rec["reached_goal"] == 0
+    rec = run_spec(RunSpec("cul-de-sac", 0, 2, "reactive", "ideal", max_time=20))
+    assert rec["success"] == 0
+
+
+def test_a_run_is_a_pure_function_of_its_spec():
+    spec = RunSpec("slalom", 4, 2, "reactive", "paper", 1.0, 30.0)
+    a, b = run_spec(spec), run_spec(spec)
+    for k in ("wall_s", "cpu_s", "planning_time_s"):
+        a.pop(k), b.pop(k)
+    assert a == b
+    # both conditions of a run meet the same layout
+    c = run_spec(RunSpec("slalom", 4, 2, "planning", "paper", 1.0, 30.0))
+    assert c["obstacles"] == a["obstacles"] and c["layout"] == a["layout"]
+
+
+def test_specs_are_validated():
+    with pytest.raises(ValueError, match="noise preset"):
+        experiment_specs("overtaking", 2, noise="loud")
+    with pytest.raises(ValueError, match="runs"):
+        experiment_specs("overtaking", 0)
+    from planner.scenarios import ScenarioError
+
+    with pytest.raises(ScenarioError):
+        experiment_specs("no-such-family-or-file", 1)
+
+
+def _small(**kw):
+    return run_experiment("overtaking", runs=2, seed=5, noise="paper", max_time=40, progress=False, **kw)
+
+
+def test_records_stream_to_the_folder_and_resume_skips_them(tmp_path):
+    seen = []
+    recs = _small(out=tmp_path, on_record=lambda r: seen.append(r["key"]))
+    assert len(recs) == 4 and len(seen) == 4
+    assert [r["key"] for r in load_records(tmp_path / "runs.jsonl")] == seen
+    # a crash mid-line leaves half a record: skipped on resume
+    with open(tmp_path / "runs.jsonl", "a") as fh:
+        fh.write('{"key": "overtaking/5/')
+    again = []
+    recs2 = _small(out=tmp_path, resume=True, on_record=lambda r: again.append(r))
+    assert again == [] and [r["key"] for r in recs2] == [r["key"] for r in recs]
+    # more runs: only the new ones run
+    more = run_experiment("overtaking", runs=3, seed=5, noise="paper", max_time=40, progress=False, out=tmp_path,
+                          resume=True, on_record=lambda r: again.append(r))
+    assert len(more) == 6 and sorted(r["run"] for r in again) == [2, 2]
+
+
+def test_ctrl_c_keeps_what_finished(tmp_path, monkeypatch):
+    real = runner.run_spec
+    calls = []
+
+    def interrupted_at_third(spec):
+        calls.append(spec)
+        if len(calls) == 3:
+            raise KeyboardInterrupt
+        return real(spec)
+
+    monkeypatch.setattr(runner, "run_spec", interrupted_at_third)
+    with pytest.raises(ExperimentInterrupted) as exc:
+        _small(out=tmp_path)
+    assert len(exc.value.records) == 2 and exc.value.total == 4
+    assert len(load_records(tmp_path / "runs.jsonl")) == 2
+    monkeypatch.setattr(runner, "run_spec", real)
+    assert len(_small(out=tmp_path, resume=True)) == 4
+
+
+def _strip(recs):
+    return [{k: v for k, v in r.items() if k not in ("wall_s", "cpu_s", "planning_time_s")} for r in recs]
+
+
+def test_dask_workers_give_the_same_records_as_this_process():
+    local = _small(workers=0)
+    on_dask = _small(workers=2)
+    assert _strip(on_dask) == _strip(local)
+
+
+def test_summary_csv_table_and_plots(tmp_path):
+    from runtime.experiment.report import write_plots
+
+    recs = _small()
+    s = summarise(recs)
     json.dumps(s, allow_nan=False)
     for name in ("planning", "reactive"):
         c = s["conditions"][name]
-        assert c["runs"] == 2 and 0 <= c["reached_goal"] <= 2 and c["collisions"] >= 0
-        for key in ("planning_time_s", "states", "time_to_goal_s"):
-            assert set(c[key]) == {"mean", "sd"}
-    assert s["conditions"]["reactive"]["planning_time_s"] == {"mean": None, "sd": None}
-    assert "ttest_collisions" in s
-    # the same layouts in both conditions
-    lay = {(r.run, json.dumps(r.scene.raw)) for r in res.runs}
-    assert len(lay) == 2
-    table = res.table()
-    assert "runs reaching the goal" in table and "paper" in table and "t-test" in table
-    res.write_csv(tmp_path / "runs.csv")
+        assert c["runs"] == 2 and 0 <= c["reached_goal"] <= 2 and c["collisions"] >= 0 and c["brushes"] >= 0
+        lo, hi = c["success_ci95"]
+        assert 0 <= lo <= c["success_rate"] <= hi <= 1
+        assert c["final_error_median_m"] is not None
+    assert "ttest_collisions" in s and "mcnemar_success" in s
+    text = table(s, runner.PAPER)
+    assert "success (95 % Wilson)" in text and "McNemar" in text and "paper" in text
+    assert markdown_rows(s).count("|") == 10
+    write_csv(recs, tmp_path / "runs.csv")
     rows = list(csv.DictReader(open(tmp_path / "runs.csv")))
-    assert len(rows) == 4 and {r["condition"] for r in rows} == {"planning", "reactive"}
-    pngs = res.write_plots(tmp_path)
-    assert len(pngs) == 2 and all(p.stat().st_size > 10_000 for p in pngs)
+    assert len(rows) == 4 and list(rows[0]) == list(CSV_COLUMNS)
+    assert {r["condition"] for r in rows} == {"planning", "reactive"}
+    pngs = write_plots(recs, tmp_path)
+    assert {p.name for p in pngs} == {"trajectories_planning.png", "trajectories_reactive.png", "collisions.png"}
+    assert all(p.stat().st_size > 10_000 for p in pngs)
+
+
+def test_noise_sweep_summary_and_plot(tmp_path):
+    from runtime.experiment.report import write_plots
+
+    recs = run_experiment("overtaking", runs=1, seed=0, noise="paper", noise_scales=(0.0, 2.0), max_time=40,
+                          progress=False)
+    s = summarise(recs)
+    assert [b["noise_scale"] for b in s["by_noise_scale"]] == [0.0, 2.0]
+    assert s["conditions"]["planning"]["runs"] == 2
+    assert "success_vs_noise.png" in {p.name for p in write_plots(recs, tmp_path)}
+
+
+def test_cli_json_keeps_the_table_shape(tmp_path, capsys):
+    from runtime.cli import main
+
+    rc = main(["experiment", "overtaking", "--runs", "2", "--seed", "5", "--workers", "0", "--max-time", "40",
+               "--out", str(tmp_path), "--json", "--no-plots"])
+    assert rc == 0
+    s = json.loads(capsys.readouterr().out)
+    for name in ("planning", "reactive"):
+        assert {"runs", "reached_goal", "collisions", "brushes", "final_error_median_m"} <= set(s["conditions"][name])
+    assert (tmp_path / "runs.csv").exists() and (tmp_path / "runs_schema.md").exists()
+    assert main(["experiment", "--runs", "0", "--out", str(tmp_path)]) == 2
+    assert main(["experiment", "--noise-sweep", "1,x", "--out", str(tmp_path)]) == 2
+    assert main(["experiment", "maze", "--out", str(tmp_path)]) == 2
 
 
 @pytest.mark.slow
 def test_the_papers_claim_holds():
-    """10 layouts: planning reaches the goal every time without collision; the reactive loop fails."""
-    res = run_experiment("overtaking", runs=10, seed=0, jobs=2)
-    c = res.summary()["conditions"]
-    assert c["planning"]["reached_goal"] == 10 and c["planning"]["collisions"] == 0
-    assert c["reactive"]["reached_goal"] < 10 and c["reactive"]["collisions"] > 0
+    """10 layouts: planning reaches the goal every time; the reactive loop collides."""
+    recs = run_experiment("overtaking", runs=10, seed=0, noise="paper", workers=2, progress=False)
+    c = summarise(recs)["conditions"]
+    assert c["planning"]["reached_goal"] >= 9 and c["planning"]["collisions"] + c["planning"]["brushes"] <= 3
+    assert c["reactive"]["collisions"] >= 4
     assert math.isfinite(c["planning"]["planning_time_s"]["mean"])
