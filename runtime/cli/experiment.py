@@ -121,10 +121,18 @@ def run(args: argparse.Namespace) -> int:
     scales = parse_scales(args.noise_sweep) if args.noise_sweep else [args.noise_scale]
     conditions = tuple(dict.fromkeys(args.condition)) if args.condition else CONDITIONS
     workers = (os.cpu_count() or 1) if args.workers is None else args.workers
+    from runtime.cli._progress import progress
+
+    def bar(total: int, initial: int) -> Any:
+        b: Any = progress(total=total, desc=f"{args.family} · {args.noise}", unit="run")
+        if initial:
+            b.update(initial)
+        return b
+
     try:
         records = run_experiment(args.family, args.runs, args.seed, noise=args.noise, noise_scales=scales,
                                  conditions=conditions, max_time=args.max_time, workers=workers,
-                                 scheduler=args.scheduler, out=out, resume=args.resume)
+                                 scheduler=args.scheduler, out=out, resume=args.resume, progress=bar)
     except ScenarioError as exc:
         raise CliError(f"{exc} (or a layout family: {', '.join(FAMILIES)})") from None
     except ExperimentInterrupted as exc:

@@ -29,7 +29,6 @@ import importlib
 import json
 import math
 import os
-import sys
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import asdict, dataclass, field
@@ -391,19 +390,6 @@ def load_records(path: str | os.PathLike[str]) -> list[dict[str, Any]]:
     return out
 
 
-def _progress(total: int, initial: int, desc: str) -> Any:
-    try:
-        from runtime.cli._progress import progress  # type: ignore[import-not-found,unused-ignore]
-
-        return progress(total=total, initial=initial, desc=desc)
-    except ImportError:
-        pass
-    from tqdm import tqdm
-
-    return tqdm(total=total, initial=initial, desc=desc, unit="run", disable=not sys.stderr.isatty(),
-                file=sys.stderr, dynamic_ncols=True)
-
-
 def _dask_client(workers: int, scheduler: str | None) -> tuple[Any, Any]:
     import logging
 
@@ -432,7 +418,7 @@ def run_experiment(
     scheduler: str | None = None,
     out: str | os.PathLike[str] | None = None,
     resume: bool = False,
-    progress: bool = True,
+    progress: Callable[[int, int], Any] | None = None,
     on_record: Callable[[dict[str, Any]], None] | None = None,
 ) -> list[dict[str, Any]]:
     """Run an experiment; the records of every run (finished before or now), in spec order.
@@ -441,9 +427,10 @@ def run_experiment(
     processes; ``scheduler`` uses an existing one. With ``out``, each record is appended
     to ``out/runs.jsonl`` as it finishes; ``resume`` keeps the ones already there (same
     specs) and runs only the rest. Ctrl-C raises :class:`ExperimentInterrupted` holding
-    what finished. A worker lost mid-run has its runs retried on another.
+    what finished. A worker lost mid-run has its runs retried on another. ``progress``
+    makes a bar from (total, already done); it gets ``update(1)`` per run and ``close()``.
 
-    >>> recs = run_experiment("overtaking", runs=1, noise="ideal", conditions=("reactive",), progress=False)
+    >>> recs = run_experiment("overtaking", runs=1, noise="ideal", conditions=("reactive",))
     >>> [(r["condition"], r["run"]) for r in recs]
     [('reactive', 0)]
     """
@@ -466,7 +453,7 @@ def run_experiment(
             path.write_text("", encoding="utf-8")
         sink = open(path, "a", encoding="utf-8")
     todo = [s for s in specs if s.key not in done]
-    bar = _progress(len(specs), len(done), f"{family} {noise}") if progress else None
+    bar = progress(len(specs), len(done)) if progress is not None else None
 
     def keep(rec: dict[str, Any]) -> None:
         done[rec["key"]] = rec

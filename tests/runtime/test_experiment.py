@@ -110,7 +110,7 @@ def test_specs_are_validated():
 
 
 def _small(**kw):
-    return run_experiment("overtaking", runs=2, seed=5, noise="paper", max_time=40, progress=False, **kw)
+    return run_experiment("overtaking", runs=2, seed=5, noise="paper", max_time=40, **kw)
 
 
 def test_records_stream_to_the_folder_and_resume_skips_them(tmp_path):
@@ -125,7 +125,7 @@ def test_records_stream_to_the_folder_and_resume_skips_them(tmp_path):
     recs2 = _small(out=tmp_path, resume=True, on_record=lambda r: again.append(r))
     assert again == [] and [r["key"] for r in recs2] == [r["key"] for r in recs]
     # more runs: only the new ones run
-    more = run_experiment("overtaking", runs=3, seed=5, noise="paper", max_time=40, progress=False, out=tmp_path,
+    more = run_experiment("overtaking", runs=3, seed=5, noise="paper", max_time=40, out=tmp_path,
                           resume=True, on_record=lambda r: again.append(r))
     assert len(more) == 6 and sorted(r["run"] for r in again) == [2, 2]
 
@@ -187,8 +187,7 @@ def test_summary_csv_table_and_plots(tmp_path):
 def test_noise_sweep_summary_and_plot(tmp_path):
     from runtime.experiment.report import write_plots
 
-    recs = run_experiment("overtaking", runs=1, seed=0, noise="paper", noise_scales=(0.0, 2.0), max_time=40,
-                          progress=False)
+    recs = run_experiment("overtaking", runs=1, seed=0, noise="paper", noise_scales=(0.0, 2.0), max_time=40)
     s = summarise(recs)
     assert [b["noise_scale"] for b in s["by_noise_scale"]] == [0.0, 2.0]
     assert s["conditions"]["planning"]["runs"] == 2
@@ -213,7 +212,7 @@ def test_cli_json_keeps_the_table_shape(tmp_path, capsys):
 @pytest.mark.slow
 def test_the_papers_claim_holds():
     """10 layouts: planning reaches the goal every time; the reactive loop collides."""
-    recs = run_experiment("overtaking", runs=10, seed=0, noise="paper", workers=2, progress=False)
+    recs = run_experiment("overtaking", runs=10, seed=0, noise="paper", workers=2)
     c = summarise(recs)["conditions"]
     assert c["planning"]["reached_goal"] >= 9 and c["planning"]["collisions"] + c["planning"]["brushes"] <= 3
     assert c["reactive"]["collisions"] >= 4
