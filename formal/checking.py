@@ -32,7 +32,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from formal.export import LABELS, ExportModel, ModelKind, export_model, write_drn, write_prism
+from formal.export import ExportModel, ModelKind, export_model, write_drn, write_prism
 from formal.invariants import map_plan
 from formal.lts import CognitiveMap, MapError
 
@@ -151,7 +151,7 @@ class PropertyFile:
 
 
 _NAME = re.compile(r'^"([A-Za-z_][A-Za-z0-9_]*)"\s*:\s*(.*)$')
-_QUERY = re.compile(r"^(!?\s*\"[A-Za-z_][A-Za-z0-9_]*\"\s*[|&]\s*)*\(?\s*[PRS](\{\"[A-Za-z_][A-Za-z0-9_]*\"\})?(min|max)?\s*(=\?|[<>]=?\s*[0-9.eE+-]+)\s*\[")
+_QUERY = re.compile(r"^(!?\s*\"[A-Za-z_][A-Za-z0-9_]*\"\s*[|&]\s*)*!?\s*\(?\s*[PRS](\{\"[A-Za-z_][A-Za-z0-9_]*\"\})?(min|max)?\s*(=\?|[<>]=?\s*[0-9.eE+-]+)\s*\[")
 
 
 def parse_properties(text: str, source: str = "<string>") -> PropertyFile:
@@ -251,6 +251,28 @@ class StormModel:
         """Number of transitions (matrix entries) Storm built."""
         return int(self.model.nr_transitions)
 
+    def reachable(self) -> list[int]:
+        """Storm states reachable from the initial states, sorted (a DRN file's
+        :data:`~formal.export.LABEL_HOLDER` state is not among them)."""
+        seen = {int(s) for s in self.model.initial_states}
+        stack = list(seen)
+        while stack:
+            for t in self.successors(stack.pop()):
+                if t not in seen:
+                    seen.add(t)
+                    stack.append(t)
+        return sorted(seen)
+
+    def reachable_size(self) -> tuple[int, int]:
+        """(states, transitions) reachable from the initial states: what PRISM, which
+        builds only reachable states, reports for the same model."""
+        states = self.reachable()
+        n = 0
+        for s in states:
+            for action in self.model.states[s].actions:
+                n += len(list(action.transitions))
+        return len(states), n
+
     def labels_of(self, state: int) -> set[str]:
         """The labels of Storm state ``state``."""
         return set(self.model.labeling.get_labels_of_state(state))
@@ -303,11 +325,6 @@ def load_storm_model(path: str | os.PathLike[str]) -> StormModel:
     except RuntimeError as exc:
         raise MapError(f"{p}: Storm cannot build the model: {str(exc).strip()}") from None
     kind: ModelKind = "mdp" if "Mdp" in type(model).__name__ else "dtmc"
-    # DRN declares a label only through the states that carry it: declare the exporter's
-    # labels that no state carries (e.g. "collision" in a collision-free model) as empty
-    for name in LABELS:
-        if not model.labeling.contains_label(name):
-            model.labeling.add_label(name)
     return StormModel(model, kind, _idents_from(model), program, str(p))
 
 

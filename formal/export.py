@@ -17,7 +17,7 @@ Configurator found a way). Rewards ``distance`` (metres) and ``time`` (seconds) 
 earned on choices: the expected distance / duration of the task started.
 
 Renderers (each takes a path or a text file object, networkx-style): :func:`write_prism`
-(PRISM language), :func:`write_prism_explicit` (``.tra .sta .lab .srew .trew``),
+(PRISM language), :func:`write_prism_explicit` (``.tra .sta .lab`` and named reward files),
 :func:`write_drn` (Storm's DRN), :func:`write_dot` (Graphviz) and :func:`write_json` (the
 lossless map). Probabilities are printed exactly (``p/q`` where the format allows it,
 exact decimals otherwise) and every printed distribution is parsed back and checked to
@@ -55,6 +55,11 @@ __all__ = [
     "write",
     "FORMATS",
     "STAY",
+    "LABELS",
+    "LABEL_HOLDER",
+    "drn_label_holder",
+    "drn_adds_holder",
+    "prism_import_args",
 ]
 
 ModelKind = Literal["mdp", "dtmc"]
@@ -286,7 +291,10 @@ def write_prism(source: CognitiveMap | ExportModel, dest: Dest, kind: ModelKind 
     idents = [s.ident for s in m.states]
     lines = _header(m, "//")
     lines += ["", m.kind, "", "module cognitive_map"]
-    lines.append(f"  q : [{min(idents)}..{max(idents)}] init {idents[m.initial]};")
+    # PRISM refuses a range of one value (q : [0..0]); it builds only reachable states,
+    # so widening the range of a one-state model adds no state
+    lo, hi = min(idents), max(idents)
+    lines.append(f"  q : [{lo}..{max(hi, lo + 1)}] init {idents[m.initial]};")
     for k, row in enumerate(m.choices):
         for ch in row:
             probs = _printed([p for _, p in ch.branches], exact_rationals=True)
@@ -300,13 +308,15 @@ def write_prism(source: CognitiveMap | ExportModel, dest: Dest, kind: ModelKind 
         expr = " | ".join(f"q={i}" for i in members) if members else "false"
         lines.append(f'label "{name}" = {expr};')
     for reward in ("distance", "time"):
-        lines += ["", f'rewards "{reward}"']
-        for k, row in enumerate(m.choices):
-            for ch in row:
-                r = getattr(ch, reward)
-                if r:
-                    lines.append(f"  [{ch.action}] q={idents[k]} : {_num(r)};")
-        lines.append("endrewards")
+        items = [
+            f"  [{ch.action}] q={idents[k]} : {_num(getattr(ch, reward))};"
+            for k, row in enumerate(m.choices)
+            for ch in row
+            if getattr(ch, reward)
+        ]
+        # Storm refuses a reward block without items: a model that earns nothing (a
+        # one-state plan) gets an explicit zero state reward
+        lines += ["", f'rewards "{reward}"', *(items or ["  true : 0;"]), "endrewards"]
     with _open(dest) as fh:
         fh.write("\n".join(lines) + "\n")
 
@@ -315,12 +325,30 @@ def write_prism(source: CognitiveMap | ExportModel, dest: Dest, kind: ModelKind 
 def write_drn(source: CognitiveMap | ExportModel, dest: Dest, kind: ModelKind = "mdp") -> None:
     """Write Storm's DRN: exact rational probabilities, action rewards ``distance time``,
     and besides the named labels one label ``q<ident>`` per state, so that a model Storm
-    builds (and renumbers) can be matched back to the map by label."""
+    builds (and renumbers) can be matched back to the map by label.
+
+    DRN declares a label only through the states that carry it, and a reward structure
+    only through nonzero values: Storm refuses a property naming a label no state
+    carries (``P=? [F "collision"]`` on a model without collisions) or a reward that is
+    zero everywhere (a one-state model). So when some exporter label (:data:`LABELS`) is
+    carried by no state, or some reward is earned nowhere, the file ends with one extra
+    absorbing state labelled :data:`LABEL_HOLDER` that carries those labels and earns 1
+    of those rewards: no state reaches it, so no value at the initial state changes.
+    """
     m = _model(source, kind)
+    missing = drn_label_holder(m)
+    earned = [any(getattr(ch, r) for row in m.choices for ch in row) for r in REWARDS]
+    holder = drn_adds_holder(m)
     lines = _header(m, "//")
-    lines += [f"@type: {m.kind.upper()}", "@parameters", "", "@reward_models", "distance time"]
-    lines += ["@nr_states", str(m.n_states)]
-    lines += ["@nr_choices", str(m.n_choices)]
+    if holder:
+        lines.append(
+            f"// state {m.n_states} is unreachable: it only declares labels no state carries "
+            f"({' '.join(missing) or 'none'}) and rewards earned nowhere "
+            f"({' '.join(r for r, e in zip(REWARDS, earned) if not e) or 'none'})"
+        )
+    lines += [f"@type: {m.kind.upper()}", "@parameters", "", "@reward_models", " ".join(REWARDS)]
+    lines += ["@nr_states", str(m.n_states + holder)]
+    lines += ["@nr_choices", str(m.n_choices + holder)]
     lines.append("@model")
     for k, (s, row) in enumerate(zip(m.states, m.choices)):
         labels = " ".join([*m.state_labels(k), f"q{s.ident}"])
@@ -334,12 +362,36 @@ def write_drn(source: CognitiveMap | ExportModel, dest: Dest, kind: ModelKind = 
                 lines.append("\taction 0")
             probs = _printed([p for _, p in ch.branches], exact_rationals=True)
             lines += [f"\t\t{j} : {p}" for p, (j, _) in zip(probs, ch.branches)]
+    if holder:
+        n = m.n_states
+        rew = ", ".join("0" if e else "1" for e in earned)
+        lines.append(f"state {n} [{'0, 0' if m.kind == 'mdp' else rew}] {' '.join([*missing, LABEL_HOLDER])}")
+        lines.append(f"\taction {STAY} [{rew}]" if m.kind == "mdp" else "\taction 0")
+        lines.append(f"\t\t{n} : 1")
     with _open(dest) as fh:
         fh.write("\n".join(lines) + "\n")
 
 
+LABEL_HOLDER = "label_holder"
+"""The label of the unreachable state a DRN file adds to declare labels no state carries
+and rewards no state earns."""
+
+
+def drn_adds_holder(m: ExportModel) -> bool:
+    """Whether the DRN of ``m`` ends with the unreachable :data:`LABEL_HOLDER` state."""
+    return bool(drn_label_holder(m)) or not all(any(getattr(ch, r) for row in m.choices for ch in row) for r in REWARDS)
+
+
+def drn_label_holder(m: ExportModel) -> list[str]:
+    """The exporter labels no state of ``m`` carries: the DRN declares them on an extra,
+    unreachable state (empty when every label is carried)."""
+    return [name for name in LABELS if not m.labels[name]]
+
+
 # -- PRISM explicit ------------------------------------------------------------------------------
-EXPLICIT_SUFFIXES = ("tra", "sta", "lab", "srew", "trew")
+EXPLICIT_SUFFIXES = ("tra", "sta", "lab", "srew", "trew", "time.srew", "time.trew")
+REWARDS = ("distance", "time")
+"""The reward structures of every exported model (metres, seconds of the task started)."""
 
 
 def write_prism_explicit(
@@ -347,14 +399,18 @@ def write_prism_explicit(
     dest: str | os.PathLike[str] | Mapping[str, IO[str]],
     kind: ModelKind = "mdp",
 ) -> list[str]:
-    """Write PRISM's explicit files ``.tra .sta .lab .srew .trew`` (and ``.time.trew``).
+    """Write PRISM's explicit files ``.tra .sta .lab`` and the named reward files.
 
     ``dest`` is a path stem (``model`` or ``model.tra`` → ``model.tra``, ``model.sta`` …)
-    or a mapping from suffix (``"tra"``, ``"sta"``, ``"lab"``, ``"srew"``, ``"trew"``,
-    ``"time.trew"``) to an open text file. Probabilities are exact decimals (the last
-    branch of a row is written as 1 minus the others, so each printed row sums to 1).
-    The ``.trew`` holds the distance reward, ``.time.trew`` the time; ``.srew`` is all
-    zero (rewards are earned by tasks, not by states). Returns the paths written.
+    or a mapping from suffix (a key of :data:`EXPLICIT_SUFFIXES`) to an open text file.
+    Probabilities are exact decimals (the last branch of a row is written as 1 minus the
+    others, so each printed row sums to 1). Each reward file starts with the header
+    ``# Reward structure "NAME"`` so that ``R{"distance"}`` and ``R{"time"}`` name them:
+    ``.srew``/``.trew`` hold the distance structure, ``.time.srew``/``.time.trew`` the
+    time. State rewards are all zero (tasks earn rewards, not states). In an MDP a
+    transition reward belongs to the choice, so every successor line of one choice
+    carries the choice's expected reward. :func:`prism_import_args` gives the PRISM
+    command line that loads the files. Returns the paths written.
     """
     m = _model(source, kind)
     texts = _explicit_texts(m)
@@ -363,9 +419,7 @@ def write_prism_explicit(
             if suffix in dest:
                 dest[suffix].write(text)
         return []
-    stem = Path(dest)
-    if stem.suffix.lstrip(".") in EXPLICIT_SUFFIXES:
-        stem = stem.with_suffix("")
+    stem = _stem(dest)
     written = []
     for suffix, text in texts.items():
         path = stem.parent / f"{stem.name}.{suffix}"
@@ -374,10 +428,34 @@ def write_prism_explicit(
     return written
 
 
+def _stem(dest: str | os.PathLike[str]) -> Path:
+    stem = Path(dest)
+    for suffix in sorted(EXPLICIT_SUFFIXES, key=len, reverse=True):
+        if stem.name.endswith("." + suffix):
+            return stem.with_name(stem.name[: -len(suffix) - 1])
+    return stem
+
+
+def prism_import_args(stem: str | os.PathLike[str], kind: ModelKind) -> list[str]:
+    """PRISM's arguments to import the files :func:`write_prism_explicit` wrote at ``stem``.
+
+    >>> prism_import_args("m", "dtmc")[:4]
+    ['-importtrans', 'm.tra', '-importstates', 'm.sta']
+    """
+    base = _stem(stem)
+    f = lambda suffix: str(base.parent / f"{base.name}.{suffix}")  # noqa: E731
+    return [
+        "-importtrans", f("tra"), "-importstates", f("sta"), "-importlabels", f("lab"),
+        "-importstaterewards", f("srew"), "-importstaterewards", f("time.srew"),
+        "-importtransrewards", f("trew"), "-importtransrewards", f("time.trew"),
+        f"-{kind}",
+    ]
+
+
 def _explicit_texts(m: ExportModel) -> dict[str, str]:
     n = m.n_states
     tra: list[str] = []
-    trew: dict[str, list[str]] = {"distance": [], "time": []}
+    trew: dict[str, list[str]] = {name: [] for name in REWARDS}
     for k, row in enumerate(m.choices):
         for c, ch in enumerate(row):
             probs = _printed([p for _, p in ch.branches], exact_rationals=False)
@@ -386,9 +464,15 @@ def _explicit_texts(m: ExportModel) -> dict[str, str]:
                     tra.append(f"{k} {c} {j} {p} {ch.action}")
                 else:
                     tra.append(f"{k} {j} {p}")
-                for reward in trew:
-                    # a transition reward per branch; the expected value is the choice's reward
-                    r = getattr(m.states[j], "distance" if reward == "distance" else "duration") if ch.action != STAY else 0.0
+                for reward in REWARDS:
+                    if m.kind == "mdp":
+                        # the reward of the choice on each of its successor lines (PRISM
+                        # refuses different values within one choice)
+                        r = getattr(ch, reward)
+                    else:
+                        # a DTMC's transition reward is the branch's own task; its
+                        # expectation over the row is the choice's reward
+                        r = getattr(m.states[j], "distance" if reward == "distance" else "duration") if ch.action != STAY else 0.0
                     if r:
                         trew[reward].append(f"{k} {c} {j} {_num(r)}" if m.kind == "mdp" else f"{k} {j} {_num(r)}")
     head = f"{n} {m.n_choices} {len(tra)}" if m.kind == "mdp" else f"{n} {len(tra)}"
@@ -400,17 +484,21 @@ def _explicit_texts(m: ExportModel) -> dict[str, str]:
         if ids:
             lab.append(f"{k}: {' '.join(ids)}")
 
-    def rew(lines: list[str]) -> str:
+    def rew(name: str, lines: list[str]) -> str:
         h = f"{n} {m.n_choices} {len(lines)}" if m.kind == "mdp" else f"{n} {len(lines)}"
-        return "\n".join([h, *lines]) + "\n"
+        return "\n".join([f'# Reward structure "{name}"', "# Transition rewards", h, *lines]) + "\n"
+
+    def srew(name: str) -> str:
+        return f'# Reward structure "{name}"\n# State rewards\n{n} 0\n'
 
     return {
         "tra": "\n".join([head, *tra]) + "\n",
         "sta": "\n".join(["(q)", *(f"{k}:({i})" for k, i in enumerate(idents))]) + "\n",
         "lab": "\n".join(lab) + "\n",
-        "srew": f"{n} 0\n",
-        "trew": rew(trew["distance"]),
-        "time.trew": rew(trew["time"]),
+        "srew": srew("distance"),
+        "trew": rew("distance", trew["distance"]),
+        "time.srew": srew("time"),
+        "time.trew": rew("time", trew["time"]),
     }
 
 
@@ -461,14 +549,22 @@ def write_dot(source: CognitiveMap | ExportModel, dest: Dest, kind: ModelKind = 
         fh.write("\n".join(lines) + "\n")
 
 
-def render_svg(source: CognitiveMap | ExportModel, dest: Dest, engine: str | None = None, timeout: float = 120.0) -> str:
-    """Render the DOT graph to SVG with Graphviz; returns the engine used.
+def render_svg(
+    source: CognitiveMap | ExportModel,
+    dest: Dest,
+    kind: ModelKind = "mdp",
+    engine: str | None = None,
+    timeout: float = 120.0,
+) -> str:
+    """Render the DOT graph of the ``kind`` model to SVG with Graphviz; returns the engine used.
+
+    Takes ``(source, dest, kind)`` like every writer of :data:`FORMATS`.
 
     The engine defaults to ``dot`` for up to 100 states and ``sfdp`` for larger maps
     (``dot`` is slow on large cyclic graphs). Raises :class:`ExportError` when Graphviz
     is not installed or fails.
     """
-    m = _model(source, "mdp")
+    m = _model(source, kind)
     engine = engine or ("dot" if m.n_states <= 100 else "sfdp")
     exe = shutil.which(engine)
     if exe is None:
@@ -511,7 +607,4 @@ def write(cmap: CognitiveMap, dest: Any, format: str, kind: ModelKind = "mdp") -
         writer = FORMATS[format]
     except KeyError:
         raise ExportError(f"unknown format {format!r}: expected one of {', '.join(FORMATS)}") from None
-    if format == "svg":
-        render_svg(cmap if kind == "mdp" else export_model(cmap, kind), dest)
-    else:
-        writer(cmap, dest, kind)
+    writer(cmap, dest, kind)

@@ -18,6 +18,7 @@ from formal.export import (
     FORMATS,
     STAY,
     ExportError,
+    drn_adds_holder,
     export_model,
     render_svg,
     write,
@@ -46,12 +47,14 @@ def _idents_and_labels(sm) -> dict[int, set[str]]:
 def _assert_storm_matches(cmap: CognitiveMap, via: str) -> None:
     m = export_model(cmap, "mdp")
     sm = build_storm_model(cmap, "mdp", via)
-    # every map state and transition, plus one absorbing self-loop per state without successors
-    assert sm.n_states == len(cmap)
-    assert sm.n_transitions == cmap.n_transitions + len(m.self_loops)
-    assert sorted(sm.idents) == [s.ident for s in cmap.states()]
+    # every map state and transition, plus one absorbing self-loop per state without
+    # successors (a DRN may add one unreachable state declaring labels no state carries)
+    assert sm.reachable_size() == (len(cmap), cmap.n_transitions + len(m.self_loops))
+    assert sm.n_states - len(cmap) == (1 if via == "drn" and drn_adds_holder(m) else 0)
+    reach = sm.reachable()
+    assert sorted(sm.idents[s] for s in reach) == [s.ident for s in cmap.states()]
     # matched by label/valuation, never by index: Storm's successors are the map's
-    for s in range(sm.n_states):
+    for s in reach:
         q = sm.idents[s]
         succ = {sm.idents[t] for t in sm.successors(s)}
         assert succ == ({x.ident for x in cmap.successors(q)} or {q})
@@ -61,8 +64,8 @@ def _assert_storm_matches(cmap: CognitiveMap, via: str) -> None:
         assert ("init" in labels) == (q == cmap.initial_id)
     d = build_storm_model(cmap, "dtmc", via)
     plan = cmap.metadata["plan"]
-    assert sorted(d.idents) == sorted(plan)
-    assert d.n_transitions == len(plan)  # plan steps + the self-loop at its end
+    assert sorted(d.idents[s] for s in d.reachable()) == sorted(plan)
+    assert d.reachable_size()[1] == len(plan)  # plan steps + the self-loop at its end
 
 
 @pytest.mark.parametrize("via", ["prism", "drn"])
@@ -116,7 +119,7 @@ def test_prism_explicit_files_describe_the_map(scenario_map, tmp_path):
     m = export_model(cmap)
     written = write_prism_explicit(cmap, tmp_path / "ov.tra")
     assert sorted(Path(p).name for p in written) == sorted(
-        ["ov.tra", "ov.sta", "ov.lab", "ov.srew", "ov.trew", "ov.time.trew"]
+        ["ov.tra", "ov.sta", "ov.lab", "ov.srew", "ov.trew", "ov.time.srew", "ov.time.trew"]
     )
     tra = (tmp_path / "ov.tra").read_text().splitlines()
     n, choices, entries = map(int, tra[0].split())
@@ -134,7 +137,8 @@ def test_prism_explicit_files_describe_the_map(scenario_map, tmp_path):
     lab = (tmp_path / "ov.lab").read_text().splitlines()
     assert '1="goal"' in lab[0] and '2="collision"' in lab[0]
     trew = (tmp_path / "ov.trew").read_text().splitlines()
-    assert sum(float(x.split()[3]) for x in trew[1:]) == pytest.approx(sum(s.distance for s in cmap.states()))
+    assert trew[:2] == ['# Reward structure "distance"', "# Transition rewards"]
+    assert sum(float(x.split()[3]) for x in trew[3:]) == pytest.approx(sum(s.distance for s in cmap.states()))
 
 
 def _probabilistic_map(weights: list[int]) -> CognitiveMap:

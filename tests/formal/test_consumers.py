@@ -1,0 +1,203 @@
+"""Each exporter finding checked by the consumer a user runs: the real PRISM, plain
+``stormpy.build_model_from_drn`` + ``model_checking``, or the written text parsed back.
+
+Every test here failed before its fix (named in the test's docstring)."""
+
+from __future__ import annotations
+
+import io
+import re
+from fractions import Fraction
+from pathlib import Path
+
+import pytest
+
+from formal import State
+from formal.checking import default_property_files, read_properties
+from formal.export import FORMATS, LABEL_HOLDER, export_model, write_drn, write_prism, write_prism_explicit
+from formal.prism import PrismError, check_with_prism, find_prism
+
+stormpy = pytest.importorskip("stormpy", reason="stormpy not installed: pip install 'clomp[verify]'")
+needs_prism = pytest.mark.skipif(find_prism() is None, reason="PRISM not found: set CLOMP_PRISM or keep shared/tools/prism-*/ beside the repo")
+
+
+def _plain_storm(path: Path, formula: str) -> float:
+    """What a user does: build the DRN with plain stormpy and check one formula at q0."""
+    model = stormpy.build_model_from_drn(str(path))
+    prop = stormpy.parse_properties(formula)[0]
+    result = stormpy.model_checking(model, prop)
+    return float(result.at(model.initial_states[0])) if hasattr(result, "at") else float(result[model.initial_states[0]])
+
+
+# -- DRN declares every label (plain Storm) --------------------------------------------------
+def test_plain_storm_checks_collision_on_a_collision_free_supervised_model(scenario_map, tmp_path):
+    """Before: the DRN named only carried labels; Storm refused "unknown label collision"."""
+    cmap = scenario_map("overtaking")
+    assert not export_model(cmap, "dtmc").labels["collision"]
+    write_drn(cmap, tmp_path / "s.drn", "dtmc")
+    assert _plain_storm(tmp_path / "s.drn", 'P=? [F "collision"]') == 0.0
+    assert _plain_storm(tmp_path / "s.drn", 'P=? [F "goal"]') == 1.0
+
+
+def test_plain_storm_checks_goal_on_a_map_that_never_reaches_it(scenario_map, tmp_path):
+    """Before: "goal" and "goal_in_map" were unknown labels on a blocked map."""
+    cmap = scenario_map("blocked")
+    m = export_model(cmap, "mdp")
+    assert not m.labels["goal"]
+    write_drn(cmap, tmp_path / "b.drn")
+    assert _plain_storm(tmp_path / "b.drn", 'Pmax=? [F "goal"]') == 0.0
+    text = (tmp_path / "b.drn").read_text()
+    holder = [line for line in text.splitlines() if line.startswith("state ") and LABEL_HOLDER in line]
+    assert len(holder) == 1 and "goal" in holder[0].split() and "collision" not in holder[0].split()
+
+
+def test_drn_adds_no_state_when_every_label_is_carried(branching_map):
+    cmap = branching_map
+    cmap.replace_state(State(**{**{f: getattr(cmap[0], f) for f in State.__dataclass_fields__}}))
+    m = export_model(cmap)
+    assert all(m.labels[name] for name in ("goal", "collision", "plan", "init"))
+    # goal_in_map is on q0 (the map reaches the goal): every label is carried
+    buf = io.StringIO()
+    write_drn(m, buf)
+    assert LABEL_HOLDER not in buf.getvalue()
+
+
+# -- one-state models ------------------------------------------------------------------------
+@needs_prism
+@pytest.mark.parametrize("kind", ["mdp", "dtmc"])
+def test_a_one_state_model_loads_in_prism_and_storm(kind, tmp_path, one_state_map):
+    """Before: ``q : [0..0]`` (PRISM: refused) and empty rewards blocks (Storm: refused)."""
+    cmap = one_state_map
+    path = tmp_path / "one.prism"
+    write_prism(cmap, path, kind)
+    program = stormpy.parse_prism_program(str(path))
+    model = stormpy.build_model(program)
+    assert model.nr_states == 1
+    q = "max" if kind == "mdp" else ""
+    got = check_with_prism(cmap, [f'P{q}=? [F "goal"]', f'R{{"distance"}}{q}=? [C<=3]'], kind)
+    assert (got.n_states, got.n_transitions) == (1, 1)
+    assert got.values == [0.0, 0.0]
+
+
+# -- named rewards in PRISM's explicit files ---------------------------------------------------
+def test_explicit_reward_files_name_their_structure(scenario_map):
+    files = {k: io.StringIO() for k in ("srew", "trew", "time.srew", "time.trew")}
+    write_prism_explicit(scenario_map("overtaking"), files)
+    for suffix, name in (("srew", "distance"), ("trew", "distance"), ("time.srew", "time"), ("time.trew", "time")):
+        assert files[suffix].getvalue().splitlines()[0] == f'# Reward structure "{name}"'
+
+
+@needs_prism
+@pytest.mark.parametrize("kind", ["mdp", "dtmc"])
+def test_prism_evaluates_named_rewards_from_the_explicit_files(scenario_map, kind):
+    """Before: ``R{"distance"}`` failed in PRISM: "Invalid reward structure index"."""
+    cmap = scenario_map("overtaking")
+    q = "min" if kind == "mdp" else ""
+    got = check_with_prism(cmap, [f'R{{"distance"}}{q}=? [F "goal"]', f'R{{"time"}}{q}=? [F "goal"]'], kind, via="explicit")
+    assert got.values == pytest.approx([1.54, 26.6], abs=1e-9)
+
+
+@needs_prism
+def test_prism_reads_mdp_transition_rewards_of_probabilistic_choices(branching_map):
+    """Before: each branch of a choice had its own reward; PRISM refuses that
+    ("mismatching transition rewards"). The choice's reward is the expected distance."""
+    cmap = branching_map
+    expected = Fraction(1, 5) * Fraction(0.2) + Fraction(3, 10) * (Fraction(0.6) + 1) + Fraction(1, 2) * Fraction(1.0)
+    props = ['R{"distance"}min=? [F ("goal" | "collision")]', 'Pmax=? [!"collision" U "goal"]']
+    for via in ("explicit", "prism"):
+        got = check_with_prism(cmap, props, "mdp", via=via)
+        assert got.values[0] == pytest.approx(float(expected), abs=1e-9), via
+        assert got.values[1] == pytest.approx(0.8, abs=1e-12), via
+    files = {"trew": io.StringIO()}
+    write_prism_explicit(cmap, files)
+    rows: dict[tuple[str, str], set[str]] = {}
+    for line in files["trew"].getvalue().splitlines()[3:]:
+        s, c, _, r = line.split()
+        rows.setdefault((s, c), set()).add(r)
+    assert all(len(v) == 1 for v in rows.values())
+
+
+# -- the PRISM language's printed probabilities ---------------------------------------------------
+_CMD = re.compile(r"^\s*\[(\w+)\] q=(\d+) -> (.*);$")
+
+
+def _prism_distributions(text: str) -> dict[tuple[int, str], dict[int, Fraction]]:
+    """Parse the commands of a written PRISM model back into exact distributions."""
+    out: dict[tuple[int, str], dict[int, Fraction]] = {}
+    body = text.split("module cognitive_map", 1)[1].split("endmodule", 1)[0]
+    for line in body.splitlines():
+        m = _CMD.match(line)
+        if not m:
+            continue
+        dist: dict[int, Fraction] = {}
+        for part in m.group(3).split(" + "):
+            p, upd = part.split(":", 1)
+            dist[int(re.fullmatch(r"\(q'=(\d+)\)", upd.strip()).group(1))] = Fraction(p)  # type: ignore[union-attr]
+        out[(int(m.group(2)), m.group(1))] = dist
+    return out
+
+
+def test_prism_language_probabilities_read_back_as_the_maps(scenario_map, branching_map):
+    """Before: nothing read the printed probabilities back; printing every branch as 1/2
+    passed every test (and Storm accepts rows that do not sum to 1)."""
+    for cmap in (branching_map, scenario_map("overtaking")):
+        buf = io.StringIO()
+        write_prism(cmap, buf)
+        got = _prism_distributions(buf.getvalue())
+        m = export_model(cmap)
+        want = {
+            (m.states[k].ident, ch.action): {m.states[j].ident: p for j, p in ch.branches}
+            for k, row in enumerate(m.choices)
+            for ch in row
+        }
+        assert got == want
+
+
+def test_storm_builds_the_printed_probabilities_of_the_prism_language(tmp_path, branching_map):
+    cmap = branching_map
+    write_prism(cmap, tmp_path / "b.nm")
+    from formal.checking import load_storm_model
+
+    sm = load_storm_model(tmp_path / "b.nm")
+    model, idents = sm.model, sm.idents
+    init = int(model.initial_states[0])
+    rows = {
+        frozenset((idents[t.column], Fraction(t.value).limit_denominator(1000)) for t in a.transitions)
+        for a in model.states[init].actions
+    }
+    assert rows == {
+        frozenset({(1, Fraction(1, 5)), (2, Fraction(3, 10)), (3, Fraction(1, 2))}),
+        frozenset({(4, Fraction(1))}),
+    }
+
+
+# -- the svg writer takes the model kind like every writer --------------------------------------------
+def test_svg_writer_takes_the_model_kind(scenario_map, tmp_path, monkeypatch):
+    """Before: ``FORMATS["svg"](map, dest, "dtmc")`` passed "dtmc" as the Graphviz engine."""
+    import shutil
+
+    if shutil.which("dot") is None:
+        pytest.skip("Graphviz is not installed (apt-get install graphviz)")
+    cmap = scenario_map("overtaking")
+    FORMATS["svg"](cmap, tmp_path / "s.svg", "dtmc")
+    FORMATS["svg"](cmap, tmp_path / "u.svg", "mdp")
+    supervised, unsupervised = (tmp_path / "s.svg").read_text(), (tmp_path / "u.svg").read_text()
+    n_plan = len(cmap.metadata["plan"])
+    assert supervised.count('class="node"') == n_plan
+    assert unsupervised.count('class="node"') == len(cmap)
+
+
+# -- property files both tools read ----------------------------------------------------------------
+@needs_prism
+def test_prism_reads_every_shipped_property_file(scenario_map):
+    """Before: unsupervised.pctl used ``Pmax>=1``, a PRISM syntax error."""
+    for path in default_property_files():
+        pf = read_properties(path)
+        got = check_with_prism(scenario_map("overtaking"), [p.formula for p in pf.properties], pf.model)
+        assert len(got.values) == len(pf.properties), path.name
+
+
+@needs_prism
+def test_prism_errors_are_reported_not_swallowed(scenario_map):
+    with pytest.raises(PrismError, match="Syntax error"):
+        check_with_prism(scenario_map("open"), ['Pmax>=1 [F "goal"]'], "mdp")
