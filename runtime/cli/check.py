@@ -1,8 +1,10 @@
-"""``clomp check``: model-check a cognitive map (scenario, scan, map or exported file) with Storm.
+"""``clomp check``: model-check a cognitive map (scenario, scan, map or exported file)
+with Storm, PRISM or both.
 
 Checks every property of the property files (default: specs/properties/*.pctl), prints a
 table of property, result and verdict, and exits with status 1 when a required property
-fails, naming a path of map states that violates it.
+fails, naming a path of map states that violates it (Storm finds the path), or, with
+``--tool both``, when the two tools disagree (by more than 1e-9).
 """
 
 from __future__ import annotations
@@ -23,7 +25,9 @@ from formal.checking import (
     load_storm_model,
     read_properties,
 )
+from formal.crosscheck import values_agree
 from formal.export import ExportError
+from formal.prism import PrismError, PrismMissing, check_with_prism, run_prism
 from formal.lts import CognitiveMap, MapError
 from runtime.cli.export import add_source_options, map_from_args
 from runtime.cli.plan import add_planner_options
@@ -34,11 +38,17 @@ __all__ = ["register"]
 
 def register(sub: Any) -> None:
     """Add ``check`` to the command line."""
-    p = sub.add_parser("check", help="model-check a cognitive map with Storm", description=__doc__)
+    p = sub.add_parser("check", help="model-check a cognitive map with Storm and/or PRISM", description=__doc__)
     add_source_options(p, required=False)
     p.add_argument("file", nargs="?", help="an exported model (.prism or .drn) or a map (.json)")
     p.add_argument("--specs", action="append", metavar="FILE", help="a property file (repeatable; default: specs/properties/*.pctl)")
     p.add_argument("--via", choices=("drn", "prism"), default="drn", help="format handed to Storm for a map (default drn)")
+    p.add_argument(
+        "--tool",
+        choices=("storm", "prism", "both"),
+        default="storm",
+        help="model checker: Storm (stormpy), PRISM (the PRISM language; $CLOMP_PRISM or shared/tools) or both side by side (default storm)",
+    )
     add_planner_options(p)
     p.set_defaults(func=run)
 
@@ -57,30 +67,71 @@ def run(args: argparse.Namespace) -> int:
     if len(sources) != 1:
         raise CliError("give exactly one of --scenario, --scan, --map or a model FILE")
     files = _spec_files(args)
+    use_storm, use_prism = args.tool in ("storm", "both"), args.tool in ("prism", "both")
     try:
         if args.file and Path(args.file).suffix != ".json":
-            results, title, cmap = _check_file(Path(args.file), files), args.file, None
+            path, cmap, title = Path(args.file), None, args.file
+            storm = _check_file(path, files) if use_storm else []
+            prism = _prism_file(path, files) if use_prism else []
         else:
             if args.file:
                 args.map = args.file
             cmap, title = map_from_args(args)
-            results = []
-            built = {}
+            storm, prism = [], []
+            built: dict[str, Any] = {}
             for pf in files:
-                if pf.model not in built:
-                    built[pf.model] = build_storm_model(cmap, pf.model, args.via)
-                results += _check(built[pf.model], pf)
-    except StormMissing as exc:
+                if use_storm:
+                    if pf.model not in built:
+                        built[pf.model] = build_storm_model(cmap, pf.model, args.via)
+                    storm += _check(built[pf.model], pf)
+                if use_prism:
+                    prism += _prism_results(check_with_prism(cmap, [p.formula for p in pf.properties], pf.model), pf, pf.model)
+    except (StormMissing, PrismMissing) as exc:
         raise CliError(str(exc)) from None
-    except (SpecError, ExportError, MapError) as exc:
+    except (SpecError, ExportError, MapError, PrismError) as exc:
         raise CliError(str(exc)) from None
-    _print_table(title, results)
-    if cmap is not None:
+    results = storm or prism
+    _print_table(title, results, prism if storm and prism else None, args.tool)
+    if cmap is not None and use_storm:
         _print_distance(cmap, args.via)
     failed = [r for r in results if r.passed is False]
+    if storm and prism:
+        failed += [q for r, q in zip(storm, prism) if q.passed is False and r.passed is not False]
     for r in failed:
-        print(f"FAIL {r.spec.name} ({r.kind}): {r.value_text()}, required {r.spec.required}; violating path: {' -> '.join(r.witness)}")
-    return 1 if failed else 0
+        path_text = f"violating path: {' -> '.join(r.witness)}" if r.witness else "run with --tool storm for a violating path"
+        print(f"FAIL {r.spec.name} ({r.kind}): {r.value_text()}, required {r.spec.required}; {path_text}")
+    disagree = []
+    if storm and prism:
+        disagree = [(r, q) for r, q in zip(storm, prism) if not values_agree(r.value, q.value)]
+        for r, q in disagree:
+            print(f"DISAGREE {r.spec.name} ({r.kind}): Storm {r.value!r}, PRISM {q.value!r}")
+    return 1 if failed or disagree else 0
+
+
+def _prism_results(res: Any, pf: PropertyFile, kind: Any) -> list[CheckResult]:
+    out = []
+    for spec, value in zip(pf.properties, res.values):
+        passed = None if spec.required is None else spec.required.holds(value)
+        out.append(CheckResult(spec, kind, value, passed))
+    return out
+
+
+def _prism_file(path: Path, files: list[PropertyFile]) -> list[CheckResult]:
+    if path.suffix not in (".prism", ".pm", ".nm"):
+        raise CliError(f"{path}: PRISM reads the PRISM language (.prism .pm .nm); export one with --format prism, or use --tool storm")
+    if not path.is_file():
+        raise CliError(f"{path}: no such file")
+    first = next((w for line in path.read_text(encoding="utf-8", errors="replace").splitlines() if (w := line.split("//")[0].strip())), "")
+    kind = first if first in ("mdp", "dtmc") else None
+    if kind is None:
+        raise CliError(f"{path}: not a PRISM model of kind mdp or dtmc (first statement {first!r})")
+    matching = [pf for pf in files if pf.model == kind]
+    if not matching:
+        raise CliError(f"{path} is a {kind.upper()}, and no property file is about a {kind}")
+    out: list[CheckResult] = []
+    for pf in matching:
+        out += _prism_results(run_prism([str(path)], [p.formula for p in pf.properties]), pf, kind)
+    return out
 
 
 def _check(sm: Any, pf: PropertyFile) -> list[CheckResult]:
@@ -100,13 +151,24 @@ def _check_file(path: Path, files: list[PropertyFile]) -> list[CheckResult]:
     return out
 
 
-def _print_table(title: str, results: list[CheckResult]) -> None:
-    print(f"{title}: {len(results)} properties checked by Storm")
+def _print_table(title: str, results: list[CheckResult], prism: list[CheckResult] | None, tool: str) -> None:
+    by = {"storm": "Storm", "prism": "PRISM", "both": "Storm and PRISM"}[tool]
+    print(f"{title}: {len(results)} properties checked by {by}")
     width = max([8, *(len(r.spec.name) for r in results)])
-    print(f"  {'model':<5}  {'property':<{width}}  {'result':>10}  {'required':<9} verdict")
-    for r in results:
+    head = f"{'Storm':>10}  {'PRISM':>10}" if prism else f"{'result':>10}"
+    print(f"  {'model':<5}  {'property':<{width}}  {head}  {'required':<9} verdict")
+    for k, r in enumerate(results):
         req = "" if r.spec.required is None else str(r.spec.required)
-        print(f"  {r.kind:<5}  {r.spec.name:<{width}}  {r.value_text():>10}  {req:<9} {r.verdict}")
+        verdict = r.verdict
+        values = f"{r.value_text():>10}"
+        if prism:
+            q = prism[k]
+            values += f"  {q.value_text():>10}"
+            if q.passed is False:
+                verdict = "FAIL"
+            if not values_agree(r.value, q.value):
+                verdict += " DISAGREE"
+        print(f"  {r.kind:<5}  {r.spec.name:<{width}}  {values}  {req:<9} {verdict}")
 
 
 def _print_distance(cmap: CognitiveMap, via: str) -> None:

@@ -250,3 +250,62 @@ def test_cli_check_without_stormpy_says_how_to_install(clomp, monkeypatch):
     monkeypatch.setitem(sys.modules, "stormpy", None)
     code, _, err = clomp("check", "--scenario", "open")
     assert code == 2 and "pip install 'clomp[verify]'" in err
+
+
+# -- clomp check --tool ------------------------------------------------------------------------------
+needs_prism = pytest.mark.skipif(
+    __import__("formal.prism", fromlist=["find_prism"]).find_prism() is None,
+    reason="PRISM not found: set CLOMP_PRISM or keep shared/tools/prism-*/ beside the repo",
+)
+
+
+@needs_storm
+@needs_prism
+def test_cli_check_with_both_tools_prints_both_columns(clomp):
+    code, out, _ = clomp("check", "--scenario", "overtaking", "--tool", "both")
+    assert code == 0, out
+    assert "checked by Storm and PRISM" in out and "DISAGREE" not in out
+    row = next(line for line in out.splitlines() if " min_distance " in line)
+    assert row.split()[2:4] == ["1.54", "1.54"]
+
+
+@needs_prism
+def test_cli_check_with_prism_fails_a_requirement_and_reads_exported_files(clomp, tmp_path):
+    spec = tmp_path / "strict.pctl"
+    spec.write_text('// @model mdp\n// no option collides\n// @required = 0\n"never": Pmax=? [F "collision"]\n')
+    code, out, _ = clomp("check", "--scenario", "overtaking", "--specs", str(spec), "--tool", "prism")
+    assert code == 1 and "checked by PRISM" in out and "FAIL never (mdp): 1" in out
+    path = tmp_path / "ov.prism"
+    assert clomp("export", "--scenario", "overtaking", "--format", "prism", "--model", "dtmc", "-o", str(path))[0] == 0
+    code, out, _ = clomp("check", str(path), "--tool", "prism")
+    assert code == 0 and "no_collision" in out and " mdp " not in out
+
+
+@needs_prism
+def test_cli_check_prism_refuses_a_drn_file_with_one_clear_error(clomp, tmp_path):
+    path = tmp_path / "ov.drn"
+    assert clomp("export", "--scenario", "open", "--format", "drn", "-o", str(path))[0] == 0
+    code, _, err = clomp("check", str(path), "--tool", "prism")
+    assert code == 2 and "PRISM reads the PRISM language" in err and "Traceback" not in err
+
+
+def test_cli_check_without_prism_says_how_to_get_it(clomp, monkeypatch, tmp_path):
+    monkeypatch.setenv("CLOMP_PRISM", str(tmp_path / "no-such-prism"))
+    code, _, err = clomp("check", "--scenario", "open", "--tool", "prism")
+    assert code == 2 and "CLOMP_PRISM" in err
+
+
+@needs_storm
+def test_cli_check_both_fails_when_the_tools_disagree(clomp, monkeypatch):
+    """The comparison itself: PRISM's answer is replaced by one that differs by 1e-6."""
+    import runtime.cli.check as check
+    from formal.prism import PrismResult
+
+    def off_by_a_little(cmap, formulas, kind):
+        values = [0.0 + 1e-6 if "collision" in f and "=?" in f else (True if "=?" not in f else 1.0) for f in formulas]
+        return PrismResult(1, 1, None, values)
+
+    monkeypatch.setattr(check, "check_with_prism", off_by_a_little)
+    code, out, _ = clomp("check", "--scenario", "overtaking", "--tool", "both")
+    assert code == 1
+    assert "DISAGREE no_collision (dtmc): Storm 0.0, PRISM 1e-06" in out
