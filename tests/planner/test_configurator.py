@@ -176,3 +176,62 @@ def test_map_equality_and_json_keep_every_transition(tmp_path):
     d = r.map.to_dict()
     d["transitions"] = d["transitions"][:-1]
     assert CognitiveMap.from_dict(d) != r.map
+
+
+# -- γ in the search (Algorithm 1: interrupted frontier states enter the queue) -------------------
+def _plan_scenario(name, **options):
+    from planner import Configurator, load_scenario
+
+    conf = Configurator(**options)
+    scene = load_scenario(name)
+    return conf.plan(scene.scan(max_range=conf.robot.sensor_range), tuple(scene.goal_in_robot_frame()))
+
+
+def test_interrupted_frontier_states_end_the_search_when_they_are_least_phi():
+    """A cul-de-sac exhausts its free options; the search ends by popping the least-φ
+    state, an interrupted one (no obstacle-free transition), not by an empty queue."""
+    from planner.configurator import CostContext, default_cost
+
+    r = _plan_scenario("cul-de-sac")
+    assert r.stop_reason == "exhausted"
+    stop = r.map[r.map.metadata["stopped_at"]]
+    assert stop.interrupted
+    hits = [s for s in r.map.states() if s.interrupted]
+    assert stop.cost == min(s.cost for s in hits)
+    ctx = CostContext(r.goal, r.map.initial.start, r.robot)
+    assert all(s.cost == default_cost(s, ctx) for s in r.map.states())
+    # γ ≥ 1 > χ: every interrupted state is dearer than every uninterrupted one
+    assert min(s.cost for s in hits) >= 1 > max(s.cost for s in r.map.states() if not s.interrupted)
+
+
+@pytest.mark.parametrize("name", ["overtaking", "doorway", "slalom"])
+def test_dropping_gamma_ends_the_search_at_a_collision(name):
+    """φ = χ alone: a hit close to the goal is cheaper than a free detour, so the search
+    stops at it and the goal is never reached (γ made no difference before the change)."""
+    from planner.configurator import chi
+
+    assert _plan_scenario(name).reached_goal
+    r = _plan_scenario(name, cost=chi)
+    assert not r.reached_goal and r.map[r.map.metadata["stopped_at"]].interrupted
+
+
+def test_flipping_the_sign_of_gamma_ends_the_search_at_a_collision():
+    from planner.configurator import chi, gamma
+
+    r = _plan_scenario("overtaking", cost=lambda s, c: chi(s, c) - gamma(s, c))
+    assert not r.reached_goal and r.map[r.map.metadata["stopped_at"]].interrupted
+
+
+def test_the_sense_of_gamma_decides_which_hit_ends_the_search():
+    """γ = 2 − d/r: the sooner the hit, the dearer. Reversed (1 + d/r), a different hit
+    of the cul-de-sac is the least-φ state that ends the search."""
+    from planner.configurator import chi, gamma
+
+    def reversed_gamma(s, ctx):
+        return chi(s, ctx) + (0.0 if s.d_n is None else 3.0 - gamma(s, ctx))
+
+    default, flipped = _plan_scenario("cul-de-sac"), _plan_scenario("cul-de-sac", cost=reversed_gamma)
+    a, b = default.map[default.map.metadata["stopped_at"]], flipped.map[flipped.map.metadata["stopped_at"]]
+    assert a.ident != b.ident
+    d = lambda s: s.start.distance_to(s.d_n.x, s.d_n.y)  # noqa: E731
+    assert d(a) > d(b)  # the default stops at the later hit, the reversed γ at the sooner one
