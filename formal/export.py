@@ -443,7 +443,10 @@ def prism_import_args(stem: str | os.PathLike[str], kind: ModelKind) -> list[str
     ['-importtrans', 'm.tra', '-importstates', 'm.sta']
     """
     base = _stem(stem)
-    f = lambda suffix: str(base.parent / f"{base.name}.{suffix}")  # noqa: E731
+
+    def f(suffix: str) -> str:
+        return str(base.parent / f"{base.name}.{suffix}")
+
     return [
         "-importtrans", f("tra"), "-importstates", f("sta"), "-importlabels", f("lab"),
         "-importstaterewards", f("srew"), "-importstaterewards", f("time.srew"),
