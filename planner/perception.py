@@ -194,6 +194,8 @@ def _parse_npy(path: Path, data: bytes) -> np.ndarray:
         raise ScanError(f"{path}: complex values; a scan holds real x, y coordinates")
     if dtype.kind not in "iuf" or dtype.hasobject or dtype.fields is not None or dtype.subdtype is not None:
         raise ScanError(f"{path}: not a numeric .npy array (dtype {dtype})")
+    if not all(isinstance(n, int) and n >= 0 for n in shape):
+        raise ScanError(f"{path}: not a readable .npy array (bad shape {tuple(shape)!r} in header)")
     count = math.prod(shape)
     if count == 0:
         return np.zeros((0, 2))

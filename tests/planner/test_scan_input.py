@@ -20,7 +20,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
 from planner import perception, plan
@@ -118,6 +118,7 @@ _header_text = st.one_of(
 
 @settings(max_examples=200, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(_header_text, st.sampled_from([(1, 0), (2, 0), (3, 0), (9, 9)]), st.binary(max_size=64))
+@example("{'descr':'B','fortran_order':False,'shape':(-1,2)}", (1, 0), b"\x00")  # found by Hypothesis: a negative dimension
 def test_malformed_npy_headers_get_one_scan_error(tmp_path, header, version, payload):
     f = tmp_path / "fuzz.npy"
     f.write_bytes(_npy_header(header, version) + payload)
