@@ -23,9 +23,12 @@ class ScanFrame:
     """One LiDAR revolution: N×2 points (metres, robot frame) and when it was taken.
 
     ``timestamp`` is in the backend's clock (seconds, monotonic). ``quality`` is the
-    per-point return strength when the sensor reports one.
+    per-point return strength when the sensor reports one. ``point_times`` is, when the
+    backend knows it, when each point was measured, in seconds relative to ``timestamp``
+    (<= 0): a revolution taken while moving can then be de-skewed.
     """
 
     points: np.ndarray
     timestamp: float
     quality: np.ndarray | None = field(default=None)
+    point_times: np.ndarray | None = field(default=None)

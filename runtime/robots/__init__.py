@@ -1,5 +1,7 @@
 """Robot backends behind the :class:`runtime.robot.Robot` interface.
 
+- :mod:`.world` — the execution world: the ground truth simulated runs execute in,
+  independent of the planner's model (:func:`make_world_robot`);
 - :mod:`.sim` — the simulated robot (pymunk world, noisy LiDAR and wheels);
 - :mod:`.hardware` — the real robot over serial ports (RPLIDAR A1 + Pololu Maestro);
 - :mod:`.emulated` — the device emulators wired to a simulated robot (hardware stack, no hardware);
@@ -11,4 +13,15 @@ Import the modules themselves (``from runtime.robots.sim import SimRobot``) or t
 lazy names of :mod:`runtime`.
 """
 
-__all__: list[str] = []
+from __future__ import annotations
+
+from typing import Any
+
+__all__ = ["make_world_robot"]
+
+
+def make_world_robot(*args: Any, **kwargs: Any) -> Any:
+    """The execution world for a scene; see :func:`runtime.robots.world.make_world_robot`."""
+    from runtime.robots.world import make_world_robot as make
+
+    return make(*args, **kwargs)

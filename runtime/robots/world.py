@@ -1,0 +1,483 @@
+"""The execution world: a ground-truth robot independent of the planner's model.
+
+A scenario (:class:`planner.scenarios.Scene`, only its obstacle list, start and goal) is
+rebuilt as static pymunk shapes, and the robot is a *dynamic* pymunk body with mass and
+inertia driven the way wheels drive a body: a kinematic control body moves at the speed
+the wheels give, and a pivot and a gear joint with limited force (traction, ``mu·m·g``)
+pull the robot's body along. Against an obstacle the joints slip: contacts stop the body
+or deflect it along the surface, as on a real floor. Nothing here comes from the
+planner's physics, tasks or kinematics (a test checks the imports): the planner's
+unicycle rollouts are the robot's *belief*, this is the world.
+
+The drive, per wheel: the command waits ``latency`` s (actuation latency), is multiplied
+by a per-run bias and a per-tick error, and the wheel's speed follows it at most
+``wheel_accel`` m/s² (a per-wheel acceleration limit); each wheel then loses a random
+fraction ``slip`` of its speed on the ground, and a heading drift is added while the
+wheels turn.
+
+The LiDAR is an RPLIDAR A1: ``scan_rate`` revolutions a second (5.5–10 Hz), ``rays``
+samples a revolution (360–720), each ray cast at its own time from the body's pose then
+(a revolution taken while moving is skewed as on the real sensor), along a beam jittered
+by ``angle_sd`` around the angle reported, with Gaussian range noise, dropouts, the crop
+at ``max_range`` and coordinates rounded to 1 cm. Each revolution is a
+:class:`~runtime.robot.ScanFrame`.
+
+Ground truth for experiments: :meth:`WorldRobot.ground_truth_pose` (world frame) and
+:meth:`WorldRobot.contact_trace` — one ``(time_s, penetration_m)`` sample per physics
+step (``dt``, default 0.01 s) during which the body touches an obstacle, with the deepest
+penetration of that step. Time is simulated (:meth:`now`, :meth:`sleep`), so a supervisor
+that uses the robot as its clock runs much faster than real time, bit for bit the same
+for one seed.
+
+>>> from planner.scenarios import load_scenario
+>>> w = make_world_robot(load_scenario("open"), noise="ideal", seed=0)
+>>> w.set_wheel_speeds(0.1, 0.1); w.sleep(2.0)
+>>> round(w.ground_truth_pose().x, 2)   # 0.2 m less what the 1 m/s² ramp-up costs
+0.19
+"""
+
+from __future__ import annotations
+
+import math
+from collections import deque
+from dataclasses import asdict, dataclass, fields, replace
+from typing import Any
+
+import numpy as np
+import pymunk
+
+from formal.geometry import wrap_angle
+from formal.model import Pose
+from planner.scenarios import Scene, ScenarioError
+from runtime.devices.frame import ScanFrame
+from runtime.robot import RobotFault
+
+__all__ = ["BodySpec", "WorldNoise", "WorldRobot", "WorldContact", "make_world_robot", "NOISE_PRESETS"]
+
+NOISE_PRESETS = ("ideal", "paper", "harsh")
+_CONTACT_GAP = 0.5  # a contact beginning this long after the previous ended is a new collision
+_OBSTACLE, _ROBOT = 1, 2
+
+
+@dataclass(frozen=True)
+class WorldNoise:
+    """The world's noise terms (SI units); see ``specs/noise_presets.json`` for each field.
+
+    >>> WorldNoise.preset("harsh").latency
+    0.1
+    >>> WorldNoise.preset("paper", scale=0.0) == WorldNoise.preset("ideal")
+    True
+    """
+
+    range_sd: float = 0.0
+    angle_sd: float = 0.0
+    dropout: float = 0.0
+    wheel_sd: float = 0.0
+    wheel_bias: float = 0.0
+    drift: float = 0.0
+    slip: float = 0.0
+    latency: float = 0.0
+
+    def __post_init__(self) -> None:
+        for f in fields(self):
+            v = getattr(self, f.name)
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v < 0:
+                raise ValueError(f"noise.{f.name}: expected a finite number >= 0, got {v!r}")
+        if self.dropout >= 1:
+            raise ValueError(f"noise.dropout: must be below 1, got {self.dropout!r}")
+
+    @classmethod
+    def preset(cls, name: str, scale: float = 1.0) -> "WorldNoise":
+        """A named preset (``ideal``, ``paper``, ``harsh``) with every term × ``scale``."""
+        from specs import noise_preset
+
+        return cls(**noise_preset(name, scale))
+
+    def to_dict(self) -> dict[str, float]:
+        """JSON-ready form."""
+        return asdict(self)
+
+
+@dataclass(frozen=True)
+class BodySpec:
+    """The physical robot: body, wheels and their limits (SI units; the paper's robot).
+
+    The body is ``length`` × ``width``; the wheel axle and the LiDAR sit ``front_offset``
+    behind the front edge (the robot frame's origin).
+    """
+
+    length: float = 0.27
+    width: float = 0.18
+    front_offset: float = 0.09
+    wheel_base: float = 0.15
+    max_wheel_speed: float = 0.2
+    wheel_accel: float = 1.0
+    mass: float = 1.5
+    traction: float = 0.8
+    wall_friction: float = 0.4
+
+    def __post_init__(self) -> None:
+        for f in fields(self):
+            v = getattr(self, f.name)
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v <= 0:
+                raise ValueError(f"body.{f.name}: expected a positive finite number, got {v!r}")
+        if self.front_offset >= self.length:
+            raise ValueError("body.front_offset must be smaller than the body length")
+
+    @classmethod
+    def like(cls, model: Any, **changes: Any) -> "BodySpec":
+        """A body with the dimensions of a robot description (any object with ``length``,
+        ``width``, ``front_offset``, ``wheel_base``, ``max_speed``, e.g. a RobotModel)."""
+        dims = {k: float(getattr(model, k)) for k in ("length", "width", "front_offset", "wheel_base")}
+        return replace(cls(**dims, max_wheel_speed=float(model.max_speed)), **changes)
+
+
+@dataclass(frozen=True, slots=True)
+class WorldContact:
+    """One counted collision: when (simulated s) and where (world frame) it began."""
+
+    time: float
+    x: float
+    y: float
+
+
+class WorldRobot:
+    """A differential-drive robot with an RPLIDAR A1 in a scenario's world (see the module).
+
+    Implements :class:`runtime.robot.Robot` and a simulated clock. It has no wheel
+    encoders (:meth:`odometry` is None), like the paper's robot.
+    """
+
+    def __init__(
+        self,
+        scene: Scene,
+        *,
+        noise: WorldNoise | None = None,
+        body: BodySpec | None = None,
+        seed: int | None = None,
+        rays: int = 360,
+        scan_rate: float = 5.5,
+        max_range: float = 1.1,
+        resolution: float = 0.01,
+        dt: float = 0.01,
+        control_tick: float = 0.1,
+        start: Pose | None = None,
+    ) -> None:
+        if not (isinstance(rays, int) and 360 <= rays <= 720):
+            raise ValueError(f"rays: an RPLIDAR A1 takes 360 to 720 samples a revolution, got {rays!r}")
+        if not (5.5 <= scan_rate <= 10.0):
+            raise ValueError(f"scan_rate: an RPLIDAR A1 turns at 5.5 to 10 Hz, got {scan_rate!r}")
+        for name, v in (("max_range", max_range), ("dt", dt), ("control_tick", control_tick)):
+            if not (math.isfinite(v) and v > 0):
+                raise ValueError(f"{name}: expected a positive number, got {v!r}")
+        if not (math.isfinite(resolution) and resolution >= 0):
+            raise ValueError(f"resolution: expected a number >= 0, got {resolution!r}")
+        self.scene = scene
+        self.noise = noise or WorldNoise()
+        self.body = body or BodySpec()
+        self.seed = seed
+        self.rays = rays
+        self.scan_rate = float(scan_rate)
+        self.max_range = float(max_range)
+        self.resolution = float(resolution)
+        self.dt = float(dt)
+        self.control_tick = float(control_tick)
+        self._rng = np.random.default_rng(seed)
+        n = self.noise
+        self._bias = 1.0 + n.wheel_bias * self._rng.standard_normal(2)
+        self._drift = n.drift * float(self._rng.standard_normal())
+        self._start = scene.start if start is None else start
+        self._t = 0.0
+        self._closed = False
+        self._cmd = (0.0, 0.0)
+        self._pending: deque[tuple[float, tuple[float, float]]] = deque()
+        self._applied = (0.0, 0.0)
+        self._wheel = np.zeros(2)
+        self._tick_err = np.ones(2)
+        self._tick_slip = np.zeros(2)
+        self._next_draw = 0.0
+        self.collisions = 0
+        self.contacts: list[WorldContact] = []
+        self._trace: list[tuple[float, float]] = []
+        self.in_contact = False
+        self._contact_ended = -math.inf
+        self._build()
+        self.trajectory: list[tuple[float, float, float, float]] = [(0.0, *self._xyth())]
+        self._ray_angles = np.arange(rays) * (2 * math.pi / rays)
+        self._next_ray = 0
+        self._rev_start = 0.0
+        self._pts: list[np.ndarray] = []
+        self._times: list[np.ndarray] = []
+        self._latest: ScanFrame | None = None
+        self._delivered = True
+
+    # -- building the world -------------------------------------------------------------------
+    def _build(self) -> None:
+        b = self.body
+        space = pymunk.Space()
+        space.collision_slop = 0.0005
+        space.iterations = 20
+        for s in self.scene.shapes:
+            if s.kind == "circle":
+                shape: pymunk.Shape = pymunk.Circle(space.static_body, s.radius, s.center)
+            else:
+                shape = pymunk.Poly(space.static_body, list(s.vertices))
+            shape.friction = b.wall_friction
+            shape.collision_type = _OBSTACLE
+            shape.filter = pymunk.ShapeFilter(categories=_OBSTACLE)
+            space.add(shape)
+        rear = b.length - b.front_offset
+        outline = [(-rear, -b.width / 2), (b.front_offset, -b.width / 2), (b.front_offset, b.width / 2), (-rear, b.width / 2)]
+        body = pymunk.Body(b.mass, pymunk.moment_for_poly(b.mass, outline))
+        body.position = (self._start.x, self._start.y)
+        body.angle = self._start.theta
+        shape = pymunk.Poly(body, outline)
+        shape.friction = 1.0
+        shape.collision_type = _ROBOT
+        shape.filter = pymunk.ShapeFilter(categories=_ROBOT)
+        control = pymunk.Body(body_type=pymunk.Body.KINEMATIC)
+        control.position = body.position
+        grip = b.traction * b.mass * 9.81
+        pivot = pymunk.PivotJoint(control, body, (0.0, 0.0), (0.0, 0.0))
+        pivot.max_bias = 0.0
+        pivot.max_force = grip
+        gear = pymunk.GearJoint(control, body, 0.0, 1.0)
+        gear.error_bias = 0.0
+        gear.max_bias = 0.0
+        gear.max_force = grip * b.wheel_base / 2
+        space.add(body, shape, control, pivot, gear)
+        self._space, self._body, self._shape, self._control = space, body, shape, control
+        self._ray_filter = pymunk.ShapeFilter(mask=_OBSTACLE)
+        if space.shape_query(shape):
+            raise ScenarioError(f"{self.scene.name}.start: the robot's body overlaps an obstacle at the start pose")
+
+    def _xyth(self) -> tuple[float, float, float]:
+        p = self._body.position
+        return float(p.x), float(p.y), float(self._body.angle)
+
+    # -- Robot protocol -------------------------------------------------------------------------
+    def read_scan(self, timeout: float | None = None) -> ScanFrame | None:
+        """The newest full revolution not returned before; waits (simulated time) up to
+        ``timeout`` s for one (None: until the revolution in progress completes)."""
+        self._check_open()
+        if self._delivered:
+            wait = (1.0 / self.scan_rate) * 1.01 if timeout is None else max(0.0, float(timeout))
+            deadline = self._t + wait
+            while self._delivered and self._t < deadline - 1e-12:
+                self._step(min(self.dt, deadline - self._t))
+        if self._delivered or self._latest is None:
+            return None
+        self._delivered = True
+        return self._latest
+
+    def set_wheel_speeds(self, left: float, right: float) -> None:
+        """Command the wheels (m/s), saturated at the top wheel speed; applied after the latency."""
+        self._check_open()
+        if not (math.isfinite(left) and math.isfinite(right)):
+            raise ValueError(f"wheel speeds must be finite, got ({left}, {right})")
+        vmax = self.body.max_wheel_speed
+        cmd = (min(max(float(left), -vmax), vmax), min(max(float(right), -vmax), vmax))
+        self._cmd = cmd
+        self._pending.append((self._t + self.noise.latency, cmd))
+
+    def stop(self) -> None:
+        """Command the wheels to stop (always allowed, also after :meth:`close`).
+
+        Like a real motor controller, the stop is subject to the actuation latency and the
+        wheels decelerate at their acceleration limit.
+        """
+        self._cmd = (0.0, 0.0)
+        self._pending.append((self._t + self.noise.latency, (0.0, 0.0)))
+
+    def odometry(self) -> Pose | None:
+        """None: the robot has no wheel encoders."""
+        return None
+
+    def close(self) -> None:
+        """Stop; further commands raise :class:`~runtime.robot.RobotFault`."""
+        self.stop()
+        self._closed = True
+
+    def _check_open(self) -> None:
+        if self._closed:
+            raise RobotFault("the simulated world robot is closed")
+
+    # -- clock ------------------------------------------------------------------------------------
+    def now(self) -> float:
+        """Simulated time (s) since the start."""
+        return self._t
+
+    def sleep(self, seconds: float) -> None:
+        """Let ``seconds`` of simulated time pass (the wheels follow the last command)."""
+        end = self._t + max(0.0, float(seconds))
+        while self._t < end - 1e-12:
+            self._step(min(self.dt, end - self._t))
+
+    # -- ground truth ----------------------------------------------------------------------------
+    def ground_truth_pose(self) -> Pose:
+        """The true pose of the robot frame's origin in the world frame."""
+        x, y, th = self._xyth()
+        return Pose(x, y, wrap_angle(th))
+
+    @property
+    def pose(self) -> Pose:
+        """Same as :meth:`ground_truth_pose`."""
+        return self.ground_truth_pose()
+
+    @property
+    def start_pose(self) -> Pose:
+        """The world pose the robot started from (the origin of the supervisor's frame)."""
+        return self._start
+
+    def contact_trace(self) -> list[tuple[float, float]]:
+        """``(time_s, penetration_m)``: one sample per physics step in contact (see the module)."""
+        return list(self._trace)
+
+    @property
+    def commanded(self) -> tuple[float, float]:
+        """The wheel speeds last commanded (m/s)."""
+        return self._cmd
+
+    @property
+    def wheel_speeds(self) -> tuple[float, float]:
+        """The wheels' actual speeds now (m/s), before slip: not zero while they still decelerate."""
+        return float(self._wheel[0]), float(self._wheel[1])
+
+    def scan_now(self) -> np.ndarray:
+        """A complete revolution from the current pose, taken instantly, noise-free (robot frame)."""
+        x, y, th = self._xyth()
+        r = self._cast(x, y, th + self._ray_angles)
+        ok = np.isfinite(r)
+        a = self._ray_angles[ok]
+        pts: np.ndarray = np.c_[r[ok] * np.cos(a), r[ok] * np.sin(a)]
+        return pts
+
+    # -- the physics step ---------------------------------------------------------------------------
+    def _step(self, dt: float) -> None:
+        n, b = self.noise, self.body
+        while self._pending and self._pending[0][0] <= self._t + 1e-12:
+            self._applied = self._pending.popleft()[1]
+        if self._t >= self._next_draw - 1e-12:  # a control tick's draws
+            self._tick_err = 1.0 + n.wheel_sd * self._rng.standard_normal(2) if n.wheel_sd else np.ones(2)
+            self._tick_slip = np.minimum(np.abs(n.slip * self._rng.standard_normal(2)), 0.9) if n.slip else np.zeros(2)
+            self._next_draw = self._t + self.control_tick
+        cmd = np.array(self._applied)
+        target = np.where(cmd != 0.0, cmd * self._bias * self._tick_err, 0.0)
+        step = b.wheel_accel * dt
+        self._wheel = self._wheel + np.clip(target - self._wheel, -step, step)
+        ground = self._wheel * (1.0 - self._tick_slip)
+        v = float(ground[0] + ground[1]) / 2
+        w = float(ground[1] - ground[0]) / b.wheel_base
+        if self._wheel[0] != 0.0 or self._wheel[1] != 0.0:
+            w += self._drift
+        th = self._body.angle
+        self._control.velocity = (v * math.cos(th), v * math.sin(th))
+        self._control.angular_velocity = w
+        self._control.position = self._body.position
+        self._space.step(dt)
+        self._t += dt
+        self._contacts()
+        self.trajectory.append((self._t, *self._xyth()))
+        self._lidar()
+
+    def _contacts(self) -> None:
+        deepest = -1.0
+        where: tuple[float, float] | None = None
+
+        def visit(arb: pymunk.Arbiter) -> None:
+            nonlocal deepest, where
+            for p in arb.contact_point_set.points:
+                if -p.distance > deepest:
+                    deepest = -p.distance
+                    where = (float(p.point_a.x), float(p.point_a.y))
+
+        self._body.each_arbiter(visit)
+        touched = where is not None
+        if touched:
+            self._trace.append((self._t, max(0.0, deepest)))
+            if not self.in_contact and self._t - self._contact_ended >= _CONTACT_GAP:
+                assert where is not None
+                self.collisions += 1
+                self.contacts.append(WorldContact(self._t, *where))
+            self.in_contact = True
+        elif self.in_contact:
+            self.in_contact = False
+            self._contact_ended = self._t
+
+    # -- the LiDAR ----------------------------------------------------------------------------------
+    def _cast(self, x: float, y: float, angles: np.ndarray) -> np.ndarray:
+        """Distance along each world angle to the first obstacle within range, inf when none."""
+        out = np.full(len(angles), np.inf)
+        r = self.max_range * 1.2
+        q = self._space.segment_query_first
+        for k, a in enumerate(angles):
+            hit = q((x, y), (x + r * math.cos(a), y + r * math.sin(a)), 0.0, self._ray_filter)
+            if hit is not None:
+                out[k] = hit.alpha * r
+        return out
+
+    def _lidar(self) -> None:
+        period = 1.0 / self.scan_rate
+        due = int(min(self.rays, math.floor((self._t - self._rev_start) / period * self.rays + 1e-9)))
+        if due > self._next_ray:
+            self._rays(self._next_ray, due)
+            self._next_ray = due
+        if self._next_ray >= self.rays:
+            pts = np.concatenate(self._pts) if self._pts else np.zeros((0, 2))
+            times = np.concatenate(self._times) if self._times else np.zeros(0)
+            self._latest = ScanFrame(pts, self._t, point_times=times - self._t)
+            self._delivered = False
+            self._pts, self._times = [], []
+            self._next_ray = 0
+            self._rev_start += period
+
+    def _rays(self, i0: int, i1: int) -> None:
+        n = self.noise
+        nominal = self._ray_angles[i0:i1]
+        beam = nominal + n.angle_sd * self._rng.standard_normal(len(nominal)) if n.angle_sd else nominal
+        x, y, th = self._xyth()
+        r = self._cast(x, y, th + beam)
+        if n.range_sd:
+            r = r + n.range_sd * self._rng.standard_normal(len(r))
+        keep = np.isfinite(r) & (r > 0) & (r <= self.max_range)
+        if n.dropout:
+            keep &= self._rng.random(len(r)) >= n.dropout
+        r, a = r[keep], nominal[keep]
+        pts = np.c_[r * np.cos(a), r * np.sin(a)]
+        if self.resolution > 0:
+            pts = np.round(pts / self.resolution) * self.resolution
+        self._pts.append(pts)
+        self._times.append(np.full(len(pts), self._t))
+
+
+def make_world_robot(
+    scene: Scene,
+    noise: str | WorldNoise = "paper",
+    noise_scale: float = 1.0,
+    seed: int | None = None,
+    *,
+    robot: Any = None,
+    **options: Any,
+) -> WorldRobot:
+    """The execution world for ``scene``: a :class:`WorldRobot` with a named noise preset.
+
+    ``noise`` is a preset name (``ideal``, ``paper``, ``harsh``; ``specs/noise_presets.json``)
+    or a :class:`WorldNoise`; ``noise_scale`` multiplies every term of a named preset.
+    ``robot`` (e.g. a planner ``RobotModel``) gives the body its dimensions and top speed;
+    ``options`` go to :class:`WorldRobot` (``rays``, ``scan_rate``, ``dt``, ``start`` …).
+
+    >>> from planner.scenarios import load_scenario
+    >>> w = make_world_robot(load_scenario("overtaking"), "harsh", seed=3)
+    >>> w.noise.latency, w.read_scan().points.shape[1]
+    (0.1, 2)
+    """
+    if isinstance(noise, str):
+        if noise not in NOISE_PRESETS:
+            raise ValueError(f"unknown noise preset {noise!r} (known: {', '.join(NOISE_PRESETS)})")
+        wn = WorldNoise.preset(noise, noise_scale)
+    else:
+        wn = noise
+    body = options.pop("body", None)
+    if body is None and robot is not None:
+        body = BodySpec.like(robot)
+    return WorldRobot(scene, noise=wn, body=body, seed=seed, **options)

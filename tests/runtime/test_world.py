@@ -1,0 +1,209 @@
+"""The execution world: drive dynamics, latency, contacts, the LiDAR model, presets, independence."""
+
+from __future__ import annotations
+
+import ast
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import specs
+from formal.model import Pose
+from planner.scenarios import ScenarioError, load_scenario, parse_scenario
+from runtime.robot import Robot, RobotFault
+from runtime.robots import make_world_robot
+from runtime.robots.world import BodySpec, WorldNoise, WorldRobot
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def _scene(obstacles, goal=(1.0, 0.0), start=(0.0, 0.0, 0.0)):
+    return parse_scenario({"goal": list(goal), "start": list(start), "obstacles": obstacles}, "t")
+
+
+def test_is_a_robot_backend_without_encoders():
+    w = make_world_robot(load_scenario("open"), "paper", seed=0)
+    assert isinstance(w, Robot)
+    assert w.odometry() is None
+
+
+def test_the_world_imports_nothing_of_the_planners_model():
+    """Only the scenario description is shared: no planner physics, tasks, kinematics, configurator."""
+    allowed_planner = {"planner.scenarios"}
+    tree = ast.parse((ROOT / "runtime/robots/world.py").read_text(encoding="utf-8"))
+    names = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import):
+            names |= {a.name for a in node.names}
+        elif isinstance(node, ast.ImportFrom) and node.module:
+            names.add(node.module)
+    planner = {n for n in names if n == "planner" or n.startswith("planner.")}
+    assert planner <= allowed_planner, f"the world imports {sorted(planner - allowed_planner)}"
+    runtime = {n for n in names if n.startswith("runtime")}
+    allowed_runtime = {"runtime.robot", "runtime.devices.frame"}
+    assert runtime <= allowed_runtime, f"the world imports {sorted(runtime - allowed_runtime)}"
+    for module in ("runtime/robot.py", "runtime/devices/frame.py"):
+        for node in ast.walk(ast.parse((ROOT / module).read_text(encoding="utf-8"))):
+            if isinstance(node, ast.ImportFrom) and node.module:
+                assert not node.module.startswith(("planner", "runtime.supervision")), (module, node.module)
+
+
+def test_each_wheel_accelerates_at_its_limit():
+    w = make_world_robot(load_scenario("open"), "ideal", body=BodySpec(wheel_accel=1.0))
+    w.set_wheel_speeds(0.2, -0.1)
+    w.sleep(0.05)
+    assert w.wheel_speeds == pytest.approx((0.05, -0.05), abs=1e-9)
+    w.sleep(0.1)
+    assert w.wheel_speeds == pytest.approx((0.15, -0.1), abs=1e-9)
+    w.stop()
+    w.sleep(0.1)
+    assert w.wheel_speeds == pytest.approx((0.05, 0.0), abs=1e-9)  # decelerating, not stopped at once
+
+
+def test_ideal_straight_drive_costs_the_ramp_up():
+    w = make_world_robot(load_scenario("open"), "ideal")
+    w.set_wheel_speeds(0.1, 0.1)
+    w.sleep(2.0)
+    p = w.ground_truth_pose()
+    assert p.x == pytest.approx(0.1 * 2.0 - 0.1**2 / 2, abs=1e-3)
+    assert abs(p.y) < 1e-6 and abs(p.theta) < 1e-6
+
+
+def test_actuation_latency_delays_commands():
+    w = make_world_robot(load_scenario("open"), WorldNoise(latency=0.1))
+    w.set_wheel_speeds(0.1, 0.1)
+    w.sleep(0.09)
+    assert w.wheel_speeds == (0.0, 0.0)
+    w.sleep(0.05)
+    assert w.wheel_speeds[0] > 0
+    w.stop()
+    w.sleep(0.05)
+    assert w.wheel_speeds[0] > 0  # the stop too arrives late
+
+
+def test_a_contact_stops_the_body_and_is_traced_per_step():
+    scene = _scene([{"type": "box", "center": [0.5, 0.0], "size": [0.1, 0.4]}])
+    w = make_world_robot(scene, "ideal")
+    for _ in range(80):
+        w.set_wheel_speeds(0.1, 0.1)
+        w.sleep(0.1)
+    p = w.ground_truth_pose()
+    front = p.x + w.body.front_offset
+    assert front == pytest.approx(0.45, abs=0.005)  # against the face, not through it
+    trace = w.contact_trace()
+    assert w.collisions == 1 and len(trace) > 10
+    gaps = np.diff([t for t, _ in trace])
+    assert gaps == pytest.approx(w.dt, abs=1e-9)  # one sample per step, the contact lasted
+    assert all(0 <= d < 0.005 for _, d in trace)
+
+
+def test_a_contact_at_an_angle_deflects_the_body_along_the_wall():
+    scene = _scene([{"type": "wall", "from": [0.5, -1.0], "to": [0.5, 1.0], "thickness": 0.02}], goal=(0.0, 0.8))
+    w = make_world_robot(scene, "ideal", start=Pose(0.0, 0.0, math.radians(30)))
+    for _ in range(100):
+        w.set_wheel_speeds(0.1, 0.1)
+        w.sleep(0.1)
+    p = w.ground_truth_pose()
+    xs = [x for _, x, _, _ in w.trajectory]
+    assert max(xs) + w.body.front_offset <= 0.49 + 0.003  # never through the wall's face
+    assert abs(p.theta) < math.radians(10)  # the contact turned the body square to the wall
+    assert w.collisions == 1
+
+
+def test_no_contact_no_trace():
+    w = make_world_robot(load_scenario("open"), "harsh", seed=2)
+    w.set_wheel_speeds(0.1, 0.1)
+    w.sleep(5.0)
+    assert w.contact_trace() == [] and w.collisions == 0
+
+
+def test_lidar_rate_samples_crop_and_quantisation():
+    w = make_world_robot(load_scenario("corridor"), "paper", seed=1, rays=720, scan_rate=10.0)
+    frames = [w.read_scan(timeout=None) for _ in range(5)]
+    assert all(f is not None for f in frames)
+    assert np.diff([f.timestamp for f in frames]) == pytest.approx(0.1, abs=0.011)  # type: ignore[union-attr]
+    pts = frames[-1].points  # type: ignore[union-attr]
+    assert len(pts) > 300 and np.all(np.hypot(pts[:, 0], pts[:, 1]) <= 1.1 + 0.01)
+    assert np.allclose(pts * 100, np.round(pts * 100), atol=1e-6)
+    times = frames[-1].point_times  # type: ignore[union-attr]
+    assert times is not None and len(times) == len(pts) and np.all((times <= 0) & (times >= -0.1 - 1e-9))
+
+
+def test_a_revolution_taken_while_turning_is_skewed():
+    scene = load_scenario("corridor")
+    w = make_world_robot(scene, "ideal")
+    w.set_wheel_speeds(-0.0435, 0.0435)
+    w.sleep(1.0)
+    frame = w.read_scan(timeout=None)
+    assert frame is not None
+    still = w.scan_now()  # the same world seen at one instant from the end pose
+    from scipy.spatial import cKDTree
+
+    d, _ = cKDTree(still).query(frame.points)
+    assert np.median(d) > 0.01  # earlier rays were taken from earlier headings
+
+
+def test_the_sensor_never_sees_beyond_range_and_rejects_bad_settings():
+    with pytest.raises(ValueError, match="360 to 720"):
+        make_world_robot(load_scenario("open"), rays=100)
+    with pytest.raises(ValueError, match="5.5 to 10"):
+        make_world_robot(load_scenario("open"), scan_rate=20.0)
+    with pytest.raises(ValueError, match="unknown noise preset"):
+        make_world_robot(load_scenario("open"), "wild")
+    with pytest.raises(ValueError, match="noise scale"):
+        make_world_robot(load_scenario("open"), "paper", noise_scale=-1)
+
+
+def test_same_seed_same_world_other_seed_other_world():
+    def run(seed):
+        w = make_world_robot(load_scenario("slalom"), "harsh", seed=seed)
+        scans = []
+        for k in range(40):
+            w.set_wheel_speeds(0.1, 0.08 if k % 10 < 5 else 0.1)
+            w.sleep(0.1)
+            f = w.read_scan(0.0)
+            if f is not None:
+                scans.append(f.points.copy())
+        return w.trajectory, scans
+
+    a, b, c = run(4), run(4), run(5)
+    assert a[0] == b[0] and all(np.array_equal(x, y) for x, y in zip(a[1], b[1]))
+    assert a[0] != c[0]
+
+
+def test_bad_commands_and_closing():
+    w = make_world_robot(load_scenario("open"), "paper", seed=0)
+    with pytest.raises(ValueError):
+        w.set_wheel_speeds(float("nan"), 0.0)
+    w.set_wheel_speeds(5.0, -5.0)
+    assert w.commanded == (0.2, -0.2)
+    w.close()
+    w.stop()  # always allowed
+    with pytest.raises(RobotFault):
+        w.set_wheel_speeds(0.1, 0.1)
+    with pytest.raises(RobotFault):
+        w.read_scan(0.0)
+
+
+def test_a_start_inside_an_obstacle_is_refused():
+    scene = _scene([{"type": "box", "center": [0.1, 0.0], "size": [0.1, 0.1]}], goal=(1.0, 0.0), start=(0.0, 0.0, 0.0))
+    with pytest.raises(ScenarioError, match="overlaps"):
+        WorldRobot(scene)
+
+
+def test_presets_paper_is_todays_defaults_harsh_five_times_plus_latency():
+    from runtime.robots.sim import NoiseConfig
+
+    presets = specs.noise_presets()
+    paper, harsh, ideal = presets["paper"], presets["harsh"], presets["ideal"]
+    for k, v in NoiseConfig().to_dict().items():
+        assert paper[k] == v, k
+    for k in specs.NOISE_FIELDS:
+        assert ideal[k] == 0.0
+        if k != "latency":
+            assert harsh[k] == pytest.approx(5 * paper[k]), k
+    assert paper["latency"] == 0.0 and harsh["latency"] == 0.1
+    assert WorldNoise.preset("paper", 3.0).wheel_sd == pytest.approx(0.06)
+    assert make_world_robot(load_scenario("open"), "harsh", noise_scale=0.5).noise.latency == pytest.approx(0.05)
