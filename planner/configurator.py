@@ -34,9 +34,9 @@ import numpy as np
 
 from formal.lts import CognitiveMap
 from formal.model import Disturbance, Pose, State, TaskKind
-from formal.supervisory import Plan, extract_plan, guard
+from formal.supervisory import Plan, ResetUndefined, extract_plan, guard
 from planner.perception import Obstacles, load_scan, perceive
-from planner.physics import Outcome, World, simulate
+from planner.physics import Outcome, simulate
 from planner.robot import RobotModel
 
 __all__ = [
@@ -112,11 +112,12 @@ class PlanResult:
     planning_time_s: float
     stop_reason: str
     psi: dict[Any, int] = field(default_factory=dict)
+    goal_blocked: bool = False
 
     @property
     def reached_goal(self) -> bool:
         """True when the plan ends within the goal tolerance."""
-        return self.map[self.plan.end].reached_goal
+        return self.map[self.plan.end].reached_goal and not self.goal_blocked
 
     @property
     def collision_free(self) -> bool:
@@ -158,6 +159,7 @@ class PlanResult:
             "goal": [self.goal.x, self.goal.y],
             "obstacles": len(self.obstacles),
             "stop_reason": self.stop_reason,
+            "goal_blocked": self.goal_blocked,
         }
 
 
@@ -187,7 +189,7 @@ class Configurator:
         self.horizon = float(horizon)
 
     # -- inputs ---------------------------------------------------------------------
-    def _goal(self, goal: Disturbance | tuple[float, float], obstacles: Obstacles) -> Disturbance:
+    def _goal(self, goal: Disturbance | tuple[float, float], obstacles: Obstacles) -> tuple[Disturbance, bool]:
         if isinstance(goal, Disturbance):
             g = goal
         else:
@@ -202,56 +204,88 @@ class Configurator:
             raise PlanningError(
                 f"goal ({g.x:g}, {g.y:g}) is at the robot's own position (within {self.robot.goal_tolerance} m)"
             )
-        inside = obstacles.contains_point(g.x, g.y)
-        if inside is not None:
-            raise PlanningError(f"goal ({g.x:g}, {g.y:g}) is inside obstacle {inside}")
-        return g
+        # a goal inside what the scan shows is a situation, not bad input: plan towards it
+        # (the plan ends at the closest reachable state) and say so
+        return g, obstacles.contains_point(g.x, g.y) is not None
 
     # -- Algorithm 1 ------------------------------------------------------------------
     def build(self, obstacles: Obstacles, goal: Disturbance | tuple[float, float]) -> PlanResult:
-        """Construct the cognitive map for ``goal`` among ``obstacles`` and extract ρ."""
+        """Construct the cognitive map for ``goal`` among ``obstacles`` and extract ρ.
+
+        ``stop_reason`` is ``goal`` (a state reached D_G), ``frontier`` (the plan ends
+        where the body meets the rim of the sensed disc: what lies beyond is unseen, the
+        closed loop drives there and replans), ``budget`` (``max_states`` spent) or
+        ``exhausted`` (no obstacle-free transition left). ``goal_blocked`` is True when
+        the goal lies inside a perceived obstacle: the plan then ends at the reachable
+        state closest to it and ``reached_goal`` is False.
+        """
         t0 = time.perf_counter()
-        g = self._goal(goal, obstacles)
+        g, blocked = self._goal(goal, obstacles)
         robot = self.robot
         origin = Pose(0.0, 0.0, 0.0)
         ctx = CostContext(g, origin, robot)
-        horizon = max(self.horizon, abs(g.x) + robot.length, abs(g.y) + robot.length)
+        cost = self.cost
+        fast_cost = cost is default_cost
+        gx, gy = g.x, g.y
+        d0 = math.hypot(gx, gy)
+        r_range = robot.sensor_range
+        horizon = max(self.horizon, abs(gx) + robot.length, abs(gy) + robot.length)
         cmap = CognitiveMap(goal=g)
         q0 = State(0, TaskKind.STRAIGHT, g, None, origin, origin)
-        q0 = State(0, TaskKind.STRAIGHT, g, None, origin, origin, cost=self.cost(q0, ctx))
+        q0 = State(0, TaskKind.STRAIGHT, g, None, origin, origin, cost=cost(q0, ctx))
         cmap.add_state(q0)
         index: dict[tuple[TaskKind, int, int, int], int] = {}
-        worlds: dict[tuple[int, ...], World] = {}
+        frontier_ids: set[int] = set()
+        worlds: dict[Any, Any] = {}
         pq: list[tuple[float, int]] = [(q0.cost, 0)]
         reached: int | None = None
         stop = "exhausted"
+        max_states = self.max_states
 
-        def key(kind: TaskKind, p: Pose) -> tuple[TaskKind, int, int, int]:
-            return (kind, round(p.x * 1e6), round(p.y * 1e6), round(p.theta * 1e6))
-
-        def child(parent: State, kind: TaskKind) -> tuple[State, bool]:
-            """The state of ``kind`` started where ``parent`` ended (simulated once)."""
-            k = key(kind, parent.end)
-            if k in index:
-                s = cmap[index[k]]
-                cmap.add_transition(parent.ident, s.ident)
-                return s, False
-            d_i = reset_goal(parent)
-            out = simulate(kind, parent.end, d_i, obstacles, robot, worlds)
-            s = _state(len(cmap), out, d_i)
-            s = State(**{**_fields(s), "cost": self.cost(s, ctx)})
+        def child(parent: State, kind: TaskKind) -> tuple[State | None, bool]:
+            """The state of ``kind`` started where ``parent`` ended (simulated once);
+            None when the task is not available (a turn that would leave the sensed disc)."""
+            p = parent.end
+            k = (kind, round(p.x * 1e6), round(p.y * 1e6), round(p.theta * 1e6))
+            known = index.get(k)
+            if known is not None:
+                if known < 0:
+                    return None, False
+                cmap.add_transition(parent.ident, known, kind)
+                return cmap[known], False
+            if parent.d_n is not None:  # R(q1, q2) is defined only when q1 was not interrupted
+                raise ResetUndefined(f"R(q{parent.ident}, ·) is undefined: q{parent.ident} was interrupted")
+            d_i = g  # R(q1, q2) = D_G
+            out = simulate(kind, p, d_i, obstacles, robot, worlds)
+            if out.frontier and kind.is_turn:
+                index[k] = -1
+                return None, False
+            ident = len(cmap)
+            if fast_cost:
+                e = out.end
+                d = math.hypot(gx - e.x, gy - e.y)
+                phi = d / (d + d0) if d + d0 > 0 else 0.0
+                if out.d_n is not None:
+                    hit = math.hypot(out.d_n.x - out.start.x, out.d_n.y - out.start.y)
+                    phi += 2.0 - min(hit, r_range) / r_range
+                s = _state(ident, out, d_i, phi)
+            else:
+                s = _state(ident, out, d_i, 0.0)
+                s = _state(ident, out, d_i, cost(s, ctx))
             cmap.add_state(s)
-            cmap.add_transition(parent.ident, s.ident)
-            index[k] = s.ident
+            cmap.add_transition(parent.ident, ident, kind)
+            index[k] = ident
+            if out.frontier:
+                frontier_ids.add(ident)
             return s, True
-
-        def reset_goal(parent: State) -> Disturbance:
-            # R(q1, q2) = D_G when q1 was not interrupted (never called otherwise)
-            assert parent.d_n is None
-            return g
 
         while pq:
             _, qe_id = heapq.heappop(pq)
+            if qe_id in frontier_ids:
+                # the most promising state lies on the rim of what the scan saw: what is
+                # beyond is unknown, so planning ends here and the closed loop replans there
+                stop = "frontier"
+                break
             qe = cmap[qe_id]
             if qe.interrupted:
                 # Algorithm 1's end: the least-φ state has no obstacle-free transition
@@ -259,21 +293,26 @@ class Configurator:
                 cmap.metadata["stopped_at"] = qe_id
                 break
             for kind in (TaskKind.STRAIGHT, TaskKind.LEFT, TaskKind.RIGHT):
-                if len(cmap) + (2 if kind.is_turn else 1) > self.max_states:
+                if len(cmap) + (2 if kind.is_turn else 1) > max_states:
                     stop = "budget"
                     break
                 first, new = child(qe, kind)
+                if first is None:
+                    continue
                 frontier, fresh = first, new
                 if kind.is_turn and not first.interrupted:
-                    frontier, fresh = child(first, TaskKind.STRAIGHT)
-                if frontier.reached_goal and reached is None:
+                    second, fresh = child(first, TaskKind.STRAIGHT)
+                    assert second is not None
+                    frontier = second
+                if frontier.reached_goal:
                     reached = frontier.ident
+                    break
                 if fresh and frontier.interrupted:
                     # every frontier state enters PQ with φ = γ + χ, interrupted ones too
                     heapq.heappush(pq, (frontier.cost, frontier.ident))
-                elif fresh and not frontier.reached_goal:
+                elif fresh:
                     e = frontier.end
-                    if abs(e.x - origin.x) <= horizon and abs(e.y - origin.y) <= horizon:
+                    if abs(e.x) <= horizon and abs(e.y) <= horizon:
                         heapq.heappush(pq, (frontier.cost, frontier.ident))
             if stop == "budget":
                 break
@@ -284,6 +323,9 @@ class Configurator:
             stop = "exhausted"
 
         p = extract_plan(cmap)
+        end = cmap[p.end]
+        if not end.reached_goal and p.end in frontier_ids:
+            stop = "frontier"
         psi = guard(cmap, p)
         cmap.metadata.update(
             {
@@ -291,12 +333,13 @@ class Configurator:
                 "horizon": horizon,
                 "max_states": self.max_states,
                 "stop_reason": stop,
+                "goal_blocked": blocked,
                 "plan": list(p.states),
-                "obstacles": [d.to_dict() for d in obstacles.disturbances],
+                "obstacles": obstacles.boxes.tolist(),
             }
         )
         elapsed = time.perf_counter() - t0
-        return PlanResult(cmap, p, g, obstacles, robot, elapsed, stop, psi)
+        return PlanResult(cmap, p, g, obstacles, robot, elapsed, stop, psi, blocked)
 
     def plan(
         self,
@@ -309,27 +352,29 @@ class Configurator:
         """
         t0 = time.perf_counter()
         pts = load_scan(scan)
-        obstacles = perceive(pts, self.robot.sensor_range, self.robot.cluster_distance)
+        r = self.robot
+        obstacles = perceive(pts, r.sensor_range, r.cluster_distance, body=(r.rear_offset, r.front_offset, r.width / 2))
         result = self.build(obstacles, goal)
         result.planning_time_s = time.perf_counter() - t0
         return result
 
 
-def _fields(s: State) -> dict[str, Any]:
-    return {f: getattr(s, f) for f in State.__dataclass_fields__}
+_FRONTIER = (("frontier", 1.0),)
 
 
-def _state(ident: int, out: Outcome, d_i: Disturbance) -> State:
+def _state(ident: int, out: Outcome, d_i: Disturbance, cost: float) -> State:
     return State(
-        ident=ident,
-        task=out.task,
-        d_i=d_i,
-        d_n=out.d_n,
-        start=out.start,
-        end=out.end,
-        distance=out.distance,
-        duration=out.duration,
-        reached_goal=out.reached_goal,
+        ident,
+        out.task,
+        d_i,
+        out.d_n,
+        out.start,
+        out.end,
+        out.distance,
+        out.duration,
+        cost,
+        out.reached_goal,
+        _FRONTIER if out.frontier else (),
     )
 
 

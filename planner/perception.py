@@ -10,18 +10,19 @@ axis-aligned box that would close a corridor.
 
 from __future__ import annotations
 
+import functools
 import io
 import math
 import os
 import stat
 import tokenize
 import warnings
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from numpy.lib import format as npy_format
-from scipy.spatial import cKDTree
 
 from formal.model import Disturbance, DisturbanceKind
 
@@ -42,10 +43,12 @@ __all__ = [
 #: the file name endings of scan files in a folder
 SCAN_SUFFIXES: tuple[str, ...] = (".dat", ".txt", ".npy", ".xy")
 
-# a piece whose points lie within this distance of its principal axis is "thin"
-_THIN = 0.02
-# half-thickness given to a piece made of collinear points (LiDAR returns are surfaces)
-_MIN_HALF = 0.01
+# a piece is "thin" when its points spread at most this much across its axis
+_THIN = 0.0075
+# surfaces are first cut into pieces of this much path length, then thick pieces halved
+_PIECE = 0.4
+# how far a box stands off its outermost points: the allowance for sensor noise
+_PAD = 0.002
 
 
 class ScanError(ValueError):
@@ -305,47 +308,80 @@ def range_warning(points: np.ndarray, sensor_range: float) -> str | None:
     return msg
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class Obstacles:
-    """The obstacle disturbances of one scan, with arrays for fast corridor filtering.
+    """The obstacle disturbances of one scan, with arrays for fast geometry.
 
     ``boxes`` is M×4×2 (the corners of each oriented box, counter-clockwise),
-    ``centres`` M×2 and ``radii`` M (circumradius of each box). ``disturbances[i]`` is
-    the :class:`Disturbance` of box ``i`` (its ident is ``i``).
+    ``centres`` M×2 and ``radii`` M (circumradius of each box). ``points`` are the
+    sensed points the boxes cover (N×2) and box ``i`` covers
+    ``points[starts[i]:starts[i + 1]]``. ``exempt`` counts the returns perception
+    dropped because they lay inside the robot's body at the planning origin.
+    ``disturbances[i]`` is the :class:`Disturbance` of box ``i`` (its ident is ``i``),
+    built on first use (a plan usually needs none of them).
+
+    >>> obs = Obstacles.from_boxes([[(0.5, -0.1), (0.6, -0.1), (0.6, 0.1), (0.5, 0.1)]])
+    >>> len(obs), obs.contains_point(0.55, 0.0), obs.contains_point(0.0, 0.0)
+    (1, 0, None)
     """
 
     boxes: np.ndarray
     centres: np.ndarray
     radii: np.ndarray
-    disturbances: tuple[Disturbance, ...]
+    points: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
+    starts: np.ndarray = field(default_factory=lambda: np.zeros(1, dtype=np.intp))
+    exempt: int = 0
+
+    @functools.cached_property
+    def owner(self) -> np.ndarray:
+        """For every point, the index of the box that covers it."""
+        return np.repeat(np.arange(len(self.boxes)), self.starts[1:] - self.starts[:-1])
 
     def __len__(self) -> int:
-        return len(self.disturbances)
+        return len(self.boxes)
+
+    @functools.cached_property
+    def disturbances(self) -> tuple[Disturbance, ...]:
+        """One obstacle :class:`Disturbance` per box (centre and outline)."""
+        return tuple(
+            Disturbance(DisturbanceKind.OBSTACLE, float(c[0]), float(c[1]), tuple((float(x), float(y)) for x, y in b), i)
+            for i, (b, c) in enumerate(zip(self.boxes.tolist(), self.centres.tolist()))
+        )
+
+    def box_points(self, i: int) -> np.ndarray:
+        """The sensed points box ``i`` covers (its outline sampled every 5 mm for a box not made from a scan)."""
+        return self.points[self.starts[i] : self.starts[i + 1]]
 
     @classmethod
-    def from_boxes(cls, boxes: list[np.ndarray] | np.ndarray) -> "Obstacles":
+    def from_boxes(cls, boxes: list[np.ndarray] | np.ndarray | list[Any]) -> "Obstacles":
         """Build from a list of 4×2 convex quadrilaterals (counter-clockwise)."""
         arr = np.asarray(boxes, dtype=np.float64).reshape(-1, 4, 2)
         centres = arr.mean(axis=1)
         radii = np.linalg.norm(arr - centres[:, None, :], axis=2).max(axis=1) if len(arr) else np.zeros(0)
-        dist = tuple(
-            Disturbance(
-                DisturbanceKind.OBSTACLE,
-                float(c[0]),
-                float(c[1]),
-                tuple((float(x), float(y)) for x, y in b),
-                i,
-            )
-            for i, (b, c) in enumerate(zip(arr, centres))
-        )
-        return cls(arr, centres, radii, dist)
+        pieces = [_outline(b) for b in arr]
+        starts = np.cumsum([0] + [len(p) for p in pieces]).astype(np.intp)
+        pts = np.concatenate(pieces) if pieces else np.zeros((0, 2))
+        return cls(arr, centres, radii, pts, starts)
 
     def contains_point(self, x: float, y: float, margin: float = 0.0) -> int | None:
         """The index of a box containing (x, y) (grown by ``margin``), or None."""
-        for i, box in enumerate(self.boxes):
-            if _point_in_convex(box, x, y, margin):
-                return i
+        if not len(self.boxes):
+            return None
+        near = np.flatnonzero(np.hypot(self.centres[:, 0] - x, self.centres[:, 1] - y) <= self.radii + margin + 1e-12)
+        for i in near.tolist():
+            if _point_in_convex(self.boxes[i], x, y, margin):
+                return int(i)
         return None
+
+
+def _outline(box: np.ndarray, step: float = 0.005) -> np.ndarray:
+    out = []
+    for k in range(4):
+        a, b = box[k], box[(k + 1) % 4]
+        n = max(1, int(math.ceil(float(np.hypot(*(b - a))) / step)))
+        t = np.arange(n)[:, None] / n
+        out.append(a + t * (b - a))
+    return np.concatenate(out)
 
 
 def _point_in_convex(box: np.ndarray, x: float, y: float, margin: float) -> bool:
@@ -361,75 +397,49 @@ def _point_in_convex(box: np.ndarray, x: float, y: float, margin: float) -> bool
     return True
 
 
-def _clusters(points: np.ndarray, eps: float) -> list[np.ndarray]:
-    """Single-linkage clusters: points closer than ``eps`` to each other share one.
+def _chain(points: np.ndarray, eps: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Order the points along the surfaces the sensor saw, and where surfaces break.
 
-    Neighbour pairs come from a k-d tree; components are found by min-label
-    propagation with pointer jumping (a few vectorised passes, no Python loop per point).
+    Returns the points sorted by bearing from the sensor (rotated so that a surface
+    crossing the bearing ±π is not cut) and a boolean array, True where a new surface
+    starts: where the step from the previous point is longer than ``eps``.
     """
-    n = len(points)
-    if n == 0:
-        return []
-    pairs = cKDTree(points).query_pairs(eps, output_type="ndarray")
-    labels = np.arange(n)
-    if len(pairs):
-        a, b = pairs[:, 0], pairs[:, 1]
-        while True:
-            m = np.minimum(labels[a], labels[b])
-            new = labels.copy()
-            np.minimum.at(new, a, m)
-            np.minimum.at(new, b, m)
-            new = new[new]
-            if np.array_equal(new, labels):
-                break
-            labels = new
-    order = np.argsort(labels, kind="stable")
-    bounds = np.flatnonzero(np.diff(labels[order])) + 1
-    return [points[idx] for idx in np.split(order, bounds)]
-
-
-def _cover(points: np.ndarray, out: list[np.ndarray], gap: float, depth: int = 0) -> None:
-    """Cover ``points`` with thin oriented boxes.
-
-    A piece is split where its points leave a gap wider than ``gap`` along its principal
-    axis (two parallel walls of one cluster must not be bridged by a box across the
-    space between them), else at the median while it is thicker than a thin slab.
-    """
-    centre = points.mean(axis=0)
-    rel = points - centre
-    if len(points) >= 2:
-        # principal axis of the 2×2 covariance in closed form
-        sxx = float(rel[:, 0] @ rel[:, 0])
-        syy = float(rel[:, 1] @ rel[:, 1])
-        sxy = float(rel[:, 0] @ rel[:, 1])
-        phi = 0.5 * math.atan2(2 * sxy, sxx - syy)
-        axis = np.array([math.cos(phi), math.sin(phi)])
+    order = np.argsort(np.arctan2(points[:, 1], points[:, 0]), kind="stable")
+    p = points[order]
+    d = p - np.roll(p, 1, axis=0)
+    step = np.hypot(d[:, 0], d[:, 1])
+    brk = step > eps
+    if brk.any():
+        first = int(np.argmax(brk))
+        if first:
+            p, brk, step = np.roll(p, -first, axis=0), np.roll(brk, -first), np.roll(step, -first)
     else:
-        axis = np.array([1.0, 0.0])
-    normal = np.array([-axis[1], axis[0]])
-    u = rel @ axis
-    t = rel @ normal
-    if len(points) > 1 and depth < 24:
-        us = np.sort(u)
-        gaps = np.diff(us)
-        k = int(np.argmax(gaps))
-        if gaps[k] > gap:
-            below = u <= us[k]
-            _cover(points[below], out, gap, depth + 1)
-            _cover(points[~below], out, gap, depth + 1)
-            return
-    if len(points) > 2 and depth < 24 and (t.max() - t.min()) > 2 * _THIN:
-        cut = np.median(u)
-        below = u <= cut
-        if below.any() and not below.all():
-            _cover(points[below], out, gap, depth + 1)
-            _cover(points[~below], out, gap, depth + 1)
-            return
-    u0, u1 = u.min() - _MIN_HALF, u.max() + _MIN_HALF
-    t0, t1 = t.min() - _MIN_HALF, t.max() + _MIN_HALF
-    # counter-clockwise: (axis, normal) is a right-handed frame
-    out.append(
-        np.array([centre + a * axis + b * normal for a, b in ((u0, t0), (u1, t0), (u1, t1), (u0, t1))])
+        brk[0] = True
+    return p, brk, step
+
+
+def _fit(p: np.ndarray, starts: np.ndarray, bounds: np.ndarray) -> tuple[np.ndarray, ...]:
+    """Per piece (``p[bounds[i]:bounds[i+1]]``, ``starts = bounds[:-1]``): origin, chord
+    axis and the points' extents along and across it."""
+    a = p[starts]
+    axis = p[bounds[1:] - 1] - a
+    norm = np.hypot(axis[:, 0], axis[:, 1])
+    single = norm < 1e-9
+    norm[single] = 1.0
+    axis /= norm[:, None]
+    axis[single] = (1.0, 0.0)
+    which = np.repeat(np.arange(len(starts)), bounds[1:] - starts)
+    rel = p - a[which]
+    ax = axis[which]
+    u = rel[:, 0] * ax[:, 0] + rel[:, 1] * ax[:, 1]
+    t = rel[:, 1] * ax[:, 0] - rel[:, 0] * ax[:, 1]
+    return (
+        a,
+        axis,
+        np.minimum.reduceat(u, starts),
+        np.maximum.reduceat(u, starts),
+        np.minimum.reduceat(t, starts),
+        np.maximum.reduceat(t, starts),
     )
 
 
@@ -437,25 +447,71 @@ def perceive(
     points: np.ndarray,
     sensor_range: float = 1.1,
     cluster_distance: float = 0.1,
+    *,
+    pad: float = _PAD,
+    body: tuple[float, float, float] | None = None,
 ) -> Obstacles:
     """Turn a scan into obstacle disturbances (see the module docstring).
 
     Points beyond ``sensor_range`` are dropped (the paper's robot ignored them), with a
     :class:`ScanWarning` (see :func:`range_warning`), as are returns at the sensor
-    itself (closer than 1 mm).
+    itself (closer than 1 mm). ``pad`` is how far a box stands off its outermost points
+    (the allowance for sensor noise). ``body`` = ``(rear, front, half_width)`` is the
+    robot's body at the planning origin: returns inside it are its own (or already under
+    it) and are dropped, counted in ``Obstacles.exempt``; nothing outside the body is
+    exempt.
+
+    >>> wall = np.c_[np.full(41, 0.5), np.linspace(-0.2, 0.2, 41)]
+    >>> obs = perceive(wall)
+    >>> len(obs), bool(obs.contains_point(0.5, 0.0) is not None), bool(obs.contains_point(0.52, 0.0) is None)
+    (1, True, True)
     """
     pts = validate_scan(points)
-    warning = range_warning(pts, sensor_range)
-    if warning:
-        warnings.warn(ScanWarning(warning), stacklevel=2)
+    exempt = 0
     if len(pts):
-        r = np.hypot(pts[:, 0], pts[:, 1])
-        pts = pts[(r <= sensor_range) & (r > 1e-3)]
-        # de-duplicate on a 0.1 mm grid, keeping scan order (recorded scans repeat points)
+        x, y = pts[:, 0], pts[:, 1]
+        r2 = x * x + y * y
+        keep = (r2 <= sensor_range * sensor_range) & (r2 > 1e-6)
+        if not keep.all() and (r2 > (sensor_range * (1 + _RANGE_SLACK)) ** 2).any():
+            warning = range_warning(pts, sensor_range)
+            if warning:
+                warnings.warn(ScanWarning(warning), stacklevel=2)
+        if body is not None:
+            rear, front, half = body
+            inside = (x > -rear) & (x < front) & (np.abs(y) < half) & keep
+            exempt = int(np.count_nonzero(inside))
+            keep &= ~inside
+        pts = pts[keep]
+    if len(pts) > 1:
+        # de-duplicate on a 0.1 mm grid (recorded scans repeat points)
         k = np.round(pts * 1e4).astype(np.int64)
         _, first = np.unique(k[:, 0] * (1 << 32) + k[:, 1], return_index=True)
-        pts = pts[np.sort(first)]
-    boxes: list[np.ndarray] = []
-    for cluster in _clusters(pts, cluster_distance):
-        _cover(cluster, boxes, cluster_distance)
-    return Obstacles.from_boxes(boxes)
+        pts = pts[first]
+    if not len(pts):
+        return Obstacles(np.zeros((0, 4, 2)), np.zeros((0, 2)), np.zeros(0), exempt=exempt)
+    p, brk, step = _chain(pts, cluster_distance)
+    # pieces: surfaces cut every _PIECE metres of path, then halved while thick
+    run = np.cumsum(brk) - 1
+    arc = np.cumsum(np.where(brk, 0.0, step))
+    arc -= arc[np.flatnonzero(brk)][run]
+    cell = np.floor(arc / _PIECE)
+    cut = brk.copy()
+    cut[1:] |= cell[1:] != cell[:-1]
+    starts = np.flatnonzero(cut)
+    n = len(p)
+    while True:
+        bounds = np.append(starts, n)
+        a, axis, u0, u1, t0, t1 = _fit(p, starts, bounds)
+        counts = bounds[1:] - starts
+        fat = ((t1 - t0) > _THIN) & (counts > 2)
+        if not fat.any():
+            break
+        starts = np.sort(np.concatenate((starts, starts[fat] + counts[fat] // 2)))
+    normal = np.stack((-axis[:, 1], axis[:, 0]), axis=1)
+    u0, u1, t0, t1 = u0 - pad, u1 + pad, t0 - pad, t1 + pad
+    boxes = np.stack(
+        [a + axis * u[:, None] + normal * t[:, None] for u, t in ((u0, t0), (u1, t0), (u1, t1), (u0, t1))], axis=1
+    )
+    centres = a + axis * ((u0 + u1) / 2)[:, None] + normal * ((t0 + t1) / 2)[:, None]
+    radii = 0.5 * np.hypot(u1 - u0, t1 - t0)
+    return Obstacles(boxes, centres, radii, p, bounds, exempt)

@@ -1,23 +1,37 @@
-"""Core knowledge: a small pymunk world in which one task is rolled forward.
+"""Core knowledge: a pymunk world of what the scan saw, in which one task is rolled forward.
 
-For each rollout a world is rebuilt from the obstacle disturbances that lie in the way
-of the task (a corridor ahead of a STRAIGHT, the disc a turn sweeps), as in the paper:
-the raw scan is resampled so that only what the task could meet is represented.
-The robot is a kinematic pymunk body with the robot's (inflated) footprint, driven each
-tick by the velocity its wheel speeds give; the space steps with the control tick.
-After each step the robot shape is queried against the obstacles: a new overlap (or
-pushing deeper into something the robot already touched when the task began) is a
-collision, which ends the task at the last collision-free pose, with D_N naming the
-obstacle and the contact point.
+One world is built per planning run from every obstacle box perception produced (static
+pymunk polygons) with the robot as a kinematic body, and every rollout of the run reuses
+it: nothing is allocated per query. A task's outcome is decided in three steps:
 
-How often the engine is asked decides the cost, so it is asked once per task when it
-can: one shape query of the area the whole task sweeps (exact for a STRAIGHT, a tight
-superset for a turn). When that area is clear — or nothing is in the way at all —
-nothing can interrupt the task and its outcome is computed in closed form (the
-controllers drive their error down linearly; tests check this against the tick loop).
-Only a task whose sweep touches something is stepped tick by tick.
+1. **broad phase** (the engine): one shape query of the area the whole task sweeps with
+   the inflated footprint (exact for a STRAIGHT, a tight superset for a turn: the hull
+   of the footprint at sixteen headings grown by the arc-chord gap). A clear sweep means
+   nothing can interrupt the task and its outcome is computed in closed form (the
+   controllers drive their error down linearly; tests check this against the tick loop).
+2. **narrow phase** (the sensed points): only the points of the boxes the sweep touched
+   are tested, against the footprint at every control tick (a STRAIGHT's first contact
+   is computed exactly, a turn's at the tick headings). The boxes are a cover, not the
+   obstacle: the margin between the body and a point is the body's ``clearance`` (1 cm)
+   plus perception's ``pad`` (the sensor-noise allowance), however thick a box is.
+3. the task ends at the last tick before contact, with D_N naming the box and the
+   contact point.
 
-Rollouts are deterministic: the same inputs give bit-identical outcomes.
+**The start-touching rule.** A point already inside the inflated footprint when a task
+starts (within the margin, e.g. a wall the previous task ended against) waives the
+margin for that point only: it interrupts the task when the *real* body would touch it.
+Points inside the real body at the planning origin are the robot's own returns and were
+dropped by perception (``Obstacles.exempt``); no other point is ever exempt.
+
+**Unseen space.** What the scan saw is the sensor disc (radius ``sensor_range`` around
+the planning origin): beyond it nothing is known. A STRAIGHT that would carry the body
+out of the disc ends where the body touches its rim (``Outcome.frontier``); a turn whose
+sweep would leave it is not available (:func:`simulate` returns None). LiDAR shadows (the
+space behind a sensed surface) lie inside the disc and are treated as free: reaching one
+means going round the surface that casts it, whose visible end the cover includes.
+
+:meth:`World.rollout` is the reference tick loop in the engine (box contacts per tick);
+rollouts are deterministic: the same inputs give bit-identical outcomes.
 """
 
 from __future__ import annotations
@@ -25,6 +39,7 @@ from __future__ import annotations
 import functools
 import math
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import pymunk
@@ -34,12 +49,16 @@ from planner.perception import Obstacles
 from planner.robot import RobotModel
 from planner.tasks import Task, wrap_angle
 
-__all__ = ["Outcome", "World", "in_the_way", "straight_limit", "simulate", "make_task"]
+__all__ = ["Outcome", "World", "in_the_way", "straight_limit", "simulate", "make_task", "frontier_distance"]
 
 
 @dataclass(frozen=True, slots=True)
 class Outcome:
-    """What a rollout of one task produced."""
+    """What a rollout of one task produced.
+
+    ``frontier`` is True when the task was cut where the body meets the rim of the
+    sensed disc (a STRAIGHT), or would have left it (a turn: not available).
+    """
 
     task: TaskKind
     start: Pose
@@ -49,6 +68,7 @@ class Outcome:
     ticks: int
     d_n: Disturbance | None
     reached_goal: bool
+    frontier: bool = False
 
     @property
     def collided(self) -> bool:
@@ -57,7 +77,7 @@ class Outcome:
 
 
 def in_the_way(obstacles: Obstacles, robot: RobotModel, start: Pose, kind: TaskKind, length: float) -> np.ndarray:
-    """Indices of the obstacles a task from ``start`` could touch.
+    """Indices of the obstacles a task from ``start`` could touch (a numpy filter).
 
     STRAIGHT: boxes overlapping the corridor swept by the inflated footprint over
     ``length`` metres (tested on the boxes' extents in the task frame). Turns: boxes
@@ -79,22 +99,77 @@ def in_the_way(obstacles: Obstacles, robot: RobotModel, start: Pose, kind: TaskK
     return np.flatnonzero(d - obstacles.radii <= robot.swept_radius)
 
 
+def frontier_distance(robot: RobotModel, start: Pose) -> float:
+    """How far a STRAIGHT from ``start`` can drive before the real body leaves the
+    sensed disc (radius ``robot.sensor_range`` around the planning origin); 0 when it
+    is already at (or past) the rim.
+
+    >>> round(frontier_distance(RobotModel(), Pose(0.0, 0.0, 0.0)), 4)
+    1.0063
+    """
+    c, s = math.cos(start.theta), math.sin(start.theta)
+    r2 = robot.sensor_range * robot.sensor_range
+    best = math.inf
+    for a, b in _corners(robot):
+        x = start.x + a * c - b * s
+        y = start.y + a * s + b * c
+        bb = x * c + y * s
+        q = x * x + y * y - r2
+        disc = bb * bb - q
+        if q > 0 or disc < 0:
+            return 0.0
+        best = min(best, -bb + math.sqrt(disc))
+    return max(best, 0.0)
+
+
+@functools.lru_cache(maxsize=16)
+def _corners(robot: RobotModel) -> tuple[tuple[float, float], ...]:
+    h = robot.width / 2
+    return ((-robot.rear_offset, -h), (robot.front_offset, -h), (robot.front_offset, h), (-robot.rear_offset, h))
+
+
+def _turn_leaves_disc(robot: RobotModel, start: Pose, signed_angle: float) -> bool:
+    """True when the real body, spinning in place by ``signed_angle``, leaves the sensed disc."""
+    cx, cy = start.x, start.y
+    dist = math.hypot(cx, cy)
+    reach = robot.sensor_range
+    rmax = max(math.hypot(a, b) for a, b in _corners(robot))
+    if dist + rmax <= reach:
+        return False
+    n = max(2, int(math.ceil(abs(signed_angle) / 0.2)))
+    grow = rmax * (1 - math.cos(abs(signed_angle) / n / 2))
+    for k in range(n + 1):
+        th = start.theta + signed_angle * k / n
+        c, s = math.cos(th), math.sin(th)
+        for a, b in _corners(robot):
+            if math.hypot(cx + a * c - b * s, cy + a * s + b * c) + grow > reach:
+                return True
+    return False
+
+
 def straight_limit(obstacles: Obstacles, robot: RobotModel, start: Pose, goal: Disturbance | None) -> float:
-    """How far a STRAIGHT from ``start`` may drive.
+    """How far a STRAIGHT from ``start`` may drive (before the sensed disc's rim cuts it).
 
     A clear run to a goal dead ahead (within the goal tolerance of the heading line and
     nothing in the corridor) is one task to the goal. Otherwise straights are cut into
     steps of ``robot.step_length`` (one body length) so that a plan can turn along the
     way; with ``step_length=None`` a straight runs to the sensor range.
     """
-    if goal is not None:
-        dx, dy = goal.x - start.x, goal.y - start.y
-        c, s = math.cos(start.theta), math.sin(start.theta)
-        along, lateral = dx * c + dy * s, -dx * s + dy * c
-        if along > 0 and abs(lateral) <= robot.goal_tolerance:
-            if len(in_the_way(obstacles, robot, start, TaskKind.STRAIGHT, along)) == 0:
-                return along
+    along = _goal_dead_ahead(robot, start, goal)
+    if along is not None and len(in_the_way(obstacles, robot, start, TaskKind.STRAIGHT, along)) == 0:
+        return along
     return robot.step_length if robot.step_length is not None else robot.sensor_range
+
+
+def _goal_dead_ahead(robot: RobotModel, start: Pose, goal: Disturbance | None) -> float | None:
+    if goal is None:
+        return None
+    dx, dy = goal.x - start.x, goal.y - start.y
+    c, s = math.cos(start.theta), math.sin(start.theta)
+    along, lateral = dx * c + dy * s, -dx * s + dy * c
+    if along > 0 and abs(lateral) <= robot.goal_tolerance:
+        return along
+    return None
 
 
 def make_task(kind: TaskKind, obstacles: Obstacles, robot: RobotModel, start: Pose, goal: Disturbance | None) -> Task:
@@ -111,28 +186,49 @@ _set_velocity = pymunk.Body.velocity.fset  # type: ignore[attr-defined]
 _set_angular_velocity = pymunk.Body.angular_velocity.fset  # type: ignore[attr-defined]
 _set_position = pymunk.Body.position.fset  # type: ignore[attr-defined]
 _set_angle = pymunk.Body.angle.fset  # type: ignore[attr-defined]
-# how much deeper (m) a task may push into an obstacle it touched at its start
+# how much deeper (m) the reference tick loop lets a task push into a box it touched at its start
 _DEEPER = 1e-4
+_EPS = 1e-9
 
 
 @functools.lru_cache(maxsize=64)
 def _turn_sweep(footprint: tuple[tuple[float, float], ...], angle: float, n: int = 16) -> tuple[tuple[float, float], ...]:
-    """The footprint's corners at ``n + 1`` headings from 0 to ``angle`` (robot frame)."""
+    """The convex hull (counter-clockwise) of the footprint's corners at ``n + 1``
+    headings from 0 to ``angle`` (robot frame)."""
     verts: list[tuple[float, float]] = []
     for k in range(n + 1):
         a = angle * k / n
         c, s = math.cos(a), math.sin(a)
         verts.extend((x * c - y * s, x * s + y * c) for x, y in footprint)
-    return tuple(verts)
+    return _hull(verts)
+
+
+def _hull(points: list[tuple[float, float]]) -> tuple[tuple[float, float], ...]:
+    """Andrew's monotone chain: the convex hull, counter-clockwise."""
+    pts = sorted(set(points))
+
+    def cross(o: tuple[float, float], a: tuple[float, float], b: tuple[float, float]) -> float:
+        return (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0])
+
+    lower: list[tuple[float, float]] = []
+    upper: list[tuple[float, float]] = []
+    for p in pts:
+        while len(lower) >= 2 and cross(lower[-2], lower[-1], p) <= 0:
+            lower.pop()
+        lower.append(p)
+    for p in reversed(pts):
+        while len(upper) >= 2 and cross(upper[-2], upper[-1], p) <= 0:
+            upper.pop()
+        upper.append(p)
+    return tuple(lower[:-1] + upper[:-1])
 
 
 class World:
-    """A pymunk space with some obstacles (static boxes) and the robot (a kinematic body).
+    """A pymunk space with the obstacle boxes (static) and the robot (a kinematic body).
 
-    Built from the obstacle disturbances in the way of a task. Rollouts only place the
-    robot and step it, so a world built for one set of obstacles can serve every
-    rollout that meets the same set: :func:`simulate` reuses it within one planning run
-    (``worlds=``), with outcomes identical to a fresh build (tested).
+    Built once per planning run (:func:`simulate` caches it in ``worlds=``); a query
+    only places the robot and reshapes one reusable sweep polygon. ``indices`` limits
+    the world to some boxes.
     """
 
     def __init__(self, obstacles: Obstacles, robot: RobotModel, indices: np.ndarray | list[int] | None = None) -> None:
@@ -143,15 +239,23 @@ class World:
         idx = range(len(obstacles)) if indices is None else indices
         shapes = []
         self._index: dict[pymunk.Shape, int] = {}
-        for i in idx:
-            shape = pymunk.Poly(space.static_body, [tuple(p) for p in obstacles.boxes[i]])
+        body = space.static_body
+        for i, box in zip(idx, obstacles.boxes[list(idx)].tolist()):
+            shape = pymunk.Poly(body, box)
             self._index[shape] = int(i)
             shapes.append(shape)
         self.body = pymunk.Body(body_type=pymunk.Body.KINEMATIC)
         self.shape = pymunk.Poly(self.body, list(robot.footprint))
         self.shape.filter = _ROBOT_FILTER
-        space.add(self.body, self.shape, *shapes)
+        self._sweep = pymunk.Poly(self.body, list(robot.footprint))
+        self._sweep.filter = _ROBOT_FILTER
+        space.add(self.body, self.shape, self._sweep, *shapes)
         self.space = space
+        # the body in its own frame: real and inflated extents, swept radius
+        c = robot.clearance
+        self._real = (robot.rear_offset, robot.front_offset, robot.width / 2)
+        self._infl = (robot.rear_offset + c, robot.front_offset + c, robot.width / 2 + c)
+        self._radius = robot.swept_radius
 
     def place(self, pose: Pose) -> None:
         """Put the robot at ``pose``."""
@@ -166,7 +270,9 @@ class World:
         """
         out: dict[int, tuple[float, float, float]] = {}
         for h in self.space.shape_query(self.shape):
-            i = self._index[h.shape]
+            i = self._index.get(h.shape)
+            if i is None:
+                continue
             pts = h.contact_point_set.points
             if pts:
                 deepest = min(pts, key=lambda p: p.distance)
@@ -184,33 +290,142 @@ class World:
         i = min(hits)
         return i, hits[i][1], hits[i][2]
 
-    def sweep_is_clear(self, task: Task) -> bool:
-        """True when the whole motion of ``task`` touches nothing, decided by one query.
+    def sweep_hits(self, task: Task) -> list[int]:
+        """Indices of the boxes the whole motion of ``task`` could touch, by one query.
 
         A STRAIGHT translates the footprint: its swept area is exactly the hull of the
         start and end footprints. A turn rotates it: the hull of the footprint at
         sixteen headings across the turn, grown by the largest gap between an arc and
         its chord, contains the swept area. Both are upper bounds of the area limited
-        by the task's limit, so "clear" is never wrong.
+        by the task's limit, so an empty answer is never wrong.
         """
-        self.place(task.start)
-        fp = self.robot.footprint
+        rear, front, half = self._infl
         if task.kind is TaskKind.STRAIGHT:
-            (x0, y0), (x1, _), (_, y1), _ = fp
-            verts = [(x0, y0), (x1 + task.limit, y0), (x1 + task.limit, y1), (x0, y1)]
+            verts: Any = ((-rear, -half), (front + task.limit, -half), (front + task.limit, half), (-rear, half))
             grow = 0.0
         else:
             sign = 1.0 if task.kind is TaskKind.LEFT else -1.0
             n = 16
-            verts = list(_turn_sweep(fp, sign * task.limit, n))
-            grow = self.robot.swept_radius * (1 - math.cos(task.limit / n / 2)) + 1e-6
-        sweep = pymunk.Poly(self.body, verts, radius=grow)
-        sweep.filter = _ROBOT_FILTER
-        return not self.space.shape_query(sweep)
+            verts = _turn_sweep(self.robot.footprint, sign * task.limit, n)
+            grow = self._radius * (1 - math.cos(task.limit / n / 2)) + 1e-6
+        sweep = self._sweep
+        sweep.unsafe_set_vertices(verts)
+        sweep.unsafe_set_radius(grow)
+        self.place(task.start)
+        index = self._index
+        return sorted(i for h in self.space.shape_query(sweep) if (i := index.get(h.shape)) is not None)
+
+    def sweep_is_clear(self, task: Task) -> bool:
+        """True when the whole motion of ``task`` touches no box (see :meth:`sweep_hits`)."""
+        return not self.sweep_hits(task)
 
     def rollout(self, task: Task) -> Outcome:
-        """Run ``task`` tick by tick from its start pose until it ends or collides."""
+        """Run ``task`` tick by tick in the engine from its start pose until it ends or
+        touches a box (the reference the closed forms are tested against)."""
         return _rollout(task, self)
+
+
+class _Scene:
+    """The run's sensed points as flat arrays, and the body's extents: what every
+    rollout of one planning run shares (built once per run, nothing per query)."""
+
+    __slots__ = ("obstacles", "robot", "x", "y", "owner", "real", "infl", "radius2")
+
+    def __init__(self, obstacles: Obstacles, robot: RobotModel) -> None:
+        self.obstacles = obstacles
+        self.robot = robot
+        pts = obstacles.points
+        self.x = np.ascontiguousarray(pts[:, 0])
+        self.y = np.ascontiguousarray(pts[:, 1])
+        self.owner = obstacles.owner
+        c = robot.clearance
+        self.real = (robot.rear_offset, robot.front_offset, robot.width / 2)
+        self.infl = (robot.rear_offset + c, robot.front_offset + c, robot.width / 2 + c)
+        self.radius2 = robot.swept_radius ** 2
+
+    def outcome(self, task: Task) -> Outcome:
+        """The outcome of ``task`` among the sensed points (closed form; see the module docstring)."""
+        if not len(self.x):
+            return _unobstructed(task)
+        if task.kind is TaskKind.STRAIGHT:
+            d, k = self.straight_gap(task.start)
+            if k < 0:
+                return _unobstructed(task)
+            return _cut_straight(task, d, self.obstacles, int(self.owner[k]), float(self.x[k]), float(self.y[k]))
+        return self.turn(task)
+
+    def straight_gap(self, s: Pose) -> tuple[float, int]:
+        """(distance the body can drive from ``s`` before it meets a point, that point's index); (inf, -1) when none."""
+        c, sn = math.cos(s.theta), math.sin(s.theta)
+        x, y = self.x, self.y
+        u = x * c + y * sn - (s.x * c + s.y * sn)
+        v = np.abs(y * c - x * sn - (s.y * c - s.x * sn))
+        rear, front, half = self.infl
+        lane = v <= half
+        gap = np.where(lane & (u > front), u - front, np.inf)
+        # inside the inflated footprint at the start: the margin is waived for these points,
+        # the real body still must not touch them (the start-touching rule)
+        waived = lane & (u <= front) & (u >= -rear)
+        if waived.any():
+            _, rfront, rhalf = self.real
+            gap = np.where(waived & (v < rhalf) & (u >= rfront), u - rfront, gap)
+        k = int(np.argmin(gap))
+        d = float(gap[k])
+        return (d, k) if math.isfinite(d) else (math.inf, -1)
+
+    def turn(self, task: Task) -> Outcome:
+        """A turn among the points within its swept disc, checked at every tick heading."""
+        r = task.robot
+        s = task.start
+        dx, dy = self.x - s.x, self.y - s.y
+        near = np.flatnonzero(dx * dx + dy * dy <= self.radius2)
+        if not len(near):
+            return _unobstructed(task)
+        dx, dy = dx[near], dy[near]
+        e0 = task.error_at(s.x, s.y, s.theta)
+        per_tick = r.turn_rate * r.tick
+        ticks = math.ceil(e0 / per_tick - 1e-9) if e0 > 1e-9 else 0
+        if ticks == 0:
+            return _unobstructed(task)
+        sign = 1.0 if task.kind is TaskKind.LEFT else -1.0
+        th = s.theta + sign * np.minimum(np.arange(ticks + 1) * per_tick, e0)
+        c, sn = np.cos(th)[:, None], np.sin(th)[:, None]
+        u = dx * c + dy * sn
+        v = np.abs(dy * c - dx * sn)
+        rear, front, half = self.infl
+        inside = (u >= -rear) & (u <= front) & (v <= half)
+        waived = inside[0]
+        if waived.any():
+            rrear, rfront, rhalf = self.real
+            real = (u >= -rrear) & (u <= rfront) & (v <= rhalf)
+            inside = np.where(waived, real, inside)
+            inside[:, real[0]] = False
+        rows = np.flatnonzero(inside[1:].any(axis=1))
+        if not len(rows):
+            return _unobstructed(task)
+        k = int(rows[0]) + 1  # the first tick in contact
+        j = int(near[int(np.argmax(inside[k]))])
+        done = k - 1
+        end = Pose(s.x, s.y, wrap_angle(float(th[done]))) if done else s
+        d_n = _obstacle_disturbance(self.obstacles, (int(self.owner[j]), float(self.x[j]), float(self.y[j])))
+        return Outcome(task.kind, s, end, 0.0, done * r.tick, done, d_n, False)
+
+
+def _cut_straight(task: Task, d: float, obstacles: Obstacles, i: int, x: float, y: float) -> Outcome:
+    """A STRAIGHT whose front meets a point after ``d`` metres (inf: never)."""
+    r = task.robot
+    s = task.start
+    e0 = task.error_at(s.x, s.y, s.theta)
+    if d >= e0 or not math.isfinite(d):
+        return _unobstructed(task)
+    per_tick = r.straight_speed * r.tick
+    k = max(1, math.ceil(d / per_tick - 1e-12))  # the first tick whose travel reaches the point
+    done = k - 1
+    travel = done * per_tick
+    c, sn = math.cos(s.theta), math.sin(s.theta)
+    end = Pose(s.x + travel * c, s.y + travel * sn, s.theta) if done else s
+    d_n = _obstacle_disturbance(obstacles, (i, x, y))
+    return Outcome(task.kind, s, end, travel, done * r.tick, done, d_n, False)
 
 
 def _rollout(task: Task, world: World | None) -> Outcome:
@@ -223,8 +438,8 @@ def _rollout(task: Task, world: World | None) -> Outcome:
     distance = 0.0
     d_n: Disturbance | None = None
     body = None
-    # obstacles the robot already touches when the task starts (a brush, or returns of
-    # its own body) interrupt it only if the task pushes further into them
+    # boxes the robot already touches when the task starts interrupt it only if the
+    # task pushes further into them
     touching: dict[int, float] = {}
     if world is not None:
         world.place(task.start)
@@ -239,13 +454,13 @@ def _rollout(task: Task, world: World | None) -> Outcome:
         v = (vl + vr) / 2
         w = (vr - vl) / b
         vx, vy = v * math.cos(th), v * math.sin(th)
-        if body is not None:
+        if world is not None and body is not None:
             _set_velocity(body, (vx, vy))
             _set_angular_velocity(body, w)
-            world.space.step(dt)  # type: ignore[union-attr]
-            for i, (depth, cx, cy) in sorted(world.contacts().items()):  # type: ignore[union-attr]
+            world.space.step(dt)
+            for i, (depth, cx, cy) in sorted(world.contacts().items()):
                 if i not in touching or depth > touching[i] + _DEEPER:
-                    d_n = _obstacle_disturbance(world.obstacles, (i, cx, cy))  # type: ignore[union-attr]
+                    d_n = _obstacle_disturbance(world.obstacles, (i, cx, cy))
                     break
             if d_n is not None:
                 break
@@ -261,7 +476,7 @@ def _rollout(task: Task, world: World | None) -> Outcome:
     return Outcome(task.kind, task.start, pose, distance, ticks * dt, ticks, d_n, False)
 
 
-def _unobstructed(task: Task) -> Outcome:
+def _unobstructed(task: Task, frontier: bool = False) -> Outcome:
     """The outcome of a task that nothing interrupts, in closed form.
 
     Both controllers drive their error down linearly at full rate and cover the rest in
@@ -281,13 +496,21 @@ def _unobstructed(task: Task) -> Outcome:
         end = Pose(s.x, s.y, wrap_angle(s.theta + sign * e0))
         distance = 0.0
     ticks = math.ceil(e0 / per_tick - 1e-9) if e0 > 1e-9 else 0
-    return Outcome(task.kind, s, end if ticks else s, distance, ticks * r.tick, ticks, None, False)
+    return Outcome(task.kind, s, end if ticks else s, distance if ticks else 0.0, ticks * r.tick, ticks, None, False, frontier)
 
 
 def _obstacle_disturbance(obstacles: Obstacles, hit: tuple[int, float, float]) -> Disturbance:
     i, x, y = hit
-    base = obstacles.disturbances[i]
-    return Disturbance(DisturbanceKind.OBSTACLE, x, y, base.vertices, base.ident)
+    return Disturbance(DisturbanceKind.OBSTACLE, x, y, tuple(map(tuple, obstacles.boxes[i].tolist())), i)  # type: ignore[arg-type]
+
+
+def _scene(obstacles: Obstacles, robot: RobotModel, worlds: dict[Any, Any] | None) -> _Scene:
+    scene = worlds.get(()) if worlds is not None else None
+    if not isinstance(scene, _Scene) or scene.robot is not robot or scene.obstacles is not obstacles:
+        scene = _Scene(obstacles, robot)
+        if worlds is not None:
+            worlds[()] = scene
+    return scene
 
 
 def simulate(
@@ -296,30 +519,47 @@ def simulate(
     goal: Disturbance | None,
     obstacles: Obstacles,
     robot: RobotModel,
-    worlds: dict[tuple[int, ...], World] | None = None,
+    worlds: dict[Any, Any] | None = None,
+    *,
+    angle: float | None = None,
 ) -> Outcome:
-    """Roll one task of ``kind`` forward from ``start`` in a world of what is in its way.
+    """Roll one task of ``kind`` forward from ``start`` in the world of what the scan saw.
 
-    Only the obstacles in the way of the task enter the world; the outcome's
     ``reached_goal`` says whether the task ended within the goal tolerance. ``worlds``
-    is an optional cache (one per planning run, for the same obstacles and robot) of
-    worlds keyed by the set of obstacles they hold.
+    is an optional cache (one per planning run, for the same obstacles and robot) that
+    keeps what the run's rollouts share. ``angle`` is a turn's angle (default the
+    robot's ``turn_angle``). A STRAIGHT that meets the rim of the sensed disc ends
+    there (``frontier``); a turn that would leave it comes back with ``frontier`` set
+    and its end at its start (not available).
+
+    >>> from planner.perception import perceive
+    >>> out = simulate(TaskKind.STRAIGHT, Pose(0.0, 0.0, 0.0), Disturbance.goal(1.0, 0.0), perceive(np.zeros((0, 2))), RobotModel())
+    >>> out.reached_goal, out.frontier, round(out.end.x, 3)
+    (True, False, 1.0)
     """
-    task = make_task(kind, obstacles, robot, start, goal)
-    length = task.limit if kind is TaskKind.STRAIGHT else 0.0
-    idx = in_the_way(obstacles, robot, start, kind, length)
-    world: World | None = None
-    if len(idx):
-        key = tuple(idx.tolist())
-        world = worlds.get(key) if worlds is not None else None
-        if world is None:
-            world = World(obstacles, robot, idx)
-            if worlds is not None:
-                worlds[key] = world
-    if world is None or world.sweep_is_clear(task):
-        out = _unobstructed(task)  # nothing can interrupt it: no contact to check per tick
+    scene = _scene(obstacles, robot, worlds) if len(obstacles) else None
+    if kind is TaskKind.STRAIGHT:
+        room = frontier_distance(robot, start)
+        step = robot.step_length if robot.step_length is not None else robot.sensor_range
+        d, k = scene.straight_gap(start) if scene is not None else (math.inf, -1)
+        along = _goal_dead_ahead(robot, start, goal)
+        if along is not None and d >= min(along, room):
+            limit = min(along, room)  # a clear run to the goal dead ahead: one task
+        else:
+            limit = min(step, room)
+        task = Task.straight(robot, start, goal, limit)
+        if k >= 0 and scene is not None:
+            out = _cut_straight(task, d, obstacles, int(scene.owner[k]), float(scene.x[k]), float(scene.y[k]))
+        else:
+            out = _unobstructed(task)
+        if limit >= room - _EPS and not out.collided and out.distance >= room - 1e-6:
+            out = Outcome(out.task, out.start, out.end, out.distance, out.duration, out.ticks, None, False, True)
     else:
-        out = _rollout(task, world)
+        sign = 1.0 if kind is TaskKind.LEFT else -1.0
+        task = Task.turn(robot, kind, start, goal, angle)
+        if _turn_leaves_disc(robot, start, sign * task.limit):
+            return Outcome(kind, start, start, 0.0, 0.0, 0, None, False, True)
+        out = scene.turn(task) if scene is not None else _unobstructed(task)
     if goal is not None and out.d_n is None and out.end.distance_to(goal.x, goal.y) <= robot.goal_tolerance:
-        out = Outcome(out.task, out.start, out.end, out.distance, out.duration, out.ticks, None, True)
+        out = Outcome(out.task, out.start, out.end, out.distance, out.duration, out.ticks, None, True, out.frontier)
     return out

@@ -71,6 +71,10 @@ def _plan_one(conf: Configurator, scan: Any, goal: tuple[float, float]) -> PlanR
 def _print_readable(r: PlanResult, title: str) -> None:
     out = sys.stdout
     verdict = "reaches the goal" if r.reached_goal else "does NOT reach the goal (best partial plan)"
+    if r.goal_blocked:
+        verdict += "; the goal is inside a perceived obstacle"
+    elif r.stop_reason == "frontier":
+        verdict += "; it ends at the edge of what the sensor saw"
     print(f"{title}: goal ({r.goal.x:g}, {r.goal.y:g}) — plan {verdict}", file=out)
     print(
         f"  {r.states} states, {r.transitions} transitions, {len(r.obstacles)} obstacle boxes, "

@@ -439,8 +439,10 @@ class Supervisor:
         goal_d = Disturbance.goal(self.goal.x, self.goal.y)
         predicted_end = self._plan.to_frame(q.end)
         if q.task is TaskKind.STRAIGHT:
-            planned = make_task(q.task, result.obstacles, self.model, q.start, result.goal)
-            task = Task.straight(self.model, self.pose, goal_d, planned.limit)
+            # drive what the map planned: a straight cut at the rim of the sensed disc (a
+            # frontier) must not run on into unseen space
+            limit = q.distance if q.distance > 0 else make_task(q.task, result.obstacles, self.model, q.start, result.goal).limit
+            task = Task.straight(self.model, self.pose, goal_d, limit)
         else:
             turn = wrap_angle(predicted_end.theta - self.pose.theta)
             angle = turn if q.task is TaskKind.LEFT else -turn

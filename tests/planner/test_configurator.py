@@ -126,12 +126,26 @@ def test_json_round_trip(tmp_path):
 
 @pytest.mark.parametrize(
     "goal, message",
-    [((0.0, 0.0), "robot's own position"), ((float("nan"), 0.0), "finite"), ((0.45, 0.0), "inside obstacle")],
+    [((0.0, 0.0), "robot's own position"), ((float("nan"), 0.0), "finite")],
 )
 def test_ill_posed_goals(goal, message):
     scene = load_scenario("overtaking")
     with pytest.raises(PlanningError, match=message):
         Configurator().plan(scene.scan(), goal)
+
+
+def test_a_goal_inside_a_perceived_obstacle_is_a_situation_not_an_error():
+    # the goal on the overtaking box's face: plan towards it, end at the closest reachable
+    # state, and say the goal is blocked
+    scene = load_scenario("overtaking")
+    r = Configurator().plan(scene.scan(), (0.45, 0.0))
+    assert r.goal_blocked and not r.reached_goal
+    assert r.to_dict()["goal_blocked"] is True and r.to_dict()["reached_goal"] is False
+    assert r.collision_free and r.steps
+    end = r.map[r.plan.end].end
+    assert end.distance_to(0.45, 0.0) < 0.45  # it got closer than where it started
+    free = Configurator().plan(scene.scan(), (1.0, 0.0))
+    assert not free.goal_blocked and free.to_dict()["goal_blocked"] is False
 
 
 def test_something_touching_the_robot_does_not_pin_it():

@@ -123,16 +123,39 @@ def test_parallel_walls_of_one_cluster_are_not_bridged():
         assert obs.contains_point(x, 0.15) is None and obs.contains_point(x, -0.15) is None
 
 
-def test_a_piece_is_split_at_a_gap_along_its_axis():
-    # what median splits leave of two parallel walls joined far away: two short stubs
-    # 0.6 m apart. Their principal axis runs across the gap and they are thin along it,
-    # so only the gap rule keeps one box from bridging the corridor between them.
-    from planner.perception import _cover
-
+def test_short_stubs_across_a_gap_are_not_bridged():
+    # two short stubs 0.6 m apart: their points are far apart along any order, so no box
+    # may join them across the corridor between them
     stub = np.linspace(0.0, 0.03, 3)
     pts = np.r_[np.c_[stub, np.full(3, 0.3)], np.c_[stub, np.full(3, -0.3)]]
-    boxes: list = []
-    _cover(pts, boxes, gap=0.1)
-    assert len(boxes) == 2
-    for box in boxes:
+    obs = perceive(pts)
+    assert len(obs) == 2
+    for box in obs.boxes:
         assert np.ptp(box[:, 1]) < 0.1  # each box stays on its own wall
+
+
+def _to_polyline(q: np.ndarray, line: np.ndarray) -> float:
+    if len(line) == 1:
+        return float(np.hypot(*(q - line[0])))
+    a, b = line[:-1], line[1:]
+    ab = b - a
+    t = np.clip(((q - a) * ab).sum(1) / np.maximum((ab * ab).sum(1), 1e-18), 0, 1)
+    return float(np.hypot(*(a + t[:, None] * ab - q).T).min())
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.floats(0.1, 1.0), st.floats(0.05, 0.4), st.floats(-math.pi, math.pi), st.floats(0.2, 1.0))
+def test_boxes_hug_a_curved_wall(radius, gap, direction, fraction):
+    """Covering shapes stay within 1 cm of the surface through their points, also on a
+    curved wall (here the visible side of a round pillar, sampled every 5 mm)."""
+    d = radius + gap
+    c = d * np.array([math.cos(direction), math.sin(direction)])
+    half = math.acos(radius / d) * fraction
+    a = direction + math.pi + np.linspace(-half, half, int(2 * half * radius / 0.005) + 2)
+    obs = perceive(c + radius * np.c_[np.cos(a), np.sin(a)])
+    assert len(obs)
+    for i, box in enumerate(obs.boxes):
+        mine = obs.box_points(i)
+        for k in range(4):
+            for t in np.linspace(0, 1, 9):
+                assert _to_polyline(box[k] + t * (box[(k + 1) % 4] - box[k]), mine) <= 0.01 + 1e-9

@@ -59,7 +59,6 @@ def test_plan_scan_file_and_folder(tmp_path, scans_dir):
         (["--scan", "/nonexistent/scan.dat"], "no such file"),
         (["--scenario", "atlantis"], "unknown scenario"),
         (["--scenario", "overtaking", "--goal", "0,0"], "robot's own position"),
-        (["--scenario", "overtaking", "--goal", "0.45,0"], "inside obstacle"),
         (["--scenario", "overtaking", "--goal", "nan,0"], "finite"),
         (["--scenario", "overtaking", "--goal", "1"], "X,Y"),
     ],
@@ -70,6 +69,15 @@ def test_bad_input_is_one_line_and_exit_2(args, needle):
     assert needle in p.stderr
     assert "Traceback" not in p.stderr
     assert len(p.stderr.strip().splitlines()) == 1
+
+
+def test_a_goal_inside_an_obstacle_is_planned_towards_and_reported():
+    p = clomp("plan", "--scenario", "overtaking", "--goal", "0.45,0", "--json")
+    assert p.returncode == 0, p.stderr
+    out = json.loads(p.stdout)
+    assert out["goal_blocked"] is True and out["reached_goal"] is False
+    readable = clomp("plan", "--scenario", "overtaking", "--goal", "0.45,0")
+    assert "goal is inside a perceived obstacle" in readable.stdout
 
 
 @pytest.mark.parametrize("content, needle", [("0.5 0.1\nfoo\n", ":2:"), ("nan 0.2\n", "not finite")])
