@@ -44,10 +44,11 @@ from typing import Any
 import numpy as np
 import pymunk
 
+from formal.geometry import wrap_angle
 from formal.model import Disturbance, DisturbanceKind, Pose, TaskKind
 from planner.perception import Obstacles
 from planner.robot import RobotModel
-from planner.tasks import Task, wrap_angle
+from planner.tasks import Task
 
 __all__ = ["Outcome", "World", "in_the_way", "straight_limit", "simulate", "make_task", "frontier_distance"]
 
@@ -501,7 +502,7 @@ def _unobstructed(task: Task, frontier: bool = False) -> Outcome:
 
 def _obstacle_disturbance(obstacles: Obstacles, hit: tuple[int, float, float]) -> Disturbance:
     i, x, y = hit
-    return Disturbance(DisturbanceKind.OBSTACLE, x, y, tuple(map(tuple, obstacles.boxes[i].tolist())), i)  # type: ignore[arg-type]
+    return Disturbance(DisturbanceKind.OBSTACLE, x, y, tuple(map(tuple, obstacles.boxes[i].tolist())), i)
 
 
 def _scene(obstacles: Obstacles, robot: RobotModel, worlds: dict[Any, Any] | None) -> _Scene:
