@@ -107,24 +107,25 @@ def _draw_scene(ax: Any, scene: Scene) -> None:
     ax.plot(*scene.goal, marker=_HEART, color="red", markersize=14, ls="none", zorder=6)
 
 
-def _legend(ax: Any, t: RunTrace, fontsize: int = 7) -> None:
+def _handles(ts: Sequence[RunTrace]) -> list[Any]:
+    """Legend entries for exactly the marks drawn on the panels of ``ts``."""
     from matplotlib.lines import Line2D
     from matplotlib.patches import Patch
 
     h: list[Any] = [Patch(color="0.55", label="obstacle")]
-    if t.path:
+    if any(x.path for x in ts):
         h.append(Line2D([], [], color=_EXEC, lw=4, label="executed (ground truth)"))
-    if t.estimate:
+    if any(x.estimate for x in ts):
         h.append(Line2D([], [], color="tab:purple", ls=":", lw=1.4, label="robot's estimate"))
-    if any(len(p) > 1 for p in t.plans):
+    if any(len(p) > 1 for x in ts for p in x.plans):
         h.append(Line2D([], [], color="tab:orange", ls="--", lw=1.2, label="planned"))
-    if t.poses:
+    if any(x.poses for x in ts):
         h.append(Patch(fill=False, edgecolor="tab:blue", label="robot body (start, end)"))
     h.append(Line2D([], [], marker=_HEART, color="red", ls="none", markersize=10, label="target"))
-    if t.collisions:
+    if any(x.collisions for x in ts):
         h.append(Line2D([], [], marker="*", color="red", markeredgecolor="black", ls="none", markersize=11,
                         label="collision / brush"))
-    ax.legend(handles=h, loc="upper left", fontsize=fontsize, framealpha=0.85)
+    return h
 
 
 def _draw(ax: Any, t: RunTrace, model: RobotModel, legend: bool) -> None:
@@ -149,7 +150,7 @@ def _draw(ax: Any, t: RunTrace, model: RobotModel, legend: bool) -> None:
     ax.set_aspect("equal")
     ax.grid(alpha=0.3)
     if legend:
-        _legend(ax, t)
+        ax.legend(handles=_handles([t]), loc="upper left", fontsize=7, framealpha=0.85)
 
 
 def plot_run(trace: RunTrace, path: str | os.PathLike[str], model: RobotModel | None = None, title: str | None = None) -> None:
@@ -185,7 +186,7 @@ def plot_runs(traces: Sequence[RunTrace], path: str | os.PathLike[str], title: s
             if k >= len(traces):
                 ax.axis("off")
                 continue
-            _draw(ax, traces[k], model or RobotModel(), legend=(k == 0))
+            _draw(ax, traces[k], model or RobotModel(), legend=False)
             ax.set_xlim(lim[0], lim[1])
             ax.set_ylim(lim[2], lim[3])
             if k % cols == 0:
@@ -194,7 +195,9 @@ def plot_runs(traces: Sequence[RunTrace], path: str | os.PathLike[str], title: s
                 ax.set_xlabel("x (m)")
                 ax.tick_params(labelbottom=True)
         fig.suptitle(title)
-        fig.tight_layout()
+        handles = _handles(traces)
+        fig.legend(handles=handles, loc="lower center", ncol=len(handles), fontsize=8, frameon=False)
+        fig.tight_layout(rect=(0, 0.45 / (2.9 * rows + 0.8), 1, 1))
         fig.savefig(path, dpi=100)
     finally:
         plt.close(fig)

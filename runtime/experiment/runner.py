@@ -453,7 +453,7 @@ def run_experiment(
             path.write_text("", encoding="utf-8")
         sink = open(path, "a", encoding="utf-8")
     todo = [s for s in specs if s.key not in done]
-    bar = progress(len(specs), len(done)) if progress is not None else None
+    bar = progress(len(specs), len(done)) if progress else None
 
     def keep(rec: dict[str, Any]) -> None:
         done[rec["key"]] = rec

@@ -121,6 +121,6 @@ def make_robot(scene: Scene, *, noise: str = "paper", noise_scale: float = 1.0, 
         raise ValueError(f"unknown noise preset {noise!r} (known: {', '.join(NOISE_PRESETS)})")
     factory = _factory()
     if factory is not None:
-        robot: WorldRobot = factory(scene, noise=noise, noise_scale=noise_scale, seed=seed)
+        robot: WorldRobot = factory(scene, noise=noise, noise_scale=noise_scale, seed=seed, robot=model)
         return robot
     return _TracedSimRobot(scene, model, noise=sim_noise(noise, noise_scale), seed=seed)

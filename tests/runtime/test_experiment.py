@@ -217,3 +217,35 @@ def test_the_papers_claim_holds():
     assert c["planning"]["reached_goal"] >= 9 and c["planning"]["collisions"] + c["planning"]["brushes"] <= 3
     assert c["reactive"]["collisions"] >= 4
     assert math.isfinite(c["planning"]["planning_time_s"]["mean"])
+
+
+@pytest.mark.slow
+def test_a_killed_worker_loses_no_run(tmp_path):
+    """SIGKILL one of two worker processes mid-experiment: every run is still there, once, unchanged."""
+    import logging
+    import os
+    import signal
+
+    from distributed import Client, LocalCluster
+
+    cluster = LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None,
+                           silence_logs=logging.ERROR)
+    client = Client(cluster)
+    killed = []
+
+    def kill_one(_rec):
+        if not killed:
+            pid = sorted(client.run(os.getpid).values())[0]
+            os.kill(pid, signal.SIGKILL)
+            killed.append(pid)
+
+    try:
+        recs = run_experiment("overtaking", runs=6, seed=2, noise="paper", max_time=40, scheduler=cluster.scheduler_address,
+                              out=tmp_path, on_record=kill_one)
+    finally:
+        client.close()
+        cluster.close()
+    assert killed
+    keys = [r["key"] for r in load_records(tmp_path / "runs.jsonl")]
+    assert len(keys) == len(set(keys)) == 12 and len(recs) == 12
+    assert _strip(recs) == _strip(run_experiment("overtaking", runs=6, seed=2, noise="paper", max_time=40))
