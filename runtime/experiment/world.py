@@ -5,8 +5,8 @@ keeps simulated time (``now``/``sleep``) and exposes the ground truth the experi
 measures — ``ground_truth_pose()`` (world frame) and ``contact_trace()``, one
 ``(time_s, penetration_m)`` sample per simulation tick in which the body touches an
 obstacle. It uses the independent execution world's factory
-(``runtime.robots.make_world_robot``) when that is installed, and otherwise the
-simulated robot :class:`~runtime.robots.sim.SimRobot`, wrapped to report the same trace (its
+(``runtime.robots.make_world_robot``, issue #8) when it is there — it is on main — and
+otherwise the older simulated robot :class:`~runtime.robots.sim.SimRobot`, wrapped to report the same trace (its
 penetration is how far the commanded motion of a tick would have pushed the body into
 the obstacle before it was pushed back out).
 
@@ -17,7 +17,7 @@ NoiseConfig`'s defaults (the scenario README's table), ``harsh`` every term ×5 
 
 >>> from runtime.experiment.layouts import make_layout
 >>> r = make_robot(make_layout("overtaking", 0).scene, noise="ideal", seed=0)
->>> r.set_wheel_speeds(0.1, 0.1); r.sleep(1.0); round(r.ground_truth_pose().x, 3), r.contact_trace()
+>>> r.set_wheel_speeds(0.1, 0.1); r.sleep(1.0); round(r.ground_truth_pose().x, 1), r.contact_trace()
 (0.1, [])
 """
 
