@@ -6,7 +6,8 @@ pose by wheel speeds uses these functions; nothing else re-implements them (a te
 the source for it).
 
 - :func:`wrap_angle` — an angle in (-pi, pi].
-- :func:`compose` / :func:`relative` — a pose from a robot's frame into the world's and back.
+- :func:`compose` / :func:`relative` — a pose from a robot's frame into the world's and back;
+  :func:`points_from_frame` / :func:`points_to_frame` — the same for arrays of points.
 - :func:`arc_step` / :func:`drive` — the exact motion of a unicycle at constant linear speed
   ``v`` and turn rate ``w`` over ``dt`` (a circular arc, a straight line when ``w`` = 0).
 
@@ -15,7 +16,7 @@ the source for it).
 >>> round(p.x, 9), round(p.y, 9), round(p.theta, 9)
 (1.0, 2.0, 1.570796327)
 >>> q = relative(Pose(1.0, 0.0, math.pi / 2), p)
->>> round(q.x, 9), round(q.y, 9), round(q.theta, 9)
+>>> round(q.x, 9), round(q.y, 9) + 0.0, round(q.theta, 9)
 (2.0, 0.0, 0.0)
 """
 
@@ -23,9 +24,29 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
+
 from formal.model import Pose
 
-__all__ = ["arc_step", "compose", "drive", "relative", "wheel_twist", "wrap_angle"]
+__all__ = [
+    "arc_step",
+    "compose",
+    "drive",
+    "points_from_frame",
+    "points_to_frame",
+    "relative",
+    "wheel_twist",
+    "wrap_angle",
+]
+
+FrameLike = Pose | tuple[float, float, float]
+
+
+def _xyt(frame: FrameLike) -> tuple[float, float, float]:
+    if isinstance(frame, Pose):
+        return frame.x, frame.y, frame.theta
+    x, y, th = frame
+    return float(x), float(y), float(th)
 
 
 def wrap_angle(a: float) -> float:
@@ -67,11 +88,40 @@ def relative(base: Pose, other: Pose) -> Pose:
     return Pose(c * dx + s * dy, -s * dx + c * dy, wrap_angle(other.theta - base.theta))
 
 
+def points_from_frame(points: np.ndarray, frame: FrameLike) -> np.ndarray:
+    """N×2 ``points`` given in the frame of a robot at ``frame`` → the frame ``frame`` is given in.
+
+    ``frame`` is a :class:`Pose` or an (x, y, theta) tuple. An empty array comes back as is.
+
+    >>> points_from_frame(np.array([[1.0, 0.0]]), Pose(2.0, 0.0, math.pi / 2)).round(9).tolist()
+    [[2.0, 1.0]]
+    """
+    if len(points) == 0:
+        return points
+    x, y, th = _xyt(frame)
+    c, s = math.cos(th), math.sin(th)
+    out: np.ndarray = np.c_[x + c * points[:, 0] - s * points[:, 1], y + s * points[:, 0] + c * points[:, 1]]
+    return out
+
+
+def points_to_frame(points: np.ndarray, frame: FrameLike) -> np.ndarray:
+    """N×2 ``points`` → the frame of a robot at ``frame`` (inverse of :func:`points_from_frame`).
+
+    >>> points_to_frame(np.array([[2.0, 1.0]]), Pose(2.0, 0.0, math.pi / 2)).round(9).tolist()
+    [[1.0, 0.0]]
+    """
+    x, y, th = _xyt(frame)
+    c, s = math.cos(th), math.sin(th)
+    rel = np.asarray(points, dtype=float) - np.array([x, y])
+    out: np.ndarray = np.c_[rel[:, 0] * c + rel[:, 1] * s, -rel[:, 0] * s + rel[:, 1] * c]
+    return out
+
+
 def wheel_twist(left: float, right: float, wheel_base: float) -> tuple[float, float]:
     """Wheel speeds (m/s) → (linear speed v, turn rate w) of a differential drive.
 
-    >>> wheel_twist(0.1, 0.3, 0.2)
-    (0.2, 1.0)
+    >>> wheel_twist(0.25, 0.75, 0.25)
+    (0.5, 2.0)
     """
     return (left + right) / 2, (right - left) / wheel_base
 

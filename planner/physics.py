@@ -44,7 +44,7 @@ from typing import Any
 import numpy as np
 import pymunk
 
-from formal.geometry import wrap_angle
+from formal.geometry import arc_step, wheel_twist, wrap_angle
 from formal.model import Disturbance, DisturbanceKind, Pose, TaskKind
 from planner.perception import Obstacles
 from planner.robot import RobotModel
@@ -452,8 +452,7 @@ def _rollout(task: Task, world: World | None) -> Outcome:
         if task.done(e):
             break
         vl, vr = task.wheel_speeds(e)
-        v = (vl + vr) / 2
-        w = (vr - vl) / b
+        v, w = wheel_twist(vl, vr, b)
         vx, vy = v * math.cos(th), v * math.sin(th)
         if world is not None and body is not None:
             _set_velocity(body, (vx, vy))
@@ -468,7 +467,7 @@ def _rollout(task: Task, world: World | None) -> Outcome:
             pos = body.position
             nx, ny, nth = pos.x, pos.y, body.angle
         else:
-            nx, ny, nth = x + vx * dt, y + vy * dt, th + w * dt
+            nx, ny, nth = arc_step(x, y, th, v, w, dt)
         distance += abs(v) * dt
         x, y, th = nx, ny, nth
         ticks += 1

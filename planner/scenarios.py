@@ -17,6 +17,7 @@ from typing import Any
 
 import numpy as np
 
+from formal.geometry import points_to_frame
 from formal.model import Pose
 
 __all__ = ["ScenarioError", "Shape", "Scene", "load_scenario", "builtin_scenarios", "scenario_path"]
@@ -120,10 +121,7 @@ class Scene:
 
 def to_robot_frame(pose: Pose, pts: np.ndarray) -> np.ndarray:
     """World points → the frame of a robot at ``pose``."""
-    c, s = math.cos(pose.theta), math.sin(pose.theta)
-    rel = np.asarray(pts, dtype=float) - np.array([pose.x, pose.y])
-    out: np.ndarray = np.c_[rel[:, 0] * c + rel[:, 1] * s, -rel[:, 0] * s + rel[:, 1] * c]
-    return out
+    return points_to_frame(pts, pose)
 
 
 # -- the file format ---------------------------------------------------------------------

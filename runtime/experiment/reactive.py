@@ -41,7 +41,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from formal.geometry import compose, drive, relative, wheel_twist
+from formal.geometry import compose, drive, points_from_frame, relative, wheel_twist
 from formal.model import Pose
 from planner.perception import validate_scan
 from planner.robot import RobotModel
@@ -178,10 +178,8 @@ class ReactiveController:
         if len(self._scan) == 0:
             return None
         m = self.model
-        rel = relative(self.pose, self._scan_pose)
-        c, s = math.cos(rel.theta), math.sin(rel.theta)
-        x = rel.x + c * self._scan[:, 0] - s * self._scan[:, 1]
-        y = rel.y + s * self._scan[:, 0] + c * self._scan[:, 1]
+        pts = points_from_frame(self._scan, relative(self.pose, self._scan_pose))
+        x, y = pts[:, 0], pts[:, 1]
         inside = (x > m.front_offset) & (x <= m.front_offset + self.look_ahead) & (np.abs(y) <= m.width / 2 + m.clearance)
         if int(inside.sum()) < self.hazard_points:
             return None

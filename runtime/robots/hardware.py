@@ -360,7 +360,7 @@ class HardwareRobot:
         if not self.config.odometry:
             return None
         with self._lock:
-            self._integrate(self.clock.now())
+            self._dead_reckon(self.clock.now())
             x, y, th = self._pose
         return Pose(x, y, wrap_angle(th))
 
@@ -425,10 +425,10 @@ class HardwareRobot:
 
     def _set_command(self, cmd: tuple[float, float]) -> None:
         with self._lock:
-            self._integrate(self.clock.now())
+            self._dead_reckon(self.clock.now())
             self._cmd = cmd
 
-    def _integrate(self, now: float) -> None:
+    def _dead_reckon(self, now: float) -> None:
         dt = now - self._pose_t
         self._pose_t = now
         vl, vr = self._cmd

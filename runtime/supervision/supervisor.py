@@ -40,7 +40,7 @@ from planner.configurator import Configurator, PlanningError, PlanResult
 from planner.perception import validate_scan
 from planner.physics import make_task
 from planner.robot import RobotModel
-from formal.geometry import compose, drive, relative, wheel_twist, wrap_angle
+from formal.geometry import compose, drive, points_from_frame, points_to_frame, relative, wheel_twist, wrap_angle
 from planner.tasks import Task
 from runtime.clock import Clock, clock_for
 from runtime.records.runlog import RunLogLike
@@ -74,10 +74,7 @@ def _points_to_frame(points: np.ndarray, source: Pose, target: Pose) -> np.ndarr
     """Points in the frame of a robot at ``source`` → the frame of a robot at ``target``."""
     if len(points) == 0:
         return points
-    rel = relative(target, source)
-    c, s = math.cos(rel.theta), math.sin(rel.theta)
-    out: np.ndarray = np.c_[rel.x + c * points[:, 0] - s * points[:, 1], rel.y + s * points[:, 0] + c * points[:, 1]]
-    return out
+    return points_from_frame(points, relative(target, source))
 
 
 # -- records ------------------------------------------------------------------------------
@@ -574,8 +571,7 @@ def _hits(points: np.ndarray, poses: np.ndarray, m: RobotModel) -> int:
     """How many points lie inside the (uninflated) body at any of ``poses``."""
     inside = np.zeros(len(points), dtype=bool)
     for x, y, th in poses:
-        c, s = math.cos(th), math.sin(th)
-        dx, dy = points[:, 0] - x, points[:, 1] - y
-        u, v = c * dx + s * dy, -s * dx + c * dy
+        local = points_to_frame(points, (x, y, th))
+        u, v = local[:, 0], local[:, 1]
         inside |= (u >= -m.rear_offset) & (u <= m.front_offset) & (np.abs(v) <= m.width / 2)
     return int(inside.sum())
