@@ -1,20 +1,8 @@
 """Exporters: one intermediate model extracted from a cognitive map, then renderers.
 
-:func:`export_model` extracts an :class:`ExportModel` in one of two kinds:
+:func:`export_model` (:mod:`formal.export_model`) extracts the intermediate model; the
+renderers below print it.
 
-- ``"mdp"`` — the unsupervised map: every state, and at each state one nondeterministic
-  choice per task the Configurator explored (the action is the task kind), whose
-  branches are the map's transitions with that label;
-- ``"dtmc"`` — the supervised system: Ψ applied, so at each state only the task of the
-  plan is enabled; the states are those reachable under Ψ.
-
-States without an outgoing choice (collisions, the goal, unexpanded frontier states)
-get one absorbing self-loop, action ``stay``, so that the models are well-formed; the
-model records them in ``self_loops``. Labels: ``init``, ``goal`` (reached the goal, not
-interrupted), ``collision`` (interrupted, D_N ≠ ∅), ``plan`` (states of ρ) and
-``goal_in_map`` (on q0 when the unsupervised map holds a reachable goal state: the
-Configurator found a way). Rewards ``distance`` (metres) and ``time`` (seconds) are
-earned on choices: the expected distance / duration of the task started.
 
 Renderers (each takes a path or a text file object, networkx-style): :func:`write_prism`
 (PRISM language), :func:`write_prism_explicit` (``.tra .sta .lab`` and named reward files),
@@ -32,16 +20,15 @@ import shutil
 import subprocess
 from collections.abc import Callable, Iterator, Mapping
 from contextlib import contextmanager
-from dataclasses import dataclass
 from fractions import Fraction
 from pathlib import Path
-from typing import IO, Any, Literal
+from typing import IO, Any
 
-from formal.lts import CognitiveMap, MapError
-from formal.model import State, TaskKind
-from formal.supervisory import Guard, Plan
+from formal.export_model import LABELS, STAY, Choice, ExportError, ExportModel, ModelKind, export_model
+from formal.lts import CognitiveMap
 
 __all__ = [
+    "ModelKind",
     "ExportError",
     "Choice",
     "ExportModel",
@@ -62,157 +49,7 @@ __all__ = [
     "prism_import_args",
 ]
 
-ModelKind = Literal["mdp", "dtmc"]
-STAY = "stay"
-"""The action of the absorbing self-loop added to a state without successors."""
-
 Dest = str | os.PathLike[str] | IO[str]
-
-
-class ExportError(MapError):
-    """A map cannot be exported (empty, no q0, probabilities that do not sum to 1, …)."""
-
-
-@dataclass(frozen=True, slots=True)
-class Choice:
-    """One choice of a state: an action (task kind or ``stay``) and its distribution.
-
-    ``branches`` are (target index, exact probability) pairs; ``distance`` and ``time``
-    the expected reward of taking the choice; ``guarded`` is Ψ (1 on a plan step).
-    """
-
-    action: str
-    branches: tuple[tuple[int, Fraction], ...]
-    distance: float = 0.0
-    time: float = 0.0
-    guarded: bool = False
-
-
-@dataclass(frozen=True)
-class ExportModel:
-    """The intermediate model every renderer draws from (indices 0 … n−1, by ident)."""
-
-    kind: ModelKind
-    states: tuple[State, ...]
-    initial: int
-    choices: tuple[tuple[Choice, ...], ...]
-    labels: Mapping[str, frozenset[int]]
-    self_loops: tuple[int, ...]
-    plan: Plan
-    goal: tuple[float, float] | None
-
-    @property
-    def n_states(self) -> int:
-        """Number of states."""
-        return len(self.states)
-
-    @property
-    def n_choices(self) -> int:
-        """Number of choices (rows of an MDP's matrix)."""
-        return sum(len(c) for c in self.choices)
-
-    @property
-    def n_transitions(self) -> int:
-        """Number of (choice, target) entries: the map's transitions plus the self-loops."""
-        return sum(len(ch.branches) for cs in self.choices for ch in cs)
-
-    def index_of(self, ident: int) -> int:
-        """The index of the state q_ident."""
-        for k, s in enumerate(self.states):
-            if s.ident == ident:
-                return k
-        raise ExportError(f"q{ident} is not a state of the exported model")
-
-    def state_labels(self, index: int) -> list[str]:
-        """The labels of the state at ``index``, sorted."""
-        return sorted(name for name, members in self.labels.items() if index in members)
-
-
-LABELS = ("init", "goal", "collision", "plan", "goal_in_map")
-
-
-def export_model(cmap: CognitiveMap, kind: ModelKind = "mdp", plan: Plan | None = None) -> ExportModel:
-    """Extract the MDP (unsupervised) or DTMC (supervised, Ψ applied) of ``cmap``.
-
-    ``plan`` defaults to the one recorded by the Configurator (else extracted). Raises
-    :class:`ExportError` for an empty map, a map without q0, a distribution that does not
-    sum to 1, or (for the DTMC) a guard that enables two tasks in one state.
-    """
-    from formal.invariants import map_plan
-
-    if kind not in ("mdp", "dtmc"):
-        raise ExportError(f"unknown model kind {kind!r}: expected 'mdp' or 'dtmc'")
-    if len(cmap) == 0:
-        raise ExportError("cannot export an empty map")
-    if cmap.initial_id is None or cmap.initial_id not in cmap:
-        raise ExportError("cannot export a map without an initial state")
-    rho = map_plan(cmap) if plan is None else plan
-    psi = Guard(cmap, rho)
-    groups = _groups(cmap)
-    q0 = cmap.initial_id
-    if kind == "mdp":
-        idents = [s.ident for s in cmap.states()]
-        enabled = groups
-    else:
-        enabled = {}
-        for s, by_label in groups.items():
-            on = {lab: ts for lab, ts in by_label.items() if any(psi(t) for t in ts)}
-            if len(on) > 1:
-                raise ExportError(f"Ψ enables {len(on)} tasks in q{s}: the supervised system is not a DTMC")
-            enabled[s] = on
-        seen, stack = {q0}, [q0]
-        while stack:
-            for ts in enabled[stack.pop()].values():
-                for t in ts:
-                    if t.target not in seen:
-                        seen.add(t.target)
-                        stack.append(t.target)
-        idents = sorted(seen)
-    index = {ident: k for k, ident in enumerate(idents)}
-    choices: list[tuple[Choice, ...]] = []
-    loops: list[int] = []
-    for k, ident in enumerate(idents):
-        row: list[Choice] = []
-        for label in sorted(enabled.get(ident, {}), key=lambda lab: list(TaskKind).index(lab)):
-            ts = enabled[ident][label]
-            total = sum((t.probability for t in ts), Fraction(0))
-            if total != 1 or any(not 0 < t.probability <= 1 for t in ts):
-                raise ExportError(
-                    f"probabilities of ({cmap[ident].label}, {label.value}) sum to {total}, not 1: "
-                    f"{[str(t.probability) for t in ts]}"
-                )
-            row.append(
-                Choice(
-                    label.value,
-                    tuple((index[t.target], t.probability) for t in ts),
-                    float(sum(t.probability * Fraction(cmap[t.target].distance) for t in ts)),
-                    float(sum(t.probability * Fraction(cmap[t.target].duration) for t in ts)),
-                    any(psi(t) for t in ts),
-                )
-            )
-        if not row:
-            row.append(Choice(STAY, ((k, Fraction(1)),)))
-            loops.append(k)
-        choices.append(tuple(row))
-    states = tuple(cmap[i] for i in idents)
-    reach = cmap.reachable()
-    goal_in_map = any(cmap[i].reached_goal and not cmap[i].interrupted for i in reach)
-    labels = {
-        "init": frozenset({index[q0]}),
-        "goal": frozenset(k for k, s in enumerate(states) if s.reached_goal and not s.interrupted),
-        "collision": frozenset(k for k, s in enumerate(states) if s.interrupted),
-        "plan": frozenset(index[i] for i in rho.states if i in index),
-        "goal_in_map": frozenset({index[q0]}) if goal_in_map else frozenset(),
-    }
-    goal = None if cmap.goal is None else (cmap.goal.x, cmap.goal.y)
-    return ExportModel(kind, states, index[q0], tuple(choices), labels, tuple(loops), rho, goal)
-
-
-def _groups(cmap: CognitiveMap) -> dict[int, dict[TaskKind, list[Any]]]:
-    out: dict[int, dict[TaskKind, list[Any]]] = {s.ident: {} for s in cmap.states()}
-    for t in cmap.transitions():
-        out[t.source].setdefault(t.label, []).append(t)
-    return out
 
 
 # -- printing numbers exactly ---------------------------------------------------------------
