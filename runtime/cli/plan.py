@@ -1,4 +1,5 @@
-"""``clomp plan``: plan on a built-in scenario, a scan file, or every scan in a folder."""
+"""``clomp plan``: plan on a built-in scenario, a scan file, every scan in a folder, or the
+LaserScan topic of a ROS bag (every scan, or one with ``--index K`` / ``--time T``)."""
 
 from __future__ import annotations
 
@@ -6,14 +7,19 @@ import argparse
 import json
 import math
 import sys
+from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
+
+import numpy as np
 
 from formal.lts import MapError
 from planner import Configurator, PlanningError, PlanResult, RobotModel, ScanError, scan_files
 from planner.scenarios import ScenarioError, load_scenario
 from runtime.cli import CliError
+from runtime.cli._bags import add_bag_options, is_bag, labelled_scans, lidar_offset, open_topic, scan_label
 from runtime.cli._progress import progress
+from runtime.records.bags import BagError, LaserScan
 
 __all__ = ["register", "parse_goal", "configurator_from_args", "add_planner_options"]
 
@@ -53,10 +59,14 @@ def register(sub: Any) -> None:
     p = sub.add_parser("plan", help="plan to a goal on a scenario or scan(s)", description=__doc__)
     src = p.add_mutually_exclusive_group(required=True)
     src.add_argument("--scenario", help="a built-in scenario name or a scenario JSON file")
-    src.add_argument("--scan", help="a scan file (x y per line, or .npy) or a folder of scans")
+    src.add_argument("--scan", help="a scan file (x y per line, or .npy), a folder of scans, or a ROS bag")
     p.add_argument("--goal", help="goal X,Y in the robot frame (metres); default: the scenario's, or 1.0,0.0")
     p.add_argument("--json", action="store_true", help="print JSON (one object; one line per scan for a folder)")
     p.add_argument("--map", metavar="FILE", help="also write the cognitive map as JSON to FILE")
+    add_bag_options(p)
+    pick = p.add_mutually_exclusive_group()
+    pick.add_argument("--index", type=int, metavar="K", help="plan on the K-th scan of the bag's topic (from 0; default: every scan)")
+    pick.add_argument("--time", type=float, metavar="T", help="plan on the bag's scan nearest T seconds after its first scan")
     add_planner_options(p)
     p.set_defaults(func=run)
 
@@ -109,6 +119,10 @@ def run(args: argparse.Namespace) -> int:
     goal = parse_goal(args.goal) if args.goal else (1.0, 0.0)
     if not path.exists():
         raise CliError(f"{path}: no such file or folder")
+    if args.topic or is_bag(path):
+        return _plan_bag(conf, path, goal, args)
+    if args.index is not None or args.time is not None:
+        raise CliError("--index and --time pick a scan of a ROS bag; --scan is not a bag")
     if path.is_dir():
         return _plan_folder(conf, path, goal, args)
     r = _plan_one(conf, path, goal)
@@ -128,26 +142,59 @@ def _emit(r: PlanResult, args: argparse.Namespace, title: str) -> None:
         _print_readable(r, title)
 
 
+def _plan_bag(conf: Configurator, path: Path, goal: tuple[float, float], args: argparse.Namespace) -> int:
+    offset = lidar_offset(args)
+    with open_topic(path, args) as topic:
+        if args.index is None and args.time is None:
+            items = ((label, _bag_points(s, offset), label) for label, s in labelled_scans(topic))
+            return _plan_many(conf, topic.count, items, goal, args)
+        try:
+            scan = topic.at_index(args.index) if args.index is not None else topic.at_time(args.time)
+            t0 = topic.start_ns()
+            points = scan.points(offset)
+        except BagError as exc:
+            raise CliError(str(exc)) from None
+        r = _plan_one(conf, points, goal)
+        _emit(r, args, f"{path} {scan_label(topic.topic, scan, t0 or scan.time_ns)}")
+    return 0
+
+
+def _bag_points(scan: LaserScan, offset: tuple[float, float, float]) -> np.ndarray:
+    try:
+        return scan.points(offset)
+    except BagError as exc:
+        raise CliError(f"scan {scan.index}: {exc}") from None
+
+
 def _plan_folder(conf: Configurator, folder: Path, goal: tuple[float, float], args: argparse.Namespace) -> int:
     try:
         files = scan_files(folder)
     except ScanError as exc:
         raise CliError(str(exc)) from None
+    return _plan_many(conf, len(files), ((f.name, f, str(f)) for f in files), goal, args)
+
+
+def _plan_many(conf: Configurator, total: int, items: Iterable[tuple[str, Any, str]], goal: tuple[float, float],
+               args: argparse.Namespace) -> int:
+    """Plan on every (name, scan, JSON name) of ``items``: one line each, then a summary."""
     times: list[float] = []
     reached = 0
-    bar = progress(files, desc="plan", unit="scan")
-    for f in bar:
-        r = _plan_one(conf, f, goal)
+    bar = progress(items, total=total, desc="plan", unit="scan")
+    for name, scan, json_name in bar:
+        r = _plan_one(conf, scan, goal)
         times.append(r.planning_time_s)
         reached += r.reached_goal
         if args.json:
-            bar.write(json.dumps({"scan": str(f), **r.to_dict()}))
+            bar.write(json.dumps({"scan": json_name, **r.to_dict()}))
         else:
             bar.write(
-                f"{f.name}: {'goal' if r.reached_goal else 'partial'}  {len(r.steps)} tasks  {r.states} states  "
+                f"{name}: {'goal' if r.reached_goal else 'partial'}  {len(r.steps)} tasks  {r.states} states  "
                 f"{r.planning_time_s * 1e3:.2f} ms  [{' '.join(s.task.value[0] for s in r.steps)}]"
             )
     if not args.json:
+        if not times:
+            print("0 scans")
+            return 0
         times.sort()
-        print(f"{len(files)} scans, {reached} plans reach the goal, median {times[len(times) // 2] * 1e3:.2f} ms")
+        print(f"{len(times)} scans, {reached} plans reach the goal, median {times[len(times) // 2] * 1e3:.2f} ms")
     return 0

@@ -1,19 +1,22 @@
-"""``clomp replay``: re-plan on a recorded sequence — a ``clomp run`` log or a folder of scans."""
+"""``clomp replay``: re-plan on a recorded sequence — a ``clomp run`` log, a folder of
+scans, or the LaserScan topic of a ROS bag (``clomp replay BAG --topic /scan``)."""
 
 from __future__ import annotations
 
 import argparse
 import json
-from collections.abc import Iterator
+from collections.abc import Iterable, Iterator
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from planner import PlanningError, ScanError, scan_files
+from planner import Configurator, PlanningError, ScanError, scan_files
+from runtime.cli._bags import add_bag_options, is_bag, labelled_scans, lidar_offset, open_topic
 from runtime.cli._progress import progress
 from runtime.cli.plan import add_planner_options, configurator_from_args, parse_goal
 from runtime.cli import CliError
+from runtime.records.bags import BagError, LaserScan
 from runtime.records.runlog import LogError, scans_from_log
 
 __all__ = ["register"]
@@ -21,9 +24,10 @@ __all__ = ["register"]
 def register(sub: Any) -> None:
     """Add ``replay`` to the command line."""
     p = sub.add_parser("replay", help="re-plan on a recorded run log or folder of scans", description=__doc__)
-    p.add_argument("source", help="a folder of scans (mapNNNN.dat …) or a clomp run log (.jsonl)")
+    p.add_argument("source", help="a folder of scans (mapNNNN.dat …), a clomp run log (.jsonl), or a ROS bag (with --topic)")
     p.add_argument("--goal", help="goal X,Y in the robot frame for every scan (default: the log's, else 1.0,0.0)")
     p.add_argument("--json", action="store_true", help="one JSON line per scan, then a summary line")
+    add_bag_options(p)
     add_planner_options(p)
     p.set_defaults(func=run)
 
@@ -53,14 +57,25 @@ def run(args: argparse.Namespace) -> int:
     if not path.exists():
         raise CliError(f"{path}: no such file or folder")
     goal = parse_goal(args.goal) if args.goal else None
+    offset = lidar_offset(args)
+    if args.topic or is_bag(path):
+        with open_topic(path, args) as topic:
+            g = goal or (1.0, 0.0)
+            return _replay(conf, topic.count, ((lb, s, g) for lb, s in labelled_scans(topic)), offset, args)
     total, items = _sources(path, goal)
+    return _replay(conf, total, items, offset, args)
+
+
+def _replay(conf: Configurator, total: int, items: Iterable[tuple[str, Any, tuple[float, float]]],
+            offset: tuple[float, float, float], args: argparse.Namespace) -> int:
     times: list[float] = []
-    plans = reached = failed = 0
+    plans = reached = failed = seen = 0
     bar = progress(items, total=total, desc="replay", unit="scan")
     for label, scan, g in bar:
+        seen += 1
         try:
-            r = conf.plan(scan, g)
-        except (ScanError, PlanningError) as exc:
+            r = conf.plan(scan.points(offset) if isinstance(scan, LaserScan) else scan, g)
+        except (ScanError, PlanningError, BagError) as exc:
             failed += 1
             if args.json:
                 bar.write(json.dumps({"scan": label, "error": str(exc)}))
@@ -88,6 +103,7 @@ def run(args: argparse.Namespace) -> int:
     t = np.array(times) if times else np.array([np.nan])
     median_s = float(np.median(t)) if times else None
     p90_s = float(np.percentile(t, 90)) if times else None
+    total = seen
     summary = {
         "scans": total,
         "plans": plans,

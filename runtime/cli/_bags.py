@@ -1,0 +1,55 @@
+"""Options and helpers shared by the commands that read LaserScan topics of ROS bags
+(``clomp plan --scan BAG``, ``clomp replay BAG``)."""
+
+from __future__ import annotations
+
+import argparse
+from collections.abc import Iterator
+from pathlib import Path
+
+from runtime.cli import CliError
+from runtime.records.bags import BagError, LaserScan, LaserScanTopic, is_bag, parse_offset
+
+__all__ = ["add_bag_options", "is_bag", "open_topic", "lidar_offset", "labelled_scans", "scan_label"]
+
+
+def add_bag_options(p: argparse.ArgumentParser) -> None:
+    """``--topic`` and ``--lidar-offset``."""
+    g = p.add_argument_group("ROS bags (ROS 2 folder, .mcap, .db3, or ROS 1 .bag)")
+    g.add_argument("--topic", help="the sensor_msgs/LaserScan topic (default: the bag's only LaserScan topic)")
+    g.add_argument("--lidar-offset", metavar="X,Y,THETA", default="0,0,0",
+                   help="the LiDAR's pose on the robot, m, m, rad (default 0,0,0: at the rotation centre)")
+
+
+def lidar_offset(args: argparse.Namespace) -> tuple[float, float, float]:
+    """The parsed ``--lidar-offset``."""
+    try:
+        return parse_offset(getattr(args, "lidar_offset", None) or "0,0,0")
+    except BagError as exc:
+        raise CliError(str(exc)) from None
+
+
+def open_topic(path: Path, args: argparse.Namespace) -> LaserScanTopic:
+    """The LaserScan topic ``--topic`` names in the bag at ``path`` (one-line errors)."""
+    try:
+        return LaserScanTopic(path, getattr(args, "topic", None))
+    except BagError as exc:
+        raise CliError(str(exc)) from None
+
+
+def scan_label(topic: str, scan: LaserScan, t0_ns: int) -> str:
+    """``/scan#7@1.400s``: topic, index on it, bag time since its first scan."""
+    return f"{topic}#{scan.index}@{(scan.time_ns - t0_ns) / 1e9:.3f}s"
+
+
+def labelled_scans(topic: LaserScanTopic) -> Iterator[tuple[str, LaserScan]]:
+    """(label, scan) of every scan on the topic; a bag that breaks off mid-way is a
+    :class:`CliError`. (A scan's points may still be bad: ``scan.points()`` raises
+    :class:`BagError` for that one scan.)"""
+    t0: int | None = None
+    try:
+        for s in topic:
+            t0 = s.time_ns if t0 is None else t0
+            yield scan_label(topic.topic, s, t0), s
+    except BagError as exc:
+        raise CliError(str(exc)) from None
