@@ -464,7 +464,7 @@ def perceive(
     >>> wall = np.c_[np.full(41, 0.5), np.linspace(-0.2, 0.2, 41)]
     >>> obs = perceive(wall)
     >>> len(obs), bool(obs.contains_point(0.5, 0.0) is not None), bool(obs.contains_point(0.52, 0.0) is None)
-    (1, True, True)
+    (2, True, True)
     """
     pts = validate_scan(points)
     exempt = 0
