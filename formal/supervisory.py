@@ -16,7 +16,7 @@ from typing import Any
 from formal.lts import CognitiveMap, MapError, Transition
 from formal.model import Disturbance, State, TaskKind
 
-__all__ = ["Plan", "ResetUndefined", "Guard", "Reset", "guard", "reset", "plan_end", "extract_plan", "plan_tasks"]
+__all__ = ["Plan", "ResetUndefined", "Guard", "Reset", "guard", "reset", "reset_from", "plan_end", "extract_plan", "plan_tasks"]
 
 
 class ResetUndefined(MapError):
@@ -57,6 +57,31 @@ class Plan:
         return {"states": list(self.states)}
 
 
+def reset_from(source: State, goal: Disturbance | None) -> Disturbance:
+    """R applied to the task that follows ``source``: the D_I to inject, D_G = ``goal``.
+
+    The one definition of R; :func:`reset`, :meth:`Reset.inject` and the Configurator
+    (while it grows a map, before the target state exists) all call it. Raises
+    :class:`ResetUndefined` when ``source`` was interrupted (D_N ≠ ∅) and
+    :class:`MapError` when there is no goal.
+
+    >>> from formal.model import Pose, TaskKind
+    >>> g = Disturbance.goal(1.0, 0.0)
+    >>> reset_from(State(0, TaskKind.STRAIGHT, g, None, Pose(0, 0), Pose(0, 0)), g) == g
+    True
+    >>> hit = State(1, TaskKind.STRAIGHT, g, Disturbance.goal(0.5, 0.0), Pose(0, 0), Pose(0.4, 0))
+    >>> reset_from(hit, g)
+    Traceback (most recent call last):
+    ...
+    formal.supervisory.ResetUndefined: R(q1, ·) is undefined: q1 was interrupted (D_N ≠ ∅)
+    """
+    if source.interrupted:
+        raise ResetUndefined(f"R(q{source.ident}, ·) is undefined: q{source.ident} was interrupted (D_N ≠ ∅)")
+    if goal is None:
+        raise MapError("the map has no goal D_G")
+    return goal
+
+
 def reset(cmap: CognitiveMap, source: int, target: int) -> Disturbance:
     """R(q_source, q_target): the disturbance D'_I injected into the target's task.
 
@@ -66,11 +91,7 @@ def reset(cmap: CognitiveMap, source: int, target: int) -> Disturbance:
     """
     if not cmap.has_transition(source, target):
         raise MapError(f"no transition q{source} ↪ q{target}")
-    if cmap[source].interrupted:
-        raise ResetUndefined(f"R(q{source}, q{target}) is undefined: q{source} was interrupted (D_N ≠ ∅)")
-    if cmap.goal is None:
-        raise MapError("the map has no goal D_G")
-    return cmap.goal
+    return reset_from(cmap[source], cmap.goal)
 
 
 def guard(cmap: CognitiveMap, plan: Plan) -> dict[Transition, int]:
@@ -222,12 +243,8 @@ class Reset:
     def inject(self, source: State, target: State) -> State:
         """``target`` with D_I set to R(source, target) = D_G; raises :class:`ResetUndefined`
         when ``source`` was interrupted and :class:`MapError` when the map has no goal."""
-        if source.interrupted:
-            raise ResetUndefined(f"R(q{source.ident}, q{target.ident}) is undefined: q{source.ident} was interrupted (D_N ≠ ∅)")
-        if self.cmap.goal is None:
-            raise MapError("the map has no goal D_G")
         fields = {f: getattr(target, f) for f in State.__dataclass_fields__}
-        fields["d_i"] = self.cmap.goal
+        fields["d_i"] = reset_from(source, self.cmap.goal)
         return State(**fields)
 
     def __repr__(self) -> str:

@@ -34,7 +34,7 @@ import numpy as np
 
 from formal.lts import CognitiveMap
 from formal.model import Disturbance, Pose, State, TaskKind
-from formal.supervisory import Plan, ResetUndefined, extract_plan, guard
+from formal.supervisory import Plan, extract_plan, guard, reset_from
 from planner.perception import Obstacles, load_scan, perceive
 from planner.physics import Outcome, simulate
 from planner.robot import RobotModel
@@ -253,9 +253,7 @@ class Configurator:
                     return None, False
                 cmap.add_transition(parent.ident, known, kind)
                 return cmap[known], False
-            if parent.d_n is not None:  # R(q1, q2) is defined only when q1 was not interrupted
-                raise ResetUndefined(f"R(q{parent.ident}, ·) is undefined: q{parent.ident} was interrupted")
-            d_i = g  # R(q1, q2) = D_G
+            d_i = reset_from(parent, g)  # R(q1, q2) = D_G, undefined (raises) when q1 was interrupted
             out = simulate(kind, p, d_i, obstacles, robot, worlds)
             if out.frontier and kind.is_turn:
                 index[k] = -1

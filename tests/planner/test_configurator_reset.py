@@ -1,0 +1,37 @@
+"""The Configurator injects D_I through formal's one reset R (formal.supervisory.reset_from)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import planner.configurator as configurator
+from formal.supervisory import Reset, ResetUndefined
+from planner import Configurator, load_scenario
+
+
+def test_every_child_state_gets_its_d_i_from_formal_reset(monkeypatch: pytest.MonkeyPatch) -> None:
+    calls: list[int] = []
+    real = configurator.reset_from
+
+    def spy(source, goal):  # type: ignore[no-untyped-def]
+        calls.append(source.ident)
+        return real(source, goal)
+
+    monkeypatch.setattr(configurator, "reset_from", spy)
+    scene = load_scenario("overtaking")
+    result = Configurator().plan(scene.scan(), scene.goal_in_robot_frame())
+    assert len(calls) == len(result.map) - 1  # once per state grown, none for q0
+    r = Reset(result.map)
+    for t in result.map.transitions():
+        assert result.map[t.target].d_i == r(t)
+
+
+def test_the_configurator_stops_when_r_is_undefined(monkeypatch: pytest.MonkeyPatch) -> None:
+    # R refusing is an error the Configurator does not paper over (and no assert does R's job)
+    def refuse(source, goal):  # type: ignore[no-untyped-def]
+        raise ResetUndefined(f"R(q{source.ident}, ·) is undefined")
+
+    monkeypatch.setattr(configurator, "reset_from", refuse)
+    with pytest.raises(ResetUndefined):
+        Configurator().plan(np.zeros((0, 2)), (1.0, 0.0))
