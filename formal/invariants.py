@@ -106,7 +106,8 @@ def check_map(
     q0 = cmap.initial_id
     if q0 is None or q0 not in cmap:
         return [Violation(Invariant.INITIAL, (), "the map has no initial state q0")]
-    unreachable = tuple(s.ident for s in cmap.states() if s.ident not in cmap.reachable())
+    reach = cmap.reachable()  # once: a BFS over the whole map
+    unreachable = tuple(s.ident for s in cmap.states() if s.ident not in reach)
     if unreachable:
         out.append(Violation(Invariant.INITIAL, unreachable, f"{len(unreachable)} state(s) not reachable from q{q0}"))
     out += _interrupted_absorbing(cmap)

@@ -268,6 +268,11 @@ class CognitiveMap:
         """Inverse of :meth:`to_dict`; raises :class:`MapError` on a malformed document."""
         if not isinstance(data, dict) or data.get("format") != "clomp-cognitive-map":
             raise MapError("not a clomp cognitive map (missing 'format': 'clomp-cognitive-map')")
+        version = data.get("version")
+        if version != FORMAT_VERSION or isinstance(version, bool):
+            raise MapError(
+                f"cognitive map format version {version!r} is not supported (this clomp reads version {FORMAT_VERSION})"
+            )
         try:
             goal = None if data.get("goal") is None else Disturbance.from_dict(data["goal"])
             m = cls(goal=goal)
@@ -309,7 +314,12 @@ class CognitiveMap:
             raise MapError(f"not valid JSON: {exc}") from None
         return cls.from_dict(data)
 
+    # a map is mutable (states and transitions are added to it), so it is not hashable:
+    # equal maps must hash alike, and a map's contents may change while it is in a set
+    __hash__ = None  # type: ignore[assignment]
+
     def __eq__(self, other: object) -> bool:
+        """Equal goal, initial state, states and transitions (metadata is not compared)."""
         if not isinstance(other, CognitiveMap):
             return NotImplemented
         return (
