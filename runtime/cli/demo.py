@@ -71,7 +71,7 @@ def run(args: argparse.Namespace) -> int:
     print_summary(r)
     written = []
     png = out / "trajectory.png"
-    plot_run(r.trace(), png, title=f"{scene.name}: executed (solid) vs planned (dashed); ♥ target, ★ collision")
+    plot_run(r.trace(), png, title=f"{scene.name}: planned and executed")
     written.append(str(png))
     rep = r.report
     if rep.plans:

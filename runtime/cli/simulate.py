@@ -83,7 +83,7 @@ def run(args: argparse.Namespace) -> int:
     except OSError as exc:
         raise CliError(f"--out: {exc}") from None
     png = out / f"{scene.name}_{cond}.png"
-    plot_run(r.trace(), png, title=f"{scene.name} — {cond} (solid: executed, dashed: planned, ♥ target, ★ collision)")
+    plot_run(r.trace(), png, title=f"{scene.name} — {cond}")
     if args.json:
         print(json.dumps(_summary_dict(r, png)))
     else:

@@ -233,7 +233,7 @@ def table(summary: dict[str, Any], paper: dict[str, Any] | None = None) -> str:
         lines.append(f"{label:<{w0}}" + "".join(f"{v:<{w1}}" for v in vals) + paper_col.get(label, ""))
     t = summary.get("ttest_collisions")
     if t:
-        mine = f"T = {t['t']:.3f}, p = {t['p']:.4f}" if t["t"] is not None else t["note"]
+        mine = f"T = {t['t']:.3f}, p = {t['p']:.3g}" if t["t"] is not None else t["note"]
         ref = f"   [paper: T = {paper['ttest']['t']}, p = {paper['ttest']['p']}]" if paper else ""
         lines.append(f"paired t-test on collisions (planning − reactive, n={t['n']}): {mine}{ref}")
     m = summary.get("mcnemar_success")

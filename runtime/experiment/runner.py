@@ -400,9 +400,24 @@ def _dask_client(workers: int, scheduler: str | None) -> tuple[Any, Any]:
                            "(or --workers 0 to run in this process)") from None
     if scheduler:
         return distributed.Client(scheduler), None
-    cluster = distributed.LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None,
-                           silence_logs=logging.ERROR)
+    # the worker processes ignore Ctrl-C (they inherit SIG_IGN): the terminal's SIGINT reaches the
+    # whole process group, and only this process should answer it (cancel, keep what finished)
+    import signal
+
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN) if _main_thread() else None
+    try:
+        cluster = distributed.LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
+                                           dashboard_address=None, silence_logs=logging.ERROR)
+    finally:
+        if previous is not None:
+            signal.signal(signal.SIGINT, previous)
     return distributed.Client(cluster), cluster
+
+
+def _main_thread() -> bool:
+    import threading
+
+    return threading.current_thread() is threading.main_thread()
 
 
 def run_experiment(
