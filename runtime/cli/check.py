@@ -17,6 +17,8 @@ from typing import Any
 from formal.checking import (
     CheckResult,
     PropertyFile,
+    PropertySpec,
+    Requirement,
     SpecError,
     StormMissing,
     build_storm_model,
@@ -27,6 +29,7 @@ from formal.checking import (
 )
 from formal.crosscheck import values_agree
 from formal.export import ExportError
+from formal.robust import SAFE_GOAL
 from formal.prism import PrismError, PrismMissing, check_with_prism, run_prism
 from formal.lts import CognitiveMap, MapError
 from runtime.cli.export import add_source_options, map_from_args
@@ -44,6 +47,13 @@ def register(sub: Any) -> None:
     p.add_argument("--specs", action="append", metavar="FILE", help="a property file (repeatable; default: specs/properties/*.pctl)")
     p.add_argument("--via", choices=("drn", "prism"), default="drn", help="format handed to Storm for a map (default drn)")
     p.add_argument(
+        "--require-safe",
+        type=float,
+        metavar="P",
+        help='also require Pmax=? [!"collision" U "goal"] >= P on the MDP (reaching the goal without a collision; '
+        "with --samples on a probabilistic map); a failure names a path into a state that misses it",
+    )
+    p.add_argument(
         "--tool",
         choices=("storm", "prism", "both"),
         default="storm",
@@ -56,9 +66,21 @@ def register(sub: Any) -> None:
 def _spec_files(args: argparse.Namespace) -> list[PropertyFile]:
     paths = [Path(p) for p in args.specs] if args.specs else default_property_files()
     try:
-        return [read_properties(p) for p in paths]
+        files = [read_properties(p) for p in paths]
     except SpecError as exc:
         raise CliError(str(exc)) from None
+    p = args.require_safe
+    if p is not None:
+        if not (math.isfinite(p) and 0 <= p <= 1):
+            raise CliError(f"--require-safe: expected a probability in [0, 1], got {p}")
+        spec = PropertySpec(
+            f"Pmax=? [{SAFE_GOAL}]",
+            "safe_goal",
+            "the best probability of reaching the goal without a collision",
+            Requirement(">=", p),
+        )
+        files.append(PropertyFile("mdp", (spec,), "--require-safe"))
+    return files
 
 
 def run(args: argparse.Namespace) -> int:

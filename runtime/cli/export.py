@@ -10,8 +10,9 @@ from typing import Any
 from formal.export import FORMATS, ExportError, write
 from formal.lts import CognitiveMap, MapError
 from planner import PlanningError, ScanError
+from planner.probabilistic import NoiseError, learn_from_scans
 from planner.scenarios import ScenarioError, load_scenario
-from runtime.cli.plan import add_planner_options, configurator_from_args, parse_goal
+from runtime.cli.plan import add_planner_options, add_sampling_options, configurator_from_args, parse_goal, probabilistic_from_args
 from runtime.cli import CliError
 
 __all__ = ["register", "add_source_options", "map_from_args"]
@@ -21,9 +22,10 @@ def add_source_options(p: argparse.ArgumentParser, required: bool = True) -> Non
     """--scenario | --scan | --map, and --goal: where the cognitive map comes from."""
     src = p.add_mutually_exclusive_group(required=required)
     src.add_argument("--scenario", help="a built-in scenario name or a scenario JSON file")
-    src.add_argument("--scan", help="a scan file (x y per line, or .npy)")
+    src.add_argument("--scan", help="a scan file (x y per line, or .npy); with --learn, a folder of consecutive scans")
     src.add_argument("--map", metavar="JSON", help="a cognitive map written by 'clomp plan --map' or 'export --format json'")
     p.add_argument("--goal", help="goal X,Y in the robot frame (metres); default: the scenario's, or 1.0,0.0")
+    add_sampling_options(p)
 
 
 def map_from_args(args: argparse.Namespace) -> tuple[CognitiveMap, str]:
@@ -36,17 +38,35 @@ def map_from_args(args: argparse.Namespace) -> tuple[CognitiveMap, str]:
         except MapError as exc:
             raise CliError(f"--map: {args.map}: {exc}") from None
     conf = configurator_from_args(args)
+    samples = getattr(args, "samples", None)
+    learn = getattr(args, "learn", False)
+    if learn and samples:
+        raise CliError("--learn learns from recorded scans; --samples samples rollouts: give one of them")
     try:
         if args.scenario:
+            if learn:
+                raise CliError("--learn needs --scan FOLDER (consecutive scans of a recorded run)")
             scene = load_scenario(args.scenario)
-            goal = parse_goal(args.goal) if args.goal else tuple(scene.goal_in_robot_frame())
-            return conf.plan(scene.scan(max_range=conf.robot.sensor_range), goal).map, scene.name  # type: ignore[arg-type]
+            goal: tuple[float, float] = parse_goal(args.goal) if args.goal else tuple(scene.goal_in_robot_frame())  # type: ignore[assignment]
+            scan = scene.scan(max_range=conf.robot.sensor_range)
+            if samples is not None:
+                return probabilistic_from_args(args, conf, scan, goal).map, scene.name
+            return conf.plan(scan, goal).map, scene.name
         path = Path(args.scan)
+        goal = parse_goal(args.goal) if args.goal else (1.0, 0.0)
+        if learn:
+            if not path.is_dir():
+                raise CliError(f"--scan: {path}: --learn needs a folder of scans")
+            files = sorted(p for p in path.iterdir() if p.is_file() and p.suffix in (".dat", ".txt", ".npy", ".xy"))
+            if not files:
+                raise CliError(f"{path}: no scan files (*.dat, *.txt, *.npy) in this folder")
+            return learn_from_scans(files, goal, conf), f"{path} ({len(files)} scans)"
         if not path.is_file():
             raise CliError(f"--scan: {path}: no such file")
-        goal = parse_goal(args.goal) if args.goal else (1.0, 0.0)
+        if samples is not None:
+            return probabilistic_from_args(args, conf, path, goal).map, str(path)
         return conf.plan(path, goal).map, str(path)
-    except (ScenarioError, ScanError, PlanningError) as exc:
+    except (ScenarioError, ScanError, PlanningError, NoiseError) as exc:
         raise CliError(str(exc)) from None
 
 

@@ -15,13 +15,22 @@ import numpy as np
 
 from formal.lts import MapError
 from planner import Configurator, PlanningError, PlanResult, RobotModel, ScanError, scan_files
+from planner.probabilistic import NoiseError, ProbabilisticMap, preset_names, sample_map
 from planner.scenarios import ScenarioError, load_scenario
 from runtime.cli import CliError
 from runtime.cli._bags import add_bag_options, is_bag, labelled_scans, lidar_offset, open_topic, scan_label
 from runtime.cli._progress import progress
 from runtime.records.bags import BagError, LaserScan
 
-__all__ = ["register", "parse_goal", "configurator_from_args", "add_planner_options"]
+__all__ = [
+    "register",
+    "parse_goal",
+    "configurator_from_args",
+    "add_planner_options",
+    "add_sampling_options",
+    "probabilistic_from_args",
+    "robust_summary",
+]
 
 
 def parse_goal(text: str) -> tuple[float, float]:
@@ -54,6 +63,25 @@ def configurator_from_args(args: argparse.Namespace) -> Configurator:
         raise CliError(str(exc)) from None
 
 
+def add_sampling_options(p: argparse.ArgumentParser) -> None:
+    """--samples N, --noise P, --seed S, --learn: the probabilistic cognitive map."""
+    g = p.add_argument_group("probabilistic map")
+    g.add_argument("--samples", type=int, metavar="N", help="estimate every task's outcome from N noisy rollouts (probabilities k/N)")
+    g.add_argument("--noise", metavar="PRESET", default="paper", help=f"noise preset of the rollouts (default paper; known: {', '.join(preset_names())})")
+    g.add_argument("--seed", type=int, default=0, help="seed of the noisy rollouts (default 0)")
+    g.add_argument("--learn", action="store_true", help="with --scan FOLDER: learn the map's probabilities from the folder's consecutive scans")
+
+
+def probabilistic_from_args(args: argparse.Namespace, conf: Configurator, scan: Any, goal: tuple[float, float]) -> ProbabilisticMap:
+    """The probabilistic map of ``scan`` the sampling options ask for (``--samples`` set)."""
+    if args.samples < 1:
+        raise CliError(f"--samples: expected a whole number >= 1, got {args.samples}")
+    try:
+        return sample_map(scan, goal, samples=args.samples, noise=args.noise, seed=args.seed, configurator=conf)
+    except NoiseError as exc:
+        raise CliError(f"--noise: {exc}") from None
+
+
 def register(sub: Any) -> None:
     """Add ``plan`` to the command line."""
     p = sub.add_parser("plan", help="plan to a goal on a scenario or scan(s)", description=__doc__)
@@ -67,6 +95,13 @@ def register(sub: Any) -> None:
     pick = p.add_mutually_exclusive_group()
     pick.add_argument("--index", type=int, metavar="K", help="plan on the K-th scan of the bag's topic (from 0; default: every scan)")
     pick.add_argument("--time", type=float, metavar="T", help="plan on the bag's scan nearest T seconds after its first scan")
+    p.add_argument(
+        "--robust",
+        action="store_true",
+        help="plan on the probabilistic map (--samples, default 30): Storm's scheduler for Pmax [!collision U goal]; "
+        "the JSON gains probability and greedy_probability",
+    )
+    add_sampling_options(p)
     add_planner_options(p)
     p.set_defaults(func=run)
 
@@ -103,9 +138,86 @@ def _print_readable(r: PlanResult, title: str) -> None:
     print(f"  ends {end.distance_to(r.goal.x, r.goal.y):.3f} m from the goal; collision-free: {r.collision_free}", file=out)
 
 
+def robust_summary(pm: ProbabilisticMap) -> dict[str, Any]:
+    """The ``clomp plan --robust`` JSON: the scheduler's plan on the probabilistic map,
+    ``probability`` (Storm's Pmax of reaching the goal without a collision) and
+    ``greedy_probability`` (the same figure for the best-first plan of the nominal map)."""
+    from formal.checking import StormMissing
+    from formal.robust import plan_probability, robust_plan
+
+    try:
+        rp = robust_plan(pm.map)
+        greedy = plan_probability(pm.map, pm.nominal.plan)
+    except StormMissing as exc:
+        raise CliError(str(exc)) from None
+    steps = rp.plan.tasks(pm.map)
+    end = pm.map[rp.plan.end]
+    out = pm.nominal.to_dict()
+    out.update(
+        {
+            "plan": [
+                {"task": s.task.value, "start": [round(v, 6) for v in s.start.as_list()], "end": [round(v, 6) for v in s.end.as_list()], "state": s.ident}
+                for s in steps
+            ],
+            "reached_goal": end.reached_goal and not end.interrupted,
+            "collision_free": not any(pm.map[i].interrupted for i in rp.plan.states),
+            "probability": rp.probability,
+            "greedy_probability": greedy,
+            "greedy_plan": [s.task.value for s in pm.nominal.steps],
+            "states": len(pm.map),
+            "transitions": pm.map.n_transitions,
+            "samples": pm.samples,
+            "noise": pm.noise.to_dict(),
+            "probabilistic_choices": pm.probabilistic_choices,
+            "build_time_s": pm.build_time_s,
+        }
+    )
+    return out
+
+
+def _run_robust(args: argparse.Namespace, conf: Configurator) -> int:
+    if args.scenario:
+        try:
+            scene = load_scenario(args.scenario)
+        except ScenarioError as exc:
+            raise CliError(str(exc)) from None
+        goal = parse_goal(args.goal) if args.goal else tuple(scene.goal_in_robot_frame())
+        scan: Any = scene.scan(max_range=conf.robot.sensor_range)
+        title = scene.name
+    else:
+        path = Path(args.scan)
+        if not path.is_file():
+            raise CliError(f"--scan: {path}: --robust plans on one scan file")
+        goal, scan, title = (parse_goal(args.goal) if args.goal else (1.0, 0.0)), path, str(path)
+    if args.samples is None:
+        args.samples = 30
+    try:
+        pm = probabilistic_from_args(args, conf, scan, goal)  # type: ignore[arg-type]
+    except (ScanError, PlanningError) as exc:
+        raise CliError(str(exc)) from None
+    summary = robust_summary(pm)
+    if args.map:
+        try:
+            pm.map.write_json(args.map)
+        except (OSError, MapError) as exc:
+            raise CliError(f"--map: cannot write {args.map}: {exc}") from None
+    if args.json:
+        print(json.dumps(summary))
+        return 0
+    print(f"{title}: robust plan on a map of {pm.samples} noisy rollouts per choice ({summary['states']} states)")
+    print(f"  P(goal without collision): robust {summary['probability']:.4f}, greedy {summary['greedy_probability']:.4f}")
+    for k, st in enumerate(summary["plan"], 1):
+        print(f"  {k:2d}. {st['task']:<8} q{st['state']}")
+    return 0
+
+
 def run(args: argparse.Namespace) -> int:
     """Execute ``clomp plan``."""
     conf = configurator_from_args(args)
+    if args.robust:
+        return _run_robust(args, conf)
+    if args.samples is not None or args.learn:
+        raise CliError("--samples/--learn on plan go with --robust (or use clomp export --samples)")
     if args.scenario:
         try:
             scene = load_scenario(args.scenario)

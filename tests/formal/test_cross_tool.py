@@ -50,3 +50,22 @@ def test_four_loads_agree_on_ten_recorded_scans(scan_maps):
     assert len(maps) == 10
     for name, cmap in maps:
         _assert_agree(cmap, name)
+
+
+def test_four_loads_agree_on_a_sampled_probabilistic_map():
+    from planner import load_scenario
+    from planner.probabilistic import sample_map
+
+    scene = load_scenario("doorway")
+    pm = sample_map(scene.scan(max_range=1.1), tuple(scene.goal_in_robot_frame()), samples=30, seed=0)
+    assert any(0 < t.probability < 1 for t in pm.map.transitions())
+    _assert_agree(pm.map, "doorway --samples 30")
+
+
+@pytest.mark.slow
+def test_four_loads_agree_on_a_map_learned_from_recorded_scans(scans_dir):
+    from planner.probabilistic import learn_from_scans
+
+    learned = learn_from_scans(sorted(scans_dir.glob("*.dat"))[:10], (1.0, 0.0))
+    assert any(0 < t.probability < 1 for t in learned.transitions())
+    _assert_agree(learned, "learned from 10 scans")

@@ -309,3 +309,70 @@ def test_cli_check_both_fails_when_the_tools_disagree(clomp, monkeypatch):
     code, out, _ = clomp("check", "--scenario", "overtaking", "--tool", "both")
     assert code == 1
     assert "DISAGREE no_collision (dtmc): Storm 0.0, PRISM 1e-06" in out
+
+
+# -- the probabilistic map on the command line -----------------------------------------------------
+def test_cli_export_samples_writes_branches_strictly_between_0_and_1(clomp, tmp_path):
+    from fractions import Fraction
+
+    path = tmp_path / "d.drn"
+    assert clomp("export", "--scenario", "doorway", "--samples", "30", "-f", "drn", "-o", str(path))[0] == 0
+    probs = [Fraction(line.split(":")[1]) for line in path.read_text().splitlines() if line.startswith("\t\t")]
+    assert any(0 < p < 1 for p in probs) and all((p * 30).denominator == 1 for p in probs)
+
+
+@needs_storm
+def test_cli_plan_robust_json_has_both_probabilities(clomp):
+    import json
+
+    code, out, _ = clomp("plan", "--scenario", "doorway", "--robust", "--json")
+    assert code == 0
+    d = json.loads(out)
+    assert 0 <= d["greedy_probability"] <= d["probability"] <= 1
+    assert d["samples"] == 30 and d["plan"] and d["plan"][0]["state"] > 0
+
+
+@needs_storm
+def test_cli_check_require_safe_fails_with_a_path_into_a_collision(clomp):
+    code, out, _ = clomp(
+        "check", "--scenario", "overtaking", "--samples", "20", "--noise", "paper", "--seed", "0",
+        "--specs", str(default_property_files()[0]), "--require-safe", "0.999",
+    )
+    assert code == 1
+    line = next(x for x in out.splitlines() if x.startswith("FAIL safe_goal"))
+    assert "required >= 0.999; violating path: q0 ->" in line
+    code, out, _ = clomp("check", "--scenario", "open", "--samples", "5", "--require-safe", "0.5")
+    assert "safe_goal" in out and "FAIL safe_goal" not in out
+
+
+@needs_storm
+def test_cli_export_learn_from_a_folder_of_recorded_scans(clomp, tmp_path):
+    if not SCANS.is_dir():
+        pytest.skip("recorded scans not found")
+    folder = tmp_path / "scans"
+    folder.mkdir()
+    for f in sorted(SCANS.glob("*.dat"))[:6]:
+        (folder / f.name).write_bytes(f.read_bytes())
+    out = tmp_path / "learned.json"
+    assert clomp("export", "--scan", str(folder), "--learn", "-f", "json", "-o", str(out))[0] == 0
+    m = CognitiveMap.read_json(out)
+    assert m.metadata["observations"] == 6
+    assert all((t.probability * 6).denominator == 1 or t.probability.denominator <= 6 for t in m.transitions())
+
+
+@pytest.mark.parametrize(
+    "argv, message",
+    [
+        (("export", "--scenario", "doorway", "--samples", "0", "-f", "drn"), "--samples: expected a whole number >= 1"),
+        (("export", "--scenario", "doorway", "--samples", "3", "--noise", "bogus", "-f", "drn"), "unknown noise preset 'bogus'"),
+        (("export", "--scenario", "doorway", "--learn", "-f", "drn"), "--learn needs --scan FOLDER"),
+        (("plan", "--scenario", "doorway", "--samples", "3"), "go with --robust"),
+        (("check", "--scenario", "open", "--require-safe", "1.5"), "--require-safe: expected a probability"),
+    ],
+)
+def test_cli_probabilistic_bad_input_is_one_clear_error(clomp, tmp_path, argv, message):
+    args = list(argv)
+    if args[0] == "export":
+        args += ["-o", str(tmp_path / "out")]
+    code, _, err = clomp(*args)
+    assert code == 2 and message in err and "Traceback" not in err

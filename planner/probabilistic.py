@@ -1,0 +1,400 @@
+"""A probabilistic cognitive map: task outcomes estimated from repeated noisy rollouts.
+
+Under sensor and actuation noise the outcome of a task started from a state is
+uncertain. :func:`sample_map` estimates it: the Configurator first builds the nominal
+(noise-free) map; then every (state, task) choice of that map is rolled out ``samples``
+times, rollout *k* in noisy world *k*: the scan's ranges perturbed and some returns
+dropped (then perceived again), the wheels off by a per-run bias and a per-tick error, a
+heading drift, and a turn's angle off by a relative error (:class:`RolloutNoise`). The
+outcomes are grouped into successor states — same outcome kind (collision, goal, free)
+and end pose within a tolerance — first onto the nominal successor, then onto any state
+of the map with the same task, else into a new state; each group's probability is
+exactly ``k/N``. New free states are frontier leaves (not expanded; a new uninterrupted
+turn gets its nominal STRAIGHT, as Algorithm 1's frontier rule asks), so the chance of
+reaching the goal from them is counted as zero: the estimate is conservative.
+
+:func:`learn_from_scans` learns the same kind of map from repeated *observation*:
+consecutive scans of a recorded run (or the scans of a run log) each give a map; states
+are matched across scans by the tasks that lead to them from q0, and each observation
+of a (state, task) adds one count to the outcome group it falls into.
+
+Noise numbers come from ``specs/noise_presets.json`` when it exists (a preset name per
+object of numbers), else the built-in ``paper`` preset (the simulated robot's default
+noise, runtime ``NoiseConfig()``) and ``ideal`` (no noise).
+
+>>> import numpy as np
+>>> r = sample_map(np.zeros((0, 2)), (1.0, 0.0), samples=4, seed=1)
+>>> [str(t.probability) for t in r.map.out_transitions(0)][:1]
+['1']
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import time
+from collections.abc import Iterable
+from dataclasses import asdict, dataclass, field, fields, replace
+from fractions import Fraction
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from formal.lts import CognitiveMap
+from formal.model import Disturbance, Pose, State, TaskKind
+from formal.supervisory import extract_plan
+from planner.configurator import Configurator, CostContext, PlanResult
+from planner.perception import Obstacles, load_scan, perceive
+from planner.physics import Outcome, World, in_the_way, make_task
+from planner.robot import RobotModel
+from planner.tasks import Task, wrap_angle
+
+__all__ = [
+    "RolloutNoise",
+    "NoiseError",
+    "preset_names",
+    "ProbabilisticMap",
+    "sample_map",
+    "learn_from_scans",
+    "POSITION_TOLERANCE",
+    "HEADING_TOLERANCE",
+]
+
+POSITION_TOLERANCE = 0.03
+"""Two outcomes end in the same successor when their end positions are this close (m)…"""
+HEADING_TOLERANCE = 0.1
+"""…and their headings this close (rad)."""
+
+_PRESETS_FILE = Path(__file__).resolve().parents[1] / "specs" / "noise_presets.json"
+
+
+class NoiseError(ValueError):
+    """An unknown noise preset or a bad noise number."""
+
+
+@dataclass(frozen=True)
+class RolloutNoise:
+    """The noise of one sampled rollout world (SI units; the runtime's noise fields).
+
+    ``range_sd``: sd of the LiDAR range error (m); ``dropout``: probability that a
+    return is lost; ``wheel_sd``: relative sd of each wheel's speed error per tick;
+    ``wheel_bias``: relative sd of a per-run wheel bias; ``drift``: sd (rad/s) of a
+    per-run heading drift while the wheels turn; ``turn_sd``: relative sd of the angle
+    a turn actually makes (the robot ends a turn on its own heading estimate; default
+    ``wheel_bias + wheel_sd``, the wheels' relative error). Defaults: the ``paper`` preset.
+
+    >>> RolloutNoise().turn_error_sd
+    0.025
+    """
+
+    range_sd: float = 0.005
+    dropout: float = 0.02
+    wheel_sd: float = 0.02
+    wheel_bias: float = 0.005
+    drift: float = 0.002
+    turn_sd: float | None = None
+
+    def __post_init__(self) -> None:
+        for f in fields(self):
+            v = getattr(self, f.name)
+            if v is None and f.name == "turn_sd":
+                continue
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v < 0:
+                raise NoiseError(f"noise.{f.name}: expected a finite number >= 0, got {v!r}")
+        if self.dropout >= 1:
+            raise NoiseError(f"noise.dropout: must be below 1, got {self.dropout!r}")
+
+    @property
+    def turn_error_sd(self) -> float:
+        """The relative sd of a turn's angle."""
+        return self.wheel_bias + self.wheel_sd if self.turn_sd is None else self.turn_sd
+
+    @classmethod
+    def preset(cls, name: str, path: str | Path | None = None) -> "RolloutNoise":
+        """The preset ``name`` from ``specs/noise_presets.json`` (or ``path``); without
+        the file, ``paper`` and ``ideal`` are known. Keys the sampler does not use are
+        ignored (a preset may describe more than rollouts need)."""
+        presets = _read_presets(path)
+        if name not in presets:
+            where = str(path or _PRESETS_FILE) if (path or _PRESETS_FILE.is_file()) else "the built-in presets"
+            raise NoiseError(f"unknown noise preset {name!r} in {where}: expected one of {', '.join(sorted(presets))}")
+        known = {f.name for f in fields(cls)}
+        data = presets[name]
+        return cls(**{k: v for k, v in data.items() if k in known})
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready form."""
+        return asdict(self)
+
+
+def _read_presets(path: str | Path | None = None) -> dict[str, dict[str, Any]]:
+    builtin: dict[str, dict[str, Any]] = {"paper": asdict(RolloutNoise()), "ideal": {f.name: 0.0 for f in fields(RolloutNoise)}}
+    p = Path(path) if path else _PRESETS_FILE
+    if not p.is_file():
+        if path:
+            raise NoiseError(f"{p}: no such noise preset file")
+        return builtin
+    try:
+        data = json.loads(p.read_text(encoding="utf-8"))
+    except (OSError, json.JSONDecodeError) as exc:
+        raise NoiseError(f"{p}: cannot read noise presets: {exc}") from None
+    if isinstance(data, dict) and isinstance(data.get("presets"), dict):
+        data = data["presets"]
+    if not isinstance(data, dict) or not all(isinstance(v, dict) for v in data.values()):
+        raise NoiseError(f"{p}: expected an object of presets, each an object of numbers")
+    return {str(k): dict(v) for k, v in data.items()}
+
+
+def preset_names() -> list[str]:
+    """The noise presets known (from the file, or the built-in ones)."""
+    return sorted(_read_presets())
+
+
+@dataclass
+class _World:
+    """One sampled noisy world: perceived obstacles and the robot's per-run errors."""
+
+    obstacles: Obstacles
+    bias_l: float
+    bias_r: float
+    drift: float
+    rng: np.random.Generator
+    cache: dict[tuple[int, ...], World] = field(default_factory=dict)
+
+
+@dataclass
+class _NoisyTask(Task):
+    """A task whose wheels do not do exactly what the motor law says."""
+
+    bias_l: float = 0.0
+    bias_r: float = 0.0
+    wheel_sd: float = 0.0
+    drift: float = 0.0
+    rng: Any = None
+
+    def wheel_speeds(self, error: float) -> tuple[float, float]:
+        vl, vr = super().wheel_speeds(error)
+        if self.rng is not None and self.wheel_sd:
+            el, er = self.rng.normal(0.0, self.wheel_sd, 2)
+        else:
+            el = er = 0.0
+        dv = self.drift * self.robot.wheel_base / 2
+        return vl * (1 + self.bias_l + el) - dv, vr * (1 + self.bias_r + er) + dv
+
+
+def _perturb(points: np.ndarray, noise: RolloutNoise, rng: np.random.Generator) -> np.ndarray:
+    if len(points) == 0:
+        return points
+    keep = rng.random(len(points)) >= noise.dropout
+    pts = points[keep]
+    r = np.hypot(pts[:, 0], pts[:, 1])
+    scale = np.where(r > 0, (r + rng.normal(0.0, noise.range_sd, len(pts))) / np.where(r > 0, r, 1), 1.0)
+    out: np.ndarray = pts * np.clip(scale, 0.0, None)[:, None]
+    return out
+
+
+def _rollout(kind: TaskKind, start: Pose, goal: Disturbance, world: _World, robot: RobotModel, noise: RolloutNoise) -> Outcome:
+    base = make_task(kind, world.obstacles, robot, start, goal)
+    limit = base.limit
+    if kind.is_turn and noise.turn_error_sd:
+        limit = min(base.limit * (1 + world.rng.normal(0.0, noise.turn_error_sd)), math.pi)
+    task = _NoisyTask(base.kind, robot, start, max(limit, 0.0), base.goal, base.goal_ahead,
+                      world.bias_l, world.bias_r, noise.wheel_sd, world.drift, world.rng)
+    length = task.limit if kind is TaskKind.STRAIGHT else 0.0
+    idx = in_the_way(world.obstacles, robot, start, kind, length)
+    key = tuple(idx.tolist())
+    w = world.cache.get(key)
+    if w is None:
+        w = world.cache[key] = World(world.obstacles, robot, idx)
+    out = w.rollout(task)
+    if out.d_n is None and out.end.distance_to(goal.x, goal.y) <= robot.goal_tolerance:
+        out = replace(out, reached_goal=True)
+    return out
+
+
+def _kind(s: State | Outcome) -> str:
+    if s.d_n is not None:
+        return "collision"
+    return "goal" if s.reached_goal else "free"
+
+
+def _close(a: Pose, b: Pose) -> bool:
+    return a.distance_to(b.x, b.y) <= POSITION_TOLERANCE and abs(wrap_angle(a.theta - b.theta)) <= HEADING_TOLERANCE
+
+
+@dataclass
+class ProbabilisticMap:
+    """The probabilistic map, the nominal planning result it refines, and its figures."""
+
+    map: CognitiveMap
+    nominal: PlanResult
+    samples: int
+    noise: RolloutNoise
+    build_time_s: float
+    build_cpu_s: float
+    new_states: int
+
+    @property
+    def probabilistic_choices(self) -> int:
+        """(state, task) choices with more than one outcome."""
+        groups: dict[tuple[int, TaskKind], int] = {}
+        for t in self.map.transitions():
+            groups[(t.source, t.label)] = groups.get((t.source, t.label), 0) + 1
+        return sum(1 for n in groups.values() if n > 1)
+
+
+class _Builder:
+    """Grows a copy of the nominal map with sampled outcome groups."""
+
+    def __init__(self, nominal: CognitiveMap, goal: Disturbance, robot: RobotModel, cost: Any) -> None:
+        self.map = CognitiveMap(goal=goal)
+        for s in nominal.states():
+            self.map.add_state(s)
+        self.map.set_initial(nominal.initial.ident)
+        self.map.metadata.update(nominal.metadata)
+        self.ctx = CostContext(goal, nominal.initial.start, robot)
+        self.cost = cost
+        self.robot = robot
+        self.by_task: dict[TaskKind, list[int]] = {k: [] for k in TaskKind}
+        for s in nominal.states():
+            if s.ident != nominal.initial.ident:
+                self.by_task[s.task].append(s.ident)
+        self.new: list[int] = []
+
+    def group(self, source: int, kind: TaskKind, nominal_target: int | None, out: Outcome, d_i: Disturbance) -> int:
+        """The state an outcome falls into (created when no state matches)."""
+        k = _kind(out)
+        if nominal_target is not None:
+            t = self.map[nominal_target]
+            if _kind(t) == k and _close(t.end, out.end):
+                return t.ident
+        src_end = self.map[source].end
+        for ident in self.by_task[kind]:
+            s = self.map[ident]
+            if _kind(s) == k and _close(s.start, src_end) and _close(s.end, out.end):
+                return ident
+        ident = max(s.ident for s in self.map.states()) + 1
+        s = State(ident, out.task, d_i, out.d_n, out.start, out.end, out.distance, out.duration, reached_goal=out.reached_goal)
+        s = replace(s, cost=self.cost(s, self.ctx))
+        self.map.add_state(s)
+        self.by_task[kind].append(ident)
+        self.new.append(ident)
+        return ident
+
+
+def sample_map(
+    scan: Any,
+    goal: Disturbance | tuple[float, float],
+    samples: int = 30,
+    noise: RolloutNoise | str = "paper",
+    seed: int = 0,
+    configurator: Configurator | None = None,
+) -> ProbabilisticMap:
+    """Build the nominal map of ``scan`` for ``goal`` and estimate every choice's outcome
+    from ``samples`` noisy rollouts (see the module docstring); ``seed`` makes it
+    reproducible."""
+    if isinstance(samples, bool) or not isinstance(samples, int) or samples < 1:
+        raise NoiseError(f"samples must be a whole number >= 1, got {samples!r}")
+    nz = RolloutNoise.preset(noise) if isinstance(noise, str) else noise
+    conf = configurator or Configurator()
+    robot = conf.robot
+    t0, c0 = time.perf_counter(), time.thread_time()
+    points = load_scan(scan)
+    nominal = conf.plan(points, goal)
+    rng = np.random.default_rng(seed)
+    worlds = []
+    for _ in range(samples):
+        r = np.random.default_rng(rng.integers(2**63))
+        pts = _perturb(points, nz, r)
+        obstacles = perceive(pts, robot.sensor_range, robot.cluster_distance)
+        bl, br = r.normal(0.0, nz.wheel_bias, 2) if nz.wheel_bias else (0.0, 0.0)
+        worlds.append(_World(obstacles, float(bl), float(br), float(r.normal(0.0, nz.drift)) if nz.drift else 0.0, r))
+    b = _Builder(nominal.map, nominal.goal, robot, conf.cost)
+    choices: dict[tuple[int, TaskKind], int] = {}
+    for t in nominal.map.transitions():
+        choices.setdefault((t.source, t.label), t.target)
+    for (source, kind), target in sorted(choices.items(), key=lambda kv: (kv[0][0], list(TaskKind).index(kv[0][1]))):
+        start = nominal.map[source].end
+        counts: dict[int, int] = {}
+        for w in worlds:
+            out = _rollout(kind, start, nominal.goal, w, robot, nz)
+            ident = b.group(source, kind, target, out, nominal.goal)
+            counts[ident] = counts.get(ident, 0) + 1
+        for ident, k in sorted(counts.items()):
+            b.map.add_transition(source, ident, kind, Fraction(k, samples))
+    _complete_turns(b, nominal, conf)
+    plan = extract_plan(b.map)
+    b.map.metadata.update({"plan": list(plan.states), "samples": samples, "noise": nz.to_dict(), "seed": seed, "nominal_plan": list(nominal.plan.states)})
+    return ProbabilisticMap(b.map, nominal, samples, nz, time.perf_counter() - t0, time.thread_time() - c0, len(b.new))
+
+
+def _complete_turns(b: _Builder, nominal: PlanResult, conf: Configurator) -> None:
+    """A new uninterrupted turn gets its nominal STRAIGHT (Algorithm 1's frontier rule)."""
+    from planner.physics import simulate
+
+    for ident in list(b.new):
+        s = b.map[ident]
+        if s.task.is_turn and not s.interrupted and not b.map.out_transitions(ident):
+            out = simulate(TaskKind.STRAIGHT, s.end, nominal.goal, nominal.obstacles, conf.robot)
+            target = b.group(ident, TaskKind.STRAIGHT, None, out, nominal.goal)
+            b.map.add_transition(ident, target, TaskKind.STRAIGHT)
+
+
+def learn_from_scans(
+    scans: Iterable[Any],
+    goal: Disturbance | tuple[float, float],
+    configurator: Configurator | None = None,
+) -> CognitiveMap:
+    """A map learned from repeated observation: each scan of ``scans`` (consecutive scans
+    of one place, e.g. a recorded run or a run log's scans) is planned, and every
+    (state, task) it observes adds one count to the outcome group of that observation.
+    States are matched across scans by their task sequence from q0; outcomes by kind and
+    end pose (within :data:`POSITION_TOLERANCE` / :data:`HEADING_TOLERANCE`). A choice
+    observed in M scans gets probabilities k/M. The first scan's map gives the states'
+    records; later outcomes that match none become new states.
+
+    >>> import numpy as np
+    >>> m = learn_from_scans([np.zeros((0, 2))] * 3, (1.0, 0.0))
+    >>> [str(t.probability) for t in m.out_transitions(0)]
+    ['1']
+    """
+    conf = configurator or Configurator()
+    maps = [conf.plan(s, goal) for s in scans]
+    if not maps:
+        raise NoiseError("learn_from_scans needs at least one scan")
+    first = maps[0]
+    b = _Builder(first.map, first.goal, conf.robot, conf.cost)
+    counts: dict[tuple[int, TaskKind], dict[int, int]] = {}
+    for result in maps:
+        m = result.map
+        # each observed state is matched to the learned state its observation fell into,
+        # walking the map from q0 (sources before their successors)
+        learned = {m.initial.ident: b.map.initial.ident}
+        queue = [m.initial.ident]
+        while queue:
+            q = queue.pop(0)
+            src = learned[q]
+            for t in m.out_transitions(q):
+                if b.map[src].interrupted:
+                    break  # R is undefined after a hit: nothing may leave it
+                o = m[t.target]
+                out = Outcome(o.task, o.start, o.end, o.distance, o.duration, 0, o.d_n, o.reached_goal)
+                nominal = next((u.target for u in b.map.out_transitions(src) if u.label is t.label), None)
+                if nominal is None and m is first.map:
+                    nominal = t.target
+                ident = b.group(src, t.label, nominal, out, first.goal)
+                c = counts.setdefault((src, t.label), {})
+                c[ident] = c.get(ident, 0) + 1
+                if t.target not in learned:
+                    learned[t.target] = ident
+                    queue.append(t.target)
+    for (source, kind), c in sorted(counts.items(), key=lambda kv: (kv[0][0], list(TaskKind).index(kv[0][1]))):
+        total = sum(c.values())
+        for ident, k in sorted(c.items()):
+            b.map.add_transition(source, ident, kind, Fraction(k, total))
+    _complete_turns(b, first, conf)
+    plan = extract_plan(b.map)
+    b.map.metadata.update({"plan": list(plan.states), "observations": len(maps)})
+    return b.map
+
