@@ -400,9 +400,46 @@ def check_properties(sm: StormModel, props: PropertyFile | Iterable[PropertySpec
         passed = None if spec.required is None else spec.required.holds(value)
         witness: list[str] = []
         if passed is False:
-            witness = _witness(sm, result, spec.required)  # type: ignore[arg-type]
+            witness = _target_witness(sm, spec) or _witness(sm, result, spec.required)  # type: ignore[arg-type]
         out.append(CheckResult(spec, sm.kind, value, passed, witness))
     return out
+
+
+_EVENTUALLY = re.compile(r"^P(?:min|max)?\s*=\?\s*\[\s*(?:F|.+?\sU)\s+(.+)\]$")
+
+
+def _target_witness(sm: StormModel, spec: PropertySpec) -> list[str]:
+    """For ``P=? [F ψ]`` / ``[φ U ψ]`` that came out too high: a shortest path to a state
+    where ψ holds (the violation itself); [] when the property is not of that shape."""
+    req = spec.required
+    if req is None or isinstance(req.value, bool) or req.op not in ("=", "<=", "<"):
+        return []
+    m = _EVENTUALLY.match(spec.formula.strip())
+    if m is None:
+        return []
+    stormpy = require_stormpy()
+    try:
+        parsed = stormpy.parse_properties(m.group(1), sm.program) if sm.program is not None else stormpy.parse_properties(m.group(1))
+        result = stormpy.model_checking(sm.model, parsed[0], only_initial_states=False)
+    except RuntimeError:
+        return []
+    if not result.is_qualitative():
+        return []
+    start = int(sm.model.initial_states[0])
+    parent: dict[int, int | None] = {start: None}
+    queue = deque([start])
+    while queue:
+        s = queue.popleft()
+        if bool(result[s]):
+            path = [s]
+            while parent[path[-1]] is not None:
+                path.append(parent[path[-1]])  # type: ignore[arg-type]
+            return [sm.describe(x) for x in reversed(path)]
+        for t in sm.successors(s):
+            if t not in parent:
+                parent[t] = s
+                queue.append(t)
+    return []
 
 
 def _witness(sm: StormModel, result: Any, req: Requirement) -> list[str]:

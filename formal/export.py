@@ -26,6 +26,7 @@ from typing import IO, Any
 
 from formal.export_model import LABELS, STAY, Choice, ExportError, ExportModel, ModelKind, export_model
 from formal.lts import CognitiveMap
+from formal.model import State
 
 __all__ = [
     "ModelKind",
@@ -110,6 +111,11 @@ def _model(source: CognitiveMap | ExportModel, kind: ModelKind) -> ExportModel:
 
 def _header(m: ExportModel, comment: str) -> list[str]:
     n_map = m.n_transitions - len(m.self_loops)
+    if m.title is not None:
+        return [
+            f"{comment} clomp {m.title} ({m.kind.upper()}: actions are events)",
+            f"{comment} {m.n_states} states, {n_map} transitions + {len(m.self_loops)} absorbing self-loops",
+        ]
     what = "unsupervised map (MDP: actions are tasks)" if m.kind == "mdp" else "supervised system (Ψ applied, DTMC)"
     goal = "none" if m.goal is None else f"({m.goal[0]:g}, {m.goal[1]:g})"
     return [
@@ -127,7 +133,7 @@ def write_prism(source: CognitiveMap | ExportModel, dest: Dest, kind: ModelKind 
     m = _model(source, kind)
     idents = [s.ident for s in m.states]
     lines = _header(m, "//")
-    lines += ["", m.kind, "", "module cognitive_map"]
+    lines += ["", m.kind, "", "module cognitive_map" if m.title is None else "module machine"]
     # PRISM refuses a range of one value (q : [0..0]); it builds only reachable states,
     # so widening the range of a one-state model adds no state
     lo, hi = min(idents), max(idents)
@@ -138,7 +144,7 @@ def write_prism(source: CognitiveMap | ExportModel, dest: Dest, kind: ModelKind 
             upd = " + ".join(f"{p}:(q'={idents[j]})" for p, (j, _) in zip(probs, ch.branches))
             lines.append(f"  [{ch.action}] q={idents[k]} -> {upd};")
     lines += ["endmodule", ""]
-    for name in LABELS:
+    for name in m.labels:
         if name == "init":
             continue  # "init" is built in
         members = sorted(idents[k] for k in m.labels[name])
@@ -222,7 +228,7 @@ def drn_adds_holder(m: ExportModel) -> bool:
 def drn_label_holder(m: ExportModel) -> list[str]:
     """The exporter labels no state of ``m`` carries: the DRN declares them on an extra,
     unreachable state (empty when every label is carried)."""
-    return [name for name in LABELS if not m.labels[name]]
+    return [name for name in m.labels if not m.labels[name]]
 
 
 # -- PRISM explicit ------------------------------------------------------------------------------
@@ -317,7 +323,7 @@ def _explicit_texts(m: ExportModel) -> dict[str, str]:
                         trew[reward].append(f"{k} {c} {j} {_num(r)}" if m.kind == "mdp" else f"{k} {j} {_num(r)}")
     head = f"{n} {m.n_choices} {len(tra)}" if m.kind == "mdp" else f"{n} {len(tra)}"
     idents = [s.ident for s in m.states]
-    names = list(LABELS)
+    names = list(m.labels)
     lab = [" ".join(f'{i}="{name}"' for i, name in enumerate(names))]
     for k in range(n):
         ids = [str(i) for i, name in enumerate(names) if k in m.labels[name]]
@@ -352,12 +358,23 @@ def write_dot(source: CognitiveMap | ExportModel, dest: Dest, kind: ModelKind = 
     plan transitions bold, collision states red octagons, goal states green, q0 a double
     border; added self-loops are dashed grey."""
     m = _model(source, kind)
-    lines = ["digraph cognitive_map {"]
+    name = "cognitive_map" if m.title is None else (m.title if m.title.isidentifier() else "machine")
+    lines = [f"digraph {name} {{"]
     lines += [f"  // {h[3:]}" for h in _header(m, "//")]
     lines.append('  graph [rankdir=LR, fontname="Helvetica"];')
     lines.append('  node [shape=box, style="rounded", fontname="Helvetica", fontsize=10];')
     lines.append('  edge [fontname="Helvetica", fontsize=9];')
     for k, s in enumerate(m.states):
+        if not isinstance(s, State):
+            attrs = [f"label={_dot_quote(str(getattr(s, 'name', k)))}"]
+            if "motors" in m.labels and k in m.labels["motors"]:
+                attrs += ['style="rounded,filled"', 'fillcolor="#c6e5c6"']
+            if "terminal" in m.labels and k in m.labels["terminal"]:
+                attrs.append("peripheries=2")
+            if "after_fault" in m.labels and k in m.labels["after_fault"]:
+                attrs.append("color=red")
+            lines.append(f"  {k} [{', '.join(attrs)}];")
+            continue
         if s.interrupted:
             outcome = "collision"
         elif s.reached_goal:

@@ -77,6 +77,9 @@ class ExportModel:
     self_loops: tuple[int, ...]
     plan: Plan
     goal: tuple[float, float] | None
+    title: str | None = None
+    """What the model is when it is not a cognitive map (e.g. the supervisor's machine);
+    its states then need only an ``ident`` and a ``name``."""
 
     @property
     def n_states(self) -> int:

@@ -8,8 +8,14 @@
                  REPLANNING ─planned / at_goal / no_plan→ (as from PLANNING)
     any non-terminal state ─fault / abort→ HALTED
 
-The wheels may turn only in :data:`MOTOR_STATES`. :func:`state_machine_dot` and
-:func:`state_machine_prism` export the machine itself.
+The machine is described once, as data, in :data:`formal.machine.SUPERVISOR` (states,
+events with their controllability, guards, where the wheels may turn); this module
+reads it: :data:`TRANSITIONS` (what :class:`~runtime.supervision.Supervisor` fires),
+:data:`MOTOR_STATES` (where it may command the wheels) and :data:`TERMINAL`. A terminal
+state ignores every further event (the formal table writes that as self-loops on the
+uncontrollable events; the runtime simply fires nothing there). The wheels may turn only
+in :data:`MOTOR_STATES`. :func:`state_machine_dot` and :func:`state_machine_prism` render
+the machine through :mod:`formal.export` (:func:`formal.machine.machine_model`).
 
 >>> TRANSITIONS[(SupervisorState.IDLE, Event.START)].value
 'PLANNING'
@@ -20,7 +26,11 @@ The wheels may turn only in :data:`MOTOR_STATES`. :func:`state_machine_dot` and
 from __future__ import annotations
 
 import enum
+import io
 from dataclasses import dataclass
+
+from formal.export import write_dot, write_prism
+from formal.machine import SUPERVISOR, machine_model
 
 __all__ = [
     "Event",
@@ -61,23 +71,14 @@ class Event(str, enum.Enum):
 
 
 S, E = SupervisorState, Event
-TERMINAL: frozenset[SupervisorState] = frozenset({S.GOAL_REACHED, S.UNREACHABLE, S.HALTED})
-MOTOR_STATES: frozenset[SupervisorState] = frozenset({S.EXECUTING})
-
+if {s.value for s in SupervisorState} != set(SUPERVISOR.states) or {e.value for e in Event} != {e.name for e in SUPERVISOR.events}:
+    raise ImportError("runtime.supervision.machine: the state and event names differ from formal.machine.SUPERVISOR")
+TERMINAL: frozenset[SupervisorState] = frozenset(S(s) for s in SUPERVISOR.terminal)
+MOTOR_STATES: frozenset[SupervisorState] = frozenset(S(s) for s in SUPERVISOR.wheels)
 TRANSITIONS: dict[tuple[SupervisorState, Event], SupervisorState] = {
-    (S.IDLE, E.START): S.PLANNING,
-    (S.PLANNING, E.PLANNED): S.EXECUTING,
-    (S.PLANNING, E.AT_GOAL): S.GOAL_REACHED,
-    (S.PLANNING, E.NO_PLAN): S.UNREACHABLE,
-    (S.REPLANNING, E.PLANNED): S.EXECUTING,
-    (S.REPLANNING, E.AT_GOAL): S.GOAL_REACHED,
-    (S.REPLANNING, E.NO_PLAN): S.UNREACHABLE,
-    (S.EXECUTING, E.NEXT_TASK): S.EXECUTING,
-    (S.EXECUTING, E.AT_GOAL): S.GOAL_REACHED,
-    (S.EXECUTING, E.PLAN_SHORT): S.REPLANNING,
-    (S.EXECUTING, E.DISAGREE): S.REPLANNING,
-    **{(s, ev): S.HALTED for s in SupervisorState if s not in TERMINAL for ev in (E.FAULT, E.ABORT)},
+    (S(t.source), E(t.event)): S(t.target) for t in SUPERVISOR.transitions if t.source not in SUPERVISOR.terminal
 }
+"""(state, event) → state, from :data:`formal.machine.SUPERVISOR` (terminal states fire nothing)."""
 
 
 @dataclass(frozen=True)
@@ -92,53 +93,21 @@ class TransitionRecord:
 
 
 def state_machine_dot() -> str:
-    """The supervisor's state machine as Graphviz DOT (integer node ids, quoted labels).
-
-    States where the wheels may turn are filled; terminal states are double circles.
-    """
-    ids = {s: i for i, s in enumerate(SupervisorState)}
-    lines = ["digraph supervisor {", "  rankdir=LR;", '  node [shape=circle, fontname="Helvetica"];', "  init [shape=point];"]
-    for s, i in ids.items():
-        attrs = [f'label="{s.value}"']
-        if s in TERMINAL:
-            attrs.append("shape=doublecircle")
-        if s in MOTOR_STATES:
-            attrs.append('style=filled, fillcolor="#c6e5c6"')
-        if s is S.HALTED:
-            attrs.append('color="#b22222"')
-        lines.append(f"  {i} [{', '.join(attrs)}];")
-    lines.append(f"  init -> {ids[S.IDLE]};")
-    grouped: dict[tuple[int, int], list[str]] = {}
-    for (src, ev), dst in TRANSITIONS.items():
-        grouped.setdefault((ids[src], ids[dst]), []).append(ev.value)
-    for (a, b), evs in sorted(grouped.items()):
-        lines.append(f'  {a} -> {b} [label="{" | ".join(evs)}"];')
-    lines.append("}")
-    return "\n".join(lines) + "\n"
+    """The supervisor's state machine as Graphviz DOT, drawn by :func:`formal.export.write_dot`
+    from :func:`formal.machine.machine_model` (states where the wheels may turn are
+    filled, terminal states have a double border)."""
+    buf = io.StringIO()
+    write_dot(machine_model(SUPERVISOR, None), buf)
+    return buf.getvalue()
 
 
 def state_machine_prism() -> str:
-    """The supervisor's state machine as a PRISM MDP (events are nondeterministic choices).
-
-    ``s`` is the state (numbered in :class:`SupervisorState` order), ``m`` is 1 while the
-    wheels may turn. Terminal states loop on ``done``. Properties to check, e.g. with
-    Storm: ``Pmax=? [F (m=1 & s!=EXECUTING)]`` = 0 (the wheels turn only in EXECUTING),
-    ``Pmax=? [F (s=HALTED & m=1)]`` = 0, ``Pmax=? [F s=GOAL_REACHED]`` = 1.
-    """
-    ids = {s: i for i, s in enumerate(SupervisorState)}
-    out = ["// clomp supervisor state machine (runtime.supervision.machine.state_machine_prism)", "mdp", ""]
-    for s, i in ids.items():
-        out.append(f"const int {s.value} = {i};")
-    out += ["", "module supervisor", f"  s : [0..{len(ids) - 1}] init IDLE;", "  m : [0..1] init 0;"]
-    for (src, ev), dst in TRANSITIONS.items():
-        m = 1 if dst in MOTOR_STATES else 0
-        out.append(f"  [{ev.value}] s={src.value} -> (s'={dst.value}) & (m'={m});")
-    term = "|".join(f"s={s.value}" for s in SupervisorState if s in TERMINAL)
-    out.append(f"  [done] {term} -> true;")
-    out += ["endmodule", ""]
-    out.append('label "motors" = m=1;')
-    out.append('label "executing" = s=EXECUTING;')
-    out.append('label "halted" = s=HALTED;')
-    out.append('label "goal" = s=GOAL_REACHED;')
-    out.append(f'label "terminal" = {term};')
-    return "\n".join(out) + "\n"
+    """The supervisor's state machine as a PRISM MDP (events are nondeterministic
+    choices), written by :func:`formal.export.write_prism`: ``q`` is the state, labels
+    ``motors`` (the wheels may turn), ``terminal`` and one per state in lower case, e.g.
+    ``Pmax=? [F ("motors" & !"executing")]`` = 0 (the wheels turn only in EXECUTING).
+    The closed loop with the robot is :func:`formal.machine.machine_model` (checked by
+    ``specs/properties/supervisor/machine.pctl``)."""
+    buf = io.StringIO()
+    write_prism(machine_model(SUPERVISOR, None), buf)
+    return buf.getvalue()

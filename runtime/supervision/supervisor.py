@@ -46,6 +46,7 @@ from runtime.clock import Clock, clock_for
 from runtime.records.runlog import RunLogLike
 from runtime.robot import Robot, RobotFault
 from runtime.supervision.machine import (
+    MOTOR_STATES,
     TERMINAL,
     TRANSITIONS,
     Event,
@@ -301,7 +302,7 @@ class Supervisor:
         if target is None:
             raise RuntimeError(f"no transition from {self.state.value} on {event.value}")
         source = self.state
-        if source is S.EXECUTING and target is not S.EXECUTING:
+        if source in MOTOR_STATES and target not in MOTOR_STATES:  # formal.machine: where wheels may turn
             self._stop_wheels()
             self._scans_since_stop = 0
             self._end_task(reason if event is not E.NEXT_TASK else "done")
@@ -492,6 +493,8 @@ class Supervisor:
             self._fire(E.DISAGREE, "task overran its expected duration")
             return
         vl, vr = task.wheel_speeds(e)
+        if self.state not in MOTOR_STATES:  # the machine's table forbids the wheels here
+            raise GuardViolation(f"the wheels may not turn in {self.state.value}")
         self.robot.set_wheel_speeds(vl, vr)
         if self.log is not None and (vl, vr) != self._cmd:
             self._log("motor", left=vl, right=vr)

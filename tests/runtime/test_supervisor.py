@@ -226,12 +226,12 @@ def test_prism_export_checks_in_storm(tmp_path):
     path.write_text(state_machine_prism())
     program = stormpy.parse_prism_program(str(path))
     props = stormpy.parse_properties(
-        'Pmax=? [F (m=1 & s!=EXECUTING)]; Pmax=? [F (s=HALTED & m=1)]; Pmax=? [F s=GOAL_REACHED]; '
-        'Pmax=? [F "halted"]; Pmax=? [F (s=EXECUTING & m=0)]',
+        'Pmax=? [F ("motors" & !"executing")]; Pmax=? [F ("halted" & "motors")]; Pmax=? [F "goal_reached"]; '
+        'Pmax=? [F "halted"]; Pmax=? [F ("executing" & !"motors")]',
         program,
     )
     model = stormpy.build_model(program, props)
-    assert model.nr_states == len(SupervisorState)  # m is a function of s: one model state per state
+    assert model.nr_states == len(SupervisorState)  # one model state per machine state
     init = model.initial_states[0]
     values = [stormpy.model_checking(model, p).get_value(init) for p in props]
     assert values[0] == pytest.approx(0.0)  # the wheels turn only in EXECUTING
@@ -239,3 +239,12 @@ def test_prism_export_checks_in_storm(tmp_path):
     assert values[2] == pytest.approx(1.0)  # the goal can be reached
     assert values[3] == pytest.approx(1.0)  # a fault can be taken
     assert values[4] == pytest.approx(0.0)  # EXECUTING always drives
+
+
+def test_the_runtime_table_is_the_formal_machine():
+    from formal.machine import SUPERVISOR
+
+    assert {(s.value, e.value): t.value for (s, e), t in TRANSITIONS.items()} == {
+        (t.source, t.event): t.target for t in SUPERVISOR.transitions if t.source not in SUPERVISOR.terminal
+    }
+    assert {s.value for s in MOTOR_STATES} == SUPERVISOR.wheels

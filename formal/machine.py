@@ -1,0 +1,411 @@
+"""The supervisor's machine, described once as data, and the supervisory-control checks.
+
+:data:`SUPERVISOR` is the one description of the machine Ψ runs on the robot: its states,
+its events (each *controllable* — the supervisor decides it: starting a task, stopping
+the wheels — or *uncontrollable* — the world does: a scan, a collision, a fault, a task
+ending), the transitions with their guards (named conditions, described in
+:attr:`Machine.guards`), and in which states the wheels may turn. The runtime's
+supervisor executes this table (``runtime.supervision.machine`` reads it), and the
+renderers draw it through :func:`machine_model`, an :class:`~formal.export.ExportModel`
+like a cognitive map's, so PRISM, DRN, explicit files and DOT all come from one place.
+
+Ramadge & Wonham: the robot is the *plant* :data:`PLANT` (what can physically happen,
+over the same events), the machine is the *supervisor*. :func:`controllability` checks
+that in every reachable state of the closed loop the supervisor never disables an
+uncontrollable event the plant can produce; :func:`nonblocking` that from every
+reachable state a terminal (marked) state stays reachable. Both return counterexamples
+(event paths from the start) instead of a bare verdict.
+
+:func:`machine_model` exports the closed loop (supervisor × plant, with the last event
+in the state) as an MDP whose choices are the events, with labels ``motors`` (the
+machine lets the wheels turn), ``driving`` (the plant runs a task), ``after_fault``,
+``terminal`` and one per machine state; ``specs/properties/supervisor/machine.pctl``
+states what must hold, e.g. the wheels turn only while a task runs.
+
+>>> SUPERVISOR.target("IDLE", "start")
+'PLANNING'
+>>> controllability(SUPERVISOR, PLANT).ok, nonblocking(SUPERVISOR, PLANT).ok
+(True, True)
+"""
+
+from __future__ import annotations
+
+from collections import deque
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass, field, replace
+from fractions import Fraction
+from typing import Any
+
+__all__ = [
+    "MachineEvent",
+    "MachineTransition",
+    "Machine",
+    "MachineNode",
+    "SUPERVISOR",
+    "PLANT",
+    "SupervisoryResult",
+    "closed_loop",
+    "controllability",
+    "nonblocking",
+    "machine_model",
+    "machine_property_file",
+    "check_machine",
+]
+
+
+@dataclass(frozen=True, slots=True)
+class MachineEvent:
+    """An event of the machine: its name, whether the supervisor controls it, what it is."""
+
+    name: str
+    controllable: bool
+    description: str = ""
+
+
+@dataclass(frozen=True, slots=True)
+class MachineTransition:
+    """``source --event--> target``, taken when the named ``guard`` holds (None: always)."""
+
+    source: str
+    event: str
+    target: str
+    guard: str | None = None
+
+
+@dataclass(frozen=True)
+class Machine:
+    """A finite automaton over named events: states, the initial and the terminal
+    (marked) states, the states where the wheels may turn, events, guards, transitions.
+
+    Deterministic: at most one transition per (state, event). :meth:`with_transition`
+    and :meth:`with_wheels` return mutated copies (to show that the checks catch them).
+    """
+
+    name: str
+    states: tuple[str, ...]
+    initial: str
+    terminal: frozenset[str]
+    wheels: frozenset[str]
+    events: tuple[MachineEvent, ...]
+    transitions: tuple[MachineTransition, ...]
+    guards: Mapping[str, str] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        names = set(self.states)
+        if len(names) != len(self.states):
+            raise ValueError(f"{self.name}: duplicate state names")
+        if self.initial not in names or not self.terminal <= names or not self.wheels <= names:
+            raise ValueError(f"{self.name}: initial, terminal and wheel states must be states of the machine")
+        events = {e.name for e in self.events}
+        seen: set[tuple[str, str]] = set()
+        for t in self.transitions:
+            if t.source not in names or t.target not in names:
+                raise ValueError(f"{self.name}: transition {t} names an unknown state")
+            if t.event not in events:
+                raise ValueError(f"{self.name}: transition {t} names an unknown event")
+            if t.guard is not None and t.guard not in self.guards:
+                raise ValueError(f"{self.name}: transition {t} names an undescribed guard {t.guard!r}")
+            if (t.source, t.event) in seen:
+                raise ValueError(f"{self.name}: two transitions from {t.source} on {t.event}")
+            seen.add((t.source, t.event))
+
+    def event(self, name: str) -> MachineEvent:
+        """The event called ``name``."""
+        for e in self.events:
+            if e.name == name:
+                return e
+        raise KeyError(name)
+
+    @property
+    def controllable(self) -> frozenset[str]:
+        """The names of the controllable events."""
+        return frozenset(e.name for e in self.events if e.controllable)
+
+    @property
+    def uncontrollable(self) -> frozenset[str]:
+        """The names of the uncontrollable events."""
+        return frozenset(e.name for e in self.events if not e.controllable)
+
+    def table(self) -> dict[tuple[str, str], str]:
+        """(state, event) → target."""
+        return {(t.source, t.event): t.target for t in self.transitions}
+
+    def target(self, state: str, event: str) -> str | None:
+        """Where ``event`` leads from ``state`` (None: the event is disabled there)."""
+        return self.table().get((state, event))
+
+    def enabled(self, state: str) -> list[str]:
+        """The events enabled in ``state``, in the machine's event order."""
+        on = {t.event for t in self.transitions if t.source == state}
+        return [e.name for e in self.events if e.name in on]
+
+    def with_transition(self, source: str, event: str, target: str | None) -> "Machine":
+        """A copy where ``source --event-->`` goes to ``target`` (None removes it)."""
+        kept = [t for t in self.transitions if (t.source, t.event) != (source, event)]
+        old = next((t for t in self.transitions if (t.source, t.event) == (source, event)), None)
+        if target is not None:
+            kept.append(MachineTransition(source, event, target, old.guard if old else None))
+        return replace(self, transitions=tuple(kept))
+
+    def with_wheels(self, states: Iterable[str]) -> "Machine":
+        """A copy where the wheels may turn exactly in ``states``."""
+        return replace(self, wheels=frozenset(states))
+
+
+_EVENTS = (
+    MachineEvent("start", True, "the operator starts the run: plan from the first scan"),
+    MachineEvent("planned", True, "the supervisor starts the first task of a new plan"),
+    MachineEvent("next_task", True, "the supervisor starts the plan's next task"),
+    MachineEvent("abort", True, "the supervisor stops the wheels on request (Ctrl-C, a time limit)"),
+    MachineEvent("no_plan", False, "planning on a scan finds no safe task closer to the goal"),
+    MachineEvent("at_goal", False, "a scan or a task's end puts the robot within the goal tolerance"),
+    MachineEvent("plan_short", False, "the plan's last task ended short of the goal"),
+    MachineEvent("disagree", False, "a scan or a task's end disagrees with the map (hazard, off prediction, overrun)"),
+    MachineEvent("fault", False, "a device fails (motor controller, LiDAR, a robot fault)"),
+)
+
+_GUARDS = {
+    "plan_found": "the Configurator returned a plan with at least one safe task",
+    "within_goal_tolerance": "the estimated pose is within the goal tolerance of D_G",
+    "no_safe_task": "the plan is empty, the goal is unreachable, or plans stopped bringing it closer",
+    "task_done_as_predicted": "the task's error reached zero near the map's predicted end, and the plan has another task",
+    "plan_done_short": "the plan's last task is done and the goal is farther than the tolerance",
+    "map_disagrees": "a hazard is ahead, the task ended far from its prediction, or it overran its duration",
+    "device_failed": "a robot call raised a fault",
+}
+
+_T = MachineTransition
+_NON_TERMINAL = ("IDLE", "PLANNING", "EXECUTING", "REPLANNING")
+_TERMINAL = ("GOAL_REACHED", "UNREACHABLE", "HALTED")
+
+SUPERVISOR = Machine(
+    name="supervisor",
+    states=(*_NON_TERMINAL, *_TERMINAL),
+    initial="IDLE",
+    terminal=frozenset(_TERMINAL),
+    wheels=frozenset({"EXECUTING"}),
+    events=_EVENTS,
+    guards=_GUARDS,
+    transitions=(
+        _T("IDLE", "start", "PLANNING"),
+        _T("PLANNING", "planned", "EXECUTING", "plan_found"),
+        _T("PLANNING", "at_goal", "GOAL_REACHED", "within_goal_tolerance"),
+        _T("PLANNING", "no_plan", "UNREACHABLE", "no_safe_task"),
+        _T("REPLANNING", "planned", "EXECUTING", "plan_found"),
+        _T("REPLANNING", "at_goal", "GOAL_REACHED", "within_goal_tolerance"),
+        _T("REPLANNING", "no_plan", "UNREACHABLE", "no_safe_task"),
+        _T("EXECUTING", "next_task", "EXECUTING", "task_done_as_predicted"),
+        _T("EXECUTING", "at_goal", "GOAL_REACHED", "within_goal_tolerance"),
+        _T("EXECUTING", "plan_short", "REPLANNING", "plan_done_short"),
+        _T("EXECUTING", "disagree", "REPLANNING", "map_disagrees"),
+        *(_T(s, "fault", "HALTED", "device_failed") for s in _NON_TERMINAL),
+        *(_T(s, "abort", "HALTED") for s in _NON_TERMINAL),
+        # a terminal state ignores what the world still does (the wheels stay stopped)
+        *(_T(s, e.name, s) for s in _TERMINAL for e in _EVENTS if not e.controllable),
+    ),
+)
+"""The supervisor's machine: the table ``runtime.supervision`` executes."""
+
+PLANT = Machine(
+    name="robot",
+    states=("OFF", "STOPPED", "DRIVING", "FAILED"),
+    initial="OFF",
+    terminal=frozenset({"STOPPED", "FAILED"}),
+    wheels=frozenset({"DRIVING"}),
+    events=_EVENTS,
+    transitions=(
+        _T("OFF", "start", "STOPPED"),
+        _T("OFF", "fault", "FAILED"),
+        _T("STOPPED", "planned", "DRIVING"),
+        _T("STOPPED", "no_plan", "STOPPED"),
+        _T("STOPPED", "at_goal", "STOPPED"),
+        _T("STOPPED", "abort", "STOPPED"),
+        _T("STOPPED", "fault", "FAILED"),
+        _T("DRIVING", "next_task", "DRIVING"),
+        _T("DRIVING", "at_goal", "STOPPED"),
+        _T("DRIVING", "plan_short", "STOPPED"),
+        _T("DRIVING", "disagree", "STOPPED"),
+        _T("DRIVING", "abort", "STOPPED"),
+        _T("DRIVING", "fault", "FAILED"),
+        _T("FAILED", "fault", "FAILED"),
+        _T("FAILED", "abort", "FAILED"),
+    ),
+)
+"""The plant: the robot over the same events. Stopped, it plans (a plan, none, or the goal
+already reached: uncontrollable outcomes) or starts a task; driving, a task ends (as
+predicted: the next task; at the goal, short of it, or off the map) or the wheels are
+stopped; a fault can happen at any time."""
+
+
+@dataclass(frozen=True)
+class SupervisoryResult:
+    """A verdict with counterexamples: each an event path from the start and what fails."""
+
+    ok: bool
+    counterexamples: tuple[tuple[tuple[str, ...], str], ...] = ()
+
+    def __str__(self) -> str:
+        if self.ok:
+            return "holds"
+        lines = [f"{why} (after {' '.join(path) or 'nothing'})" for path, why in self.counterexamples]
+        return "fails: " + "; ".join(lines)
+
+
+def closed_loop(sup: Machine, plant: Machine) -> dict[tuple[str, str], tuple[str, ...]]:
+    """The reachable states of sup × plant (both must enable an event to take it), each
+    with a shortest event path from the start."""
+    start = (sup.initial, plant.initial)
+    ts, tp = sup.table(), plant.table()
+    paths: dict[tuple[str, str], tuple[str, ...]] = {start: ()}
+    queue = deque([start])
+    while queue:
+        s, p = queue.popleft()
+        for e in sup.events:
+            a, b = ts.get((s, e.name)), tp.get((p, e.name))
+            if a is not None and b is not None and (a, b) not in paths:
+                paths[(a, b)] = paths[(s, p)] + (e.name,)
+                queue.append((a, b))
+    return paths
+
+
+def controllability(sup: Machine, plant: Machine) -> SupervisoryResult:
+    """The supervisor never disables an uncontrollable event the plant can produce, in
+    any reachable state of the closed loop (Ramadge & Wonham)."""
+    ts, tp = sup.table(), plant.table()
+    bad = []
+    for (s, p), path in closed_loop(sup, plant).items():
+        for e in sorted(plant.uncontrollable):
+            if (p, e) in tp and (s, e) not in ts:
+                bad.append((path, f"{sup.name} in {s} disables uncontrollable '{e}' that the {plant.name} in {p} can produce"))
+    return SupervisoryResult(not bad, tuple(bad))
+
+
+def nonblocking(sup: Machine, plant: Machine) -> SupervisoryResult:
+    """From every reachable state of the closed loop a marked state — terminal for the
+    supervisor and for the plant — stays reachable."""
+    reach = closed_loop(sup, plant)
+    ts, tp = sup.table(), plant.table()
+    succ: dict[tuple[str, str], list[tuple[str, str]]] = {x: [] for x in reach}
+    for s, p in reach:
+        for e in sup.events:
+            a, b = ts.get((s, e.name)), tp.get((p, e.name))
+            if a is not None and b is not None:
+                succ[(s, p)].append((a, b))
+    marked = {x for x in reach if x[0] in sup.terminal and x[1] in plant.terminal}
+    # backwards from the marked states
+    pred: dict[tuple[str, str], list[tuple[str, str]]] = {x: [] for x in reach}
+    for x, ys in succ.items():
+        for y in ys:
+            pred[y].append(x)
+    good = set(marked)
+    queue = deque(marked)
+    while queue:
+        for x in pred[queue.popleft()]:
+            if x not in good:
+                good.add(x)
+                queue.append(x)
+    bad = [(reach[x], f"from {x[0]} with the {plant.name} {x[1]} no terminal state can be reached") for x in reach if x not in good]
+    return SupervisoryResult(not bad, tuple(sorted(bad)))
+
+
+@dataclass(frozen=True, slots=True)
+class MachineNode:
+    """A state of the closed loop as an exported model's state (the renderers' ``State``)."""
+
+    ident: int
+    supervisor: str
+    plant: str
+    last: str | None
+
+    @property
+    def name(self) -> str:
+        """``EXECUTING/DRIVING`` (and the event that led here)."""
+        return self.supervisor + (f"/{self.plant}" if self.plant else "") + (f" after {self.last}" if self.last else "")
+
+    # what the renderers read from a map's states
+    interrupted = False
+    reached_goal = False
+    distance = 0.0
+    duration = 0.0
+    cost = 0.0
+
+
+def machine_model(sup: Machine = SUPERVISOR, plant: Machine | None = PLANT, remember_last: bool | None = None) -> Any:
+    """The closed loop sup × plant (``plant=None``: the supervisor alone) as an
+    :class:`~formal.export.ExportModel`, an MDP whose actions are the events. With
+    ``remember_last`` (default: when a plant is given) each state also remembers the
+    event that led to it, so that properties can speak of what follows an event.
+    Labels: ``init``, ``motors`` (the machine lets the wheels turn), ``driving`` (the
+    plant runs a task), ``after_fault``, ``terminal``, and the machine's states in lower
+    case. The renderers of :mod:`formal.export` draw it like a cognitive map.
+
+    >>> m = machine_model(SUPERVISOR, None)
+    >>> m.n_states, sorted(m.states[k].name for k in m.labels["motors"])
+    (7, ['EXECUTING'])
+    """
+    from formal.export import STAY, Choice, ExportModel
+    from formal.supervisory import Plan
+
+    last_too = plant is not None if remember_last is None else remember_last
+    ts = sup.table()
+    tp = plant.table() if plant is not None else {}
+    start: tuple[str, str, str | None] = (sup.initial, plant.initial if plant is not None else "", None)
+    index: dict[tuple[str, str, str | None], int] = {start: 0}
+    order: list[tuple[str, str, str | None]] = [start]
+    queue: deque[tuple[str, str, str | None]] = deque([start])
+    edges: dict[int, list[tuple[str, int]]] = {}
+    while queue:
+        node = queue.popleft()
+        s, p, _ = node
+        out = []
+        for e in sup.events:
+            a = ts.get((s, e.name))
+            b = tp.get((p, e.name)) if plant is not None else ""
+            if a is None or b is None:
+                continue
+            nxt = (a, b, e.name if last_too else None)
+            if nxt not in index:
+                index[nxt] = len(order)
+                order.append(nxt)
+                queue.append(nxt)
+            out.append((e.name, index[nxt]))
+        edges[index[node]] = out
+    states = tuple(MachineNode(k, s, p, last) for k, (s, p, last) in enumerate(order))
+    choices = []
+    loops = []
+    for k in range(len(states)):
+        row = tuple(Choice(ev, ((j, Fraction(1)),)) for ev, j in edges[k])
+        if not row:
+            row = (Choice(STAY, ((k, Fraction(1)),)),)
+            loops.append(k)
+        choices.append(row)
+    driving = plant.wheels if plant is not None else frozenset()
+    labels: dict[str, frozenset[int]] = {
+        "init": frozenset({0}),
+        "motors": frozenset(k for k, n in enumerate(states) if n.supervisor in sup.wheels),
+        "driving": frozenset(k for k, n in enumerate(states) if n.plant in driving),
+        "after_fault": frozenset(k for k, n in enumerate(states) if n.last == "fault"),
+        "terminal": frozenset(k for k, n in enumerate(states) if n.supervisor in sup.terminal),
+    }
+    for name in sup.states:
+        labels[name.lower()] = frozenset(k for k, n in enumerate(states) if n.supervisor == name)
+    title = sup.name if plant is None else f"{sup.name} x {plant.name} closed loop"
+    return ExportModel("mdp", states, 0, tuple(choices), labels, tuple(loops), Plan((0,)), None, title=title)  # type: ignore[arg-type]
+
+
+def machine_property_file() -> Any:
+    """``specs/properties/supervisor/machine.pctl``: what the closed loop must satisfy."""
+    import specs
+
+    from pathlib import Path
+
+    return Path(specs.__file__).resolve().parent / "properties" / "supervisor" / "machine.pctl"
+
+
+def check_machine(sup: Machine = SUPERVISOR, plant: Machine = PLANT, via: str = "drn") -> list[Any]:
+    """Storm's verdict on every property of :func:`machine_property_file` for the closed
+    loop of ``sup`` and ``plant`` (a list of :class:`~formal.checking.CheckResult`)."""
+    from formal.checking import build_storm_model, check_properties, read_properties
+
+    pf = read_properties(machine_property_file())
+    return check_properties(build_storm_model(machine_model(sup, plant), via=via), pf)

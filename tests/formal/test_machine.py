@@ -1,0 +1,86 @@
+"""The supervisor's machine as data: its properties fail for a broken machine, and the
+Ramadge-Wonham checks (controllability, non-blocking) name counterexamples."""
+
+from __future__ import annotations
+
+import pytest
+
+from formal.machine import PLANT, SUPERVISOR, Machine, controllability, machine_model, nonblocking
+
+stormpy = pytest.importorskip("stormpy", reason="stormpy not installed: pip install 'clomp[verify]'")
+
+from formal.machine import check_machine  # noqa: E402
+
+
+def _verdicts(machine: Machine) -> dict[str, tuple[bool | None, list[str]]]:
+    return {r.spec.name: (r.passed, r.witness) for r in check_machine(machine)}
+
+
+def test_the_shipped_machine_satisfies_every_property():
+    v = _verdicts(SUPERVISOR)
+    assert set(v) == {"wheels_only_on_a_task", "fault_stops_the_wheels", "terminal_is_still", "nonblocking", "goal_possible"}
+    assert all(passed for passed, _ in v.values()), v
+
+
+def test_a_fault_that_leaves_executing_in_place_fails_in_storm():
+    broken = SUPERVISOR.with_transition("EXECUTING", "fault", "EXECUTING")
+    v = _verdicts(broken)
+    assert v["fault_stops_the_wheels"][0] is False and v["wheels_only_on_a_task"][0] is False
+    path = v["fault_stops_the_wheels"][1]
+    assert path[0].endswith("[idle]") and "after_fault" in path[-1] and "motors" in path[-1]
+
+
+def test_wheels_on_in_replanning_fails_in_storm():
+    broken = SUPERVISOR.with_wheels({"EXECUTING", "REPLANNING"})
+    v = _verdicts(broken)
+    assert v["wheels_only_on_a_task"][0] is False
+    assert "replanning" in v["wheels_only_on_a_task"][1][-1]
+    assert v["fault_stops_the_wheels"][0] is True
+
+
+def test_events_are_split_into_controllable_and_uncontrollable():
+    assert SUPERVISOR.controllable == {"start", "planned", "next_task", "abort"}
+    assert SUPERVISOR.uncontrollable == {"no_plan", "at_goal", "plan_short", "disagree", "fault"}
+    assert all(t.guard is None or t.guard in SUPERVISOR.guards for t in SUPERVISOR.transitions)
+
+
+def test_controllability_holds_and_names_a_disabled_uncontrollable_event():
+    assert controllability(SUPERVISOR, PLANT).ok
+    broken = SUPERVISOR.with_transition("EXECUTING", "disagree", None)
+    r = controllability(broken, PLANT)
+    assert not r.ok
+    (path, why), *_ = r.counterexamples
+    assert path == ("start", "planned") and "EXECUTING disables uncontrollable 'disagree'" in why
+    # ignoring a fault once the run is over is allowed only because the table says so
+    assert not controllability(SUPERVISOR.with_transition("GOAL_REACHED", "fault", None), PLANT).ok
+
+
+def test_nonblocking_holds_and_names_a_state_that_can_never_end():
+    assert nonblocking(SUPERVISOR, PLANT).ok
+    broken = SUPERVISOR.with_transition("EXECUTING", "fault", "EXECUTING").with_transition("EXECUTING", "abort", None)
+    r = nonblocking(broken, PLANT)
+    assert not r.ok
+    assert ("start", "planned", "fault") in [p for p, _ in r.counterexamples]
+    assert _verdicts(broken)["nonblocking"][0] is False
+
+
+def test_a_table_with_two_transitions_on_one_event_is_refused():
+    from formal.machine import MachineTransition
+
+    with pytest.raises(ValueError, match="two transitions from IDLE on start"):
+        Machine("m", ("IDLE", "A"), "IDLE", frozenset({"A"}), frozenset(), SUPERVISOR.events,
+                (MachineTransition("IDLE", "start", "A"), MachineTransition("IDLE", "start", "IDLE")))
+
+
+def test_the_machine_renders_through_the_exporters_and_both_tools_agree():
+    from formal.checking import read_properties
+    from formal.crosscheck import cross_check
+    from formal.machine import machine_property_file
+    from formal.prism import find_prism
+
+    m = machine_model()
+    assert m.title and len({s.name for s in m.states}) == m.n_states
+    if find_prism() is None:
+        pytest.skip("PRISM not found")
+    cc = cross_check(m, "mdp", files=[read_properties(machine_property_file())], title="machine")
+    assert cc.agrees, (cc.disagreements(), {k: v[:2] for k, v in cc.loads.items()})
