@@ -18,9 +18,9 @@ consecutive scans of a recorded run (or the scans of a run log) each give a map;
 are matched across scans by the tasks that lead to them from q0, and each observation
 of a (state, task) adds one count to the outcome group it falls into.
 
-Noise numbers come from ``specs/noise_presets.json`` when it exists (a preset name per
-object of numbers), else the built-in ``paper`` preset (the simulated robot's default
-noise, runtime ``NoiseConfig()``) and ``ideal`` (no noise).
+Noise numbers come from ``specs/noise_presets.json`` (``specs.noise_presets()``), the
+presets the execution world uses; a rollout uses the terms that concern one task
+(ranges, beam angles, dropout, wheel error, bias, drift, slip), not ``latency``.
 
 >>> import numpy as np
 >>> r = sample_map(np.zeros((0, 2)), (1.0, 0.0), samples=4, seed=1)
@@ -77,12 +77,14 @@ class NoiseError(ValueError):
 class RolloutNoise:
     """The noise of one sampled rollout world (SI units; the runtime's noise fields).
 
-    ``range_sd``: sd of the LiDAR range error (m); ``dropout``: probability that a
-    return is lost; ``wheel_sd``: relative sd of each wheel's speed error per tick;
-    ``wheel_bias``: relative sd of a per-run wheel bias; ``drift``: sd (rad/s) of a
-    per-run heading drift while the wheels turn; ``turn_sd``: relative sd of the angle
-    a turn actually makes (the robot ends a turn on its own heading estimate; default
-    ``wheel_bias + wheel_sd``, the wheels' relative error). Defaults: the ``paper`` preset.
+    ``range_sd``: sd of the LiDAR range error (m); ``angle_sd``: sd of a beam's
+    direction (rad); ``dropout``: probability that a return is lost; ``wheel_sd``:
+    relative sd of each wheel's speed error per tick; ``wheel_bias``: relative sd of a
+    per-run wheel bias; ``drift``: sd (rad/s) of a per-run heading drift while the
+    wheels turn; ``slip``: scale of the speed each wheel loses per tick, |N(0, slip)|;
+    ``turn_sd``: relative sd of the angle a turn actually makes (the robot ends a turn
+    on its own heading estimate; default ``wheel_bias + wheel_sd``, the wheels' relative
+    error). Defaults: the ``paper`` preset of ``specs/noise_presets.json``.
 
     >>> RolloutNoise().turn_error_sd
     0.025
@@ -93,6 +95,8 @@ class RolloutNoise:
     wheel_sd: float = 0.02
     wheel_bias: float = 0.005
     drift: float = 0.002
+    angle_sd: float = 0.002
+    slip: float = 0.01
     turn_sd: float | None = None
 
     def __post_init__(self) -> None:
@@ -114,14 +118,17 @@ class RolloutNoise:
     def preset(cls, name: str, path: str | Path | None = None) -> "RolloutNoise":
         """The preset ``name`` from ``specs/noise_presets.json`` (or ``path``); without
         the file, ``paper`` and ``ideal`` are known. Keys the sampler does not use are
-        ignored (a preset may describe more than rollouts need)."""
+        ignored (a preset may describe more than rollouts need, e.g. ``latency``)."""
         presets = _read_presets(path)
         if name not in presets:
-            where = str(path or _PRESETS_FILE) if (path or _PRESETS_FILE.is_file()) else "the built-in presets"
+            where = str(path or _PRESETS_FILE)
             raise NoiseError(f"unknown noise preset {name!r} in {where}: expected one of {', '.join(sorted(presets))}")
         known = {f.name for f in fields(cls)}
         data = presets[name]
-        return cls(**{k: v for k, v in data.items() if k in known})
+        try:
+            return cls(**{k: v for k, v in data.items() if k in known})
+        except TypeError as exc:
+            raise NoiseError(f"noise preset {name!r}: {exc}") from None
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready form."""
@@ -129,12 +136,16 @@ class RolloutNoise:
 
 
 def _read_presets(path: str | Path | None = None) -> dict[str, dict[str, Any]]:
-    builtin: dict[str, dict[str, Any]] = {"paper": asdict(RolloutNoise()), "ideal": {f.name: 0.0 for f in fields(RolloutNoise)}}
-    p = Path(path) if path else _PRESETS_FILE
+    if path is None:
+        import specs
+
+        try:
+            return {k: dict(v) for k, v in specs.noise_presets().items()}
+        except (OSError, KeyError, ValueError, json.JSONDecodeError) as exc:
+            raise NoiseError(f"{_PRESETS_FILE}: cannot read noise presets: {exc}") from None
+    p = Path(path)
     if not p.is_file():
-        if path:
-            raise NoiseError(f"{p}: no such noise preset file")
-        return builtin
+        raise NoiseError(f"{p}: no such noise preset file")
     try:
         data = json.loads(p.read_text(encoding="utf-8"))
     except (OSError, json.JSONDecodeError) as exc:
@@ -172,6 +183,7 @@ class _NoisyTask(Task):
     wheel_sd: float = 0.0
     drift: float = 0.0
     rng: Any = None
+    slip: float = 0.0
 
     def wheel_speeds(self, error: float) -> tuple[float, float]:
         vl, vr = super().wheel_speeds(error)
@@ -179,6 +191,9 @@ class _NoisyTask(Task):
             el, er = self.rng.normal(0.0, self.wheel_sd, 2)
         else:
             el = er = 0.0
+        if self.rng is not None and self.slip:
+            sl, sr = np.abs(self.rng.normal(0.0, self.slip, 2))
+            el, er = el - sl, er - sr
         dv = self.drift * self.robot.wheel_base / 2
         return vl * (1 + self.bias_l + el) - dv, vr * (1 + self.bias_r + er) + dv
 
@@ -189,8 +204,9 @@ def _perturb(points: np.ndarray, noise: RolloutNoise, rng: np.random.Generator) 
     keep = rng.random(len(points)) >= noise.dropout
     pts = points[keep]
     r = np.hypot(pts[:, 0], pts[:, 1])
-    scale = np.where(r > 0, (r + rng.normal(0.0, noise.range_sd, len(pts))) / np.where(r > 0, r, 1), 1.0)
-    out: np.ndarray = pts * np.clip(scale, 0.0, None)[:, None]
+    a = np.arctan2(pts[:, 1], pts[:, 0]) + (rng.normal(0.0, noise.angle_sd, len(pts)) if noise.angle_sd else 0.0)
+    r2 = np.clip(r + rng.normal(0.0, noise.range_sd, len(pts)), 0.0, None) if noise.range_sd else r
+    out: np.ndarray = np.column_stack([r2 * np.cos(a), r2 * np.sin(a)])
     return out
 
 
@@ -200,7 +216,7 @@ def _rollout(kind: TaskKind, start: Pose, goal: Disturbance, world: _World, robo
     if kind.is_turn and noise.turn_error_sd:
         limit = min(base.limit * (1 + world.rng.normal(0.0, noise.turn_error_sd)), math.pi)
     task = _NoisyTask(base.kind, robot, start, max(limit, 0.0), base.goal, base.goal_ahead,
-                      world.bias_l, world.bias_r, noise.wheel_sd, world.drift, world.rng)
+                      world.bias_l, world.bias_r, noise.wheel_sd, world.drift, world.rng, noise.slip)
     length = task.limit if kind is TaskKind.STRAIGHT else 0.0
     idx = in_the_way(world.obstacles, robot, start, kind, length)
     key = tuple(idx.tolist())

@@ -86,9 +86,11 @@ def test_the_paper_preset_is_the_simulated_robots_default_noise():
     from runtime.robots.sim import NoiseConfig
 
     paper = RolloutNoise.preset("paper")
-    assert {k: v for k, v in paper.to_dict().items() if k != "turn_sd"} == {
-        k: getattr(NoiseConfig(), k) for k in ("range_sd", "dropout", "wheel_sd", "wheel_bias", "drift")
-    }
+    assert paper == RolloutNoise()  # the defaults are the file's paper preset
+    five = ("range_sd", "dropout", "wheel_sd", "wheel_bias", "drift")
+    assert {k: getattr(paper, k) for k in five} == {k: getattr(NoiseConfig(), k) for k in five}
+    harsh = RolloutNoise.preset("harsh")
+    assert harsh.wheel_sd == 5 * paper.wheel_sd and harsh.slip == 5 * paper.slip
 
 
 @pytest.mark.parametrize("bad", [0, -3, 2.5, True])
