@@ -57,6 +57,7 @@ __all__ = [
     "ProbabilisticMap",
     "sample_map",
     "learn_from_scans",
+    "RobustConfigurator",
     "POSITION_TOLERANCE",
     "HEADING_TOLERANCE",
 ]
@@ -414,3 +415,42 @@ def learn_from_scans(
     b.map.metadata.update({"plan": list(plan.states), "observations": len(maps)})
     return b.map
 
+
+
+class RobustConfigurator(Configurator):
+    """A Configurator whose plans are Storm's risk-aware ones: each :meth:`plan` builds
+    the probabilistic map (``samples`` noisy rollouts per choice, ``noise`` preset) and
+    returns the plan of the scheduler that maximises P[!collision U goal] on it, so that
+    a supervisor executes and replans with robust plans. Needs stormpy.
+
+    ``last_probabilities`` holds (robust, greedy) of the latest plan, Storm's predictions.
+    """
+
+    def __init__(
+        self,
+        robot: RobotModel | None = None,
+        samples: int = 20,
+        noise: RolloutNoise | str = "harsh",
+        seed: int = 0,
+        **options: Any,
+    ) -> None:
+        super().__init__(robot, **options)
+        self.samples = samples
+        self.noise = RolloutNoise.preset(noise) if isinstance(noise, str) else noise
+        self.seed = seed
+        self._calls = 0
+        self.last_probabilities: tuple[float, float] | None = None
+
+    def plan(self, scan: Any, goal: Disturbance | tuple[float, float]) -> PlanResult:
+        """The robust plan on the probabilistic map of ``scan`` (see the class docstring)."""
+        from formal.robust import plan_probability, robust_plan
+        from formal.supervisory import guard
+
+        t0 = time.perf_counter()
+        base = Configurator(self.robot, self.cost, self.max_states, self.horizon)
+        pm = sample_map(scan, goal, self.samples, self.noise, self.seed + self._calls, base)
+        self._calls += 1
+        rp = robust_plan(pm.map)
+        self.last_probabilities = (rp.probability, plan_probability(pm.map, pm.nominal.plan))
+        n = pm.nominal
+        return PlanResult(pm.map, rp.plan, n.goal, n.obstacles, n.robot, time.perf_counter() - t0, n.stop_reason, guard(pm.map, rp.plan))

@@ -44,3 +44,17 @@ def test_robust_is_never_below_greedy_on_sampled_maps(name):
     # the scheduler's plan is a path of the map that starts at q0
     assert r.plan.states[0] == pm.map.initial_id
     assert all(pm.map.has_transition(a, b) for a, b in r.plan.steps())
+
+
+def test_the_robust_configurator_hands_a_supervisor_storms_plan():
+    from formal import check_map
+    from planner import load_scenario
+    from planner.probabilistic import RobustConfigurator
+
+    scene = load_scenario("overtaking")
+    conf = RobustConfigurator(samples=10, noise="paper")
+    r = conf.plan(scene.scan(max_range=1.1), tuple(scene.goal_in_robot_frame()))
+    assert check_map(r.map, r.plan, r.psi) == [] or all(v.invariant.name == "GUARD" for v in check_map(r.map, r.plan, r.psi))
+    assert sum(r.psi.values()) == len(r.plan) - 1 and r.steps
+    robust, greedy = conf.last_probabilities  # type: ignore[misc]
+    assert 0 <= greedy <= robust + 1e-12
