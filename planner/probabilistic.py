@@ -46,7 +46,7 @@ from formal.model import Disturbance, Pose, State, TaskKind
 from formal.supervisory import extract_plan
 from planner.configurator import Configurator, CostContext, PlanResult
 from planner.perception import Obstacles, load_scan, perceive
-from planner.physics import Outcome, World, in_the_way, make_task
+from planner.physics import Outcome, World, frontier_distance, in_the_way, make_task
 from planner.robot import RobotModel
 from planner.tasks import Task, wrap_angle
 
@@ -214,6 +214,8 @@ def _perturb(points: np.ndarray, noise: RolloutNoise, rng: np.random.Generator) 
 def _rollout(kind: TaskKind, start: Pose, goal: Disturbance, world: _World, robot: RobotModel, noise: RolloutNoise) -> Outcome:
     base = make_task(kind, world.obstacles, robot, start, goal)
     limit = base.limit
+    if kind is TaskKind.STRAIGHT:
+        limit = min(limit, frontier_distance(robot, start))  # as planned: cut at the sensed disc's rim
     if kind.is_turn and noise.turn_error_sd:
         limit = min(base.limit * (1 + world.rng.normal(0.0, noise.turn_error_sd)), math.pi)
     task = _NoisyTask(base.kind, robot, start, max(limit, 0.0), base.goal, base.goal_ahead,
@@ -341,9 +343,29 @@ def sample_map(
         for ident, k in sorted(counts.items()):
             b.map.add_transition(source, ident, kind, Fraction(k, samples))
     _complete_turns(b, nominal, conf)
+    b.map = _reachable_part(b.map)
     plan = extract_plan(b.map)
     b.map.metadata.update({"plan": list(plan.states), "samples": samples, "noise": nz.to_dict(), "seed": seed, "nominal_plan": list(nominal.plan.states)})
-    return ProbabilisticMap(b.map, nominal, samples, nz, time.perf_counter() - t0, time.thread_time() - c0, len(b.new))
+    kept = sum(1 for i in b.new if i in b.map)
+    return ProbabilisticMap(b.map, nominal, samples, nz, time.perf_counter() - t0, time.thread_time() - c0, kept)
+
+
+def _reachable_part(cmap: CognitiveMap) -> CognitiveMap:
+    """``cmap`` without the states no transition reaches any more (a nominal outcome that
+    no noisy rollout reproduced)."""
+    reach = cmap.reachable()
+    if len(reach) == len(cmap):
+        return cmap
+    out = CognitiveMap(goal=cmap.goal)
+    for s in cmap.states():
+        if s.ident in reach:
+            out.add_state(s)
+    out.set_initial(cmap.initial.ident)
+    for t in cmap.transitions():
+        if t.source in reach:
+            out.add_transition(t.source, t.target, t.label, t.probability)
+    out.metadata.update(cmap.metadata)
+    return out
 
 
 def _complete_turns(b: _Builder, nominal: PlanResult, conf: Configurator) -> None:
@@ -411,6 +433,7 @@ def learn_from_scans(
         for ident, k in sorted(c.items()):
             b.map.add_transition(source, ident, kind, Fraction(k, total))
     _complete_turns(b, first, conf)
+    b.map = _reachable_part(b.map)
     plan = extract_plan(b.map)
     b.map.metadata.update({"plan": list(plan.states), "observations": len(maps)})
     return b.map
