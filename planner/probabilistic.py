@@ -48,7 +48,8 @@ from planner.configurator import Configurator, CostContext, PlanResult
 from planner.perception import Obstacles, load_scan, perceive
 from planner.physics import Outcome, World, frontier_distance, in_the_way, make_task
 from planner.robot import RobotModel
-from planner.tasks import Task, wrap_angle
+from formal.geometry import wrap_angle
+from planner.tasks import Task
 
 __all__ = [
     "RolloutNoise",
