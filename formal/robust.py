@@ -62,8 +62,8 @@ def robust_plan(cmap: CognitiveMap) -> RobustPlan:
     ...     [State(0, TaskKind.STRAIGHT, g, None, Pose(0, 0), Pose(0, 0), cost=0.5),
     ...      State(1, TaskKind.STRAIGHT, g, None, Pose(0, 0), Pose(1, 0), reached_goal=True)],
     ...     [(0, 1)], goal=g)
-    >>> r = robust_plan(m)   # doctest: +SKIP  (needs stormpy)
-    >>> r.probability, r.plan.states   # doctest: +SKIP
+    >>> r = robust_plan(m)  # needs stormpy
+    >>> r.probability, r.plan.states
     (1.0, (0, 1))
     """
     stormpy, m, model = _build(cmap, "mdp")

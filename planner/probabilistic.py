@@ -23,9 +23,12 @@ presets the execution world uses; a rollout uses the terms that concern one task
 (ranges, beam angles, dropout, wheel error, bias, drift, slip), not ``latency``.
 
 >>> import numpy as np
->>> r = sample_map(np.zeros((0, 2)), (1.0, 0.0), samples=4, seed=1)
->>> [str(t.probability) for t in r.map.out_transitions(0)][:1]
+>>> r = sample_map(np.zeros((0, 2)), (1.0, 0.0), samples=4, noise="ideal")
+>>> [str(t.probability) for t in r.map.out_transitions(0)]
 ['1']
+>>> noisy = sample_map(np.zeros((0, 2)), (1.0, 0.0), samples=4, noise="harsh", seed=1)
+>>> sum(t.probability for t in noisy.map.out_transitions(0))
+Fraction(1, 1)
 """
 
 from __future__ import annotations
