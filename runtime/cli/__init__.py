@@ -26,6 +26,7 @@ _COMMAND_MODULES: list[str] = [
     "runtime.cli.simulate",
     "runtime.cli.experiment",
     "runtime.cli.export",
+    "runtime.cli.convert",
     "runtime.cli.check",
     "runtime.cli.emulate",
     "runtime.cli.run",

@@ -197,7 +197,7 @@ def run(args: argparse.Namespace) -> int:
     clock = WallClock() if args.time_scale == 1.0 else ScaledClock(args.time_scale)
     log.write("run", argv=sys.argv[1:], lidar=args.lidar, motors=args.motors, dry_run=args.dry_run,
               goal=list(goal), max_time=args.max_time, time_scale=args.time_scale,
-              config=config.to_dict(), monotonic=time.monotonic())
+              config=config.to_dict(), monotonic=time.monotonic(), wall=time.time())
     robot = sup = None
     try:
         with _interrupts_raise() as signalled:

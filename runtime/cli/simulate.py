@@ -27,6 +27,8 @@ def register(sub: Any) -> None:
     p.add_argument("--max-time", type=float, default=120.0, help="simulated seconds allowed (default 120)")
     p.add_argument("--out", default="clomp-simulate-out", help="folder for the PNG (default ./clomp-simulate-out)")
     p.add_argument("--json", action="store_true", help="print one JSON object")
+    p.add_argument("--log", metavar="FILE", help="write the run log (JSON lines, as clomp run writes; simulated time, "
+                   "with the ground truth) to FILE; 'clomp convert FILE -o RUN.mcap' opens it in Foxglove")
     p.set_defaults(func=run)
 
 
@@ -77,11 +79,24 @@ def run(args: argparse.Namespace) -> int:
         out = Path(args.out)
         out.mkdir(parents=True, exist_ok=True)
         cond = "reactive" if args.reactive else "planning"
-        r = run_once(scene, cond, seed, noise=noise, max_time=args.max_time, keep_report=True)
     except ScenarioError as exc:
         raise CliError(str(exc)) from None
     except OSError as exc:
         raise CliError(f"--out: {exc}") from None
+    if args.log:
+        if args.reactive:
+            raise CliError("--log: the reactive baseline has no supervisor and keeps no run log")
+        try:
+            Path(args.log).parent.mkdir(parents=True, exist_ok=True)
+            open(args.log, "w", encoding="utf-8").close()  # a fresh log, not appended to an old one
+        except OSError as exc:
+            raise CliError(f"--log: cannot write {args.log}: {exc.strerror or exc}") from None
+    try:
+        r = run_once(scene, cond, seed, noise=noise, max_time=args.max_time, keep_report=True, log=args.log)
+    except ScenarioError as exc:  # the scene's noise settings are checked when its robot is built
+        raise CliError(str(exc)) from None
+    except OSError as exc:
+        raise CliError(f"--log: cannot write {args.log}: {exc.strerror or exc}") from None
     png = out / f"{scene.name}_{cond}.png"
     plot_run(r.trace(), png, title=f"{scene.name} — {cond}")
     if args.json:
@@ -89,4 +104,6 @@ def run(args: argparse.Namespace) -> int:
     else:
         print_summary(r)
         print(f"  trajectory: {png}")
+        if args.log:
+            print(f"  run log: {args.log}")
     return 0

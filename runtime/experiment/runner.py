@@ -37,7 +37,7 @@ from typing import Any
 
 import numpy as np
 
-from formal.geometry import compose
+from formal.geometry import compose, relative
 from formal.model import Pose
 from planner.configurator import Configurator
 from planner.scenarios import Scene, load_scenario
@@ -46,6 +46,7 @@ from runtime.experiment.layouts import FAMILIES, make_layout, shape_distance
 from runtime.experiment.plots import RunTrace
 from runtime.experiment.reactive import ReactiveController
 from runtime.experiment.world import NOISE_PRESETS, make_robot, world_name
+from runtime.records.runlog import RunLog
 from runtime.robots.sim import NoiseConfig
 from runtime.supervision.supervisor import Supervisor
 
@@ -181,6 +182,28 @@ def _contact_point(scene: Scene, path: list[tuple[float, float, float, float]], 
     return (float(where[0]), float(where[1]))
 
 
+class _TruthLog:
+    """A simulated run's log: scan and task records also carry the ground truth pose
+    (in the odometry frame, the robot's start), what a viewer shows beside the estimate."""
+
+    def __init__(self, log: RunLog, robot: Any, start: Pose) -> None:
+        self._log, self._robot, self._start = log, robot, start
+
+    def write(self, event: str, **fields: Any) -> None:
+        if event in ("scan", "task"):
+            fields["truth"] = relative(self._start, self._robot.ground_truth_pose()).as_list()
+        self._log.write(event, **fields)
+
+
+def _open_log(dest: str | os.PathLike[str], robot: Any, scene: Scene, condition: str, seed: int,
+              noise: str | NoiseConfig | None, goal: tuple[float, ...]) -> RunLog:
+    runlog = RunLog(dest, clock=robot)  # the robot keeps the simulated time
+    runlog.write("run", simulated=True, scenario=scene.name, condition=condition, seed=seed,
+                 noise=noise if isinstance(noise, str) else ("scene" if noise is None else "custom"),
+                 goal=list(goal), wall=time.time())
+    return runlog
+
+
 def run_once(
     scene: Scene,
     condition: str = "planning",
@@ -193,12 +216,15 @@ def run_once(
     expect: str = "reach",
     configurator: Configurator | None = None,
     keep_report: bool = False,
+    log: str | os.PathLike[str] | None = None,
 ) -> RunResult:
     """Run one condition in ``scene`` on a fresh robot; see the module docstring.
 
     ``noise``: a preset name (``ideal``, ``paper``, ``harsh``; the execution world of
     :func:`~runtime.experiment.world.make_robot`), a :class:`~runtime.robots.sim.NoiseConfig`
     for the simulated robot, or None for the simulated robot with the scene's own noise.
+    ``log``: a file for the run log (the supervisor's records, as ``clomp run`` writes
+    them, in simulated time, with the ground truth beside each scan and task record).
 
     >>> from planner import load_scenario
     >>> r = run_once(load_scenario("open"), "reactive", 0, noise="ideal")
@@ -224,7 +250,13 @@ def run_once(
     plans = 0
     report: Any
     if condition == "planning":
-        report = Supervisor(robot, goal, conf).run(max_time=max_time)  # type: ignore[arg-type]
+        runlog = _open_log(log, robot, scene, condition, seed_, noise, goal) if log is not None else None
+        try:
+            sup = Supervisor(robot, goal, conf, log=None if runlog is None else _TruthLog(runlog, robot, start))  # type: ignore[arg-type]
+            report = sup.run(max_time=max_time)
+        finally:
+            if runlog is not None:
+                runlog.close()
         for rec in report.plans:
             planned.append([_world(start, rec.to_frame(rec.result.map[i].end)) for i in rec.result.plan.states])
         if report.plans:

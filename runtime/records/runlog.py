@@ -2,20 +2,27 @@
 
 One JSON object per line, flushed as it is written, so that a run cut short loses
 nothing already seen. Every record has ``t`` (seconds since the log was opened, from a
-monotonic clock) and ``event``; the other keys depend on the event:
+monotonic clock; simulated time in a simulated run's log) and ``event``; the other keys
+depend on the event:
 
 =========  ==============================================================================
 event      keys
 =========  ==============================================================================
 run        ``argv``, ``lidar``, ``motors`` (ports), ``dry_run``, ``goal``, ``config``,
-           ``monotonic`` (the clock origin, to line log times up with other clocks)
+           ``monotonic`` (the clock origin, to line log times up with other clocks),
+           ``wall`` (Unix time when the log was opened); from ``clomp simulate``:
+           ``scenario``, ``condition``, ``seed``, ``noise``, ``simulated`` (true)
 start      ``goal`` [x, y] (odometry frame), ``robot`` (RobotModel as a dict)
 device     ``device``, ``port``, and what the device reported (LiDAR info and health)
 scan       ``points`` [[x, y], …] (robot frame, metres), ``goal`` [x, y] (robot frame),
-           ``pose`` [x, y, theta] (odometry)
-plan       ``reached_goal``, ``states``, ``transitions``, ``planning_time_s``, ``tasks``
+           ``pose`` [x, y, theta] (odometry); simulated: ``truth`` [x, y, theta] (the
+           ground truth in the odometry frame)
+plan       ``reached_goal``, ``states``, ``transitions``, ``planning_time_s``, ``tasks``,
+           ``origin`` (odometry pose planned from), ``path`` [[x, y, theta], …] (the
+           plan's states, odometry frame), ``obstacles`` [[[x, y] × 4], …] (perceived
+           boxes, odometry frame)
 state      ``from``, ``to`` (supervisor states)
-task       ``task``, ``phase`` (start / end / interrupted), ``pose``
+task       ``task``, ``phase`` (start / end / interrupted), ``pose``; simulated: ``truth``
 motor      ``left``, ``right`` (m/s); from the hardware robot also ``sent`` (what reached
            the Maestro), ``dry_run``, ``reason`` and ``error``
 fault      ``reason``, ``source`` (lidar, motors, control, start, run …)
@@ -69,7 +76,10 @@ def _clean(value: Any) -> Any:
 class RunLog:
     """Append-only JSON-lines writer, flushed (and fsync'ed for faults) per record."""
 
-    def __init__(self, dest: str | os.PathLike[str] | IO[str]) -> None:
+    def __init__(self, dest: str | os.PathLike[str] | IO[str], clock: Any = None) -> None:
+        """``clock``: anything with ``now()`` in seconds (a simulated robot keeps simulated
+        time, so a simulated run's log has the simulated times); default a monotonic clock."""
+        self._now: Any = clock.now if clock is not None else time.monotonic
         if hasattr(dest, "write"):
             self._fh: IO[str] = dest  # type: ignore[assignment]
             self._own = False
@@ -79,11 +89,11 @@ class RunLog:
             self.path.parent.mkdir(parents=True, exist_ok=True)
             self._fh = open(self.path, "a", encoding="utf-8", buffering=1)
             self._own = True
-        self._t0 = time.monotonic()
+        self._t0 = self._now()
 
     def write(self, event: str, **fields: Any) -> None:
         """Append one record and flush it."""
-        rec = {"t": round(time.monotonic() - self._t0, 6), "event": event, **_clean(fields)}
+        rec = {"t": round(self._now() - self._t0, 6), "event": event, **_clean(fields)}
         self._fh.write(json.dumps(rec, allow_nan=False) + "\n")
         self._fh.flush()
         if event in ("fault", "stop") and self._own:

@@ -92,6 +92,17 @@ class PlanRecord:
         return compose(self.origin, p)
 
 
+def _plan_geometry(rec: PlanRecord) -> dict[str, Any]:
+    """Where a plan goes and what it avoids, in the supervisor's (odometry) frame, for the log."""
+    r = rec.result
+    boxes = np.asarray(r.obstacles.boxes, dtype=float).reshape(-1, 2)
+    return {
+        "origin": rec.origin.as_list(),
+        "path": [rec.to_frame(r.map[i].end).as_list() for i in r.plan.states],
+        "obstacles": np.round(points_from_frame(boxes, rec.origin), 4).reshape(-1, 4, 2),
+    }
+
+
 @dataclass
 class TaskRecord:
     """One task the supervisor started: its plan step, the guard's verdict and its run."""
@@ -403,8 +414,10 @@ class Supervisor:
             return
         rec = PlanRecord(now - (self._t0 or 0.0), self.pose, result)
         self.plans.append(rec)
-        self._log("plan", reached_goal=result.reached_goal, states=result.states, transitions=result.transitions,
-                  planning_time_s=result.planning_time_s, tasks=[q.task.value for q in result.steps])
+        if self.log is not None:
+            self._log("plan", reached_goal=result.reached_goal, states=result.states, transitions=result.transitions,
+                      planning_time_s=result.planning_time_s, tasks=[q.task.value for q in result.steps],
+                      **_plan_geometry(rec))
         if not result.steps:
             self._fire(E.NO_PLAN, "goal unreachable: no safe task leads closer to the goal")
             return

@@ -1,0 +1,64 @@
+"""``clomp convert``: a run log (``clomp run``, ``clomp simulate --log``) as MCAP with ROS 2
+message types, to open in Foxglove or play with ``ros2 bag play``."""
+
+from __future__ import annotations
+
+import argparse
+import json
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+from runtime.cli import CliError
+from runtime.cli._progress import progress
+from runtime.records.mcap_writer import A1_BINS, ConvertError, write_mcap
+from runtime.records.runlog import LogError, read_log
+
+__all__ = ["register", "run"]
+
+
+def register(sub: Any) -> None:
+    """Add ``convert`` to the command line."""
+    p = sub.add_parser("convert", help="write a run log as MCAP (ROS 2 types) for Foxglove and ros2 bag play",
+                       description=__doc__)
+    p.add_argument("log", help="a run log (JSON lines) from clomp run or clomp simulate --log")
+    p.add_argument("-o", "--output", metavar="RUN.mcap", help="the MCAP file (default: the log's name with .mcap)")
+    p.add_argument("--bins", type=int, default=A1_BINS,
+                   help=f"LaserScan readings per revolution (default {A1_BINS}: the RPLIDAR A1's 1/64°)")
+    p.add_argument("--json", action="store_true", help="print the message counts as one JSON object")
+    p.set_defaults(func=run)
+
+
+def _records(path: Path) -> tuple[int, Iterator[dict[str, Any]]]:
+    try:
+        records = list(read_log(path))
+    except LogError as exc:
+        raise CliError(str(exc)) from None
+    if not records:
+        raise CliError(f"{path}: the log holds no records")
+    return len(records), iter(records)
+
+
+def run(args: argparse.Namespace) -> int:
+    """Execute ``clomp convert``."""
+    src = Path(args.log)
+    if not src.is_file():
+        raise CliError(f"{src}: no such file")
+    dest = Path(args.output) if args.output else src.with_suffix(".mcap")
+    if dest.resolve() == src.resolve():
+        raise CliError(f"-o: {dest} is the log itself")
+    if not dest.parent.is_dir():
+        raise CliError(f"-o: folder {dest.parent} does not exist")
+    total, records = _records(src)
+    try:
+        summary = write_mcap(progress(records, total=total, desc="convert", unit="record"), dest, bins=args.bins)
+    except ConvertError as exc:
+        raise CliError(str(exc)) from None
+    if args.json:
+        print(json.dumps({"mcap": str(dest), "messages": summary.counts, "skipped": summary.skipped}))
+    else:
+        counts = ", ".join(f"{t} {n}" for t, n in summary.counts.items()) or "no messages"
+        print(f"{dest}: {counts}")
+        if summary.skipped:
+            print(f"  passed over: {', '.join(f'{n} {k} record(s)' for k, n in summary.skipped.items())}")
+    return 0
