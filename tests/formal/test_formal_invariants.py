@@ -3,87 +3,31 @@ invariant broken on purpose (so every check is shown able to fail)."""
 
 from __future__ import annotations
 
-import math
 from fractions import Fraction
 
-import numpy as np
 import pytest
 from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
-from formal import CognitiveMap, Disturbance, DisturbanceKind, Plan, Pose, State, TaskKind, Transition
+from formal import CognitiveMap, Disturbance, Plan, Pose, State, TaskKind, Transition
 from formal.invariants import Invariant, InvariantError, assert_map_valid, check_map
 from formal.supervisory import Guard, Reset, ResetUndefined, extract_plan, guard
-from planner import Configurator, PlanningError, RobotModel
+from planner import Configurator, PlanningError
+from formal.strategies import GOAL, OBSTACLE, cognitive_maps
 from planner.scenarios import builtin_scenarios, load_scenario
+from planner.strategies import goals, robot_models, scans
 
-GOAL = Disturbance.goal(1.0, 0.0)
-OBSTACLE = Disturbance(DisturbanceKind.OBSTACLE, 0.5, 0.0, ((0.45, -0.1), (0.55, -0.1), (0.55, 0.1), (0.45, 0.1)), 0)
 SETTINGS = settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 
 
-# -- strategies -----------------------------------------------------------------------
-@st.composite
-def scenes(draw):
-    """A scan of a few boxes seen from the robot (robot frame) and a goal in range."""
-    pts = []
-    for _ in range(draw(st.integers(0, 3))):
-        r = draw(st.floats(0.35, 1.0))
-        a = draw(st.floats(-math.pi, math.pi))
-        w = draw(st.floats(0.05, 0.4))
-        cx, cy = r * math.cos(a), r * math.sin(a)
-        n = max(2, int(w / 0.02))
-        for k in range(n):
-            u = -w / 2 + w * k / (n - 1)
-            pts.append((cx - u * math.sin(a), cy + u * math.cos(a)))
-    gd = draw(st.floats(0.3, 1.1))
-    ga = draw(st.floats(-math.pi, math.pi))
-    return np.array(pts, dtype=float).reshape(-1, 2), (gd * math.cos(ga), gd * math.sin(ga))
-
-
-robots = st.builds(
-    RobotModel,
-    width=st.sampled_from([0.14, 0.18, 0.22]),
-    step_length=st.sampled_from([0.2, 0.27, 0.35]),
-    turn_angle=st.sampled_from([math.pi / 2, math.pi / 3]),
-)
+# -- strategies: the public ones (planner.strategies, formal.strategies) ------------------
+scenes = lambda: st.tuples(scans(), goals())  # noqa: E731 - a scan and a goal in range
+robots = robot_models()
+grown_maps = cognitive_maps
 
 
 def _state(ident: int, task: TaskKind, interrupted: bool, cost: float, d_i: Disturbance | None = GOAL) -> State:
     return State(ident, task, d_i, OBSTACLE if interrupted else None, Pose(0, 0), Pose(0.1 * ident, 0), cost=cost)
-
-
-@st.composite
-def grown_maps(draw, probabilistic: bool = False) -> CognitiveMap:
-    """A map grown by hand the way Algorithm 1 grows one: from an uninterrupted STRAIGHT
-    frontier state, each option is STRAIGHT, LEFT+STRAIGHT or RIGHT+STRAIGHT, stopping at
-    interruptions. With ``probabilistic`` a task may have several outcomes."""
-    m = CognitiveMap(goal=GOAL)
-    m.add_state(_state(0, TaskKind.STRAIGHT, False, 0.5))
-    costs = st.floats(0.0, 0.99)
-
-    def add(task: TaskKind) -> State:
-        hit = draw(st.booleans())
-        return m.add_state(_state(len(m), task, hit, 1 + draw(costs) if hit else draw(costs)))
-
-    frontier = [0]
-    for _ in range(draw(st.integers(0, 5))):
-        if not frontier:
-            break
-        e = frontier.pop(draw(st.integers(0, len(frontier) - 1)))
-        for kind in draw(st.lists(st.sampled_from(list(TaskKind)), min_size=1, max_size=3, unique=True)):
-            n = draw(st.integers(1, 3)) if probabilistic else 1
-            weights = draw(st.lists(st.integers(1, 5), min_size=n, max_size=n))
-            for w in weights:
-                first = add(kind)
-                m.add_transition(e, first.ident, kind, Fraction(w, sum(weights)))
-                last = first
-                if kind.is_turn and not first.interrupted:
-                    last = add(TaskKind.STRAIGHT)
-                    m.add_transition(first.ident, last.ident)
-                if not last.interrupted:
-                    frontier.append(last.ident)
-    return m
 
 
 def _configurator_map(name: str = "overtaking"):

@@ -12,35 +12,15 @@ from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
 from planner import Configurator, PlanningError, RobotModel
-from planner.scenarios import Scene, Shape, _rect
+from planner.scenarios import Scene
+from planner.strategies import robot_models, scenes
 
 sys.path.insert(0, str(Path(__file__).parent))
 from sweepcheck import check_states  # noqa: E402
 
 
-@st.composite
-def scenes(draw):
-    """A few boxes around (not on) the robot, and a goal within the planning horizon."""
-    shapes = []
-    for _ in range(draw(st.integers(0, 4))):
-        r = draw(st.floats(0.35, 1.0))
-        a = draw(st.floats(-math.pi, math.pi))
-        sx = draw(st.floats(0.03, 0.4))
-        sy = draw(st.floats(0.03, 0.4))
-        ang = draw(st.floats(0, math.pi))
-        shapes.append(Shape("polygon", _rect(r * math.cos(a), r * math.sin(a), sx, sy, ang)))
-    gd = draw(st.floats(0.3, 1.1))
-    ga = draw(st.floats(-math.pi, math.pi))
-    goal = (gd * math.cos(ga), gd * math.sin(ga))
-    return Scene("generated", tuple(shapes), goal)
-
-
-robots = st.builds(
-    RobotModel,
-    width=st.sampled_from([0.14, 0.18, 0.22]),
-    step_length=st.sampled_from([0.2, 0.27, 0.35]),
-    turn_angle=st.sampled_from([math.pi / 2, math.pi / 3]),
-)
+# the public strategies (planner.strategies) are what users property-test with, too
+robots = robot_models()
 
 
 def _build(scene: Scene, robot: RobotModel):
