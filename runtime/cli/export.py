@@ -60,7 +60,10 @@ def map_from_args(args: argparse.Namespace) -> tuple[CognitiveMap, str]:
             files = sorted(p for p in path.iterdir() if p.is_file() and p.suffix in (".dat", ".txt", ".npy", ".xy"))
             if not files:
                 raise CliError(f"{path}: no scan files (*.dat, *.txt, *.npy) in this folder")
-            return learn_from_scans(files, goal, conf), f"{path} ({len(files)} scans)"
+            from runtime.cli._progress import progress
+
+            scans = progress(files, desc="learn", unit="scan")  # planned one by one as they are consumed
+            return learn_from_scans(scans, goal, conf), f"{path} ({len(files)} scans)"
         if not path.is_file():
             raise CliError(f"--scan: {path}: no such file")
         if samples is not None:

@@ -107,3 +107,39 @@ def test_folder_jobs_draw_a_bar_on_a_terminal_only(tmp_path, scans_dir, command)
     assert piped.returncode == 0
     assert piped.stderr == ""
     assert [ln.split()[0] for ln in piped.stdout.splitlines()] == [ln.split()[0] for ln in out.splitlines()]
+
+
+@pytest.mark.parametrize("command", ["export", "check"])
+def test_learning_a_map_from_a_folder_draws_a_bar(tmp_path, scans_dir, command):
+    d = _folder(tmp_path, scans_dir, 3)
+    args = [command, "--scan", str(d), "--learn"] + (["-f", "json", "-o", str(tmp_path / "m.json")] if command == "export" else [])
+    status, _, tty = run_with_tty_stderr(args)
+    assert status in (0, 1), tty  # check: 1 when a property fails, still a finished job
+    assert "learn" in tty and "0/3" in tty
+    piped = subprocess.run([*clomp_cmd(), *args], capture_output=True, text=True, timeout=600)
+    assert "learn" not in piped.stderr and "\r" not in piped.stderr
+
+
+def _experiment(tmp_path: Path, runs: int, *extra: str) -> list[str]:
+    return ["experiment", "overtaking", "--runs", str(runs), "--out", str(tmp_path / f"exp{runs}"), "--no-plots", *extra]
+
+
+def test_experiment_draws_a_bar_on_a_terminal_and_none_when_piped(tmp_path):
+    args = _experiment(tmp_path, 2, "--workers", "0")
+    status, out, tty = run_with_tty_stderr(args)
+    assert status == 0, tty
+    assert "0/4" in tty and "run" in tty and "\r" in tty
+    piped = subprocess.run([*clomp_cmd(), *args], capture_output=True, text=True, timeout=600)
+    assert piped.returncode == 0 and piped.stderr == ""
+    assert "\r" not in piped.stdout and "%|" not in piped.stdout
+
+
+@pytest.mark.slow
+def test_the_issues_experiment_of_20_runs_shows_a_bar_only_on_a_terminal(tmp_path):
+    """``clomp experiment overtaking --runs 20``: both conditions, 40 runs, the default workers."""
+    status, out, tty = run_with_tty_stderr(_experiment(tmp_path, 20))
+    assert status == 0, tty
+    assert "0/40" in tty and "\r" in tty
+    piped = subprocess.run([*clomp_cmd(), *_experiment(tmp_path, 20)], capture_output=True, text=True, timeout=1200)
+    assert piped.returncode == 0, piped.stderr
+    assert "%|" not in piped.stderr and "\r" not in piped.stderr
