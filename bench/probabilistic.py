@@ -11,7 +11,7 @@ import argparse
 import statistics
 import time
 
-from formal.robust import plan_probability, robust_plan
+from formal.robust import follow_tasks, plan_probability, robust_plan
 from planner import Configurator, load_scenario
 from planner.probabilistic import sample_map
 
@@ -39,7 +39,7 @@ def main(argv: list[str] | None = None) -> int:
         solve_wall.append(time.perf_counter() - w0)
         solve_cpu.append(time.thread_time() - c0)
     assert pm is not None
-    greedy = plan_probability(pm.map, pm.nominal.plan)
+    greedy = plan_probability(pm.map, follow_tasks(pm.map, [s.task for s in pm.nominal.steps]))
     med = statistics.median
     print(f"{args.scenario}, {args.samples} samples per choice, noise {args.noise}, {args.repeat} repeats (median):")
     print(f"  build probabilistic map  wall {med(build_wall) * 1e3:8.1f} ms   thread CPU {med(build_cpu) * 1e3:8.1f} ms"

@@ -18,7 +18,7 @@ import math
 import statistics
 import time
 
-from formal.robust import plan_probability, robust_plan
+from formal.robust import follow_tasks, plan_probability, robust_plan
 from planner import Configurator
 from planner.probabilistic import RobustConfigurator, sample_map
 from runtime.experiment.layouts import make_layout
@@ -45,7 +45,7 @@ def main(argv: list[str] | None = None) -> int:
             # Storm's prediction on the first plan (the map from the start pose)
             pm = sample_map(scene.scan(max_range=1.1), goal, samples=args.samples, noise=args.noise, seed=k)  # type: ignore[arg-type]
             predicted["robust"].append(robust_plan(pm.map).probability)
-            predicted["greedy"].append(plan_probability(pm.map, pm.nominal.plan))
+            predicted["greedy"].append(plan_probability(pm.map, follow_tasks(pm.map, [s.task for s in pm.nominal.steps])))
             line = []
             for name, conf in (("greedy", Configurator()), ("robust", RobustConfigurator(samples=args.samples, noise=args.noise, seed=1000 * k))):
                 r = run_once(scene, "planning", seed=k, run=k, noise=args.noise, configurator=conf, max_time=args.max_time,

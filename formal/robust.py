@@ -27,7 +27,7 @@ from formal.lts import CognitiveMap, MapError
 from formal.model import TaskKind
 from formal.supervisory import Plan
 
-__all__ = ["SAFE_GOAL", "RobustPlan", "robust_plan", "plan_probability"]
+__all__ = ["SAFE_GOAL", "RobustPlan", "robust_plan", "plan_probability", "follow_tasks"]
 
 SAFE_GOAL = '!"collision" U "goal"'
 """The path formula of a safe arrival: the goal, with no collision before it."""
@@ -98,6 +98,32 @@ def robust_plan(cmap: CognitiveMap) -> RobustPlan:
         seen.add(best.target)
         path.append(best.target)
     return RobustPlan(probability, choice, Plan(tuple(path)))
+
+
+def follow_tasks(cmap: CognitiveMap, tasks: list[TaskKind]) -> Plan:
+    """The plan that starts ``tasks`` in turn from q0 of ``cmap``, following at each
+    step the choice of that task to its most likely outcome; it ends early where the
+    choice does not exist. This is how a plan made on another map (e.g. the nominal,
+    noise-free one) is carried onto a probabilistic map whose outcomes differ.
+
+    >>> from formal.model import Disturbance, Pose, State
+    >>> g = Disturbance.goal(1.0, 0.0)
+    >>> m = CognitiveMap.from_parts(
+    ...     [State(0, TaskKind.STRAIGHT, g, None, Pose(0, 0), Pose(0, 0)),
+    ...      State(1, TaskKind.STRAIGHT, g, None, Pose(0, 0), Pose(1, 0))], [(0, 1)], goal=g)
+    >>> follow_tasks(m, [TaskKind.STRAIGHT, TaskKind.LEFT]).states
+    (0, 1)
+    """
+    path = [cmap.initial.ident]
+    for task in tasks:
+        ts = [t for t in cmap.out_transitions(path[-1]) if t.label is task]
+        if not ts or cmap[path[-1]].interrupted:
+            break
+        best = max(ts, key=lambda t: (t.probability, -t.target))
+        if best.target in path:
+            break
+        path.append(best.target)
+    return Plan(tuple(path))
 
 
 def plan_probability(cmap: CognitiveMap, plan: Plan | None = None) -> float:

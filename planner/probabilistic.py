@@ -36,6 +36,7 @@ from __future__ import annotations
 import json
 import math
 import time
+import warnings
 from collections.abc import Iterable
 from dataclasses import asdict, dataclass, field, fields, replace
 from fractions import Fraction
@@ -330,7 +331,9 @@ def sample_map(
     for _ in range(samples):
         r = np.random.default_rng(rng.integers(2**63))
         pts = _perturb(points, nz, r)
-        obstacles = perceive(pts, robot.sensor_range, robot.cluster_distance)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # noise pushes a few returns past the range: cropped, as meant
+            obstacles = perceive(pts, robot.sensor_range, robot.cluster_distance)
         bl, br = r.normal(0.0, nz.wheel_bias, 2) if nz.wheel_bias else (0.0, 0.0)
         worlds.append(_World(obstacles, float(bl), float(br), float(r.normal(0.0, nz.drift)) if nz.drift else 0.0, r))
     b = _Builder(nominal.map, nominal.goal, robot, conf.cost)
@@ -448,7 +451,10 @@ class RobustConfigurator(Configurator):
     """A Configurator whose plans are Storm's risk-aware ones: each :meth:`plan` builds
     the probabilistic map (``samples`` noisy rollouts per choice, ``noise`` preset) and
     returns the plan of the scheduler that maximises P[!collision U goal] on it, so that
-    a supervisor executes and replans with robust plans. Needs stormpy.
+    a supervisor executes and replans with robust plans; where the scheduler is not
+    strictly safer than the best-first plan (carried onto the map by its tasks) the
+    best-first plan is kept, since a choice among equally unsafe options is arbitrary.
+    Needs stormpy.
 
     ``last_probabilities`` holds (robust, greedy) of the latest plan, Storm's predictions.
     """
@@ -470,7 +476,7 @@ class RobustConfigurator(Configurator):
 
     def plan(self, scan: Any, goal: Disturbance | tuple[float, float]) -> PlanResult:
         """The robust plan on the probabilistic map of ``scan`` (see the class docstring)."""
-        from formal.robust import plan_probability, robust_plan
+        from formal.robust import follow_tasks, plan_probability, robust_plan
         from formal.supervisory import guard
 
         t0 = time.perf_counter()
@@ -478,6 +484,11 @@ class RobustConfigurator(Configurator):
         pm = sample_map(scan, goal, self.samples, self.noise, self.seed + self._calls, base)
         self._calls += 1
         rp = robust_plan(pm.map)
-        self.last_probabilities = (rp.probability, plan_probability(pm.map, pm.nominal.plan))
+        greedy = follow_tasks(pm.map, [s.task for s in pm.nominal.steps])
+        p_greedy = plan_probability(pm.map, greedy)
+        self.last_probabilities = (rp.probability, p_greedy)
+        # where every choice is equally (un)safe the scheduler's pick is arbitrary: keep
+        # the best-first plan unless Storm's scheduler is strictly safer
+        plan = rp.plan if rp.probability > p_greedy + 1e-9 else greedy
         n = pm.nominal
-        return PlanResult(pm.map, rp.plan, n.goal, n.obstacles, n.robot, time.perf_counter() - t0, n.stop_reason, guard(pm.map, rp.plan))
+        return PlanResult(pm.map, plan, n.goal, n.obstacles, n.robot, time.perf_counter() - t0, n.stop_reason, guard(pm.map, plan))

@@ -143,11 +143,11 @@ def robust_summary(pm: ProbabilisticMap) -> dict[str, Any]:
     ``probability`` (Storm's Pmax of reaching the goal without a collision) and
     ``greedy_probability`` (the same figure for the best-first plan of the nominal map)."""
     from formal.checking import StormMissing
-    from formal.robust import plan_probability, robust_plan
+    from formal.robust import follow_tasks, plan_probability, robust_plan
 
     try:
         rp = robust_plan(pm.map)
-        greedy = plan_probability(pm.map, pm.nominal.plan)
+        greedy = plan_probability(pm.map, follow_tasks(pm.map, [s.task for s in pm.nominal.steps]))
     except StormMissing as exc:
         raise CliError(str(exc)) from None
     steps = rp.plan.tasks(pm.map)
