@@ -6,6 +6,8 @@ Rules (each test names one; the README's layout table states them for people):
   not import runtime;
 - the device layer stands alone: ``runtime/devices/`` imports nothing of clomp outside it;
 - the robot backends (``runtime/robots/``) and the devices never import the supervision room;
+- supervision, records, ``runtime/robot.py`` and ``runtime/clock.py`` import none of the rooms
+  above them (robots, experiment, cli; supervision not the devices either);
 - ``runtime/`` has at most 10 modules at its top level and no module in planner, formal or
   runtime has more than 600 lines;
 - one geometry: only ``formal/geometry.py`` defines pose integration, frame composition
@@ -91,6 +93,13 @@ def test_backends_and_devices_do_not_import_the_supervisor() -> None:
     paths = _modules("runtime/robots", "runtime/devices")
     assert len(paths) >= 8
     assert _violations(paths, ("runtime.supervision",)) == []
+
+
+def test_supervision_and_records_stay_below_robots_experiment_and_cli() -> None:
+    assert _violations(_modules("runtime/supervision"), ("runtime.robots", "runtime.experiment", "runtime.cli", "runtime.devices")) == []
+    assert _violations(_modules("runtime/records"), ("runtime.robots", "runtime.supervision", "runtime.experiment", "runtime.cli")) == []
+    assert _violations([REPO / "runtime" / "robot.py", REPO / "runtime" / "clock.py"], ("runtime.robots", "runtime.supervision",
+                                                                                     "runtime.experiment", "runtime.cli")) == []
 
 
 def test_runtime_top_level_is_small_and_no_module_is_too_long() -> None:
