@@ -22,7 +22,7 @@ def add_source_options(p: argparse.ArgumentParser, required: bool = True) -> Non
     """--scenario | --scan | --map, and --goal: where the cognitive map comes from."""
     src = p.add_mutually_exclusive_group(required=required)
     src.add_argument("--scenario", help="a built-in scenario name or a scenario JSON file")
-    src.add_argument("--scan", help="a scan file (x y per line, or .npy); with --learn, a folder of consecutive scans")
+    src.add_argument("--scan", help="a scan file (x y per line, or .npy); with --learn, a folder of consecutive scans or a run log")
     src.add_argument("--map", metavar="JSON", help="a cognitive map written by 'clomp plan --map' or 'export --format json'")
     p.add_argument("--goal", help="goal X,Y in the robot frame (metres); default: the scenario's, or 1.0,0.0")
     add_sampling_options(p)
@@ -54,9 +54,13 @@ def map_from_args(args: argparse.Namespace) -> tuple[CognitiveMap, str]:
             return conf.plan(scan, goal).map, scene.name
         path = Path(args.scan)
         goal = parse_goal(args.goal) if args.goal else (1.0, 0.0)
+        if learn and path.is_file():
+            scans, log_goal = _standing_scans(path)
+            g = parse_goal(args.goal) if args.goal else log_goal
+            return learn_from_scans(scans, g, conf), f"{path} ({len(scans)} scans taken at one pose)"
         if learn:
             if not path.is_dir():
-                raise CliError(f"--scan: {path}: --learn needs a folder of scans")
+                raise CliError(f"--scan: {path}: --learn needs a folder of scans or a run log (.jsonl)")
             files = sorted(p for p in path.iterdir() if p.is_file() and p.suffix in (".dat", ".txt", ".npy", ".xy"))
             if not files:
                 raise CliError(f"{path}: no scan files (*.dat, *.txt, *.npy) in this folder")
@@ -71,6 +75,39 @@ def map_from_args(args: argparse.Namespace) -> tuple[CognitiveMap, str]:
         return conf.plan(path, goal).map, str(path)
     except (ScenarioError, ScanError, PlanningError, NoiseError) as exc:
         raise CliError(str(exc)) from None
+
+
+def _standing_scans(path: Path) -> tuple[list[Any], tuple[float, float]]:
+    """The longest run of consecutive scans of a run log taken at one pose (the robot
+    standing: within 1 cm and 0.02 rad), and their goal in the robot frame: repeated
+    observations of one situation, from which :func:`learn_from_scans` learns."""
+    import math
+
+    import numpy as np
+
+    from runtime.records.runlog import LogError, read_log
+
+    groups: list[list[tuple[Any, tuple[float, float]]]] = []
+    last: list[float] | None = None
+    try:
+        for rec in read_log(path):
+            if rec.get("event") != "scan":
+                continue
+            pose, goal = rec.get("pose"), rec.get("goal")
+            if not (isinstance(pose, list) and len(pose) == 3 and isinstance(goal, list) and len(goal) == 2):
+                continue
+            pts = np.asarray(rec.get("points", []), dtype=float).reshape(-1, 2)
+            same = last is not None and math.hypot(pose[0] - last[0], pose[1] - last[1]) <= 0.01 and abs(pose[2] - last[2]) <= 0.02
+            if not same:
+                groups.append([])
+            groups[-1].append((pts, (float(goal[0]), float(goal[1]))))
+            last = [float(v) for v in pose]
+    except (LogError, OSError, ValueError) as exc:
+        raise CliError(f"--scan: {path}: not a run log with scans: {exc}") from None
+    if not groups:
+        raise CliError(f"--scan: {path}: the run log has no scan records with a pose and a goal")
+    best = max(groups, key=len)
+    return [pts for pts, _ in best], best[0][1]
 
 
 def register(sub: Any) -> None:

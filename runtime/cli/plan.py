@@ -69,7 +69,7 @@ def add_sampling_options(p: argparse.ArgumentParser) -> None:
     g.add_argument("--samples", type=int, metavar="N", help="estimate every task's outcome from N noisy rollouts (probabilities k/N)")
     g.add_argument("--noise", metavar="PRESET", default="paper", help=f"noise preset of the rollouts (default paper; known: {', '.join(preset_names())})")
     g.add_argument("--seed", type=int, default=0, help="seed of the noisy rollouts (default 0)")
-    g.add_argument("--learn", action="store_true", help="with --scan FOLDER: learn the map's probabilities from the folder's consecutive scans")
+    g.add_argument("--learn", action="store_true", help="with --scan FOLDER or a run log: learn the probabilities from consecutive scans of one place")
 
 
 def probabilistic_from_args(args: argparse.Namespace, conf: Configurator, scan: Any, goal: tuple[float, float]) -> ProbabilisticMap:

@@ -376,3 +376,32 @@ def test_cli_probabilistic_bad_input_is_one_clear_error(clomp, tmp_path, argv, m
         args += ["-o", str(tmp_path / "out")]
     code, _, err = clomp(*args)
     assert code == 2 and message in err and "Traceback" not in err
+
+
+def test_cli_export_learn_from_a_run_log_uses_the_scans_taken_at_one_pose(clomp, tmp_path):
+    import json
+
+    import numpy as np
+
+    from planner import load_scenario
+
+    scene = load_scenario("overtaking")
+    pts = scene.scan(max_range=1.1)
+    rng = np.random.default_rng(0)
+    log = tmp_path / "run.jsonl"
+    with log.open("w") as fh:
+        fh.write(json.dumps({"t": 0.0, "event": "run", "argv": []}) + "\n")
+        for k in range(7):
+            pose = [0.0, 0.0, 0.0] if k < 5 else [0.3, 0.0, 0.0]  # five scans standing, then two elsewhere
+            noisy = (pts + rng.normal(0, 0.004, pts.shape)).tolist()
+            fh.write(json.dumps({"t": 0.1 * k, "event": "scan", "points": noisy, "goal": list(scene.goal_in_robot_frame()), "pose": pose}) + "\n")
+    out = tmp_path / "learned.json"
+    code, _, err = clomp("export", "--scan", str(log), "--learn", "-f", "json", "-o", str(out))
+    assert code == 0, err
+    m = CognitiveMap.read_json(out)
+    assert m.metadata["observations"] == 5
+    assert all((t.probability * 5).denominator == 1 for t in m.out_transitions(0))
+    bad = tmp_path / "bad.jsonl"
+    bad.write_text('{"t": 0, "event": "run"}\n')
+    code, _, err = clomp("export", "--scan", str(bad), "--learn", "-f", "json", "-o", str(out))
+    assert code == 2 and "no scan records" in err
