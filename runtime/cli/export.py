@@ -55,9 +55,9 @@ def map_from_args(args: argparse.Namespace) -> tuple[CognitiveMap, str]:
         path = Path(args.scan)
         goal = parse_goal(args.goal) if args.goal else (1.0, 0.0)
         if learn and path.is_file():
-            scans, log_goal = _standing_scans(path)
+            standing, log_goal = _standing_scans(path)
             g = parse_goal(args.goal) if args.goal else log_goal
-            return learn_from_scans(scans, g, conf), f"{path} ({len(scans)} scans taken at one pose)"
+            return learn_from_scans(standing, g, conf), f"{path} ({len(standing)} scans taken at one pose)"
         if learn:
             if not path.is_dir():
                 raise CliError(f"--scan: {path}: --learn needs a folder of scans or a run log (.jsonl)")
