@@ -2,11 +2,22 @@
 
 Run: ``python bench/planning.py [--repeat N] [--scans DIR]``. Prints figures; asserts nothing.
 Planning time covers perception (scan → obstacle boxes) and map construction.
+
+``python bench/planning.py --cpu [--scans DIR ...] [--repeat N]`` times what the authors'
+C++ figures time (``../shared/reference/cpp_anchor.md``): the thread CPU time of a whole
+``plan()`` call on the scan's points, perception included, median of ``--repeat`` runs
+per scan (CPU time is not inflated by a busy machine; wall time is printed beside it).
+Per folder it prints median and p90 over scans, state counts, the median per-scan ratio
+to ``cpp_anchor.csv``, the honest reach (goal reached with the body inside the sensed
+disc, by the independent sweep of ``tests/planner/sweepcheck.py``), plans over a sensed
+point, the perception time of a 400-point scan and a 200k-point scan's time and memory.
 """
 
 from __future__ import annotations
 
 import argparse
+import csv
+import math
 import statistics
 import sys
 import time
@@ -27,10 +38,130 @@ def _row(name: str, times: list[float], states: list[int]) -> str:
     )
 
 
+ANCHOR = Path(__file__).resolve().parents[1].parent / "shared" / "reference" / "cpp_anchor.csv"
+
+
+def _anchor(path: Path) -> dict[str, dict[str, str]]:
+    if not path.is_file():
+        return {}
+    with path.open() as f:
+        return {row["scan"]: row for row in csv.DictReader(f)}
+
+
+def _ahead(points: np.ndarray) -> bool:
+    """A return within 0.6 m ahead in the robot's lane (the anchor's ``ahead``)."""
+    if not len(points):
+        return False
+    x, y = points[:, 0], points[:, 1]
+    return bool(((x > 0) & (x <= 0.6) & (np.abs(y) <= 0.15)).any())
+
+
+def _cpu_row(name: str, cpu: list[float], wall: list[float], states: list[int], ratios: list[float]) -> str:
+    if not cpu:
+        return f"{name:<30} n=   0"
+    c, w = np.array(cpu) * 1e3, np.array(wall) * 1e3
+    ratio = f"  ratio to C++ median {np.median(ratios):5.2f}x (n={len(ratios)})" if ratios else ""
+    return (
+        f"{name:<30} n={len(cpu):4d}  cpu median {np.median(c):6.3f} ms  p90 {np.percentile(c, 90):6.3f} ms"
+        f"  (wall median {np.median(w):6.3f}, p90 {np.percentile(w, 90):6.3f})"
+        f"  states median {statistics.median(states):5.1f} p90 {np.percentile(states, 90):5.1f} max {max(states):4d}{ratio}"
+    )
+
+
+def _cpu_bench(folders: list[Path], repeat: int) -> None:
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests" / "planner"))
+    from sweepcheck import check_states
+
+    conf = Configurator()
+    robot = conf.robot
+    conf.plan(np.zeros((0, 2)), (1.0, 0.0))
+    anchor = _anchor(ANCHOR)
+    print(f"clomp planning, thread CPU time of plan() per scan, median of {repeat} (python {sys.version.split()[0]})")
+    for folder in folders:
+        files = sorted(folder.glob("*.dat"))
+        groups: dict[str, tuple[list[float], list[float], list[int], list[float]]] = {
+            k: ([], [], [], []) for k in ("something ahead", "all with data", "nothing ahead", "empty")
+        }
+        reach = honest = over = frontier = blocked = with_data = 0
+        for f in files:
+            pts = load_scan(f)
+            cpu, wall = [], []
+            for _ in range(repeat):
+                w0, c0 = time.perf_counter(), time.thread_time()
+                r = conf.plan(pts, (1.0, 0.0))
+                cpu.append(time.thread_time() - c0)
+                wall.append(time.perf_counter() - w0)
+            c, w = float(np.median(cpu)), float(np.median(wall))
+            row = anchor.get(f.name) if folder.resolve() == DEFAULT_SCANS.resolve() else None
+            ratio = None
+            if row and row.get("cpp_status") == "ok" and row.get("cpp_cpu_median_s"):
+                ratio = c / float(row["cpp_cpu_median_s"])
+            ahead = bool(int(row["ahead"])) if row and row.get("ahead") else _ahead(pts)
+            keys = ["all with data", "something ahead" if ahead else "nothing ahead"] if len(pts) else ["empty"]
+            for k in keys:
+                g = groups[k]
+                g[0].append(c)
+                g[1].append(w)
+                g[2].append(r.states)
+                if ratio is not None:
+                    g[3].append(ratio)
+            if len(pts):
+                with_data += 1
+                check = check_states(pts, r.steps, robot)
+                over += check.over_points > 0
+                reach += r.reached_goal
+                honest += r.reached_goal and check.ok
+                frontier += r.stop_reason == "frontier"
+                blocked += r.goal_blocked
+        print(f"{folder} ({len(files)} scans)")
+        for k, (cpu, wall, states, ratios) in groups.items():
+            print("  " + _cpu_row(k, cpu, wall, states, ratios))
+        if with_data:
+            print(
+                f"  honest reach {honest}/{with_data} = {100 * honest / with_data:.1f} % of scans with data"
+                f" (reached {reach}; plans over a sensed point {over}; ended at the frontier {frontier}; goal blocked {blocked})"
+            )
+    _perception_and_large()
+
+
+def _perception_and_large() -> None:
+    import tracemalloc
+
+    from planner.perception import perceive
+
+    rng = np.random.default_rng(0)
+    a = np.sort(rng.uniform(-math.pi, math.pi, 400))
+    r = 0.5 + 0.1 * np.sin(3 * a)
+    scan400 = np.round(np.c_[r * np.cos(a), r * np.sin(a)], 2)
+    times = []
+    for _ in range(200):
+        c0 = time.thread_time()
+        perceive(scan400)
+        times.append(time.thread_time() - c0)
+    print(f"perception of a 400-point scan: cpu median {np.median(times) * 1e3:.4f} ms, p90 {np.percentile(times, 90) * 1e3:.4f} ms")
+    conf = Configurator()
+    for n in (50_000, 200_000):
+        a = rng.uniform(-math.pi, math.pi, n)
+        rad = np.where(rng.random(n) < 0.5, 0.45 / np.maximum(np.abs(np.sin(a)), 1e-3), rng.uniform(0.2, 1.1, n))
+        pts = np.c_[rad * np.cos(a), rad * np.sin(a)]
+        tracemalloc.start()
+        w0, c0 = time.perf_counter(), time.thread_time()
+        try:
+            res = conf.plan(pts, (1.0, 0.0))
+            what = f"planned: {res.states} states, reached={res.reached_goal}, stop {res.stop_reason}"
+        except Exception as exc:  # a refusal is an answer too: say which
+            what = f"refused: {type(exc).__name__}: {exc}"
+        cpu, wall = time.thread_time() - c0, time.perf_counter() - w0
+        peak = tracemalloc.get_traced_memory()[1]
+        tracemalloc.stop()
+        print(f"{n:>7}-point scan: cpu {cpu:.3f} s, wall {wall:.3f} s, peak memory {peak / 1e6:.1f} MB ({peak / n:.0f} B/point); {what}")
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__)
+    ap.add_argument("--cpu", action="store_true", help="per-scan thread CPU time of plan() beside the authors' C++")
     ap.add_argument("--repeat", type=int, default=50, help="runs per scenario (default 50)")
-    ap.add_argument("--scans", type=Path, default=DEFAULT_SCANS, help="folder of recorded scans")
+    ap.add_argument("--scans", type=Path, nargs="+", default=[DEFAULT_SCANS], help="folder(s) of recorded scans")
     ap.add_argument(
         "--single",
         nargs="*",
@@ -38,6 +169,10 @@ def main(argv: list[str] | None = None) -> int:
         help="recorded scans (with something ahead) each planned --repeat times, for a per-scan median/p90",
     )
     args = ap.parse_args(argv)
+    if args.cpu:
+        _cpu_bench(args.scans, args.repeat if args.repeat != 50 else 15)
+        return 0
+    args.scans = args.scans[0]
     conf = Configurator()
     conf.plan(np.zeros((0, 2)), (1.0, 0.0))  # warm up imports
     print(f"clomp planning benchmark (python {sys.version.split()[0]}, repeat {args.repeat})")

@@ -176,7 +176,7 @@ class Configurator:
         self,
         robot: RobotModel | None = None,
         cost: CostFunction = default_cost,
-        max_states: int = 400,
+        max_states: int = 100,
         horizon: float = 1.2,
     ) -> None:
         if max_states < 1:
@@ -212,10 +212,11 @@ class Configurator:
     def build(self, obstacles: Obstacles, goal: Disturbance | tuple[float, float]) -> PlanResult:
         """Construct the cognitive map for ``goal`` among ``obstacles`` and extract ρ.
 
-        ``stop_reason`` is ``goal`` (a state reached D_G), ``frontier`` (the plan ends
-        where the body meets the rim of the sensed disc: what lies beyond is unseen, the
-        closed loop drives there and replans), ``budget`` (``max_states`` spent) or
-        ``exhausted`` (no obstacle-free transition left). ``goal_blocked`` is True when
+        ``stop_reason`` is ``goal`` (a state reached D_G), ``frontier`` (the most
+        promising open state lies where the body meets the rim of the sensed disc, or the
+        plan ends there: the goal needs unseen space; the plan ends at argmin φ, at or
+        near the rim, and the closed loop drives there and replans), ``budget``
+        (``max_states`` spent) or ``exhausted`` (no obstacle-free transition left). ``goal_blocked`` is True when
         the goal lies inside a perceived obstacle: the plan then ends at the reachable
         state closest to it and ``reached_goal`` is False.
         """

@@ -46,7 +46,7 @@ SCAN_SUFFIXES: tuple[str, ...] = (".dat", ".txt", ".npy", ".xy")
 # a piece is "thin" when its points spread at most this much across its axis
 _THIN = 0.0075
 # surfaces are first cut into pieces of this much path length, then thick pieces halved
-_PIECE = 0.4
+_PIECE = 0.08
 # how far a box stands off its outermost points: the allowance for sensor noise
 _PAD = 0.002
 
@@ -88,6 +88,10 @@ def validate_scan(points: object, name: str = "scan") -> np.ndarray:
     >>> validate_scan(np.ma.masked_invalid([[0.5, 0.1], [np.nan, 0.2]])).tolist()
     [[0.5, 0.1]]
     """
+    if type(points) is np.ndarray and points.dtype == np.float64 and points.ndim == 2 and points.shape[1] == 2:
+        # the common case (a float array from a driver or a file): one check
+        if len(points) <= MAX_SCAN_POINTS and np.isfinite(points).all():
+            return points
     mask = None
     if np.ma.isMaskedArray(points):
         mask = np.ma.getmaskarray(points)
@@ -374,6 +378,9 @@ class Obstacles:
         return None
 
 
+_NONE = Obstacles(np.zeros((0, 4, 2)), np.zeros((0, 2)), np.zeros(0))
+
+
 def _outline(box: np.ndarray, step: float = 0.005) -> np.ndarray:
     out = []
     for k in range(4):
@@ -397,45 +404,29 @@ def _point_in_convex(box: np.ndarray, x: float, y: float, margin: float) -> bool
     return True
 
 
-def _chain(points: np.ndarray, eps: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Order the points along the surfaces the sensor saw, and where surfaces break.
-
-    Returns the points sorted by bearing from the sensor (rotated so that a surface
-    crossing the bearing ±π is not cut) and a boolean array, True where a new surface
-    starts: where the step from the previous point is longer than ``eps``.
-    """
-    order = np.argsort(np.arctan2(points[:, 1], points[:, 0]), kind="stable")
-    p = points[order]
-    d = p - np.roll(p, 1, axis=0)
-    step = np.hypot(d[:, 0], d[:, 1])
-    brk = step > eps
-    if brk.any():
-        first = int(np.argmax(brk))
-        if first:
-            p, brk, step = np.roll(p, -first, axis=0), np.roll(brk, -first), np.roll(step, -first)
-    else:
-        brk[0] = True
-    return p, brk, step
-
-
-def _fit(p: np.ndarray, starts: np.ndarray, bounds: np.ndarray) -> tuple[np.ndarray, ...]:
-    """Per piece (``p[bounds[i]:bounds[i+1]]``, ``starts = bounds[:-1]``): origin, chord
-    axis and the points' extents along and across it."""
-    a = p[starts]
-    axis = p[bounds[1:] - 1] - a
-    norm = np.hypot(axis[:, 0], axis[:, 1])
+def _fit(xs: np.ndarray, ys: np.ndarray, starts: np.ndarray, bounds: np.ndarray) -> tuple[np.ndarray, ...]:
+    """Per piece (points ``bounds[i]:bounds[i+1]``, ``starts = bounds[:-1]``): its first
+    point, the unit chord to its last point, and the points' extents along and across it."""
+    ax, ay = xs[starts], ys[starts]
+    last = bounds[1:] - 1
+    ex, ey = xs[last] - ax, ys[last] - ay
+    norm = np.hypot(ex, ey)
     single = norm < 1e-9
-    norm[single] = 1.0
-    axis /= norm[:, None]
-    axis[single] = (1.0, 0.0)
+    if single.any():
+        norm[single] = 1.0
+        ex[single] = 1.0
+    ex /= norm
+    ey /= norm
     which = np.repeat(np.arange(len(starts)), bounds[1:] - starts)
-    rel = p - a[which]
-    ax = axis[which]
-    u = rel[:, 0] * ax[:, 0] + rel[:, 1] * ax[:, 1]
-    t = rel[:, 1] * ax[:, 0] - rel[:, 0] * ax[:, 1]
+    rx, ry = xs - ax[which], ys - ay[which]
+    exw, eyw = ex[which], ey[which]
+    u = rx * exw + ry * eyw
+    t = ry * exw - rx * eyw
     return (
-        a,
-        axis,
+        ax,
+        ay,
+        ex,
+        ey,
         np.minimum.reduceat(u, starts),
         np.maximum.reduceat(u, starts),
         np.minimum.reduceat(t, starts),
@@ -468,50 +459,81 @@ def perceive(
     """
     pts = validate_scan(points)
     exempt = 0
-    if len(pts):
-        x, y = pts[:, 0], pts[:, 1]
-        r2 = x * x + y * y
-        keep = (r2 <= sensor_range * sensor_range) & (r2 > 1e-6)
-        if not keep.all() and (r2 > (sensor_range * (1 + _RANGE_SLACK)) ** 2).any():
+    if not len(pts):
+        return _NONE
+    x, y = pts[:, 0], pts[:, 1]
+    r2 = x * x + y * y
+    keep = (r2 <= sensor_range * sensor_range) & (r2 > 1e-6)
+    if body is not None:
+        rear, front, half = body
+        near = np.flatnonzero(keep & (r2 < rear * rear + half * half))
+        if len(near):
+            nx, ny = x[near], y[near]
+            own = near[(nx > -rear) & (nx < front) & (np.abs(ny) < half)]
+            exempt = len(own)
+            keep[own] = False
+    ang = np.arctan2(y, x)
+    kept = int(np.count_nonzero(keep))
+    if kept < len(pts):
+        if (r2 > (sensor_range * (1 + _RANGE_SLACK)) ** 2).any():
             warning = range_warning(pts, sensor_range)
             if warning:
                 warnings.warn(ScanWarning(warning), stacklevel=2)
-        if body is not None:
-            rear, front, half = body
-            inside = (x > -rear) & (x < front) & (np.abs(y) < half) & keep
-            exempt = int(np.count_nonzero(inside))
-            keep &= ~inside
-        pts = pts[keep]
-    if len(pts) > 1:
-        # de-duplicate on a 0.1 mm grid (recorded scans repeat points)
-        k = np.round(pts * 1e4).astype(np.int64)
-        _, first = np.unique(k[:, 0] * (1 << 32) + k[:, 1], return_index=True)
-        pts = pts[first]
-    if not len(pts):
-        return Obstacles(np.zeros((0, 4, 2)), np.zeros((0, 2)), np.zeros(0), exempt=exempt)
-    p, brk, step = _chain(pts, cluster_distance)
+        if not kept:
+            return _NONE if not exempt else Obstacles(_NONE.boxes, _NONE.centres, _NONE.radii, exempt=exempt)
+        ang[~keep] = np.inf  # dropped points sort last and are cut off
+    # order along the surfaces the sensor saw: by bearing from the sensor
+    order = np.argsort(ang, kind="stable")[:kept]
+    xs, ys = x[order], y[order]
+    n = kept
+    dx = np.empty(n)
+    dy = np.empty(n)
+    dx[1:] = xs[1:] - xs[:-1]
+    dy[1:] = ys[1:] - ys[:-1]
+    dx[0] = xs[0] - xs[-1]
+    dy[0] = ys[0] - ys[-1]
+    step = np.hypot(dx, dy)
+    if n > 1:
+        uniq = step > 1e-4  # recorded scans repeat points: a repeat is a zero step
+        if not uniq.all():
+            if not uniq.any():
+                uniq[0] = True
+            xs, ys, step = xs[uniq], ys[uniq], step[uniq]
+            n = len(xs)
+    brk = step > cluster_distance
+    if brk.any():
+        # start at a break, so that a surface crossing the bearing ±π is not cut
+        first = int(np.argmax(brk))
+        if first:
+            xs = np.concatenate((xs[first:], xs[:first]))
+            ys = np.concatenate((ys[first:], ys[:first]))
+            brk = np.concatenate((brk[first:], brk[:first]))
+            step = np.concatenate((step[first:], step[:first]))
+    else:
+        brk[0] = True
     # pieces: surfaces cut every _PIECE metres of path, then halved while thick
-    run = np.cumsum(brk) - 1
-    arc = np.cumsum(np.where(brk, 0.0, step))
-    arc -= arc[np.flatnonzero(brk)][run]
-    cell = np.floor(arc / _PIECE)
-    cut = brk.copy()
+    cell = (np.cumsum(np.where(brk, 0.0, step)) * (1.0 / _PIECE)).astype(np.int64)
+    cut = brk
     cut[1:] |= cell[1:] != cell[:-1]
     starts = np.flatnonzero(cut)
-    n = len(p)
     while True:
         bounds = np.append(starts, n)
-        a, axis, u0, u1, t0, t1 = _fit(p, starts, bounds)
+        ax, ay, ex, ey, u0, u1, t0, t1 = _fit(xs, ys, starts, bounds)
         counts = bounds[1:] - starts
-        fat = ((t1 - t0) > _THIN) & (counts > 2)
+        fat = (t1 - t0 > _THIN) & (counts > 2)
         if not fat.any():
             break
         starts = np.sort(np.concatenate((starts, starts[fat] + counts[fat] // 2)))
-    normal = np.stack((-axis[:, 1], axis[:, 0]), axis=1)
-    u0, u1, t0, t1 = u0 - pad, u1 + pad, t0 - pad, t1 + pad
-    boxes = np.stack(
-        [a + axis * u[:, None] + normal * t[:, None] for u, t in ((u0, t0), (u1, t0), (u1, t1), (u0, t1))], axis=1
-    )
-    centres = a + axis * ((u0 + u1) / 2)[:, None] + normal * ((t0 + t1) / 2)[:, None]
+    u0 -= pad
+    u1 += pad
+    t0 -= pad
+    t1 += pad
+    # corners a + u·e + t·n with n = (-ey, ex), counter-clockwise
+    boxes = np.empty((len(starts), 4, 2))
+    for k, (u, t) in enumerate(((u0, t0), (u1, t0), (u1, t1), (u0, t1))):
+        boxes[:, k, 0] = ax + u * ex - t * ey
+        boxes[:, k, 1] = ay + u * ey + t * ex
+    um, tm = (u0 + u1) * 0.5, (t0 + t1) * 0.5
+    centres = np.stack((ax + um * ex - tm * ey, ay + um * ey + tm * ex), axis=1)
     radii = 0.5 * np.hypot(u1 - u0, t1 - t0)
-    return Obstacles(boxes, centres, radii, p, bounds, exempt)
+    return Obstacles(boxes, centres, radii, np.stack((xs, ys), axis=1), bounds, exempt)

@@ -50,7 +50,7 @@ from planner.perception import Obstacles
 from planner.robot import RobotModel
 from planner.tasks import Task
 
-__all__ = ["Outcome", "World", "in_the_way", "straight_limit", "simulate", "make_task", "frontier_distance"]
+__all__ = ["Outcome", "World", "in_the_way", "straight_limit", "simulate", "make_task", "frontier_distance", "turn_angle"]
 
 
 @dataclass(frozen=True, slots=True)
@@ -330,7 +330,7 @@ class _Scene:
     """The run's sensed points as flat arrays, and the body's extents: what every
     rollout of one planning run shares (built once per run, nothing per query)."""
 
-    __slots__ = ("obstacles", "robot", "x", "y", "owner", "real", "infl", "radius2")
+    __slots__ = ("obstacles", "robot", "x", "y", "owner", "real", "infl", "radius2", "gaps")
 
     def __init__(self, obstacles: Obstacles, robot: RobotModel) -> None:
         self.obstacles = obstacles
@@ -343,6 +343,7 @@ class _Scene:
         self.real = (robot.rear_offset, robot.front_offset, robot.width / 2)
         self.infl = (robot.rear_offset + c, robot.front_offset + c, robot.width / 2 + c)
         self.radius2 = robot.swept_radius ** 2
+        self.gaps: dict[tuple[int, int, int], tuple[float, int]] = {}
 
     def outcome(self, task: Task) -> Outcome:
         """The outcome of ``task`` among the sensed points (closed form; see the module docstring)."""
@@ -356,7 +357,16 @@ class _Scene:
         return self.turn(task)
 
     def straight_gap(self, s: Pose) -> tuple[float, int]:
-        """(distance the body can drive from ``s`` before it meets a point, that point's index); (inf, -1) when none."""
+        """(distance the body can drive from ``s`` before it meets a point, that point's
+        index); (inf, -1) when none. Remembered per pose (a turn's choice of angle and
+        the straight after it ask the same question)."""
+        key = (round(s.x * 1e9), round(s.y * 1e9), round(wrap_angle(s.theta) * 1e9))
+        hit = self.gaps.get(key)
+        if hit is None:
+            hit = self.gaps[key] = self._straight_gap(s)
+        return hit
+
+    def _straight_gap(self, s: Pose) -> tuple[float, int]:
         c, sn = math.cos(s.theta), math.sin(s.theta)
         x, y = self.x, self.y
         u = x * c + y * sn - (s.x * c + s.y * sn)
@@ -513,6 +523,57 @@ def _scene(obstacles: Obstacles, robot: RobotModel, worlds: dict[Any, Any] | Non
     return scene
 
 
+def turn_angle(
+    kind: TaskKind,
+    start: Pose,
+    goal: Disturbance | None,
+    obstacles: Obstacles,
+    robot: RobotModel,
+    worlds: dict[Any, Any] | None = None,
+) -> float:
+    """Where a turn from ``start`` ends: the paper ends a task when its error is zero.
+
+    A turn towards the side the goal is on is contingent on the goal: it ends facing it,
+    provided the way to the goal is clear for the next straight. Otherwise (the goal is
+    on the other side, or the way to it is blocked) the turn is contingent on what is in
+    the way: it ends at the first of ``turn_angle / 2`` and ``turn_angle`` (beyond the
+    goal's bearing) from which the way ahead is clear for a step; when none is, it
+    ends facing the goal if it turned towards it, else at ``turn_angle``.
+
+    >>> from planner.perception import perceive
+    >>> g = Disturbance.goal(0.0, 0.5)
+    >>> round(turn_angle(TaskKind.LEFT, Pose(0.0, 0.0, 0.0), g, perceive(np.zeros((0, 2))), RobotModel()), 4)
+    1.5708
+    >>> round(turn_angle(TaskKind.LEFT, Pose(0.0, 0.0, 0.0), Disturbance.goal(0.5, 0.5), perceive(np.zeros((0, 2))), RobotModel()), 4)
+    0.7854
+    """
+    sign = 1.0 if kind is TaskKind.LEFT else -1.0
+    full = robot.turn_angle
+    towards: float | None = None
+    if goal is not None:
+        bearing = sign * wrap_angle(math.atan2(goal.y - start.y, goal.x - start.x) - start.theta)
+        if bearing < -math.pi + 1e-9:
+            bearing += 2 * math.pi  # the goal straight behind: either turn faces it
+        if bearing > 1e-6:
+            towards = bearing
+    scene = _scene(obstacles, robot, worlds) if len(obstacles) else None
+    step = robot.step_length if robot.step_length is not None else robot.sensor_range
+    candidates: list[tuple[float, float]] = []
+    if towards is not None and goal is not None:
+        need = min(step, math.hypot(goal.x - start.x, goal.y - start.y) - robot.goal_tolerance)
+        candidates.append((towards, need))
+    low = towards if towards is not None else 0.0
+    candidates += [(a, step) for a in (full / 2, full) if a > low + 1e-3]
+    if scene is None:
+        return candidates[0][0] if candidates else full
+    for a, need in candidates:
+        heading = start.theta + sign * a
+        room = frontier_distance(robot, Pose(start.x, start.y, heading))
+        if scene.straight_gap(Pose(start.x, start.y, heading))[0] >= min(need, room) - _EPS:
+            return a
+    return towards if towards is not None else full
+
+
 def simulate(
     kind: TaskKind,
     start: Pose,
@@ -556,6 +617,8 @@ def simulate(
             out = Outcome(out.task, out.start, out.end, out.distance, out.duration, out.ticks, None, False, True)
     else:
         sign = 1.0 if kind is TaskKind.LEFT else -1.0
+        if angle is None and robot.free_turns:
+            angle = turn_angle(kind, start, goal, obstacles, robot, worlds)
         task = Task.turn(robot, kind, start, goal, angle)
         if _turn_leaves_disc(robot, start, sign * task.limit):
             return Outcome(kind, start, start, 0.0, 0.0, 0, None, False, True)

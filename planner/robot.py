@@ -15,7 +15,11 @@ class RobotModel:
 
     All units SI. The body is a ``length`` × ``width`` rectangle; the rotation centre
     (where the LiDAR sits, the origin of the robot frame) is ``front_offset`` behind the
-    front edge. Defaults are the paper's robot (DESIGN.md).
+    front edge. Defaults are the paper's robot (DESIGN.md). ``clearance`` is the margin
+    the planner keeps between the body and a sensed point. With ``free_turns`` a turn
+    ends where its error is zero (facing the goal, or where the way ahead is clear, see
+    :func:`planner.physics.turn_angle`); without, every turn turns ``turn_angle`` (the
+    authors' planner).
 
     >>> RobotModel().turn_wheel_speed  # wheel speed for a 0.58 rad/s spin in place
     0.0435
@@ -35,11 +39,16 @@ class RobotModel:
     cluster_distance: float = 0.1
     goal_tolerance: float = 0.05
     clearance: float = 0.01
+    free_turns: bool = True
 
     def __post_init__(self) -> None:
         for f in fields(self):
             v = getattr(self, f.name)
             if v is None and f.name == "step_length":
+                continue
+            if f.name == "free_turns":
+                if not isinstance(v, bool):
+                    raise ValueError(f"RobotModel.free_turns must be True or False, got {v!r}")
                 continue
             if not isinstance(v, (int, float)) or not math.isfinite(v) or v <= 0:
                 if f.name == "clearance" and isinstance(v, (int, float)) and v == 0:

@@ -227,9 +227,11 @@ def test_dot_parses_with_graphviz(scenario_map, name, tmp_path):
 
 @pytest.mark.skipif(shutil.which("dot") is None, reason="Graphviz is not installed (apt-get install graphviz)")
 def test_overtaking_map_renders_to_svg(scenario_map, tmp_path):
-    engine = render_svg(scenario_map("overtaking"), tmp_path / "ov.svg")
+    cmap = scenario_map("overtaking")
+    engine = render_svg(cmap, tmp_path / "ov.svg")
     svg = (tmp_path / "ov.svg").read_text()
-    assert engine == "dot" and "<svg" in svg and "q27 STRAIGHT" in svg
+    last = cmap.states()[-1]
+    assert engine == "dot" and "<svg" in svg and f"q{last.ident} {last.task.value}" in svg
 
 
 def test_printed_probabilities_are_checked_after_printing():
