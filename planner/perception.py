@@ -454,8 +454,10 @@ def perceive(
 
     >>> wall = np.c_[np.full(41, 0.5), np.linspace(-0.2, 0.2, 41)]
     >>> obs = perceive(wall)
-    >>> len(obs), bool(obs.contains_point(0.5, 0.0) is not None), bool(obs.contains_point(0.52, 0.0) is None)
-    (2, True, True)
+    >>> bool(obs.contains_point(0.5, 0.0) is not None), bool(obs.contains_point(0.52, 0.0) is None)
+    (True, True)
+    >>> round(float((obs.boxes[:, :, 0].max(axis=1) - obs.boxes[:, :, 0].min(axis=1)).max()), 3)  # 4 mm thin
+    0.004
     """
     pts = validate_scan(points)
     exempt = 0

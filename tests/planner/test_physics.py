@@ -12,7 +12,8 @@ from hypothesis import strategies as st
 from formal.model import Disturbance, Pose, TaskKind
 from planner import RobotModel, Task, perceive, simulate
 from planner.perception import Obstacles
-from planner.physics import World, _rollout, _unobstructed, in_the_way, straight_limit
+from planner.engine import World, _rollout
+from planner.physics import _unobstructed, in_the_way, straight_limit
 
 ROBOT = RobotModel()
 GOAL = Disturbance.goal(1.0, 0.0)

@@ -1,0 +1,249 @@
+"""The reference engine: a pymunk world of obstacle boxes in which a task is stepped tick by tick.
+
+The planner's rollouts (:mod:`planner.physics`) are closed forms over the sensed points;
+this module is the physics engine they are tested against, and a world a user can
+query: boxes as static polygons, the robot as a kinematic body driven each control tick
+by its wheel speeds. :meth:`World.sweep_hits` asks, by one shape query of a reusable
+polygon (nothing allocated per query), which boxes a whole task could touch.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import pymunk
+
+from formal.geometry import arc_step, wheel_twist, wrap_angle
+from formal.model import Disturbance, DisturbanceKind, Pose, TaskKind
+from planner.perception import Obstacles
+from planner.robot import RobotModel
+from planner.tasks import Task
+
+__all__ = ["Outcome", "World"]
+
+
+@dataclass(frozen=True, slots=True)
+class Outcome:
+    """What a rollout of one task produced.
+
+    ``frontier`` is True when the task was cut where the body meets the rim of the
+    sensed disc (a STRAIGHT), or would have left it (a turn: not available).
+    """
+
+    task: TaskKind
+    start: Pose
+    end: Pose
+    distance: float
+    duration: float
+    ticks: int
+    d_n: Disturbance | None
+    reached_goal: bool
+    frontier: bool = False
+
+    @property
+    def collided(self) -> bool:
+        """True when an obstacle interrupted the task."""
+        return self.d_n is not None
+
+
+_ROBOT_FILTER = pymunk.ShapeFilter(group=1)
+# pymunk routes attribute writes through a typing mixin's __setattr__; the rollout's hot
+# path calls the property setters directly (same effect, a third of the cost)
+_set_velocity = pymunk.Body.velocity.fset  # type: ignore[attr-defined]
+_set_angular_velocity = pymunk.Body.angular_velocity.fset  # type: ignore[attr-defined]
+_set_position = pymunk.Body.position.fset  # type: ignore[attr-defined]
+_set_angle = pymunk.Body.angle.fset  # type: ignore[attr-defined]
+# how much deeper (m) the reference tick loop lets a task push into a box it touched at its start
+_DEEPER = 1e-4
+
+
+@functools.lru_cache(maxsize=64)
+def _turn_sweep(footprint: tuple[tuple[float, float], ...], angle: float, n: int = 16) -> tuple[tuple[float, float], ...]:
+    """The convex hull (counter-clockwise) of the footprint's corners at ``n + 1``
+    headings from 0 to ``angle`` (robot frame)."""
+    verts: list[tuple[float, float]] = []
+    for k in range(n + 1):
+        a = angle * k / n
+        c, s = math.cos(a), math.sin(a)
+        verts.extend((x * c - y * s, x * s + y * c) for x, y in footprint)
+    return _hull(verts)
+
+
+def _hull(points: list[tuple[float, float]]) -> tuple[tuple[float, float], ...]:
+    """Andrew's monotone chain: the convex hull, counter-clockwise."""
+    pts = sorted(set(points))
+
+    def cross(o: tuple[float, float], a: tuple[float, float], b: tuple[float, float]) -> float:
+        return (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0])
+
+    lower: list[tuple[float, float]] = []
+    upper: list[tuple[float, float]] = []
+    for p in pts:
+        while len(lower) >= 2 and cross(lower[-2], lower[-1], p) <= 0:
+            lower.pop()
+        lower.append(p)
+    for p in reversed(pts):
+        while len(upper) >= 2 and cross(upper[-2], upper[-1], p) <= 0:
+            upper.pop()
+        upper.append(p)
+    return tuple(lower[:-1] + upper[:-1])
+
+
+class World:
+    """A pymunk space with the obstacle boxes (static) and the robot (a kinematic body).
+
+    Built once per planning run (:func:`simulate` caches it in ``worlds=``); a query
+    only places the robot and reshapes one reusable sweep polygon. ``indices`` limits
+    the world to some boxes.
+    """
+
+    def __init__(self, obstacles: Obstacles, robot: RobotModel, indices: np.ndarray | list[int] | None = None) -> None:
+        self.robot = robot
+        self.obstacles = obstacles
+        space = pymunk.Space()
+        space.collision_slop = 0.0005
+        idx = range(len(obstacles)) if indices is None else indices
+        shapes = []
+        self._index: dict[pymunk.Shape, int] = {}
+        body = space.static_body
+        for i, box in zip(idx, obstacles.boxes[list(idx)].tolist()):
+            shape = pymunk.Poly(body, box)
+            self._index[shape] = int(i)
+            shapes.append(shape)
+        self.body = pymunk.Body(body_type=pymunk.Body.KINEMATIC)
+        self.shape = pymunk.Poly(self.body, list(robot.footprint))
+        self.shape.filter = _ROBOT_FILTER
+        self._sweep = pymunk.Poly(self.body, list(robot.footprint))
+        self._sweep.filter = _ROBOT_FILTER
+        space.add(self.body, self.shape, self._sweep, *shapes)
+        self.space = space
+        # the body in its own frame: real and inflated extents, swept radius
+        c = robot.clearance
+        self._real = (robot.rear_offset, robot.front_offset, robot.width / 2)
+        self._infl = (robot.rear_offset + c, robot.front_offset + c, robot.width / 2 + c)
+        self._radius = robot.swept_radius
+
+    def place(self, pose: Pose) -> None:
+        """Put the robot at ``pose``."""
+        _set_position(self.body, (pose.x, pose.y))
+        _set_angle(self.body, pose.theta)
+        self.space.reindex_shapes_for_body(self.body)
+
+    def contacts(self) -> dict[int, tuple[float, float, float]]:
+        """Every obstacle the robot overlaps: index → (penetration depth, contact x, y).
+
+        Depth is 0 for shapes that just touch (a brush) and grows as they overlap.
+        """
+        out: dict[int, tuple[float, float, float]] = {}
+        for h in self.space.shape_query(self.shape):
+            i = self._index.get(h.shape)
+            if i is None:
+                continue
+            pts = h.contact_point_set.points
+            if pts:
+                deepest = min(pts, key=lambda p: p.distance)
+                out[i] = (max(0.0, -deepest.distance), float(deepest.point_b.x), float(deepest.point_b.y))
+            else:
+                cx, cy = self.obstacles.centres[i]
+                out[i] = (0.0, float(cx), float(cy))
+        return out
+
+    def contact(self) -> tuple[int, float, float] | None:
+        """(obstacle index, contact x, y) of the lowest-indexed obstacle the robot overlaps, or None."""
+        hits = self.contacts()
+        if not hits:
+            return None
+        i = min(hits)
+        return i, hits[i][1], hits[i][2]
+
+    def sweep_hits(self, task: Task) -> list[int]:
+        """Indices of the boxes the whole motion of ``task`` could touch, by one query.
+
+        A STRAIGHT translates the footprint: its swept area is exactly the hull of the
+        start and end footprints. A turn rotates it: the hull of the footprint at
+        sixteen headings across the turn, grown by the largest gap between an arc and
+        its chord, contains the swept area. Both are upper bounds of the area limited
+        by the task's limit, so an empty answer is never wrong.
+        """
+        rear, front, half = self._infl
+        if task.kind is TaskKind.STRAIGHT:
+            verts: Any = ((-rear, -half), (front + task.limit, -half), (front + task.limit, half), (-rear, half))
+            grow = 0.0
+        else:
+            sign = 1.0 if task.kind is TaskKind.LEFT else -1.0
+            n = 16
+            verts = _turn_sweep(self.robot.footprint, sign * task.limit, n)
+            grow = self._radius * (1 - math.cos(task.limit / n / 2)) + 1e-6
+        sweep = self._sweep
+        sweep.unsafe_set_vertices(verts)
+        sweep.unsafe_set_radius(grow)
+        self.place(task.start)
+        index = self._index
+        return sorted(i for h in self.space.shape_query(sweep) if (i := index.get(h.shape)) is not None)
+
+    def sweep_is_clear(self, task: Task) -> bool:
+        """True when the whole motion of ``task`` touches no box (see :meth:`sweep_hits`)."""
+        return not self.sweep_hits(task)
+
+    def rollout(self, task: Task) -> Outcome:
+        """Run ``task`` tick by tick in the engine from its start pose until it ends or
+        touches a box (the reference the closed forms are tested against)."""
+        return _rollout(task, self)
+
+
+def _rollout(task: Task, world: World | None) -> Outcome:
+    r = task.robot
+    dt = r.tick
+    b = r.wheel_base
+    x, y, th = task.start.x, task.start.y, task.start.theta
+    pose = task.start
+    ticks = 0
+    distance = 0.0
+    d_n: Disturbance | None = None
+    body = None
+    # boxes the robot already touches when the task starts interrupt it only if the
+    # task pushes further into them
+    touching: dict[int, float] = {}
+    if world is not None:
+        world.place(task.start)
+        body = world.body
+        touching = {i: depth for i, (depth, _, _) in world.contacts().items()}
+    limit = task.max_ticks()
+    while d_n is None and ticks < limit:
+        e = task.error_at(x, y, th)
+        if task.done(e):
+            break
+        vl, vr = task.wheel_speeds(e)
+        v, w = wheel_twist(vl, vr, b)
+        vx, vy = v * math.cos(th), v * math.sin(th)
+        if world is not None and body is not None:
+            _set_velocity(body, (vx, vy))
+            _set_angular_velocity(body, w)
+            world.space.step(dt)
+            for i, (depth, cx, cy) in sorted(world.contacts().items()):
+                if i not in touching or depth > touching[i] + _DEEPER:
+                    d_n = _obstacle_disturbance(world.obstacles, (i, cx, cy))
+                    break
+            if d_n is not None:
+                break
+            pos = body.position
+            nx, ny, nth = pos.x, pos.y, body.angle
+        else:
+            nx, ny, nth = arc_step(x, y, th, v, w, dt)
+        distance += abs(v) * dt
+        x, y, th = nx, ny, nth
+        ticks += 1
+    if ticks:
+        pose = Pose(x, y, wrap_angle(th))
+    return Outcome(task.kind, task.start, pose, distance, ticks * dt, ticks, d_n, False)
+
+
+def _obstacle_disturbance(obstacles: Obstacles, hit: tuple[int, float, float]) -> Disturbance:
+    i, x, y = hit
+    return Disturbance(DisturbanceKind.OBSTACLE, x, y, tuple(map(tuple, obstacles.boxes[i].tolist())), i)
+
+
