@@ -121,10 +121,16 @@ class World:
         self._sweep.filter = _ROBOT_FILTER
         space.add(self.body, self.shape, self._sweep, *shapes)
         self.space = space
+        # the sensed points of the world's boxes, which decide contact
+        owner = obstacles.owner
+        mask = slice(None) if indices is None else np.isin(owner, np.asarray(list(idx), dtype=np.intp))
+        self.px = np.ascontiguousarray(obstacles.points[mask, 0]) if len(obstacles.points) else np.zeros(0)
+        self.py = np.ascontiguousarray(obstacles.points[mask, 1]) if len(obstacles.points) else np.zeros(0)
+        self.owner = owner[mask] if len(owner) else np.zeros(0, dtype=np.intp)
         # the body in its own frame: real and inflated extents, swept radius
         c = robot.clearance
-        self._real = (robot.rear_offset, robot.front_offset, robot.width / 2)
-        self._infl = (robot.rear_offset + c, robot.front_offset + c, robot.width / 2 + c)
+        self.real = (robot.rear_offset, robot.front_offset, robot.width / 2)
+        self.infl = (robot.rear_offset + c, robot.front_offset + c, robot.width / 2 + c)
         self._radius = robot.swept_radius
 
     def place(self, pose: Pose) -> None:
@@ -169,7 +175,7 @@ class World:
         its chord, contains the swept area. Both are upper bounds of the area limited
         by the task's limit, so an empty answer is never wrong.
         """
-        rear, front, half = self._infl
+        rear, front, half = self.infl
         if task.kind is TaskKind.STRAIGHT:
             verts: Any = ((-rear, -half), (front + task.limit, -half), (front + task.limit, half), (-rear, half))
             grow = 0.0
@@ -189,6 +195,11 @@ class World:
         """True when the whole motion of ``task`` touches no box (see :meth:`sweep_hits`)."""
         return not self.sweep_hits(task)
 
+    def point_check(self, start: Pose) -> _PointCheck:
+        """What a task from ``start`` is tested against: the points within its reach."""
+        reach = self.robot.sensor_range * 2 + self._radius
+        return _PointCheck(self, start, reach)
+
     def rollout(self, task: Task) -> Outcome:
         """Run ``task`` tick by tick in the engine from its start pose until it ends or
         touches a box (the reference the closed forms are tested against)."""
@@ -196,6 +207,10 @@ class World:
 
 
 def _rollout(task: Task, world: World | None) -> Outcome:
+    """The tick loop: the engine moves the body, and after every step the footprint is
+    tested against the sensed points (the rule of :mod:`planner.physics`: the inflated
+    footprint; the real body for points already within the margin at the start; points
+    inside the real body at the start are exempt)."""
     r = task.robot
     dt = r.tick
     b = r.wheel_base
@@ -205,13 +220,11 @@ def _rollout(task: Task, world: World | None) -> Outcome:
     distance = 0.0
     d_n: Disturbance | None = None
     body = None
-    # boxes the robot already touches when the task starts interrupt it only if the
-    # task pushes further into them
-    touching: dict[int, float] = {}
+    check: _PointCheck | None = None
     if world is not None:
         world.place(task.start)
         body = world.body
-        touching = {i: depth for i, (depth, _, _) in world.contacts().items()}
+        check = world.point_check(task.start)
     limit = task.max_ticks()
     while d_n is None and ticks < limit:
         e = task.error_at(x, y, th)
@@ -220,18 +233,15 @@ def _rollout(task: Task, world: World | None) -> Outcome:
         vl, vr = task.wheel_speeds(e)
         v, w = wheel_twist(vl, vr, b)
         vx, vy = v * math.cos(th), v * math.sin(th)
-        if world is not None and body is not None:
+        if world is not None and body is not None and check is not None:
             _set_velocity(body, (vx, vy))
             _set_angular_velocity(body, w)
             world.space.step(dt)
-            for i, (depth, cx, cy) in sorted(world.contacts().items()):
-                if i not in touching or depth > touching[i] + _DEEPER:
-                    d_n = _obstacle_disturbance(world.obstacles, (i, cx, cy))
-                    break
-            if d_n is not None:
-                break
             pos = body.position
             nx, ny, nth = pos.x, pos.y, body.angle
+            d_n = check.hit(nx, ny, nth)
+            if d_n is not None:
+                break
         else:
             nx, ny, nth = arc_step(x, y, th, v, w, dt)
         distance += abs(v) * dt
@@ -240,6 +250,45 @@ def _rollout(task: Task, world: World | None) -> Outcome:
     if ticks:
         pose = Pose(x, y, wrap_angle(th))
     return Outcome(task.kind, task.start, pose, distance, ticks * dt, ticks, d_n, False)
+
+
+class _PointCheck:
+    """The sensed points a task from one start pose can meet, with its start-touching sets."""
+
+    def __init__(self, world: World, start: Pose, reach: float) -> None:
+        dx, dy = world.px - start.x, world.py - start.y
+        near = np.flatnonzero(dx * dx + dy * dy <= reach * reach)
+        self.world = world
+        self.idx = near
+        self.x, self.y = world.px[near], world.py[near]
+        rear, front, half = world.infl
+        rrear, rfront, rhalf = world.real
+        u, v = _body_frame(self.x, self.y, start.x, start.y, start.theta)
+        self.waived = (u >= -rear) & (u <= front) & (v <= half)
+        self.exempt = (u > -rrear) & (u < rfront) & (v < rhalf)
+
+    def hit(self, x: float, y: float, th: float) -> Disturbance | None:
+        """D_N for the first point the footprint at (x, y, th) touches, or None."""
+        if not len(self.x):
+            return None
+        w = self.world
+        rear, front, half = w.infl
+        rrear, rfront, rhalf = w.real
+        u, v = _body_frame(self.x, self.y, x, y, th)
+        inside = np.where(
+            self.waived, (u >= -rrear) & (u <= rfront) & (v <= rhalf), (u >= -rear) & (u <= front) & (v <= half)
+        ) & ~self.exempt
+        if not inside.any():
+            return None
+        j = int(np.argmax(inside))
+        k = int(self.idx[j])
+        return _obstacle_disturbance(w.obstacles, (int(w.owner[k]), float(self.x[j]), float(self.y[j])))
+
+
+def _body_frame(px: np.ndarray, py: np.ndarray, x: float, y: float, th: float) -> tuple[np.ndarray, np.ndarray]:
+    c, s = math.cos(th), math.sin(th)
+    dx, dy = px - x, py - y
+    return dx * c + dy * s, np.abs(dy * c - dx * s)
 
 
 def _obstacle_disturbance(obstacles: Obstacles, hit: tuple[int, float, float]) -> Disturbance:

@@ -129,17 +129,22 @@ def _turn_leaves_disc(robot: RobotModel, start: Pose, signed_angle: float) -> bo
 
 
 def straight_limit(obstacles: Obstacles, robot: RobotModel, start: Pose, goal: Disturbance | None) -> float:
-    """How far a STRAIGHT from ``start`` may drive (before the sensed disc's rim cuts it).
+    """How far a STRAIGHT from ``start`` may drive: what :func:`simulate` starts.
 
     A clear run to a goal dead ahead (within the goal tolerance of the heading line and
-    nothing in the corridor) is one task to the goal. Otherwise straights are cut into
-    steps of ``robot.step_length`` (one body length) so that a plan can turn along the
-    way; with ``step_length=None`` a straight runs to the sensor range.
+    no sensed point in the lane before it) is one task to the goal. Otherwise straights
+    are cut into steps of ``robot.step_length`` (one body length) so that a plan can
+    turn along the way; with ``step_length=None`` a straight runs to the sensor range.
+    Either is cut where the body would leave the sensed disc.
     """
+    room = frontier_distance(robot, start)
+    step = robot.step_length if robot.step_length is not None else robot.sensor_range
     along = _goal_dead_ahead(robot, start, goal)
-    if along is not None and len(in_the_way(obstacles, robot, start, TaskKind.STRAIGHT, along)) == 0:
-        return along
-    return robot.step_length if robot.step_length is not None else robot.sensor_range
+    if along is not None:
+        d = _scene(obstacles, robot, None).straight_gap(start)[0] if len(obstacles) else math.inf
+        if d >= min(along, room):
+            return min(along, room)
+    return min(step, room)
 
 
 def _goal_dead_ahead(robot: RobotModel, start: Pose, goal: Disturbance | None) -> float | None:
@@ -157,7 +162,8 @@ def make_task(kind: TaskKind, obstacles: Obstacles, robot: RobotModel, start: Po
     """The controller the Configurator starts for ``kind`` at ``start``."""
     if kind is TaskKind.STRAIGHT:
         return Task.straight(robot, start, goal, straight_limit(obstacles, robot, start, goal))
-    return Task.turn(robot, kind, start, goal)
+    angle = turn_angle(kind, start, goal, obstacles, robot) if robot.free_turns else None
+    return Task.turn(robot, kind, start, goal, angle)
 
 
 _EPS = 1e-9
