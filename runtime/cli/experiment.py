@@ -95,6 +95,7 @@ def run(args: argparse.Namespace) -> int:
         CONDITIONS,
         PAPER,
         ExperimentInterrupted,
+        RunsFailed,
         run_experiment,
     )
 
@@ -140,6 +141,11 @@ def run(args: argparse.Namespace) -> int:
         print(f"clomp: interrupted: {len(exc.records)} of {exc.total} runs finished and kept in {out / 'runs.jsonl'}; "
               f"run the same command with --resume to finish", file=sys.stderr)
         return 130
+    except RunsFailed as exc:
+        _write_outputs(exc.records, out, plots=False)
+        print(f"clomp: {exc} (every failure in {out / 'errors.jsonl'}; the {len(exc.records)} finished runs are kept, "
+              "--resume reruns only the rest)", file=sys.stderr)
+        return 1
     except (RuntimeError, OSError) as exc:
         raise CliError(str(exc)) from None
     summary = _write_outputs(records, out, plots=not args.no_plots)

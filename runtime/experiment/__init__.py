@@ -1,10 +1,16 @@
-"""The paper's experiment: layouts, conditions (planning, the reactive baseline), runner, plots.
+"""The paper's experiment: layouts, conditions (planning, the reactive baseline), runner, statistics, plots.
 
-- :mod:`.runner` — one run, many runs, the summary table and statistics;
-- :mod:`.reactive` — the reactive baseline controller;
-- :mod:`.plots` — pictures of executed runs.
+- :mod:`.layouts` — layout families, each world reproducible from (family, seed, run);
+- :mod:`.reactive` — the paper's reactive baseline (one loop, one straight step of look-ahead);
+- :mod:`.world` — the execution world a run uses and its ground truth (pose, contact trace);
+- :mod:`.contacts` — contact episodes: collisions and brushes, counted as the paper would;
+- :mod:`.runner` — one run as a pure function of its spec; many runs, in this process or on Dask;
+- :mod:`.stats` — Wilson and t intervals, the paired t-test, McNemar's test;
+- :mod:`.results` — the CSV (documented schema), the JSON summary, the text and README tables;
+- :mod:`.plots` / :mod:`.report` — pictures of runs, collisions per run, success against noise, a gallery.
 
-May import: everything below it (formal, planner, robots, supervision, records, clock).
+May import: everything below it (formal, planner, robots, supervision, records, clock); never
+:mod:`runtime.cli` (the command line passes its progress bar in).
 Import the modules themselves or the lazy names of :mod:`runtime`.
 """
 

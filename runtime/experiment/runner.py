@@ -55,6 +55,7 @@ __all__ = [
     "PAPER",
     "SUCCESS_RADIUS",
     "ExperimentInterrupted",
+    "RunsFailed",
     "RunResult",
     "RunSpec",
     "experiment_specs",
@@ -406,6 +407,16 @@ class ExperimentInterrupted(KeyboardInterrupt):
         self.total = total
 
 
+class RunsFailed(RuntimeError):
+    """Some runs raised: ``records`` holds the ones that finished, ``failures`` key → error."""
+
+    def __init__(self, records: list[dict[str, Any]], failures: dict[str, str]) -> None:
+        first = next(iter(failures.items()))
+        super().__init__(f"{len(failures)} run(s) failed, first {first[0]}: {first[1]}")
+        self.records = records
+        self.failures = failures
+
+
 def load_records(path: str | os.PathLike[str]) -> list[dict[str, Any]]:
     """The records of a ``runs.jsonl`` (a line cut short by a crash is skipped)."""
     p = Path(path)
@@ -474,7 +485,9 @@ def run_experiment(
     processes; ``scheduler`` uses an existing one. With ``out``, each record is appended
     to ``out/runs.jsonl`` as it finishes; ``resume`` keeps the ones already there (same
     specs) and runs only the rest. Ctrl-C raises :class:`ExperimentInterrupted` holding
-    what finished. A worker lost mid-run has its runs retried on another. ``progress``
+    what finished. A worker lost mid-run has its runs retried on another. A run that raises
+    does not stop the others: at the end :class:`RunsFailed` names the failures (also in
+    ``out/errors.jsonl``) and holds the records that finished. ``progress``
     makes a bar from (total, already done); it gets ``update(1)`` per run and ``close()``.
 
     >>> recs = run_experiment("overtaking", runs=1, noise="ideal", conditions=("reactive",))
@@ -512,6 +525,18 @@ def run_experiment(
         if on_record is not None:
             on_record(rec)
 
+    failures: dict[str, str] = {}
+
+    def fail(key: str, exc: BaseException) -> None:
+        failures[key] = f"{type(exc).__name__}: {exc}"
+        if out is not None:
+            with open(Path(out) / "errors.jsonl", "a", encoding="utf-8") as fh:
+                fh.write(json.dumps({"key": key, "error": failures[key]}) + "\n")
+        if bar is not None:
+            bar.update(1)
+
+    if out is not None and (Path(out) / "errors.jsonl").exists():
+        (Path(out) / "errors.jsonl").unlink()
     client = cluster = None
     try:
         if todo and (workers > 0 or scheduler):
@@ -519,10 +544,18 @@ def run_experiment(
             as_completed: Any = importlib.import_module("distributed").as_completed
             futures = client.map(run_spec, todo, key=["clomp-" + s.key for s in todo], pure=False, retries=2)
             for fut in as_completed(futures):
-                keep(fut.result())
+                if fut.status == "error":
+                    fail(fut.key.removeprefix("clomp-"), fut.exception())
+                else:
+                    keep(fut.result())
         else:
             for s in todo:
-                keep(run_spec(s))
+                try:
+                    rec = run_spec(s)
+                except Exception as exc:  # one broken run must not cost the others
+                    fail(s.key, exc)
+                else:
+                    keep(rec)
     except KeyboardInterrupt:
         raise ExperimentInterrupted([done[s.key] for s in specs if s.key in done], len(specs)) from None
     finally:
@@ -534,5 +567,7 @@ def run_experiment(
             client.close()
         if cluster is not None:
             cluster.close()
+    if failures:
+        raise RunsFailed([done[s.key] for s in specs if s.key in done], failures)
     return [done[s.key] for s in specs]
 

@@ -249,3 +249,22 @@ def test_a_killed_worker_loses_no_run(tmp_path):
     keys = [r["key"] for r in load_records(tmp_path / "runs.jsonl")]
     assert len(keys) == len(set(keys)) == 12 and len(recs) == 12
     assert _strip(recs) == _strip(run_experiment("overtaking", runs=6, seed=2, noise="paper", max_time=40))
+
+
+def test_a_run_that_raises_does_not_cost_the_others(tmp_path, monkeypatch):
+    from runtime.experiment.runner import RunsFailed
+
+    real = runner.run_spec
+
+    def broken_second_layout(spec):
+        if spec.run == 1 and spec.condition == "reactive":
+            raise ZeroDivisionError("a bug")
+        return real(spec)
+
+    monkeypatch.setattr(runner, "run_spec", broken_second_layout)
+    with pytest.raises(RunsFailed, match="1 run.*failed.*overtaking/5/1/reactive.*ZeroDivisionError: a bug") as exc:
+        _small(out=tmp_path)
+    assert len(exc.value.records) == 3 and len(load_records(tmp_path / "runs.jsonl")) == 3
+    assert json.loads((tmp_path / "errors.jsonl").read_text())["error"] == "ZeroDivisionError: a bug"
+    monkeypatch.setattr(runner, "run_spec", real)
+    assert len(_small(out=tmp_path, resume=True)) == 4 and not (tmp_path / "errors.jsonl").exists()
