@@ -252,7 +252,9 @@ def run(args: argparse.Namespace) -> int:
 def _dry_run(robot: Any, conf: Any, goal: tuple[float, float], clock: Any, log: Any,
              max_time: float | None, path: Path) -> int:
     """Plan on every scan without moving: one ``scan`` and one ``plan`` record per scan."""
+    from formal.model import Pose
     from planner import PlanningError, ScanError
+    from runtime.records.runlog import plan_fields
     from runtime.robot import RobotFault
 
     t0 = clock.now()
@@ -278,8 +280,7 @@ def _dry_run(robot: Any, conf: Any, goal: tuple[float, float], clock: Any, log: 
             continue
         n += 1
         tasks = [s.task.value for s in r.steps]
-        log.write("plan", reached_goal=r.reached_goal, states=r.states, transitions=r.transitions,
-                  planning_time_s=r.planning_time_s, tasks=tasks)
+        log.write("plan", **plan_fields(r, Pose(0.0, 0.0, 0.0)))  # the robot stands still: odometry = start
         print(f"scan {n}: {'goal' if r.reached_goal else 'partial' if tasks else 'no move'}  {r.states} states  "
               f"{r.planning_time_s * 1e3:.2f} ms  [{' '.join(t[0] for t in tasks)}]", flush=True)
     log.write("stop", reason="dry run: time limit", status="DRY_RUN")

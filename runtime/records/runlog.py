@@ -44,7 +44,7 @@ from typing import IO, Any, Protocol
 
 import numpy as np
 
-__all__ = ["RunLog", "RunLogLike", "LogError", "read_log", "scans_from_log"]
+__all__ = ["RunLog", "RunLogLike", "LogError", "read_log", "scans_from_log", "plan_fields"]
 
 
 class RunLogLike(Protocol):
@@ -53,6 +53,33 @@ class RunLogLike(Protocol):
     def write(self, event: str, **fields: Any) -> None:
         """Append one record."""
         ...
+
+
+def plan_fields(result: Any, origin: Any) -> dict[str, Any]:
+    """The keys of a ``plan`` record for a :class:`planner.PlanResult` planned from the
+    odometry pose ``origin`` (a :class:`formal.model.Pose`): the outcome, and where the
+    plan goes and what it avoids in the odometry frame (what a viewer draws).
+
+    >>> import numpy as np
+    >>> from formal.model import Pose
+    >>> from planner import Configurator
+    >>> f = plan_fields(Configurator().plan(np.zeros((0, 2)), (0.5, 0.0)), Pose(1.0, 0.0, 0.0))
+    >>> f["tasks"], f["path"][-1], f["obstacles"].shape
+    (['STRAIGHT'], [1.5, 0.0, 0.0], (0, 4, 2))
+    """
+    from formal.geometry import compose, points_from_frame
+
+    boxes = np.asarray(result.obstacles.boxes, dtype=float).reshape(-1, 2)
+    return {
+        "reached_goal": result.reached_goal,
+        "states": result.states,
+        "transitions": result.transitions,
+        "planning_time_s": result.planning_time_s,
+        "tasks": [q.task.value for q in result.steps],
+        "origin": origin.as_list(),
+        "path": [compose(origin, result.map[i].end).as_list() for i in result.plan.states],
+        "obstacles": np.round(points_from_frame(boxes, origin), 4).reshape(-1, 4, 2),
+    }
 
 
 class LogError(ValueError):

@@ -43,7 +43,7 @@ from planner.robot import RobotModel
 from formal.geometry import compose, drive, points_from_frame, points_to_frame, relative, wheel_twist, wrap_angle
 from planner.tasks import Task
 from runtime.clock import Clock, clock_for
-from runtime.records.runlog import RunLogLike
+from runtime.records.runlog import RunLogLike, plan_fields
 from runtime.robot import Robot, RobotFault
 from runtime.supervision.machine import (
     MOTOR_STATES,
@@ -90,17 +90,6 @@ class PlanRecord:
     def to_frame(self, p: Pose) -> Pose:
         """A pose of the plan (planner frame) in the supervisor's frame."""
         return compose(self.origin, p)
-
-
-def _plan_geometry(rec: PlanRecord) -> dict[str, Any]:
-    """Where a plan goes and what it avoids, in the supervisor's (odometry) frame, for the log."""
-    r = rec.result
-    boxes = np.asarray(r.obstacles.boxes, dtype=float).reshape(-1, 2)
-    return {
-        "origin": rec.origin.as_list(),
-        "path": [rec.to_frame(r.map[i].end).as_list() for i in r.plan.states],
-        "obstacles": np.round(points_from_frame(boxes, rec.origin), 4).reshape(-1, 4, 2),
-    }
 
 
 @dataclass
@@ -415,9 +404,7 @@ class Supervisor:
         rec = PlanRecord(now - (self._t0 or 0.0), self.pose, result)
         self.plans.append(rec)
         if self.log is not None:
-            self._log("plan", reached_goal=result.reached_goal, states=result.states, transitions=result.transitions,
-                      planning_time_s=result.planning_time_s, tasks=[q.task.value for q in result.steps],
-                      **_plan_geometry(rec))
+            self._log("plan", **plan_fields(result, rec.origin))
         if not result.steps:
             self._fire(E.NO_PLAN, "goal unreachable: no safe task leads closer to the goal")
             return

@@ -158,6 +158,11 @@ def test_dry_run_plans_on_real_scans_but_never_moves_the_wheels(tmp_path: Path) 
     assert all(p["reached_goal"] and p["tasks"] == ["STRAIGHT"] for p in plans)  # open: one clear run
     assert "scans planned" in run.stdout
     assert not any(r["event"] == "motor" and r.get("sent") not in (None, [0.0, 0.0]) for r in recs)
+    # the hardware run's log converts like a simulated one: a LaserScan per scan, a Path per plan
+    from runtime.records.mcap_writer import write_mcap
+
+    counts = write_mcap(recs, tmp_path / "run.mcap").counts
+    assert counts["/scan"] == len(scans) and counts["/plan"] == len(plans) == counts["/obstacles"]
 
 
 # ---------------------------------------------------------------------------------- faults
