@@ -47,7 +47,11 @@ __all__ = [
 
 
 class Invariant(enum.IntEnum):
-    """The invariants of a cognitive map, numbered as in the module docstring."""
+    """The invariants of a cognitive map, numbered as in the module docstring.
+
+    >>> Invariant(2).name
+    'INTERRUPTED_ABSORBING'
+    """
 
     INITIAL = 1
     INTERRUPTED_ABSORBING = 2
@@ -59,7 +63,11 @@ class Invariant(enum.IntEnum):
 
 @dataclass(frozen=True, slots=True)
 class Violation:
-    """One violated invariant: which, where (state idents) and a sentence saying why."""
+    """One violated invariant: which, where (state idents) and a sentence saying why.
+
+    >>> str(Violation(Invariant.INITIAL, (3,), "1 state(s) not reachable from q0"))
+    '[1 INITIAL] 1 state(s) not reachable from q0 (q3)'
+    """
 
     invariant: Invariant
     states: tuple[int, ...]
@@ -71,7 +79,12 @@ class Violation:
 
 
 class InvariantError(MapError):
-    """Raised by :func:`assert_map_valid`; ``violations`` lists every failure."""
+    """Raised by :func:`assert_map_valid`; ``violations`` lists every failure.
+
+    >>> err = InvariantError([Violation(Invariant.INITIAL, (), "the map has no initial state q0")])
+    >>> isinstance(err, MapError), len(err.violations)
+    (True, 1)
+    """
 
     def __init__(self, violations: list[Violation]) -> None:
         self.violations = violations
@@ -99,6 +112,17 @@ def check_map(
     ``plan`` defaults to :func:`map_plan`; ``psi`` (a table Transition → {0, 1}) defaults
     to :func:`~formal.supervisory.guard` of that plan. Passing the ``psi`` a planner
     produced checks that table instead of one computed here.
+
+    >>> from formal.model import Disturbance, Pose, State, TaskKind
+    >>> g = Disturbance.goal(1.0, 0.0)
+    >>> m = CognitiveMap(goal=g)
+    >>> _ = m.add_state(State(0, TaskKind.STRAIGHT, g, None, Pose(0, 0), Pose(0, 0), cost=0.5))
+    >>> _ = m.add_state(State(1, TaskKind.STRAIGHT, g, None, Pose(0, 0), Pose(0.3, 0), cost=0.2))
+    >>> check_map(m)
+    [Violation(invariant=<Invariant.INITIAL: 1>, states=(1,), message='1 state(s) not reachable from q0')]
+    >>> _ = m.add_transition(0, 1)
+    >>> check_map(m)
+    []
     """
     out: list[Violation] = []
     if len(cmap) == 0:
@@ -119,7 +143,13 @@ def check_map(
 
 
 def assert_map_valid(cmap: CognitiveMap, plan: Plan | None = None, psi: Mapping[Transition, int] | None = None) -> None:
-    """Raise :class:`InvariantError` listing every violation when ``cmap`` breaks an invariant."""
+    """Raise :class:`InvariantError` listing every violation when ``cmap`` breaks an invariant.
+
+    >>> assert_map_valid(CognitiveMap())
+    Traceback (most recent call last):
+    ...
+    formal.invariants.InvariantError: ...the map is empty...
+    """
     violations = check_map(cmap, plan, psi)
     if violations:
         raise InvariantError(violations)

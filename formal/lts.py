@@ -24,7 +24,14 @@ FORMAT_VERSION = 1
 
 
 class MapError(ValueError):
-    """A map is malformed (unknown state, duplicate ident, unreadable JSON ...)."""
+    """A map is malformed (unknown state, duplicate ident, unreadable JSON ...).
+
+    >>> try:
+    ...     CognitiveMap.from_dict({"format": "something else"})
+    ... except MapError as exc:
+    ...     print(exc)
+    not a clomp cognitive map (missing 'format': 'clomp-cognitive-map')
+    """
 
 
 @dataclass(frozen=True, slots=True, order=True)
@@ -34,6 +41,10 @@ class Transition:
     ``probability`` is exact (a :class:`fractions.Fraction`); the Configurator's maps
     are deterministic (probability 1), a probabilistic map splits a (state, task)
     choice among several targets whose probabilities sum to 1.
+
+    >>> t = Transition(0, 1, TaskKind.LEFT, Fraction(1, 2))
+    >>> Transition.from_dict(t.to_dict()) == t, t.to_dict()["probability"]
+    (True, '1/2')
     """
 
     source: int

@@ -21,7 +21,11 @@ __all__ = [
 
 
 class TaskKind(str, enum.Enum):
-    """The task space **T**: the three closed-loop controllers of the paper."""
+    """The task space **T**: the three closed-loop controllers of the paper.
+
+    >>> TaskKind.LEFT.is_turn, TaskKind("STRAIGHT") is TaskKind.STRAIGHT
+    (True, True)
+    """
 
     STRAIGHT = "STRAIGHT"
     LEFT = "LEFT"
@@ -34,7 +38,11 @@ class TaskKind(str, enum.Enum):
 
 
 class DisturbanceKind(str, enum.Enum):
-    """What a disturbance is: the goal D_G or an obstacle."""
+    """What a disturbance is: the goal D_G or an obstacle.
+
+    >>> Disturbance.goal(1.0, 0.0).kind is DisturbanceKind.GOAL
+    True
+    """
 
     GOAL = "GOAL"
     OBSTACLE = "OBSTACLE"
@@ -42,7 +50,13 @@ class DisturbanceKind(str, enum.Enum):
 
 @dataclass(frozen=True, slots=True)
 class Pose:
-    """A planar pose (x, y, theta) in metres and radians, theta in (-pi, pi]."""
+    """A planar pose (x, y, theta) in metres and radians, theta in (-pi, pi].
+
+    >>> Pose(0.0, 0.0).distance_to(3.0, 4.0)
+    5.0
+    >>> Pose.from_list(Pose(1.0, 2.0, 0.5).as_list())
+    Pose(x=1.0, y=2.0, theta=0.5)
+    """
 
     x: float
     y: float
@@ -76,6 +90,10 @@ class Disturbance:
     of the shape. ``vertices`` is the obstacle's outline (a convex polygon), empty for
     a point-like disturbance such as the goal. ``ident`` names the obstacle so that two
     states interrupted by the same object can be told apart from two different ones.
+
+    >>> g = Disturbance.goal(1.0, 0.5)
+    >>> g.kind.value, g.x, g.y
+    ('GOAL', 1.0, 0.5)
     """
 
     kind: DisturbanceKind
@@ -126,6 +144,11 @@ class State:
     the value of phi = gamma + chi the Configurator assigned, and ``reached_goal``
     whether the task ended within the goal tolerance. ``ident`` is the order of
     creation (the subscript of q in the paper); q0 has ident 0.
+
+    >>> g = Disturbance.goal(1.0, 0.0)
+    >>> q = State(1, TaskKind.STRAIGHT, g, None, Pose(0.0, 0.0), Pose(0.27, 0.0), distance=0.27)
+    >>> q.interrupted, q.end.x
+    (False, 0.27)
     """
 
     ident: int

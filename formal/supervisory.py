@@ -20,12 +20,21 @@ __all__ = ["Plan", "ResetUndefined", "Guard", "Reset", "guard", "reset", "reset_
 
 
 class ResetUndefined(MapError):
-    """R is undefined on a transition leaving an interrupted state (D_N ≠ ∅)."""
+    """R is undefined on a transition leaving an interrupted state (D_N ≠ ∅).
+
+    >>> issubclass(ResetUndefined, MapError)
+    True
+    """
 
 
 @dataclass(frozen=True, slots=True)
 class Plan:
-    """A plan ρ: the idents of a path q0 … qn in a cognitive map."""
+    """A plan ρ: the idents of a path q0 … qn in a cognitive map.
+
+    >>> rho = Plan((0, 2, 5))
+    >>> len(rho), rho.end, rho.steps()
+    (3, 5, [(0, 2), (2, 5)])
+    """
 
     states: tuple[int, ...]
 
@@ -88,6 +97,15 @@ def reset(cmap: CognitiveMap, source: int, target: int) -> Disturbance:
     Defined only on transitions of the map leaving an uninterrupted state, where it is
     the map's goal D_G. Raises :class:`ResetUndefined` when the source was interrupted
     and :class:`MapError` when there is no such transition or the map has no goal.
+
+    >>> from formal.model import Pose
+    >>> g = Disturbance.goal(1.0, 0.0)
+    >>> m = CognitiveMap(goal=g)
+    >>> _ = m.add_state(State(0, TaskKind.STRAIGHT, g, None, Pose(0, 0), Pose(0, 0)))
+    >>> _ = m.add_state(State(1, TaskKind.LEFT, g, None, Pose(0, 0), Pose(0, 0, 1.57)))
+    >>> _ = m.add_transition(0, 1, TaskKind.LEFT)
+    >>> reset(m, 0, 1) == g
+    True
     """
     if not cmap.has_transition(source, target):
         raise MapError(f"no transition q{source} ↪ q{target}")
@@ -95,7 +113,17 @@ def reset(cmap: CognitiveMap, source: int, target: int) -> Disturbance:
 
 
 def guard(cmap: CognitiveMap, plan: Plan) -> dict[Transition, int]:
-    """Ψ: every transition of the map mapped to 1 if it is a step of ``plan``, else 0."""
+    """Ψ: every transition of the map mapped to 1 if it is a step of ``plan``, else 0.
+
+    >>> from formal.model import Disturbance, Pose
+    >>> g = Disturbance.goal(1.0, 0.0)
+    >>> m = CognitiveMap(goal=g)
+    >>> for i in range(3):
+    ...     _ = m.add_state(State(i, TaskKind.STRAIGHT, g, None, Pose(0, 0), Pose(0.1 * i, 0)))
+    >>> _ = m.add_transition(0, 1); _ = m.add_transition(0, 2)
+    >>> sorted((t.target, v) for t, v in guard(m, Plan((0, 2))).items())
+    [(1, 0), (2, 1)]
+    """
     steps = set(plan.steps())
     for s, t in steps:
         if not cmap.has_transition(s, t):
@@ -108,6 +136,15 @@ def plan_end(cmap: CognitiveMap) -> State:
 
     Only states reachable from q0 count. When every reachable state but q0 is
     interrupted, the plan ends at q0 (the empty plan).
+
+    >>> from formal.model import Disturbance, Pose
+    >>> g = Disturbance.goal(1.0, 0.0)
+    >>> m = CognitiveMap(goal=g)
+    >>> for i, cost in enumerate((0.9, 0.4, 0.2)):
+    ...     _ = m.add_state(State(i, TaskKind.STRAIGHT, g, None, Pose(0, 0), Pose(0.1 * i, 0), cost=cost))
+    >>> _ = m.add_transition(0, 1); _ = m.add_transition(1, 2)
+    >>> plan_end(m).ident
+    2
     """
     reach = cmap.reachable()
     candidates = [s for s in cmap.states() if s.ident in reach and not s.interrupted]
@@ -117,7 +154,17 @@ def plan_end(cmap: CognitiveMap) -> State:
 
 
 def extract_plan(cmap: CognitiveMap) -> Plan:
-    """ρ: the shortest path from q0 to :func:`plan_end` through uninterrupted states."""
+    """ρ: the shortest path from q0 to :func:`plan_end` through uninterrupted states.
+
+    >>> from formal.model import Disturbance, Pose
+    >>> g = Disturbance.goal(1.0, 0.0)
+    >>> m = CognitiveMap(goal=g)
+    >>> for i, cost in enumerate((0.9, 0.4, 0.2)):
+    ...     _ = m.add_state(State(i, TaskKind.STRAIGHT, g, None, Pose(0, 0), Pose(0.1 * i, 0), cost=cost))
+    >>> _ = m.add_transition(0, 1); _ = m.add_transition(1, 2)
+    >>> extract_plan(m)
+    Plan(states=(0, 1, 2))
+    """
     end = plan_end(cmap)
     return Plan(tuple(cmap.path(end.ident)))
 

@@ -20,7 +20,7 @@ from planner.configurator import (
     plan,
 )
 from planner.perception import Obstacles, ScanError, ScanWarning, load_scan, perceive, scan_files, validate_scan
-from planner.physics import Outcome, World, in_the_way, simulate, straight_limit
+from planner.physics import simulate
 from planner.robot import RobotModel
 from planner.scenarios import Scene, ScenarioError, builtin_scenarios, load_scenario
 from planner.tasks import Task
@@ -32,7 +32,6 @@ __all__ = [
     "Disturbance",
     "DisturbanceKind",
     "Obstacles",
-    "Outcome",
     "PlanResult",
     "PlanningError",
     "Pose",
@@ -44,18 +43,15 @@ __all__ = [
     "State",
     "Task",
     "TaskKind",
-    "World",
     "builtin_scenarios",
     "chi",
     "default_cost",
     "gamma",
-    "in_the_way",
     "load_scan",
     "load_scenario",
     "perceive",
     "plan",
     "scan_files",
     "simulate",
-    "straight_limit",
     "validate_scan",
 ]

@@ -37,7 +37,6 @@ _LAZY = {
     "ReactiveReport": "runtime.experiment.reactive",
     "run_once": "runtime.experiment.runner",
     "run_experiment": "runtime.experiment.runner",
-    "ExperimentResult": "runtime.experiment.runner",
     "RunResult": "runtime.experiment.runner",
     "FaultyRobot": "runtime.robots.faults",
     "HardwareRobot": "runtime.robots.hardware",
