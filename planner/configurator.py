@@ -53,12 +53,24 @@ __all__ = [
 
 
 class PlanningError(ValueError):
-    """The planning problem is ill-posed (goal inside an obstacle, at the robot, NaN …)."""
+    """The planning problem is ill-posed (goal inside an obstacle, at the robot, NaN …).
+
+    >>> try:
+    ...     Configurator().plan(np.zeros((0, 2)), (0.0, 0.0))
+    ... except PlanningError as exc:
+    ...     print(exc)
+    goal (0, 0) is at the robot's own position (within 0.05 m)
+    """
 
 
 @dataclass(frozen=True)
 class CostContext:
-    """What a cost function may know besides the state: the goal, the start and the robot."""
+    """What a cost function may know besides the state: the goal, the start and the robot.
+
+    >>> ctx = CostContext(Disturbance.goal(3.0, 4.0), Pose(0.0, 0.0), RobotModel())
+    >>> ctx.start_distance
+    5.0
+    """
 
     goal: Disturbance
     origin: Pose
@@ -77,7 +89,16 @@ def gamma(state: State, ctx: CostContext) -> float:
     """γ(q), the past cost: 0 when the task was not interrupted; otherwise
     ``2 − min(d_N, r)/r`` ∈ [1, 2], with d_N the distance from the start of the task to
     the point where D_N interrupted it and r the sensor range (the paper's "normalised
-    distance from the start of the task to D_N": the sooner the hit, the dearer)."""
+    distance from the start of the task to D_N": the sooner the hit, the dearer).
+
+    >>> ctx = CostContext(Disturbance.goal(1.0, 0.0), Pose(0.0, 0.0), RobotModel())
+    >>> clear = State(1, TaskKind.STRAIGHT, ctx.goal, None, Pose(0, 0), Pose(0.27, 0))
+    >>> gamma(clear, ctx)
+    0.0
+    >>> hit = State(2, TaskKind.STRAIGHT, ctx.goal, Disturbance.goal(0.0, 0.0), Pose(0, 0), Pose(0.0, 0))
+    >>> gamma(hit, ctx)   # hit at once: the dearest
+    2.0
+    """
     if state.d_n is None:
         return 0.0
     r = ctx.robot.sensor_range
@@ -89,20 +110,40 @@ def chi(state: State, ctx: CostContext) -> float:
     """χ(q), the heuristic future cost: ``d / (d + d0)`` ∈ [0, 1), with d the distance
     from the end of the task to D_G and d0 that from the start of planning: 0 at the
     goal, 1/2 where planning began, approaching 1 far away (normalised so that any
-    uninterrupted state costs less than any interrupted one)."""
+    uninterrupted state costs less than any interrupted one).
+
+    >>> ctx = CostContext(Disturbance.goal(1.0, 0.0), Pose(0.0, 0.0), RobotModel())
+    >>> far = State(1, TaskKind.STRAIGHT, ctx.goal, None, Pose(0, 0), Pose(0.0, 0))
+    >>> near = State(2, TaskKind.STRAIGHT, ctx.goal, None, Pose(0, 0), Pose(0.9, 0))
+    >>> chi(near, ctx) < chi(far, ctx)
+    True
+    """
     d = state.end.distance_to(ctx.goal.x, ctx.goal.y)
     d0 = ctx.start_distance
     return d / (d + d0) if d + d0 > 0 else 0.0
 
 
 def default_cost(state: State, ctx: CostContext) -> float:
-    """φ(q) = γ(q) + χ(q) (Hart, Nilsson & Raphael 1968, in the paper's §2.2)."""
+    """φ(q) = γ(q) + χ(q) (Hart, Nilsson & Raphael 1968, in the paper's §2.2).
+
+    >>> ctx = CostContext(Disturbance.goal(1.0, 0.0), Pose(0.0, 0.0), RobotModel())
+    >>> q = State(1, TaskKind.STRAIGHT, ctx.goal, None, Pose(0, 0), Pose(0.5, 0))
+    >>> default_cost(q, ctx) == gamma(q, ctx) + chi(q, ctx)
+    True
+    """
     return gamma(state, ctx) + chi(state, ctx)
 
 
 @dataclass
 class PlanResult:
-    """The outcome of planning: the cognitive map, the plan and its figures."""
+    """The outcome of planning: the cognitive map, the plan and its figures.
+
+    >>> r = Configurator().plan(np.zeros((0, 2)), (1.0, 0.0))
+    >>> r.reached_goal, r.collision_free, [s.task.value for s in r.steps]
+    (True, True, ['STRAIGHT'])
+    >>> r.to_dict()["reached_goal"]
+    True
+    """
 
     map: CognitiveMap
     plan: Plan

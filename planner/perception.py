@@ -52,11 +52,26 @@ _PAD = 0.002
 
 
 class ScanError(ValueError):
-    """A scan cannot be read or is not a valid N×2 array of finite coordinates."""
+    """A scan cannot be read or is not a valid N×2 array of finite coordinates.
+
+    >>> try:
+    ...     validate_scan(np.array([[np.nan, 0.0]]))
+    ... except ScanError as exc:
+    ...     print(exc)
+    scan: point 0 is not finite (nan, 0.0)
+    """
 
 
 class ScanWarning(UserWarning):
-    """A scan was read but something about it is suspicious (e.g. points beyond the sensor range)."""
+    """A scan was read but something about it is suspicious (e.g. points beyond the sensor range).
+
+    >>> import warnings
+    >>> with warnings.catch_warnings(record=True) as caught:
+    ...     warnings.simplefilter("always")
+    ...     _ = perceive(np.array([[5.0, 0.0], [5.0, 0.02]]))
+    >>> any(issubclass(w.category, ScanWarning) for w in caught)
+    True
+    """
 
 
 #: A scan holds at most this many points (an RPLIDAR A1 gives about 360 per revolution).
@@ -269,6 +284,13 @@ def scan_files(folder: str | os.PathLike[str], suffixes: tuple[str, ...] = SCAN_
 
     Only the names are listed here; each file is checked when it is read, so one bad
     file does not hide the others.
+
+    >>> import tempfile
+    >>> folder = Path(tempfile.mkdtemp())
+    >>> for name in ("map0002.dat", "map0001.dat", "notes.md"):
+    ...     _ = (folder / name).write_text("0.5 0.0")
+    >>> [p.name for p in scan_files(folder)]
+    ['map0001.dat', 'map0002.dat']
     """
     root = Path(folder)
     try:

@@ -24,7 +24,14 @@ __all__ = ["ScenarioError", "Shape", "Scene", "load_scenario", "builtin_scenario
 
 
 class ScenarioError(ValueError):
-    """A scenario file is missing, unreadable, or has an invalid field (named in the message)."""
+    """A scenario file is missing, unreadable, or has an invalid field (named in the message).
+
+    >>> try:
+    ...     load_scenario("nope")
+    ... except ScenarioError as exc:
+    ...     print(exc)
+    unknown scenario 'nope'; built in: blocked, corridor, ...
+    """
 
 
 @dataclass(frozen=True)
@@ -51,7 +58,14 @@ class Shape:
 
 @dataclass(frozen=True)
 class Scene:
-    """A world: obstacles, the robot's start pose and the goal (world frame)."""
+    """A world: obstacles, the robot's start pose and the goal (world frame).
+
+    >>> scene = load_scenario("overtaking")
+    >>> scene.name, len(scene.shapes) > 0, scene.scan().shape[1]
+    ('overtaking', True, 2)
+    >>> scene.goal_in_robot_frame() == scene.goal   # the robot starts at the origin, facing +x
+    True
+    """
 
     name: str
     shapes: tuple[Shape, ...]
@@ -233,7 +247,11 @@ def _scenario_dir() -> Path:
 
 
 def builtin_scenarios() -> list[str]:
-    """Names of the scenarios shipped in ``specs/scenarios/``."""
+    """Names of the scenarios shipped in ``specs/scenarios/``.
+
+    >>> "overtaking" in builtin_scenarios()
+    True
+    """
     return sorted(p.stem for p in _scenario_dir().glob("*.json"))
 
 
@@ -246,7 +264,11 @@ def scenario_path(name: str) -> Path:
 
 
 def load_scenario(source: str | os.PathLike[str]) -> Scene:
-    """Load a scenario by built-in name or from a JSON file path."""
+    """Load a scenario by built-in name or from a JSON file path.
+
+    >>> load_scenario("open").name
+    'open'
+    """
     path = Path(source)
     if not path.suffix and not path.exists():
         path = scenario_path(str(source))

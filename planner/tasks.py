@@ -35,6 +35,12 @@ class Task:
 
     ``limit`` is the length (m) of a STRAIGHT or the angle (rad) of a turn.
     ``goal`` is D_I. Create with :meth:`straight` / :meth:`turn` or :meth:`create`.
+
+    >>> from planner.robot import RobotModel
+    >>> t = Task.straight(RobotModel(), Pose(0.0, 0.0), None, 0.27)
+    >>> e = t.error_at(0.0, 0.0, 0.0)
+    >>> round(e, 2), t.done(e), t.wheel_speeds(e)[0] == t.wheel_speeds(e)[1]
+    (0.27, False, True)
     """
 
     kind: TaskKind

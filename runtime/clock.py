@@ -24,7 +24,11 @@ __all__ = ["Clock", "ManualClock", "ScaledClock", "WallClock", "clock_for"]
 
 @runtime_checkable
 class Clock(Protocol):
-    """Where the supervisor's time comes from: wall time on hardware, simulated time in sim."""
+    """Where the supervisor's time comes from: wall time on hardware, simulated time in sim.
+
+    >>> isinstance(ManualClock(), Clock), isinstance(object(), Clock)
+    (True, False)
+    """
 
     def now(self) -> float:
         """Seconds, monotonic."""

@@ -8,22 +8,41 @@ backend chose at start-up (x forward, y left, theta counter-clockwise).
 
 from __future__ import annotations
 
+import math
+
 from typing import Protocol, runtime_checkable
 
 
 from formal.model import Pose
 from runtime.devices.frame import ScanFrame
 
-__all__ = ["ScanFrame", "Robot", "RobotFault"]
+__all__ = ["ScanFrame", "Robot", "RobotFault", "finite_goal"]
 
 
 class RobotFault(RuntimeError):
-    """A backend cannot go on: a device vanished, a sensor fell silent, a bad reply."""
+    """A backend cannot go on: a device vanished, a sensor fell silent, a bad reply.
+
+    >>> try:
+    ...     raise RobotFault("LiDAR unplugged")
+    ... except RuntimeError as exc:
+    ...     print(exc)
+    LiDAR unplugged
+    """
 
 
 @runtime_checkable
 class Robot(Protocol):
-    """What a robot backend offers the supervisor."""
+    """What a robot backend offers the supervisor.
+
+    >>> from planner import load_scenario
+    >>> from runtime.robots.sim import SimRobot
+    >>> robot = SimRobot(load_scenario("open"), seed=0)
+    >>> isinstance(robot, Robot)
+    True
+    >>> frame = robot.read_scan(timeout=1.0); robot.set_wheel_speeds(0.1, 0.1); robot.stop()
+    >>> frame.points.shape[1]
+    2
+    """
 
     def read_scan(self, timeout: float | None = None) -> ScanFrame | None:
         """The newest full scan not returned before, or None if none arrived in ``timeout`` s."""
@@ -44,3 +63,20 @@ class Robot(Protocol):
     def close(self) -> None:
         """Stop and release the devices."""
         ...
+
+
+def finite_goal(goal: tuple[float, float]) -> tuple[float, float]:
+    """``goal`` as two floats; ValueError when it is not two finite numbers.
+
+    Every controller (the supervisor, the reactive baseline) checks its goal with it.
+
+    >>> finite_goal((1, 0.5))
+    (1.0, 0.5)
+    """
+    try:
+        gx, gy = (float(v) for v in goal)
+    except (TypeError, ValueError):
+        raise ValueError(f"goal must be two numbers x, y, got {goal!r}") from None
+    if not (math.isfinite(gx) and math.isfinite(gy)):
+        raise ValueError(f"goal must be finite, got {goal!r}")
+    return gx, gy

@@ -212,3 +212,20 @@ def test_every_public_name_resolves(package: str) -> None:
     mod = importlib.import_module(package)
     missing = [n for n in mod.__all__ if not hasattr(mod, n)]
     assert missing == []
+
+
+@pytest.mark.parametrize("package", PACKAGES)
+def test_every_public_class_and_function_has_an_example(package: str) -> None:
+    # the examples are doctests: the default suite runs them (--doctest-modules)
+    import importlib
+    import inspect
+
+    mod = importlib.import_module(package)
+    missing = []
+    for name in mod.__all__:
+        obj = getattr(mod, name)
+        if inspect.isclass(obj) or inspect.isfunction(obj):
+            doc = inspect.getdoc(obj) or ""
+            if ">>>" not in doc:
+                missing.append(name)
+    assert missing == []

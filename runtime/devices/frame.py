@@ -26,6 +26,9 @@ class ScanFrame:
     per-point return strength when the sensor reports one. ``point_times`` is, when the
     backend knows it, when each point was measured, in seconds relative to ``timestamp``
     (<= 0): a revolution taken while moving can then be de-skewed.
+
+    >>> ScanFrame(np.array([[0.5, 0.0]]), timestamp=2.0).points.tolist()
+    [[0.5, 0.0]]
     """
 
     points: np.ndarray

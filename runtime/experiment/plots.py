@@ -154,7 +154,16 @@ def _draw(ax: Any, t: RunTrace, model: RobotModel, legend: bool) -> None:
 
 
 def plot_run(trace: RunTrace, path: str | os.PathLike[str], model: RobotModel | None = None, title: str | None = None) -> None:
-    """Draw one run to a PNG file."""
+    """Draw one run to a PNG file.
+
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> from planner import load_scenario
+    >>> png = Path(tempfile.mkdtemp()) / "run.png"
+    >>> plot_run(RunTrace(load_scenario("open"), "a straight run", [(0.0, 0.0), (0.5, 0.0), (1.0, 0.0)]), png)
+    >>> png.read_bytes()[1:4] == b"PNG"
+    True
+    """
     plt = _pyplot()
     fig, ax = plt.subplots(figsize=(7, 6))
     try:
@@ -174,7 +183,17 @@ def plot_run(trace: RunTrace, path: str | os.PathLike[str], model: RobotModel | 
 
 def plot_runs(traces: Sequence[RunTrace], path: str | os.PathLike[str], title: str, model: RobotModel | None = None,
               cols: int = 5) -> None:
-    """Draw many runs, one small panel each (same scale, axes in metres), to a PNG file."""
+    """Draw many runs, one small panel each (same scale, axes in metres), to a PNG file.
+
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> from planner import load_scenario
+    >>> png = Path(tempfile.mkdtemp()) / "runs.png"
+    >>> trace = RunTrace(load_scenario("open"), "run", [(0.0, 0.0), (1.0, 0.0)])
+    >>> plot_runs([trace, trace], png, "two runs")
+    >>> png.stat().st_size > 0
+    True
+    """
     plt = _pyplot()
     n = max(1, len(traces))
     cols = min(cols, n)

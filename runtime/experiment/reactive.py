@@ -46,8 +46,7 @@ from formal.model import Pose
 from planner.perception import validate_scan
 from planner.robot import RobotModel
 from runtime.clock import Clock, clock_for
-from runtime.robot import Robot, RobotFault
-from runtime.supervision.supervisor import finite_goal
+from runtime.robot import Robot, RobotFault, finite_goal
 
 __all__ = ["ReactiveController", "ReactiveReport"]
 
@@ -58,6 +57,13 @@ class ReactiveReport:
 
     ``state`` is ``"GOAL_REACHED"``, ``"TIMEOUT"`` or ``"HALTED"`` (a fault); ``avoid_ticks``
     counts the ticks spent turning away from a disturbance.
+
+    >>> from planner import load_scenario
+    >>> from runtime.robots.sim import SimRobot
+    >>> scene = load_scenario("open")
+    >>> report = ReactiveController(SimRobot(scene, seed=0), scene.goal_in_robot_frame()).run(max_time=60)
+    >>> report.state, report.avoid_ticks
+    ('GOAL_REACHED', 0)
     """
 
     state: str
@@ -74,7 +80,14 @@ class ReactiveReport:
 
 
 class ReactiveController:
-    """Drive to ``goal`` (robot frame at start) with one closed loop; see the module docstring."""
+    """Drive to ``goal`` (robot frame at start) with one closed loop; see the module docstring.
+
+    >>> from planner import load_scenario
+    >>> from runtime.robots.sim import SimRobot
+    >>> scene = load_scenario("open")
+    >>> ReactiveController(SimRobot(scene, seed=0), scene.goal_in_robot_frame()).run(max_time=60).state
+    'GOAL_REACHED'
+    """
 
     def __init__(
         self,

@@ -80,7 +80,13 @@ PAPER: dict[str, dict[str, Any]] = {
 
 @dataclass
 class RunResult:
-    """One run of one condition, measured on the world's ground truth (world frame)."""
+    """One run of one condition, measured on the world's ground truth (world frame).
+
+    >>> from planner import load_scenario
+    >>> r = run_once(load_scenario("open"), "planning", 0, noise="ideal")
+    >>> r.condition, r.reached_goal, r.collisions, r.final_distance < SUCCESS_RADIUS
+    ('planning', True, 0, True)
+    """
 
     condition: str
     run: int

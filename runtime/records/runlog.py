@@ -101,7 +101,15 @@ def _clean(value: Any) -> Any:
 
 
 class RunLog:
-    """Append-only JSON-lines writer, flushed (and fsync'ed for faults) per record."""
+    """Append-only JSON-lines writer, flushed (and fsync'ed for faults) per record.
+
+    >>> import io
+    >>> buf = io.StringIO()
+    >>> log = RunLog(buf)
+    >>> log.write("fault", reason="LiDAR unplugged", source="lidar")
+    >>> json.loads(buf.getvalue())["event"]
+    'fault'
+    """
 
     def __init__(self, dest: str | os.PathLike[str] | IO[str], clock: Any = None) -> None:
         """``clock``: anything with ``now()`` in seconds (a simulated robot keeps simulated
@@ -143,7 +151,15 @@ class RunLog:
 
 def read_log(src: str | os.PathLike[str]) -> Iterator[dict[str, Any]]:
     """The records of a run log, in order. A truncated last line (a run cut short
-    mid-write) is skipped; any other malformed line raises :class:`LogError`."""
+    mid-write) is skipped; any other malformed line raises :class:`LogError`.
+
+    >>> import tempfile
+    >>> path = Path(tempfile.mkdtemp()) / "run.jsonl"
+    >>> with RunLog(path) as log:
+    ...     log.write("stop", reason="done", status=0)
+    >>> [(r["event"], r["reason"]) for r in read_log(path)]
+    [('stop', 'done')]
+    """
     path = Path(src)
     try:
         lines = path.read_text(encoding="utf-8").splitlines()

@@ -42,6 +42,10 @@ class EmulatedWorld:
     wheel mapping (``left``, ``right``, ``neutral_us``, ``span_us``) must match the
     driver's. ``lidar_options`` are passed to :class:`LidarEmulator` (fault injection);
     its attributes such as ``garbage_rate`` can also be changed while it runs.
+
+    >>> with EmulatedWorld("open") as world:
+    ...     world.lidar_port.startswith("/dev/"), world.motor_port.startswith("/dev/"), world.collisions
+    (True, True, 0)
     """
 
     def __init__(

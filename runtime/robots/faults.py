@@ -34,7 +34,17 @@ FAULTS: dict[str, str] = {
 
 
 class FaultyRobot:
-    """Wraps a :class:`Robot`; from time ``at`` on (or at once), misbehaves as ``fault``."""
+    """Wraps a :class:`Robot`; from time ``at`` on (or at once), misbehaves as ``fault``.
+
+    >>> from planner import load_scenario
+    >>> from runtime.robots.sim import SimRobot
+    >>> robot = FaultyRobot(SimRobot(load_scenario("open"), seed=0), "device")
+    >>> try:
+    ...     robot.read_scan()
+    ... except RobotFault as exc:
+    ...     print(exc)
+    LiDAR unplugged
+    """
 
     def __init__(self, robot: Robot, fault: str | None = None, at: float | None = None) -> None:
         if fault is not None and fault not in FAULTS:

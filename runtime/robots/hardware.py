@@ -58,6 +58,10 @@ class HardwareConfig:
     ``motor_control`` (``dtr`` on the A1's USB adapter), ``start_timeout`` for the
     first reply and the first revolution (a motor spinning up). Watch: ``byte_timeout``
     (once revolutions flow), ``garbage_window``, ``garbage_fraction``.
+
+    >>> cfg = HardwareConfig(motor_control="none", dry_run=True)
+    >>> cfg.to_dict()["dry_run"], cfg.motor_control
+    (True, 'none')
     """
 
     lidar_baudrate: int = DEFAULT_BAUDRATE
@@ -142,6 +146,14 @@ class HardwareRobot:
     :mod:`runtime.records.runlog`); ``clock`` times the dead reckoning (wall time by default).
     Opening checks the LiDAR's health, stops the wheels and starts the scan; a device
     that cannot be opened or does not answer raises :class:`RobotFault`.
+
+    >>> from runtime.robots.emulated import EmulatedWorld
+    >>> with EmulatedWorld("open", time_scale=2.0) as world:
+    ...     with HardwareRobot(world.lidar_port, world.motor_port, HardwareConfig(motor_control="none")) as robot:
+    ...         frame = robot.read_scan(timeout=5.0)
+    ...         robot.stop()
+    >>> frame is not None and frame.points.shape[1] == 2
+    True
     """
 
     def __init__(

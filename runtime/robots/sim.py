@@ -57,6 +57,10 @@ class NoiseConfig:
     standard deviation of a per-wheel speed bias drawn once per run (a wheel slightly
     faster than the other makes a straight curve). ``drift``: standard deviation (rad/s)
     of a heading drift drawn once per run, applied while the wheels turn.
+
+    >>> quiet = NoiseConfig(range_sd=0.0, dropout=0.0)
+    >>> quiet.range_sd, quiet.dropout
+    (0.0, 0.0)
     """
 
     range_sd: float = 0.005
@@ -133,6 +137,11 @@ class SimRobot:
     (:attr:`pose`, :attr:`trajectory`, :attr:`contacts`) is in the scene's world frame.
     ``odometry=True`` gives wheel-encoder odometry (integrated actual wheel speeds,
     blind to drift and to being pushed); the default, like the paper's robot, has none.
+
+    >>> robot = SimRobot(load_scenario("open"), seed=0)
+    >>> robot.set_wheel_speeds(0.1, 0.1); robot.sleep(1.0); robot.stop()
+    >>> round(robot.now(), 6), round(robot.pose.x, 2)
+    (1.0, 0.1)
     """
 
     def __init__(

@@ -45,7 +45,11 @@ __all__ = [
 
 
 class SupervisorState(str, enum.Enum):
-    """The supervisor's states."""
+    """The supervisor's states.
+
+    >>> [s.value for s in SupervisorState if s in TERMINAL]
+    ['GOAL_REACHED', 'UNREACHABLE', 'HALTED']
+    """
 
     IDLE = "IDLE"
     PLANNING = "PLANNING"
@@ -57,7 +61,11 @@ class SupervisorState(str, enum.Enum):
 
 
 class Event(str, enum.Enum):
-    """What moves the supervisor from one state to the next."""
+    """What moves the supervisor from one state to the next.
+
+    >>> TRANSITIONS[(SupervisorState.EXECUTING, Event.DISAGREE)].value
+    'REPLANNING'
+    """
 
     START = "start"
     PLANNED = "planned"
@@ -95,7 +103,11 @@ class TransitionRecord:
 def state_machine_dot() -> str:
     """The supervisor's state machine as Graphviz DOT, drawn by :func:`formal.export.write_dot`
     from :func:`formal.machine.machine_model` (states where the wheels may turn are
-    filled, terminal states have a double border)."""
+    filled, terminal states have a double border).
+
+    >>> state_machine_dot().splitlines()[0]
+    'digraph supervisor {'
+    """
     buf = io.StringIO()
     write_dot(machine_model(SUPERVISOR, None), buf)
     return buf.getvalue()
@@ -107,7 +119,12 @@ def state_machine_prism() -> str:
     ``motors`` (the wheels may turn), ``terminal`` and one per state in lower case, e.g.
     ``Pmax=? [F ("motors" & !"executing")]`` = 0 (the wheels turn only in EXECUTING).
     The closed loop with the robot is :func:`formal.machine.machine_model` (checked by
-    ``specs/properties/supervisor/machine.pctl``)."""
+    ``specs/properties/supervisor/machine.pctl``).
+
+    >>> text = state_machine_prism()
+    >>> "mdp" in text.splitlines() and '"motors"' in text
+    True
+    """
     buf = io.StringIO()
     write_prism(machine_model(SUPERVISOR, None), buf)
     return buf.getvalue()

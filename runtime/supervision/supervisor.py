@@ -44,7 +44,7 @@ from formal.geometry import compose, drive, points_from_frame, points_to_frame, 
 from planner.tasks import Task
 from runtime.clock import Clock, clock_for
 from runtime.records.runlog import RunLogLike, plan_fields
-from runtime.robot import Robot, RobotFault
+from runtime.robot import Robot, RobotFault, finite_goal
 from runtime.supervision.machine import (
     MOTOR_STATES,
     TERMINAL,
@@ -60,7 +60,6 @@ __all__ = [
     "Supervisor",
     "SupervisorReport",
     "TaskRecord",
-    "finite_goal",
 ]
 
 
@@ -110,7 +109,11 @@ class TaskRecord:
 
 @dataclass
 class SupervisorReport:
-    """The outcome of :meth:`Supervisor.run`."""
+    """The outcome of :meth:`Supervisor.run`.
+
+    >>> SupervisorReport(SupervisorState.HALTED, "LiDAR unplugged", 1.5, [], [], [], [], (1.0, 0.0)).reached_goal
+    False
+    """
 
     state: SupervisorState
     reason: str
@@ -132,23 +135,19 @@ class SupervisorReport:
         return max(0, len(self.plans) - 1)
 
 
-def finite_goal(goal: tuple[float, float]) -> tuple[float, float]:
-    """``goal`` as two floats; ValueError when it is not two finite numbers."""
-    try:
-        gx, gy = (float(v) for v in goal)
-    except (TypeError, ValueError):
-        raise ValueError(f"goal must be two numbers x, y, got {goal!r}") from None
-    if not (math.isfinite(gx) and math.isfinite(gy)):
-        raise ValueError(f"goal must be finite, got {goal!r}")
-    return gx, gy
-
-
 # -- the supervisor -------------------------------------------------------------------------
 class Supervisor:
     """Runs plans of a :class:`~planner.Configurator` closed-loop on a :class:`~runtime.robot.Robot`.
 
     ``goal`` is (x, y) in the robot's frame at start (x forward, y left). ``clock``
     defaults to the robot itself when it keeps (simulated) time, else the wall clock.
+
+    >>> from planner import load_scenario
+    >>> from runtime.robots.sim import SimRobot
+    >>> scene = load_scenario("open")
+    >>> report = Supervisor(SimRobot(scene, seed=0), scene.goal_in_robot_frame()).run(max_time=60)
+    >>> report.state.value, report.replans
+    ('GOAL_REACHED', 0)
     """
 
     def __init__(
