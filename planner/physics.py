@@ -227,6 +227,21 @@ class _Scene:
         d = float(gap[k])
         return (d, k) if math.isfinite(d) else (math.inf, -1)
 
+    def _waived_turn(self, dx: np.ndarray, dy: np.ndarray, theta: float, sign: float, per_tick: float, e0: float, ticks: int) -> int:
+        """The first tick at or after which the real body meets one of these points
+        (strictly outside it at the start), sampled at eight headings per tick."""
+        rrear, rfront, rhalf = self.real
+        fine = np.minimum(np.arange(1, 8 * ticks + 1) * (per_tick / 8), e0)
+        th = theta + sign * fine
+        c, sn = np.cos(th)[:, None], np.sin(th)[:, None]
+        u = dx * c + dy * sn
+        v = np.abs(dy * c - dx * sn)
+        u0 = dx * math.cos(theta) + dy * math.sin(theta)
+        v0 = np.abs(dy * math.cos(theta) - dx * math.sin(theta))
+        live = ~((u0 > -rrear) & (u0 < rfront) & (v0 < rhalf))
+        hit = np.flatnonzero(((u >= -rrear) & (u <= rfront) & (v <= rhalf) & live).any(axis=1))
+        return int(hit[0]) // 8 + 1 if len(hit) else ticks + 1
+
     def turn(self, task: Task) -> Outcome:
         """A turn among the points within its swept disc, checked at every tick heading."""
         r = task.robot
@@ -253,12 +268,17 @@ class _Scene:
             rrear, rfront, rhalf = self.real
             real = (u >= -rrear) & (u <= rfront) & (v <= rhalf)
             inside = np.where(waived, real, inside)
-            inside[:, real[0]] = False
+            # exempt: strictly inside the real body at the start (a point on its edge is not)
+            inside[:, (u[0] > -rrear) & (u[0] < rfront) & (v[0] < rhalf)] = False
         rows = np.flatnonzero(inside[1:].any(axis=1))
-        if not len(rows):
+        k = int(rows[0]) + 1 if len(rows) else ticks + 1  # the first tick in contact
+        if waived.any():
+            # a point within the margin is held to the real body, with no margin for the
+            # corner's path between ticks: test it at eight headings per tick
+            k = min(k, self._waived_turn(dx[waived], dy[waived], s.theta, sign, per_tick, e0, ticks))
+        if k > ticks:
             return _unobstructed(task)
-        k = int(rows[0]) + 1  # the first tick in contact
-        j = int(near[int(np.argmax(inside[k]))])
+        j = int(near[int(np.argmax(inside[k]))]) if inside[k].any() else int(near[np.flatnonzero(waived)[0]])
         done = k - 1
         end = Pose(s.x, s.y, wrap_angle(float(th[done]))) if done else s
         d_n = _obstacle_disturbance(self.obstacles, (int(self.owner[j]), float(self.x[j]), float(self.y[j])))

@@ -1,0 +1,128 @@
+"""Property tests for the planner's rules on real scans: margins, gaps, turning round,
+the start-touching exemption, the sensed region (checked by the independent sweep in
+tests/planner/sweepcheck.py, which shares no code with the planner)."""
+
+from __future__ import annotations
+
+import math
+import sys
+from pathlib import Path
+
+import numpy as np
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from planner import Configurator, RobotModel, load_scenario
+
+sys.path.insert(0, str(Path(__file__).parent))
+from sweepcheck import check_states  # noqa: E402
+
+SETTINGS = settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+widths = st.sampled_from([0.14, 0.18, 0.22])
+
+
+def _wall(x: float, y0: float, y1: float, step: float = 0.005) -> np.ndarray:
+    """A wall across the way at ``x`` from ``y0`` to ``y1``: a column of returns."""
+    n = max(2, int(abs(y1 - y0) / step) + 1)
+    return np.c_[np.full(n, x), np.linspace(y0, y1, n)]
+
+
+def _gap(x: float, centre: float, gap: float) -> np.ndarray:
+    return np.r_[_wall(x, centre + gap / 2, 0.9), _wall(x, centre - gap / 2, -0.9)]
+
+
+@SETTINGS
+@given(width=widths, x=st.floats(0.3, 0.6))
+def test_a_gap_of_robot_width_plus_4_cm_is_passed(width, x):
+    robot = RobotModel(width=width)
+    scan = _gap(x, 0.0, width + 0.04)
+    r = Configurator(robot).plan(scan, (0.95, 0.0))
+    assert r.reached_goal, [s.task.value for s in r.steps]
+    assert check_states(scan, r.steps, robot).ok
+
+
+@SETTINGS
+@given(width=widths, x=st.floats(0.3, 0.6), centre=st.floats(-0.1, 0.1), gy=st.floats(-0.3, 0.3))
+def test_a_gap_of_robot_width_minus_2_cm_is_never_passed(width, x, centre, gy):
+    robot = RobotModel(width=width)
+    scan = _gap(x, centre, width - 0.02)
+    r = Configurator(robot).plan(scan, (0.95, gy))
+    assert not r.reached_goal
+    # no simulated task, planned or not, gets the body's rotation centre past the wall
+    assert all(s.end.x < x for s in r.map.states())
+    assert check_states(scan, [s for s in r.map.states() if s.ident], robot).over_points == 0
+
+
+def _corridor(half: float) -> np.ndarray:
+    xs = np.arange(-1.1, 1.1, 0.01)
+    return np.r_[np.c_[xs, np.full(len(xs), half)], np.c_[xs, np.full(len(xs), -half)]]
+
+
+@SETTINGS
+@given(gx=st.floats(-0.85, -0.4), dy=st.floats(-0.05, 0.05))
+def test_a_0_8_m_corridor_lets_the_robot_turn_round(gx, dy):
+    scan = _corridor(0.4) - np.array([0.0, dy])  # the robot a little off the centre line
+    r = Configurator().plan(scan, (gx, -dy))
+    assert r.reached_goal, [s.task.value for s in r.steps]
+    assert check_states(scan, r.steps, r.robot).ok
+
+
+def test_quarter_turns_could_not_turn_round_in_that_corridor():
+    """The authors' fixed π/2 turns, each followed by a body-length straight, cannot."""
+    r = Configurator(RobotModel(free_turns=False)).plan(_corridor(0.4), (-0.6, 0.0))
+    assert not r.reached_goal
+    assert Configurator().plan(_corridor(0.4), (-0.6, 0.0)).reached_goal
+
+
+@st.composite
+def near_body(draw):
+    """Returns inside the body at the start and in the 1 cm band around it (its own, and
+    things it already touches), plus a few farther out."""
+    rear, front, half = 0.18, 0.09, 0.09
+    pts = []
+    for _ in range(draw(st.integers(1, 12))):
+        side = draw(st.sampled_from(["front", "left", "right", "rear", "inside", "around"]))
+        t = draw(st.floats(0.0, 1.0))
+        off = draw(st.floats(0.0, 0.012))
+        if side == "front":
+            pts.append((front + off, -half + 2 * half * t))
+        elif side == "rear":
+            pts.append((-rear - off, -half + 2 * half * t))
+        elif side in ("left", "right"):
+            y = half + off
+            pts.append((-rear + (rear + front) * t, y if side == "left" else -y))
+        elif side == "inside":
+            pts.append((-rear + 0.005 + (rear + front - 0.01) * t, draw(st.floats(-half + 0.005, half - 0.005))))
+        else:
+            pts.append((draw(st.floats(-0.3, 0.3)), draw(st.floats(-0.3, 0.3))))
+    return np.array(pts)
+
+
+@SETTINGS
+@given(scan=near_body(), ga=st.floats(-math.pi, math.pi))
+def test_the_start_touching_exemption_never_covers_a_point_outside_the_body(scan, ga):
+    """Returns scattered in and around the body at the start (its own, and things it
+    touches): no task the Configurator simulates ever moves the real body over a point
+    that lay outside the body at the start."""
+    r = Configurator().plan(scan, (0.8 * math.cos(ga), 0.8 * math.sin(ga)))
+    states = [s for s in r.map.states() if s.ident]
+    assert check_states(scan, states, r.robot).over_points == 0
+
+
+def test_a_point_just_ahead_of_the_body_stops_a_straight():
+    # the recorded case: 0.05 -0.06 lies inside the body, 0.10 -0.063 1 cm ahead of it;
+    # only the first is exempt, so driving straight ahead is blocked at once
+    r = Configurator().plan(np.array([[0.05, -0.06], [0.10, -0.063]]), (1.0, 0.0))
+    assert r.obstacles.exempt == 1
+    first = r.map[1]
+    assert first.task.value == "STRAIGHT" and first.interrupted and first.distance == 0.0
+    assert check_states(np.array([[0.05, -0.06], [0.10, -0.063]]), r.steps, r.robot).ok
+
+
+def test_the_papers_overtaking_plan_still_goes_round_the_box():
+    scene = load_scenario("overtaking")
+    r = Configurator().plan(scene.scan(), tuple(scene.goal_in_robot_frame()))
+    assert r.reached_goal and r.collision_free
+    tasks = [s.task.value for s in r.steps]
+    assert "LEFT" in tasks and "RIGHT" in tasks  # round the box, not through it
+    assert 10 <= r.states <= 40  # the paper: 32.9 ± 1.8 states
