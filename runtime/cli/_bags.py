@@ -17,12 +17,15 @@ def add_bag_options(p: argparse.ArgumentParser) -> None:
     """``--topic`` and ``--lidar-offset``."""
     g = p.add_argument_group("ROS bags (ROS 2 folder, .mcap, .db3, or ROS 1 .bag)")
     g.add_argument("--topic", help="the sensor_msgs/LaserScan topic (default: the bag's only LaserScan topic)")
-    g.add_argument("--lidar-offset", metavar="X,Y,THETA", default="0,0,0",
+    g.add_argument("--lidar-offset", metavar="X,Y,THETA", default=None,
                    help="the LiDAR's pose on the robot, m, m, rad (default 0,0,0: at the rotation centre)")
 
 
-def lidar_offset(args: argparse.Namespace) -> tuple[float, float, float]:
-    """The parsed ``--lidar-offset``."""
+def lidar_offset(args: argparse.Namespace, bag: bool = True) -> tuple[float, float, float]:
+    """The parsed ``--lidar-offset`` (an error when given for a source that is no bag:
+    scan files and run logs already hold robot-frame points)."""
+    if not bag and getattr(args, "lidar_offset", None) is not None:
+        raise CliError("--lidar-offset applies to LaserScan from ROS bags; scan files and run logs are in the robot frame")
     try:
         return parse_offset(getattr(args, "lidar_offset", None) or "0,0,0")
     except BagError as exc:

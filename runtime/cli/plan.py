@@ -214,6 +214,8 @@ def _run_robust(args: argparse.Namespace, conf: Configurator) -> int:
 def run(args: argparse.Namespace) -> int:
     """Execute ``clomp plan``."""
     conf = configurator_from_args(args)
+    if args.scenario and (args.topic or args.index is not None or args.time is not None or args.lidar_offset):
+        raise CliError("--topic, --index, --time and --lidar-offset read a ROS bag given with --scan")
     if args.robust:
         return _run_robust(args, conf)
     if args.samples is not None or args.learn:
@@ -235,6 +237,7 @@ def run(args: argparse.Namespace) -> int:
         return _plan_bag(conf, path, goal, args)
     if args.index is not None or args.time is not None:
         raise CliError("--index and --time pick a scan of a ROS bag; --scan is not a bag")
+    lidar_offset(args, bag=False)
     if path.is_dir():
         return _plan_folder(conf, path, goal, args)
     r = _plan_one(conf, path, goal)

@@ -57,8 +57,9 @@ def run(args: argparse.Namespace) -> int:
     if not path.exists():
         raise CliError(f"{path}: no such file or folder")
     goal = parse_goal(args.goal) if args.goal else None
-    offset = lidar_offset(args)
-    if args.topic or is_bag(path):
+    bag = bool(args.topic) or is_bag(path)
+    offset = lidar_offset(args, bag)
+    if bag:
         with open_topic(path, args) as topic:
             g = goal or (1.0, 0.0)
             return _replay(conf, topic.count, ((lb, s, g) for lb, s in labelled_scans(topic)), offset, args)

@@ -305,6 +305,12 @@ def test_lidar_offset_moves_the_scan_into_the_robot_frame(recorded, tmp_path, ca
     assert (tasks[1], plain["states"]) != (tasks[0], want["states"])  # the offset matters here
     r = cli(capsys, "plan", "--scan", str(bags["ros1"]), "--index", "0", "--lidar-offset", "0.1,0")
     assert r.returncode == 2 and "--lidar-offset" in r.stderr and len(r.stderr.splitlines()) == 1
+    for cmd in (["plan", "--scan"], ["replay"]):  # text scans are in the robot frame already
+        r = cli(capsys, *cmd, str(tmp_path / "moved.dat"), "--lidar-offset", "0.1,0,0")
+        assert r.returncode == 2 and "--lidar-offset" in r.stderr and len(r.stderr.splitlines()) == 1
+    for extra in (["--lidar-offset", "0.1,0,0"], ["--index", "2"], ["--topic", "/scan"]):
+        r = cli(capsys, "plan", "--scenario", "overtaking", *extra)
+        assert r.returncode == 2 and len(r.stderr.splitlines()) == 1 and "ROS bag" in r.stderr
 
 
 def test_no_return_readings():
