@@ -81,6 +81,9 @@ def laserscan_points(
 
     A reading that is inf, NaN, below ``range_min`` or above ``range_max`` is no return.
     ``offset`` is the LiDAR's pose (x, y, θ) in the robot frame.
+
+    >>> laserscan_points(0.0, math.pi / 2, [1.0, float("nan")], 0.1, 5.0, offset=(0.1, 0.0, math.pi)).round(3).tolist()
+    [[-0.9, 0.0]]
     """
     if not (math.isfinite(angle_min) and math.isfinite(angle_increment)):
         raise BagError(f"a LaserScan needs finite angle_min and angle_increment, got {angle_min}, {angle_increment}")
@@ -124,7 +127,12 @@ def points_to_ranges(
 
 @dataclass(frozen=True)
 class LaserScan:
-    """One ``sensor_msgs/LaserScan`` message as recorded, with where it is in the bag."""
+    """One ``sensor_msgs/LaserScan`` message as recorded, with where it is in the bag.
+
+    >>> s = LaserScan(0, 0, 0, "laser", 0.0, math.pi / 2, 0.05, 10.0, np.array([1.0, np.inf], np.float32))
+    >>> s.points().round(3).tolist()
+    [[1.0, 0.0]]
+    """
 
     index: int  #: position on its topic, from 0
     time_ns: int  #: the bag's timestamp (when it was recorded)
@@ -152,7 +160,11 @@ def _rosbags() -> Any:
 
 def is_bag(path: str | os.PathLike[str]) -> bool:
     """True when ``path`` looks like a ROS bag: a ``.bag``, ``.mcap`` or ``.db3`` file, or a
-    folder with ``metadata.yaml``."""
+    folder with ``metadata.yaml``.
+
+    >>> is_bag("run.bag"), is_bag("rec.mcap"), is_bag("map0001.dat")
+    (True, True, False)
+    """
     p = Path(path)
     return p.suffix in (".bag", ".mcap", ".db3") or (p.is_dir() and (p / "metadata.yaml").is_file())
 
@@ -239,7 +251,12 @@ def _topics_text(connections: list[Any]) -> str:
 
 
 def bag_topics(path: str | os.PathLike[str]) -> dict[str, str]:
-    """Topic → message type of every topic in a bag."""
+    """Topic → message type of every topic in a bag.
+
+    >>> bag_topics("missing.bag")
+    Traceback (most recent call last):
+    runtime.records.bags.BagError: missing.bag: no such file or folder
+    """
     bag = _Bag(Path(path))
     try:
         return {c.topic: c.msgtype for c in bag.connections}
@@ -253,6 +270,17 @@ class LaserScanTopic:
     Opening checks the topic (it exists and carries LaserScan; else :class:`BagError`
     naming the topics there are). ``count`` is the number of messages; iterate for the
     scans; :meth:`at_index` and :meth:`at_time` pick one.
+
+    >>> import tempfile, pathlib
+    >>> from runtime.records.mcap_writer import write_mcap
+    >>> bag = pathlib.Path(tempfile.mkdtemp()) / "run.mcap"
+    >>> _ = write_mcap([{"t": 0.2 * k, "event": "scan", "points": [[1.0, 0.1 * k]]} for k in range(3)], bag)
+    >>> with LaserScanTopic(bag, "/scan") as topic:
+    ...     topic.count, topic.at_time(0.3).index, topic.at_index(2).points().round(2).tolist()
+    (3, 1, [[1.0, 0.2]])
+    >>> LaserScanTopic(bag, "/nosuch")
+    Traceback (most recent call last):
+    runtime.records.bags.BagError: ...: no topic /nosuch; topics in the bag: /scan (sensor_msgs/msg/LaserScan)
     """
 
     def __init__(self, path: str | os.PathLike[str], topic: str | None = None) -> None:

@@ -183,6 +183,13 @@ def write_mcap(
 
     ``origin_ns``: the time of ``t = 0`` (default: the ``run`` record's ``wall`` time,
     else 0).
+
+    >>> import tempfile, pathlib
+    >>> log = [{"t": 0.0, "event": "run", "wall": 1.7e9}, {"t": 0.1, "event": "scan", "points": [[0.5, 0.0]],
+    ...        "pose": [0.0, 0.0, 0.0]}, {"t": 0.2, "event": "recall"}]
+    >>> s = write_mcap(log, pathlib.Path(tempfile.mkdtemp()) / "run.mcap")
+    >>> s.counts, s.skipped
+    ({'/scan': 1, '/pose': 1, '/tf': 1}, {'recall': 1})
     """
     if bins < 8:
         raise ConvertError(f"bins: at least 8 readings per revolution, got {bins}")
