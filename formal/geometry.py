@@ -31,6 +31,7 @@ from formal.model import Pose
 __all__ = [
     "arc_step",
     "compose",
+    "dead_reckon",
     "drive",
     "points_from_frame",
     "points_to_frame",
@@ -153,3 +154,20 @@ def drive(pose: Pose, v: float, w: float, dt: float) -> Pose:
     x, y, th = arc_step(pose.x, pose.y, pose.theta, v, w, dt)
     # a straight step keeps the (already wrapped) heading bit for bit
     return Pose(x, y, th if abs(w) < 1e-12 else wrap_angle(th))
+
+
+def dead_reckon(pose: Pose, left: float, right: float, wheel_base: float, dt: float) -> Pose:
+    """``pose`` after ``dt`` seconds at the wheel speeds ``left``, ``right`` (m/s): dead reckoning.
+
+    Unchanged when ``dt`` <= 0 or both wheels are stopped. What a controller without
+    odometry believes from the speeds it commanded.
+
+    >>> dead_reckon(Pose(0.0, 0.0), 0.1, 0.1, 0.2, 2.0)
+    Pose(x=0.2, y=0.0, theta=0.0)
+    >>> dead_reckon(Pose(1.0, 0.0), 0.0, 0.0, 0.2, 2.0)
+    Pose(x=1.0, y=0.0, theta=0.0)
+    """
+    if dt <= 0 or (left == 0 and right == 0):
+        return pose
+    v, w = wheel_twist(left, right, wheel_base)
+    return drive(pose, v, w, dt)

@@ -19,7 +19,7 @@ from planner.probabilistic import NoiseError, ProbabilisticMap, preset_names, sa
 from planner.scenarios import ScenarioError, load_scenario
 from runtime.cli import CliError
 from runtime.cli._bags import add_bag_options, is_bag, labelled_scans, lidar_offset, open_topic, scan_label
-from runtime.cli._progress import progress
+from runtime.cli._common import plan_scans
 from runtime.records.bags import BagError, LaserScan
 
 __all__ = [
@@ -292,20 +292,17 @@ def _plan_folder(conf: Configurator, folder: Path, goal: tuple[float, float], ar
 def _plan_many(conf: Configurator, total: int, items: Iterable[tuple[str, Any, str]], goal: tuple[float, float],
                args: argparse.Namespace) -> int:
     """Plan on every (name, scan, JSON name) of ``items``: one line each, then a summary."""
-    times: list[float] = []
-    reached = 0
-    bar = progress(items, total=total, desc="plan", unit="scan")
-    for name, scan, json_name in bar:
-        r = _plan_one(conf, scan, goal)
-        times.append(r.planning_time_s)
-        reached += r.reached_goal
+
+    def line(name: str, r: PlanResult, json_name: str) -> str:
         if args.json:
-            bar.write(json.dumps({"scan": json_name, **r.to_dict()}))
-        else:
-            bar.write(
-                f"{name}: {'goal' if r.reached_goal else 'partial'}  {len(r.steps)} tasks  {r.states} states  "
-                f"{r.planning_time_s * 1e3:.2f} ms  [{' '.join(s.task.value[0] for s in r.steps)}]"
-            )
+            return json.dumps({"scan": json_name, **r.to_dict()})
+        return (
+            f"{name}: {'goal' if r.reached_goal else 'partial'}  {len(r.steps)} tasks  {r.states} states  "
+            f"{r.planning_time_s * 1e3:.2f} ms  [{' '.join(s.task.value[0] for s in r.steps)}]"
+        )
+
+    run = plan_scans(items, total, "plan", lambda scan, _: _plan_one(conf, scan, goal), line)
+    times, reached = run.times, run.reached
     if not args.json:
         if not times:
             print("0 scans")

@@ -11,9 +11,9 @@ from typing import Any
 
 import numpy as np
 
-from planner import Configurator, PlanningError, ScanError, scan_files
+from planner import Configurator, PlanningError, PlanResult, ScanError, scan_files
 from runtime.cli._bags import add_bag_options, is_bag, labelled_scans, lidar_offset, open_topic
-from runtime.cli._progress import progress
+from runtime.cli._common import plan_scans
 from runtime.cli.plan import add_planner_options, configurator_from_args, parse_goal
 from runtime.cli import CliError
 from runtime.records.bags import BagError, LaserScan
@@ -69,23 +69,8 @@ def run(args: argparse.Namespace) -> int:
 
 def _replay(conf: Configurator, total: int, items: Iterable[tuple[str, Any, tuple[float, float]]],
             offset: tuple[float, float, float], args: argparse.Namespace) -> int:
-    times: list[float] = []
-    plans = reached = failed = seen = 0
-    bar = progress(items, total=total, desc="replay", unit="scan")
-    for label, scan, g in bar:
-        seen += 1
-        try:
-            r = conf.plan(scan.points(offset) if isinstance(scan, LaserScan) else scan, g)
-        except (ScanError, PlanningError, BagError) as exc:
-            failed += 1
-            if args.json:
-                bar.write(json.dumps({"scan": label, "error": str(exc)}))
-            else:
-                bar.write(f"{label}: error: {exc}")
-            continue
-        times.append(r.planning_time_s)
-        plans += bool(r.steps) or r.reached_goal
-        reached += r.reached_goal
+
+    def line(label: str, r: PlanResult, g: tuple[float, float]) -> str:
         if args.json:
             rec = {
                 "scan": label,
@@ -95,12 +80,20 @@ def _replay(conf: Configurator, total: int, items: Iterable[tuple[str, Any, tupl
                 "planning_time_s": r.planning_time_s,
                 "plan": [s.task.value for s in r.steps],
             }
-            bar.write(json.dumps(rec))
-        else:
-            bar.write(
-                f"{label}: {'goal' if r.reached_goal else 'partial' if r.steps else 'no move'}  "
-                f"{r.states:3d} states  {r.planning_time_s * 1e3:7.2f} ms  [{' '.join(s.task.value[0] for s in r.steps)}]"
-            )
+            return json.dumps(rec)
+        return (
+            f"{label}: {'goal' if r.reached_goal else 'partial' if r.steps else 'no move'}  "
+            f"{r.states:3d} states  {r.planning_time_s * 1e3:7.2f} ms  [{' '.join(s.task.value[0] for s in r.steps)}]"
+        )
+
+    def error(label: str, exc: BaseException) -> str:
+        return json.dumps({"scan": label, "error": str(exc)}) if args.json else f"{label}: error: {exc}"
+
+    def plan(scan: Any, g: tuple[float, float]) -> PlanResult:
+        return conf.plan(scan.points(offset) if isinstance(scan, LaserScan) else scan, g)
+
+    run = plan_scans(items, total, "replay", plan, line, catch=(ScanError, PlanningError, BagError), emit_error=error)
+    times, plans, reached, failed, seen = run.times, run.plans, run.reached, run.failed, run.seen
     t = np.array(times) if times else np.array([np.nan])
     median_s = float(np.median(t)) if times else None
     p90_s = float(np.percentile(t, 90)) if times else None

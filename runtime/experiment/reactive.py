@@ -41,7 +41,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from formal.geometry import compose, drive, points_from_frame, relative, wheel_twist
+from formal.geometry import compose, dead_reckon, points_from_frame, relative
 from formal.model import Pose
 from planner.perception import validate_scan
 from planner.robot import RobotModel
@@ -201,14 +201,7 @@ class ReactiveController:
 
     def _dead_reckon(self, dt: float) -> None:
         odo = self.robot.odometry()
-        if odo is not None:
-            self.pose = odo
-            return
-        vl, vr = self._cmd
-        if dt <= 0 or (vl == 0 and vr == 0):
-            return
-        v, w = wheel_twist(vl, vr, self.model.wheel_base)
-        self.pose = drive(self.pose, v, w, dt)
+        self.pose = odo if odo is not None else dead_reckon(self.pose, *self._cmd, self.model.wheel_base, dt)
 
     def _stop(self) -> None:
         self._cmd = (0.0, 0.0)

@@ -40,7 +40,7 @@ from planner.configurator import Configurator, PlanningError, PlanResult
 from planner.perception import validate_scan
 from planner.physics import make_task
 from planner.robot import RobotModel
-from formal.geometry import compose, drive, points_from_frame, points_to_frame, relative, wheel_twist, wrap_angle
+from formal.geometry import compose, dead_reckon, points_from_frame, points_to_frame, relative, wrap_angle
 from planner.tasks import Task
 from runtime.clock import Clock, clock_for
 from runtime.records.runlog import RunLogLike, plan_fields
@@ -373,14 +373,7 @@ class Supervisor:
         dt = now - self._last_update
         self._last_update = now
         odo = self.robot.odometry()
-        if odo is not None:
-            self.pose = odo
-            return
-        vl, vr = self._cmd
-        if dt <= 0 or (vl == 0 and vr == 0):
-            return
-        v, w = wheel_twist(vl, vr, self.model.wheel_base)
-        self.pose = drive(self.pose, v, w, dt)
+        self.pose = odo if odo is not None else dead_reckon(self.pose, *self._cmd, self.model.wheel_base, dt)
 
     # -- planning ---------------------------------------------------------------------------------
     def _plan_tick(self, now: float) -> None:
