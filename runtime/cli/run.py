@@ -115,7 +115,8 @@ def _interrupts_raise() -> Iterator[Callable[[], str | None]]:
         if got:
             return
         got.append(signal.Signals(signum).name)
-        raise KeyboardInterrupt
+        # the reason travels with the exception: the supervisor may catch it first
+        raise KeyboardInterrupt(f"interrupted by {got[0]}")
 
     previous = {s: signal.getsignal(s) for s in (signal.SIGINT, signal.SIGTERM)}
     installed = threading.current_thread() is threading.main_thread()

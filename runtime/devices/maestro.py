@@ -87,6 +87,7 @@ class Maestro:
         watchdog_timeout: float | None = 0.3,
         multiple_targets: bool = False,
         reply_timeout: float = 0.5,
+        clock: Callable[[], float] | None = None,
     ) -> None:
         if protocol not in ("compact", "pololu"):
             raise ValueError(f"protocol must be 'compact' or 'pololu', got {protocol!r}")
@@ -105,8 +106,13 @@ class Maestro:
         self.reply_timeout = reply_timeout
         self.watchdog_stops = 0
         self.watchdog_error: MaestroError | None = None
+        #: the watchdog's time (seconds); ``time.monotonic`` unless a test passes its own
+        self.clock: Callable[[], float] = clock or time.monotonic
+        #: passes of the watchdog loop so far (a test can wait for it to have looked)
+        self.watchdog_passes = 0
+        self._watch_cond = threading.Condition()
         self._lock = threading.RLock()
-        self._last_command = time.monotonic()
+        self._last_command = self.clock()
         self._stopped = True
         self._speeds = (0.0, 0.0)
         self._closed = threading.Event()
@@ -214,7 +220,7 @@ class Maestro:
             if self._closed.is_set():
                 raise MaestroError("the Maestro driver is closed")
             self._send_wheels(self._target(left, self.left), self._target(right, self.right))
-            self._last_command = time.monotonic()
+            self._last_command = self.clock()
             self._speeds = (left, right)
             self._stopped = left == 0.0 and right == 0.0
 
@@ -261,19 +267,33 @@ class Maestro:
     def _watch(self) -> None:
         timeout = self.watchdog_timeout
         assert timeout is not None
+        # an injected clock may jump: then look again often rather than sleep its whole wait
+        poll = None if self.clock is time.monotonic else 0.01
         while True:
             with self._lock:
-                wait = timeout if self._stopped else self._last_command + timeout - time.monotonic()
+                wait = timeout if self._stopped else self._last_command + timeout - self.clock()
                 if wait <= 0:
                     try:
                         self.stop()
                         self.watchdog_stops += 1
                     except MaestroError as exc:
                         self.watchdog_error = exc
-                        self._last_command = time.monotonic()  # retry after another period
-                    continue
-            if self._closed.wait(wait):
+                        self._last_command = self.clock()  # retry after another period
+                    wait = 0.0
+            with self._watch_cond:
+                self.watchdog_passes += 1
+                self._watch_cond.notify_all()
+            if wait > 0 and self._closed.wait(wait if poll is None else min(wait, poll)):
                 return
+            if wait <= 0 and self._closed.is_set():
+                return
+
+    def wait_watchdog(self, passes: int = 1, timeout: float = 10.0) -> bool:
+        """Wait until the watchdog has looked at the clock ``passes`` more times (for tests
+        that move an injected clock and must know the watchdog saw the new time)."""
+        with self._watch_cond:
+            target = self.watchdog_passes + passes
+            return self._watch_cond.wait_for(lambda: self.watchdog_passes >= target, timeout)
 
     # -- lifetime
 

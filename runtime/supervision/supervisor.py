@@ -248,8 +248,10 @@ class Supervisor:
             if self.state is S.IDLE:
                 self.start()
             self._tick()
-        except KeyboardInterrupt:
-            self.abort("interrupted")
+        except KeyboardInterrupt as exc:
+            # a signal handler may say which signal it was (clomp run raises
+            # KeyboardInterrupt("interrupted by SIGINT")): that reason goes in the log
+            self.abort(str(exc) or "interrupted")
             raise
         except Exception as exc:  # every other failure is a fault: halt, wheels stopped
             self.fault(f"{type(exc).__name__}: {exc}")

@@ -11,6 +11,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
+from runtime.clock import ManualClock
 from runtime.devices.emulators import MaestroEmulator
 from runtime.devices.maestro import (
     ErrorFlags,
@@ -163,34 +164,45 @@ def test_nan_is_rejected_and_stops_the_wheels(emu: MaestroEmulator) -> None:
         assert emu.wait_for(lambda e: _wheel_targets(e) == (6000, 6000), 1.0)
 
 
-def _stop_latency(emu: MaestroEmulator, m: Maestro) -> float:
-    m.set_speeds(0.5, 0.5)
-    assert emu.wait_for(lambda e: _wheel_targets(e) == (6200, 5800), 1.0)
-    commanded = emu.events[-1][0]
-    assert emu.wait_for(lambda e: _wheel_targets(e) == (6000, 6000), 2.0)
-    return emu.events[-1][0] - commanded
-
-
-def test_watchdog_stops_the_wheels_within_300ms(emu: MaestroEmulator) -> None:
-    with Maestro(emu.port, watchdog_timeout=0.2) as m:
-        latency = _stop_latency(emu, m)
-    assert 0.19 <= latency < 0.3  # measured on the emulator's side
-
-
-def test_default_watchdog_fires_at_its_timeout(emu: MaestroEmulator) -> None:
-    with Maestro(emu.port) as m:
-        assert m.watchdog_timeout == 0.3
-        latency = _stop_latency(emu, m)
+def _watchdog_latency(timeout: float | None, margin: float = 0.004) -> float:
+    """Device time from a speed command to the watchdog's stop, the driver and the
+    emulator sharing one manual clock: the test moves time, so load cannot skew it."""
+    clock = ManualClock(0.0)
+    options = {} if timeout is None else {"watchdog_timeout": timeout}
+    with MaestroEmulator(clock=clock.now) as emu, Maestro(emu.port, clock=clock.now, **options) as m:
+        wd = m.watchdog_timeout
+        assert wd is not None
+        m.set_speeds(0.5, 0.5)
+        assert emu.wait_for(lambda e: _wheel_targets(e) == (6200, 5800), 10.0)
+        commanded = emu.events[-1][0]
+        clock.advance(wd - margin)
+        assert m.wait_watchdog(2)  # it has seen the new time
+        assert m.watchdog_stops == 0 and m.speeds == (0.5, 0.5)  # not before its timeout
+        clock.advance(2 * margin)
+        assert emu.wait_for(lambda e: _wheel_targets(e) == (6000, 6000), 10.0)
         assert m.watchdog_stops == 1
-    assert 0.29 <= latency < 0.5  # fires at its timeout, not before; slack for a loaded 2-core machine
+        return emu.events[-1][0] - commanded
 
 
-def test_watchdog_stays_quiet_while_commands_keep_coming(emu: MaestroEmulator) -> None:
-    with Maestro(emu.port, watchdog_timeout=0.2) as m:
+def test_watchdog_stops_the_wheels_at_its_timeout() -> None:
+    latency = _watchdog_latency(0.2)
+    assert 0.2 <= latency <= 0.2 + 0.004 + 1e-9  # measured on the emulator's (shared) clock
+
+
+def test_default_watchdog_fires_at_its_timeout() -> None:
+    latency = _watchdog_latency(None)
+    assert 0.3 <= latency <= 0.3 + 0.004 + 1e-9
+
+
+def test_watchdog_stays_quiet_while_commands_keep_coming() -> None:
+    clock = ManualClock(0.0)
+    with MaestroEmulator(clock=clock.now) as emu, Maestro(emu.port, watchdog_timeout=0.2, clock=clock.now) as m:
         for _ in range(8):
             m.set_speeds(0.5, 0.5)
-            time.sleep(0.08)
+            clock.advance(0.15)  # 1.2 s of device time, never 0.2 s without a command
+            assert m.wait_watchdog(2)
         assert m.watchdog_stops == 0
+        assert emu.wait_for(lambda e: len(e.events) >= 2, 10.0)
         assert all(target != 6000 for _, ch, target in emu.events if ch in (0, 1))
 
 
@@ -216,14 +228,17 @@ def test_port_disappearing_is_a_maestro_error(emu: MaestroEmulator) -> None:
     m.close()  # closing a vanished device does not raise
 
 
-def test_watchdog_survives_a_vanished_port(emu: MaestroEmulator) -> None:
-    with Maestro(emu.port, watchdog_timeout=0.05) as m:
+def test_watchdog_survives_a_vanished_port() -> None:
+    clock = ManualClock(0.0)
+    emu = MaestroEmulator().start()
+    with Maestro(emu.port, watchdog_timeout=0.05, clock=clock.now) as m:
         m.set_speeds(0.2, 0.2)
-        emu.vanish()
-        deadline = time.monotonic() + 2.0
-        while m.watchdog_error is None and time.monotonic() < deadline:
-            time.sleep(0.02)
+        emu.vanish()  # returns once the device is gone
+        clock.advance(0.06)  # only now is the watchdog due
+        assert m.wait_watchdog(2)
         assert isinstance(m.watchdog_error, MaestroPortError)
+        clock.advance(0.06)  # it keeps trying (and failing) rather than dying
+        assert m.wait_watchdog(2) and m.watchdog_stops == 0
 
 
 def test_missing_port_and_silent_port() -> None:

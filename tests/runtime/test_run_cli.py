@@ -251,6 +251,34 @@ def test_an_exception_inside_planning_halts_with_the_wheels_stopped(
     assert faults and "RuntimeError: boom in the planner" in faults[0]["reason"]
 
 
+def test_a_signal_landing_inside_a_supervisor_step_keeps_its_name(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str], run_registered: None
+) -> None:
+    """The Ctrl-C race made deterministic: SIGINT arrives while the supervisor is planning
+    (inside Supervisor.step, which aborts first); the log must still say SIGINT."""
+    import os
+
+    from planner.configurator import Configurator
+
+    real_plan = Configurator.plan
+
+    def plan_then_ctrl_c(self: Any, scan: Any, goal: Any) -> Any:
+        result = real_plan(self, scan, goal)
+        os.kill(os.getpid(), signal.SIGINT)  # delivered before the next bytecode of this thread
+        return result
+
+    monkeypatch.setattr(Configurator, "plan", plan_then_ctrl_c)
+    log = tmp_path / "run.jsonl"
+    with EmulatedWorld("open") as world:
+        rc = cli.main(["run", "--lidar", world.lidar_port, "--motors", world.motor_port, "--goal", "1.0,0.0",
+                       "--log", str(log), "--max-time", "10"])
+        assert world.maestro.wait_for(lambda e: e.speeds == (0.0, 0.0), 10.0)
+    err = capsys.readouterr().err
+    assert rc == 130 and "Traceback" not in err and "SIGINT" in err
+    stop = [r for r in read_log(log) if r["event"] == "stop"]
+    assert len(stop) == 1 and stop[0]["reason"] == "interrupted by SIGINT" and stop[0]["status"] == "HALTED"
+
+
 # ------------------------------------------------------------------------- user errors
 
 
