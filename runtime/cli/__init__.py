@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import re
 import sys
 import warnings
 from collections.abc import Sequence
@@ -61,10 +62,38 @@ def _show_warning(
     print(f"clomp: warning: {message}", file=sys.stderr if file is None else file)
 
 
+# options whose value is a coordinate pair that may start with a minus sign
+_COORDINATE_OPTIONS = frozenset({"--goal"})
+_NEGATIVE_VALUE = re.compile(r"^-[0-9.]")
+
+
+def _join_negative_values(argv: Sequence[str]) -> list[str]:
+    """``--goal -0.8,0`` → ``--goal=-0.8,0``: argparse takes ``-0.8,0`` for an option.
+
+    >>> _join_negative_values(["plan", "--goal", "-0.8,0", "--json"])
+    ['plan', '--goal=-0.8,0', '--json']
+    """
+    out: list[str] = []
+    items = list(argv)
+    i = 0
+    while i < len(items):
+        tok = items[i]
+        if tok == "--":
+            out.extend(items[i:])
+            break
+        if tok in _COORDINATE_OPTIONS and i + 1 < len(items) and _NEGATIVE_VALUE.match(items[i + 1]):
+            out.append(f"{tok}={items[i + 1]}")
+            i += 2
+            continue
+        out.append(tok)
+        i += 1
+    return out
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the console script; returns the exit status."""
     parser = build_parser()
-    args = parser.parse_args(argv)
+    args = parser.parse_args(_join_negative_values(sys.argv[1:] if argv is None else argv))
     if not getattr(args, "func", None):
         parser.print_help()
         return 2

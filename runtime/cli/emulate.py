@@ -12,6 +12,7 @@ import time
 from typing import Any
 
 from runtime.cli import CliError
+from runtime.cli._signals import interrupts_raise
 
 __all__ = ["register"]
 
@@ -80,17 +81,24 @@ def _scan_source(args: argparse.Namespace) -> Any:
         raise CliError(str(exc)) from exc
 
 
-def _serve(emulator: Any, what: str) -> int:
+def _serve(emulator: Any, what: str, label: str, next_step: str) -> int:
+    """Start ``emulator``, print its labelled port and what to run next, serve until Ctrl-C.
+
+    Ctrl-C and SIGTERM stop it even when the parent shell ignored SIGINT (a background
+    job): the handler is installed here rather than inherited.
+    """
     try:
         emulator.start()
     except OSError as exc:
         raise CliError(f"cannot open a pseudo-terminal for the {what} emulator: {exc}") from exc
     try:
-        print(emulator.port, flush=True)
-        while emulator.running:
-            time.sleep(0.1)
-        reason = f": {emulator.error}" if emulator.error else " (fault injection)"
-        print(f"{what} emulator closed its port{reason}", file=sys.stderr)
+        with interrupts_raise():
+            print(f"{label}: {emulator.port}", flush=True)
+            print(f"next: {next_step.format(port=emulator.port)}   (Ctrl-C stops the emulator)", flush=True)
+            while emulator.running:
+                time.sleep(0.1)
+            reason = f": {emulator.error}" if emulator.error else " (fault injection)"
+            print(f"{what} emulator closed its port{reason}", file=sys.stderr)
     except KeyboardInterrupt:
         pass
     finally:
@@ -118,7 +126,7 @@ def _run_lidar(args: argparse.Namespace) -> int:
         )
     except ValueError as exc:
         raise CliError(str(exc)) from exc
-    return _serve(emulator, "LiDAR")
+    return _serve(emulator, "LiDAR", "lidar", "clomp run --lidar {port} --dry-run --goal 1.0,0.0")
 
 
 def _run_maestro(args: argparse.Namespace) -> int:
@@ -138,4 +146,4 @@ def _run_maestro(args: argparse.Namespace) -> int:
         serial_timeout=args.serial_timeout,
         on_speeds=show if args.show_speeds else None,
     )
-    return _serve(emulator, "Maestro")
+    return _serve(emulator, "Maestro", "motors", "clomp run --lidar LIDAR_PORT --motors {port} --goal 1.0,0.0")

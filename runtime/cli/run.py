@@ -19,17 +19,15 @@ from __future__ import annotations
 import argparse
 import datetime as _dt
 import math
-import signal
 import sys
 import threading
 import time
-from collections.abc import Callable, Iterator
-from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
 from runtime.cli.plan import add_planner_options, configurator_from_args, parse_goal
 from runtime.cli import CliError
+from runtime.cli._signals import interrupts_raise
 
 __all__ = ["register", "add_emulate_world", "default_log_path"]
 
@@ -106,31 +104,6 @@ class _SharedLog:
             self._log.write(event, **fields)
 
 
-@contextmanager
-def _interrupts_raise() -> Iterator[Callable[[], str | None]]:
-    """SIGINT/SIGTERM raise KeyboardInterrupt once; later ones are ignored while stopping."""
-    got: list[str] = []
-
-    def handler(signum: int, frame: Any) -> None:
-        if got:
-            return
-        got.append(signal.Signals(signum).name)
-        # the reason travels with the exception: the supervisor may catch it first
-        raise KeyboardInterrupt(f"interrupted by {got[0]}")
-
-    previous = {s: signal.getsignal(s) for s in (signal.SIGINT, signal.SIGTERM)}
-    installed = threading.current_thread() is threading.main_thread()
-    if installed:
-        for s in previous:
-            signal.signal(s, handler)
-    try:
-        yield lambda: got[0] if got else None
-    finally:
-        if installed:
-            for s, h in previous.items():
-                signal.signal(s, h)
-
-
 def _config(args: argparse.Namespace) -> Any:
     from runtime.devices.maestro import WheelConfig
     from runtime.robots.hardware import HardwareConfig
@@ -201,7 +174,7 @@ def run(args: argparse.Namespace) -> int:
               config=config.to_dict(), monotonic=time.monotonic(), wall=time.time())
     robot = sup = None
     try:
-        with _interrupts_raise() as signalled:
+        with interrupts_raise() as signalled:
             try:
                 try:
                     robot = HardwareRobot(args.lidar, args.motors, config, model=conf.robot, log=log, clock=clock)
@@ -303,6 +276,8 @@ def add_emulate_world(devices: Any) -> None:
     w.add_argument("--seed", type=int, help="seed of the simulated robot's noise")
     w.add_argument("--time-scale", type=float, default=1.0, metavar="K",
                    help="run the world K times faster than real time (pass the same to clomp run)")
+    w.add_argument("--serial-timeout", type=float, metavar="S",
+                   help="the Maestro's own fail-safe: wheels home after S s without a byte (default off, as on a new board)")
     w.set_defaults(func=_run_world)
 
 
@@ -310,8 +285,11 @@ def _run_world(args: argparse.Namespace) -> int:
     from planner.scenarios import ScenarioError
     from runtime.robots.emulated import EmulatedWorld
 
+    if args.serial_timeout is not None and not (math.isfinite(args.serial_timeout) and args.serial_timeout > 0):
+        raise CliError(f"--serial-timeout must be a positive number of seconds, got {args.serial_timeout}")
     try:
-        world = EmulatedWorld(args.scenario, seed=args.seed, time_scale=args.time_scale)
+        world = EmulatedWorld(args.scenario, seed=args.seed, time_scale=args.time_scale,
+                              serial_timeout=args.serial_timeout)
     except (OSError, ScenarioError, ValueError) as exc:
         raise CliError(f"cannot load scenario {args.scenario!r}: {exc}") from None
     try:
@@ -319,14 +297,8 @@ def _run_world(args: argparse.Namespace) -> int:
     except OSError as exc:
         raise CliError(f"cannot open the pseudo-terminals: {exc}") from None
     try:
-        gx, gy = world.scene.goal_in_robot_frame()
-        print(f"lidar: {world.lidar_port}", flush=True)
-        print(f"motors: {world.motor_port}", flush=True)
-        scale = f" --time-scale {args.time_scale:g}" if args.time_scale != 1.0 else ""
-        print(f"run: clomp run --lidar {world.lidar_port} --motors {world.motor_port} --goal {gx:g},{gy:g}{scale}",
-              flush=True)
-        while world.lidar.running and world.maestro.running and world.error is None:
-            time.sleep(0.1)
+        with interrupts_raise():
+            _serve_world(world, args)
     except KeyboardInterrupt:
         pass
     finally:
@@ -337,3 +309,15 @@ def _run_world(args: argparse.Namespace) -> int:
     if world.error is not None:
         raise CliError(f"the emulated world failed: {world.error}")
     return 0
+
+
+def _serve_world(world: Any, args: argparse.Namespace) -> None:
+    """Print both ports and the command to run, then serve until Ctrl-C or a device stops."""
+    gx, gy = world.scene.goal_in_robot_frame()
+    print(f"lidar: {world.lidar_port}", flush=True)
+    print(f"motors: {world.motor_port}", flush=True)
+    scale = f" --time-scale {args.time_scale:g}" if args.time_scale != 1.0 else ""
+    print(f"run: clomp run --lidar {world.lidar_port} --motors {world.motor_port} --goal {gx:g},{gy:g}{scale}",
+          flush=True)
+    while world.lidar.running and world.maestro.running and world.error is None:
+        time.sleep(0.1)

@@ -97,6 +97,16 @@ class MaestroEmulator(PtyEmulator):
             _m.target_to_speed(self.targets[self.right.channel], self.right, **kw),
         )
 
+    @property
+    def last_byte_at(self) -> float:
+        """When the last byte arrived, on the emulator's clock (what the serial timeout counts from)."""
+        return self._last_byte
+
+    @property
+    def timed_out(self) -> bool:
+        """True once the serial timeout sent the channels home (until the next byte)."""
+        return self._timed_out
+
     def inject_errors(self, code: int) -> None:
         """Set error bits, as if the device had detected them."""
         with self._lock:

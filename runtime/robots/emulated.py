@@ -42,6 +42,8 @@ class EmulatedWorld:
     wheel mapping (``left``, ``right``, ``neutral_us``, ``span_us``) must match the
     driver's. ``lidar_options`` are passed to :class:`LidarEmulator` (fault injection);
     its attributes such as ``garbage_rate`` can also be changed while it runs.
+    ``serial_timeout`` is the Maestro's own fail-safe (off by default, as on a new
+    board): no byte for that long sends the wheels home (stopped).
 
     >>> with EmulatedWorld("open") as world:
     ...     world.lidar_port.startswith("/dev/"), world.motor_port.startswith("/dev/"), world.collisions
@@ -63,6 +65,7 @@ class EmulatedWorld:
         span_us: float = 100.0,
         device_number: int = 12,
         lidar_options: dict[str, Any] | None = None,
+        serial_timeout: float | None = None,
     ) -> None:
         if not (math.isfinite(time_scale) and time_scale > 0):
             raise ValueError(f"time_scale must be a positive number, got {time_scale!r}")
@@ -86,6 +89,7 @@ class EmulatedWorld:
             neutral_us=neutral_us,
             span_us=span_us,
             on_speeds=self._on_speeds,
+            serial_timeout=serial_timeout,
         )
 
     # -- wiring -----------------------------------------------------------------------------

@@ -278,33 +278,45 @@ _HARNESS = textwrap.dedent(
 )
 
 
-def _cli(*argv: str) -> subprocess.Popen[str]:
+def _cli(*argv: str, sigint_ignored: bool = False) -> subprocess.Popen[str]:
+    """``clomp ARGV`` in a subprocess; ``sigint_ignored`` starts it as a background job of a
+    non-interactive shell would be (SIGINT ignored)."""
+
+    def ignore_sigint() -> None:
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
+
     return subprocess.Popen(
         [sys.executable, "-c", _HARNESS, *argv],
         cwd=REPO,
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,
+        preexec_fn=ignore_sigint if sigint_ignored else None,
     )
 
 
-def _wait_for_port(proc: subprocess.Popen[str]) -> str:
+def _wait_for_port(proc: subprocess.Popen[str], label: str) -> str:
+    """The port from the emulator's ``LABEL: /dev/pts/N`` line (then its ``next:`` line)."""
     assert proc.stdout is not None
     line = proc.stdout.readline().strip()
-    assert line.startswith("/dev/"), (line, proc.stderr.read() if proc.stderr else "")
-    return line
+    assert line.startswith(f"{label}: /dev/"), (line, proc.stderr.read() if proc.stderr else "")
+    port = line.split(": ", 1)[1]
+    hint = proc.stdout.readline().strip()
+    assert hint.startswith("next: clomp run ") and port in hint and "Ctrl-C" in hint, hint
+    return port
 
 
-def test_cli_emulate_maestro_prints_its_port_and_exits_cleanly_on_ctrl_c() -> None:
-    proc = _cli("emulate", "maestro", "--show-speeds")
+@pytest.mark.parametrize("sigint_ignored", [False, True], ids=["foreground", "sigint-ignored-by-the-shell"])
+def test_cli_emulate_maestro_prints_its_port_and_exits_cleanly_on_ctrl_c(sigint_ignored: bool) -> None:
+    proc = _cli("emulate", "maestro", "--show-speeds", sigint_ignored=sigint_ignored)
     try:
-        port = _wait_for_port(proc)
+        port = _wait_for_port(proc, "motors")
         with serial.Serial(port, 115200, timeout=0.5) as s:
             s.write(bytes.fromhex("9F 02 00 38 30 28 2D"))  # 6200, 5800 on channels 0, 1
             assert proc.stdout is not None
             assert proc.stdout.readline().strip() == "left=+0.500 right=+0.500"
         proc.send_signal(signal.SIGINT)
-        _, err = proc.communicate(timeout=5)
+        _, err = proc.communicate(timeout=60)  # a hang guard: it exits promptly
     finally:
         proc.kill()
     assert proc.returncode == 0
@@ -315,11 +327,11 @@ def test_cli_emulate_lidar_from_recorded_scans(tmp_path: Path) -> None:
     (tmp_path / "map0001.dat").write_text("0.50\t0.00\n")
     proc = _cli("emulate", "lidar", "--scans", str(tmp_path), "--speed", "4")
     try:
-        port = _wait_for_port(proc)
+        port = _wait_for_port(proc, "lidar")
         with RPLidar(port) as lidar:
             np.testing.assert_allclose(lidar.read_scan(timeout=1.0).points, [[0.5, 0.0]], atol=0.001)
         proc.send_signal(signal.SIGINT)
-        _, err = proc.communicate(timeout=5)
+        _, err = proc.communicate(timeout=60)  # a hang guard: it exits promptly
     finally:
         proc.kill()
     assert proc.returncode == 0 and "Traceback" not in err

@@ -251,6 +251,30 @@ def test_an_exception_inside_planning_halts_with_the_wheels_stopped(
     assert faults and "RuntimeError: boom in the planner" in faults[0]["reason"]
 
 
+@pytest.mark.parametrize("serial_timeout", [None, 0.5])
+def test_after_sigkill_only_the_maestros_own_serial_timeout_stops_the_wheels(
+    tmp_path: Path, serial_timeout: float | None
+) -> None:
+    """SIGKILL leaves no handler to run: a new board (timeout off) keeps the wheels turning;
+    with the board's serial timeout set, the Maestro itself sends them home."""
+    with EmulatedWorld("open", serial_timeout=serial_timeout) as world:
+        run = Run(world, tmp_path / "run.jsonl")
+        wait_driving(world, run)
+        run.proc.kill()
+        run.finish(timeout=10)
+        emu = world.maestro
+        if serial_timeout is None:
+            # two seconds of the device's own time after the last byte, still driving
+            assert emu.wait_for(lambda e: e.clock() - e.last_byte_at >= 2.0, 10.0)
+            assert emu.speeds != (0.0, 0.0) and not emu.timed_out
+        else:
+            assert emu.wait_for(lambda e: e.speeds == (0.0, 0.0), 10.0)
+            assert emu.timed_out and emu.error_code & (1 << 5)  # the serial-timeout error bit
+            stopped_at = emu.events[-1][0]
+            assert stopped_at - emu.last_byte_at >= serial_timeout  # the board's doing, not the driver's
+    assert run.proc.returncode == -signal.SIGKILL
+
+
 def test_a_signal_landing_inside_a_supervisor_step_keeps_its_name(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str], run_registered: None
 ) -> None:
