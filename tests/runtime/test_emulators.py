@@ -158,9 +158,10 @@ def test_lidar_vanishing_mid_scan_is_a_port_error() -> None:
 def test_stop_ends_the_stream_and_reset_reboots() -> None:
     with LidarEmulator(speed=4.0, reset_time=0.05) as emu, RPLidar(emu.port) as lidar:
         lidar.start_scan()
+        seen = emu.passes
         lidar.stop()
-        assert not emu.scanning
-        time.sleep(0.05)
+        # the emulator's thread reads STOP when it gets the CPU: wait for a whole pass after it
+        assert emu.wait_for(lambda e: not e.scanning and e.passes > seen, 10.0)
         lidar._reset_input()  # anything on the wire before STOP took effect
         time.sleep(0.1)
         assert lidar._waiting() == 0
