@@ -13,7 +13,7 @@ per line::
 next property. Anything else starting with ``// @`` is a syntax error, and so is a
 property line that is not a P, R or S query (errors name the file and line).
 
-stormpy is an optional dependency (``pip install 'clomp[verify]'``): it is imported
+stormpy is an optional dependency (``pip install -e '.[verify]'``): it is imported
 inside the functions that need it, and :class:`StormMissing` says how to install it.
 Storm renumbers states, so results are mapped back to map states through the ``q``
 variable (PRISM language) or the ``q<ident>`` labels (DRN), never by index.
@@ -61,7 +61,7 @@ __all__ = [
 TOLERANCE = 1e-6
 """Absolute tolerance when comparing a numeric result with a required value."""
 
-INSTALL_HINT = "pip install 'clomp[verify]'"
+INSTALL_HINT = "pip install -e '.[verify]' (from the clomp source folder, as in the README)"
 
 
 class SpecError(ValueError):

@@ -10,7 +10,7 @@ enables the plan's task on its states; every other state is absorbing) checked w
 ``P=? [!"collision" U "goal"]``. The scheduler's value is at least every plan's, the
 greedy best-first plan's included, since a plan is one (partial) scheduler.
 
-stormpy is needed (``pip install 'clomp[verify]'``).
+stormpy is needed (``pip install -e '.[verify]'``).
 """
 
 from __future__ import annotations

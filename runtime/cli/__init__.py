@@ -1,8 +1,15 @@
 """The ``clomp`` command line.
 
-Each subcommand lives in its own module of this package (``runtime/cli/<command>.py``) that defines ``register(subparsers)`` (adding
-its parser with ``set_defaults(func=...)``) so that commands can grow independently.
-A handled error (:class:`CliError`) prints one line and exits with status 2.
+Each subcommand lives in its own module of this package (``runtime/cli/<command>.py``)
+that defines ``register(subparsers)`` (adding its parser with ``set_defaults(func=...)``)
+so that commands can grow independently. A handled error (:class:`CliError`) prints one
+line and exits with status 2.
+
+Every command follows one exit-status convention (:data:`EXIT_STATUS`, shown at the end
+of each command's ``--help``): 0 goal reached or job done, 1 ran but the goal was not
+reached (partial plan, unreachable, halted safely), 2 bad input or usage, 3 device
+fault, 130 interrupted. A run over many scans exits 0 once every scan was processed,
+whatever each outcome (each has its line; the summary counts them).
 """
 
 from __future__ import annotations
@@ -17,7 +24,61 @@ from typing import TextIO
 
 from planner.perception import ScanWarning
 
-__all__ = ["main", "CliError"]
+__all__ = [
+    "EXIT_DEVICE_FAULT",
+    "EXIT_INTERRUPTED",
+    "EXIT_NOT_REACHED",
+    "EXIT_OK",
+    "EXIT_STATUS",
+    "EXIT_USAGE",
+    "CliError",
+    "build_parser",
+    "main",
+    "plural",
+]
+
+EXIT_OK = 0
+EXIT_NOT_REACHED = 1
+EXIT_USAGE = 2
+EXIT_DEVICE_FAULT = 3
+EXIT_INTERRUPTED = 130
+
+#: what each exit status means, per command (the end of every command's --help)
+EXIT_STATUS: dict[str, dict[int, str]] = {
+    "demo": {0: "the plan reached the goal without a collision", 1: "it did not"},
+    "plan": {0: "the plan reaches the goal (for a folder or bag: every scan was processed)",
+             1: "a partial plan: the goal is not reached (blocked, unseen, budget)"},
+    "replay": {0: "every scan was processed (each has its line; the summary counts the outcomes)"},
+    "simulate": {0: "the robot reached the goal without a collision", 1: "it did not (or it collided)"},
+    "experiment": {0: "every run done"},
+    "export": {0: "the file was written"},
+    "check": {0: "every required property holds", 1: "a required property fails (or Storm disagrees)"},
+    "emulate": {0: "stopped by Ctrl-C or SIGTERM (how an emulator ends)"},
+    "run": {0: "goal reached (--dry-run: time limit)", 1: "halted safely: goal unreachable, --max-time, an error",
+            3: "a device fault (LiDAR silent or corrupt, a port vanished, a device that does not answer)"},
+}
+_COMMON_STATUS = {2: "bad input or usage", 130: "interrupted (Ctrl-C, SIGTERM)"}
+
+
+def plural(n: int, word: str, many: str | None = None) -> str:
+    """``plural(1, "task")`` → ``'1 task'``, ``plural(3, "box", "boxes")`` → ``'3 boxes'``.
+
+    >>> plural(1, "obstacle box", "obstacle boxes"), plural(2, "scan")
+    ('1 obstacle box', '2 scans')
+    """
+    return f"{n} {word if n == 1 else (many or word + 's')}"
+
+
+def _exit_epilog(command: str) -> str:
+    table = {**EXIT_STATUS.get(command, {0: "done"}), **_COMMON_STATUS}
+    if command in ("run", "emulate"):
+        table.setdefault(EXIT_DEVICE_FAULT, "a device fault")
+    return "exit status:\n" + "\n".join(f"  {code:<4} {what}" for code, what in sorted(table.items()))
+
+
+def _plain(text: str | None) -> str | None:
+    """A docstring as help text: reStructuredText literals (````x````) shown as plain x."""
+    return None if text is None else text.replace("``", "")
 
 # subcommand modules, in the order they appear in --help
 _COMMAND_MODULES: list[str] = [
@@ -43,11 +104,28 @@ def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="clomp",
         description="Closed-loop multi-step planning with innate physics knowledge.",
+        epilog="exit status (every command): 0 goal reached or job done, 1 ran but the goal was not reached, "
+        "2 bad input or usage, 3 device fault, 130 interrupted. 'clomp COMMAND --help' says what each means there.",
     )
+    parser.add_argument("--version", action="version", version=f"clomp {_version()}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     for name in _COMMAND_MODULES:
         importlib.import_module(name).register(sub)
+    for command, p in sub.choices.items():
+        p.formatter_class = argparse.RawDescriptionHelpFormatter
+        p.description = _plain(p.description)
+        p.epilog = "\n\n".join(e for e in (_plain(p.epilog), _exit_epilog(command)) if e)
+    parser.set_defaults(_subparsers=sub)
     return parser
+
+
+def _version() -> str:
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version("clomp")
+    except PackageNotFoundError:  # run from a source tree that was never installed
+        return "unknown (not installed)"
 
 
 def _show_warning(
@@ -93,7 +171,13 @@ def _join_negative_values(argv: Sequence[str]) -> list[str]:
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the console script; returns the exit status."""
     parser = build_parser()
-    args = parser.parse_args(_join_negative_values(sys.argv[1:] if argv is None else argv))
+    args, extra = parser.parse_known_args(_join_negative_values(sys.argv[1:] if argv is None else argv))
+    if extra:
+        # argparse would show the top-level usage: show the command's own
+        command = getattr(args, "command", None)
+        sub = getattr(args, "_subparsers", None)
+        target = sub.choices.get(command, parser) if sub is not None and command else parser
+        target.error(f"unrecognized arguments: {' '.join(extra)}")
     if not getattr(args, "func", None):
         parser.print_help()
         return 2
@@ -108,10 +192,10 @@ def _dispatch(args: argparse.Namespace) -> int:
         return int(args.func(args) or 0)
     except CliError as exc:
         print(f"clomp: error: {exc}", file=sys.stderr)
-        return 2
+        return EXIT_USAGE
     except KeyboardInterrupt:
         print("clomp: interrupted", file=sys.stderr)
-        return 130
+        return EXIT_INTERRUPTED
     except BrokenPipeError:
-        return 0
+        return EXIT_OK
 

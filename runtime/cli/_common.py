@@ -1,79 +1,78 @@
-"""Helpers shared by the subcommands: the per-scan loop of ``clomp plan`` (folders, bags) and ``clomp replay``.
+"""Helpers shared by the subcommands: the per-scan outcome of ``clomp plan`` (folders, bags)
+and ``clomp replay``, and the summary of such a run.
 
-:func:`plan_scans` plans on every scan of a stream under one progress bar, writes one
-line per scan above the bar (each command formats its own lines) and counts what
-happened, so that the commands differ only in what they print.
+:func:`scan_outcomes` plans on one scan and never raises for the scan's own faults, so a
+many-scan run never stops at one scan; :func:`many_summary` counts the outcomes. The
+commands differ only in the lines they print.
 
 >>> import numpy as np
 >>> from planner import Configurator
 >>> conf = Configurator()
->>> items = [("a", np.zeros((0, 2)), (1.0, 0.0)), ("b", np.zeros((0, 2)), (0.0, 0.0))]
->>> run = plan_scans(items, 2, "demo", conf.plan, lambda name, r, g: f"{name}: {r.reached_goal}",
-...                  catch=(ValueError,), emit_error=lambda name, exc: f"{name}: error")
-a: True
-b: error
->>> run.seen, run.reached, run.failed, len(run.times)
-(2, 1, 1, 1)
+>>> [scan_outcomes(conf, s, g)[1]["outcome"] for s, g in
+...  [(np.zeros((0, 2)), (1.0, 0.0)), (np.zeros((0, 2)), (0.0, 0.0)), (np.full((1, 2), np.nan), (1.0, 0.0))]]
+['goal', 'at_goal', 'error']
+>>> many_summary(["goal", "error"], [0.01])["error"]
+1
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterable
-from dataclasses import dataclass, field
-from typing import Any, TypeVar
+import math
+import warnings
+from typing import Any
 
-from planner import PlanResult
-from runtime.cli._progress import progress
+import numpy as np
 
-__all__ = ["ScanRun", "plan_scans"]
+from planner import Configurator, PlanningError, PlanResult, ScanError
+from runtime.cli import plural
 
-T = TypeVar("T")
+__all__ = ["many_summary", "scan_outcomes", "summary_line"]
 
 
-@dataclass
-class ScanRun:
-    """What a per-scan loop counted: scans seen, plans found, goals reached, errors, planning times.
+def scan_outcomes(conf: Configurator, scan: Any, goal: tuple[float, float]) -> tuple[PlanResult | None, dict[str, Any]]:
+    """Plan on one scan of a many-scan run; never raises for the scan's own faults.
 
-    >>> ScanRun().seen
-    0
+    Returns (result or None, record): the record has ``outcome`` — ``goal``, ``partial``,
+    ``no_move``, ``at_goal`` (the goal lies within the goal tolerance of the robot: being
+    there is an outcome, not an error) or ``error`` (with ``error``: why the scan cannot
+    be planned) — and ``warnings`` (e.g. points beyond the sensor range) when any.
     """
-
-    seen: int = 0
-    plans: int = 0
-    reached: int = 0
-    failed: int = 0
-    times: list[float] = field(default_factory=list)
-
-
-def plan_scans(
-    items: Iterable[tuple[str, Any, T]],
-    total: int | None,
-    desc: str,
-    plan: Callable[[Any, T], PlanResult],
-    emit: Callable[[str, PlanResult, T], str],
-    *,
-    catch: tuple[type[BaseException], ...] = (),
-    emit_error: Callable[[str, BaseException], str] | None = None,
-) -> ScanRun:
-    """Plan ``plan(scan, extra)`` for every ``(name, scan, extra)`` of ``items`` under a progress bar.
-
-    Each result's line ``emit(name, result, extra)`` is written above the bar. An
-    exception of a type in ``catch`` counts as an error, writes ``emit_error(name, exc)``
-    and the loop goes on; any other exception ends the loop.
-    """
-    run = ScanRun()
-    bar = progress(items, total=total, desc=desc, unit="scan")
-    for name, scan, extra in bar:
-        run.seen += 1
+    rec: dict[str, Any] = {}
+    if math.hypot(goal[0], goal[1]) <= conf.robot.goal_tolerance:
+        rec.update(outcome="at_goal", reached_goal=True, plan=[])
+        return None, rec
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
         try:
-            r = plan(scan, extra)
-        except catch as exc:
-            run.failed += 1
-            if emit_error is not None:
-                bar.write(emit_error(name, exc))
-            continue
-        run.times.append(r.planning_time_s)
-        run.plans += bool(r.steps) or r.reached_goal
-        run.reached += r.reached_goal
-        bar.write(emit(name, r, extra))
-    return run
+            scan = scan() if callable(scan) else scan
+            r = conf.plan(scan, goal)
+        except (ScanError, PlanningError) as exc:
+            r = None
+            rec.update(outcome="error", error=str(exc))
+    if caught:
+        rec["warnings"] = [str(w.message) for w in caught]
+    if r is not None:
+        rec["outcome"] = "goal" if r.reached_goal else "partial" if r.steps else "no_move"
+    return r, rec
+
+
+def many_summary(outcomes: list[str], times: list[float]) -> dict[str, Any]:
+    """The summary of a many-scan run: counts per outcome and planning-time figures."""
+    t = sorted(times)
+    return {
+        "scans": len(outcomes),
+        **{k: outcomes.count(k) for k in ("goal", "partial", "no_move", "at_goal", "error")},
+        "median_planning_time_s": float(np.median(t)) if t else None,
+        "p90_planning_time_s": float(np.percentile(t, 90)) if t else None,
+    }
+
+
+def summary_line(s: dict[str, Any]) -> str:
+    """The readable summary line of a many-scan run."""
+    med = f"{s['median_planning_time_s'] * 1e3:.2f} ms" if s["median_planning_time_s"] is not None else "n/a"
+    p90 = f"{s['p90_planning_time_s'] * 1e3:.2f} ms" if s["p90_planning_time_s"] is not None else "n/a"
+    return (
+        f"summary: {plural(s['scans'], 'scan')}: {s['goal']} reach the goal, {s['partial']} partial, "
+        f"{s['no_move']} no move, {s['at_goal']} already at the goal, {plural(s['error'], 'error')}; "
+        f"planning time median {med}, p90 {p90}"
+    )

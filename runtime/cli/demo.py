@@ -10,7 +10,7 @@ from pathlib import Path
 from typing import Any
 
 from planner.scenarios import ScenarioError, load_scenario
-from runtime.cli import CliError
+from runtime.cli import EXIT_NOT_REACHED, EXIT_OK, CliError
 from runtime.experiment.runner import run_once
 from runtime.experiment.plots import plot_run
 from runtime.supervision.machine import state_machine_dot, state_machine_prism
@@ -80,4 +80,4 @@ def run(args: argparse.Namespace) -> int:
         (out / name).write_text(text, encoding="utf-8")
         written.append(str(out / name))
     print(f"wrote to {out}{os.sep}: " + ", ".join(Path(w).name if not w.startswith("(") else w for w in written))
-    return 0
+    return EXIT_OK if r.reached_goal and r.collisions == 0 else EXIT_NOT_REACHED

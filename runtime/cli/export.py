@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+import time
 from pathlib import Path
 from typing import Any
 
@@ -12,8 +13,15 @@ from formal.lts import CognitiveMap, MapError
 from planner import PlanningError, ScanError
 from planner.probabilistic import NoiseError, learn_from_scans
 from planner.scenarios import ScenarioError, load_scenario
-from runtime.cli.plan import add_planner_options, add_sampling_options, configurator_from_args, parse_goal, probabilistic_from_args
-from runtime.cli import CliError
+from runtime.cli.plan import (
+    add_planner_options,
+    add_sampling_options,
+    configurator_from_args,
+    parse_goal,
+    probabilistic_from_args,
+    scenario_goal,
+)
+from runtime.cli import EXIT_OK, CliError, plural
 
 __all__ = ["register", "add_source_options", "map_from_args"]
 
@@ -47,7 +55,7 @@ def map_from_args(args: argparse.Namespace) -> tuple[CognitiveMap, str]:
             if learn:
                 raise CliError("--learn needs --scan FOLDER (consecutive scans of a recorded run)")
             scene = load_scenario(args.scenario)
-            goal: tuple[float, float] = parse_goal(args.goal) if args.goal else tuple(scene.goal_in_robot_frame())  # type: ignore[assignment]
+            goal: tuple[float, float] = scenario_goal(scene, args.goal)
             scan = scene.scan(max_range=conf.robot.sensor_range)
             if samples is not None:
                 return probabilistic_from_args(args, conf, scan, goal).map, scene.name
@@ -137,10 +145,19 @@ def run(args: argparse.Namespace) -> int:
         dest = Path(args.output)
         if dest.parent and not dest.parent.exists():
             raise CliError(f"-o: folder {dest.parent} does not exist")
+    started = time.time()
     try:
         write(cmap, dest, args.format, args.model)
     except ExportError as exc:
         raise CliError(str(exc)) from None
     except OSError as exc:
         raise CliError(f"cannot write {args.output}: {exc.strerror or exc}") from None
-    return 0
+    if args.output != "-":
+        # say what was written (on stderr: with -o - the model itself is on stdout)
+        if args.format == "prism-explicit":
+            files = sorted(str(f) for f in dest.parent.glob(f"{dest.name}.*")
+                           if f.is_file() and f.stat().st_mtime >= started - 1.0)  # this run's, not older ones
+        else:
+            files = [str(dest)]
+        print(f"wrote {', '.join(files)} ({args.format}, {args.model}, {plural(len(cmap), 'state')})", file=sys.stderr)
+    return EXIT_OK

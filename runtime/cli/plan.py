@@ -17,9 +17,10 @@ from formal.lts import MapError
 from planner import Configurator, PlanningError, PlanResult, RobotModel, ScanError, scan_files
 from planner.probabilistic import NoiseError, ProbabilisticMap, preset_names, sample_map
 from planner.scenarios import ScenarioError, load_scenario
-from runtime.cli import CliError
+from runtime.cli import EXIT_NOT_REACHED, EXIT_OK, CliError, plural
 from runtime.cli._bags import add_bag_options, is_bag, labelled_scans, lidar_offset, open_topic, scan_label
-from runtime.cli._common import plan_scans
+from runtime.cli._common import many_summary, scan_outcomes, summary_line
+from runtime.cli._progress import progress
 from runtime.records.bags import BagError, LaserScan
 
 __all__ = [
@@ -30,6 +31,7 @@ __all__ = [
     "add_sampling_options",
     "probabilistic_from_args",
     "robust_summary",
+    "scenario_goal",
 ]
 
 
@@ -44,6 +46,23 @@ def parse_goal(text: str) -> tuple[float, float]:
     if not all(math.isfinite(p) for p in parts):
         raise CliError(f"--goal: coordinates must be finite, got {text!r}")
     return parts[0], parts[1]
+
+
+def scenario_goal(scene: Any, text: str | None) -> tuple[float, float]:
+    """The goal for a scenario: ``--goal`` (robot frame) or the scenario's own, refused
+    when it lies inside one of the scenario's true obstacles (the sensor sees only their
+    near faces, so the planner alone could not tell)."""
+    from formal.geometry import compose
+    from formal.model import Pose
+
+    goal = parse_goal(text) if text else tuple(scene.goal_in_robot_frame())
+    world = compose(scene.start, Pose(goal[0], goal[1], 0.0))
+    if scene.collides(world.x, world.y):
+        raise CliError(
+            f"--goal: ({goal[0]:g}, {goal[1]:g}) is inside an obstacle of scenario {scene.name!r} "
+            "(its true shape, not only the face the sensor sees)"
+        )
+    return goal[0], goal[1]
 
 
 def add_planner_options(p: argparse.ArgumentParser) -> None:
@@ -122,7 +141,8 @@ def _print_readable(r: PlanResult, title: str) -> None:
         verdict += "; it ends at the edge of what the sensor saw"
     print(f"{title}: goal ({r.goal.x:g}, {r.goal.y:g}) — plan {verdict}", file=out)
     print(
-        f"  {r.states} states, {r.transitions} transitions, {len(r.obstacles)} obstacle boxes, "
+        f"  {plural(r.states, 'state')}, {plural(r.transitions, 'transition')}, "
+        f"{plural(len(r.obstacles), 'obstacle box', 'obstacle boxes')}, "
         f"planned in {r.planning_time_s * 1e3:.2f} ms (stopped: {r.stop_reason})",
         file=out,
     )
@@ -181,7 +201,7 @@ def _run_robust(args: argparse.Namespace, conf: Configurator) -> int:
             scene = load_scenario(args.scenario)
         except ScenarioError as exc:
             raise CliError(str(exc)) from None
-        goal = parse_goal(args.goal) if args.goal else tuple(scene.goal_in_robot_frame())
+        goal = scenario_goal(scene, args.goal)
         scan: Any = scene.scan(max_range=conf.robot.sensor_range)
         title = scene.name
     else:
@@ -192,7 +212,7 @@ def _run_robust(args: argparse.Namespace, conf: Configurator) -> int:
     if args.samples is None:
         args.samples = 30
     try:
-        pm = probabilistic_from_args(args, conf, scan, goal)  # type: ignore[arg-type]
+        pm = probabilistic_from_args(args, conf, scan, goal)
     except (ScanError, PlanningError) as exc:
         raise CliError(str(exc)) from None
     summary = robust_summary(pm)
@@ -201,14 +221,15 @@ def _run_robust(args: argparse.Namespace, conf: Configurator) -> int:
             pm.map.write_json(args.map)
         except (OSError, MapError) as exc:
             raise CliError(f"--map: cannot write {args.map}: {exc}") from None
+    status = EXIT_OK if summary["reached_goal"] else EXIT_NOT_REACHED
     if args.json:
         print(json.dumps(summary))
-        return 0
+        return status
     print(f"{title}: robust plan on a map of {pm.samples} noisy rollouts per choice ({summary['states']} states)")
     print(f"  P(goal without collision): robust {summary['probability']:.4f}, greedy {summary['greedy_probability']:.4f}")
     for k, st in enumerate(summary["plan"], 1):
         print(f"  {k:2d}. {st['task']:<8} q{st['state']}")
-    return 0
+    return status
 
 
 def run(args: argparse.Namespace) -> int:
@@ -225,10 +246,10 @@ def run(args: argparse.Namespace) -> int:
             scene = load_scenario(args.scenario)
         except ScenarioError as exc:
             raise CliError(str(exc)) from None
-        goal = parse_goal(args.goal) if args.goal else tuple(scene.goal_in_robot_frame())
-        r = _plan_one(conf, scene.scan(max_range=conf.robot.sensor_range), goal)  # type: ignore[arg-type]
+        goal = scenario_goal(scene, args.goal)
+        r = _plan_one(conf, scene.scan(max_range=conf.robot.sensor_range), goal)
         _emit(r, args, scene.name)
-        return 0
+        return EXIT_OK if r.reached_goal else EXIT_NOT_REACHED
     path = Path(args.scan)
     goal = parse_goal(args.goal) if args.goal else (1.0, 0.0)
     if not path.exists():
@@ -242,7 +263,7 @@ def run(args: argparse.Namespace) -> int:
         return _plan_folder(conf, path, goal, args)
     r = _plan_one(conf, path, goal)
     _emit(r, args, str(path))
-    return 0
+    return EXIT_OK if r.reached_goal else EXIT_NOT_REACHED
 
 
 def _emit(r: PlanResult, args: argparse.Namespace, title: str) -> None:
@@ -261,7 +282,7 @@ def _plan_bag(conf: Configurator, path: Path, goal: tuple[float, float], args: a
     offset = lidar_offset(args)
     with open_topic(path, args) as topic:
         if args.index is None and args.time is None:
-            items = ((label, _bag_points(s, offset), label) for label, s in labelled_scans(topic))
+            items = ((label, (lambda s=s: _bag_points(s, offset)), label) for label, s in labelled_scans(topic))
             return _plan_many(conf, topic.count, items, goal, args)
         try:
             scan = topic.at_index(args.index) if args.index is not None else topic.at_time(args.time)
@@ -271,14 +292,14 @@ def _plan_bag(conf: Configurator, path: Path, goal: tuple[float, float], args: a
             raise CliError(str(exc)) from None
         r = _plan_one(conf, points, goal)
         _emit(r, args, f"{path} {scan_label(topic.topic, scan, t0 or scan.time_ns)}")
-    return 0
+    return EXIT_OK if r.reached_goal else EXIT_NOT_REACHED
 
 
 def _bag_points(scan: LaserScan, offset: tuple[float, float, float]) -> np.ndarray:
     try:
         return scan.points(offset)
     except BagError as exc:
-        raise CliError(f"scan {scan.index}: {exc}") from None
+        raise ScanError(f"scan {scan.index}: {exc}") from None
 
 
 def _plan_folder(conf: Configurator, folder: Path, goal: tuple[float, float], args: argparse.Namespace) -> int:
@@ -291,22 +312,31 @@ def _plan_folder(conf: Configurator, folder: Path, goal: tuple[float, float], ar
 
 def _plan_many(conf: Configurator, total: int, items: Iterable[tuple[str, Any, str]], goal: tuple[float, float],
                args: argparse.Namespace) -> int:
-    """Plan on every (name, scan, JSON name) of ``items``: one line each, then a summary."""
+    """Plan on every (name, scan, JSON name) of ``items``: one line each, then a summary.
 
-    def line(name: str, r: PlanResult, json_name: str) -> str:
+    A scan that cannot be planned gets its own line with an error and the run goes on;
+    the exit status is 0 once every scan was processed.
+    """
+    times: list[float] = []
+    outcomes: list[str] = []
+    bar = progress(items, total=total, desc="plan", unit="scan")
+    for name, scan, json_name in bar:
+        r, rec = scan_outcomes(conf, scan, goal)
+        outcomes.append(rec["outcome"])
+        if r is not None:
+            times.append(r.planning_time_s)
         if args.json:
-            return json.dumps({"scan": json_name, **r.to_dict()})
-        return (
-            f"{name}: {'goal' if r.reached_goal else 'partial'}  {len(r.steps)} tasks  {r.states} states  "
-            f"{r.planning_time_s * 1e3:.2f} ms  [{' '.join(s.task.value[0] for s in r.steps)}]"
-        )
-
-    run = plan_scans(items, total, "plan", lambda scan, _: _plan_one(conf, scan, goal), line)
-    times, reached = run.times, run.reached
-    if not args.json:
-        if not times:
-            print("0 scans")
-            return 0
-        times.sort()
-        print(f"{len(times)} scans, {reached} plans reach the goal, median {times[len(times) // 2] * 1e3:.2f} ms")
-    return 0
+            bar.write(json.dumps({"scan": json_name, **(r.to_dict() if r is not None else {}), **rec}))
+        elif r is None:
+            what = f"error: {rec['error']}" if rec["outcome"] == "error" else "already at the goal"
+            bar.write(f"{name}: {what}")
+        else:
+            bar.write(
+                f"{name}: {rec['outcome'].replace('_', ' ')}  {plural(len(r.steps), 'task')}  {plural(r.states, 'state')}  "
+                f"{r.planning_time_s * 1e3:.2f} ms  [{' '.join(s.task.value[0] for s in r.steps)}]"
+            )
+        for w in rec.get("warnings", []) if not args.json else []:
+            bar.write(f"{name}: warning: {w}")
+    summary = many_summary(outcomes, times)
+    print(json.dumps({"summary": summary}) if args.json else summary_line(summary))
+    return EXIT_OK

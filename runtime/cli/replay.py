@@ -11,11 +11,12 @@ from typing import Any
 
 import numpy as np
 
-from planner import Configurator, PlanningError, PlanResult, ScanError, scan_files
+from planner import Configurator, ScanError, scan_files
 from runtime.cli._bags import add_bag_options, is_bag, labelled_scans, lidar_offset, open_topic
-from runtime.cli._common import plan_scans
+from runtime.cli._progress import progress
+from runtime.cli import EXIT_OK, CliError, plural
+from runtime.cli._common import scan_outcomes
 from runtime.cli.plan import add_planner_options, configurator_from_args, parse_goal
-from runtime.cli import CliError
 from runtime.records.bags import BagError, LaserScan
 from runtime.records.runlog import LogError, scans_from_log
 
@@ -69,39 +70,57 @@ def run(args: argparse.Namespace) -> int:
 
 def _replay(conf: Configurator, total: int, items: Iterable[tuple[str, Any, tuple[float, float]]],
             offset: tuple[float, float, float], args: argparse.Namespace) -> int:
-
-    def line(label: str, r: PlanResult, g: tuple[float, float]) -> str:
+    """One line per scan (an ``error`` for a scan that cannot be planned, ``at_goal`` for
+    one taken at the goal), then a summary; exit 0 once every scan was processed."""
+    times: list[float] = []
+    plans = reached = failed = at_goal = seen = 0
+    bar = progress(items, total=total, desc="replay", unit="scan")
+    for label, scan, g in bar:
+        seen += 1
+        source = (lambda s=scan: _bag_points(s, offset)) if isinstance(scan, LaserScan) else scan
+        r, rec = scan_outcomes(conf, source, g)
+        if r is None:
+            if rec["outcome"] == "error":
+                failed += 1
+                line = {"scan": label, "error": rec["error"]}
+                text = f"{label}: error: {rec['error']}"
+            else:
+                at_goal += 1
+                line = {"scan": label, "outcome": "at_goal", "reached_goal": True, "plan": []}
+                text = f"{label}: already at the goal"
+            bar.write(json.dumps(line) if args.json else text)
+            continue
+        times.append(r.planning_time_s)
+        plans += bool(r.steps) or r.reached_goal
+        reached += r.reached_goal
         if args.json:
-            rec = {
+            out = {
                 "scan": label,
+                "outcome": rec["outcome"],
                 "reached_goal": r.reached_goal,
                 "collision_free": r.collision_free,
                 "states": r.states,
                 "planning_time_s": r.planning_time_s,
                 "plan": [s.task.value for s in r.steps],
             }
-            return json.dumps(rec)
-        return (
-            f"{label}: {'goal' if r.reached_goal else 'partial' if r.steps else 'no move'}  "
-            f"{r.states:3d} states  {r.planning_time_s * 1e3:7.2f} ms  [{' '.join(s.task.value[0] for s in r.steps)}]"
-        )
-
-    def error(label: str, exc: BaseException) -> str:
-        return json.dumps({"scan": label, "error": str(exc)}) if args.json else f"{label}: error: {exc}"
-
-    def plan(scan: Any, g: tuple[float, float]) -> PlanResult:
-        return conf.plan(scan.points(offset) if isinstance(scan, LaserScan) else scan, g)
-
-    run = plan_scans(items, total, "replay", plan, line, catch=(ScanError, PlanningError, BagError), emit_error=error)
-    times, plans, reached, failed, seen = run.times, run.plans, run.reached, run.failed, run.seen
+            if "warnings" in rec:
+                out["warnings"] = rec["warnings"]
+            bar.write(json.dumps(out))
+        else:
+            bar.write(
+                f"{label}: {rec['outcome'].replace('_', ' ')}  "
+                f"{r.states:3d} states  {r.planning_time_s * 1e3:7.2f} ms  [{' '.join(s.task.value[0] for s in r.steps)}]"
+            )
+            for w in rec.get("warnings", []):
+                bar.write(f"{label}: warning: {w}")
     t = np.array(times) if times else np.array([np.nan])
     median_s = float(np.median(t)) if times else None
     p90_s = float(np.percentile(t, 90)) if times else None
-    total = seen
     summary = {
-        "scans": total,
+        "scans": seen,
         "plans": plans,
         "reached_goal": reached,
+        "at_goal": at_goal,
         "errors": failed,
         "median_planning_time_s": median_s,
         "p90_planning_time_s": p90_s,
@@ -112,7 +131,14 @@ def _replay(conf: Configurator, total: int, items: Iterable[tuple[str, Any, tupl
         med = f"{median_s * 1e3:.2f} ms" if median_s is not None else "n/a"
         p90 = f"{p90_s * 1e3:.2f} ms" if p90_s is not None else "n/a"
         print(
-            f"summary: {total} scans, {plans} plans found ({reached} reach the goal), {failed} errors; "
-            f"planning time median {med}, p90 {p90}"
+            f"summary: {plural(seen, 'scan')}, {plural(plans, 'plan')} found ({reached} reach the goal), "
+            f"{at_goal} already at the goal, {plural(failed, 'error')}; planning time median {med}, p90 {p90}"
         )
-    return 0 if failed == 0 else 1
+    return EXIT_OK
+
+
+def _bag_points(scan: LaserScan, offset: tuple[float, float, float]) -> np.ndarray:
+    try:
+        return scan.points(offset)
+    except BagError as exc:
+        raise ScanError(f"scan {scan.index}: {exc}") from None

@@ -3,12 +3,15 @@
 Every scan, plan, task change and motor command goes to a JSON-lines run log, flushed
 record by record (``--log FILE``, default a timestamped file in ./clomp-runs/). The
 wheels are stopped on every way out: the goal, a fault, the time limit, an exception,
-Ctrl-C or SIGTERM. Exit status: 0 goal reached, 1 halted (a fault or --max-time),
-2 a usage or start-up error, 3 goal unreachable, 130 interrupted.
+Ctrl-C or SIGTERM. Exit status (the convention of every clomp command): 0 goal reached,
+1 halted safely without reaching it (goal unreachable, --max-time, an unexpected
+error), 2 bad input or usage (a port path that does not exist), 3 a device fault (a
+device that does not answer, is unhealthy, falls silent, sends garbage or vanishes),
+130 interrupted.
 
 ``--dry-run`` reads the LiDAR and plans on every scan — the robot standing still, the
 goal where it is — logging and printing each plan, and sends no motion (the wheels are
-held at neutral). It ends at ``--max-time`` (exit 0) or on Ctrl-C (130), or on a fault (1).
+held at neutral). It ends at ``--max-time`` (exit 0) or on Ctrl-C (130), or on a device fault (3).
 
 Without hardware, ``clomp emulate world --scenario overtaking`` serves a simulated world
 on two pseudo-terminals to point ``--lidar`` and ``--motors`` at.
@@ -26,12 +29,14 @@ from pathlib import Path
 from typing import Any
 
 from runtime.cli.plan import add_planner_options, configurator_from_args, parse_goal
-from runtime.cli import CliError
+from runtime.cli import EXIT_DEVICE_FAULT, EXIT_INTERRUPTED, EXIT_NOT_REACHED, EXIT_OK, CliError
 from runtime.cli._signals import interrupts_raise
 
 __all__ = ["register", "add_emulate_world", "default_log_path"]
 
-EXIT_STATUS = {"GOAL_REACHED": 0, "HALTED": 1, "UNREACHABLE": 3}
+def _missing_path(spec: str | None) -> bool:
+    """True for a port named by a path that does not exist (a typo, not a device fault)."""
+    return bool(spec) and "://" not in str(spec) and not Path(str(spec)).exists()
 
 
 def register(sub: Any) -> None:
@@ -181,7 +186,10 @@ def run(args: argparse.Namespace) -> int:
                 except RobotFault as exc:
                     log.write("fault", reason=str(exc), source="start")
                     log.write("stop", reason=str(exc), status="NOT_STARTED")
-                    raise CliError(f"{exc} (log: {path})") from None
+                    if _missing_path(args.lidar) or _missing_path(args.motors):
+                        raise CliError(f"{exc} (log: {path})") from None
+                    print(f"clomp: error: {exc} (log: {path})", file=sys.stderr, flush=True)
+                    return EXIT_DEVICE_FAULT
                 if args.dry_run:
                     _say("dry run: planning on every scan, the wheels are held stopped")
                     return _dry_run(robot, conf, goal, clock, log, args.max_time, path)
@@ -195,7 +203,7 @@ def run(args: argparse.Namespace) -> int:
                 elif sup is None:
                     log.write("stop", reason=reason, status="NOT_STARTED")
                 _say(f"{reason}: {_wheels(robot)} (log: {path})")
-                return 130
+                return EXIT_INTERRUPTED
             except CliError:
                 raise
             except Exception as exc:  # anything unexpected: halt, say why in one line
@@ -206,7 +214,7 @@ def run(args: argparse.Namespace) -> int:
                     log.write("fault", reason=reason, source="run")
                     log.write("stop", reason=reason, status="HALTED")
                 _say(f"halted: {reason}; {_wheels(robot)} (log: {path})")
-                return 1
+                return EXIT_DEVICE_FAULT if isinstance(exc, RobotFault) else EXIT_NOT_REACHED
             finally:
                 if robot is not None:
                     robot.close()
@@ -220,7 +228,11 @@ def run(args: argparse.Namespace) -> int:
         _say(f"goal unreachable: {report.reason}; {_wheels(robot)} ({summary}; log: {path})")
     else:
         _say(f"halted: {report.reason}; {_wheels(robot)} ({summary}; log: {path})")
-    return EXIT_STATUS.get(state.value, 1)
+    if state is SupervisorState.GOAL_REACHED:
+        return EXIT_OK
+    if robot is not None and robot.fault is not None:
+        return EXIT_DEVICE_FAULT  # the devices tripped the robot (the supervisor halted on it)
+    return EXIT_NOT_REACHED
 
 
 def _dry_run(robot: Any, conf: Any, goal: tuple[float, float], clock: Any, log: Any,
@@ -241,7 +253,7 @@ def _dry_run(robot: Any, conf: Any, goal: tuple[float, float], clock: Any, log: 
             log.write("fault", reason=str(exc), source="dry-run")
             log.write("stop", reason=str(exc), status="HALTED")
             _say(f"halted: {exc}; {_wheels(robot)} (log: {path})")
-            return 1
+            return EXIT_DEVICE_FAULT
         if frame is None:
             continue
         log.write("scan", points=frame.points, goal=list(goal), pose=[0.0, 0.0, 0.0])

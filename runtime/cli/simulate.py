@@ -9,7 +9,7 @@ from pathlib import Path
 from typing import Any
 
 from planner.scenarios import ScenarioError, load_scenario
-from runtime.cli import CliError
+from runtime.cli import EXIT_NOT_REACHED, EXIT_OK, CliError
 from runtime.experiment.runner import SUCCESS_RADIUS, RunResult, run_once
 from runtime.experiment.plots import plot_run
 from runtime.robots.sim import NoiseConfig
@@ -106,4 +106,4 @@ def run(args: argparse.Namespace) -> int:
         print(f"  trajectory: {png}")
         if args.log:
             print(f"  run log: {args.log}")
-    return 0
+    return EXIT_OK if r.reached_goal and r.collisions == 0 else EXIT_NOT_REACHED

@@ -2,7 +2,7 @@
 
 Reads ROS 2 bags (a folder with ``metadata.yaml`` and sqlite3 or MCAP storage, or a
 bare ``.mcap`` / ``.db3`` file) and ROS 1 ``.bag`` files through `rosbags
-<https://pypi.org/project/rosbags/>`_ (pure Python; ``pip install 'clomp[ros]'``).
+<https://pypi.org/project/rosbags/>`_ (pure Python; ``pip install -e '.[ros]'``).
 
 A LaserScan becomes robot-frame points the way the planner takes a scan: reading
 ``i`` is at angle ``angle_min + i * angle_increment`` in the LiDAR's frame; a reading
@@ -47,7 +47,7 @@ __all__ = [
 
 LASERSCAN = "sensor_msgs/msg/LaserScan"
 
-_INSTALL_HINT = "reading ROS bags needs rosbags: pip install 'clomp[ros]'"
+_INSTALL_HINT = "reading ROS bags needs rosbags: pip install -e '.[ros]' (from the clomp source folder, as in the README)"
 
 
 class BagError(ValueError):

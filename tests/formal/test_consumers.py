@@ -17,7 +17,7 @@ from formal.checking import default_property_files, read_properties
 from formal.export import FORMATS, LABEL_HOLDER, export_model, write_drn, write_prism, write_prism_explicit
 from formal.prism import PrismError, check_with_prism, find_prism
 
-stormpy = pytest.importorskip("stormpy", reason="stormpy not installed: pip install 'clomp[verify]'")
+stormpy = pytest.importorskip("stormpy", reason="stormpy not installed: pip install -e '.[verify]'")
 needs_prism = pytest.mark.skipif(find_prism() is None, reason="PRISM not found: set CLOMP_PRISM or keep shared/tools/prism-*/ beside the repo")
 
 

@@ -14,7 +14,7 @@ from formal.crosscheck import cross_check
 from formal.prism import find_prism
 from planner.scenarios import builtin_scenarios
 
-pytest.importorskip("stormpy", reason="stormpy not installed: pip install 'clomp[verify]'")
+pytest.importorskip("stormpy", reason="stormpy not installed: pip install -e '.[verify]'")
 pytestmark = pytest.mark.skipif(
     find_prism() is None, reason="PRISM not found: set CLOMP_PRISM or keep shared/tools/prism-*/ beside the repo"
 )

@@ -29,7 +29,7 @@ from planner.scenarios import builtin_scenarios
 
 SCANS = Path(__file__).resolve().parents[2].parent / "shared" / "data" / "scans" / "corridor-2023-10-25"
 needs_storm = pytest.mark.skipif(
-    __import__("importlib").util.find_spec("stormpy") is None, reason="stormpy not installed: pip install 'clomp[verify]'"
+    __import__("importlib").util.find_spec("stormpy") is None, reason="stormpy not installed: pip install -e '.[verify]'"
 )
 
 
@@ -143,7 +143,7 @@ def test_differential_storm_optimum_never_exceeds_the_plan(scenario_map, scan_ma
 
 def test_without_stormpy_the_message_says_how_to_install(monkeypatch):
     monkeypatch.setitem(sys.modules, "stormpy", None)
-    with pytest.raises(StormMissing, match=r"pip install 'clomp\[verify\]'"):
+    with pytest.raises(StormMissing, match=r"pip install -e '\.\[verify\]'"):
         require_stormpy()
 
 
@@ -261,7 +261,7 @@ def test_cli_bad_input_is_one_clear_error_and_status_2(scenario_map, clomp, tmp_
 def test_cli_check_without_stormpy_says_how_to_install(clomp, monkeypatch):
     monkeypatch.setitem(sys.modules, "stormpy", None)
     code, _, err = clomp("check", "--scenario", "open")
-    assert code == 2 and "pip install 'clomp[verify]'" in err
+    assert code == 2 and "pip install -e '.[verify]'" in err  # the README's own instruction
 
 
 # -- clomp check --tool ------------------------------------------------------------------------------

@@ -29,7 +29,7 @@ from formal.export import (
 )
 from planner.scenarios import builtin_scenarios
 
-stormpy = pytest.importorskip("stormpy", reason="stormpy not installed: pip install 'clomp[verify]'")
+stormpy = pytest.importorskip("stormpy", reason="stormpy not installed: pip install -e '.[verify]'")
 
 from formal.checking import build_storm_model, load_storm_model  # noqa: E402
 

@@ -7,7 +7,7 @@ import pytest
 
 from formal.machine import PLANT, SUPERVISOR, Machine, controllability, machine_model, nonblocking
 
-stormpy = pytest.importorskip("stormpy", reason="stormpy not installed: pip install 'clomp[verify]'")
+stormpy = pytest.importorskip("stormpy", reason="stormpy not installed: pip install -e '.[verify]'")
 
 from formal.machine import check_machine  # noqa: E402
 

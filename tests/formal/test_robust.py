@@ -6,7 +6,7 @@ import pytest
 
 from formal.invariants import map_plan
 
-pytest.importorskip("stormpy", reason="stormpy not installed: pip install 'clomp[verify]'")
+pytest.importorskip("stormpy", reason="stormpy not installed: pip install -e '.[verify]'")
 
 from formal.robust import follow_tasks, plan_probability, robust_plan  # noqa: E402
 

@@ -35,7 +35,7 @@ def test_demo_runs_headless_and_writes_its_outputs(tmp_path, capsys, monkeypatch
 
 
 def test_simulate_cul_de_sac_says_unreachable(tmp_path, capsys):
-    assert cli.main(["simulate", "--scenario", "cul-de-sac", "--json", "--out", str(tmp_path)]) == 0
+    assert cli.main(["simulate", "--scenario", "cul-de-sac", "--json", "--out", str(tmp_path)]) == 1  # not reached
     d = json.loads(capsys.readouterr().out)
     assert d["end_state"] == "UNREACHABLE" and d["reached_goal"] is False and d["collisions"] == 0
     assert (tmp_path / "cul-de-sac_planning.png").is_file()

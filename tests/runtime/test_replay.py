@@ -97,13 +97,13 @@ def test_replay_all_recorded_scans(scans_dir):
     assert summary["scans"] == 279 and summary["errors"] == 0
 
 
-def test_replay_reports_a_bad_scan_and_exits_1(tmp_path):
+def test_replay_reports_a_bad_scan_and_goes_on(tmp_path):
     folder = tmp_path / "mixed"
     folder.mkdir()
     (folder / "map0001.dat").write_text("0.5 0.1\n")
     (folder / "map0002.dat").write_text("0.5 oops\n")
     p = clomp("replay", str(folder), "--json")
-    assert p.returncode == 1 and "Traceback" not in p.stderr
+    assert p.returncode == 0 and "Traceback" not in p.stderr  # every scan processed
     lines = [json.loads(x) for x in p.stdout.splitlines()]
     assert "error" in lines[1] and "map0002.dat:1" in lines[1]["error"]
     assert lines[-1]["summary"]["errors"] == 1 and lines[-1]["summary"]["plans"] == 1
