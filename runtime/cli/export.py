@@ -153,11 +153,11 @@ def run(args: argparse.Namespace) -> int:
     except OSError as exc:
         raise CliError(f"cannot write {args.output}: {exc.strerror or exc}") from None
     if args.output != "-":
-        # say what was written (on stderr: with -o - the model itself is on stdout)
+        # say what was written (with -o - the model itself is on standard output: nothing else is)
         if args.format == "prism-explicit":
             files = sorted(str(f) for f in dest.parent.glob(f"{dest.name}.*")
                            if f.is_file() and f.stat().st_mtime >= started - 1.0)  # this run's, not older ones
         else:
             files = [str(dest)]
-        print(f"wrote {', '.join(files)} ({args.format}, {args.model}, {plural(len(cmap), 'state')})", file=sys.stderr)
+        print(f"wrote {', '.join(files)} ({args.format}, {args.model}, {plural(len(cmap), 'state')})")
     return EXIT_OK

@@ -137,8 +137,9 @@ class LidarEmulator(PtyEmulator):
         reset_time: float = 0.05,
         max_backlog: int = 65536,
         seed: int | None = None,
+        clock: Callable[[], float] | None = None,
     ) -> None:
-        super().__init__()
+        super().__init__(clock)
         if speed <= 0 or sample_rate <= 0:
             raise ValueError("speed and sample_rate must be positive")
         if samples_per_rev < 72:

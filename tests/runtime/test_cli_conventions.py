@@ -111,8 +111,8 @@ def test_simulate_exit_status(tmp_path: Path, capsys: pytest.CaptureFixture[str]
 def test_export_says_what_it_wrote(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     dest = tmp_path / "m.prism"
     rc, out, err = _rc(capsys, "export", "--scenario", "overtaking", "-f", "prism", "-o", str(dest))
-    assert rc == 0 and dest.is_file() and out == ""
-    assert err.startswith(f"wrote {dest} (prism, mdp, ") and "states)" in err
+    assert rc == 0 and dest.is_file() and err == ""
+    assert out.startswith(f"wrote {dest} (prism, mdp, ") and "states)" in out
     rc, out, err = _rc(capsys, "export", "--scenario", "overtaking", "-f", "json", "-o", "-")
     assert rc == 0 and json.loads(out) and err == ""  # standard output holds only the model
     rc, _, err = _rc(capsys, "export", "--scenario", "overtaking", "-f", "prism", "-o", str(tmp_path / "no" / "m"))
