@@ -107,7 +107,7 @@ def test_lidar_paces_like_the_device() -> None:
         for k in range(1, 5):
             clock.advance(0.125)  # 250 samples due (exact in binary: no rounding at the edge)
             seen = emu.passes
-            assert emu.wait_for(lambda e: e.passes >= seen + 2, 10.0)
+            assert emu.wait_for(lambda e, seen=seen: e.passes >= seen + 2, 10.0)
             assert emu.samples_sent == 250 * k  # never ahead of the device's time, never behind
             assert emu.revolutions_sent == 250 * k // 360  # 360 samples a revolution: ~5.5 Hz
         # what was sent decodes to whole revolutions (the third is still open)
