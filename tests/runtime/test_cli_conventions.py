@@ -162,6 +162,12 @@ def test_an_unknown_option_shows_the_commands_own_usage(capsys: pytest.CaptureFi
     assert err.startswith("usage: clomp simulate ") and "unrecognized arguments: --goal 1,0" in err
 
 
-def test_counts_are_spelled_for_one_and_many(capsys: pytest.CaptureFixture[str]) -> None:
-    rc, out, _ = _rc(capsys, "plan", "--scenario", "overtaking")
-    assert rc == 0 and "1 obstacle box," in out and "obstacle boxes" not in out
+def test_counts_are_spelled_for_one_and_many(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    one = tmp_path / "one.dat"
+    one.write_text("0.6 0.3\n")  # one return: one obstacle box
+    _, out, _ = _rc(capsys, "plan", "--scan", str(one), "--goal", "1,0")
+    assert "1 obstacle box," in out and "1 obstacle boxes" not in out
+    two = tmp_path / "two.dat"
+    two.write_text("0.6 0.3\n0.6 -0.3\n")
+    _, out, _ = _rc(capsys, "plan", "--scan", str(two), "--goal", "1,0")
+    assert "2 obstacle boxes," in out
