@@ -23,6 +23,7 @@ import os
 import signal
 import sys
 import time
+import warnings
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
@@ -47,8 +48,10 @@ def main() -> int:
 
     conditions = tuple(args.condition) if args.condition else ("planning", "reactive")
     total = args.runs * len(conditions)
-    cluster = LocalCluster(n_workers=args.workers, threads_per_worker=1, processes=True, dashboard_address=None,
-                           silence_logs=logging.ERROR)
+    with warnings.catch_warnings():  # the scheduler's HTTP server moving off a busy port 8787
+        warnings.simplefilter("ignore", UserWarning)
+        cluster = LocalCluster(n_workers=args.workers, threads_per_worker=1, processes=True, host="127.0.0.1",
+                               dashboard_address=None, silence_logs=logging.ERROR)
     client = Client(cluster)
     killed: list[int] = []
     done = [0]

@@ -228,7 +228,7 @@ def test_a_killed_worker_loses_no_run(tmp_path):
 
     from distributed import Client, LocalCluster
 
-    cluster = LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None,
+    cluster = LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1", dashboard_address=None,
                            silence_logs=logging.ERROR)
     client = Client(cluster)
     killed = []
