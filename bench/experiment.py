@@ -51,7 +51,7 @@ def main() -> int:
     with warnings.catch_warnings():  # the scheduler's HTTP server moving off a busy port 8787
         warnings.simplefilter("ignore", UserWarning)
         cluster = LocalCluster(n_workers=args.workers, threads_per_worker=1, processes=True, host="127.0.0.1",
-                               dashboard_address=None, silence_logs=logging.ERROR)
+                               dashboard_address=None, silence_logs=logging.CRITICAL)
     client = Client(cluster)
     killed: list[int] = []
     done = [0]

@@ -459,7 +459,7 @@ def _dask_client(workers: int, scheduler: str | None) -> tuple[Any, Any]:
         with warnings.catch_warnings():  # "port 8787 in use, using another": the scheduler's HTTP server, harmless
             warnings.simplefilter("ignore", UserWarning)
             cluster = distributed.LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                                               host="127.0.0.1", dashboard_address=None, silence_logs=logging.ERROR)
+                                               host="127.0.0.1", dashboard_address=None, silence_logs=logging.CRITICAL)
     finally:
         if previous is not None:
             signal.signal(signal.SIGINT, previous)
