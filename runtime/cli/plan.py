@@ -68,7 +68,7 @@ def scenario_goal(scene: Any, text: str | None) -> tuple[float, float]:
 def add_planner_options(p: argparse.ArgumentParser) -> None:
     """Options shared by the commands that plan."""
     g = p.add_argument_group("planner")
-    g.add_argument("--max-states", type=int, default=100, help="state budget of the cognitive map (default 100)")
+    g.add_argument("--max-states", type=int, default=50, help="state budget of the cognitive map (default 50)")
     g.add_argument("--horizon", type=float, default=1.2, help="half-size of the box around the start beyond which states are not expanded (m, default 1.2)")
     g.add_argument("--step-length", type=float, default=0.27, help="length of a STRAIGHT step when the way to the goal is not clear (m, default 0.27; 0 = no cut)")
 
