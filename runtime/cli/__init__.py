@@ -52,6 +52,7 @@ EXIT_STATUS: dict[str, dict[int, str]] = {
     "simulate": {0: "the robot reached the goal without a collision", 1: "it did not (or it collided)"},
     "experiment": {0: "every run done"},
     "export": {0: "the file was written"},
+    "convert": {0: "the MCAP was written (records it does not know are counted and passed over)"},
     "check": {0: "every required property holds", 1: "a required property fails (or Storm disagrees)"},
     "emulate": {0: "stopped by Ctrl-C or SIGTERM (how an emulator ends)"},
     "run": {0: "goal reached (--dry-run: time limit)", 1: "halted safely: goal unreachable, --max-time, an error",

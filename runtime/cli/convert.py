@@ -9,7 +9,7 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
-from runtime.cli import CliError
+from runtime.cli import EXIT_OK, CliError
 from runtime.cli._progress import progress
 from runtime.records.mcap_writer import A1_BINS, ConvertError, write_mcap
 from runtime.records.runlog import LogError, read_log
@@ -61,4 +61,4 @@ def run(args: argparse.Namespace) -> int:
         print(f"{dest}: {counts}")
         if summary.skipped:
             print(f"  passed over: {', '.join(f'{n} {k} record(s)' for k, n in summary.skipped.items())}")
-    return 0
+    return EXIT_OK

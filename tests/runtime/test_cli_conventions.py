@@ -142,7 +142,7 @@ def test_version(capsys: pytest.CaptureFixture[str]) -> None:
     assert capsys.readouterr().out.startswith("clomp ")
 
 
-@pytest.mark.parametrize("command", ["demo", "plan", "replay", "simulate", "experiment", "export", "check", "emulate", "run"])
+@pytest.mark.parametrize("command", ["demo", "plan", "replay", "simulate", "experiment", "export", "convert", "check", "emulate", "run"])
 def test_help_is_plain_text_and_ends_with_the_exit_statuses(capsys: pytest.CaptureFixture[str], command: str) -> None:
     with pytest.raises(SystemExit):
         main([command, "--help"])
