@@ -24,6 +24,9 @@ def register(sub: Any) -> None:
     p.add_argument("--scenario", default="overtaking", help="built-in scenario name or JSON file (default overtaking)")
     p.add_argument("--seed", type=int, default=None, help="noise seed (default: the scenario's 'seed', else 0)")
     p.add_argument("--out", default="clomp-demo-out", help="output folder (default ./clomp-demo-out)")
+    from runtime.cli.simulate import add_world_options
+
+    add_world_options(p)
     p.set_defaults(func=run)
 
 
@@ -53,11 +56,12 @@ def write_map(cmap: Any, folder: Path, stem: str = "cognitive_map") -> list[str]
 
 def run(args: argparse.Namespace) -> int:
     """Plan, execute on the simulated robot, summarise, write the pictures and models."""
-    from runtime.cli.simulate import print_summary
+    from runtime.cli.simulate import check_world_options, print_summary, world_noise
 
     out = Path(args.out)
     try:
         scene = load_scenario(args.scenario)
+        check_world_options(args)
         out.mkdir(parents=True, exist_ok=True)
     except ScenarioError as exc:
         raise CliError(str(exc)) from None
@@ -65,7 +69,7 @@ def run(args: argparse.Namespace) -> int:
         raise CliError(f"--out: cannot create {out}: {exc}") from None
     seed = args.seed if args.seed is not None else scene.raw.get("seed", 0)
     try:
-        r = run_once(scene, "planning", seed, keep_report=True)
+        r = run_once(scene, "planning", seed, noise=world_noise(args, scene), keep_report=True, feedback=args.feedback)
     except ScenarioError as exc:
         raise CliError(str(exc)) from None
     print_summary(r)

@@ -39,6 +39,8 @@ def register(sub: Any) -> None:
     p.add_argument("--noise", choices=("ideal", "paper", "harsh"), default="paper",
                    help="noise preset of the execution world (default paper)")
     p.add_argument("--noise-scale", type=float, default=1.0, help="factor on every noise term (default 1)")
+    p.add_argument("--feedback", choices=("scan", "none"), default="scan",
+                   help="the planning condition's pose estimate: scan matching (default) or dead reckoning only")
     p.add_argument("--noise-sweep", metavar="X,Y,...", default=None,
                    help="run every noise scale in the list (e.g. 0,0.5,1,2,4) and plot success against it")
     p.add_argument("--workers", type=int, default=None,
@@ -133,7 +135,8 @@ def run(args: argparse.Namespace) -> int:
     try:
         records = run_experiment(args.family, args.runs, args.seed, noise=args.noise, noise_scales=scales,
                                  conditions=conditions, max_time=args.max_time, workers=workers,
-                                 scheduler=args.scheduler, out=out, resume=args.resume, progress=bar)
+                                 scheduler=args.scheduler, out=out, resume=args.resume, progress=bar,
+                                 feedback=args.feedback)
     except ScenarioError as exc:
         raise CliError(f"{exc} (or a layout family: {', '.join(FAMILIES)})") from None
     except ExperimentInterrupted as exc:

@@ -12,9 +12,33 @@ from planner.scenarios import ScenarioError, load_scenario
 from runtime.cli import EXIT_NOT_REACHED, EXIT_OK, CliError
 from runtime.experiment.runner import SUCCESS_RADIUS, RunResult, run_once
 from runtime.experiment.plots import plot_run
-from runtime.robots.sim import NoiseConfig
+from runtime.robots.world import WorldNoise
 
-__all__ = ["register", "run", "print_summary"]
+__all__ = ["add_world_options", "check_world_options", "world_noise", "register", "run", "print_summary"]
+
+
+def add_world_options(p: Any) -> None:
+    """``--noise``, ``--noise-scale`` and ``--feedback`` (shared by simulate and demo)."""
+    p.add_argument("--noise", choices=("ideal", "paper", "harsh"), default=None,
+                   help="noise preset of the execution world (specs/noise_presets.json; default paper, with "
+                        "the scenario file's own 'noise' object laid over it)")
+    p.add_argument("--noise-scale", type=float, default=1.0, help="factor on every noise term (default 1)")
+    p.add_argument("--feedback", choices=("scan", "none"), default="scan",
+                   help="pose estimate: scan matching against a local map (default) or dead reckoning only")
+
+
+def check_world_options(args: argparse.Namespace) -> None:
+    """CliError for a noise scale that is not a finite number >= 0."""
+    if not (math.isfinite(args.noise_scale) and args.noise_scale >= 0):
+        raise CliError(f"--noise-scale: must be a finite number >= 0, got {args.noise_scale:g}")
+
+
+def world_noise(args: argparse.Namespace, scene: Any) -> WorldNoise:
+    """The execution world's noise: ``--noise`` (× ``--noise-scale``), else ``paper`` with
+    the scenario's own ``noise`` object over it (ScenarioError naming a bad field)."""
+    if args.noise is not None:
+        return WorldNoise.preset(args.noise, args.noise_scale)
+    return WorldNoise.for_scene(scene, "paper", args.noise_scale)
 
 
 def register(sub: Any) -> None:
@@ -23,7 +47,8 @@ def register(sub: Any) -> None:
     p.add_argument("--scenario", default="overtaking", help="built-in scenario name or JSON file (default overtaking)")
     p.add_argument("--reactive", action="store_true", help="run the reactive baseline instead of the planner")
     p.add_argument("--seed", type=int, default=None, help="noise seed (default: the scenario's 'seed', else 0)")
-    p.add_argument("--no-noise", action="store_true", help="an ideal robot: no sensor or execution noise")
+    add_world_options(p)
+    p.add_argument("--no-noise", action="store_true", help="same as --noise ideal")
     p.add_argument("--max-time", type=float, default=120.0, help="simulated seconds allowed (default 120)")
     p.add_argument("--out", default="clomp-simulate-out", help="folder for the PNG (default ./clomp-simulate-out)")
     p.add_argument("--json", action="store_true", help="print one JSON object")
@@ -74,7 +99,8 @@ def run(args: argparse.Namespace) -> int:
     """Execute ``clomp simulate``."""
     try:
         scene = load_scenario(args.scenario)
-        noise = NoiseConfig.ideal() if args.no_noise else None
+        check_world_options(args)
+        noise = WorldNoise.preset("ideal") if args.no_noise else world_noise(args, scene)
         seed = args.seed if args.seed is not None else scene.raw.get("seed", 0)
         out = Path(args.out)
         out.mkdir(parents=True, exist_ok=True)
@@ -92,7 +118,8 @@ def run(args: argparse.Namespace) -> int:
         except OSError as exc:
             raise CliError(f"--log: cannot write {args.log}: {exc.strerror or exc}") from None
     try:
-        r = run_once(scene, cond, seed, noise=noise, max_time=args.max_time, keep_report=True, log=args.log)
+        r = run_once(scene, cond, seed, noise=noise, noise_scale=args.noise_scale, max_time=args.max_time,
+                     keep_report=True, log=args.log, feedback=args.feedback)
     except ScenarioError as exc:  # the scene's noise settings are checked when its robot is built
         raise CliError(str(exc)) from None
     except OSError as exc:

@@ -49,6 +49,7 @@ from runtime.experiment.reactive import ReactiveController
 from runtime.experiment.world import NOISE_PRESETS, make_robot, world_name
 from runtime.records.runlog import RunLog
 from runtime.robots.sim import NoiseConfig
+from runtime.robots.world import WorldNoise, make_world_robot
 from runtime.supervision.supervisor import Supervisor
 
 __all__ = [
@@ -204,7 +205,7 @@ class _TruthLog:
 
 
 def _open_log(dest: str | os.PathLike[str], robot: Any, scene: Scene, condition: str, seed: int,
-              noise: str | NoiseConfig | None, goal: tuple[float, ...]) -> RunLog:
+              noise: str | NoiseConfig | WorldNoise | None, goal: tuple[float, ...]) -> RunLog:
     runlog = RunLog(dest, clock=robot)  # the robot keeps the simulated time
     runlog.write("run", simulated=True, scenario=scene.name, condition=condition, seed=seed,
                  noise=noise if isinstance(noise, str) else ("scene" if noise is None else "custom"),
@@ -218,21 +219,25 @@ def run_once(
     seed: int | None = 0,
     *,
     run: int = 0,
-    noise: str | NoiseConfig | None = None,
+    noise: str | NoiseConfig | WorldNoise | None = None,
     noise_scale: float = 1.0,
     max_time: float = 120.0,
     expect: str = "reach",
     configurator: Configurator | None = None,
     keep_report: bool = False,
     log: str | os.PathLike[str] | None = None,
+    feedback: str = "scan",
 ) -> RunResult:
     """Run one condition in ``scene`` on a fresh robot; see the module docstring.
 
     ``noise``: a preset name (``ideal``, ``paper``, ``harsh``; the execution world of
     :func:`~runtime.experiment.world.make_robot`), a :class:`~runtime.robots.sim.NoiseConfig`
-    for the simulated robot, or None for the simulated robot with the scene's own noise.
+    for the simulated robot, a :class:`~runtime.robots.world.WorldNoise` for the execution
+    world with those terms, or None for the simulated robot with the scene's own noise.
     ``log``: a file for the run log (the supervisor's records, as ``clomp run`` writes
     them, in simulated time, with the ground truth beside each scan and task record).
+    ``feedback``: the planning condition's pose estimate — ``"scan"`` (scan matching, the
+    default) or ``"none"`` (dead reckoning, as before scan feedback).
 
     >>> from planner import load_scenario
     >>> r = run_once(load_scenario("open"), "reactive", 0, noise="ideal")
@@ -246,6 +251,8 @@ def run_once(
     robot: Any
     if isinstance(noise, str):
         robot = make_robot(scene, noise=noise, noise_scale=noise_scale, seed=seed_, model=conf.robot)
+    elif isinstance(noise, WorldNoise):
+        robot = make_world_robot(scene, noise, seed=seed_, robot=conf.robot)
     else:
         from runtime.experiment.world import _TracedSimRobot
 
@@ -260,7 +267,8 @@ def run_once(
     if condition == "planning":
         runlog = _open_log(log, robot, scene, condition, seed_, noise, goal) if log is not None else None
         try:
-            sup = Supervisor(robot, goal, conf, log=None if runlog is None else _TruthLog(runlog, robot, start))  # type: ignore[arg-type]
+            sup = Supervisor(robot, goal, conf, feedback=feedback,  # type: ignore[arg-type]
+                             log=None if runlog is None else _TruthLog(runlog, robot, start))
             report = sup.run(max_time=max_time)
         finally:
             if runlog is not None:
@@ -310,11 +318,13 @@ class RunSpec:
     noise: str = "paper"
     noise_scale: float = 1.0
     max_time: float = 120.0
+    feedback: str = "scan"
 
     @property
     def key(self) -> str:
         """A stable name for the run (the Dask task key and the resume key)."""
-        return f"{self.family}/{self.seed}/{self.run}/{self.condition}/{self.noise}/{self.noise_scale:g}/{self.max_time:g}"
+        key = f"{self.family}/{self.seed}/{self.run}/{self.condition}/{self.noise}/{self.noise_scale:g}/{self.max_time:g}"
+        return key if self.feedback == "scan" else f"{key}/feedback={self.feedback}"
 
 
 def noise_seed(seed: int, run: int) -> int:
@@ -339,7 +349,7 @@ def run_spec(spec: RunSpec) -> dict[str, Any]:
     """One run as a JSON-ready record (the CSV columns plus what the plots need)."""
     scene, expect = _scene_for(spec)
     r = run_once(scene, spec.condition, noise_seed(spec.seed, spec.run), run=spec.run, noise=spec.noise,
-                 noise_scale=spec.noise_scale, max_time=spec.max_time, expect=expect)
+                 noise_scale=spec.noise_scale, max_time=spec.max_time, expect=expect, feedback=spec.feedback)
     return {
         "key": spec.key,
         "family": spec.family,
@@ -348,6 +358,7 @@ def run_spec(spec: RunSpec) -> dict[str, Any]:
         "condition": spec.condition,
         "noise": spec.noise,
         "noise_scale": spec.noise_scale,
+        "feedback": spec.feedback,
         "world": world_name(),
         "layout": scene.name,
         "expect": expect,
@@ -386,7 +397,7 @@ def run_spec(spec: RunSpec) -> dict[str, Any]:
 
 def experiment_specs(family: str, runs: int, seed: int = 0, *, noise: str = "paper",
                      noise_scales: Sequence[float] = (1.0,), conditions: Sequence[str] = CONDITIONS,
-                     max_time: float = 120.0) -> list[RunSpec]:
+                     max_time: float = 120.0, feedback: str = "scan") -> list[RunSpec]:
     """Every run of an experiment, in a fixed order (scale, run, condition)."""
     if runs < 1:
         raise ValueError("runs must be at least 1")
@@ -400,7 +411,9 @@ def experiment_specs(family: str, runs: int, seed: int = 0, *, noise: str = "pap
             raise ValueError(f"noise scale must be a finite number >= 0, got {s!r}")
     if family not in FAMILIES:
         load_scenario(family)  # a clear ScenarioError now rather than in every worker
-    return [RunSpec(family, seed, k, c, noise, float(s), max_time) for s in noise_scales for k in range(runs)
+    if feedback not in ("scan", "none"):
+        raise ValueError(f"feedback must be 'scan' or 'none', got {feedback!r}")
+    return [RunSpec(family, seed, k, c, noise, float(s), max_time, feedback) for s in noise_scales for k in range(runs)
             for c in conditions]
 
 
@@ -487,6 +500,7 @@ def run_experiment(
     resume: bool = False,
     progress: Callable[[int, int], Any] | None = None,
     on_record: Callable[[dict[str, Any]], None] | None = None,
+    feedback: str = "scan",
 ) -> list[dict[str, Any]]:
     """Run an experiment; the records of every run (finished before or now), in spec order.
 
@@ -504,7 +518,7 @@ def run_experiment(
     [('reactive', 0)]
     """
     specs = experiment_specs(family, runs, seed, noise=noise, noise_scales=noise_scales, conditions=conditions,
-                             max_time=max_time)
+                             max_time=max_time, feedback=feedback)
     wanted = {s.key: s for s in specs}
     done: dict[str, dict[str, Any]] = {}
     sink = None

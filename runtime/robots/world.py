@@ -97,6 +97,27 @@ class WorldNoise:
         """JSON-ready form."""
         return asdict(self)
 
+    @classmethod
+    def for_scene(cls, scene: Scene, preset: str = "paper", scale: float = 1.0) -> "WorldNoise":
+        """A preset with the scene file's ``noise`` object laid over it (each key replaces
+        that term); ScenarioError naming the field when a value is bad or unknown."""
+        base = cls.preset(preset, scale).to_dict()
+        raw = scene.raw.get("noise")
+        if raw is None:
+            return cls(**base)
+        where = f"{scene.name}.noise"
+        if not isinstance(raw, dict):
+            raise ScenarioError(f"{where}: expected an object, got {raw!r}")
+        for key, value in raw.items():
+            if key not in base:
+                raise ScenarioError(f"{where}.{key}: unknown noise setting (known: {', '.join(sorted(base))})")
+            base[key] = value
+        try:
+            return cls(**base)
+        except (TypeError, ValueError) as exc:
+            name, _, why = str(exc).partition(":")
+            raise ScenarioError(f"{where}.{name.removeprefix('noise.')}:{why}") from None
+
 
 @dataclass(frozen=True)
 class BodySpec:

@@ -4,45 +4,68 @@ It follows the state machine of :mod:`runtime.supervision.machine` (IDLE → PLA
 EXECUTING ⇄ REPLANNING → GOAL_REACHED / UNREACHABLE, any → HALTED on a fault or abort).
 
 Each control tick (:meth:`Supervisor.step`) reads the newest scan, updates the pose
-estimate (the backend's odometry when it has one, else dead reckoning from the commanded
-wheel speeds) and acts on the state:
+estimate and acts on the state. The estimate (``feedback="scan"``, the default) is
+dead reckoning from the commanded wheel speeds (or the backend's odometry) corrected once
+a revolution by matching the scan against a local map
+(:class:`runtime.estimation.odometry.ScanOdometry`); ``feedback="none"`` is dead
+reckoning alone. The goal, the remaining plan and every task's error signal come from it.
 
-- PLANNING / REPLANNING: with the wheels stopped, wait for a scan taken after the stop,
-  plan from it to the goal seen from the pose estimate (the planner's frame is the robot
-  at that moment), queue the plan's tasks in the supervisor's frame and start the first.
-- EXECUTING: run the current task as a closed loop (:class:`planner.tasks.Task`): its
-  error signal comes from the pose estimate and the goal in the supervisor's frame, and
-  it ends by its own end criterion. A task may start only over a transition of the map
-  that the guard Ψ enables. The task is interrupted (→ REPLANNING) when the newest scan
-  puts a point in the body's path (an obstacle in the way, or a collision imminent within
-  ``lookahead`` s), or when it ends far from where the map predicted; a plan that ends
-  short of the goal is followed by a new one.
+- PLANNING: wheels stopped, plan from the newest scan to the goal seen from the estimate
+  (the planner's frame: the robot then), queue the plan's tasks and start the first.
+- EXECUTING: run the current task as a closed loop (:class:`planner.tasks.Task`): it ends
+  by its own end criterion; a task may start only over a transition of the map that the
+  guard Ψ enables. Every tick, a point of the newest scan in the body's path (an obstacle
+  in the way, or a collision imminent within ``lookahead`` s) interrupts the task. Every
+  revolution, the running task and the queued ones are *checked*: re-simulated on the
+  new scan from the estimate (:func:`runtime.supervision.plancheck.check_plan`); one that
+  now meets an obstacle or would end off the map's prediction sends the supervisor to
+  REPLANNING, and so does a task that ended far from the prediction or a plan that ended
+  short of the goal.
+- REPLANNING: after the wheels settled, from ``fuse_scans`` revolutions fused into one
+  (median range per bearing), first *recall*: match the situation to a state of the map
+  it already has and continue the map's plan from there if the new scan agrees
+  (:func:`runtime.supervision.plancheck.recall`); only when that fails, explore anew
+  (at most ``max_recalls`` recalls in a row).
 - any exception (a device fault, a silent sensor, a scan with NaN, a planner crash) →
-  HALTED with the wheels stopped in the same tick. The wheels turn only in EXECUTING,
-  and :meth:`Supervisor.run` stops them on every exit path (also Ctrl-C).
+  HALTED, wheels stopped in the same tick. The wheels turn only in EXECUTING, and
+  :meth:`Supervisor.run` stops them on every exit path (also Ctrl-C).
 
-The goal is unreachable (→ UNREACHABLE, wheels stopped) when the planner finds no safe
-task that leads closer to it, when ``patience`` plans in a row bring the robot no closer,
-or after ``max_plans`` plans.
+Checks, recalls and fresh plans are kept with their times and logged. UNREACHABLE (wheels
+stopped): no safe task leads closer, ``patience`` plans in a row bring the robot no
+closer, or ``max_plans`` fresh plans were made.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import math
+import time
 from collections import deque
-from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
 from formal.model import Disturbance, Pose, State, TaskKind
-from planner.configurator import Configurator, PlanningError, PlanResult
+from planner.configurator import Configurator, PlanningError
 from planner.perception import validate_scan
 from planner.physics import make_task
 from planner.robot import RobotModel
-from formal.geometry import compose, dead_reckon, points_from_frame, points_to_frame, relative, wrap_angle
+from formal.geometry import compose, dead_reckon, relative, wrap_angle
 from planner.tasks import Task
 from runtime.clock import Clock, clock_for
+from runtime.devices.frame import ScanFrame
+from runtime.estimation.fusion import fuse_revolutions
+from runtime.estimation.odometry import ScanOdometry
+from runtime.supervision.plancheck import check_plan, perceive_scan, recall
+from runtime.supervision.records import (
+    PlanRecord,
+    SupervisorReport,
+    TaskRecord,
+    TimedRecord,
+    hits,
+    scan_to_frame,
+    sweep,
+)
 from runtime.records.runlog import RunLogLike, plan_fields
 from runtime.robot import Robot, RobotFault, finite_goal
 from runtime.supervision.machine import (
@@ -55,84 +78,22 @@ from runtime.supervision.machine import (
 )
 
 __all__ = [
+    "FEEDBACK",
     "GuardViolation",
     "PlanRecord",
     "Supervisor",
     "SupervisorReport",
     "TaskRecord",
+    "TimedRecord",
 ]
 
 
 S, E = SupervisorState, Event
+FEEDBACK = ("scan", "none")
 
 
 class GuardViolation(RuntimeError):
     """A task was about to start over a transition the guard Ψ does not enable."""
-
-
-def _points_to_frame(points: np.ndarray, source: Pose, target: Pose) -> np.ndarray:
-    """Points in the frame of a robot at ``source`` → the frame of a robot at ``target``."""
-    if len(points) == 0:
-        return points
-    return points_from_frame(points, relative(target, source))
-
-
-# -- records ------------------------------------------------------------------------------
-@dataclass(frozen=True)
-class PlanRecord:
-    """One plan: when, from which pose estimate (the planner frame's origin), and what."""
-
-    time: float
-    origin: Pose
-    result: PlanResult
-
-    def to_frame(self, p: Pose) -> Pose:
-        """A pose of the plan (planner frame) in the supervisor's frame."""
-        return compose(self.origin, p)
-
-
-@dataclass
-class TaskRecord:
-    """One task the supervisor started: its plan step, the guard's verdict and its run."""
-
-    plan_index: int
-    state: State
-    transition: tuple[int, int]
-    psi: int
-    start_time: float
-    start_pose: Pose
-    predicted_end: Pose
-    end_time: float | None = None
-    end_pose: Pose | None = None
-    outcome: str = "running"
-
-
-@dataclass
-class SupervisorReport:
-    """The outcome of :meth:`Supervisor.run`.
-
-    >>> SupervisorReport(SupervisorState.HALTED, "LiDAR unplugged", 1.5, [], [], [], [], (1.0, 0.0)).reached_goal
-    False
-    """
-
-    state: SupervisorState
-    reason: str
-    time_s: float
-    plans: list[PlanRecord]
-    tasks: list[TaskRecord]
-    transitions: list[TransitionRecord]
-    trajectory: list[tuple[float, float, float, float]]
-    goal: tuple[float, float]
-
-    @property
-    def reached_goal(self) -> bool:
-        """True when the supervisor ended in GOAL_REACHED."""
-        return self.state is S.GOAL_REACHED
-
-    @property
-    def replans(self) -> int:
-        """Plans made after the first."""
-        return max(0, len(self.plans) - 1)
 
 
 # -- the supervisor -------------------------------------------------------------------------
@@ -161,14 +122,19 @@ class Supervisor:
         scan_timeout: float = 1.0,
         max_plans: int = 30,
         patience: int = 3,
+        max_recalls: int = 5,
         min_progress: float = 0.03,
         end_tolerance: tuple[float, float] = (0.08, 0.3),
         lookahead: float = 0.5,
         hazard_points: int = 2,
         settle_scans: int = 2,
+        feedback: str = "scan",
+        fuse_scans: int = 3,
         log: RunLogLike | None = None,
     ) -> None:
         gx, gy = finite_goal(goal)
+        if feedback not in FEEDBACK:
+            raise ValueError(f"feedback must be one of {', '.join(FEEDBACK)}, got {feedback!r}")
         self.robot = robot
         self.configurator = configurator or Configurator()
         self.model: RobotModel = self.configurator.robot
@@ -177,6 +143,7 @@ class Supervisor:
         self.scan_timeout = scan_timeout
         self.max_plans = max_plans
         self.patience = patience
+        self.max_recalls = max_recalls
         self.min_progress = min_progress
         self.end_tolerance = end_tolerance
         self.lookahead = lookahead
@@ -184,6 +151,12 @@ class Supervisor:
         self.settle_scans = settle_scans
         self._goal_robot = (gx, gy)
         self.log = log
+        self.feedback = feedback
+        if not (isinstance(fuse_scans, int) and fuse_scans >= 1):
+            raise ValueError(f"fuse_scans must be a positive integer, got {fuse_scans!r}")
+        self.fuse_scans = fuse_scans if feedback == "scan" else 1
+        self._still: deque[np.ndarray] = deque(maxlen=self.fuse_scans)
+        self.estimator: ScanOdometry | None = ScanOdometry(self.model.wheel_base) if feedback == "scan" else None
 
         self.state = S.IDLE
         self.reason = ""
@@ -209,6 +182,11 @@ class Supervisor:
         self._plan: PlanRecord | None = None
         self._best = math.inf
         self._stalled = 0
+        self.checks: list[TimedRecord] = []
+        self.recalls: list[TimedRecord] = []
+        self.fresh_plans: list[TimedRecord] = []
+        self._check_due = False
+        self._recalls_in_a_row = 0
 
     # -- public -------------------------------------------------------------------------------
     @property
@@ -236,6 +214,9 @@ class Supervisor:
         self._last_scan_at = now
         odo = self.robot.odometry()
         self.pose = odo if odo is not None else Pose(0.0, 0.0, 0.0)
+        if self.estimator is not None:
+            self.estimator.reset(self.pose, now)
+            self.estimator.advance(now, (0.0, 0.0), odo)
         self.goal = compose(self.pose, Pose(*self._goal_robot))
         self._log("start", goal=[self.goal.x, self.goal.y], robot=self.model.to_dict())
         self._fire(E.START, "started")
@@ -295,6 +276,10 @@ class Supervisor:
             list(self.transitions),
             list(self.trajectory),
             (self.goal.x, self.goal.y),
+            list(self.estimator.records) if self.estimator is not None else [],
+            list(self.checks),
+            list(self.recalls),
+            list(self.fresh_plans),
         )
 
     # -- machinery -------------------------------------------------------------------------------
@@ -306,6 +291,7 @@ class Supervisor:
         if source in MOTOR_STATES and target not in MOTOR_STATES:  # formal.machine: where wheels may turn
             self._stop_wheels()
             self._scans_since_stop = 0
+            self._still.clear()
             self._end_task(reason if event is not E.NEXT_TASK else "done")
             self._queue.clear()
         self.state = target
@@ -353,14 +339,20 @@ class Supervisor:
         self._update_pose(now)
         frame = self.robot.read_scan(timeout=0.0)
         if frame is not None:
-            self._scan = validate_scan(frame.points, "scan")
+            scan = self._scan = validate_scan(frame.points, "scan")
+            if self.estimator is not None:
+                self._scan_feedback(dataclasses.replace(frame, points=scan), now)
             if self.log is not None:
                 g = relative(self.pose, self.goal)
                 self._log("scan", points=self._scan, goal=[g.x, g.y], pose=self.pose.as_list())
             self._last_scan_at = now
             self._scans_since_stop += 1
-            if not self._turned:
-                # a revolution taken while the robot turned is smeared: keep the last clean one
+            self._check_due = self.state is S.EXECUTING  # a plan check once a revolution
+            if not self._check_due:
+                self._still.append(self._scan)
+            # a revolution taken while turning is smeared: keep the last clean one, unless
+            # _scan_feedback de-skewed it (it then set the clean scan at its estimated pose)
+            if not self._turned and (self.estimator is None or frame.point_times is None):
                 self._clean_scan, self._scan_pose = self._scan, self.pose
             self._turned = self._turning()
         elif now - self._last_scan_at > self.scan_timeout:
@@ -371,30 +363,57 @@ class Supervisor:
             self._execute_tick(now)
         self.trajectory.append((now - (self._t0 or 0.0), self.pose.x, self.pose.y, self.pose.theta))
 
+    def _scan_feedback(self, frame: ScanFrame, now: float) -> None:
+        """Correct the pose estimate with this revolution (scan matching against the local map)."""
+        assert self.estimator is not None
+        if not (now - 1.0 <= frame.timestamp <= now + 1e-6):  # another clock: take it as now
+            frame = dataclasses.replace(frame, timestamp=now)
+        rec = self.estimator.update(frame)
+        self.pose = self.estimator.pose
+        if frame.point_times is not None:
+            self._clean_scan, self._scan_pose = self.estimator.last_points, self.estimator.pose_at(frame.timestamp)
+        if self.log is not None:
+            self._log("feedback", ok=rec.ok, source=rec.source, reason=rec.reason, correction=list(rec.correction),
+                      unobservable=list(rec.unobservable), map_updated=rec.map_updated, pose=self.pose.as_list())
+
     def _update_pose(self, now: float) -> None:
         dt = now - self._last_update
         self._last_update = now
         odo = self.robot.odometry()
+        if self.estimator is not None:
+            self.estimator.advance(now, self._cmd, odo)
+            self.pose = self.estimator.pose
+            return
         self.pose = odo if odo is not None else dead_reckon(self.pose, *self._cmd, self.model.wheel_base, dt)
 
     # -- planning ---------------------------------------------------------------------------------
     def _plan_tick(self, now: float) -> None:
-        need = self.settle_scans if self._moved else 1
+        # after driving: let the motion settle, then take ``fuse_scans`` revolutions to fuse
+        need = self.settle_scans + self.fuse_scans - 1 if self._moved else 1
         if self._scan is None or self._scans_since_stop < need:
-            return  # wait for a scan taken with the wheels stopped
+            return  # wait for scans taken with the wheels stopped
         g = relative(self.pose, self.goal)
         dist = math.hypot(g.x, g.y)
         if dist <= self.goal_radius:
             self._fire(E.AT_GOAL, f"at the goal ({dist:.3f} m)")
             return
-        if len(self.plans) >= self.max_plans:
-            self._fire(E.NO_PLAN, f"gave up after {len(self.plans)} plans")
+        if len(self.fresh_plans) >= self.max_plans:
+            self._fire(E.NO_PLAN, f"gave up after {len(self.fresh_plans)} plans")
             return
+        scan = fuse_revolutions(list(self._still)) if self.fuse_scans > 1 and len(self._still) > 1 else self._scan
+        if self.state is S.REPLANNING and self._recall(scan, now):
+            return
+        t_plan = time.perf_counter()
         try:
-            result = self.configurator.plan(self._scan, (g.x, g.y))
+            result = self.configurator.plan(scan, (g.x, g.y))
         except PlanningError as exc:
             self._fire(E.NO_PLAN, f"goal unreachable: {exc}")
             return
+        fresh = TimedRecord(now - (self._t0 or 0.0), time.perf_counter() - t_plan, True,
+                            f"{result.states} states, {len(result.steps)} tasks")
+        self.fresh_plans.append(fresh)
+        self._recalls_in_a_row = 0
+        self._log("fresh_plan", duration_s=fresh.duration_s, states=result.states)
         rec = PlanRecord(now - (self._t0 or 0.0), self.pose, result)
         self.plans.append(rec)
         if self.log is not None:
@@ -402,16 +421,16 @@ class Supervisor:
         if not result.steps:
             self._fire(E.NO_PLAN, "goal unreachable: no safe task leads closer to the goal")
             return
-        end = result.map[result.plan.end].end
-        predicted = end.distance_to(result.goal.x, result.goal.y)
-        if result.reached_goal or min(dist, predicted) < self._best - self.min_progress:
+        # progress is what the robot achieved, not what a plan promised (a plan to the rim of
+        # the sensed disc promises more than a check may let it keep)
+        if result.reached_goal or dist < self._best - self.min_progress:
             self._stalled = 0
         else:
             self._stalled += 1
             if self._stalled >= self.patience:
                 self._fire(E.NO_PLAN, f"goal unreachable: {self._stalled} plans in a row brought it no closer")
                 return
-        self._best = min(self._best, dist, predicted)
+        self._best = min(self._best, dist)
         self._plan = rec
         states = result.plan.states
         self._queue = deque((result.map[t], (s, t)) for s, t in zip(states, states[1:]))
@@ -482,6 +501,12 @@ class Supervisor:
         if hazard is not None:
             self._fire(E.DISAGREE, hazard)
             return
+        if self._check_due:
+            self._check_due = False
+            verdict = self._check_remaining()
+            if verdict is not None and not verdict.ok:
+                self._fire(E.DISAGREE, f"plan check: {verdict.reason}")
+                return
         self._task_ticks += 1
         if self._task_ticks > 2 * task.max_ticks() + 10:
             self._fire(E.DISAGREE, "task overran its expected duration")
@@ -520,55 +545,52 @@ class Supervisor:
         """A reason to interrupt when the newest scan has points in the body's remaining path."""
         if self._clean_scan is None or len(self._clean_scan) == 0:
             return None
-        pts = _points_to_frame(self._clean_scan, self._scan_pose, self.pose)
+        pts = scan_to_frame(self._clean_scan, self._scan_pose, self.pose)
         m = self.model
         near = np.hypot(pts[:, 0], pts[:, 1]) <= m.length + error + 0.05
         pts = pts[near]
         if len(pts) == 0:
             return None
-        poses = _sweep(task.kind, error)
-        soon = _sweep(task.kind, min(error, (m.straight_speed if task.kind is TaskKind.STRAIGHT else m.turn_rate) * self.lookahead))
-        if _hits(pts, soon, m) >= self.hazard_points:
+        poses = sweep(task.kind, error)
+        soon = sweep(task.kind, min(error, (m.straight_speed if task.kind is TaskKind.STRAIGHT else m.turn_rate) * self.lookahead))
+        if hits(pts, soon, m) >= self.hazard_points:
             return "collision imminent: the scan shows an obstacle against the body's next move"
-        if _hits(pts, poses, m) >= self.hazard_points:
+        if hits(pts, poses, m) >= self.hazard_points:
             return "an obstacle the plan did not predict is in the way"
-        if self._queue and self._plan is not None:
-            return self._plan_hazard(pts)
         return None
 
-    def _plan_hazard(self, pts: np.ndarray) -> str | None:
-        """Check the tasks still queued against the newest scan (points in the robot frame)."""
-        assert self._plan is not None
-        m = self.model
-        world = _points_to_frame(pts, self.pose, Pose(0.0, 0.0, 0.0))  # → the supervisor's frame
-        for k, (q, _step) in enumerate(self._queue, 1):
-            a, b = self._plan.to_frame(q.start), self._plan.to_frame(q.end)
-            amount = a.distance_to(b.x, b.y) if q.task is TaskKind.STRAIGHT else abs(wrap_angle(b.theta - a.theta))
-            local = _sweep(q.task, amount)
-            rel = _points_to_frame(world, Pose(0.0, 0.0, 0.0), a)
-            if _hits(rel, local, m) >= self.hazard_points:
-                return f"an obstacle the plan did not predict is in the way of the task {k} ahead ({q.task.value})"
-        return None
+    def _check_remaining(self) -> TimedRecord | None:
+        """Re-simulate the running task and the queued ones on the newest revolution."""
+        if self._plan is None or self._record is None or self._clean_scan is None:
+            return None
+        model = self.model
+        obstacles = perceive_scan(self._clean_scan, model)
+        states = [self._record.state] + [q for q, _ in self._queue]
+        verdict = check_plan(states, self._plan.origin, self._scan_pose, self.goal, obstacles, model,
+                             tolerance=self.end_tolerance, running=True)
+        rec = TimedRecord(self._now(), verdict.duration_s, verdict.ok, verdict.reason)
+        self.checks.append(rec)
+        self._log("check", ok=rec.ok, duration_s=rec.duration_s, reason=rec.reason)
+        return rec
 
-
-def _sweep(kind: TaskKind, amount: float) -> np.ndarray:
-    """Sample poses (x, y, theta; current robot frame) of the remaining motion of a task."""
-    if kind is TaskKind.STRAIGHT:
-        n = max(2, int(math.ceil(amount / 0.02)) + 1)
-        xs = np.linspace(0.0, max(amount, 0.0), n)
-        line: np.ndarray = np.c_[xs, np.zeros(n), np.zeros(n)]
-        return line
-    n = max(2, int(math.ceil(amount / math.radians(5))) + 1)
-    th = np.linspace(0.0, max(amount, 0.0), n) * (1 if kind is TaskKind.LEFT else -1)
-    spin: np.ndarray = np.c_[np.zeros(n), np.zeros(n), th]
-    return spin
-
-
-def _hits(points: np.ndarray, poses: np.ndarray, m: RobotModel) -> int:
-    """How many points lie inside the (uninflated) body at any of ``poses``."""
-    inside = np.zeros(len(points), dtype=bool)
-    for x, y, th in poses:
-        local = points_to_frame(points, (x, y, th))
-        u, v = local[:, 0], local[:, 1]
-        inside |= (u >= -m.rear_offset) & (u <= m.front_offset) & (np.abs(v) <= m.width / 2)
-    return int(inside.sum())
+    def _recall(self, scan: np.ndarray, now: float) -> bool:
+        """REPLANNING's first try: continue a plan from a state of the map the robot has."""
+        last = self._plan
+        if last is None or self._recalls_in_a_row >= self.max_recalls:
+            return False  # recalled plans that lead nowhere: explore anew
+        obstacles = perceive_scan(scan, self.model)
+        found, why, took = recall(last.result, last.origin, self.pose, self.goal, obstacles, self.model,
+                                  check_tolerance=self.end_tolerance)
+        self.recalls.append(TimedRecord(now - (self._t0 or 0.0), took, found is not None, why))
+        self._log("recall", ok=found is not None, duration_s=took, reason=why)
+        if found is None:
+            return False
+        self._recalls_in_a_row += 1
+        rec = self._plan = PlanRecord(now - (self._t0 or 0.0), last.origin, found.result, recalled=True)
+        self.plans.append(rec)
+        states = rec.result.plan.states
+        k = states.index(found.state)
+        self._queue = deque((rec.result.map[t], (s, t)) for s, t in zip(states[k:], states[k + 1:]))
+        self._fire(E.PLANNED, f"plan {len(self.plans)} recalled from q{found.state} of the map: {len(self._queue)} tasks")
+        self._execute_tick(now)
+        return True

@@ -1,0 +1,247 @@
+"""Scan odometry: dead reckoning corrected by matching each revolution against a local map.
+
+:class:`ScanOdometry` keeps the robot's pose in the supervisor's frame. Between scans it
+dead-reckons (from the wheel speeds commanded, or from the backend's own odometry). For
+each new revolution it
+
+1. looks up the estimate at the revolution's timestamp (a short history is kept, so a
+   scan read a tick late is matched where it was taken) and, when the frame says when
+   each point was measured, *de-skews* the revolution with the estimated motion;
+2. matches it (:func:`~runtime.estimation.icp.match_scans`, point-to-line ICP) against
+   the *local map* — the points of the revolutions matched so far, in the supervisor's
+   frame on a 1 cm grid, within ``map_radius`` of the robot — with the dead-reckoned pose
+   as the prior. A match that disagrees wildly with the prior is rejected (gating), and
+   directions the scene leaves unobservable (one straight wall, a single face) keep the
+   prior's value;
+3. corrects the estimate at the scan's time and carries the correction to now;
+4. adds the matched revolution to the map (a face seen from a new side joins the faces
+   seen before, so the estimate stays tied to the first scan instead of drifting from
+   scan to scan). A revolution that matches nothing the map holds re-seeds it.
+
+When nothing matches, the estimate stays dead reckoning; the record says why.
+
+>>> import numpy as np
+>>> from formal.model import Pose
+>>> from runtime.devices.frame import ScanFrame
+>>> room = np.array([[1.0, y] for y in np.linspace(-0.6, 0.6, 61)] + [[x, 0.6] for x in np.linspace(-0.5, 1.0, 76)])
+>>> odo = ScanOdometry(wheel_base=0.15)
+>>> odo.reset(Pose(0.0, 0.0, 0.0), 0.0)
+>>> odo.update(ScanFrame(room, 0.0)).source          # the first scan seeds the map
+'map'
+>>> odo.advance(1.0, (0.1, 0.1))                      # dead reckoning believes 0.1 m ...
+>>> r = odo.update(ScanFrame(room - [0.08, 0.0], 1.0))  # ... the walls say 0.08 m
+>>> r.ok, round(odo.pose.x, 3)
+(True, 0.08)
+"""
+
+from __future__ import annotations
+
+import math
+from collections import deque
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from formal.geometry import compose, drive, relative, wheel_twist, wrap_angle
+from formal.model import Pose
+from runtime.devices.frame import ScanFrame
+from runtime.estimation.icp import ReferenceScan, match_scans
+
+__all__ = ["ScanOdometry", "FeedbackRecord", "deskew"]
+
+
+@dataclass(frozen=True)
+class FeedbackRecord:
+    """What one revolution did to the estimate.
+
+    ``source``: ``"map"`` when the scan was matched against the local map, or
+    ``"dead-reckoning"`` when no match was accepted (``reason`` says why). ``correction``:
+    (dx, dy, dtheta) applied to the estimate at the scan's time (supervisor frame).
+    ``unobservable``: directions the scene left to dead reckoning.
+    """
+
+    time: float
+    ok: bool
+    source: str
+    reason: str
+    correction: tuple[float, float, float]
+    unobservable: tuple[str, ...]
+    map_updated: bool
+
+
+def deskew(points: np.ndarray, point_times: np.ndarray | None, v: float, w: float) -> np.ndarray:
+    """A revolution taken while moving at (``v``, ``w``) as if taken at once at its timestamp.
+
+    ``point_times`` (s, <= 0, relative to the timestamp) say when each point was taken;
+    without them the points are returned unchanged.
+
+    >>> import numpy as np
+    >>> deskew(np.array([[1.0, 0.0]]), np.array([-1.0]), 0.1, 0.0)  # seen 1 s ago at 0.1 m/s
+    array([[0.9, 0. ]])
+    """
+    if point_times is None or len(points) == 0 or (v == 0.0 and w == 0.0):
+        return points
+    tau = np.asarray(point_times, dtype=float)
+    th = w * tau
+    if abs(w) < 1e-9:
+        px, py = v * tau, np.zeros_like(tau)
+    else:
+        r = v / w
+        px, py = r * np.sin(th), r * (1 - np.cos(th))
+    c, s = np.cos(th), np.sin(th)
+    out: np.ndarray = np.c_[px + c * points[:, 0] - s * points[:, 1], py + s * points[:, 0] + c * points[:, 1]]
+    return out
+
+
+class ScanOdometry:
+    """The pose estimate (supervisor frame) from dead reckoning and scan matching.
+
+    ``map_radius`` (m): how much of the map around the robot is kept; ``map_resolution``
+    (m): its grid; ``new_surface`` (m): a matched point this far from every map point is
+    a surface seen for the first time and joins the map; ``min_overlap``: a revolution that failed to match with less than this
+    share of its points on the map re-seeds the map. ``gate``: the largest disagreement
+    (m, rad) between a match and the dead-reckoned prior ever accepted; the gate in force
+    is 3 cm and 0.05 rad plus 0.15 per metre (or wheel-base radian) driven since the last
+    accepted match, up to ``gate``. ``gate``: the largest disagreement (m, rad) between a
+    match and the dead-reckoned prior that is accepted.
+    """
+
+    def __init__(
+        self,
+        wheel_base: float,
+        *,
+        map_radius: float = 2.5,
+        map_resolution: float = 0.01,
+        new_surface: float = 0.03,
+        min_overlap: float = 0.1,
+        gate: tuple[float, float] = (0.2, 0.35),
+        history_s: float = 3.0,
+    ) -> None:
+        if not (math.isfinite(wheel_base) and wheel_base > 0):
+            raise ValueError(f"wheel_base must be positive, got {wheel_base!r}")
+        self.wheel_base = float(wheel_base)
+        self.map_radius = map_radius
+        self.map_resolution = map_resolution
+        self.new_surface = new_surface
+        self.min_overlap = min_overlap
+        self.gate = gate
+        self.history_s = history_s
+        self.pose = Pose(0.0, 0.0, 0.0)
+        self._t = 0.0
+        self._twist = (0.0, 0.0)
+        self._history: deque[tuple[float, Pose]] = deque()
+        self._map: ReferenceScan | None = None
+        self._map_points: np.ndarray | None = None
+        self._odo: Pose | None = None
+        self.records: list[FeedbackRecord] = []
+        self.last_points = np.zeros((0, 2))
+        self._moved_since = 0.0
+
+    # -- dead reckoning -------------------------------------------------------------------------
+    def reset(self, pose: Pose, t: float) -> None:
+        """Start at ``pose`` at time ``t``; forget the map."""
+        self.pose, self._t = pose, float(t)
+        self._history = deque([(self._t, pose)])
+        self._map = None
+        self._map_points = None
+        self._odo = None
+        self._moved_since = 0.0
+
+    def advance(self, t: float, wheels: tuple[float, float], odometry: Pose | None = None) -> None:
+        """Dead-reckon to time ``t``: from the backend's ``odometry`` when given (its change
+        since the last call), else from the ``wheels`` (m/s) commanded since the last call."""
+        dt = float(t) - self._t
+        if odometry is not None:
+            if self._odo is not None:
+                step = relative(self._odo, odometry)
+                self.pose = compose(self.pose, step)
+                self._moved_since += math.hypot(step.x, step.y) + abs(step.theta) * self.wheel_base
+            self._odo = odometry
+            self._twist = wheel_twist(wheels[0], wheels[1], self.wheel_base)
+        else:
+            v, w = wheel_twist(wheels[0], wheels[1], self.wheel_base)
+            self._twist = (v, w)
+            if dt > 0 and (v != 0.0 or w != 0.0):
+                self.pose = drive(self.pose, v, w, dt)
+                self._moved_since += (abs(v) + abs(w) * self.wheel_base) * dt
+        if dt > 0:
+            self._t = float(t)
+            self._history.append((self._t, self.pose))
+            while len(self._history) > 2 and self._history[1][0] < self._t - self.history_s:
+                self._history.popleft()
+
+    def pose_at(self, t: float) -> Pose:
+        """The estimate at time ``t`` (interpolated in the kept history; clamped at its ends)."""
+        h = self._history
+        if not h or t >= h[-1][0]:
+            return self.pose
+        if t <= h[0][0]:
+            return h[0][1]
+        for (t0, p0), (t1, p1) in zip(h, list(h)[1:]):
+            if t0 <= t <= t1:
+                f = 0.0 if t1 == t0 else (t - t0) / (t1 - t0)
+                dth = wrap_angle(p1.theta - p0.theta)
+                return Pose(p0.x + f * (p1.x - p0.x), p0.y + f * (p1.y - p0.y), wrap_angle(p0.theta + f * dth))
+        return self.pose  # pragma: no cover - the loop covers [h[0], h[-1]]
+
+    # -- scans ------------------------------------------------------------------------------------
+    def update(self, frame: ScanFrame, twist: tuple[float, float] | None = None) -> FeedbackRecord:
+        """Correct the estimate with one revolution; ``twist`` (v, w) during it for de-skewing
+        (default: the one last dead-reckoned)."""
+        v, w = self._twist if twist is None else twist
+        points = deskew(np.asarray(frame.points, dtype=float).reshape(-1, 2), frame.point_times, v, w)
+        self.last_points = points
+        at = self.pose_at(frame.timestamp)
+        if self._map is None:
+            seeded = self._add(points, at, reseed=True)
+            reason = "first revolution: the map's seed" if seeded else f"{len(points)} points: too few to seed the map"
+            rec = FeedbackRecord(frame.timestamp, seeded, "map" if seeded else "dead-reckoning", reason, (0.0, 0.0, 0.0),
+                                 () if seeded else ("x", "y", "heading"), seeded)
+            self.records.append(rec)
+            return rec
+        # dead reckoning drifts with the motion since the last accepted match: a match may
+        # move the estimate only as far as that drift can explain (wider the longer it ran)
+        run = self._moved_since
+        gate = (min(self.gate[0], 0.03 + 0.15 * run), min(self.gate[1], 0.05 + 0.15 * run))
+        match = match_scans(self._map, points, at, gate=gate)
+        corrected = at
+        if match.ok:
+            self._moved_since = 0.0
+            corrected = match.pose
+            # carry the correction from the scan's time to now (and through the history)
+            self.pose = compose(corrected, relative(at, self.pose))
+            self._history = deque((t, compose(corrected, relative(at, p))) if t >= frame.timestamp else (t, p)
+                                  for t, p in self._history)
+        # the map grows by what a matched revolution saw; a revolution that matched nothing
+        # because the map does not cover what it sees re-seeds it (dead-reckoned)
+        lost = not match.ok and match.inlier_fraction < self.min_overlap and "too few points" not in match.reason
+        added = self._add(points, corrected, reseed=lost) if (match.ok or lost) else False
+        d = (corrected.x - at.x, corrected.y - at.y, wrap_angle(corrected.theta - at.theta))
+        rec = FeedbackRecord(frame.timestamp, match.ok, "map" if match.ok else "dead-reckoning", match.reason, d,
+                             match.unobservable, added)
+        self.records.append(rec)
+        return rec
+
+    def _add(self, points: np.ndarray, pose: Pose, reseed: bool) -> bool:
+        """Put a revolution seen from ``pose`` into the map (1 cm grid, within ``map_radius``)."""
+        if len(points) < 15:
+            return False
+        c, s = math.cos(pose.theta), math.sin(pose.theta)
+        world = np.c_[pose.x + c * points[:, 0] - s * points[:, 1], pose.y + s * points[:, 0] + c * points[:, 1]]
+        old = self._map_points if (self._map_points is not None and not reseed) else np.zeros((0, 2))
+        if len(old) and self._map is not None and self._map.tree is not None:
+            # only surfaces the map does not hold yet: re-adding known ones would smear them
+            # along the robot's estimation error and let the estimate drift with them
+            d, _ = cKDTree(old).query(world, distance_upper_bound=self.new_surface)
+            world = world[~np.isfinite(d)]
+            if len(world) == 0:
+                return False
+        merged = np.unique(np.round(np.r_[old, world] / self.map_resolution), axis=0) * self.map_resolution
+        near = np.hypot(merged[:, 0] - pose.x, merged[:, 1] - pose.y) <= self.map_radius
+        merged = merged[near]
+        if self._map_points is not None and not reseed and len(merged) == len(self._map_points):
+            return False  # nothing new
+        self._map_points = merged
+        self._map = ReferenceScan(merged)
+        return True

@@ -1,0 +1,132 @@
+"""The supervisor's records: plans, tasks, checks/recalls/fresh plans and the report, and
+the hazard geometry (which scan points the body's remaining motion sweeps).
+
+Kept apart from :mod:`runtime.supervision.supervisor`, which re-exports the records.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from formal.geometry import compose, points_from_frame, points_to_frame, relative
+from formal.model import Pose, State, TaskKind
+from planner.configurator import PlanResult
+from planner.robot import RobotModel
+from runtime.estimation.odometry import FeedbackRecord
+from runtime.supervision.machine import SupervisorState, TransitionRecord
+
+__all__ = ["PlanRecord", "SupervisorReport", "TaskRecord", "TimedRecord", "hits", "scan_to_frame", "sweep"]
+
+S = SupervisorState
+
+
+def scan_to_frame(points: np.ndarray, source: Pose, target: Pose) -> np.ndarray:
+    """Points in the frame of a robot at ``source`` → the frame of a robot at ``target``."""
+    if len(points) == 0:
+        return points
+    return points_from_frame(points, relative(target, source))
+
+
+# -- records ------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class PlanRecord:
+    """One plan: when, from which pose estimate (the planner frame's origin), and what."""
+
+    time: float
+    origin: Pose
+    result: PlanResult
+    recalled: bool = False
+
+    def to_frame(self, p: Pose) -> Pose:
+        """A pose of the plan (planner frame) in the supervisor's frame."""
+        return compose(self.origin, p)
+
+
+@dataclass
+class TaskRecord:
+    """One task the supervisor started: its plan step, the guard's verdict and its run."""
+
+    plan_index: int
+    state: State
+    transition: tuple[int, int]
+    psi: int
+    start_time: float
+    start_pose: Pose
+    predicted_end: Pose
+    end_time: float | None = None
+    end_pose: Pose | None = None
+    outcome: str = "running"
+
+
+@dataclass(frozen=True)
+class TimedRecord:
+    """One plan check, recall or fresh plan: when (s), how long it took (s), its verdict and why."""
+
+    time: float
+    duration_s: float
+    ok: bool
+    reason: str
+
+
+@dataclass
+class SupervisorReport:
+    """The outcome of :meth:`Supervisor.run`.
+
+    ``feedback``: one record per revolution of what scan matching did to the estimate;
+    ``checks``, ``recalls``, ``fresh_plans``: every plan check, recall attempt and fresh
+    plan, with when (s since start) and how long it took (s).
+
+    >>> SupervisorReport(SupervisorState.HALTED, "LiDAR unplugged", 1.5, [], [], [], [], (1.0, 0.0)).reached_goal
+    False
+    """
+
+    state: SupervisorState
+    reason: str
+    time_s: float
+    plans: list[PlanRecord]
+    tasks: list[TaskRecord]
+    transitions: list[TransitionRecord]
+    trajectory: list[tuple[float, float, float, float]]
+    goal: tuple[float, float]
+    feedback: list[FeedbackRecord] = dataclasses.field(default_factory=list)
+    checks: list[TimedRecord] = dataclasses.field(default_factory=list)
+    recalls: list[TimedRecord] = dataclasses.field(default_factory=list)
+    fresh_plans: list[TimedRecord] = dataclasses.field(default_factory=list)
+
+    @property
+    def reached_goal(self) -> bool:
+        """True when the supervisor ended in GOAL_REACHED."""
+        return self.state is S.GOAL_REACHED
+
+    @property
+    def replans(self) -> int:
+        """Plans made after the first."""
+        return max(0, len(self.plans) - 1)
+
+
+
+def sweep(kind: TaskKind, amount: float) -> np.ndarray:
+    """Sample poses (x, y, theta; current robot frame) of the remaining motion of a task."""
+    if kind is TaskKind.STRAIGHT:
+        n = max(2, int(math.ceil(amount / 0.02)) + 1)
+        xs = np.linspace(0.0, max(amount, 0.0), n)
+        line: np.ndarray = np.c_[xs, np.zeros(n), np.zeros(n)]
+        return line
+    n = max(2, int(math.ceil(amount / math.radians(5))) + 1)
+    th = np.linspace(0.0, max(amount, 0.0), n) * (1 if kind is TaskKind.LEFT else -1)
+    spin: np.ndarray = np.c_[np.zeros(n), np.zeros(n), th]
+    return spin
+
+
+def hits(points: np.ndarray, poses: np.ndarray, m: RobotModel) -> int:
+    """How many points lie inside the (uninflated) body at any of ``poses``."""
+    inside = np.zeros(len(points), dtype=bool)
+    for x, y, th in poses:
+        local = points_to_frame(points, (x, y, th))
+        u, v = local[:, 0], local[:, 1]
+        inside |= (u >= -m.rear_offset) & (u <= m.front_offset) & (np.abs(v) <= m.width / 2)
+    return int(inside.sum())
