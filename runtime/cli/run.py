@@ -286,6 +286,10 @@ def add_emulate_world(devices: Any) -> None:
     )
     w.add_argument("--scenario", default="overtaking", help="scenario name or file (default overtaking)")
     w.add_argument("--seed", type=int, help="seed of the simulated robot's noise")
+    w.add_argument("--noise", choices=("ideal", "paper", "harsh"), default=None,
+                   help="run the execution world with this noise preset (default: the older simulated robot "
+                        "with the scenario's noise)")
+    w.add_argument("--noise-scale", type=float, default=1.0, help="factor on every term of --noise (default 1)")
     w.add_argument("--time-scale", type=float, default=1.0, metavar="K",
                    help="run the world K times faster than real time (pass the same to clomp run)")
     w.add_argument("--serial-timeout", type=float, metavar="S",
@@ -300,7 +304,10 @@ def _run_world(args: argparse.Namespace) -> int:
     if args.serial_timeout is not None and not (math.isfinite(args.serial_timeout) and args.serial_timeout > 0):
         raise CliError(f"--serial-timeout must be a positive number of seconds, got {args.serial_timeout}")
     try:
-        world = EmulatedWorld(args.scenario, seed=args.seed, time_scale=args.time_scale,
+        from runtime.robots.world import WorldNoise
+
+        noise = None if args.noise is None else WorldNoise.preset(args.noise, args.noise_scale)
+        world = EmulatedWorld(args.scenario, seed=args.seed, time_scale=args.time_scale, noise=noise,
                               serial_timeout=args.serial_timeout)
     except (OSError, ScenarioError, ValueError) as exc:
         raise CliError(f"cannot load scenario {args.scenario!r}: {exc}") from None

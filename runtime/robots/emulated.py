@@ -30,6 +30,7 @@ from runtime.devices.maestro_emulator import MaestroEmulator
 from runtime.devices.rplidar_emulator import LidarEmulator
 from runtime.devices.maestro import WheelConfig
 from runtime.robots.sim import NoiseConfig, SimRobot
+from runtime.robots.world import WorldNoise, WorldRobot, make_world_robot
 
 __all__ = ["EmulatedWorld"]
 
@@ -38,7 +39,10 @@ class EmulatedWorld:
     """A scenario's world behind an emulated RPLIDAR A1 and an emulated Maestro.
 
     ``scenario`` is a built-in scenario name, a scenario file or a :class:`Scene`.
-    ``noise`` and ``seed`` go to the simulated robot (default: the scenario's). The
+    ``noise`` and ``seed`` go to the simulated robot (default: the scenario's); a preset
+    name (``ideal``, ``paper``, ``harsh``) or a :class:`~runtime.robots.world.WorldNoise`
+    runs the execution world (:mod:`runtime.robots.world`: acceleration limits, latency,
+    slip, a noisy LiDAR whose revolutions the emulated A1 then streams). The
     wheel mapping (``left``, ``right``, ``neutral_us``, ``span_us``) must match the
     driver's. ``lidar_options`` are passed to :class:`LidarEmulator` (fault injection);
     its attributes such as ``garbage_rate`` can also be changed while it runs.
@@ -55,7 +59,7 @@ class EmulatedWorld:
         scenario: str | os.PathLike[str] | Scene,
         *,
         model: RobotModel | None = None,
-        noise: NoiseConfig | None = None,
+        noise: NoiseConfig | WorldNoise | str | None = None,
         seed: int | None = None,
         time_scale: float = 1.0,
         tick: float = 0.02,
@@ -73,7 +77,11 @@ class EmulatedWorld:
             raise ValueError("tick must be positive")
         self.scene = scenario if isinstance(scenario, Scene) else load_scenario(scenario)
         self.model = model or RobotModel()
-        self.sim = SimRobot(self.scene, self.model, noise=noise, seed=seed)
+        self.sim: SimRobot | WorldRobot
+        if isinstance(noise, (str, WorldNoise)):
+            self.sim = make_world_robot(self.scene, noise, seed=seed, robot=self.model)
+        else:
+            self.sim = SimRobot(self.scene, self.model, noise=noise, seed=seed)
         self.time_scale = float(time_scale)
         self.tick = float(tick)
         self.error: BaseException | None = None
@@ -100,9 +108,14 @@ class EmulatedWorld:
             self.sim.set_wheel_speeds(left * vmax, right * vmax)
 
     def _scan(self) -> np.ndarray:
-        """One LiDAR revolution: the world seen from the simulated robot's pose now (1 cm grid)."""
+        """One LiDAR revolution: the world seen from the simulated robot's pose now (1 cm grid);
+        in the execution world, its newest revolution as its own LiDAR took it."""
         with self._lock:
-            pts = self.sim.scan_now()
+            if isinstance(self.sim, WorldRobot):
+                frame = self.sim.newest_revolution()
+                pts = frame.points if frame is not None else self.sim.scan_now()
+            else:
+                pts = self.sim.scan_now()
         return np.round(pts, 2)
 
     def _run(self) -> None:

@@ -364,6 +364,11 @@ class WorldRobot:
         """The wheels' actual speeds now (m/s), before slip: not zero while they still decelerate."""
         return float(self._wheel[0]), float(self._wheel[1])
 
+    def newest_revolution(self) -> ScanFrame | None:
+        """The newest complete revolution, whether :meth:`read_scan` returned it or not
+        (for a device emulator that streams the world's LiDAR at its own pace)."""
+        return self._latest
+
     def scan_now(self) -> np.ndarray:
         """A complete revolution from the current pose, taken instantly, noise-free (robot frame)."""
         x, y, th = self._xyth()

@@ -23,6 +23,7 @@ import dataclasses
 import math
 import time
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -34,7 +35,7 @@ from planner.perception import Obstacles, perceive
 from planner.physics import simulate
 from planner.robot import RobotModel
 
-__all__ = ["CheckResult", "Recall", "check_plan", "perceive_scan", "recall"]
+__all__ = ["CheckResult", "Recall", "check_plan", "perceive_near", "perceive_scan", "recall"]
 
 
 @dataclass(frozen=True)
@@ -60,6 +61,21 @@ def perceive_scan(scan: np.ndarray, robot: RobotModel) -> Obstacles:
     """What the planner perceives in ``scan`` (robot frame), as :meth:`Configurator.plan` does."""
     return perceive(scan, robot.sensor_range, robot.cluster_distance,
                     body=(robot.rear_offset, robot.front_offset, robot.width / 2))
+
+
+def perceive_near(scan: np.ndarray, states: list[State], origin: Pose, pose: Pose, robot: RobotModel) -> Obstacles:
+    """:func:`perceive_scan` of only the points that can touch the body along ``states``:
+    within a body's reach of the box spanned by the tasks' start and end poses (robot frame
+    at ``pose``). A check then perceives a fraction of the scan."""
+    pts = np.asarray(scan, dtype=float).reshape(-1, 2)
+    if len(pts) == 0 or not states:
+        return perceive_scan(pts, robot)
+    corners = [relative(pose, compose(origin, p)) for q in states for p in (q.start, q.end)] + [Pose(0.0, 0.0, 0.0)]
+    xs, ys = [c.x for c in corners], [c.y for c in corners]
+    reach = robot.swept_radius + robot.cluster_distance + 0.05
+    near = (pts[:, 0] >= min(xs) - reach) & (pts[:, 0] <= max(xs) + reach) & \
+        (pts[:, 1] >= min(ys) - reach) & (pts[:, 1] <= max(ys) + reach)
+    return perceive_scan(pts[near], robot)
 
 
 def _off(a: Pose, b: Pose) -> tuple[float, float]:
@@ -90,9 +106,11 @@ def check_plan(
     g = relative(pose, goal)
     goal_d = Disturbance.goal(g.x, g.y)
     start = Pose(0.0, 0.0, 0.0)  # the robot frame now
+    worlds: dict[Any, Any] = {}  # the rollouts of one check share one world of the obstacles
+    frame = relative(pose, origin)  # the plan's frame seen from the robot now
     for k, q in enumerate(states):
-        end = relative(pose, compose(origin, q.end))  # where the map predicted it ends, robot frame
-        planned_start = relative(pose, compose(origin, q.start))
+        end = compose(frame, q.end)  # where the map predicted it ends, robot frame
+        planned_start = compose(frame, q.start)
         first = k == 0 and running
         if q.task is TaskKind.STRAIGHT:
             along = (end.x - start.x) * math.cos(start.theta) + (end.y - start.y) * math.sin(start.theta)
@@ -100,7 +118,7 @@ def check_plan(
             if length <= 1e-3:
                 start = end
                 continue
-            out = simulate(TaskKind.STRAIGHT, start, goal_d, obstacles, robot)
+            out = simulate(TaskKind.STRAIGHT, start, goal_d, obstacles, robot, worlds)
             if out.collided and out.distance < length - tolerance[0]:
                 return CheckResult(False, f"task {k + 1} ({q.task.value}) now meets an obstacle after "
                                           f"{out.distance:.2f} of {length:.2f} m", k + 1, time.perf_counter() - t0)
@@ -111,7 +129,7 @@ def check_plan(
             if turn <= 1e-3:
                 start = end
                 continue
-            out = simulate(q.task, start, goal_d, obstacles, robot, angle=turn)
+            out = simulate(q.task, start, goal_d, obstacles, robot, worlds, angle=turn)
             turned = abs(wrap_angle(out.end.theta - start.theta))
             if out.collided and turned < turn - tolerance[1]:
                 return CheckResult(False, f"task {k + 1} ({q.task.value}) now meets an obstacle", k + 1,

@@ -47,7 +47,7 @@ import numpy as np
 
 from formal.model import Disturbance, Pose, State, TaskKind
 from planner.configurator import Configurator, PlanningError
-from planner.perception import validate_scan
+from planner.perception import Obstacles, validate_scan
 from planner.physics import make_task
 from planner.robot import RobotModel
 from formal.geometry import compose, dead_reckon, relative, wrap_angle
@@ -56,7 +56,7 @@ from runtime.clock import Clock, clock_for
 from runtime.devices.frame import ScanFrame
 from runtime.estimation.fusion import fuse_revolutions
 from runtime.estimation.odometry import ScanOdometry
-from runtime.supervision.plancheck import check_plan, perceive_scan, recall
+from runtime.supervision.plancheck import check_plan, perceive_near, perceive_scan, recall
 from runtime.supervision.records import (
     PlanRecord,
     SupervisorReport,
@@ -401,11 +401,15 @@ class Supervisor:
             self._fire(E.NO_PLAN, f"gave up after {len(self.fresh_plans)} plans")
             return
         scan = fuse_revolutions(list(self._still)) if self.fuse_scans > 1 and len(self._still) > 1 else self._scan
-        if self.state is S.REPLANNING and self._recall(scan, now):
+        t0 = time.perf_counter()
+        obstacles = perceive_scan(scan, self.model)  # once, for the recall and a fresh plan
+        perceiving = time.perf_counter() - t0
+        if self.state is S.REPLANNING and self._recall(obstacles, now):
             return
-        t_plan = time.perf_counter()
+        t_plan = time.perf_counter() - perceiving  # a fresh plan's time includes perceiving
         try:
-            result = self.configurator.plan(scan, (g.x, g.y))
+            result = self.configurator.build(obstacles, (g.x, g.y))
+            result.planning_time_s = time.perf_counter() - t_plan
         except PlanningError as exc:
             self._fire(E.NO_PLAN, f"goal unreachable: {exc}")
             return
@@ -564,8 +568,8 @@ class Supervisor:
         if self._plan is None or self._record is None or self._clean_scan is None:
             return None
         model = self.model
-        obstacles = perceive_scan(self._clean_scan, model)
         states = [self._record.state] + [q for q, _ in self._queue]
+        obstacles = perceive_near(self._clean_scan, states, self._plan.origin, self._scan_pose, model)
         verdict = check_plan(states, self._plan.origin, self._scan_pose, self.goal, obstacles, model,
                              tolerance=self.end_tolerance, running=True)
         rec = TimedRecord(self._now(), verdict.duration_s, verdict.ok, verdict.reason)
@@ -573,12 +577,11 @@ class Supervisor:
         self._log("check", ok=rec.ok, duration_s=rec.duration_s, reason=rec.reason)
         return rec
 
-    def _recall(self, scan: np.ndarray, now: float) -> bool:
+    def _recall(self, obstacles: Obstacles, now: float) -> bool:
         """REPLANNING's first try: continue a plan from a state of the map the robot has."""
         last = self._plan
         if last is None or self._recalls_in_a_row >= self.max_recalls:
             return False  # recalled plans that lead nowhere: explore anew
-        obstacles = perceive_scan(scan, self.model)
         found, why, took = recall(last.result, last.origin, self.pose, self.goal, obstacles, self.model,
                                   check_tolerance=self.end_tolerance)
         self.recalls.append(TimedRecord(now - (self._t0 or 0.0), took, found is not None, why))

@@ -132,6 +132,24 @@ def test_overtaking_reaches_the_goal_over_ptys_in_real_time(tmp_path: Path) -> N
     _overtaking(tmp_path, 1.0)
 
 
+@pytest.mark.slow  # real time over ptys: kept out of the default suite on a loaded machine
+def test_the_hardware_stack_closes_the_loop_in_the_harsh_world(tmp_path: Path) -> None:
+    """clomp run over the emulated devices in front of the execution world with every noise
+    term x5 and 0.1 s latency: scan feedback corrects the pose, plans are checked once a
+    revolution, and the robot truly reaches the goal."""
+    with EmulatedWorld("corridor", noise="harsh", seed=1, time_scale=2.0) as world:
+        run = Run(world, tmp_path / "run.jsonl", "--time-scale", "2", "--max-time", "90")
+        rc = run.finish(timeout=90 / 2 + 15)
+        assert rc == 0, run.stderr
+        assert "goal reached" in run.stdout
+        assert world.goal_distance <= 0.1, world.pose
+        assert world.collisions == 0
+    recs = run.records()
+    feedback = [r for r in recs if r["event"] == "feedback"]
+    assert feedback and sum(r["ok"] for r in feedback) > len(feedback) / 2
+    assert any(r["event"] == "check" for r in recs)
+
+
 def test_a_little_line_garbage_is_tolerated_and_the_run_still_works(tmp_path: Path) -> None:
     faults = {"garbage_rate": 0.02, "bad_check_rate": 0.01, "seed": 7}
     with EmulatedWorld("open", time_scale=2.0, lidar_options=faults) as world:
