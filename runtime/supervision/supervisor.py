@@ -413,11 +413,9 @@ class Supervisor:
         except PlanningError as exc:
             self._fire(E.NO_PLAN, f"goal unreachable: {exc}")
             return
-        fresh = TimedRecord(now - (self._t0 or 0.0), time.perf_counter() - t_plan, True,
-                            f"{result.states} states, {len(result.steps)} tasks")
-        self.fresh_plans.append(fresh)
+        self.fresh_plans.append(TimedRecord(now - (self._t0 or 0.0), result.planning_time_s, True, f"{result.states} states"))
         self._recalls_in_a_row = 0
-        self._log("fresh_plan", duration_s=fresh.duration_s, states=result.states)
+        self._log("fresh_plan", duration_s=result.planning_time_s, states=result.states)
         rec = PlanRecord(now - (self._t0 or 0.0), self.pose, result)
         self.plans.append(rec)
         if self.log is not None:
