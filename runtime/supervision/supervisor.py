@@ -39,7 +39,6 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import time
 from collections import deque
 from typing import Any
 
@@ -47,7 +46,7 @@ import numpy as np
 
 from formal.model import Disturbance, Pose, State, TaskKind
 from planner.configurator import Configurator, PlanningError
-from planner.perception import Obstacles, validate_scan
+from planner.perception import validate_scan
 from planner.physics import make_task
 from planner.robot import RobotModel
 from formal.geometry import compose, dead_reckon, relative, wrap_angle
@@ -388,10 +387,9 @@ class Supervisor:
 
     # -- planning ---------------------------------------------------------------------------------
     def _plan_tick(self, now: float) -> None:
-        # after driving: let the motion settle, then take ``fuse_scans`` revolutions to fuse
         need = self.settle_scans + self.fuse_scans - 1 if self._moved else 1
         if self._scan is None or self._scans_since_stop < need:
-            return  # wait for scans taken with the wheels stopped
+            return  # after driving, let the motion settle, then take ``fuse_scans`` revolutions
         g = relative(self.pose, self.goal)
         dist = math.hypot(g.x, g.y)
         if dist <= self.goal_radius:
@@ -401,15 +399,10 @@ class Supervisor:
             self._fire(E.NO_PLAN, f"gave up after {len(self.fresh_plans)} plans")
             return
         scan = fuse_revolutions(list(self._still)) if self.fuse_scans > 1 and len(self._still) > 1 else self._scan
-        t0 = time.perf_counter()
-        obstacles = perceive_scan(scan, self.model)  # once, for the recall and a fresh plan
-        perceiving = time.perf_counter() - t0
-        if self.state is S.REPLANNING and self._recall(obstacles, now):
+        if self.state is S.REPLANNING and self._recall(scan, now):
             return
-        t_plan = time.perf_counter() - perceiving  # a fresh plan's time includes perceiving
         try:
-            result = self.configurator.build(obstacles, (g.x, g.y))
-            result.planning_time_s = time.perf_counter() - t_plan
+            result = self.configurator.plan(scan, (g.x, g.y))
         except PlanningError as exc:
             self._fire(E.NO_PLAN, f"goal unreachable: {exc}")
             return
@@ -423,8 +416,7 @@ class Supervisor:
         if not result.steps:
             self._fire(E.NO_PLAN, "goal unreachable: no safe task leads closer to the goal")
             return
-        # progress is what the robot achieved, not what a plan promised (a plan to the rim of
-        # the sensed disc promises more than a check may let it keep)
+        # progress is what the robot achieved, not what a plan to the disc's rim promised
         if result.reached_goal or dist < self._best - self.min_progress:
             self._stalled = 0
         else:
@@ -575,11 +567,13 @@ class Supervisor:
         self._log("check", ok=rec.ok, duration_s=rec.duration_s, reason=rec.reason)
         return rec
 
-    def _recall(self, obstacles: Obstacles, now: float) -> bool:
+    def _recall(self, scan: np.ndarray, now: float) -> bool:
         """REPLANNING's first try: continue a plan from a state of the map the robot has."""
         last = self._plan
-        if last is None or self._recalls_in_a_row >= self.max_recalls:
-            return False  # recalled plans that lead nowhere: explore anew
+        if last is None or self._recalls_in_a_row >= self.max_recalls:  # recalls leading nowhere
+            self.recalls.append(TimedRecord(now - (self._t0 or 0.0), 0.0, False, "skipped: explore anew"))
+            return False
+        obstacles = perceive_scan(scan, self.model)
         found, why, took = recall(last.result, last.origin, self.pose, self.goal, obstacles, self.model,
                                   check_tolerance=self.end_tolerance)
         self.recalls.append(TimedRecord(now - (self._t0 or 0.0), took, found is not None, why))
