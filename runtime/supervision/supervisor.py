@@ -52,7 +52,6 @@ from planner.robot import RobotModel
 from formal.geometry import compose, dead_reckon, relative, wrap_angle
 from planner.tasks import Task
 from runtime.clock import Clock, clock_for
-from runtime.devices.frame import ScanFrame
 from runtime.estimation.fusion import fuse_revolutions
 from runtime.estimation.odometry import ScanOdometry
 from runtime.supervision.plancheck import check_plan, perceive_near, perceive_scan, recall
@@ -66,7 +65,7 @@ from runtime.supervision.records import (
     sweep,
 )
 from runtime.records.runlog import RunLogLike, plan_fields
-from runtime.robot import Robot, RobotFault, finite_goal
+from runtime.robot import Robot, RobotFault, ScanFrame, finite_goal
 from runtime.supervision.machine import (
     MOTOR_STATES,
     TERMINAL,

@@ -185,7 +185,11 @@ def test_a_fault_at_any_tick_ends_halted_with_wheels_stopped(fraction, kind, see
         sup.step()
         sim.sleep(t + sim.model.tick - sim.now())
         k += 1
-    assert sup.state is S.HALTED, (sup.state, sup.reason)
     assert _wheels_still(sim) and sup.commanded == (0.0, 0.0)
+    if kind == "planner" and not conf.raised:
+        # REPLANNING recalled a plan from the map it had, so the broken planner was never asked
+        assert sup.recalls and any(r.ok for r in sup.recalls), (sup.state, sup.reason)
+        return
+    assert sup.state is S.HALTED, (sup.state, sup.reason)
     if kind == "planner":
         assert conf.raised and "planner crashed" in sup.reason
