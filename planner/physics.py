@@ -347,8 +347,8 @@ def turn_angle(
     A turn towards the side the goal is on is contingent on the goal: it ends facing it,
     provided the way to the goal is clear for the next straight. Otherwise (the goal is
     on the other side, or the way to it is blocked) the turn is contingent on what is in
-    the way: it ends at the first of ``turn_angle / 2`` and ``turn_angle`` (beyond the
-    goal's bearing) from which the way ahead is clear for a step; when none is, it
+    the way: it ends at the first of ``turn_angle / 2`` and ``turn_angle`` (short of the
+    goal's bearing or beyond it) from which the way ahead is clear for a step; when none is, it
     ends facing the goal if it turned towards it, else at ``turn_angle``.
 
     >>> from planner.perception import perceive
@@ -373,8 +373,8 @@ def turn_angle(
     if towards is not None and goal is not None:
         need = min(step, math.hypot(goal.x - start.x, goal.y - start.y) - robot.goal_tolerance)
         candidates.append((towards, need))
-    low = towards if towards is not None else 0.0
-    candidates += [(a, step) for a in (full / 2, full) if a > low + 1e-3]
+    # short of the goal's bearing too: the free way may lie between the heading and the goal
+    candidates += [(a, step) for a in (full / 2, full) if towards is None or abs(a - towards) > 1e-3]
     if scene is None:
         return candidates[0][0] if candidates else full
     for a, need in candidates:

@@ -13,6 +13,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from planner import Configurator, RobotModel, load_scenario
+from planner.scenarios import parse_scenario
 
 sys.path.insert(0, str(Path(__file__).parent))
 from sweepcheck import check_states  # noqa: E402
@@ -126,3 +127,26 @@ def test_the_papers_overtaking_plan_still_goes_round_the_box():
     tasks = [s.task.value for s in r.steps]
     assert "LEFT" in tasks and "RIGHT" in tasks  # round the box, not through it
     assert 10 <= r.states <= 40  # the paper: 32.9 ± 1.8 states
+
+
+def test_a_turn_may_end_short_of_the_goals_bearing_where_the_way_is_free() -> None:
+    """Overtaking between side walls (a layout of the experiment's family): after going
+    left of the box the way to the goal is blocked by the box's corner, but a turn back
+    by turn_angle/2, short of the goal's bearing, has the way ahead clear. Without that
+    candidate the search ran dry after 13 states and the robot halted UNREACHABLE."""
+    scene = parse_scenario(
+        {
+            "start": [0.0, 0.0, 0.0],
+            "goal": [1.0, 0.0],
+            "obstacles": [
+                {"type": "box", "center": [0.3783, -0.0293], "size": [0.129, 0.2203]},
+                {"type": "wall", "from": [-0.4, 0.499], "to": [1.5, 0.499], "thickness": 0.02},
+                {"type": "wall", "from": [-0.4, -0.499], "to": [1.5, -0.499], "thickness": 0.02},
+            ],
+        }
+    )
+    conf = Configurator()
+    scan = scene.scan(max_range=conf.robot.sensor_range)
+    result = conf.plan(scan, scene.goal_in_robot_frame())
+    assert result.reached_goal, [(s.task.value, s.end) for s in result.steps]
+    assert check_states(scan, result.steps, conf.robot).ok
