@@ -40,6 +40,7 @@ from formal.model import Pose
 from planner.robot import RobotModel
 from planner.scenarios import Scene, ScenarioError, load_scenario
 from runtime.robot import RobotFault, ScanFrame
+from runtime.robots._simulated import SimulatedBackend
 
 __all__ = ["NoiseConfig", "SimRobot", "Contact", "scenario_noise", "scenario_seed", "scenario_scan_source"]
 
@@ -129,7 +130,7 @@ class Contact:
     y: float
 
 
-class SimRobot:
+class SimRobot(SimulatedBackend):
     """A simulated differential-drive robot with a LiDAR in a scenario's world.
 
     Implements :class:`runtime.robot.Robot` plus a simulated clock (:meth:`now`,
@@ -225,19 +226,10 @@ class SimRobot:
         return self._space.shape_query(self._shape)
 
     # -- Robot protocol ------------------------------------------------------------------
-    def read_scan(self, timeout: float | None = None) -> ScanFrame | None:
-        """The newest full revolution not returned before; waits (in simulated time) up to
-        ``timeout`` seconds for one, forever (one revolution at most) when None."""
-        self._check_open()
-        if self._delivered:
-            wait = (1.0 / self.scan_rate) * 1.01 if timeout is None else max(0.0, float(timeout))
-            deadline = self._t + wait
-            while self._delivered and self._t < deadline - 1e-12:
-                self._advance(min(self.substep, deadline - self._t))
-        if self._delivered or self._latest is None:
-            return None
-        self._delivered = True
-        return self._latest
+    @property
+    def quantum(self) -> float:
+        """The physics substep (s)."""
+        return self.substep
 
     def set_wheel_speeds(self, left: float, right: float) -> None:
         """Command the wheels (m/s), saturated at the model's top speed."""
@@ -259,26 +251,6 @@ class SimRobot:
             return None
         x, y, th = self._odo
         return Pose(x, y, wrap_angle(th))
-
-    def close(self) -> None:
-        """Stop; further commands raise :class:`~runtime.robot.RobotFault`."""
-        self.stop()
-        self._closed = True
-
-    def _check_open(self) -> None:
-        if self._closed:
-            raise RobotFault("the simulated robot is closed")
-
-    # -- clock --------------------------------------------------------------------------
-    def now(self) -> float:
-        """Simulated time (s) since the start."""
-        return self._t
-
-    def sleep(self, seconds: float) -> None:
-        """Let ``seconds`` of simulated time pass (the robot drives on its last command)."""
-        end = self._t + max(0.0, float(seconds))
-        while self._t < end - 1e-12:
-            self._advance(min(self.substep, end - self._t))
 
     # -- ground truth ---------------------------------------------------------------------
     @property

@@ -50,7 +50,7 @@ from formal.geometry import wrap_angle
 from formal.model import Pose
 from planner.scenarios import Scene, ScenarioError
 from runtime.devices.frame import ScanFrame
-from runtime.robot import RobotFault
+from runtime.robots._simulated import SimulatedBackend
 
 __all__ = ["BodySpec", "WorldNoise", "WorldRobot", "WorldContact", "make_world_robot", "NOISE_PRESETS"]
 
@@ -162,12 +162,14 @@ class WorldContact:
     y: float
 
 
-class WorldRobot:
+class WorldRobot(SimulatedBackend):
     """A differential-drive robot with an RPLIDAR A1 in a scenario's world (see the module).
 
     Implements :class:`runtime.robot.Robot` and a simulated clock. It has no wheel
     encoders (:meth:`odometry` is None), like the paper's robot.
     """
+
+    _what = "the simulated world robot"
 
     def __init__(
         self,
@@ -277,19 +279,10 @@ class WorldRobot:
         return float(p.x), float(p.y), float(self._body.angle)
 
     # -- Robot protocol -------------------------------------------------------------------------
-    def read_scan(self, timeout: float | None = None) -> ScanFrame | None:
-        """The newest full revolution not returned before; waits (simulated time) up to
-        ``timeout`` s for one (None: until the revolution in progress completes)."""
-        self._check_open()
-        if self._delivered:
-            wait = (1.0 / self.scan_rate) * 1.01 if timeout is None else max(0.0, float(timeout))
-            deadline = self._t + wait
-            while self._delivered and self._t < deadline - 1e-12:
-                self._step(min(self.dt, deadline - self._t))
-        if self._delivered or self._latest is None:
-            return None
-        self._delivered = True
-        return self._latest
+    @property
+    def quantum(self) -> float:
+        """The physics step (s)."""
+        return self.dt
 
     def set_wheel_speeds(self, left: float, right: float) -> None:
         """Command the wheels (m/s), saturated at the top wheel speed; applied after the latency."""
@@ -313,26 +306,6 @@ class WorldRobot:
     def odometry(self) -> Pose | None:
         """None: the robot has no wheel encoders."""
         return None
-
-    def close(self) -> None:
-        """Stop; further commands raise :class:`~runtime.robot.RobotFault`."""
-        self.stop()
-        self._closed = True
-
-    def _check_open(self) -> None:
-        if self._closed:
-            raise RobotFault("the simulated world robot is closed")
-
-    # -- clock ------------------------------------------------------------------------------------
-    def now(self) -> float:
-        """Simulated time (s) since the start."""
-        return self._t
-
-    def sleep(self, seconds: float) -> None:
-        """Let ``seconds`` of simulated time pass (the wheels follow the last command)."""
-        end = self._t + max(0.0, float(seconds))
-        while self._t < end - 1e-12:
-            self._step(min(self.dt, end - self._t))
 
     # -- ground truth ----------------------------------------------------------------------------
     def ground_truth_pose(self) -> Pose:
@@ -379,7 +352,7 @@ class WorldRobot:
         return pts
 
     # -- the physics step ---------------------------------------------------------------------------
-    def _step(self, dt: float) -> None:
+    def _advance(self, dt: float) -> None:
         n, b = self.noise, self.body
         while self._pending and self._pending[0][0] <= self._t + 1e-12:
             self._applied = self._pending.popleft()[1]
