@@ -55,6 +55,11 @@ from runtime.robots._simulated import SimulatedBackend
 __all__ = ["BodySpec", "WorldNoise", "WorldRobot", "WorldContact", "make_world_robot", "NOISE_PRESETS"]
 
 NOISE_PRESETS = ("ideal", "paper", "harsh")
+# pymunk routes attribute writes through a typing mixin's __setattr__; the physics step calls
+# the property setters directly (the same effect, cheaper)
+_set_velocity = pymunk.Body.velocity.fset  # type: ignore[attr-defined]
+_set_angular_velocity = pymunk.Body.angular_velocity.fset  # type: ignore[attr-defined]
+_set_position = pymunk.Body.position.fset  # type: ignore[attr-defined]
 _CONTACT_GAP = 0.5  # a contact beginning this long after the previous ended is a new collision
 _OBSTACLE, _ROBOT = 1, 2
 
@@ -215,9 +220,10 @@ class WorldRobot(SimulatedBackend):
         self._cmd = (0.0, 0.0)
         self._pending: deque[tuple[float, tuple[float, float]]] = deque()
         self._applied = (0.0, 0.0)
-        self._wheel = np.zeros(2)
-        self._tick_err = np.ones(2)
-        self._tick_slip = np.zeros(2)
+        self._bias_lr = (float(self._bias[0]), float(self._bias[1]))
+        self._wheel = (0.0, 0.0)
+        self._tick_err = (1.0, 1.0)
+        self._tick_slip = (0.0, 0.0)
         self._next_draw = 0.0
         self.collisions = 0
         self.contacts: list[WorldContact] = []
@@ -229,8 +235,7 @@ class WorldRobot(SimulatedBackend):
         self._ray_angles = np.arange(rays) * (2 * math.pi / rays)
         self._next_ray = 0
         self._rev_start = 0.0
-        self._pts: list[np.ndarray] = []
-        self._times: list[np.ndarray] = []
+        self._pending_rays: list[tuple[Any, ...]] = []
         self._latest: ScanFrame | None = None
         self._delivered = True
 
@@ -240,7 +245,15 @@ class WorldRobot(SimulatedBackend):
         space = pymunk.Space()
         space.collision_slop = 0.0005
         space.iterations = 20
+        edges: list[tuple[float, float, float, float]] = []
+        circles: list[tuple[float, float, float]] = []
         for s in self.scene.shapes:
+            if s.kind == "circle":
+                circles.append((float(s.center[0]), float(s.center[1]), float(s.radius)))
+            else:
+                v = s.vertices
+                edges += [(float(v[k][0]), float(v[k][1]), float(v[(k + 1) % len(v)][0] - v[k][0]),
+                           float(v[(k + 1) % len(v)][1] - v[k][1])) for k in range(len(v))]
             if s.kind == "circle":
                 shape: pymunk.Shape = pymunk.Circle(space.static_body, s.radius, s.center)
             else:
@@ -270,7 +283,8 @@ class WorldRobot(SimulatedBackend):
         gear.max_force = grip * b.wheel_base / 2
         space.add(body, shape, control, pivot, gear)
         self._space, self._body, self._shape, self._control = space, body, shape, control
-        self._ray_filter = pymunk.ShapeFilter(mask=_OBSTACLE)
+        self._edges = np.array(edges, dtype=float).reshape(-1, 4)
+        self._circles = np.array(circles, dtype=float).reshape(-1, 3)
         if space.shape_query(shape):
             raise ScenarioError(f"{self.scene.name}.start: the robot's body overlaps an obstacle at the start pose")
 
@@ -357,27 +371,39 @@ class WorldRobot(SimulatedBackend):
         while self._pending and self._pending[0][0] <= self._t + 1e-12:
             self._applied = self._pending.popleft()[1]
         if self._t >= self._next_draw - 1e-12:  # a control tick's draws
-            self._tick_err = 1.0 + n.wheel_sd * self._rng.standard_normal(2) if n.wheel_sd else np.ones(2)
-            self._tick_slip = np.minimum(np.abs(n.slip * self._rng.standard_normal(2)), 0.9) if n.slip else np.zeros(2)
+            err = 1.0 + n.wheel_sd * self._rng.standard_normal(2) if n.wheel_sd else np.ones(2)
+            slip = np.minimum(np.abs(n.slip * self._rng.standard_normal(2)), 0.9) if n.slip else np.zeros(2)
+            self._tick_err = (float(err[0]), float(err[1]))
+            self._tick_slip = (float(slip[0]), float(slip[1]))
             self._next_draw = self._t + self.control_tick
-        cmd = np.array(self._applied)
-        target = np.where(cmd != 0.0, cmd * self._bias * self._tick_err, 0.0)
+        # per wheel, in Python floats (the same IEEE operations as the arrays they replace, faster)
+        (cl, cr), (bl, br) = self._applied, self._bias_lr
+        el, er = self._tick_err
+        sl, sr = self._tick_slip
+        wl, wr = self._wheel
         step = b.wheel_accel * dt
-        self._wheel = self._wheel + np.clip(target - self._wheel, -step, step)
-        ground = self._wheel * (1.0 - self._tick_slip)
-        v = float(ground[0] + ground[1]) / 2
-        w = float(ground[1] - ground[0]) / b.wheel_base
-        if self._wheel[0] != 0.0 or self._wheel[1] != 0.0:
+        tl = cl * bl * el if cl != 0.0 else 0.0
+        tr = cr * br * er if cr != 0.0 else 0.0
+        wl = wl + min(max(tl - wl, -step), step)
+        wr = wr + min(max(tr - wr, -step), step)
+        self._wheel = (wl, wr)
+        gl, gr = wl * (1.0 - sl), wr * (1.0 - sr)
+        v = (gl + gr) / 2
+        w = (gr - gl) / b.wheel_base
+        if wl != 0.0 or wr != 0.0:
             w += self._drift
-        th = self._body.angle
-        self._control.velocity = (v * math.cos(th), v * math.sin(th))
-        self._control.angular_velocity = w
-        self._control.position = self._body.position
+        body, control = self._body, self._control
+        th = body.angle
+        # the property setters directly: pymunk's typing mixin __setattr__ costs as much again
+        _set_velocity(control, (v * math.cos(th), v * math.sin(th)))
+        _set_angular_velocity(control, w)
+        _set_position(control, body.position)
         self._space.step(dt)
         self._t += dt
         self._contacts()
-        self.trajectory.append((self._t, *self._xyth()))
-        self._lidar()
+        pose = self._xyth()
+        self.trajectory.append((self._t, *pose))
+        self._lidar(pose)
 
     def _contacts(self) -> None:
         deepest = -1.0
@@ -405,48 +431,97 @@ class WorldRobot(SimulatedBackend):
 
     # -- the LiDAR ----------------------------------------------------------------------------------
     def _cast(self, x: float, y: float, angles: np.ndarray) -> np.ndarray:
-        """Distance along each world angle to the first obstacle within range, inf when none."""
-        out = np.full(len(angles), np.inf)
-        r = self.max_range * 1.2
-        q = self._space.segment_query_first
-        for k, a in enumerate(angles):
-            hit = q((x, y), (x + r * math.cos(a), y + r * math.sin(a)), 0.0, self._ray_filter)
-            if hit is not None:
-                out[k] = hit.alpha * r
-        return out
+        """Distance along each world angle to the first obstacle within range, inf when none.
 
-    def _lidar(self) -> None:
+        The obstacles are static, so every ray is intersected with every edge and circle
+        at once (numpy) instead of one pymunk segment query per ray: the same first hits,
+        at a fraction of the cost (the LiDAR was half of a run's time).
+        """
+        return _first_hits(x, y, angles, self._edges, self._circles, self.max_range * 1.2)
+
+    def _lidar(self, pose: tuple[float, float, float]) -> None:
         period = 1.0 / self.scan_rate
         due = int(min(self.rays, math.floor((self._t - self._rev_start) / period * self.rays + 1e-9)))
         if due > self._next_ray:
-            self._rays(self._next_ray, due)
+            self._rays(self._next_ray, due, pose)
             self._next_ray = due
         if self._next_ray >= self.rays:
-            pts = np.concatenate(self._pts) if self._pts else np.zeros((0, 2))
-            times = np.concatenate(self._times) if self._times else np.zeros(0)
+            pts, times = self._revolution()
             self._latest = ScanFrame(pts, self._t, point_times=times - self._t)
             self._delivered = False
-            self._pts, self._times = [], []
+            self._pending_rays = []
             self._next_ray = 0
             self._rev_start += period
 
-    def _rays(self, i0: int, i1: int) -> None:
-        n = self.noise
+    def _rays(self, i0: int, i1: int, pose: tuple[float, float, float]) -> None:
+        """The rays due in this step: their origin (the body's pose now) and noise draws.
+
+        Casting waits for the revolution's end (:meth:`_revolution`), where every ray of
+        the revolution is cast from its own origin at once; the draws are made here, in
+        the order they always were, so a seed gives the same scans.
+        """
+        n, k = self.noise, i1 - i0
         nominal = self._ray_angles[i0:i1]
-        beam = nominal + n.angle_sd * self._rng.standard_normal(len(nominal)) if n.angle_sd else nominal
-        x, y, th = self._xyth()
-        r = self._cast(x, y, th + beam)
-        if n.range_sd:
-            r = r + n.range_sd * self._rng.standard_normal(len(r))
-        keep = np.isfinite(r) & (r > 0) & (r <= self.max_range)
-        if n.dropout:
-            keep &= self._rng.random(len(r)) >= n.dropout
-        r, a = r[keep], nominal[keep]
-        pts = np.c_[r * np.cos(a), r * np.sin(a)]
+        beam = nominal + n.angle_sd * self._rng.standard_normal(k) if n.angle_sd else nominal
+        x, y, th = pose
+        noise = n.range_sd * self._rng.standard_normal(k) if n.range_sd else None
+        kept = self._rng.random(k) >= n.dropout if n.dropout else None
+        self._pending_rays.append((x, y, th + beam, nominal, noise, kept, self._t))
+
+    def _revolution(self) -> tuple[np.ndarray, np.ndarray]:
+        """Cast the revolution's rays; its points (robot frame at each ray's time) and times."""
+        rays = self._pending_rays
+        if not rays:
+            return np.zeros((0, 2)), np.zeros(0)
+        counts = [len(r[3]) for r in rays]
+        x = np.repeat([r[0] for r in rays], counts)[:, None]
+        y = np.repeat([r[1] for r in rays], counts)[:, None]
+        world = np.concatenate([r[2] for r in rays])
+        nominal = np.concatenate([r[3] for r in rays])
+        t = np.repeat([r[6] for r in rays], counts)
+        dist = _first_hits(x, y, world, self._edges, self._circles, self.max_range * 1.2)
+        if self.noise.range_sd:
+            dist = dist + np.concatenate([r[4] for r in rays])
+        keep = np.isfinite(dist) & (dist > 0) & (dist <= self.max_range)
+        if self.noise.dropout:
+            keep &= np.concatenate([r[5] for r in rays])
+        dist, a = dist[keep], nominal[keep]
+        pts = np.stack([dist * np.cos(a), dist * np.sin(a)], axis=1)
         if self.resolution > 0:
             pts = np.round(pts / self.resolution) * self.resolution
-        self._pts.append(pts)
-        self._times.append(np.full(len(pts), self._t))
+        return pts, t[keep]
+
+
+def _first_hits(x: float | np.ndarray, y: float | np.ndarray, angles: np.ndarray, edges: np.ndarray, circles: np.ndarray,
+                reach: float) -> np.ndarray:
+    """Distance from (x, y) along each angle to the first edge (start x, y, vector x, y per
+    row) or circle (centre x, y, radius per row) within ``reach``; inf where none is.
+    ``x`` and ``y`` may be columns (one origin per angle).
+
+    >>> square = np.array([[1, -1, 0, 2], [1, 1, -2, 0], [-1, 1, 0, -2], [-1, -1, 2, 0]], float) + [2, 0, 0, 0]
+    >>> _first_hits(0.0, 0.0, np.array([0.0, math.pi]), square, np.array([[-3.0, 0.0, 0.5]]), 5.0).tolist()
+    [1.0, 2.5]
+    """
+    c, s = np.cos(angles)[:, None], np.sin(angles)[:, None]
+    best = np.full(len(angles), np.inf)
+    if len(edges):
+        wx, wy, ex, ey = edges[:, 0] - x, edges[:, 1] - y, edges[:, 2], edges[:, 3]
+        # (x, y) + t (c, s) = edge start + u edge vector, by Cramer's rule
+        det = ex * s - ey * c
+        with np.errstate(divide="ignore", invalid="ignore"):
+            t = (ex * wy - ey * wx) / det
+            u = (c * wy - s * wx) / det
+        t = np.where((det != 0) & (u >= 0) & (u <= 1) & (t >= 0) & (t <= reach), t, np.inf)
+        best = np.minimum(best, t.min(axis=1))
+    if len(circles):
+        dx, dy, r = circles[:, 0] - x, circles[:, 1] - y, circles[:, 2]
+        b = dx * c + dy * s
+        disc = b * b - (dx * dx + dy * dy - r * r)
+        with np.errstate(invalid="ignore"):
+            t = b - np.sqrt(disc)
+        t = np.where((disc >= 0) & (t >= 0) & (t <= reach), t, np.inf)
+        best = np.minimum(best, t.min(axis=1))
+    return best
 
 
 def make_world_robot(

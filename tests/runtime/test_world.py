@@ -207,3 +207,35 @@ def test_presets_paper_is_todays_defaults_harsh_five_times_plus_latency():
     assert paper["latency"] == 0.0 and harsh["latency"] == 0.1
     assert WorldNoise.preset("paper", 3.0).wheel_sd == pytest.approx(0.06)
     assert make_world_robot(load_scenario("open"), "harsh", noise_scale=0.5).noise.latency == pytest.approx(0.05)
+
+
+@pytest.mark.parametrize("family", ["overtaking", "clutter", "slalom", "doorway", "u-trap"])
+def test_the_lidars_rays_hit_what_pymunks_segment_queries_hit(family):
+    """The vectorised cast (every ray against every edge and circle) gives pymunk's first
+    hits: a shape query of the same static shapes is the reference it replaced."""
+    import pymunk
+
+    from runtime.experiment.layouts import make_layout
+    from runtime.robots.world import _first_hits
+
+    rng = np.random.default_rng(7)
+    for index in range(4):
+        w = make_world_robot(make_layout(family, 0, index).scene, "ideal", seed=0)
+        space = pymunk.Space()
+        for s in w.scene.shapes:
+            space.add(pymunk.Circle(space.static_body, s.radius, s.center) if s.kind == "circle"
+                      else pymunk.Poly(space.static_body, list(s.vertices)))
+        reach = w.max_range * 1.2
+        for _ in range(5):
+            x, y = rng.uniform(-0.2, 1.2), rng.uniform(-0.4, 0.4)
+            if any(s.contains(x, y) for s in w.scene.shapes):
+                continue
+            angles = rng.uniform(-math.pi, math.pi, 90)
+            got = _first_hits(x, y, angles, w._edges, w._circles, reach)
+            want = []
+            for a in angles:
+                hit = space.segment_query_first((x, y), (x + reach * math.cos(a), y + reach * math.sin(a)), 0.0,
+                                                pymunk.ShapeFilter())
+                want.append(math.inf if hit is None else hit.alpha * reach)
+            assert np.isfinite(got).sum() > 0
+            np.testing.assert_allclose(got, want, rtol=0, atol=1e-9)
