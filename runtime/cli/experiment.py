@@ -3,12 +3,14 @@
 Each run is a pure function of (family, seed, run index, condition, noise), so results
 do not depend on the number of workers. Runs stream to OUT/runs.jsonl as they finish;
 Ctrl-C keeps them and ``--resume`` runs only the rest. At the end OUT holds runs.csv
-(schema in runs_schema.md), summary.json and the plots.
+(schema in runs_schema.md), runs.parquet when pyarrow is installed (the same columns,
+typed), summary.json and the plots.
 """
 
 from __future__ import annotations
 
 import argparse
+import importlib.util
 import json
 import math
 import os
@@ -77,10 +79,12 @@ def parse_scales(text: str) -> list[float]:
 
 
 def _write_outputs(records: list[dict[str, Any]], out: Path, plots: bool) -> dict[str, Any]:
-    from runtime.experiment.results import summarise, write_csv, write_schema
+    from runtime.experiment.results import summarise, write_csv, write_parquet, write_schema
 
     files: dict[str, Any] = {"jsonl": str(out / "runs.jsonl"), "csv": str(write_csv(records, out / "runs.csv")),
                              "schema": str(write_schema(out / "runs_schema.md"))}
+    if importlib.util.find_spec("pyarrow") is not None:  # optional: clomp[parquet]
+        files["parquet"] = str(write_parquet(records, out / "runs.parquet"))
     summary = summarise(records)
     if plots and records:
         from runtime.experiment.report import write_plots
@@ -163,6 +167,7 @@ def run(args: argparse.Namespace) -> int:
 
         paper = PAPER if args.family == "overtaking" else None
         print(table(summary, paper))
-        print(f"wrote {out}{os.sep}: runs.jsonl, runs.csv, runs_schema.md, summary.json"
+        print(f"wrote {out}{os.sep}: runs.jsonl, runs.csv, " + ("runs.parquet, " if "parquet" in summary["files"] else "")
+              + "runs_schema.md, summary.json"
               + (", " + ", ".join(Path(p).name for p in summary["files"].get("png", [])) if summary["files"].get("png") else ""))
     return 0

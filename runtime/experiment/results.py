@@ -6,7 +6,8 @@ ground-truth goal reached, success with its Wilson 95 % interval, collisions and
 brushes (totals and per run with t intervals), median final error; the paired t-test
 on collisions and McNemar's test on success across conditions. :func:`write_csv`
 writes :data:`CSV_COLUMNS` (units and meanings below, also written beside the CSV as
-``runs_schema.md``). :func:`table` is the summary as text, :func:`markdown_rows` as
+``runs_schema.md``); :func:`write_parquet` the same columns, typed, with each column's unit
+and meaning in the file's own schema (needs pyarrow: ``pip install 'clomp[parquet]'``). :func:`table` is the summary as text, :func:`markdown_rows` as
 Markdown rows for the README's table.
 
 >>> recs = [{"condition": "planning", "run": 0, "noise_scale": 1.0, "success": 1, "reached_goal": 1,
@@ -28,7 +29,8 @@ from typing import Any
 
 from runtime.experiment.stats import mcnemar, mean_ci, paired_ttest, wilson
 
-__all__ = ["CSV_COLUMNS", "MARKDOWN_HEADER", "markdown_rows", "summarise", "table", "write_csv", "write_schema"]
+__all__ = ["COLUMN_TYPES", "CSV_COLUMNS", "MARKDOWN_HEADER", "markdown_rows", "summarise", "table", "write_csv",
+           "write_parquet", "write_schema"]
 
 CSV_COLUMNS: dict[str, tuple[str, str]] = {
     "family": ("", "layout family (or scenario name/file for a fixed layout)"),
@@ -64,6 +66,13 @@ CSV_COLUMNS: dict[str, tuple[str, str]] = {
 }
 """CSV column → (unit, meaning)."""
 
+COLUMN_TYPES: dict[str, str] = {
+    k: ("int" if u in ("0/1", "count") or k in ("seed", "run") else "float" if u in ("m", "s", "×") else "str")
+    for k, (u, _) in CSV_COLUMNS.items()
+}
+"""Column → its type in Parquet: ``int`` (int64), ``float`` (float64) or ``str``; every
+column may be empty (null), as in the CSV (e.g. ``time_to_goal_s`` of a run that failed)."""
+
 SUCCESS_RADIUS_M = 0.1
 
 
@@ -83,11 +92,50 @@ def write_csv(records: Iterable[dict[str, Any]], path: str | os.PathLike[str]) -
     return p
 
 
+def write_parquet(records: Iterable[dict[str, Any]], path: str | os.PathLike[str]) -> Path:
+    """The CSV's rows and columns as a Parquet file (same order), typed by :data:`COLUMN_TYPES`;
+    each field's metadata holds its ``unit`` and ``meaning``. RuntimeError without pyarrow.
+
+    >>> import pyarrow.parquet as pq, tempfile
+    >>> rec = {"family": "overtaking", "seed": 0, "run": 0, "condition": "planning", "success": 1, "final_error_m": 0.02}
+    >>> with tempfile.TemporaryDirectory() as d:
+    ...     t = pq.read_table(write_parquet([rec], d + "/runs.parquet"))
+    >>> t.column("final_error_m").to_pylist(), t.schema.field("final_error_m").metadata[b"unit"]
+    ([0.02], b'm')
+    """
+    try:
+        import pyarrow as pa
+        import pyarrow.parquet as pq
+    except ImportError:
+        raise RuntimeError("Parquet output needs pyarrow: pip install 'clomp[parquet]'") from None
+    rows = sorted(records, key=lambda r: (r.get("noise_scale", 1.0), r["run"], r["condition"]))
+    kinds = {"int": pa.int64(), "float": pa.float64(), "str": pa.string()}
+    fields = [pa.field(k, kinds[COLUMN_TYPES[k]], nullable=True, metadata={"unit": u, "meaning": m})
+              for k, (u, m) in CSV_COLUMNS.items()]
+    schema = pa.schema(fields, metadata={"clomp": "runs of clomp experiment: one row per run and condition; "
+                                                  "ground truth is the execution world's"})
+    table = pa.table({f.name: pa.array([_typed(r.get(f.name), COLUMN_TYPES[f.name]) for r in rows], type=f.type)
+                      for f in fields}, schema=schema)
+    p = Path(path)
+    pq.write_table(table, p)
+    return p
+
+
+def _typed(v: Any, kind: str) -> Any:
+    if v is None or v == "":
+        return None
+    return int(v) if kind == "int" else float(v) if kind == "float" else str(v)
+
+
 def write_schema(path: str | os.PathLike[str]) -> Path:
     """The CSV's schema as a Markdown table."""
     lines = ["# runs.csv", "", "One row per run and condition. Ground truth is the execution world's, not the robot's belief.",
              "", "| column | unit | meaning |", "|---|---|---|"]
     lines += [f"| `{k}` | {u} | {m} |" for k, (u, m) in CSV_COLUMNS.items()]
+    lines += ["", "runs.parquet (written when pyarrow is installed: `pip install 'clomp[parquet]'`) has the same rows "
+              "and columns, typed (" + ", ".join(f"{t}: " + ", ".join(f"`{k}`" for k, v in COLUMN_TYPES.items() if v == t)
+                                         for t in ("int", "float")) + "; the rest text; any may be null), "
+              "with each column's unit and meaning in the field's metadata."]
     p = Path(path)
     p.write_text("\n".join(lines) + "\n", encoding="utf-8")
     return p

@@ -184,6 +184,36 @@ def test_summary_csv_table_and_plots(tmp_path):
     assert all(p.stat().st_size > 10_000 for p in pngs)
 
 
+def test_parquet_holds_the_csvs_rows_typed_with_units(tmp_path):
+    """Read back by pyarrow (a real Parquet reader): the CSV's rows and columns, in order, with
+    numbers as numbers, empty cells as nulls, and each column's unit and meaning in its field."""
+    pq = pytest.importorskip("pyarrow.parquet")
+    from runtime.experiment.results import COLUMN_TYPES, write_parquet
+
+    recs = _small()
+    recs[0] = {**recs[0], "time_to_goal_s": None, "reason": "a, \"quoted\" reason"}
+    write_csv(recs, tmp_path / "runs.csv")
+    t = pq.read_table(write_parquet(recs, tmp_path / "runs.parquet"))
+    assert t.column_names == list(CSV_COLUMNS)
+    rows = list(csv.DictReader(open(tmp_path / "runs.csv", newline="")))
+    got = t.to_pylist()
+    assert len(got) == len(rows) == 4
+    for want, row in zip(rows, got):
+        for k in CSV_COLUMNS:
+            v = row[k]
+            if want[k] == "":
+                assert v is None, k
+            elif COLUMN_TYPES[k] == "str":
+                assert v == want[k], k
+            else:
+                assert isinstance(v, int if COLUMN_TYPES[k] == "int" else float) and v == float(want[k]), k
+    assert got[0]["time_to_goal_s"] is None and got[0]["reason"] == 'a, "quoted" reason'
+    for k, (unit, meaning) in CSV_COLUMNS.items():
+        md = t.schema.field(k).metadata
+        assert md[b"unit"].decode() == unit and md[b"meaning"].decode() == meaning
+    assert str(t.schema.field("collisions").type) == "int64" and str(t.schema.field("final_error_m").type) == "double"
+
+
 def test_noise_sweep_summary_and_plot(tmp_path):
     from runtime.experiment.report import write_plots
 
@@ -204,6 +234,7 @@ def test_cli_json_keeps_the_table_shape(tmp_path, capsys):
     for name in ("planning", "reactive"):
         assert {"runs", "reached_goal", "collisions", "brushes", "final_error_median_m"} <= set(s["conditions"][name])
     assert (tmp_path / "runs.csv").exists() and (tmp_path / "runs_schema.md").exists()
+    assert s["files"]["parquet"] == str(tmp_path / "runs.parquet")
     assert main(["experiment", "--runs", "0", "--out", str(tmp_path)]) == 2
     assert main(["experiment", "--noise-sweep", "1,x", "--out", str(tmp_path)]) == 2
     assert main(["experiment", "maze", "--out", str(tmp_path)]) == 2
