@@ -49,6 +49,11 @@ _THIN = 0.0075
 _PIECE = 0.08
 # how far a box stands off its outermost points: the allowance for sensor noise
 _PAD = 0.002
+# which extent (rows u0, u1, t0, t1) gives each corner's along / across offset, and the
+# sign of each row's pad
+_CORNER_U = np.array([0, 1, 1, 0])
+_CORNER_T = np.array([2, 2, 3, 3])
+_SIGNS = np.array([[-1.0], [1.0], [-1.0], [1.0]])
 
 
 class ScanError(ValueError):
@@ -426,34 +431,22 @@ def _point_in_convex(box: np.ndarray, x: float, y: float, margin: float) -> bool
     return True
 
 
-def _fit(xs: np.ndarray, ys: np.ndarray, starts: np.ndarray, bounds: np.ndarray) -> tuple[np.ndarray, ...]:
-    """Per piece (points ``bounds[i]:bounds[i+1]``, ``starts = bounds[:-1]``): its first
-    point, the unit chord to its last point, and the points' extents along and across it."""
-    ax, ay = xs[starts], ys[starts]
-    last = bounds[1:] - 1
-    ex, ey = xs[last] - ax, ys[last] - ay
-    norm = np.hypot(ex, ey)
+def _frames(z: np.ndarray, bounds: np.ndarray, counts: np.ndarray) -> tuple[np.ndarray, ...]:
+    """Per piece (points ``bounds[i]:bounds[i+1]`` of ``z``, complex x + iy): its first
+    point ``a`` and the unit chord ``e`` to its last point; per point ``w = (z - a) / e``,
+    whose real part is the offset along the chord and imaginary part the offset across it
+    (so the extents are one ``reduceat`` each). Methods rather than numpy's functions:
+    on a few hundred points the call overhead is most of the cost."""
+    a = z.take(bounds[:-1])
+    e = z.take(bounds[1:] - 1) - a
+    norm = np.abs(e)
     single = norm < 1e-9
     if single.any():
         norm[single] = 1.0
-        ex[single] = 1.0
-    ex /= norm
-    ey /= norm
-    which = np.repeat(np.arange(len(starts)), bounds[1:] - starts)
-    rx, ry = xs - ax[which], ys - ay[which]
-    exw, eyw = ex[which], ey[which]
-    u = rx * exw + ry * eyw
-    t = ry * exw - rx * eyw
-    return (
-        ax,
-        ay,
-        ex,
-        ey,
-        np.minimum.reduceat(u, starts),
-        np.maximum.reduceat(u, starts),
-        np.minimum.reduceat(t, starts),
-        np.maximum.reduceat(t, starts),
-    )
+        e[single] = 1.0
+    e /= norm
+    which = np.arange(len(a)).repeat(counts)
+    return a, e, (z - a.take(which)) * e.conj().take(which)
 
 
 def perceive(
@@ -490,7 +483,7 @@ def perceive(
     keep = (r2 <= sensor_range * sensor_range) & (r2 > 1e-6)
     if body is not None:
         rear, front, half = body
-        near = np.flatnonzero(keep & (r2 < rear * rear + half * half))
+        near = (keep & (r2 < rear * rear + half * half)).nonzero()[0]
         if len(near):
             nx, ny = x[near], y[near]
             own = near[(nx > -rear) & (nx < front) & (np.abs(ny) < half)]
@@ -506,58 +499,59 @@ def perceive(
         if not kept:
             return _NONE if not exempt else Obstacles(_NONE.boxes, _NONE.centres, _NONE.radii, exempt=exempt)
         ang[~keep] = np.inf  # dropped points sort last and are cut off
-    # order along the surfaces the sensor saw: by bearing from the sensor
-    order = np.argsort(ang, kind="stable")[:kept]
-    xs, ys = x[order], y[order]
+    # order along the surfaces the sensor saw: by bearing from the sensor; the points as
+    # complex numbers x + iy from here on (a piece's frame is then one product per point)
+    z = np.ascontiguousarray(pts).view(np.complex128).ravel().take(ang.argsort(kind="stable")[:kept])
     n = kept
-    dx = np.empty(n)
-    dy = np.empty(n)
-    dx[1:] = xs[1:] - xs[:-1]
-    dy[1:] = ys[1:] - ys[:-1]
-    dx[0] = xs[0] - xs[-1]
-    dy[0] = ys[0] - ys[-1]
-    step = np.hypot(dx, dy)
+    d = np.empty(n, dtype=np.complex128)
+    np.subtract(z[1:], z[:-1], out=d[1:])
+    d[0] = z[0] - z[-1]
+    step = np.hypot(d.real, d.imag)
     if n > 1:
         uniq = step > 1e-4  # recorded scans repeat points: a repeat is a zero step
-        if not uniq.all():
-            if not uniq.any():
+        distinct = np.count_nonzero(uniq)
+        if distinct < n:
+            if not distinct:
                 uniq[0] = True
-            xs, ys, step = xs[uniq], ys[uniq], step[uniq]
-            n = len(xs)
+            z, step = z[uniq], step[uniq]
+            n = len(z)
     brk = step > cluster_distance
-    if brk.any():
+    first = int(brk.argmax())
+    if brk[first]:
         # start at a break, so that a surface crossing the bearing ±π is not cut
-        first = int(np.argmax(brk))
         if first:
-            xs = np.concatenate((xs[first:], xs[:first]))
-            ys = np.concatenate((ys[first:], ys[:first]))
+            z = np.concatenate((z[first:], z[:first]))
             brk = np.concatenate((brk[first:], brk[:first]))
             step = np.concatenate((step[first:], step[:first]))
     else:
         brk[0] = True
     # pieces: surfaces cut every _PIECE metres of path, then halved while thick
-    cell = (np.cumsum(np.where(brk, 0.0, step)) * (1.0 / _PIECE)).astype(np.int64)
-    cut = brk
-    cut[1:] |= cell[1:] != cell[:-1]
-    starts = np.flatnonzero(cut)
+    cell = (np.where(brk, 0.0, step).cumsum() * (1.0 / _PIECE)).astype(np.int64)
+    cut = np.empty(n + 1, dtype=bool)  # where a piece starts, and the end (n)
+    cut[:n] = brk
+    cut[1:n] |= cell[1:] != cell[:-1]
+    cut[n] = True
     while True:
-        bounds = np.append(starts, n)
-        ax, ay, ex, ey, u0, u1, t0, t1 = _fit(xs, ys, starts, bounds)
+        bounds = cut.nonzero()[0]
+        starts = bounds[:-1]
         counts = bounds[1:] - starts
+        a, e, w = _frames(z, bounds, counts)
+        t = w.imag
+        t0, t1 = np.minimum.reduceat(t, starts), np.maximum.reduceat(t, starts)
+        # only the spread across a piece decides whether it is halved
         fat = (t1 - t0 > _THIN) & (counts > 2)
-        if not fat.any():
+        if not np.count_nonzero(fat):
             break
-        starts = np.sort(np.concatenate((starts, starts[fat] + counts[fat] // 2)))
-    u0 -= pad
-    u1 += pad
-    t0 -= pad
-    t1 += pad
-    # corners a + u·e + t·n with n = (-ey, ex), counter-clockwise
-    boxes = np.empty((len(starts), 4, 2))
-    for k, (u, t) in enumerate(((u0, t0), (u1, t0), (u1, t1), (u0, t1))):
-        boxes[:, k, 0] = ax + u * ex - t * ey
-        boxes[:, k, 1] = ay + u * ey + t * ex
-    um, tm = (u0 + u1) * 0.5, (t0 + t1) * 0.5
-    centres = np.stack((ax + um * ex - tm * ey, ay + um * ey + tm * ex), axis=1)
-    radii = 0.5 * np.hypot(u1 - u0, t1 - t0)
-    return Obstacles(boxes, centres, radii, np.stack((xs, ys), axis=1), bounds, exempt)
+        cut[starts[fat] + counts[fat] // 2] = True
+    u = w.real
+    # the extents, padded: rows u0, u1, t0, t1
+    ext = np.array((np.minimum.reduceat(u, starts), np.maximum.reduceat(u, starts), t0, t1))
+    ext += _SIGNS * pad
+    # corners a + (u + i·t)·e, counter-clockwise: (u0,t0) (u1,t0) (u1,t1) (u0,t1)
+    local = ext.take(_CORNER_U, axis=0) + 1j * ext.take(_CORNER_T, axis=0)
+    corners = np.ascontiguousarray((local * e + a).T)
+    m = len(starts)
+    boxes = corners.view(np.float64).reshape(m, 4, 2)
+    centres = ((corners[:, 0] + corners[:, 2]) * 0.5).view(np.float64).reshape(m, 2)
+    radii = np.abs(local[2] - local[0]) * 0.5
+    return Obstacles(boxes, centres, radii, z.view(np.float64).reshape(n, 2), bounds, exempt)
