@@ -7,12 +7,15 @@ Starts a local Dask cluster of ``--workers`` processes (one thread each) and run
 experiment on it through ``--scheduler``-style access, streaming records to OUT. With
 ``--kill-worker-after F`` it SIGKILLs one worker process once a fraction F of the runs
 has finished; the nanny starts a new one, the scheduler reruns the lost runs, and the
-script checks that every run is present exactly once and that the summary equals a
-run without the kill (same seed: runs are pure functions of their spec).
+script checks that every run is present exactly once (the slow test
+``test_a_killed_worker_loses_no_run`` also checks that the records equal those of a run
+without the kill: runs are pure functions of their spec).
 
 Prints: runs, wall time, runs per second, simulated seconds per wall second, the
-workers' summed thread CPU time (each run's ``time.thread_time()``), and this process's
-CPU time. Target (issue #9): 1,000 overtaking runs with 2 workers in <= 10 minutes.
+workers' summed thread CPU time (each run's ``time.thread_time()``) and per run, this
+process's CPU time and the load average (the machine may be shared). Target (issue #9):
+1,000 overtaking runs (``--runs 500``: 500 layouts × 2 conditions) with 2 workers in
+<= 10 minutes.
 """
 
 from __future__ import annotations
@@ -79,7 +82,8 @@ def main() -> int:
     print(f"{args.family} · noise {args.noise} · {args.workers} workers: {len(recs)} runs "
           f"({args.runs} layouts × {len(conditions)} conditions) in {wall:.1f} s wall")
     print(f"  {len(recs) / wall:.2f} runs/s; {sim_s / wall:.0f} simulated s per wall s ({sim_s:.0f} s simulated)")
-    print(f"  workers' thread CPU {cpu_workers:.1f} s (≈ {cpu_workers / wall:.2f} cores busy); "
+    print(f"  workers' thread CPU {cpu_workers:.1f} s ({cpu_workers / max(len(recs), 1):.3f} s per run, "
+          f"≈ {cpu_workers / wall:.2f} cores busy); "
           f"this process CPU {time.process_time() - c0:.1f} s; load average {os.getloadavg()[0]:.1f}")
     ok = len(keys) == len(set(keys)) == total and len(recs) == total
     print(f"  records in runs.jsonl: {len(keys)} ({len(set(keys))} distinct) of {total}: {'all present' if ok else 'MISSING'}")
@@ -91,8 +95,10 @@ def main() -> int:
         print(f"  {name}: success {d['success']}/{d['runs']}, collisions {d['collisions']}, brushes {d['brushes']}, "
               f"median final error {d['final_error_median_m']:.3f} m")
     target = 600.0
-    if args.runs >= 1000:
-        print(f"  target: 1,000 runs in <= {target:.0f} s: {'reached' if wall <= target else 'NOT reached'} ({wall:.0f} s)")
+    if len(recs) >= 1000:
+        per_1000 = wall * 1000 / len(recs)
+        print(f"  target: 1,000 runs in <= {target:.0f} s: {'reached' if per_1000 <= target else 'NOT reached'} "
+              f"({per_1000:.0f} s per 1,000 runs)")
     return 0 if ok else 1
 
 
