@@ -6,11 +6,12 @@ import argparse
 import sys
 import time
 from pathlib import Path
+from collections.abc import Iterator
 from typing import Any
 
 from formal.export import FORMATS, ExportError, write
 from formal.lts import CognitiveMap, MapError
-from planner import PlanningError, ScanError
+from planner import PlanningError, ScanError, load_scan, scan_files
 from planner.probabilistic import NoiseError, learn_from_scans
 from planner.scenarios import ScenarioError, load_scenario
 from runtime.cli.plan import (
@@ -67,15 +68,13 @@ def map_from_args(args: argparse.Namespace) -> tuple[CognitiveMap, str]:
             g = parse_goal(args.goal) if args.goal else log_goal
             return learn_from_scans(standing, g, conf), f"{path} ({len(standing)} scans taken at one pose)"
         if learn:
-            if not path.is_dir():
+            if not path.exists() or path.is_file():
                 raise CliError(f"--scan: {path}: --learn needs a folder of scans or a run log (.jsonl)")
-            files = sorted(p for p in path.iterdir() if p.is_file() and p.suffix in (".dat", ".txt", ".npy", ".xy"))
-            if not files:
-                raise CliError(f"{path}: no scan files (*.dat, *.txt, *.npy) in this folder")
-            from runtime.cli._progress import progress
-
-            scans = progress(files, desc="learn", unit="scan")  # planned one by one as they are consumed
-            return learn_from_scans(scans, goal, conf), f"{path} ({len(files)} scans)"
+            files = scan_files(path)  # the shared folder reader: suffixes, hidden files, unreadable folders
+            used: list[Path] = []
+            cmap = learn_from_scans(_readable_scans(files, used), goal, conf)
+            skipped = len(files) - len(used)
+            return cmap, f"{path} ({plural(len(used), 'scan')}{f', {skipped} skipped' if skipped else ''})"
         if not path.is_file():
             raise CliError(f"--scan: {path}: no such file")
         if samples is not None:
@@ -83,6 +82,26 @@ def map_from_args(args: argparse.Namespace) -> tuple[CognitiveMap, str]:
         return conf.plan(path, goal).map, str(path)
     except (ScenarioError, ScanError, PlanningError, NoiseError) as exc:
         raise CliError(str(exc)) from None
+
+
+def _readable_scans(files: list[Path], used: list[Path]) -> Iterator[Any]:
+    """The scans of ``files`` read one by one as they are consumed (with a bar on a
+    terminal); a file that is not a scan is skipped with one warning line naming it, as
+    folder runs of ``clomp plan`` do, and the files read are appended to ``used``. No
+    readable scan at all is one error."""
+    from runtime.cli._progress import progress
+
+    bar = progress(files, desc="learn", unit="scan")
+    for f in bar:
+        try:
+            points = load_scan(f)
+        except ScanError as exc:
+            bar.write(f"warning: {f.name}: skipped: {exc}", file=sys.stderr)
+            continue
+        used.append(f)
+        yield points
+    if not used:
+        raise CliError(f"--scan: {files[0].parent}: none of its {plural(len(files), 'scan file')} could be read")
 
 
 def _standing_scans(path: Path) -> tuple[list[Any], tuple[float, float]]:

@@ -373,6 +373,36 @@ def test_cli_export_learn_from_a_folder_of_recorded_scans(clomp, tmp_path):
     assert all((t.probability * 6).denominator == 1 or t.probability.denominator <= 6 for t in m.transitions())
 
 
+def test_cli_export_learn_reads_the_folder_as_plan_does(clomp, tmp_path):
+    """--learn goes through the shared folder reader: hidden files (e.g. macOS ``._``
+    twins) and other suffixes are not scans, a bad scan is skipped with a warning naming
+    it, and a folder with no readable scan is one error."""
+    if not SCANS.is_dir():
+        pytest.skip("recorded scans not found")
+    folder = tmp_path / "scans"
+    folder.mkdir()
+    for f in sorted(SCANS.glob("*.dat"))[:3]:
+        (folder / f.name).write_bytes(f.read_bytes())
+    (folder / "._map0001.dat").write_bytes(b"\x00\x05\x16\x07junk")  # AppleDouble twin
+    (folder / "notes.md").write_text("not a scan")
+    (folder / "zz_broken.dat").write_text("0.5 0.1\nhello world\n")
+    out = tmp_path / "learned.json"
+    code, stdout, err = clomp("export", "--scan", str(folder), "--learn", "-f", "json", "-o", str(out))
+    assert code == 0, err
+    assert "zz_broken.dat: skipped" in err and "._map0001" not in err and "Traceback" not in err
+    assert CognitiveMap.read_json(out).metadata["observations"] == 3
+    for f in folder.glob("*.dat"):
+        if not f.name.startswith("._"):
+            f.write_text("nan nan\n")
+    code, _, err = clomp("export", "--scan", str(folder), "--learn", "-f", "json", "-o", str(out))
+    assert code == 2 and "none of its 4 scan files could be read" in err and "Traceback" not in err
+    empty = tmp_path / "empty"
+    empty.mkdir()
+    (empty / ".hidden.dat").write_text("0.5 0.0")
+    code, _, err = clomp("export", "--scan", str(empty), "--learn", "-f", "json", "-o", str(out))
+    assert code == 2 and "no scan files" in err
+
+
 @pytest.mark.parametrize(
     "argv, message",
     [
