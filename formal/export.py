@@ -177,6 +177,11 @@ def write_drn(source: CognitiveMap | ExportModel, dest: Dest, kind: ModelKind = 
     carried by no state, or some reward is earned nowhere, the file ends with one extra
     absorbing state labelled :data:`LABEL_HOLDER` that carries those labels and earns 1
     of those rewards: no state reaches it, so no value at the initial state changes.
+    There is no cleaner way: Storm's DRN parser (DirectEncodingParser) accepts only
+    ``@type @value_type @parameters @placeholders @reward_models @nr_states @nr_choices
+    @model`` in the header (any other line: "Could not parse line"), creates a label
+    when a ``state`` line first carries it, and a reward model only from nonzero values;
+    a test keeps these facts checked.
     """
     m = _model(source, kind)
     missing = drn_label_holder(m)
