@@ -3,8 +3,18 @@
 On a (probabilistic) cognitive map exported as an MDP, Storm computes
 ``Pmax=? [!"collision" U "goal"]`` — the best probability, over every way of choosing
 tasks, of reaching the goal before any collision — and a scheduler that attains it.
-:func:`robust_plan` turns that scheduler into a plan ρ (from q0, the task the scheduler
-picks, then its most likely outcome, until the goal or a state without choice) and
+
+The scheduler is a *policy*: a task for every state, whichever outcome of the previous
+task the robot lands in. Its value (``probability``) counts every outcome; a plan ρ is
+one path of it. :func:`robust_plan` returns both: the policy (``scheduler``, also
+:func:`policy_path` from any state) and the path the robot starts on (from q0, the task
+the scheduler picks, then its most likely outcome, until the goal or a state without
+choice), with ``path_probability``, the chance that this very path happens and ends at
+the goal. The runtime executes the policy: a task that ends in another outcome sends
+the supervisor to REPLANNING, whose recall finds the map's state the robot is in and
+continues with the scheduler's choice there (:func:`policy_path` on the map's
+``metadata["scheduler"]``, see :func:`attach_policy`).
+
 :func:`plan_probability` evaluates any plan the same way: the supervised DTMC (Ψ
 enables the plan's task on its states; every other state is absorbing) checked with
 ``P=? [!"collision" U "goal"]``. The scheduler's value is at least every plan's, the
@@ -27,7 +37,22 @@ from formal.lts import CognitiveMap, MapError
 from formal.model import TaskKind
 from formal.supervisory import Plan
 
-__all__ = ["SAFE_GOAL", "RobustPlan", "robust_plan", "plan_probability", "follow_tasks"]
+__all__ = [
+    "SAFE_GOAL",
+    "RobustPlan",
+    "robust_plan",
+    "plan_probability",
+    "follow_tasks",
+    "policy_path",
+    "policy_states",
+    "path_probability",
+    "attach_policy",
+    "map_policy",
+    "POLICY_KEY",
+]
+
+POLICY_KEY = "scheduler"
+"""The key of a map's ``metadata`` under which :func:`attach_policy` keeps the scheduler."""
 
 SAFE_GOAL = '!"collision" U "goal"'
 """The path formula of a safe arrival: the goal, with no collision before it."""
@@ -35,11 +60,14 @@ SAFE_GOAL = '!"collision" U "goal"'
 
 @dataclass(frozen=True)
 class RobustPlan:
-    """Storm's optimum: the probability, the scheduler (task per map state) and its plan."""
+    """Storm's optimum: the scheduler's value ``probability`` (every outcome counted),
+    the scheduler (a task per map state: the policy), the path it starts on (``plan``:
+    most likely outcomes) and ``path_probability``, the chance of that path itself."""
 
     probability: float
     scheduler: dict[int, TaskKind]
     plan: Plan
+    path_probability: float = 0.0
 
 
 def _build(cmap: CognitiveMap, kind: ModelKind, plan: Plan | None = None) -> tuple[Any, ExportModel, Any]:
@@ -80,24 +108,117 @@ def robust_plan(cmap: CognitiveMap) -> RobustPlan:
         action = row[j].action
         if action in TaskKind.__members__:
             choice[s.ident] = TaskKind(action)
-    q0 = cmap.initial.ident
-    path: list[int] = [q0]
-    seen = {q0}
+    plan = Plan(tuple(policy_path(cmap, choice)))
+    return RobustPlan(probability, choice, plan, path_probability(cmap, plan))
+
+
+def policy_path(cmap: CognitiveMap, scheduler: dict[int, TaskKind], source: int | None = None) -> list[int]:
+    """The path a policy starts on from ``source`` (default q0): the scheduler's task,
+    then its most likely outcome (ties: the lower ident), until an interrupted or goal
+    state, a state without a choice, or a state seen before.
+
+    >>> from formal.model import Disturbance, Pose, State
+    >>> g = Disturbance.goal(1.0, 0.0)
+    >>> m = CognitiveMap.from_parts(
+    ...     [State(0, TaskKind.STRAIGHT, g, None, Pose(0, 0), Pose(0, 0)),
+    ...      State(1, TaskKind.STRAIGHT, g, None, Pose(0, 0), Pose(1, 0), reached_goal=True)], [(0, 1)], goal=g)
+    >>> policy_path(m, {0: TaskKind.STRAIGHT})
+    [0, 1]
+    """
+    start = cmap.initial.ident if source is None else source
+    path: list[int] = [start]
+    seen = {start}
     while True:
         q = path[-1]
         s = cmap[q]
-        if q != q0 and (s.interrupted or s.reached_goal):
+        if q != start and (s.interrupted or s.reached_goal):
             break
-        task = choice.get(q)
-        if task is None:
+        task = scheduler.get(q)
+        ts = [t for t in cmap.out_transitions(q) if t.label is task] if task is not None else []
+        if not ts or s.interrupted:
             break
-        ts = [t for t in cmap.out_transitions(q) if t.label is task]
         best = max(ts, key=lambda t: (t.probability, -t.target))
         if best.target in seen:
             break
         seen.add(best.target)
         path.append(best.target)
-    return RobustPlan(probability, choice, Plan(tuple(path)))
+    return path
+
+
+def path_probability(cmap: CognitiveMap, plan: Plan) -> float:
+    """The chance that ``plan``'s path itself happens and ends at the goal without a
+    collision: the product of its branches' probabilities if its last state is a goal
+    state (none of its states interrupted), else 0. At most the policy's value, which
+    also counts the other outcomes from which the goal is still reached.
+
+    >>> from formal.model import Disturbance, Pose, State
+    >>> g = Disturbance.goal(1.0, 0.0)
+    >>> m = CognitiveMap.from_parts(
+    ...     [State(0, TaskKind.STRAIGHT, g, None, Pose(0, 0), Pose(0, 0)),
+    ...      State(1, TaskKind.STRAIGHT, g, None, Pose(0, 0), Pose(1, 0), reached_goal=True)], [(0, 1)], goal=g)
+    >>> path_probability(m, Plan((0, 1)))
+    1.0
+    """
+    end = cmap[plan.end]
+    if not end.reached_goal or any(cmap[i].interrupted for i in plan.states):
+        return 0.0
+    p = 1.0
+    for a, b in plan.steps():
+        task = cmap[b].task
+        p *= float(sum(t.probability for t in cmap.out_transitions(a) if t.target == b and t.label is task))
+    return p
+
+
+def policy_states(cmap: CognitiveMap, scheduler: dict[int, TaskKind]) -> list[int]:
+    """The states the policy can visit from q0 (every outcome of each chosen task, not
+    just the most likely one), sorted; where it acts, ``scheduler`` names the task.
+
+    >>> from formal.model import Disturbance, Pose, State
+    >>> g = Disturbance.goal(1.0, 0.0)
+    >>> m = CognitiveMap.from_parts(
+    ...     [State(0, TaskKind.STRAIGHT, g, None, Pose(0, 0), Pose(0, 0)),
+    ...      State(1, TaskKind.STRAIGHT, g, None, Pose(0, 0), Pose(1, 0), reached_goal=True)], [(0, 1)], goal=g)
+    >>> policy_states(m, {0: TaskKind.STRAIGHT})
+    [0, 1]
+    """
+    q0 = cmap.initial.ident
+    seen = {q0}
+    todo = [q0]
+    while todo:
+        q = todo.pop()
+        s = cmap[q]
+        if (q != q0 and s.reached_goal) or s.interrupted or q not in scheduler:
+            continue
+        for t in cmap.out_transitions(q):
+            if t.label is scheduler[q] and t.target not in seen:
+                seen.add(t.target)
+                todo.append(t.target)
+    return sorted(seen)
+
+
+def attach_policy(cmap: CognitiveMap, scheduler: dict[int, TaskKind]) -> None:
+    """Keep ``scheduler`` in ``cmap.metadata[POLICY_KEY]`` (JSON-ready: ident → task
+    name), so that whoever continues on this map (the supervisor's recall) follows the
+    policy rather than the map's least-cost path; :func:`map_policy` reads it back.
+
+    >>> m = CognitiveMap()
+    >>> attach_policy(m, {0: TaskKind.LEFT})
+    >>> m.metadata[POLICY_KEY], map_policy(m)
+    ({'0': 'LEFT'}, {0: <TaskKind.LEFT: 'LEFT'>})
+    """
+    cmap.metadata[POLICY_KEY] = {str(q): task.value for q, task in sorted(scheduler.items())}
+
+
+def map_policy(cmap: CognitiveMap) -> dict[int, TaskKind] | None:
+    """The scheduler :func:`attach_policy` kept on ``cmap``, or None (see there).
+
+    >>> map_policy(CognitiveMap()) is None
+    True
+    """
+    raw = cmap.metadata.get(POLICY_KEY)
+    if not isinstance(raw, dict):
+        return None
+    return {int(q): TaskKind(v) for q, v in raw.items()}
 
 
 def follow_tasks(cmap: CognitiveMap, tasks: list[TaskKind]) -> Plan:

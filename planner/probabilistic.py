@@ -456,6 +456,11 @@ class RobustConfigurator(Configurator):
     best-first plan is kept, since a choice among equally unsafe options is arbitrary.
     Needs stormpy.
 
+    The scheduler is executed as a policy: when it is used, it is kept on the map
+    (:func:`formal.robust.attach_policy`), and the supervisor's recall after a task
+    ended in another outcome continues with the scheduler's choice in the state it
+    finds the robot in.
+
     ``last_probabilities`` holds (robust, greedy) of the latest plan, Storm's predictions.
     """
 
@@ -476,7 +481,7 @@ class RobustConfigurator(Configurator):
 
     def plan(self, scan: Any, goal: Disturbance | tuple[float, float]) -> PlanResult:
         """The robust plan on the probabilistic map of ``scan`` (see the class docstring)."""
-        from formal.robust import follow_tasks, plan_probability, robust_plan
+        from formal.robust import attach_policy, follow_tasks, plan_probability, robust_plan
         from formal.supervisory import guard
 
         t0 = time.perf_counter()
@@ -490,5 +495,7 @@ class RobustConfigurator(Configurator):
         # where every choice is equally (un)safe the scheduler's pick is arbitrary: keep
         # the best-first plan unless Storm's scheduler is strictly safer
         plan = rp.plan if rp.probability > p_greedy + 1e-9 else greedy
+        if plan is rp.plan:
+            attach_policy(pm.map, rp.scheduler)  # a recall on this map follows the scheduler
         n = pm.nominal
         return PlanResult(pm.map, plan, n.goal, n.obstacles, n.robot, time.perf_counter() - t0, n.stop_reason, guard(pm.map, plan))

@@ -159,11 +159,15 @@ def _print_readable(r: PlanResult, title: str) -> None:
 
 
 def robust_summary(pm: ProbabilisticMap) -> dict[str, Any]:
-    """The ``clomp plan --robust`` JSON: the scheduler's plan on the probabilistic map,
-    ``probability`` (Storm's Pmax of reaching the goal without a collision) and
-    ``greedy_probability`` (the same figure for the best-first plan of the nominal map)."""
+    """The ``clomp plan --robust`` JSON: Storm's scheduler on the probabilistic map as a
+    policy (``policy``: the task in every state it can reach, whichever outcome a task
+    has) and the path it starts on (``plan``: the most likely outcome of each task);
+    ``probability`` is the policy's value (Storm's Pmax of reaching the goal without a
+    collision, every outcome counted), ``path_probability`` the chance of the printed
+    path itself (the product of its branches; at most ``probability``), and
+    ``greedy_probability`` the policy value of the nominal map's best-first plan."""
     from formal.checking import StormMissing
-    from formal.robust import follow_tasks, plan_probability, robust_plan
+    from formal.robust import follow_tasks, plan_probability, policy_states, robust_plan
 
     try:
         rp = robust_plan(pm.map)
@@ -182,6 +186,8 @@ def robust_summary(pm: ProbabilisticMap) -> dict[str, Any]:
             "reached_goal": end.reached_goal and not end.interrupted,
             "collision_free": not any(pm.map[i].interrupted for i in rp.plan.states),
             "probability": rp.probability,
+            "path_probability": rp.path_probability,
+            "policy": [{"state": q, "task": rp.scheduler[q].value} for q in policy_states(pm.map, rp.scheduler) if q in rp.scheduler],
             "greedy_probability": greedy,
             "greedy_plan": [s.task.value for s in pm.nominal.steps],
             "states": len(pm.map),
@@ -226,9 +232,15 @@ def _run_robust(args: argparse.Namespace, conf: Configurator) -> int:
         print(json.dumps(summary))
         return status
     print(f"{title}: robust plan on a map of {pm.samples} noisy rollouts per choice ({summary['states']} states)")
-    print(f"  P(goal without collision): robust {summary['probability']:.4f}, greedy {summary['greedy_probability']:.4f}")
+    print(f"  P(goal without collision): robust {summary['probability']:.4f} (Storm's scheduler, a policy: "
+          f"the task it picks in whichever outcome the robot lands), greedy {summary['greedy_probability']:.4f}")
+    print(f"  the path the policy starts on (each task's most likely outcome; this path itself: "
+          f"P = {summary['path_probability']:.4f}):")
     for k, st in enumerate(summary["plan"], 1):
         print(f"  {k:2d}. {st['task']:<8} q{st['state']}")
+    others = [f"q{d['state']} {d['task']}" for d in summary["policy"] if d["state"] not in {0, *(st["state"] for st in summary["plan"])}]
+    if others:
+        print(f"  off that path the policy continues: {', '.join(others)}")
     return status
 
 

@@ -29,6 +29,7 @@ import numpy as np
 
 from formal.geometry import compose, relative, wrap_angle
 from formal.model import Disturbance, Pose, State, TaskKind
+from formal.robust import map_policy, policy_path
 from formal.supervisory import Plan, guard
 from planner.configurator import PlanResult
 from planner.perception import Obstacles, perceive
@@ -146,8 +147,14 @@ def check_plan(
 
 
 def _best_from(result: PlanResult, source: int) -> list[int] | None:
-    """The map's plan from ``source``: a path to its least-φ uninterrupted descendant."""
+    """The map's plan from ``source``: a path to its least-φ uninterrupted descendant, or,
+    on a map that carries Storm's scheduler (a robust plan), the scheduler's path from
+    there: the policy is followed in whichever state the robot is found in."""
     cmap = result.map
+    policy = map_policy(cmap)
+    if policy is not None:
+        path = policy_path(cmap, policy, source)
+        return path if len(path) > 1 else None
     reach = cmap.reachable(source)
     ends = [cmap[i] for i in reach if i != source and not cmap[i].interrupted]
     if not ends:

@@ -343,6 +343,13 @@ def test_cli_plan_robust_json_has_both_probabilities(clomp):
     d = json.loads(out)
     assert 0 <= d["greedy_probability"] <= d["probability"] <= 1
     assert d["samples"] == 30 and d["plan"] and d["plan"][0]["state"] > 0
+    # what is printed and the figure agree: the path's own chance beside the policy's value,
+    # and the policy names a task on every state of the printed path
+    assert 0 <= d["path_probability"] <= d["probability"] + 1e-12
+    policy = {p["state"]: p["task"] for p in d["policy"]}
+    assert [policy[q] for q in [0] + [st["state"] for st in d["plan"][:-1]]] == [st["task"] for st in d["plan"]]
+    code, out, _ = clomp("plan", "--scenario", "doorway", "--robust")
+    assert code == 0 and "a policy" in out and f"P = {d['path_probability']:.4f}" in out
 
 
 @needs_storm

@@ -73,3 +73,62 @@ def test_a_nominal_plan_is_carried_onto_a_map_where_its_outcome_never_happened(r
     carried = follow_tasks(m2, [TaskKind.STRAIGHT])
     assert carried.states == (0, 2)
     assert plan_probability(m2, carried) == 0.0 <= robust_plan(m2).probability == pytest.approx(1.0)
+
+
+def _two_outcome_map(risky_map):
+    """risky_map with the detour's LEFT ending in two outcomes: q3 (3 in 5) and q7 (2 in
+    5, turned short); from q7 a STRAIGHT still reaches the goal (q8), while the map's
+    least-cost descendant of q7 is a RIGHT that gets nowhere (q9)."""
+    from fractions import Fraction
+
+    from formal import CognitiveMap
+    from formal.model import Pose, State, TaskKind
+
+    m = CognitiveMap.from_dict(risky_map.to_dict())
+    g = m.goal
+    m2 = CognitiveMap.from_parts(
+        [*m.states(),
+         State(7, TaskKind.LEFT, g, None, Pose(0, 0), Pose(0, 0, 1.2), cost=0.5),
+         State(8, TaskKind.STRAIGHT, g, None, Pose(0, 0, 1.2), Pose(1, 0.03, 0), distance=1.0, cost=0.3, reached_goal=True),
+         State(9, TaskKind.RIGHT, g, None, Pose(0, 0, 1.2), Pose(0, 0, 0.2), cost=0.2)],
+        [], goal=g)
+    for t in m.transitions():
+        if (t.source, t.target) != (0, 3):
+            m2.add_transition(t.source, t.target, t.label, t.probability)
+    m2.add_transition(0, 3, TaskKind.LEFT, Fraction(3, 5))
+    m2.add_transition(0, 7, TaskKind.LEFT, Fraction(2, 5))
+    m2.add_transition(7, 8, TaskKind.STRAIGHT)
+    m2.add_transition(7, 9, TaskKind.RIGHT)
+    return m2
+
+
+def test_the_printed_path_has_its_own_probability_beside_the_policys_value(risky_map):
+    """The scheduler's value counts every outcome; its most likely path is one of them."""
+    from formal.robust import path_probability, policy_states
+
+    m = _two_outcome_map(risky_map)
+    r = robust_plan(m)
+    assert r.probability == pytest.approx(1.0, abs=1e-12)
+    assert r.plan.states == (0, 3, 4, 5, 6)
+    assert r.path_probability == pytest.approx(0.6, abs=1e-12) == path_probability(m, r.plan)
+    assert r.scheduler[7].value == "STRAIGHT"
+    assert policy_states(m, r.scheduler) == [0, 3, 4, 5, 6, 7, 8]
+    # the greedy plan's own path: STRAIGHT to q1 (4 in 5)
+    assert path_probability(m, map_plan(m)) == pytest.approx(0.8)
+
+
+def test_a_recall_on_a_robust_map_follows_the_scheduler_where_the_robot_landed(risky_map):
+    """The runtime executes the scheduler as a policy: from the outcome the robot is found
+    in (q7), the recall continues with the scheduler's task, not the map's least-cost path."""
+    from types import SimpleNamespace
+
+    from formal.robust import attach_policy, map_policy
+    from runtime.supervision.plancheck import _best_from
+
+    m = _two_outcome_map(risky_map)
+    assert _best_from(SimpleNamespace(map=m), 7) == [7, 9]  # least-φ descendant: a dead end
+    r = robust_plan(m)
+    attach_policy(m, r.scheduler)
+    assert map_policy(type(m).from_dict(m.to_dict())) == r.scheduler  # kept through JSON
+    assert _best_from(SimpleNamespace(map=m), 7) == [7, 8]
+    assert _best_from(SimpleNamespace(map=m), 8) is None  # at the goal: nothing to continue
