@@ -1,14 +1,23 @@
 """Robust vs greedy plans in the execution world: how often each reaches the goal
 without a collision, beside Storm's predicted probabilities.
 
-Run: ``python bench/robust_vs_greedy.py [--runs 25] [--families doorway clutter]
-[--noise harsh] [--samples 20]``. Each run is one layout (family, seed 0, run k) of the
-experiment (:func:`runtime.experiment.layouts.make_layout`) driven by the supervisor in
-the execution world at the given noise, once with the Configurator's best-first plans
-(greedy) and once with :class:`planner.probabilistic.RobustConfigurator` (Storm's
-scheduler on a map of ``--samples`` noisy rollouts per choice, same noise preset); the
-two conditions of a run meet the same world and noise seed. Success: the robot truly
-ends at the goal (ground truth) with no collision episode. Prints figures; asserts nothing.
+Run: ``python bench/robust_vs_greedy.py [--runs 50] [--families doorway clutter]
+[--noise harsh] [--samples 30] [--margin 0.1]``. Each run is one layout (family, seed 0,
+run k) of the experiment (:func:`runtime.experiment.layouts.make_layout`) driven by the
+supervisor in the execution world at the given noise, once with the Configurator's
+best-first plans (greedy) and once with :class:`planner.robust.RobustConfigurator`
+(Storm's scheduler on a map of ``--samples`` noisy rollouts per choice, the same noise
+preset, executed as a policy, replanning robustly). The two conditions of a run meet
+the same layout, world and noise seed (paired), and each plan of either condition is
+predicted on a probabilistic map sampled with the same seeds.
+
+Success: the robot truly ends within the experiment's success radius of the goal
+(ground truth) with no collision episode. Storm's predictions are per plan:
+``P[!collision U target]`` with the target of :func:`planner.robust.plan_target`
+(the goal within 0.1 m, or, beyond the sensed disc, a frontier as close as the
+best-first plan gets); they are set beside the observed rate at which a fresh plan was
+carried to its end (the supervisor's ``plan done`` before the next fresh plan; a recall
+that continues it counts). Prints figures; asserts nothing.
 """
 
 from __future__ import annotations
@@ -17,53 +26,140 @@ import argparse
 import math
 import statistics
 import time
+from typing import Any
 
-from formal.robust import follow_tasks, plan_probability, robust_plan
+from formal.robust import follow_tasks, plan_probability
 from planner import Configurator
-from planner.probabilistic import RobustConfigurator, sample_map
+from planner.configurator import PlanResult
+from planner.probabilistic import SUPERVISOR_TOLERANCE, HazardRule, sample_map
+from planner.robust import RobustConfigurator, plan_target
 from runtime.experiment.layouts import make_layout
 from runtime.experiment.runner import run_once
+from runtime.experiment.stats import mcnemar, wilson
+from runtime.supervision.machine import Event, SupervisorState
+
+
+class PredictedGreedy(Configurator):
+    """The best-first plan, unchanged, with Storm's prediction of it on the probabilistic
+    map a RobustConfigurator with the same seeds would sample (the paired prediction)."""
+
+    def __init__(self, samples: int, noise: str, seed: int, goal_radius: float = 0.1) -> None:
+        super().__init__()
+        self.samples, self.noise, self.seed, self.goal_radius = samples, noise, seed, goal_radius
+        self.predictions: list[tuple[float, float]] = []
+        self._calls = 0
+
+    def plan(self, scan: Any, goal: Any) -> PlanResult:
+        result = super().plan(scan, goal)
+        pm = sample_map(scan, goal, self.samples, self.noise, self.seed + self._calls, Configurator(self.robot),
+                        SUPERVISOR_TOLERANCE, HazardRule())
+        self._calls += 1
+        n = pm.nominal
+        target = plan_target(pm.map, n.map[n.plan.end].end, n.goal, self.goal_radius)
+        p = plan_probability(pm.map, follow_tasks(pm.map, [s.task for s in n.steps]), target)
+        self.predictions.append((math.nan, p))
+        return result
+
+
+def plan_episodes(report: Any) -> list[tuple[int, bool]]:
+    """(index among fresh plans, carried to its end?) for every fresh plan the supervisor
+    started executing: an episode runs from its PLANNED to the next fresh PLANNED or the
+    end of the run, and is complete when the supervisor reports ``plan done`` (AT_GOAL or
+    PLAN_SHORT from EXECUTING) within it."""
+    fresh_index = {}
+    k = 0
+    for n, rec in enumerate(report.plans, 1):
+        if not rec.recalled:
+            fresh_index[n] = k
+            k += 1
+    out: list[tuple[int, bool]] = []
+    current: int | None = None
+    done = False
+    for tr in report.transitions:
+        if tr.event is Event.PLANNED and "recalled" not in tr.reason:
+            if current is not None:
+                out.append((current, done))
+            n = int(tr.reason.split(":")[0].split()[1])
+            current, done = fresh_index.get(n), False
+        elif tr.event in (Event.AT_GOAL, Event.PLAN_SHORT) and tr.source is SupervisorState.EXECUTING:
+            done = True
+    if current is not None:
+        out.append((current, done))
+    return out
+
+
+def _ci(s: int, n: int) -> str:
+    lo, hi = wilson(s, n)
+    return f"{s:3d}/{n:<3d} = {s / n:6.1%} [{lo:5.1%}, {hi:5.1%}]" if n else "  -"
 
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__)
-    ap.add_argument("--runs", type=int, default=25, help="runs per family (default 25)")
+    ap.add_argument("--runs", type=int, default=50, help="runs per family (default 50)")
+    ap.add_argument("--first-run", type=int, default=0, help="first run index (default 0)")
     ap.add_argument("--families", nargs="+", default=["doorway", "clutter"])
     ap.add_argument("--noise", default="harsh")
-    ap.add_argument("--samples", type=int, default=20)
+    ap.add_argument("--samples", type=int, default=30)
+    ap.add_argument("--margin", type=float, default=0.1, help="RobustConfigurator's margin (default 0.1)")
     ap.add_argument("--max-time", type=float, default=120.0)
+    ap.add_argument("--quiet", action="store_true", help="no line per run")
     args = ap.parse_args(argv)
     w0, c0 = time.perf_counter(), time.thread_time()
     rows = []
+    names = ("greedy", "robust")
     for family in args.families:
-        tally = {"greedy": [0, 0], "robust": [0, 0]}
-        predicted: dict[str, list[float]] = {"greedy": [], "robust": []}
-        for k in range(args.runs):
+        ok: dict[str, list[int]] = {name: [] for name in names}
+        first: dict[str, list[float]] = {name: [] for name in names}
+        per_plan: dict[str, list[tuple[float, bool]]] = {name: [] for name in names}
+        cpu: dict[str, float] = {name: 0.0 for name in names}
+        for k in range(args.first_run, args.first_run + args.runs):
             layout = make_layout(family, 0, k)
             scene = layout.scene
-            goal = tuple(scene.goal_in_robot_frame())
-            # Storm's prediction on the first plan (the map from the start pose)
-            pm = sample_map(scene.scan(max_range=1.1), goal, samples=args.samples, noise=args.noise, seed=k)  # type: ignore[arg-type]
-            predicted["robust"].append(robust_plan(pm.map).probability)
-            predicted["greedy"].append(plan_probability(pm.map, follow_tasks(pm.map, [s.task for s in pm.nominal.steps])))
             line = []
-            for name, conf in (("greedy", Configurator()), ("robust", RobustConfigurator(samples=args.samples, noise=args.noise, seed=1000 * k))):
+            for name in names:
+                conf: PredictedGreedy | RobustConfigurator
+                if name == "greedy":
+                    conf = PredictedGreedy(args.samples, args.noise, 1000 * k)
+                else:
+                    conf = RobustConfigurator(samples=args.samples, noise=args.noise, seed=1000 * k, margin=args.margin)
+                c1 = time.thread_time()
                 r = run_once(scene, "planning", seed=k, run=k, noise=args.noise, configurator=conf, max_time=args.max_time,
-                             expect=layout.expect)
-                ok = r.reached_goal and r.collisions == 0
-                tally[name][0] += ok
-                tally[name][1] += 1
-                line.append(f"{name} {'ok  ' if ok else 'FAIL'} ({r.end_state}, {r.collisions} coll., {r.plans} plans)")
-            print(f"{family} run {k}: {'; '.join(line)}; Storm P robust {predicted['robust'][-1]:.3f} greedy {predicted['greedy'][-1]:.3f}",
-                  flush=True)
-        rows.append((family, tally, predicted))
-    print(f"\nexecution world, noise {args.noise}, {args.runs} runs per family, {args.samples} samples per choice:")
-    print(f"  {'family':<9} {'plans':<7} {'success (goal, no collision)':<30} {'Storm P at the start (mean)':<28}")
-    for family, tally, predicted in rows:
-        for name in ("greedy", "robust"):
-            s, n = tally[name]
-            mean = statistics.fmean(predicted[name]) if predicted[name] else math.nan
-            print(f"  {family:<9} {name:<7} {s:3d}/{n:<3d} = {s / n:6.1%}{'':14} {mean:.3f}")
+                             expect=layout.expect, keep_report=True)
+                cpu[name] += time.thread_time() - c1
+                success = r.reached_goal and r.collisions == 0
+                ok[name].append(int(success))
+                preds = [p[0] if name == "robust" else p[1] for p in conf.predictions]
+                if preds:
+                    first[name].append(preds[0])
+                for i, done in plan_episodes(r.report):
+                    if i is not None and i < len(preds):
+                        per_plan[name].append((preds[i], done))
+                line.append(f"{name} {'ok  ' if success else 'FAIL'} ({r.end_state}, {r.final_distance:.2f} m, {r.collisions} coll., "
+                            f"{r.plans} plans, P1 {preds[0] if preds else math.nan:.2f})")
+            if not args.quiet:
+                print(f"{family} run {k}: {'; '.join(line)}", flush=True)
+        rows.append((family, ok, first, per_plan, cpu))
+    print(f"\nexecution world, noise {args.noise}, runs {args.first_run}..{args.first_run + args.runs - 1} per family "
+          f"(paired: same layout, world and seeds), {args.samples} samples per choice, margin {args.margin}:")
+    print(f"  {'family':<8} {'plans':<7} {'success (goal, no collision) [95% Wilson]':<44} {'Storm P, 1st plan':<18} "
+          f"{'Storm P per plan':<17} {'plans carried to their end [95%]':<36} CPU s/run")
+    totals = {name: [0, 0] for name in names}
+    for family, ok, first, per_plan, cpu in rows:
+        for name in names:
+            s, n = sum(ok[name]), len(ok[name])
+            totals[name][0] += s
+            totals[name][1] += n
+            pp = per_plan[name]
+            done = sum(d for _, d in pp)
+            mean_first = statistics.fmean(first[name]) if first[name] else math.nan
+            mean_pp = statistics.fmean(p for p, _ in pp) if pp else math.nan
+            print(f"  {family:<8} {name:<7} {_ci(s, n):<44} {mean_first:<18.3f} {mean_pp:<17.3f} {_ci(done, len(pp)):<36} "
+                  f"{cpu[name] / max(n, 1):.1f}")
+        test = mcnemar(ok["greedy"], ok["robust"])
+        print(f"  {family:<8} paired: {test}")
+    for name in names:
+        s, n = totals[name]
+        print(f"  {'all':<8} {name:<7} {_ci(s, n)}")
     print(f"total wall {time.perf_counter() - w0:.0f} s, thread CPU {time.thread_time() - c0:.0f} s")
     return 0
 

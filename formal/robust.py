@@ -25,8 +25,10 @@ stormpy is needed (``pip install -e '.[verify]'``).
 
 from __future__ import annotations
 
+import math
 import tempfile
-from dataclasses import dataclass
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -44,6 +46,8 @@ __all__ = [
     "plan_probability",
     "follow_tasks",
     "policy_path",
+    "policy_probability",
+    "TARGET",
     "policy_states",
     "path_probability",
     "attach_policy",
@@ -56,6 +60,9 @@ POLICY_KEY = "scheduler"
 
 SAFE_GOAL = '!"collision" U "goal"'
 """The path formula of a safe arrival: the goal, with no collision before it."""
+
+TARGET = "target"
+"""The label of the states a robust plan aims at when they are given (``target=``)."""
 
 
 @dataclass(frozen=True)
@@ -70,9 +77,13 @@ class RobustPlan:
     path_probability: float = 0.0
 
 
-def _build(cmap: CognitiveMap, kind: ModelKind, plan: Plan | None = None) -> tuple[Any, ExportModel, Any]:
+def _build(cmap: CognitiveMap, kind: ModelKind, plan: Plan | None = None,
+           target: Iterable[int] | None = None) -> tuple[Any, ExportModel, Any]:
     stormpy = require_stormpy()
     m = export_model(cmap, kind, plan)
+    if target is not None:
+        wanted = set(target)
+        m = replace(m, labels={**m.labels, TARGET: frozenset(k for k, s in enumerate(m.states) if s.ident in wanted)})
     with tempfile.TemporaryDirectory() as tmp:
         path = Path(tmp) / "m.drn"
         write_drn(m, path)
@@ -80,9 +91,30 @@ def _build(cmap: CognitiveMap, kind: ModelKind, plan: Plan | None = None) -> tup
     return stormpy, m, model
 
 
-def robust_plan(cmap: CognitiveMap) -> RobustPlan:
+def _formula(target: Iterable[int] | None) -> str:
+    return SAFE_GOAL if target is None else f'!"collision" U "{TARGET}"'
+
+
+def _value_at(result: Any, k: int) -> float:
+    return float(result.at(k)) if hasattr(result, "at") else float(result[k])
+
+
+def robust_plan(
+    cmap: CognitiveMap,
+    target: Iterable[int] | None = None,
+    prefer: Mapping[int, TaskKind] | None = None,
+    margin: float = 0.0,
+) -> RobustPlan:
     """``Pmax=? [!"collision" U "goal"]`` on the MDP of ``cmap`` with Storm, its scheduler
     and the plan that follows it along the most likely outcomes.
+
+    ``target``: the states to reach instead of the goal states (labelled ``target``; e.g.
+    a plan's progress states when the goal lies beyond the map). ``prefer``: a task per
+    state (e.g. the best-first plan's) kept wherever its chance is within ``margin`` of
+    the optimum: Storm's scheduler picks arbitrarily among equally good choices, and a
+    sampled probability k/N is only an estimate, so a detour is taken only where it is
+    safer by more than ``margin``. ``probability`` is then the value of the policy that
+    is returned (equal to Storm's Pmax when ``margin`` is 0).
 
     >>> from formal.model import Disturbance, Pose, State
     >>> g = Disturbance.goal(1.0, 0.0)
@@ -94,28 +126,71 @@ def robust_plan(cmap: CognitiveMap) -> RobustPlan:
     >>> r.probability, r.plan.states
     (1.0, (0, 1))
     """
-    stormpy, m, model = _build(cmap, "mdp")
-    prop = stormpy.parse_properties(f"Pmax=? [{SAFE_GOAL}]")[0]
+    if not (math.isfinite(margin) and 0 <= margin <= 1):
+        raise MapError(f"margin must be a probability in [0, 1], got {margin!r}")
+    goal_set = None if target is None else frozenset(target)
+    stormpy, m, model = _build(cmap, "mdp", target=goal_set)
+    prop = stormpy.parse_properties(f"Pmax=? [{_formula(goal_set)}]")[0]
     result = stormpy.model_checking(model, prop, extract_scheduler=True)
     sched = result.get_scheduler() if hasattr(result, "get_scheduler") else result.scheduler
     init = int(model.initial_states[0])
-    probability = float(result.at(init)) if hasattr(result, "at") else float(result[init])
+    probability = _value_at(result, init)
+    values = [_value_at(result, k) for k in range(m.n_states)]
     # a DRN keeps the file's state and choice order: Storm state k is the export's state k
     choice: dict[int, TaskKind] = {}
+    kept = False
     for k, s in enumerate(m.states):
         row = m.choices[k]
         j = int(sched.get_choice(k).get_deterministic_choice())
         action = row[j].action
-        if action in TaskKind.__members__:
-            choice[s.ident] = TaskKind(action)
-    plan = Plan(tuple(policy_path(cmap, choice)))
-    return RobustPlan(probability, choice, plan, path_probability(cmap, plan))
+        if action not in TaskKind.__members__:
+            continue
+        choice[s.ident] = TaskKind(action)
+        want = None if prefer is None else prefer.get(s.ident)
+        if want is not None and want is not choice[s.ident]:
+            q = [sum(float(p) * values[t] for t, p in ch.branches) for ch in row if ch.action == want.value]
+            if q and q[0] >= values[k] - margin - 1e-12:
+                choice[s.ident] = want
+                kept = True
+    if goal_set is not None:  # the policy has arrived in a target: it starts nothing there
+        choice = {q: t for q, t in choice.items() if q not in goal_set}
+    plan = Plan(tuple(policy_path(cmap, choice, stop=goal_set)))
+    if kept:
+        probability = policy_probability(cmap, choice, goal_set)
+    return RobustPlan(probability, choice, plan, path_probability(cmap, plan, goal_set))
 
 
-def policy_path(cmap: CognitiveMap, scheduler: dict[int, TaskKind], source: int | None = None) -> list[int]:
+def policy_probability(cmap: CognitiveMap, scheduler: Mapping[int, TaskKind], target: Iterable[int] | None = None) -> float:
+    """The value of a policy: ``P=? [!"collision" U "goal"]`` (or ``"target"``) of the map
+    when each state starts only the task ``scheduler`` names (others: absorbing), by Storm.
+
+    >>> from formal.model import Disturbance, Pose, State
+    >>> g = Disturbance.goal(1.0, 0.0)
+    >>> m = CognitiveMap.from_parts(
+    ...     [State(0, TaskKind.STRAIGHT, g, None, Pose(0, 0), Pose(0, 0)),
+    ...      State(1, TaskKind.STRAIGHT, g, None, Pose(0, 0), Pose(1, 0), reached_goal=True)], [(0, 1)], goal=g)
+    >>> policy_probability(m, {0: TaskKind.STRAIGHT}), policy_probability(m, {})
+    (1.0, 0.0)
+    """
+    sub = CognitiveMap(goal=cmap.goal)
+    for st in cmap.states():
+        sub.add_state(st)
+    sub.set_initial(cmap.initial.ident)
+    for t in cmap.transitions():
+        if scheduler.get(t.source) is t.label:
+            sub.add_transition(t.source, t.target, t.label, t.probability)
+    goal_set = None if target is None else frozenset(target)
+    stormpy, _m, model = _build(sub, "mdp", target=goal_set)
+    prop = stormpy.parse_properties(f"Pmax=? [{_formula(goal_set)}]")[0]
+    result = stormpy.model_checking(model, prop)
+    return _value_at(result, int(model.initial_states[0]))
+
+
+def policy_path(cmap: CognitiveMap, scheduler: Mapping[int, TaskKind], source: int | None = None,
+                stop: Iterable[int] | None = None) -> list[int]:
     """The path a policy starts on from ``source`` (default q0): the scheduler's task,
     then its most likely outcome (ties: the lower ident), until an interrupted or goal
-    state, a state without a choice, or a state seen before.
+    state (or one of ``stop``), a state without a choice, or a state seen before.
 
     >>> from formal.model import Disturbance, Pose, State
     >>> g = Disturbance.goal(1.0, 0.0)
@@ -126,12 +201,13 @@ def policy_path(cmap: CognitiveMap, scheduler: dict[int, TaskKind], source: int 
     [0, 1]
     """
     start = cmap.initial.ident if source is None else source
+    ends = set() if stop is None else set(stop)
     path: list[int] = [start]
     seen = {start}
     while True:
         q = path[-1]
         s = cmap[q]
-        if q != start and (s.interrupted or s.reached_goal):
+        if q != start and (s.interrupted or s.reached_goal or q in ends):
             break
         task = scheduler.get(q)
         ts = [t for t in cmap.out_transitions(q) if t.label is task] if task is not None else []
@@ -145,11 +221,11 @@ def policy_path(cmap: CognitiveMap, scheduler: dict[int, TaskKind], source: int 
     return path
 
 
-def path_probability(cmap: CognitiveMap, plan: Plan) -> float:
-    """The chance that ``plan``'s path itself happens and ends at the goal without a
-    collision: the product of its branches' probabilities if its last state is a goal
-    state (none of its states interrupted), else 0. At most the policy's value, which
-    also counts the other outcomes from which the goal is still reached.
+def path_probability(cmap: CognitiveMap, plan: Plan, target: Iterable[int] | None = None) -> float:
+    """The chance that ``plan``'s path itself happens and ends at the goal (or in
+    ``target``) without a collision: the product of its branches' probabilities if its
+    last state is a goal state (none of its states interrupted), else 0. At most the
+    policy's value, which also counts the other outcomes from which the goal is reached.
 
     >>> from formal.model import Disturbance, Pose, State
     >>> g = Disturbance.goal(1.0, 0.0)
@@ -160,7 +236,8 @@ def path_probability(cmap: CognitiveMap, plan: Plan) -> float:
     1.0
     """
     end = cmap[plan.end]
-    if not end.reached_goal or any(cmap[i].interrupted for i in plan.states):
+    arrived = end.reached_goal if target is None else plan.end in set(target)
+    if not arrived or any(cmap[i].interrupted for i in plan.states):
         return 0.0
     p = 1.0
     for a, b in plan.steps():
@@ -247,15 +324,17 @@ def follow_tasks(cmap: CognitiveMap, tasks: list[TaskKind]) -> Plan:
     return Plan(tuple(path))
 
 
-def plan_probability(cmap: CognitiveMap, plan: Plan | None = None) -> float:
-    """``P=? [!"collision" U "goal"]`` of the supervised system that follows ``plan``
-    (default: the map's own plan, the Configurator's best-first one)."""
+def plan_probability(cmap: CognitiveMap, plan: Plan | None = None, target: Iterable[int] | None = None) -> float:
+    """``P=? [!"collision" U "goal"]`` (or ``"target"``, the states of ``target``) of the
+    supervised system that follows ``plan`` (default: the map's own plan, the
+    Configurator's best-first one)."""
     rho = map_plan(cmap) if plan is None else plan
     for s, t in rho.steps():
         if not cmap.has_transition(s, t):
             raise MapError(f"plan step q{s} ↪ q{t} is not a transition of the map")
-    stormpy, m, model = _build(cmap, "dtmc", rho)
-    prop = stormpy.parse_properties(f"P=? [{SAFE_GOAL}]")[0]
+    goal_set = None if target is None else frozenset(target)
+    stormpy, m, model = _build(cmap, "dtmc", rho, target=goal_set)
+    prop = stormpy.parse_properties(f"P=? [{_formula(goal_set)}]")[0]
     result = stormpy.model_checking(model, prop)
     init = int(model.initial_states[0])
     return float(result.at(init)) if hasattr(result, "at") else float(result[init])

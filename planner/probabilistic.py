@@ -46,7 +46,7 @@ from typing import Any
 import numpy as np
 
 from formal.lts import CognitiveMap
-from formal.model import Disturbance, Pose, State, TaskKind
+from formal.model import Disturbance, DisturbanceKind, Pose, State, TaskKind
 from formal.supervisory import extract_plan
 from planner.configurator import Configurator, CostContext, PlanResult
 from planner.perception import Obstacles, load_scan, perceive
@@ -57,20 +57,24 @@ from planner.tasks import Task
 
 __all__ = [
     "RolloutNoise",
+    "HazardRule",
     "NoiseError",
     "preset_names",
     "ProbabilisticMap",
     "sample_map",
     "learn_from_scans",
-    "RobustConfigurator",
     "POSITION_TOLERANCE",
     "HEADING_TOLERANCE",
+    "SUPERVISOR_TOLERANCE",
 ]
 
 POSITION_TOLERANCE = 0.03
 """Two outcomes end in the same successor when their end positions are this close (m)…"""
 HEADING_TOLERANCE = 0.1
 """…and their headings this close (rad)."""
+SUPERVISOR_TOLERANCE = (0.08, 0.3)
+"""The supervisor's ``end_tolerance`` (m, rad): a task that ends this close to the map's
+prediction continues the plan, so for a closed loop outcomes this close are one state."""
 
 _PRESETS_FILE = Path(__file__).resolve().parents[1] / "specs" / "noise_presets.json"
 
@@ -178,6 +182,8 @@ class _World:
     drift: float
     rng: np.random.Generator
     cache: dict[tuple[int, ...], World] = field(default_factory=dict)
+    scan: np.ndarray | None = None
+    """The scan as given (planner frame): each revolution of a hazard test perturbs it anew."""
 
 
 @dataclass
@@ -216,7 +222,92 @@ def _perturb(points: np.ndarray, noise: RolloutNoise, rng: np.random.Generator) 
     return out
 
 
-def _rollout(kind: TaskKind, start: Pose, goal: Disturbance, world: _World, robot: RobotModel, noise: RolloutNoise) -> Outcome:
+@dataclass(frozen=True)
+class HazardRule:
+    """The supervisor's interruption on the scan, applied to a rollout: every revolution
+    (``scan_rate`` a second) of a task shows the scan with fresh noise, and the task is
+    interrupted as soon as ``points`` or more of its returns lie inside the (uninflated)
+    body anywhere along the rest of the task's path. In the world this, not a contact, is
+    what stops a task that passes close to an obstacle under range noise: the model's
+    ``collision`` then means "the task is interrupted", as the closed loop measures it.
+    Defaults: the supervisor's ``hazard_points`` (2) and the A1 LiDAR's 5.5 Hz.
+
+    >>> HazardRule().points, HazardRule().scan_rate
+    (2, 5.5)
+    """
+
+    points: int = 2
+    scan_rate: float = 5.5
+
+    def __post_init__(self) -> None:
+        if isinstance(self.points, bool) or not isinstance(self.points, int) or self.points < 1:
+            raise NoiseError(f"hazard points: expected a whole number >= 1, got {self.points!r}")
+        if not (isinstance(self.scan_rate, (int, float)) and math.isfinite(self.scan_rate) and self.scan_rate > 0):
+            raise NoiseError(f"hazard scan_rate: expected a positive number, got {self.scan_rate!r}")
+
+
+def _path_poses(kind: TaskKind, start: Pose, end: Pose) -> np.ndarray:
+    """Poses (x, y, theta) along a rollout's path from ``start`` to ``end``."""
+    if kind is TaskKind.STRAIGHT:
+        n = max(2, int(math.ceil(start.distance_to(end.x, end.y) / 0.02)) + 1)
+        f = np.linspace(0.0, 1.0, n)
+        th = start.theta + f * wrap_angle(end.theta - start.theta)
+        line: np.ndarray = np.c_[start.x + f * (end.x - start.x), start.y + f * (end.y - start.y), th]
+        return line
+    turn = wrap_angle(end.theta - start.theta)
+    if kind is TaskKind.LEFT and turn < -math.pi / 2:
+        turn += 2 * math.pi
+    elif kind is TaskKind.RIGHT and turn > math.pi / 2:
+        turn -= 2 * math.pi
+    n = max(2, int(math.ceil(abs(turn) / math.radians(5))) + 1)
+    f = np.linspace(0.0, 1.0, n)
+    spin: np.ndarray = np.c_[np.full(n, start.x), np.full(n, start.y), start.theta + f * turn]
+    return spin
+
+
+def _hazard_stop(out: Outcome, world: _World, robot: RobotModel, noise: RolloutNoise, rule: HazardRule) -> Outcome:
+    """``out`` interrupted where the :class:`HazardRule` would stop it, else ``out``."""
+    scan = world.scan
+    if scan is None or len(scan) == 0 or out.d_n is not None:
+        return out
+    poses = _path_poses(out.task, out.start, out.end)
+    reach = max(robot.front_offset, robot.rear_offset) + robot.width + 4 * noise.range_sd + 0.02
+    lo, hi = poses[:, :2].min(axis=0) - reach, poses[:, :2].max(axis=0) + reach
+    pts = scan[np.all((scan >= lo) & (scan <= hi), axis=1)]
+    if len(pts) < rule.points:
+        return out
+    revs = max(1, int(math.ceil(out.duration * rule.scan_rate)))
+    rng = world.rng
+    r = np.hypot(pts[:, 0], pts[:, 1])
+    a = np.arctan2(pts[:, 1], pts[:, 0])
+    shape = (revs, len(pts))
+    rr = r + rng.normal(0.0, noise.range_sd, shape) if noise.range_sd else np.broadcast_to(r, shape)
+    aa = a + rng.normal(0.0, noise.angle_sd, shape) if noise.angle_sd else np.broadcast_to(a, shape)
+    seen = rng.random(shape) >= noise.dropout
+    px, py = rr * np.cos(aa), rr * np.sin(aa)  # (revs, M)
+    dx = px[:, None, :] - poses[None, :, 0, None]
+    dy = py[:, None, :] - poses[None, :, 1, None]
+    c, s_ = np.cos(poses[:, 2])[None, :, None], np.sin(poses[:, 2])[None, :, None]
+    u, v = dx * c + dy * s_, -dx * s_ + dy * c
+    inside = (u >= -robot.rear_offset) & (u <= robot.front_offset) & (np.abs(v) <= robot.width / 2) & seen[:, None, :]
+    # revolution k is seen at pose index i_k and tests the rest of the path (i >= i_k)
+    ahead = np.logical_or.accumulate(inside[:, ::-1, :], axis=1)[:, ::-1, :]
+    at = np.minimum((np.arange(revs) / (revs * 1.0) * len(poses)).astype(int), len(poses) - 1)
+    counts = ahead[np.arange(revs), at, :].sum(axis=1)
+    hit = np.flatnonzero(counts >= rule.points)
+    if len(hit) == 0:
+        return out
+    k = int(hit[0])
+    x, y, th = poses[at[k]]
+    first = int(np.flatnonzero(ahead[k, at[k]])[0])
+    d_n = Disturbance(DisturbanceKind.OBSTACLE, float(px[k, first]), float(py[k, first]))
+    end = Pose(float(x), float(y), float(th))
+    frac = at[k] / max(len(poses) - 1, 1)
+    return replace(out, end=end, distance=out.distance * frac, duration=out.duration * frac, d_n=d_n, reached_goal=False)
+
+
+def _rollout(kind: TaskKind, start: Pose, goal: Disturbance, world: _World, robot: RobotModel, noise: RolloutNoise,
+             hazard: HazardRule | None = None) -> Outcome:
     base = make_task(kind, world.obstacles, robot, start, goal)
     limit = base.limit
     if kind is TaskKind.STRAIGHT:
@@ -232,6 +323,8 @@ def _rollout(kind: TaskKind, start: Pose, goal: Disturbance, world: _World, robo
     if w is None:
         w = world.cache[key] = World(world.obstacles, robot, idx)
     out = w.rollout(task)
+    if hazard is not None:
+        out = _hazard_stop(out, world, robot, noise, hazard)
     if out.d_n is None and out.end.distance_to(goal.x, goal.y) <= robot.goal_tolerance:
         out = replace(out, reached_goal=True)
     return out
@@ -243,8 +336,9 @@ def _kind(s: State | Outcome) -> str:
     return "goal" if s.reached_goal else "free"
 
 
-def _close(a: Pose, b: Pose) -> bool:
-    return a.distance_to(b.x, b.y) <= POSITION_TOLERANCE and abs(wrap_angle(a.theta - b.theta)) <= HEADING_TOLERANCE
+def _close(a: Pose, b: Pose, tolerance: tuple[float, float] | None = None) -> bool:
+    d, h = (POSITION_TOLERANCE, HEADING_TOLERANCE) if tolerance is None else tolerance
+    return a.distance_to(b.x, b.y) <= d and abs(wrap_angle(a.theta - b.theta)) <= h
 
 
 @dataclass
@@ -271,7 +365,9 @@ class ProbabilisticMap:
 class _Builder:
     """Grows a copy of the nominal map with sampled outcome groups."""
 
-    def __init__(self, nominal: CognitiveMap, goal: Disturbance, robot: RobotModel, cost: Any) -> None:
+    def __init__(self, nominal: CognitiveMap, goal: Disturbance, robot: RobotModel, cost: Any,
+                 tolerance: tuple[float, float] | None = None) -> None:
+        self.tolerance = tolerance
         self.map = CognitiveMap(goal=goal)
         for s in nominal.states():
             self.map.add_state(s)
@@ -291,12 +387,12 @@ class _Builder:
         k = _kind(out)
         if nominal_target is not None:
             t = self.map[nominal_target]
-            if _kind(t) == k and _close(t.end, out.end):
+            if _kind(t) == k and _close(t.end, out.end, self.tolerance):
                 return t.ident
         src_end = self.map[source].end
         for ident in self.by_task[kind]:
             s = self.map[ident]
-            if _kind(s) == k and _close(s.start, src_end) and _close(s.end, out.end):
+            if _kind(s) == k and _close(s.start, src_end) and _close(s.end, out.end, self.tolerance):
                 return ident
         ident = max(s.ident for s in self.map.states()) + 1
         s = State(ident, out.task, d_i, out.d_n, out.start, out.end, out.distance, out.duration, reached_goal=out.reached_goal)
@@ -314,10 +410,16 @@ def sample_map(
     noise: RolloutNoise | str = "paper",
     seed: int = 0,
     configurator: Configurator | None = None,
+    tolerance: tuple[float, float] | None = None,
+    hazard: HazardRule | None = None,
 ) -> ProbabilisticMap:
     """Build the nominal map of ``scan`` for ``goal`` and estimate every choice's outcome
     from ``samples`` noisy rollouts (see the module docstring); ``seed`` makes it
-    reproducible."""
+    reproducible. ``tolerance`` (m, rad): how close an outcome's end must be to a
+    state's to fall into it (default :data:`POSITION_TOLERANCE`,
+    :data:`HEADING_TOLERANCE`; the supervisor continues a plan whose task ended within
+    its ``end_tolerance``, 0.08 m and 0.3 rad). ``hazard``: also interrupt a rollout as
+    the supervisor's scan test would (:class:`HazardRule`); default: contacts only."""
     if isinstance(samples, bool) or not isinstance(samples, int) or samples < 1:
         raise NoiseError(f"samples must be a whole number >= 1, got {samples!r}")
     nz = RolloutNoise.preset(noise) if isinstance(noise, str) else noise
@@ -335,8 +437,9 @@ def sample_map(
             warnings.simplefilter("ignore")  # noise pushes a few returns past the range: cropped, as meant
             obstacles = perceive(pts, robot.sensor_range, robot.cluster_distance)
         bl, br = r.normal(0.0, nz.wheel_bias, 2) if nz.wheel_bias else (0.0, 0.0)
-        worlds.append(_World(obstacles, float(bl), float(br), float(r.normal(0.0, nz.drift)) if nz.drift else 0.0, r))
-    b = _Builder(nominal.map, nominal.goal, robot, conf.cost)
+        worlds.append(_World(obstacles, float(bl), float(br), float(r.normal(0.0, nz.drift)) if nz.drift else 0.0, r,
+                             scan=points if hazard is not None else None))
+    b = _Builder(nominal.map, nominal.goal, robot, conf.cost, tolerance)
     choices: dict[tuple[int, TaskKind], int] = {}
     for t in nominal.map.transitions():
         choices.setdefault((t.source, t.label), t.target)
@@ -344,7 +447,7 @@ def sample_map(
         start = nominal.map[source].end
         counts: dict[int, int] = {}
         for w in worlds:
-            out = _rollout(kind, start, nominal.goal, w, robot, nz)
+            out = _rollout(kind, start, nominal.goal, w, robot, nz, hazard)
             ident = b.group(source, kind, target, out, nominal.goal)
             counts[ident] = counts.get(ident, 0) + 1
         for ident, k in sorted(counts.items()):
@@ -444,58 +547,3 @@ def learn_from_scans(
     plan = extract_plan(b.map)
     b.map.metadata.update({"plan": list(plan.states), "observations": len(maps)})
     return b.map
-
-
-
-class RobustConfigurator(Configurator):
-    """A Configurator whose plans are Storm's risk-aware ones: each :meth:`plan` builds
-    the probabilistic map (``samples`` noisy rollouts per choice, ``noise`` preset) and
-    returns the plan of the scheduler that maximises P[!collision U goal] on it, so that
-    a supervisor executes and replans with robust plans; where the scheduler is not
-    strictly safer than the best-first plan (carried onto the map by its tasks) the
-    best-first plan is kept, since a choice among equally unsafe options is arbitrary.
-    Needs stormpy.
-
-    The scheduler is executed as a policy: when it is used, it is kept on the map
-    (:func:`formal.robust.attach_policy`), and the supervisor's recall after a task
-    ended in another outcome continues with the scheduler's choice in the state it
-    finds the robot in.
-
-    ``last_probabilities`` holds (robust, greedy) of the latest plan, Storm's predictions.
-    """
-
-    def __init__(
-        self,
-        robot: RobotModel | None = None,
-        samples: int = 20,
-        noise: RolloutNoise | str = "harsh",
-        seed: int = 0,
-        **options: Any,
-    ) -> None:
-        super().__init__(robot, **options)
-        self.samples = samples
-        self.noise = RolloutNoise.preset(noise) if isinstance(noise, str) else noise
-        self.seed = seed
-        self._calls = 0
-        self.last_probabilities: tuple[float, float] | None = None
-
-    def plan(self, scan: Any, goal: Disturbance | tuple[float, float]) -> PlanResult:
-        """The robust plan on the probabilistic map of ``scan`` (see the class docstring)."""
-        from formal.robust import attach_policy, follow_tasks, plan_probability, robust_plan
-        from formal.supervisory import guard
-
-        t0 = time.perf_counter()
-        base = Configurator(self.robot, self.cost, self.max_states, self.horizon)
-        pm = sample_map(scan, goal, self.samples, self.noise, self.seed + self._calls, base)
-        self._calls += 1
-        rp = robust_plan(pm.map)
-        greedy = follow_tasks(pm.map, [s.task for s in pm.nominal.steps])
-        p_greedy = plan_probability(pm.map, greedy)
-        self.last_probabilities = (rp.probability, p_greedy)
-        # where every choice is equally (un)safe the scheduler's pick is arbitrary: keep
-        # the best-first plan unless Storm's scheduler is strictly safer
-        plan = rp.plan if rp.probability > p_greedy + 1e-9 else greedy
-        if plan is rp.plan:
-            attach_policy(pm.map, rp.scheduler)  # a recall on this map follows the scheduler
-        n = pm.nominal
-        return PlanResult(pm.map, plan, n.goal, n.obstacles, n.robot, time.perf_counter() - t0, n.stop_reason, guard(pm.map, plan))

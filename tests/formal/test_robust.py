@@ -49,7 +49,7 @@ def test_robust_is_never_below_greedy_on_sampled_maps(name):
 def test_the_robust_configurator_hands_a_supervisor_storms_plan():
     from formal import check_map
     from planner import load_scenario
-    from planner.probabilistic import RobustConfigurator
+    from planner.robust import RobustConfigurator
 
     scene = load_scenario("overtaking")
     conf = RobustConfigurator(samples=10, noise="paper")
@@ -132,3 +132,29 @@ def test_a_recall_on_a_robust_map_follows_the_scheduler_where_the_robot_landed(r
     assert map_policy(type(m).from_dict(m.to_dict())) == r.scheduler  # kept through JSON
     assert _best_from(SimpleNamespace(map=m), 7) == [7, 8]
     assert _best_from(SimpleNamespace(map=m), 8) is None  # at the goal: nothing to continue
+
+
+def test_a_detour_is_taken_only_where_it_is_safer_by_more_than_the_margin(risky_map):
+    """Storm's choice among near-equal options is arbitrary and k/N is an estimate: with
+    the best-first plan preferred, the scheduler leaves it only for a gain above margin,
+    and the probability reported is the value of the policy returned."""
+    from formal.model import TaskKind
+    from formal.robust import policy_probability
+
+    prefer = {0: TaskKind.STRAIGHT}
+    kept = robust_plan(risky_map, prefer=prefer, margin=0.25)  # the detour gains 0.2 < 0.25
+    assert kept.plan.states == (0, 1) and kept.probability == pytest.approx(0.8)
+    assert policy_probability(risky_map, kept.scheduler) == pytest.approx(0.8)
+    left = robust_plan(risky_map, prefer=prefer, margin=0.1)
+    assert left.plan.states == (0, 3, 4, 5, 6) and left.probability == pytest.approx(1.0)
+    with pytest.raises(Exception, match="margin"):
+        robust_plan(risky_map, margin=2.0)
+
+
+def test_a_target_replaces_the_goal_label_and_the_policy_stops_there(risky_map):
+    """A target that is not the goal (e.g. a frontier the plan makes progress to): Storm
+    checks !collision U "target", and the policy starts nothing once it has arrived."""
+    r = robust_plan(risky_map, target={4})
+    assert r.probability == pytest.approx(1.0)
+    assert r.plan.states == (0, 3, 4) and 4 not in r.scheduler
+    assert plan_probability(risky_map, map_plan(risky_map), target={4}) == 0.0

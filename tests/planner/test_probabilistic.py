@@ -123,3 +123,64 @@ def test_consecutive_recorded_scans_update_the_counts_they_observe_again(scans_d
         assert sum(t.probability for t in ts) == 1 and len({t.probability.denominator for t in ts}) >= 1
         total = max(Fraction(t.probability).denominator for t in ts)
         assert total <= 12 and not math.isnan(float(total))
+
+
+# -- sampled as the closed loop runs: the supervisor's hazard test and end tolerance --------------------
+def _corridor_wall(y: float) -> np.ndarray:
+    """A wall beside the way ahead, ``y`` m to the left of the robot's centre line."""
+    xs = np.arange(0.05, 0.9, 0.01)
+    return np.c_[xs, np.full(len(xs), y)]
+
+
+def _straight_collision_chance(scan, hazard, seed=0):
+    from planner.probabilistic import SUPERVISOR_TOLERANCE
+
+    pm = sample_map(scan, (0.8, 0.0), samples=20, noise="harsh", seed=seed, tolerance=SUPERVISOR_TOLERANCE, hazard=hazard)
+    ts = [t for t in pm.map.out_transitions(0) if t.label is TaskKind.STRAIGHT]
+    return sum(t.probability for t in ts if pm.map[t.target].interrupted)
+
+
+def test_the_hazard_rule_interrupts_rollouts_that_pass_close_to_a_wall_under_range_noise():
+    """The supervisor stops a task when 2 returns of a revolution fall inside the body on
+    its way; at harsh noise (2.5 cm range noise, the wheels drifting sideways) a wall 6 cm
+    from the body does that often, one 31 cm away never. Contacts alone (no hazard
+    rule) never interrupt this straight."""
+    from planner.probabilistic import HazardRule
+
+    close, far = _corridor_wall(0.09 + 0.06), _corridor_wall(0.09 + 0.31)
+    assert _straight_collision_chance(close, None) == 0
+    assert _straight_collision_chance(close, HazardRule()) >= Fraction(1, 4)
+    assert _straight_collision_chance(far, HazardRule()) == 0
+    with pytest.raises(NoiseError, match="hazard points"):
+        HazardRule(points=0)
+
+
+def test_outcomes_within_the_supervisors_end_tolerance_are_one_state():
+    """The supervisor continues a plan whose task ended within 0.08 m / 0.3 rad of the
+    prediction: grouped so, a choice has fewer, larger outcome groups than at 3 cm."""
+    from planner.probabilistic import SUPERVISOR_TOLERANCE
+
+    scan, goal = _scene("doorway")
+    fine = sample_map(scan, goal, samples=20, noise="harsh", seed=2)
+    coarse = sample_map(scan, goal, samples=20, noise="harsh", seed=2, tolerance=SUPERVISOR_TOLERANCE)
+    assert len(coarse.map) < len(fine.map)
+    nominal_q0 = [t for t in coarse.map.out_transitions(0) if t.label is TaskKind.STRAIGHT]
+    fine_q0 = [t for t in fine.map.out_transitions(0) if t.label is TaskKind.STRAIGHT]
+    assert max(t.probability for t in nominal_q0) >= max(t.probability for t in fine_q0)
+
+
+def test_a_plans_target_is_the_goal_or_else_the_progress_of_the_best_first_plan():
+    from planner.robust import plan_target
+
+    scan, goal = _scene("doorway")
+    pm = sample_map(scan, goal, samples=10, noise="paper", seed=0)
+    n = pm.nominal
+    near = plan_target(pm.map, n.map[n.plan.end].end, n.goal)
+    assert near and all(pm.map[q].end.distance_to(*goal) <= 0.1 and not pm.map[q].interrupted for q in near)
+    far_goal = (3.0, 0.0)  # beyond the sensed disc: no state reaches it
+    pm = sample_map(np.zeros((0, 2)), far_goal, samples=4, noise="paper", seed=0)
+    n = pm.nominal
+    frontier = plan_target(pm.map, n.map[n.plan.end].end, n.goal)
+    d = n.map[n.plan.end].end.distance_to(*far_goal)
+    assert n.plan.end in frontier
+    assert all(pm.map[q].end.distance_to(*far_goal) <= d + 0.03 and not pm.map.out_transitions(q) for q in frontier)

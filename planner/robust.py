@@ -1,0 +1,130 @@
+"""Risk-aware planning for the closed loop: Storm's scheduler on the probabilistic map.
+
+:class:`RobustConfigurator` is a Configurator whose plans are the policy that maximises
+the chance of reaching the plan's target without a collision (:func:`plan_target`) on
+a probabilistic map (:func:`planner.probabilistic.sample_map`) sampled as the closed
+loop runs; a supervisor executes and replans with it. Needs stormpy.
+"""
+
+from __future__ import annotations
+
+import time
+from typing import Any
+
+from formal.lts import CognitiveMap
+from formal.model import Disturbance, Pose
+from planner.configurator import Configurator, PlanResult
+from planner.probabilistic import (
+    POSITION_TOLERANCE,
+    SUPERVISOR_TOLERANCE,
+    HazardRule,
+    RolloutNoise,
+    sample_map,
+)
+from planner.robot import RobotModel
+
+__all__ = ["plan_target", "RobustConfigurator", "SUPERVISOR_HAZARD"]
+
+SUPERVISOR_HAZARD = HazardRule()
+"""The supervisor's scan test with its defaults (2 points, 5.5 Hz)."""
+
+
+def plan_target(cmap: CognitiveMap, nominal_end: Pose, goal: Disturbance, radius: float = 0.1) -> set[int]:
+    """The states a plan on ``cmap`` is for, as the closed loop measures success: the
+    free states that end within ``radius`` of the goal (the experiment's success radius,
+    0.1 m, on the rollouts' true poses); when none does (the goal lies beyond the sensed
+    disc, so no plan of this map can reach it and P[goal] is 0 for every plan), the free
+    leaves that end no farther from the goal than the best-first plan's end
+    ``nominal_end`` (plus :data:`POSITION_TOLERANCE`): the progress the supervisor
+    replans from.
+
+    >>> import numpy as np
+    >>> r = sample_map(np.zeros((0, 2)), (3.0, 0.0), samples=2, noise="ideal")
+    >>> sorted(plan_target(r.map, r.map[r.nominal.plan.end].end, r.nominal.goal)) == [r.nominal.plan.end]
+    True
+    """
+    q0 = cmap.initial.ident
+    reach = cmap.reachable()
+    free = [s for s in cmap.states() if s.ident in reach and s.ident != q0 and not s.interrupted]
+    near = {s.ident for s in free if s.end.distance_to(goal.x, goal.y) <= radius}
+    if near:
+        return near
+    d = nominal_end.distance_to(goal.x, goal.y) + POSITION_TOLERANCE
+    return {s.ident for s in free if not cmap.out_transitions(s.ident) and s.end.distance_to(goal.x, goal.y) <= d}
+
+
+class RobustConfigurator(Configurator):
+    """A Configurator whose plans are Storm's risk-aware ones: each :meth:`plan` builds
+    the probabilistic map (``samples`` noisy rollouts per choice, ``noise`` preset) and
+    returns the plan of the scheduler that maximises P[!collision U target] on it, so
+    that a supervisor executes and replans with robust plans. ``target`` is
+    :func:`plan_target`: the goal within ``goal_radius`` or, beyond the sensed disc, a
+    frontier at least as close as the best-first plan gets (what the closed loop
+    measures; P[goal] alone is 0 for every plan there). The best-first plan's task is
+    kept wherever it is within ``margin`` of the optimum (Storm picks arbitrarily among
+    equal choices, and k/N is an estimate): the plan leaves it only where a detour is
+    safer by more than ``margin``. The map is sampled as the closed loop runs: outcomes
+    within the supervisor's end tolerance are one state (``tolerance``), and a rollout
+    is interrupted where the supervisor's scan test would stop it (``hazard``). Needs
+    stormpy.
+
+    The scheduler is executed as a policy: it is kept on the map
+    (:func:`formal.robust.attach_policy`), and the supervisor's recall after a task
+    ended in another outcome continues with the scheduler's choice in the state it
+    finds the robot in.
+
+    ``last_probabilities`` holds (robust, greedy) of the latest plan, Storm's predictions
+    of reaching the target without a collision; ``predictions`` every plan's.
+
+    >>> import numpy as np
+    >>> conf = RobustConfigurator(samples=2, noise="ideal")
+    >>> r = conf.plan(np.zeros((0, 2)), (1.0, 0.0))
+    >>> r.reached_goal, conf.last_probabilities
+    (True, (1.0, 1.0))
+    """
+
+    def __init__(
+        self,
+        robot: RobotModel | None = None,
+        samples: int = 30,
+        noise: RolloutNoise | str = "harsh",
+        seed: int = 0,
+        goal_radius: float = 0.1,
+        margin: float = 0.1,
+        tolerance: tuple[float, float] | None = SUPERVISOR_TOLERANCE,
+        hazard: HazardRule | None = SUPERVISOR_HAZARD,
+        **options: Any,
+    ) -> None:
+        super().__init__(robot, **options)
+        self.samples = samples
+        self.noise = RolloutNoise.preset(noise) if isinstance(noise, str) else noise
+        self.seed = seed
+        self.goal_radius = goal_radius
+        self.margin = margin
+        self.tolerance = tolerance
+        self.hazard = hazard
+        self._calls = 0
+        self.last_probabilities: tuple[float, float] | None = None
+        self.predictions: list[tuple[float, float]] = []
+
+    def plan(self, scan: Any, goal: Disturbance | tuple[float, float]) -> PlanResult:
+        """The robust plan on the probabilistic map of ``scan`` (see the class docstring)."""
+        from formal.robust import attach_policy, follow_tasks, plan_probability, robust_plan
+        from formal.supervisory import guard
+
+        t0 = time.perf_counter()
+        base = Configurator(self.robot, self.cost, self.max_states, self.horizon)
+        pm = sample_map(scan, goal, self.samples, self.noise, self.seed + self._calls, base, self.tolerance, self.hazard)
+        self._calls += 1
+        n = pm.nominal
+        target = plan_target(pm.map, n.map[n.plan.end].end, n.goal, self.goal_radius)
+        greedy = follow_tasks(pm.map, [s.task for s in n.steps])
+        prefer = {a: pm.map[b].task for a, b in greedy.steps()}
+        rp = robust_plan(pm.map, target, prefer, self.margin)
+        p_greedy = plan_probability(pm.map, greedy, target)
+        self.last_probabilities = (rp.probability, p_greedy)
+        self.predictions.append(self.last_probabilities)
+        attach_policy(pm.map, rp.scheduler)  # a recall on this map follows the scheduler
+        pm.map.metadata["target"] = sorted(target)
+        plan = rp.plan
+        return PlanResult(pm.map, plan, n.goal, n.obstacles, n.robot, time.perf_counter() - t0, n.stop_reason, guard(pm.map, plan))
