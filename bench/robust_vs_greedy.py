@@ -28,37 +28,22 @@ import statistics
 import time
 from typing import Any
 
-from formal.robust import follow_tasks, plan_probability
-from planner import Configurator
 from planner.configurator import PlanResult
-from planner.probabilistic import SUPERVISOR_TOLERANCE, HazardRule, sample_map
-from planner.robust import RobustConfigurator, plan_target
+from planner.robust import RobustConfigurator
 from runtime.experiment.layouts import make_layout
 from runtime.experiment.runner import run_once
 from runtime.experiment.stats import mcnemar, wilson
 from runtime.supervision.machine import Event, SupervisorState
 
 
-class PredictedGreedy(Configurator):
+class PredictedGreedy(RobustConfigurator):
     """The best-first plan, unchanged, with Storm's prediction of it on the probabilistic
-    map a RobustConfigurator with the same seeds would sample (the paired prediction)."""
-
-    def __init__(self, samples: int, noise: str, seed: int, goal_radius: float = 0.1) -> None:
-        super().__init__()
-        self.samples, self.noise, self.seed, self.goal_radius = samples, noise, seed, goal_radius
-        self.predictions: list[tuple[float, float]] = []
-        self._calls = 0
+    map the robust condition samples with the same seeds (the paired prediction)."""
 
     def plan(self, scan: Any, goal: Any) -> PlanResult:
-        result = super().plan(scan, goal)
-        pm = sample_map(scan, goal, self.samples, self.noise, self.seed + self._calls, Configurator(self.robot),
-                        SUPERVISOR_TOLERANCE, HazardRule())
-        self._calls += 1
-        n = pm.nominal
-        target = plan_target(pm.map, n.map[n.plan.end].end, n.goal, self.goal_radius)
-        p = plan_probability(pm.map, follow_tasks(pm.map, [s.task for s in n.steps]), target)
-        self.predictions.append((math.nan, p))
-        return result
+        c = self.sample(scan, goal)
+        self.predictions[-1] = (math.nan, c.p_greedy)
+        return c.greedy_result
 
 
 def plan_episodes(report: Any) -> list[tuple[int, bool]]:
@@ -101,6 +86,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--noise", default="harsh")
     ap.add_argument("--samples", type=int, default=30)
     ap.add_argument("--margin", type=float, default=0.1, help="RobustConfigurator's margin (default 0.1)")
+    ap.add_argument("--routes", type=int, default=1, help="RobustConfigurator's routes (default 1)")
+    ap.add_argument("--frontier-slack", type=float, default=0.03, help="RobustConfigurator's frontier_slack (default 0.03 m)")
     ap.add_argument("--max-time", type=float, default=120.0)
     ap.add_argument("--quiet", action="store_true", help="no line per run")
     args = ap.parse_args(argv)
@@ -117,11 +104,9 @@ def main(argv: list[str] | None = None) -> int:
             scene = layout.scene
             line = []
             for name in names:
-                conf: PredictedGreedy | RobustConfigurator
-                if name == "greedy":
-                    conf = PredictedGreedy(args.samples, args.noise, 1000 * k)
-                else:
-                    conf = RobustConfigurator(samples=args.samples, noise=args.noise, seed=1000 * k, margin=args.margin)
+                kind = PredictedGreedy if name == "greedy" else RobustConfigurator
+                conf = kind(samples=args.samples, noise=args.noise, seed=1000 * k, margin=args.margin, routes=args.routes,
+                            frontier_slack=args.frontier_slack)
                 c1 = time.thread_time()
                 r = run_once(scene, "planning", seed=k, run=k, noise=args.noise, configurator=conf, max_time=args.max_time,
                              expect=layout.expect, keep_report=True)
@@ -140,7 +125,8 @@ def main(argv: list[str] | None = None) -> int:
                 print(f"{family} run {k}: {'; '.join(line)}", flush=True)
         rows.append((family, ok, first, per_plan, cpu))
     print(f"\nexecution world, noise {args.noise}, runs {args.first_run}..{args.first_run + args.runs - 1} per family "
-          f"(paired: same layout, world and seeds), {args.samples} samples per choice, margin {args.margin}:")
+          f"(paired: same layout, world and seeds), {args.samples} samples per choice, margin {args.margin}, "
+          f"routes {args.routes}, frontier slack {args.frontier_slack} m:")
     print(f"  {'family':<8} {'plans':<7} {'success (goal, no collision) [95% Wilson]':<44} {'Storm P, 1st plan':<18} "
           f"{'Storm P per plan':<17} {'plans carried to their end [95%]':<36} CPU s/run")
     totals = {name: [0, 0] for name in names}

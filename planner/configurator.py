@@ -222,15 +222,23 @@ class Configurator:
         cost: CostFunction = default_cost,
         max_states: int = 50,
         horizon: float = 1.2,
+        routes: int = 1,
     ) -> None:
         if max_states < 1:
             raise ValueError("max_states must be at least 1")
         if not (math.isfinite(horizon) and horizon > 0):
             raise ValueError("horizon must be a positive number of metres")
+        if isinstance(routes, bool) or not isinstance(routes, int) or routes < 1:
+            raise ValueError("routes must be a whole number >= 1")
         self.robot = robot or RobotModel()
         self.cost = cost
         self.max_states = int(max_states)
         self.horizon = float(horizon)
+        self.routes = routes
+        """How many ends the search collects before it stops: 1 (Algorithm 1) stops at the
+        first goal state or frontier pop; more keep searching for alternative routes (a
+        goal state or popped frontier is then kept, not expanded), e.g. for a risk-aware
+        choice among them (:class:`planner.robust.RobustConfigurator`)."""
 
     # -- inputs ---------------------------------------------------------------------
     def _goal(self, goal: Disturbance | tuple[float, float], obstacles: Obstacles) -> tuple[Disturbance, bool]:
@@ -322,11 +330,16 @@ class Configurator:
                 frontier_ids.add(ident)
             return s, True
 
+        ends = 0  # popped frontier states, and with goal_ids the routes found (``routes``)
+        goal_ids: set[int] = set()
         while pq:
             _, qe_id = heapq.heappop(pq)
             if qe_id in frontier_ids:
                 # the most promising state lies on the rim of what the scan saw: what is
                 # beyond is unknown, so planning ends here and the closed loop replans there
+                ends += 1
+                if ends + len(goal_ids) < self.routes:
+                    continue
                 stop = "frontier"
                 break
             qe = cmap[qe_id]
@@ -348,8 +361,11 @@ class Configurator:
                     assert second is not None
                     frontier = second
                 if frontier.reached_goal:
-                    reached = frontier.ident
-                    break
+                    goal_ids.add(frontier.ident)
+                    if ends + len(goal_ids) >= self.routes:
+                        reached = frontier.ident
+                        break
+                    continue
                 if fresh and frontier.interrupted:
                     # every frontier state enters PQ with φ = γ + χ, interrupted ones too
                     heapq.heappush(pq, (frontier.cost, frontier.ident))
@@ -364,6 +380,8 @@ class Configurator:
                 break
         else:
             stop = "exhausted"
+        if goal_ids and reached is None:
+            stop = "goal"  # fewer routes than asked for, but a goal state among them
 
         p = extract_plan(cmap)
         end = cmap[p.end]

@@ -9,34 +9,40 @@ loop runs; a supervisor executes and replans with it. Needs stormpy.
 from __future__ import annotations
 
 import time
+from dataclasses import dataclass
 from typing import Any
 
 from formal.lts import CognitiveMap
 from formal.model import Disturbance, Pose
+from formal.robust import RobustPlan
+from formal.supervisory import Plan
 from planner.configurator import Configurator, PlanResult
+from planner.perception import load_scan
 from planner.probabilistic import (
     POSITION_TOLERANCE,
     SUPERVISOR_TOLERANCE,
     HazardRule,
+    ProbabilisticMap,
     RolloutNoise,
     sample_map,
 )
 from planner.robot import RobotModel
 
-__all__ = ["plan_target", "RobustConfigurator", "SUPERVISOR_HAZARD"]
+__all__ = ["plan_target", "RobustChoice", "RobustConfigurator", "SUPERVISOR_HAZARD"]
 
 SUPERVISOR_HAZARD = HazardRule()
 """The supervisor's scan test with its defaults (2 points, 5.5 Hz)."""
 
 
-def plan_target(cmap: CognitiveMap, nominal_end: Pose, goal: Disturbance, radius: float = 0.1) -> set[int]:
+def plan_target(cmap: CognitiveMap, nominal_end: Pose, goal: Disturbance, radius: float = 0.1,
+                slack: float = POSITION_TOLERANCE) -> set[int]:
     """The states a plan on ``cmap`` is for, as the closed loop measures success: the
     free states that end within ``radius`` of the goal (the experiment's success radius,
     0.1 m, on the rollouts' true poses); when none does (the goal lies beyond the sensed
     disc, so no plan of this map can reach it and P[goal] is 0 for every plan), the free
     leaves that end no farther from the goal than the best-first plan's end
-    ``nominal_end`` (plus :data:`POSITION_TOLERANCE`): the progress the supervisor
-    replans from.
+    ``nominal_end`` plus ``slack`` (default :data:`POSITION_TOLERANCE`): the progress
+    the supervisor replans from.
 
     >>> import numpy as np
     >>> r = sample_map(np.zeros((0, 2)), (3.0, 0.0), samples=2, noise="ideal")
@@ -49,24 +55,41 @@ def plan_target(cmap: CognitiveMap, nominal_end: Pose, goal: Disturbance, radius
     near = {s.ident for s in free if s.end.distance_to(goal.x, goal.y) <= radius}
     if near:
         return near
-    d = nominal_end.distance_to(goal.x, goal.y) + POSITION_TOLERANCE
+    d = nominal_end.distance_to(goal.x, goal.y) + slack
     return {s.ident for s in free if not cmap.out_transitions(s.ident) and s.end.distance_to(goal.x, goal.y) <= d}
+
+
+@dataclass
+class RobustChoice:
+    """One robust planning step: the probabilistic map, the best-first plan it refines
+    (``greedy_result``: the Configurator's own, unchanged, and ``greedy``: carried onto
+    the map), the target, Storm's policy and both predictions."""
+
+    pm: ProbabilisticMap
+    greedy_result: PlanResult
+    greedy: Plan
+    target: set[int]
+    robust: RobustPlan
+    p_greedy: float
 
 
 class RobustConfigurator(Configurator):
     """A Configurator whose plans are Storm's risk-aware ones: each :meth:`plan` builds
     the probabilistic map (``samples`` noisy rollouts per choice, ``noise`` preset) and
     returns the plan of the scheduler that maximises P[!collision U target] on it, so
-    that a supervisor executes and replans with robust plans. ``target`` is
+    that a supervisor executes and replans with robust plans. The map is searched for
+    ``routes`` ends (goal states or frontiers, :attr:`Configurator.routes`, within
+    ``route_states`` states) so that the scheduler has alternatives to the best-first
+    route; the best-first plan itself is the plain Configurator's. ``target`` is
     :func:`plan_target`: the goal within ``goal_radius`` or, beyond the sensed disc, a
-    frontier at least as close as the best-first plan gets (what the closed loop
-    measures; P[goal] alone is 0 for every plan there). The best-first plan's task is
-    kept wherever it is within ``margin`` of the optimum (Storm picks arbitrarily among
-    equal choices, and k/N is an estimate): the plan leaves it only where a detour is
-    safer by more than ``margin``. The map is sampled as the closed loop runs: outcomes
-    within the supervisor's end tolerance are one state (``tolerance``), and a rollout
-    is interrupted where the supervisor's scan test would stop it (``hazard``). Needs
-    stormpy.
+    frontier within ``frontier_slack`` as close as the best-first plan gets (what the
+    closed loop measures; P[goal] alone is 0 for every plan there). The best-first
+    plan's task is kept wherever it is within ``margin`` of the optimum (Storm picks
+    arbitrarily among equal choices, and k/N is an estimate): the plan leaves it only
+    where a detour is safer by more than ``margin``. The map is sampled as the closed
+    loop runs: outcomes within the supervisor's end tolerance are one state
+    (``tolerance``), and a rollout is interrupted where the supervisor's scan test would
+    stop it (``hazard``). Needs stormpy.
 
     The scheduler is executed as a policy: it is kept on the map
     (:func:`formal.robust.attach_policy`), and the supervisor's recall after a task
@@ -93,6 +116,9 @@ class RobustConfigurator(Configurator):
         margin: float = 0.1,
         tolerance: tuple[float, float] | None = SUPERVISOR_TOLERANCE,
         hazard: HazardRule | None = SUPERVISOR_HAZARD,
+        routes: int = 1,
+        route_states: int = 100,
+        frontier_slack: float = POSITION_TOLERANCE,
         **options: Any,
     ) -> None:
         super().__init__(robot, **options)
@@ -103,28 +129,51 @@ class RobustConfigurator(Configurator):
         self.margin = margin
         self.tolerance = tolerance
         self.hazard = hazard
+        self.search_routes = routes
+        self.route_states = route_states
+        self.frontier_slack = frontier_slack
         self._calls = 0
         self.last_probabilities: tuple[float, float] | None = None
         self.predictions: list[tuple[float, float]] = []
 
-    def plan(self, scan: Any, goal: Disturbance | tuple[float, float]) -> PlanResult:
-        """The robust plan on the probabilistic map of ``scan`` (see the class docstring)."""
-        from formal.robust import attach_policy, follow_tasks, plan_probability, robust_plan
-        from formal.supervisory import guard
+    def sample(self, scan: Any, goal: Disturbance | tuple[float, float]) -> RobustChoice:
+        """The probabilistic map of ``scan``, the best-first plan and Storm's policy on it
+        (one call to :meth:`plan` without the choice; seeds advance per call)."""
+        from formal.robust import follow_tasks, plan_probability, robust_plan
 
-        t0 = time.perf_counter()
-        base = Configurator(self.robot, self.cost, self.max_states, self.horizon)
-        pm = sample_map(scan, goal, self.samples, self.noise, self.seed + self._calls, base, self.tolerance, self.hazard)
+        points = load_scan(scan)
+        plain = Configurator(self.robot, self.cost, self.max_states, self.horizon)
+        greedy_result = plain.plan(points, goal)
+        if self.search_routes > 1:
+            base = Configurator(self.robot, self.cost, max(self.max_states, self.route_states), self.horizon,
+                                routes=self.search_routes)
+        else:
+            base = plain
+        pm = sample_map(points, goal, self.samples, self.noise, self.seed + self._calls, base, self.tolerance, self.hazard)
         self._calls += 1
-        n = pm.nominal
-        target = plan_target(pm.map, n.map[n.plan.end].end, n.goal, self.goal_radius)
-        greedy = follow_tasks(pm.map, [s.task for s in n.steps])
+        g = greedy_result
+        target = plan_target(pm.map, g.map[g.plan.end].end, g.goal, self.goal_radius, self.frontier_slack)
+        if all(pm.map.has_transition(a, b) for a, b in g.plan.steps()):
+            greedy = g.plan  # the best-first plan itself: its states are the map's nominal ones
+        else:  # some nominal outcome never happened in the rollouts: carried by its tasks
+            greedy = follow_tasks(pm.map, [st.task for st in g.steps])
         prefer = {a: pm.map[b].task for a, b in greedy.steps()}
         rp = robust_plan(pm.map, target, prefer, self.margin)
         p_greedy = plan_probability(pm.map, greedy, target)
         self.last_probabilities = (rp.probability, p_greedy)
         self.predictions.append(self.last_probabilities)
-        attach_policy(pm.map, rp.scheduler)  # a recall on this map follows the scheduler
-        pm.map.metadata["target"] = sorted(target)
-        plan = rp.plan
-        return PlanResult(pm.map, plan, n.goal, n.obstacles, n.robot, time.perf_counter() - t0, n.stop_reason, guard(pm.map, plan))
+        return RobustChoice(pm, greedy_result, greedy, target, rp, p_greedy)
+
+    def plan(self, scan: Any, goal: Disturbance | tuple[float, float]) -> PlanResult:
+        """The robust plan on the probabilistic map of ``scan`` (see the class docstring)."""
+        from formal.robust import attach_policy
+        from formal.supervisory import guard
+
+        t0 = time.perf_counter()
+        c = self.sample(scan, goal)
+        cmap = c.pm.map
+        attach_policy(cmap, c.robust.scheduler)  # a recall on this map follows the scheduler
+        cmap.metadata["target"] = sorted(c.target)
+        plan = c.robust.plan
+        g = c.greedy_result
+        return PlanResult(cmap, plan, g.goal, g.obstacles, g.robot, time.perf_counter() - t0, g.stop_reason, guard(cmap, plan))

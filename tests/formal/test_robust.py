@@ -158,3 +158,25 @@ def test_a_target_replaces_the_goal_label_and_the_policy_stops_there(risky_map):
     assert r.probability == pytest.approx(1.0)
     assert r.plan.states == (0, 3, 4) and 4 not in r.scheduler
     assert plan_probability(risky_map, map_plan(risky_map), target={4}) == 0.0
+
+
+@pytest.mark.parametrize("name", ["doorway", "overtaking"])
+def test_a_search_for_more_routes_extends_algorithm_1s_map_with_alternatives(name):
+    """routes=1 is Algorithm 1 (the first goal state ends the search); more routes go on
+    from the same queue, so the best-first map is a prefix of the larger one and the
+    larger one holds more ends (goal states or frontiers) for Storm to choose among."""
+    from planner import Configurator, load_scenario
+
+    scene = load_scenario(name)
+    scan, goal = scene.scan(max_range=1.1), tuple(scene.goal_in_robot_frame())
+    one = Configurator().plan(scan, goal)
+    three = Configurator(max_states=100, routes=3).plan(scan, goal)
+    assert set(one.map.transitions()) <= set(three.map.transitions())
+    assert all(three.map[s.ident].end == s.end for s in one.map.states())
+
+    def ends(r):
+        return sum(1 for s in r.map.states() if s.reached_goal and not s.interrupted)
+
+    assert ends(one) == 1 and ends(three) >= 2
+    with pytest.raises(ValueError, match="routes"):
+        Configurator(routes=0)
