@@ -154,7 +154,9 @@ def _best_from(result: PlanResult, source: int) -> list[int] | None:
     policy = map_policy(cmap)
     if policy is not None:
         path = policy_path(cmap, policy, source)
-        return path if len(path) > 1 else None
+        if len(path) < 2 or cmap[path[-1]].interrupted or cmap[path[-1]].cost >= cmap[source].cost:
+            return None  # as below: a continuation must end closer than where the robot is
+        return path
     reach = cmap.reachable(source)
     ends = [cmap[i] for i in reach if i != source and not cmap[i].interrupted]
     if not ends:
