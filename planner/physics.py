@@ -109,12 +109,18 @@ def _corners(robot: RobotModel) -> tuple[tuple[float, float], ...]:
     return ((-robot.rear_offset, -h), (robot.front_offset, -h), (robot.front_offset, h), (-robot.rear_offset, h))
 
 
+@functools.lru_cache(maxsize=16)
+def _body_radius(robot: RobotModel) -> float:
+    """The distance from the rotation centre to the real body's farthest corner."""
+    return max(math.hypot(a, b) for a, b in _corners(robot))
+
+
 def _turn_leaves_disc(robot: RobotModel, start: Pose, signed_angle: float) -> bool:
     """True when the real body, spinning in place by ``signed_angle``, leaves the sensed disc."""
     cx, cy = start.x, start.y
     dist = math.hypot(cx, cy)
     reach = robot.sensor_range
-    rmax = max(math.hypot(a, b) for a, b in _corners(robot))
+    rmax = _body_radius(robot)
     if dist + rmax <= reach:
         return False
     n = max(2, int(math.ceil(abs(signed_angle) / 0.2)))
@@ -173,7 +179,7 @@ class _Scene:
     """The run's sensed points as flat arrays, and the body's extents: what every
     rollout of one planning run shares (built once per run, nothing per query)."""
 
-    __slots__ = ("obstacles", "robot", "x", "y", "owner", "real", "infl", "radius2", "gaps")
+    __slots__ = ("obstacles", "robot", "x", "y", "z", "owner", "real", "infl", "radius2", "gaps", "reach")
 
     def __init__(self, obstacles: Obstacles, robot: RobotModel) -> None:
         self.obstacles = obstacles
@@ -181,11 +187,14 @@ class _Scene:
         pts = obstacles.points
         self.x = np.ascontiguousarray(pts[:, 0])
         self.y = np.ascontiguousarray(pts[:, 1])
+        self.z = self.x + 1j * self.y  # the points as x + iy: a frame change is one product
         self.owner = obstacles.owner
         c = robot.clearance
         self.real = (robot.rear_offset, robot.front_offset, robot.width / 2)
         self.infl = (robot.rear_offset + c, robot.front_offset + c, robot.width / 2 + c)
         self.radius2 = robot.swept_radius ** 2
+        rear, front, half = self.infl
+        self.reach = (math.hypot(rear, half), front, half)
         self.gaps: dict[tuple[int, int, int], tuple[float, int]] = {}
 
     def outcome(self, task: Task) -> Outcome:
@@ -210,10 +219,32 @@ class _Scene:
         return hit
 
     def _straight_gap(self, s: Pose) -> tuple[float, int]:
-        c, sn = math.cos(s.theta), math.sin(s.theta)
-        x, y = self.x, self.y
-        u = x * c + y * sn - (s.x * c + s.y * sn)
-        v = np.abs(y * c - x * sn - (s.y * c - s.x * sn))
+        # :meth:`_gaps` for one heading, on the points in the body's lane only
+        w = (self.z - complex(s.x, s.y)) * complex(math.cos(s.theta), -math.sin(s.theta))
+        rear, front, half = self.infl
+        lane = (np.abs(w.imag) <= half).nonzero()[0]
+        if not len(lane):
+            return math.inf, -1
+        w = w.take(lane)
+        u = w.real
+        ahead = u > front
+        gap = np.where(ahead, u - front, np.inf)
+        # inside the inflated footprint at the start: the margin is waived for these points,
+        # the real body still must not touch them (the start-touching rule)
+        waived = ~ahead & (u >= -rear)
+        if waived.any():
+            _, rfront, rhalf = self.real
+            gap = np.where(waived & (np.abs(w.imag) < rhalf) & (u >= rfront), u - rfront, gap)
+        k = int(gap.argmin())
+        d = float(gap[k])
+        return (d, int(lane[k])) if math.isfinite(d) else (math.inf, -1)
+
+    def _gaps(self, z: np.ndarray, at: complex, headings: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Per heading (K): how far the body can drive from ``at`` before it meets one of
+        the points ``z`` (complex x + iy), and which (index into ``z``); inf when none."""
+        w = (z - at) * np.exp(-1j * headings)[:, None]  # K×N: u + iv in each task frame
+        u = w.real
+        v = np.abs(w.imag)
         rear, front, half = self.infl
         lane = v <= half
         gap = np.where(lane & (u > front), u - front, np.inf)
@@ -223,9 +254,29 @@ class _Scene:
         if waived.any():
             _, rfront, rhalf = self.real
             gap = np.where(waived & (v < rhalf) & (u >= rfront), u - rfront, gap)
-        k = int(np.argmin(gap))
-        d = float(gap[k])
-        return (d, k) if math.isfinite(d) else (math.inf, -1)
+        k = gap.argmin(axis=1)
+        return gap[np.arange(len(headings)), k], k
+
+    def first_clear(self, s: Pose, headings: list[float], lengths: list[float]) -> int:
+        """The index of the first heading from which the body, turned in place at ``s``,
+        can drive ``lengths[i]`` without meeting a point; -1 when none can.
+
+        One array operation for all headings, over the points within reach of the
+        longest drive only (a nearer contact is among them; none nearer means clear).
+        """
+        if not headings:
+            return -1
+        at = complex(s.x, s.y)
+        body, front, half = self.reach
+        far = max(lengths)
+        reach = max(body, math.hypot(front + far, half))
+        dz = self.z - at
+        near = (dz.real * dz.real + dz.imag * dz.imag <= reach * reach).nonzero()[0]
+        if not len(near):
+            return 0
+        d, _ = self._gaps(self.z.take(near), at, np.asarray(headings))
+        ok = (d >= np.asarray(lengths) - _EPS).nonzero()[0]
+        return int(ok[0]) if len(ok) else -1
 
     def _waived_turn(self, dx: np.ndarray, dy: np.ndarray, theta: float, sign: float, per_tick: float, e0: float, ticks: int) -> int:
         """The first tick at or after which the real body meets one of these points
@@ -347,9 +398,14 @@ def turn_angle(
     A turn towards the side the goal is on is contingent on the goal: it ends facing it,
     provided the way to the goal is clear for the next straight. Otherwise (the goal is
     on the other side, or the way to it is blocked) the turn is contingent on what is in
-    the way: it ends at the first of ``turn_angle / 2`` and ``turn_angle`` (short of the
-    goal's bearing or beyond it) from which the way ahead is clear for a step; when none is, it
-    ends facing the goal if it turned towards it, else at ``turn_angle``.
+    the way: it ends at the first mark, every ``turn_angle / 4`` from ``turn_angle / 2``
+    (π/4, 3π/8, π/2 for the default quarter turn; short of the goal's bearing or beyond
+    it), from which the way ahead is clear for a step; when none is, it ends facing the
+    goal if it turned towards it, else at ``turn_angle``. A turn away from the goal (the
+    goal on the other side, or ahead) has marks on up to a half turn (5π/8 … π): the way
+    out of a nook may lie behind a wall beside the body that a quarter turn would face
+    (recorded scans 126–135). A turn towards the goal stops at ``turn_angle``: further
+    would turn its back on the goal, and such detours fail under execution noise.
 
     >>> from planner.perception import perceive
     >>> g = Disturbance.goal(0.0, 0.5)
@@ -369,20 +425,49 @@ def turn_angle(
             towards = bearing
     scene = _scene(obstacles, robot, worlds) if len(obstacles) else None
     step = robot.step_length if robot.step_length is not None else robot.sensor_range
-    candidates: list[tuple[float, float]] = []
+    angles: list[float] = []
+    needs: list[float] = []
     if towards is not None and goal is not None:
-        need = min(step, math.hypot(goal.x - start.x, goal.y - start.y) - robot.goal_tolerance)
-        candidates.append((towards, need))
+        angles.append(towards)
+        needs.append(min(step, math.hypot(goal.x - start.x, goal.y - start.y) - robot.goal_tolerance))
     # short of the goal's bearing too: the free way may lie between the heading and the goal
-    candidates += [(a, step) for a in (full / 2, full) if towards is None or abs(a - towards) > 1e-3]
+    # a turn towards the goal's side ends by turn_angle at the latest (further would turn
+    # away from the goal); one away from it may go on to a half turn
+    for a in _marks(full, towards is None):
+        if towards is None or abs(a - towards) > 1e-3:
+            angles.append(a)
+            needs.append(step)
     if scene is None:
-        return candidates[0][0] if candidates else full
-    for a, need in candidates:
-        heading = start.theta + sign * a
-        room = frontier_distance(robot, Pose(start.x, start.y, heading))
-        if scene.straight_gap(Pose(start.x, start.y, heading))[0] >= min(need, room) - _EPS:
-            return a
+        return angles[0] if angles else full
+    # the rim is no nearer than this whatever the heading: most turns need no rim test
+    sure = robot.sensor_range - math.hypot(start.x, start.y) - _body_radius(robot)
+    lengths = [
+        n if n <= sure else min(n, frontier_distance(robot, Pose(start.x, start.y, start.theta + sign * a)))
+        for a, n in zip(angles, needs)
+    ]
+    i = scene.first_clear(start, [start.theta + sign * a for a in angles], lengths)
+    if i >= 0:
+        return angles[i]
     return towards if towards is not None else full
+
+
+@functools.lru_cache(maxsize=32)
+def _marks(full: float, away: bool) -> tuple[float, ...]:
+    """Where a turn contingent on an obstacle may end: every ``full / 4`` from ``full / 2``
+    up to ``full``, or up to π for a turn ``away`` from the goal.
+
+    >>> [round(a / math.pi, 3) for a in _marks(math.pi / 2, False)]
+    [0.25, 0.375, 0.5]
+    >>> [round(a / math.pi, 3) for a in _marks(math.pi / 2, True)]
+    [0.25, 0.375, 0.5, 0.625, 0.75, 0.875, 1.0]
+    """
+    last = math.pi if away else full
+    out = []
+    k = 2
+    while full * k / 4 <= last + 1e-9:
+        out.append(min(full * k / 4, math.pi))
+        k += 1
+    return tuple(out)
 
 
 def simulate(
@@ -411,10 +496,13 @@ def simulate(
     """
     scene = _scene(obstacles, robot, worlds) if len(obstacles) else None
     if kind is TaskKind.STRAIGHT:
-        room = frontier_distance(robot, start)
         step = robot.step_length if robot.step_length is not None else robot.sensor_range
         d, k = scene.straight_gap(start) if scene is not None else (math.inf, -1)
         along = _goal_dead_ahead(robot, start, goal)
+        # the rim is no nearer than ``sure`` whatever the heading: when the task cannot
+        # reach that far, the rim does not limit it (and the exact distance is not needed)
+        sure = robot.sensor_range - math.hypot(start.x, start.y) - _body_radius(robot)
+        room = frontier_distance(robot, start) if max(step, along or 0.0) > sure - 1e-6 else math.inf
         if along is not None and d >= min(along, room):
             limit = min(along, room)  # a clear run to the goal dead ahead: one task
         else:

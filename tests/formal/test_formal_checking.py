@@ -355,7 +355,9 @@ def test_cli_plan_robust_json_has_both_probabilities(clomp):
 @needs_storm
 def test_cli_check_require_safe_fails_with_a_path_into_a_collision(clomp):
     code, out, _ = clomp(
-        "check", "--scenario", "overtaking", "--samples", "20", "--noise", "paper", "--seed", "0",
+        # harsh noise: at paper noise the overtaking map (left turn 3π/8 round the box) has
+        # no sampled path into a collision any more (safe_goal 1.0)
+        "check", "--scenario", "overtaking", "--samples", "20", "--noise", "harsh", "--seed", "0",
         "--specs", str(default_property_files()[0]), "--require-safe", "0.999",
     )
     assert code == 1

@@ -203,10 +203,12 @@ def _plan_scenario(name, **options):
 
 def test_interrupted_frontier_states_end_the_search_when_they_are_least_phi():
     """A cul-de-sac exhausts its free options; the search ends by popping the least-φ
-    state, an interrupted one (no obstacle-free transition), not by an empty queue."""
+    state, an interrupted one (no obstacle-free transition), not by an empty queue.
+    With the authors' quarter turns: free turns may turn round towards the corridor's
+    open end behind the robot and explore it until the budget is spent."""
     from planner.configurator import CostContext, default_cost
 
-    r = _plan_scenario("cul-de-sac")
+    r = _plan_scenario("cul-de-sac", robot=RobotModel(free_turns=False))
     assert r.stop_reason == "exhausted"
     stop = r.map[r.map.metadata["stopped_at"]]
     assert stop.interrupted
@@ -246,7 +248,9 @@ def test_the_sense_of_gamma_decides_which_hit_ends_the_search():
     def reversed_gamma(s, ctx):
         return chi(s, ctx) + (0.0 if s.d_n is None else 3.0 - gamma(s, ctx))
 
-    default, flipped = _plan_scenario("cul-de-sac"), _plan_scenario("cul-de-sac", cost=reversed_gamma)
+    quarter = RobotModel(free_turns=False)  # the search exhausts (see the test above)
+    default = _plan_scenario("cul-de-sac", robot=quarter)
+    flipped = _plan_scenario("cul-de-sac", robot=quarter, cost=reversed_gamma)
     a, b = default.map[default.map.metadata["stopped_at"]], flipped.map[flipped.map.metadata["stopped_at"]]
     assert a.ident != b.ident
     d = lambda s: s.start.distance_to(s.d_n.x, s.d_n.y)  # noqa: E731

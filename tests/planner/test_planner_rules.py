@@ -9,10 +9,11 @@ import sys
 from pathlib import Path
 
 import numpy as np
+import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from planner import Configurator, RobotModel, load_scenario
+from planner import Configurator, RobotModel, load_scan, load_scenario
 from planner.scenarios import parse_scenario
 
 sys.path.insert(0, str(Path(__file__).parent))
@@ -150,3 +151,38 @@ def test_a_turn_may_end_short_of_the_goals_bearing_where_the_way_is_free() -> No
     result = conf.plan(scan, scene.goal_in_robot_frame())
     assert result.reached_goal, [(s.task.value, s.end) for s in result.steps]
     assert check_states(scan, result.steps, conf.robot).ok
+
+
+
+@pytest.mark.parametrize("name", ["map0126.dat", "map0131.dat"])
+def test_a_turn_away_from_the_goal_may_go_past_a_quarter_turn_to_leave_a_nook(scans_dir: Path, name: str) -> None:
+    """Recorded scans: a wall 4-5 cm off the body's right flank and a wall ahead with the
+    goal behind it. A quarter turn right faces the flank wall (the next straight is
+    stopped at once), a straight ahead meets the wall ahead: the way out is a right turn
+    past π/2, then round the wall's lower end. With marks only up to π/2 the search ran
+    dry (0131: exhausted after 5 states; 0126: ended at the frontier)."""
+    scan = load_scan(scans_dir / name)
+    r = Configurator().plan(scan, (1.0, 0.0))
+    assert r.reached_goal, (r.stop_reason, [(s.task.value, s.end) for s in r.steps])
+    assert check_states(scan, r.steps, r.robot).ok
+    first = r.steps[0]
+    assert first.task.value == "RIGHT" and first.start.theta - first.end.theta > math.pi / 2 + 1e-6
+
+
+def test_a_turn_towards_the_goal_stops_at_a_quarter_turn() -> None:
+    """Marks past the quarter turn are for turns away from the goal. In a U open behind
+    the robot, with the goal ahead-right beyond it, a right turn (towards the goal) finds
+    no clear way by π/2 and ends facing the goal; a left turn (away) goes on to the open
+    side behind."""
+    from formal.model import Disturbance, Pose, TaskKind
+    from planner.perception import perceive
+    from planner.physics import turn_angle
+
+    ahead = np.c_[np.full(45, 0.25), np.linspace(-0.22, 0.22, 45)]
+    sides = [np.c_[np.linspace(-0.3, 0.25, 56), np.full(56, y)] for y in (-0.22, 0.22)]
+    obs = perceive(np.vstack([ahead, *sides]))
+    goal = Disturbance.goal(0.5, -0.8)
+    towards = turn_angle(TaskKind.RIGHT, Pose(0.0, 0.0, 0.0), goal, obs, RobotModel())
+    assert towards == pytest.approx(math.atan2(0.8, 0.5))  # facing the goal: no mark was clear
+    away = turn_angle(TaskKind.LEFT, Pose(0.0, 0.0, 0.0), goal, obs, RobotModel())
+    assert away > math.pi / 2
