@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass, fields, replace
+from dataclasses import dataclass, fields, replace
 from typing import Any
 
 __all__ = ["RobotModel"]
@@ -91,5 +91,9 @@ class RobotModel:
         return replace(self, **changes)
 
     def to_dict(self) -> dict[str, Any]:
-        """JSON-ready form."""
-        return asdict(self)
+        """JSON-ready form (every field is a number or a flag: no deep copy is needed).
+
+        >>> RobotModel().to_dict()["width"]
+        0.18
+        """
+        return {f.name: getattr(self, f.name) for f in fields(self)}
