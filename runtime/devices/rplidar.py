@@ -90,6 +90,12 @@ __all__ = [
 
 # seconds one blocking read may take; bounds how far a deadline can be overshot
 _READ_SLICE = 0.05
+# after STOP: the line counts as stopped once no byte came for this long (an A1 streams a
+# byte every ~0.1 ms; an A1 stops within 1 ms; USB adapters hold bytes a few ms) ...
+_STOP_QUIET = 0.02
+# ... and a device that keeps talking is given up on after this long (its bytes are then
+# skipped by the next reply's resynchronisation)
+_STOP_DRAIN = 0.5
 
 
 # ---------------------------------------------------------------------------- driver
@@ -294,13 +300,35 @@ class RPLidar:
         self._scanning = True
 
     def stop(self) -> None:
-        """Stop the scan stream (STOP), drop buffered samples, then stop the motor."""
+        """Stop the scan stream (STOP), drop what the device still sends, then stop the motor.
+
+        The samples already on their way when STOP went out (the UART, the USB adapter's
+        buffer, the kernel's) keep arriving for a few milliseconds; dropped only once, they
+        would reach the next request, and a stray ``A5 5A`` in them (a sample near 330° with
+        distance byte 0x5A) is read as that request's reply. So the input is drained until
+        the line has been quiet for ``_STOP_QUIET`` s (at most ``_STOP_DRAIN`` s).
+        """
         self._scanning = False
         self._pending.clear()
         self._request(Command.STOP)
         time.sleep(0.002)  # the device needs ≥1 ms before the next request
-        self._reset_input()
+        self._drain(_STOP_QUIET, _STOP_DRAIN)
         self._set_motor(False)
+
+    def _drain(self, quiet: float, limit: float) -> None:
+        """Read and drop input until none arrived for ``quiet`` s, or ``limit`` s passed."""
+        start = last = time.monotonic()
+        while True:
+            waiting = self._waiting()
+            now = time.monotonic()
+            if waiting:
+                self._read_some(waiting)
+                last = now
+            elif now - last >= quiet or now - start >= limit:
+                break
+            else:
+                time.sleep(0.001)
+        self._reset_input()
 
     def _pump(self, deadline: float, timeout: float) -> None:
         if time.monotonic() >= deadline:

@@ -415,6 +415,68 @@ def test_queries_while_scanning_are_refused() -> None:
         lidar.health()
 
 
+class InFlightPort(ScriptedPort):
+    """A device whose samples already sent keep arriving after STOP (one chunk each time the
+    driver looks), as through a USB adapter's buffer; later replies queue behind them."""
+
+    def __init__(self, replies: dict[bytes, bytes], in_flight: list[bytes]) -> None:
+        super().__init__(replies)
+        self._in_flight_after_stop = in_flight
+        self.in_flight: list[bytes] = []
+
+    def _arrive(self) -> None:
+        if self.in_flight:
+            self.rx += self.in_flight.pop(0)
+
+    def write(self, data: bytes) -> int:
+        reply = self.replies.get(bytes(data), b"")
+        self.written += data
+        if bytes(data) == encode_request(Command.STOP):
+            self.in_flight = list(self._in_flight_after_stop)
+        elif self.in_flight:
+            self.in_flight.append(reply)  # behind the bytes still on their way
+        else:
+            self.rx += reply
+        return len(data)
+
+    def read(self, n: int = 1) -> bytes:
+        self._arrive()
+        return super().read(n)
+
+    @property
+    def in_waiting(self) -> int:
+        self._arrive()
+        return len(self.rx)
+
+
+def _tail_with_a_false_sync() -> list[bytes]:
+    # angle_q6 bits 7-14 = 0xA5 (330.0°..331.9°) followed by distance_q2's low byte 0x5A: "A5 5A"
+    tail = [encode_sample(False, 15, (0xA5 << 7) + k, 0x0100 + 0x5A) for k in range(0, 128, 16)]
+    assert all(b"\xa5\x5a" in s for s in tail)
+    return [b"".join(tail[i:i + 2]) for i in range(0, len(tail), 2)]
+
+
+
+@pytest.mark.parametrize("then", ["health", "scan"])
+def test_stop_drains_the_samples_still_in_flight_before_the_next_request(then: str) -> None:
+    """The revolution in flight when STOP went out must not reach the next request's reply."""
+    rev = _sparse_revolution({0: (2000, 10)})
+    health = encode_descriptor(HEALTH_DESCRIPTOR) + bytes([0, 0, 0])
+    port = InFlightPort(
+        {encode_request(Command.SCAN): _scan_reply(rev + rev[:2]), encode_request(Command.GET_HEALTH): health},
+        _tail_with_a_false_sync(),
+    )
+    lidar = RPLidar(port, motor_control="none", timeout=1.0)
+    lidar.read_scan(timeout=1.0)
+    lidar.stop()
+    assert not port.in_flight  # the device had really stopped when stop() returned
+    if then == "health":
+        assert lidar.health() == HealthStatus(0, 0)
+    else:
+        scan = lidar.read_scan(timeout=1.0)
+        np.testing.assert_allclose(scan.points, [[0.5, 0.0]], atol=1e-12)
+
+
 def test_silent_device_times_out_on_queries() -> None:
     lidar = RPLidar(ScriptedPort(), motor_control="none")
     for call in (lambda: lidar.info(timeout=0.3), lambda: lidar.start_scan(timeout=0.3)):
