@@ -31,7 +31,7 @@ from collections import deque
 from dataclasses import asdict, dataclass, field
 from typing import Any, Literal
 
-from formal.geometry import arc_step, wheel_twist, wrap_angle
+from formal.geometry import dead_reckon
 from formal.model import Pose
 from planner.robot import RobotModel
 from runtime.devices._port import OPEN_ERRORS, PORT_ERRORS, open_serial
@@ -179,7 +179,7 @@ class HardwareRobot:
         self._delivered = True
         self.scans = 0
         self._cmd = (0.0, 0.0)
-        self._pose = (0.0, 0.0, 0.0)
+        self._pose = Pose(0.0, 0.0, 0.0)
         self._pose_t = self.clock.now()
         self._sent: tuple[tuple[float, float], tuple[float, float]] | None = None
         self._stop_failed = False
@@ -373,8 +373,7 @@ class HardwareRobot:
             return None
         with self._lock:
             self._dead_reckon(self.clock.now())
-            x, y, th = self._pose
-        return Pose(x, y, wrap_angle(th))
+            return self._pose
 
     def close(self) -> None:
         """Stop the wheels (best effort), end the reader, stop the LiDAR, release the ports."""
@@ -443,12 +442,7 @@ class HardwareRobot:
     def _dead_reckon(self, now: float) -> None:
         dt = now - self._pose_t
         self._pose_t = now
-        vl, vr = self._cmd
-        if dt <= 0 or (vl == 0.0 and vr == 0.0):
-            return
-        x, y, th = self._pose
-        v, w = wheel_twist(vl, vr, self.model.wheel_base)
-        self._pose = arc_step(x, y, th, v, w, dt)
+        self._pose = dead_reckon(self._pose, *self._cmd, self.model.wheel_base, dt)
 
     def _log_motor(self, cmd: tuple[float, float], sent: tuple[float, float], reason: str | None = None) -> None:
         if self._log_sink is None or ((cmd, sent) == self._sent and reason != "fault"):

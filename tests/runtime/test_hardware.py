@@ -10,10 +10,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from formal.geometry import dead_reckon
 from formal.model import Pose
 from runtime.devices.emulators import LidarEmulator, MaestroEmulator
 from runtime.robots.hardware import HardwareConfig, HardwareRobot
 from runtime.robot import Robot, RobotFault
+from runtime.clock import ManualClock
 from runtime.records.runlog import RunLog
 
 NEUTRAL = 6000  # 1500 µs in quarter-µs
@@ -69,22 +71,41 @@ def test_speeds_in_metres_per_second_map_to_normalised_servo_speeds(devices) -> 
 
 def test_dead_reckoning_follows_the_commands_and_can_be_disabled(devices) -> None:
     lidar, maestro = devices
-    with open_robot(lidar, maestro) as robot:
+    clock = ManualClock()  # the robot's time under the test's control: no wall-time luck
+    with HardwareRobot(lidar.port, maestro.port, HardwareConfig(), clock=clock) as robot:
         assert robot.odometry() == Pose(0.0, 0.0, 0.0)
         robot.set_wheel_speeds(0.1, 0.1)
-        t0 = time.monotonic()
-        time.sleep(0.25)
+        clock.advance(0.25)
         robot.set_wheel_speeds(0.1, 0.1)  # the supervisor repeats its command every tick
-        time.sleep(0.25)
+        clock.advance(0.25)
         robot.stop()
-        elapsed = time.monotonic() - t0
         pose = robot.odometry()
-        assert pose.x == pytest.approx(0.1 * elapsed, abs=0.01)
-        assert pose.y == pytest.approx(0.0) and pose.theta == pytest.approx(0.0)
-        time.sleep(0.1)
-        assert robot.odometry().x == pytest.approx(pose.x)  # stopped: the pose stays
+        assert pose.x == pytest.approx(0.05, abs=1e-12)
+        assert pose.y == 0.0 and pose.theta == 0.0
+        clock.advance(1.0)
+        assert robot.odometry() == pose  # stopped: the pose stays
     with open_robot(lidar, maestro, odometry=False) as robot:
         assert robot.odometry() is None
+
+
+def test_dead_reckoning_is_the_shared_geometry_step_bit_for_bit(devices) -> None:
+    """The hardware robot believes what the supervisor's dead reckoning would compute from the
+    same commands (formal.geometry.dead_reckon), through turns past ±180° included."""
+    lidar, maestro = devices
+    clock = ManualClock()
+    rng = np.random.default_rng(3)  # 200 commands, mostly turning: the heading winds round many times
+    commands = [((float(a), float(b)), float(dt)) for a, b, dt in
+                zip(rng.uniform(-0.2, 0.1, 200), rng.uniform(-0.1, 0.2, 200), rng.uniform(0.05, 0.5, 200))]
+    expected = Pose(0.0, 0.0, 0.0)
+    with HardwareRobot(lidar.port, maestro.port, HardwareConfig(), clock=clock) as robot:
+        for (left, right), dt in commands:
+            robot.set_wheel_speeds(left, right)
+            t = clock.now()
+            clock.advance(dt)
+            expected = dead_reckon(expected, left, right, robot.model.wheel_base, clock.now() - t)
+            assert robot.odometry() == expected
+        robot.stop()
+    assert abs(expected.theta) <= math.pi and expected != Pose(0.0, 0.0, 0.0)
 
 
 def test_dry_run_holds_the_wheels_stopped_but_reads_and_reckons(devices, tmp_path: Path) -> None:
