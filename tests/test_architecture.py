@@ -8,6 +8,11 @@ Rules (each test names one; the README's layout table states them for people):
 - the robot backends (``runtime/robots/``) and the devices never import the supervision room;
 - supervision, records, ``runtime/robot.py`` and ``runtime/clock.py`` import none of the rooms
   above them (robots, experiment, cli; supervision not the devices either);
+- the experiment room (``runtime/experiment/``) runs on simulated robots only: it imports
+  neither the cli, nor the devices, nor the hardware backends (hardware, emulated), nor pyserial;
+- the cli (``runtime/cli/``) is the top room: nothing outside it imports it;
+- estimation imports none of the rooms that use it (supervision, robots, experiment, cli);
+- a room's private modules (``_name.py``) are imported only inside that room;
 - ``runtime/`` has at most 10 modules at its top level and no module in planner, formal or
   runtime has more than 600 lines;
 - one geometry: only ``formal/geometry.py`` defines pose integration, frame composition
@@ -100,6 +105,56 @@ def test_supervision_and_records_stay_below_robots_experiment_and_cli() -> None:
     assert _violations(_modules("runtime/records"), ("runtime.robots", "runtime.supervision", "runtime.experiment", "runtime.cli")) == []
     assert _violations([REPO / "runtime" / "robot.py", REPO / "runtime" / "clock.py"], ("runtime.robots", "runtime.supervision",
                                                                                      "runtime.experiment", "runtime.cli")) == []
+
+
+def test_experiment_runs_on_simulated_robots_only() -> None:
+    experiment = _modules("runtime/experiment")
+    assert len(experiment) >= 5, "no experiment modules found"
+    assert _violations(experiment, ("runtime.cli", "runtime.devices", "runtime.robots.hardware",
+                                    "runtime.robots.emulated", "serial")) == []
+
+
+def test_only_the_cli_imports_the_cli() -> None:
+    cli = REPO / "runtime" / "cli"
+    below = [p for p in _modules(*PACKAGES) if not p.is_relative_to(cli)]
+    assert len(below) >= 50 and _modules("runtime/cli")
+    assert _violations(below, ("runtime.cli",)) == []
+
+
+def test_estimation_stays_below_its_users() -> None:
+    assert _violations(_modules("runtime/estimation"), ("runtime.supervision", "runtime.robots",
+                                                        "runtime.experiment", "runtime.cli")) == []
+
+
+def _private_crossings(module: Path, imported: set[str]) -> list[str]:
+    """Which of ``imported`` are private modules (``_name``) of a room ``module`` is not in."""
+    room = module.parts[:-1]
+    found = []
+    for name in sorted(imported):
+        parts = name.split(".")
+        for i, part in enumerate(parts[1:], 1):
+            if part.startswith("_") and not part.startswith("__"):
+                target = REPO.joinpath(*parts[: i + 1])
+                if room[:i] != tuple(parts[:i]) and (target.with_suffix(".py").exists() or target.is_dir()):
+                    found.append(f"{module} imports {name}")
+                break
+    return found
+
+
+def test_private_modules_stay_in_their_room() -> None:
+    found = [f for p in _modules(*PACKAGES) for f in _private_crossings(p.relative_to(REPO), _imports(p))]
+    assert found == []
+
+
+def test_the_private_module_rule_catches_a_crossing() -> None:
+    # the robots room reaching into the cli's private plumbing, and the cli into robots' own
+    assert _private_crossings(Path("runtime/robots/hardware.py"), {"runtime.cli._signals", "runtime.cli._signals.x"}) == [
+        "runtime/robots/hardware.py imports runtime.cli._signals",
+        "runtime/robots/hardware.py imports runtime.cli._signals.x",
+    ]
+    assert _private_crossings(Path("runtime/cli/run.py"), {"runtime.robots._simulated"}) != []
+    # inside the room, and a private *name* of a public module, are fine
+    assert _private_crossings(Path("runtime/cli/run.py"), {"runtime.cli._signals", "runtime.experiment.world._TracedSimRobot"}) == []
 
 
 def test_runtime_top_level_is_small_and_no_module_is_too_long() -> None:

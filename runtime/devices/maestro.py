@@ -19,9 +19,9 @@ import time
 from collections.abc import Callable
 from typing import Any
 
-from runtime.devices._port import OPEN_ERRORS as _OPEN_ERRORS
-from runtime.devices._port import PORT_ERRORS as _PORT_ERRORS
-from runtime.devices._port import open_serial
+from runtime.devices.port import OPEN_ERRORS as _OPEN_ERRORS
+from runtime.devices.port import PORT_ERRORS as _PORT_ERRORS
+from runtime.devices.port import open_serial
 from runtime.devices.maestro_codec import (
     decode_errors,
     DEFAULT_DEVICE_NUMBER,

@@ -17,9 +17,9 @@ from collections.abc import Callable, Iterator
 from typing import Any, Literal
 
 
-from runtime.devices._port import OPEN_ERRORS as _OPEN_ERRORS
-from runtime.devices._port import PORT_ERRORS as _PORT_ERRORS
-from runtime.devices._port import open_serial
+from runtime.devices.port import OPEN_ERRORS as _OPEN_ERRORS
+from runtime.devices.port import PORT_ERRORS as _PORT_ERRORS
+from runtime.devices.port import open_serial
 from runtime.devices.frame import ScanFrame
 from runtime.devices.rplidar_codec import (
     Command,

@@ -34,7 +34,7 @@ from typing import Any, Literal
 from formal.geometry import dead_reckon
 from formal.model import Pose
 from planner.robot import RobotModel
-from runtime.devices._port import OPEN_ERRORS, PORT_ERRORS, open_serial
+from runtime.devices.port import OPEN_ERRORS, PORT_ERRORS, open_serial
 from runtime.devices.maestro import Maestro, MaestroError, WheelConfig
 from runtime.devices.rplidar import DEFAULT_BAUDRATE, LidarError, LidarTimeout, RPLidar
 from runtime.clock import Clock, WallClock

@@ -1,9 +1,15 @@
-"""Serial-port plumbing shared by the device drivers.
+"""Serial ports for the device drivers and their users: opening one, and what its failure raises.
 
 A port is named by a device path (``/dev/ttyUSB0``), a pyserial URL (``loop://``,
 ``socket://…``, ``spy://…``) or a pseudo-terminal's path; :func:`open_serial` opens any
 of them. :data:`PORT_ERRORS` are the exceptions a port can raise when the device is
 unplugged or the pty's other side closes (``termios.error`` is not an ``OSError``).
+The robot backends catch the same errors, so this module is public.
+
+>>> port = open_serial("loop://", 115200, 0.01)
+>>> port.write(b"A5"), port.read(2)
+(2, b'A5')
+>>> port.close()
 """
 
 from __future__ import annotations
