@@ -299,7 +299,7 @@ def add_emulate_world(devices: Any) -> None:
 
 def _run_world(args: argparse.Namespace) -> int:
     from planner.scenarios import ScenarioError
-    from runtime.robots.emulated import EmulatedWorld
+    from runtime.robots.emulated import EmulatedWorld, favour_this_process
 
     if args.serial_timeout is not None and not (math.isfinite(args.serial_timeout) and args.serial_timeout > 0):
         raise CliError(f"--serial-timeout must be a positive number of seconds, got {args.serial_timeout}")
@@ -311,6 +311,7 @@ def _run_world(args: argparse.Namespace) -> int:
                               serial_timeout=args.serial_timeout)
     except (OSError, ScenarioError, ValueError) as exc:
         raise CliError(f"cannot load scenario {args.scenario!r}: {exc}") from None
+    favour_this_process()  # before the world's threads start: they inherit it
     try:
         world.start()
     except OSError as exc:

@@ -19,6 +19,7 @@ import math
 import os
 import threading
 import time
+from collections.abc import Callable
 from typing import Any, Self
 
 import numpy as np
@@ -32,7 +33,7 @@ from runtime.devices.maestro import WheelConfig
 from runtime.robots.sim import NoiseConfig, SimRobot
 from runtime.robots.world import WorldNoise, WorldRobot, make_world_robot
 
-__all__ = ["EmulatedWorld"]
+__all__ = ["EmulatedWorld", "EmulatedWorldProcess", "WORLD_NICENESS", "favour_this_process"]
 
 
 class EmulatedWorld:
@@ -88,6 +89,7 @@ class EmulatedWorld:
         self._lock = threading.Lock()
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
+        self._last: float | None = None  # wall time up to which the world has been advanced
         options = {"speed": self.time_scale, **(lidar_options or {})}
         self.lidar = LidarEmulator(self._scan, **options)
         self.maestro = MaestroEmulator(
@@ -102,15 +104,26 @@ class EmulatedWorld:
 
     # -- wiring -----------------------------------------------------------------------------
     def _on_speeds(self, left: float, right: float) -> None:
-        """Maestro emulator → simulated wheels (normalised speed × max_speed)."""
+        """Maestro emulator → simulated wheels (normalised speed × max_speed), from the moment
+        the command arrived: the world is first brought up to now at the old speeds (else the
+        new speeds would also drive the part of the tick before they arrived)."""
         vmax = self.model.max_speed
         with self._lock:
+            self._catch_up()
             self.sim.set_wheel_speeds(left * vmax, right * vmax)
+
+    def _catch_up(self) -> None:
+        """Advance the world to the wall time now (call with the lock held)."""
+        now = time.monotonic()
+        if self._last is not None and now > self._last:
+            self.sim.sleep((now - self._last) * self.time_scale)
+        self._last = now
 
     def _scan(self) -> np.ndarray:
         """One LiDAR revolution: the world seen from the simulated robot's pose now (1 cm grid);
         in the execution world, its newest revolution as its own LiDAR took it."""
         with self._lock:
+            self._catch_up()  # the world as it is now, not at the last tick
             if isinstance(self.sim, WorldRobot):
                 frame = self.sim.newest_revolution()
                 pts = frame.points if frame is not None else self.sim.scan_now()
@@ -119,13 +132,12 @@ class EmulatedWorld:
         return np.round(pts, 2)
 
     def _run(self) -> None:
-        last = time.monotonic()
+        with self._lock:
+            self._last = time.monotonic()
         try:
             while not self._stop.wait(self.tick):
-                now = time.monotonic()
                 with self._lock:
-                    self.sim.sleep((now - last) * self.time_scale)
-                last = now
+                    self._catch_up()
         except Exception as exc:  # keep it for the caller instead of a thread traceback
             self.error = exc
 
@@ -191,3 +203,203 @@ class EmulatedWorld:
         """Simulated seconds since the start."""
         with self._lock:
             return self.sim.now()
+
+
+# ------------------------------------------------------------------ in a process of its own
+
+#: the niceness the world's process asks for (lower is more favoured; needs the right to raise priority)
+WORLD_NICENESS = -10
+_METHOD = ("<method>",)
+
+
+def favour_this_process() -> str:
+    """Ask the scheduler to favour this process (before its threads start: they inherit it).
+
+    The emulated devices and the world stand for hardware and physics, which a busy host
+    does not slow down; the controller under test keeps its normal priority. Returns how
+    the process is scheduled, for the record (``"nice -10"``, or ``"normal"`` without the right).
+    ``clomp emulate world`` and :class:`EmulatedWorldProcess` call it; never call it in a
+    process that also runs the controller under test.
+
+    >>> favour_this_process() in ("normal", f"nice {WORLD_NICENESS}")  # doctest: +SKIP
+    True
+    """
+    try:
+        os.setpriority(os.PRIO_PROCESS, 0, WORLD_NICENESS)
+    except (OSError, AttributeError):
+        return "normal"
+    return f"nice {os.getpriority(os.PRIO_PROCESS, 0)}"
+
+
+def _serve_world(conn: Any, scenario: Any, options: dict[str, Any], favour: bool) -> None:
+    """The child process: one EmulatedWorld, answering the parent's requests until told to stop."""
+    scheduling = favour_this_process() if favour else "normal"
+    try:
+        world = EmulatedWorld(scenario, **options).start()
+    except BaseException as exc:  # noqa: BLE001 - reported to the parent, which raises it
+        conn.send(("failed", exc))
+        return
+    conn.send(("ready", world.lidar_port, world.motor_port, scheduling))
+    targets = {"world": world, "lidar": world.lidar, "maestro": world.maestro}
+    try:
+        while True:
+            try:
+                op, target, name, args = conn.recv()
+            except (EOFError, OSError):
+                return  # the parent is gone
+            if op == "stop":
+                return
+            obj = targets[target]
+            try:
+                if op == "get":
+                    value = getattr(obj, name)
+                    reply: Any = _METHOD if callable(value) else value
+                elif op == "set":
+                    setattr(obj, name, args)
+                    reply = None
+                else:  # call
+                    reply = getattr(obj, name)(*args)
+                conn.send(("ok", reply))
+            except Exception as exc:  # noqa: BLE001 - raised again in the parent
+                conn.send(("error", exc))
+    finally:
+        world.stop()
+
+
+class _Remote:
+    """One object of the world process (the world, its LiDAR or its Maestro), seen from the parent:
+    attribute reads and writes and method calls go to the child; ``wait_for`` polls here."""
+
+    def __init__(self, owner: EmulatedWorldProcess, target: str) -> None:
+        object.__setattr__(self, "_owner", owner)
+        object.__setattr__(self, "_target", target)
+
+    def __getattr__(self, name: str) -> Any:
+        if name.startswith("__"):
+            raise AttributeError(name)
+        value = self._owner._request("get", self._target, name)
+        if value == _METHOD:
+            return lambda *args: self._owner._request("call", self._target, name, args)
+        return value
+
+    def __setattr__(self, name: str, value: Any) -> None:
+        self._owner._request("set", self._target, name, value)
+
+    def wait_for(self, predicate: Callable[[Any], bool], timeout: float) -> bool:
+        """Wait until ``predicate(self)`` holds (re-checked every 5 ms); False after ``timeout`` s."""
+        deadline = time.monotonic() + timeout
+        while not predicate(self):
+            if time.monotonic() >= deadline or not self._owner.alive:
+                return bool(predicate(self)) if self._owner.alive else False
+            time.sleep(0.005)
+        return True
+
+
+class EmulatedWorldProcess:
+    """An :class:`EmulatedWorld` in a process of its own, with the same face for tests and tools.
+
+    In one process with the program under test, the world, the LiDAR's byte stream and the
+    Maestro share its interpreter lock and its scheduling: on a busy machine a thread of the
+    program holding the lock while the OS has it waiting stalls the emulated LiDAR for tenths
+    of a second, and the driver rightly reports a LiDAR that fell silent. Here the devices
+    run apart, and the process asks to be favoured by the scheduler (:data:`WORLD_NICENESS`,
+    where allowed; ``scheduling`` says what it got): real devices and physics do not slow
+    down when the host is busy, while the controller keeps its normal priority.
+
+    Takes :class:`EmulatedWorld`'s arguments. ``lidar`` and ``maestro`` forward attribute
+    reads, writes and method calls (``world.lidar.silent = True``, ``world.maestro.vanish()``)
+    to the devices in the child; ``wait_for(predicate, timeout)`` re-checks ``predicate``
+    on them every 5 ms. Starting takes a second or two (a fresh interpreter).
+
+    >>> with EmulatedWorldProcess("open") as world:
+    ...     world.lidar_port.startswith("/dev/"), world.collisions, world.maestro.speeds
+    (True, 0, (0.0, 0.0))
+    """
+
+    def __init__(self, scenario: str | os.PathLike[str] | Scene, *, favour: bool = True,
+                 start_timeout: float = 120.0, **options: Any) -> None:
+        self._scenario = scenario
+        self._options = options
+        self._favour = favour
+        self._start_timeout = start_timeout
+        self._conn: Any = None
+        self._proc: Any = None
+        self._lock = threading.Lock()
+        self.lidar_port = self.motor_port = ""
+        #: how the world's process is scheduled ("nice -10", "normal")
+        self.scheduling = ""
+        self.lidar: Any = _Remote(self, "lidar")
+        self.maestro: Any = _Remote(self, "maestro")
+        self._world = _Remote(self, "world")
+
+    def start(self) -> Self:
+        """Start the child process and wait until both ptys are open; returns self."""
+        import multiprocessing
+
+        if self._proc is not None:
+            raise RuntimeError("the emulated world is already running")
+        ctx = multiprocessing.get_context("spawn")  # no fork of a multi-threaded parent
+        self._conn, child = ctx.Pipe()
+        self._proc = ctx.Process(target=_serve_world, args=(child, self._scenario, self._options, self._favour),
+                                 name="emulated-world", daemon=True)
+        self._proc.start()
+        child.close()
+        if not self._conn.poll(self._start_timeout):
+            self.stop()
+            raise RuntimeError(f"the emulated world's process did not start within {self._start_timeout:g} s")
+        try:
+            msg = self._conn.recv()
+        except EOFError:
+            self.stop()
+            raise RuntimeError(f"the emulated world's process died at start (exit {self._proc.exitcode})") from None
+        if msg[0] == "failed":
+            self.stop()
+            raise msg[1]
+        _, self.lidar_port, self.motor_port, self.scheduling = msg
+        return self
+
+    def _request(self, op: str, target: str, name: str = "", args: Any = ()) -> Any:
+        with self._lock:
+            if self._conn is None:
+                raise RuntimeError("the emulated world is not running")
+            self._conn.send((op, target, name, args))
+            status, value = self._conn.recv()
+        if status == "error":
+            raise value
+        return value
+
+    @property
+    def alive(self) -> bool:
+        """True while the child process runs."""
+        return self._proc is not None and self._proc.is_alive()
+
+    def stop(self) -> None:
+        """Stop the world, close both ptys and end the child (idempotent)."""
+        with self._lock:
+            conn, self._conn = self._conn, None
+        if conn is not None:
+            try:
+                conn.send(("stop", "", "", ()))
+            except (OSError, ValueError):
+                pass
+        if self._proc is not None:
+            self._proc.join(timeout=10.0)
+            if self._proc.is_alive():
+                self._proc.kill()
+                self._proc.join(timeout=5.0)
+        if conn is not None:
+            conn.close()
+
+    def __enter__(self) -> Self:
+        if self._proc is None:
+            self.start()
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.stop()
+
+    def __getattr__(self, name: str) -> Any:
+        # pose, collisions, goal_distance, sim_time, error, scene, ...: read in the child
+        if name.startswith("_"):
+            raise AttributeError(name)
+        return getattr(self._world, name)

@@ -1,6 +1,6 @@
 """``clomp run`` end to end over pseudo-terminals: the device emulators in front of a simulated
-world (runtime.robots.emulated), the real drivers, the hardware robot and the supervisor in a
-subprocess. Fault tests measure, on the Maestro emulator's side, how long after the fault
+world (runtime.robots.emulated, in a process of its own, as real devices would be), the real
+drivers, the hardware robot and the supervisor in a subprocess. Fault tests measure, on the Maestro emulator's side, how long after the fault
 the wheels were commanded to stop."""
 
 from __future__ import annotations
@@ -18,7 +18,7 @@ import pytest
 
 import runtime.cli as cli
 from runtime.devices.emulators import MaestroEmulator
-from runtime.robots.emulated import EmulatedWorld
+from runtime.robots.emulated import EmulatedWorldProcess
 from runtime.records.runlog import read_log
 
 NEUTRAL = 6000
@@ -44,7 +44,7 @@ def run_registered(monkeypatch: pytest.MonkeyPatch) -> None:
 class Run:
     """A ``clomp run`` subprocess against an emulated world; never outlives its test."""
 
-    def __init__(self, world: EmulatedWorld, log: Path, *extra: str, goal: str = "1.0,0.0") -> None:
+    def __init__(self, world: EmulatedWorldProcess, log: Path, *extra: str, goal: str = "1.0,0.0") -> None:
         self.log = log
         argv = clomp("run", "--lidar", world.lidar_port, "--motors", world.motor_port, "--goal", goal,
                      "--log", str(log), *extra)
@@ -70,7 +70,7 @@ class Run:
         return first["monotonic"] - first["t"] + rec["t"]
 
 
-def wait_driving(world: EmulatedWorld, run: Run, timeout: float = 15.0) -> None:
+def wait_driving(world: EmulatedWorldProcess, run: Run, timeout: float = 15.0) -> None:
     ok = world.maestro.wait_for(lambda e: e.speeds != (0.0, 0.0) or run.proc.poll() is not None, timeout)
     if not ok or run.proc.poll() is not None:
         run.finish(5.0)
@@ -105,7 +105,7 @@ def assert_clean_failure(run: Run, rc: int, wheels: str = "wheels stopped") -> N
 
 
 def _overtaking(tmp_path: Path, scale: float) -> None:
-    with EmulatedWorld("overtaking", time_scale=scale) as world:
+    with EmulatedWorldProcess("overtaking", time_scale=scale) as world:
         run = Run(world, tmp_path / "run.jsonl", "--time-scale", f"{scale:g}", "--max-time", "80")
         rc = run.finish(timeout=80 / scale + 15)
         assert rc == 0, run.stderr
@@ -137,7 +137,7 @@ def test_the_hardware_stack_closes_the_loop_in_the_harsh_world(tmp_path: Path) -
     """clomp run over the emulated devices in front of the execution world with every noise
     term x5 and 0.1 s latency: scan feedback corrects the pose, plans are checked once a
     revolution, and the robot truly reaches the goal."""
-    with EmulatedWorld("corridor", noise="harsh", seed=1, time_scale=2.0) as world:
+    with EmulatedWorldProcess("corridor", noise="harsh", seed=1, time_scale=2.0) as world:
         run = Run(world, tmp_path / "run.jsonl", "--time-scale", "2", "--max-time", "90")
         rc = run.finish(timeout=90 / 2 + 15)
         assert rc == 0, run.stderr
@@ -152,7 +152,7 @@ def test_the_hardware_stack_closes_the_loop_in_the_harsh_world(tmp_path: Path) -
 
 def test_a_little_line_garbage_is_tolerated_and_the_run_still_works(tmp_path: Path) -> None:
     faults = {"garbage_rate": 0.02, "bad_check_rate": 0.01, "seed": 7}
-    with EmulatedWorld("open", time_scale=2.0, lidar_options=faults) as world:
+    with EmulatedWorldProcess("open", time_scale=2.0, lidar_options=faults) as world:
         run = Run(world, tmp_path / "run.jsonl", "--time-scale", "2", "--max-time", "30", goal="0.5,0.0")
         assert run.finish(timeout=30) == 0, run.stderr
         p = world.pose
@@ -162,7 +162,7 @@ def test_a_little_line_garbage_is_tolerated_and_the_run_still_works(tmp_path: Pa
 
 
 def test_dry_run_plans_on_real_scans_but_never_moves_the_wheels(tmp_path: Path) -> None:
-    with EmulatedWorld("open") as world:
+    with EmulatedWorldProcess("open") as world:
         run = Run(world, tmp_path / "run.jsonl", "--dry-run", "--max-time", "1.5")
         rc = run.finish(timeout=20)
         assert rc == 0, run.stderr  # a dry run ends at its time limit
@@ -187,7 +187,7 @@ def test_dry_run_plans_on_real_scans_but_never_moves_the_wheels(tmp_path: Path) 
 
 
 def test_ctrl_c_stops_the_wheels_logs_why_and_exits_non_zero(tmp_path: Path) -> None:
-    with EmulatedWorld("open") as world:
+    with EmulatedWorldProcess("open") as world:
         run = Run(world, tmp_path / "run.jsonl")
         wait_driving(world, run)
         t0 = time.monotonic()
@@ -206,7 +206,7 @@ def test_ctrl_c_stops_the_wheels_logs_why_and_exits_non_zero(tmp_path: Path) -> 
     [("garbage", "corrupt"), ("bad_check", "corrupt"), ("silent", "silent")],
 )
 def test_a_broken_lidar_stream_stops_the_wheels_within_300_ms(tmp_path: Path, fault: str, said: str) -> None:
-    with EmulatedWorld("open") as world:
+    with EmulatedWorldProcess("open") as world:
         run = Run(world, tmp_path / "run.jsonl")
         wait_driving(world, run)
         t0 = time.monotonic()
@@ -230,7 +230,7 @@ def test_a_broken_lidar_stream_stops_the_wheels_within_300_ms(tmp_path: Path, fa
 def test_the_motor_controller_vanishing_is_detected_within_a_tick(tmp_path: Path) -> None:
     """Nothing can be sent over a vanished port (the Maestro's own serial timeout must stop the
     servos): what the software owes is to notice at its next command, log why, and exit."""
-    with EmulatedWorld("open") as world:
+    with EmulatedWorldProcess("open") as world:
         run = Run(world, tmp_path / "run.jsonl")
         wait_driving(world, run)
         t0 = time.monotonic()
@@ -258,7 +258,7 @@ def test_an_exception_inside_planning_halts_with_the_wheels_stopped(
 
     monkeypatch.setattr(Configurator, "plan", broken_plan)
     log = tmp_path / "run.jsonl"
-    with EmulatedWorld("open") as world:
+    with EmulatedWorldProcess("open") as world:
         rc = cli.main(["run", "--lidar", world.lidar_port, "--motors", world.motor_port, "--goal", "1.0,0.0",
                        "--log", str(log), "--max-time", "10"])
         latency = stop_latency(world.maestro, raised[0])
@@ -275,7 +275,7 @@ def test_after_sigkill_only_the_maestros_own_serial_timeout_stops_the_wheels(
 ) -> None:
     """SIGKILL leaves no handler to run: a new board (timeout off) keeps the wheels turning;
     with the board's serial timeout set, the Maestro itself sends them home."""
-    with EmulatedWorld("open", serial_timeout=serial_timeout) as world:
+    with EmulatedWorldProcess("open", serial_timeout=serial_timeout) as world:
         run = Run(world, tmp_path / "run.jsonl")
         wait_driving(world, run)
         run.proc.kill()
@@ -311,7 +311,7 @@ def test_a_signal_landing_inside_a_supervisor_step_keeps_its_name(
 
     monkeypatch.setattr(Configurator, "plan", plan_then_ctrl_c)
     log = tmp_path / "run.jsonl"
-    with EmulatedWorld("open") as world:
+    with EmulatedWorldProcess("open") as world:
         rc = cli.main(["run", "--lidar", world.lidar_port, "--motors", world.motor_port, "--goal", "1.0,0.0",
                        "--log", str(log), "--max-time", "10"])
         assert world.maestro.wait_for(lambda e: e.speeds == (0.0, 0.0), 10.0)
