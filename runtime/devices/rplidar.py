@@ -331,14 +331,19 @@ class RPLidar:
         self._reset_input()
 
     def _pump(self, deadline: float, timeout: float) -> None:
-        if time.monotonic() >= deadline:
+        # what is waiting is read even past the deadline: a reader that was kept from running
+        # (a busy computer) must not call a device silent whose bytes are already here
+        late = time.monotonic() >= deadline
+        waiting = self._waiting()
+        if waiting or not late:
+            self._feed(self._read_some(max(1, waiting)))
+        if late and not self._pending:
             d = self._decoder
             raise LidarTimeout(
                 f"no full revolution from the LiDAR on {self.port_name} within "
                 f"{timeout:.2f} s ({d.samples} samples decoded, {d.dropped_bytes} bytes "
                 f"dropped, {d.rejected_revolutions} implausible revolutions rejected so far)"
             )
-        self._feed(self._read_some(max(1, self._waiting())))
 
     def _feed(self, data: bytes) -> None:
         if not data:

@@ -486,6 +486,24 @@ def test_silent_device_times_out_on_queries() -> None:
         assert 0.3 <= time.monotonic() - t0 < 0.5
 
 
+def test_a_reader_kept_from_running_past_its_deadline_still_reads_what_is_waiting(monkeypatch: pytest.MonkeyPatch) -> None:
+    """On a busy computer the reading thread may run again only after its deadline: the
+    revolution already waiting in the port is returned, not a timeout (the stream watch would
+    call a streaming LiDAR silent). Time jumps 1 s at every look at the clock: always late."""
+    import runtime.devices.rplidar as driver
+
+    rev = _revolution()
+    port = ScriptedPort({encode_request(Command.SCAN): _scan_reply(rev + rev[:2])})
+    lidar = RPLidar(port, motor_control="none")
+    lidar.start_scan()
+    clock = iter(range(1000, 10**6))
+    monkeypatch.setattr(driver.time, "monotonic", lambda: float(next(clock)))
+    frame = lidar.read_scan(timeout=0.05)
+    assert len(frame.points) == 360
+    with pytest.raises(LidarTimeout, match="no full revolution"):  # and once nothing is waiting: late is late
+        lidar.read_scan(timeout=0.05)
+
+
 def test_device_silent_after_the_descriptor_times_out_on_read_scan() -> None:
     port = ScriptedPort({encode_request(Command.SCAN): _scan_reply(_revolution()[:200])})
     lidar = RPLidar(port, motor_control="none")
