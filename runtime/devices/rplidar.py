@@ -114,6 +114,9 @@ class RPLidar:
     cannot set DTR, such as a pseudo-terminal, is tolerated), ``"none"``, or a
     callable ``motor(on: bool)``. Scans come back in the robot frame (x forward,
     y left, metres) without zero distances and cropped to ``max_range`` metres.
+    ``clock`` is the time of the driver's deadlines and of the scans' timestamps
+    (``time.monotonic`` unless a test passes its own); waiting for the line to fall quiet
+    after STOP is always on wall time.
     """
 
     def __init__(
@@ -124,6 +127,7 @@ class RPLidar:
         timeout: float = 1.0,
         motor_control: MotorControl = "dtr",
         max_range: float | None = 1.1,
+        clock: Callable[[], float] | None = None,
     ) -> None:
         if timeout <= 0:
             raise ValueError("timeout must be positive")
@@ -131,6 +135,7 @@ class RPLidar:
             raise ValueError(f"motor_control must be 'dtr', 'none' or a callable, got {motor_control!r}")
         self.baudrate = baudrate
         self.timeout = timeout
+        self.clock: Callable[[], float] = clock or time.monotonic
         self.max_range = max_range
         self._motor_control = motor_control
         self._dtr_supported = True
@@ -215,12 +220,15 @@ class RPLidar:
     def _read_exact(self, n: int, deadline: float, what: str) -> bytes:
         buf = bytearray()
         while len(buf) < n:
-            if time.monotonic() >= deadline:
-                raise LidarTimeout(
-                    f"LiDAR on {self.port_name} sent {len(buf)} of {n} bytes of {what} "
-                    f"before the timeout (is it powered and connected?)"
-                )
-            buf += self._read_some(n - len(buf))
+            want = n - len(buf)
+            if self.clock() >= deadline:  # late: only what is already here still counts
+                want = min(want, self._waiting())
+                if not want:
+                    raise LidarTimeout(
+                        f"LiDAR on {self.port_name} sent {len(buf)} of {n} bytes of {what} "
+                        f"before the timeout (is it powered and connected?)"
+                    )
+            buf += self._read_some(want)
         return bytes(buf)
 
     def _set_motor(self, on: bool) -> None:
@@ -262,7 +270,7 @@ class RPLidar:
     def _query(self, cmd: Command, expected: Descriptor, timeout: float | None) -> bytes:
         if self._scanning:
             raise LidarError(f"cannot send {cmd.name} while scanning; call stop() first")
-        deadline = time.monotonic() + (self.timeout if timeout is None else timeout)
+        deadline = self.clock() + (self.timeout if timeout is None else timeout)
         self._reset_input()
         self._request(cmd)
         self._read_descriptor(expected, deadline, cmd.name)
@@ -290,7 +298,7 @@ class RPLidar:
         """Start the motor and the SCAN (or FORCE_SCAN) stream; no-op if already scanning."""
         if self._scanning:
             return
-        deadline = time.monotonic() + (self.timeout if timeout is None else timeout)
+        deadline = self.clock() + (self.timeout if timeout is None else timeout)
         self._set_motor(True)
         self._reset_input()
         self._request(Command.FORCE_SCAN if force else Command.SCAN)
@@ -333,7 +341,7 @@ class RPLidar:
     def _pump(self, deadline: float, timeout: float) -> None:
         # what is waiting is read even past the deadline: a reader that was kept from running
         # (a busy computer) must not call a device silent whose bytes are already here
-        late = time.monotonic() >= deadline
+        late = self.clock() >= deadline
         waiting = self._waiting()
         if waiting or not late:
             self._feed(self._read_some(max(1, waiting)))
@@ -348,7 +356,7 @@ class RPLidar:
     def _feed(self, data: bytes) -> None:
         if not data:
             return
-        now = time.monotonic()
+        now = self.clock()
         for rev in self._decoder.feed(data):
             points, quality = rev.to_points(self.max_range)
             self._pending.append(ScanFrame(points=points, timestamp=now, quality=quality))
@@ -363,7 +371,7 @@ class RPLidar:
         if not self._scanning:
             self.start_scan(timeout=timeout)
         t = self.timeout if timeout is None else timeout
-        deadline = time.monotonic() + t
+        deadline = self.clock() + t
         while not self._pending:
             self._pump(deadline, t)
         if newest:
@@ -384,17 +392,17 @@ class RPLidar:
         """Reopen the port (retrying until ``timeout``) and resume scanning if it was on."""
         was_scanning = self._scanning
         self._scanning = False
-        deadline = time.monotonic() + timeout
+        deadline = self.clock() + timeout
         last: BaseException | None = None
         while True:
             try:
                 self._reopen()
                 if was_scanning:
-                    self.start_scan(timeout=max(0.1, deadline - time.monotonic()))
+                    self.start_scan(timeout=max(0.1, deadline - self.clock()))
                 return
             except LidarError as exc:
                 last = exc
-            if time.monotonic() >= deadline:
+            if self.clock() >= deadline:
                 raise LidarPortError(
                     f"could not reconnect to the LiDAR on {self.port_name} within "
                     f"{timeout:.1f} s: {last}"

@@ -12,6 +12,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
+from runtime.clock import ManualClock
 from runtime.devices.rplidar import (
     HEALTH_DESCRIPTOR,
     INFO_DESCRIPTOR,
@@ -477,27 +478,41 @@ def test_stop_drains_the_samples_still_in_flight_before_the_next_request(then: s
         np.testing.assert_allclose(scan.points, [[0.5, 0.0]], atol=1e-12)
 
 
+class ClockedPort(ScriptedPort):
+    """A scripted port on the test's clock: a read that finds nothing lets its timeout pass on
+    that clock instead of sleeping, so how late a timeout comes is exact, whatever the load."""
+
+    def __init__(self, replies: dict[bytes, bytes] | None = None) -> None:
+        super().__init__(replies)
+        self.clock = ManualClock(100.0)
+
+    def read(self, n: int = 1) -> bytes:
+        if not self.rx:
+            self.clock.advance(self.timeout or 0.0)
+            return b""
+        return super().read(n)
+
+
 def test_silent_device_times_out_on_queries() -> None:
-    lidar = RPLidar(ScriptedPort(), motor_control="none")
+    port = ClockedPort()
+    lidar = RPLidar(port, motor_control="none", clock=port.clock.now)
     for call in (lambda: lidar.info(timeout=0.3), lambda: lidar.start_scan(timeout=0.3)):
-        t0 = time.monotonic()
+        t0 = port.clock.now()
         with pytest.raises(LidarTimeout):
             call()
-        assert 0.3 <= time.monotonic() - t0 < 0.5
+        # not before the timeout, and late by at most one read of the port
+        assert 0.3 <= port.clock.now() - t0 <= 0.3 + port.timeout + 1e-9
 
 
-def test_a_reader_kept_from_running_past_its_deadline_still_reads_what_is_waiting(monkeypatch: pytest.MonkeyPatch) -> None:
+def test_a_reader_kept_from_running_past_its_deadline_still_reads_what_is_waiting() -> None:
     """On a busy computer the reading thread may run again only after its deadline: the
     revolution already waiting in the port is returned, not a timeout (the stream watch would
     call a streaming LiDAR silent). Time jumps 1 s at every look at the clock: always late."""
-    import runtime.devices.rplidar as driver
-
     rev = _revolution()
     port = ScriptedPort({encode_request(Command.SCAN): _scan_reply(rev + rev[:2])})
-    lidar = RPLidar(port, motor_control="none")
+    ticks = iter(range(1000, 10**6))
+    lidar = RPLidar(port, motor_control="none", clock=lambda: float(next(ticks)))
     lidar.start_scan()
-    clock = iter(range(1000, 10**6))
-    monkeypatch.setattr(driver.time, "monotonic", lambda: float(next(clock)))
     frame = lidar.read_scan(timeout=0.05)
     assert len(frame.points) == 360
     with pytest.raises(LidarTimeout, match="no full revolution"):  # and once nothing is waiting: late is late
@@ -505,13 +520,13 @@ def test_a_reader_kept_from_running_past_its_deadline_still_reads_what_is_waitin
 
 
 def test_device_silent_after_the_descriptor_times_out_on_read_scan() -> None:
-    port = ScriptedPort({encode_request(Command.SCAN): _scan_reply(_revolution()[:200])})
-    lidar = RPLidar(port, motor_control="none")
+    port = ClockedPort({encode_request(Command.SCAN): _scan_reply(_revolution()[:200])})
+    lidar = RPLidar(port, motor_control="none", clock=port.clock.now)
     lidar.start_scan()
-    t0 = time.monotonic()
+    t0 = port.clock.now()
     with pytest.raises(LidarTimeout, match="no full revolution"):
         lidar.read_scan(timeout=0.3)
-    assert 0.3 <= time.monotonic() - t0 < 0.5
+    assert 0.3 <= port.clock.now() - t0 <= 0.3 + port.timeout + 1e-9
 
 
 def test_silent_pty_times_out() -> None:
