@@ -155,7 +155,15 @@ def _wheels(robot: Any) -> str:
 
 
 def run(args: argparse.Namespace) -> int:
-    """Execute ``clomp run``."""
+    """Execute ``clomp run``, its threads favoured by the scheduler where allowed
+    (:mod:`runtime.realtime`: the stream watch and the control loop are real-time)."""
+    from runtime.realtime import favoured
+
+    with favoured() as scheduling:
+        return _run(args, scheduling)
+
+
+def _run(args: argparse.Namespace, scheduling: str) -> int:
     from runtime.robots.hardware import HardwareRobot
     from runtime.clock import ScaledClock, WallClock
     from runtime.robot import RobotFault
@@ -176,7 +184,7 @@ def run(args: argparse.Namespace) -> int:
     clock = WallClock() if args.time_scale == 1.0 else ScaledClock(args.time_scale)
     log.write("run", argv=sys.argv[1:], lidar=args.lidar, motors=args.motors, dry_run=args.dry_run,
               goal=list(goal), max_time=args.max_time, time_scale=args.time_scale,
-              config=config.to_dict(), monotonic=time.monotonic(), wall=time.time())
+              config=config.to_dict(), monotonic=time.monotonic(), wall=time.time(), scheduling=scheduling)
     robot = sup = None
     try:
         with interrupts_raise() as signalled:
@@ -299,7 +307,8 @@ def add_emulate_world(devices: Any) -> None:
 
 def _run_world(args: argparse.Namespace) -> int:
     from planner.scenarios import ScenarioError
-    from runtime.robots.emulated import EmulatedWorld, favour_this_process
+    from runtime.realtime import favour_this_thread
+    from runtime.robots.emulated import EmulatedWorld
 
     if args.serial_timeout is not None and not (math.isfinite(args.serial_timeout) and args.serial_timeout > 0):
         raise CliError(f"--serial-timeout must be a positive number of seconds, got {args.serial_timeout}")
@@ -311,7 +320,7 @@ def _run_world(args: argparse.Namespace) -> int:
                               serial_timeout=args.serial_timeout)
     except (OSError, ScenarioError, ValueError) as exc:
         raise CliError(f"cannot load scenario {args.scenario!r}: {exc}") from None
-    favour_this_process()  # before the world's threads start: they inherit it
+    favour_this_thread()  # before the world's threads start: they inherit it
     try:
         world.start()
     except OSError as exc:

@@ -31,9 +31,10 @@ from runtime.devices.maestro_emulator import MaestroEmulator
 from runtime.devices.rplidar_emulator import LidarEmulator
 from runtime.devices.maestro import WheelConfig
 from runtime.robots.sim import NoiseConfig, SimRobot
+from runtime.realtime import favour_this_thread
 from runtime.robots.world import WorldNoise, WorldRobot, make_world_robot
 
-__all__ = ["EmulatedWorld", "EmulatedWorldProcess", "WORLD_NICENESS", "favour_this_process"]
+__all__ = ["EmulatedWorld", "EmulatedWorldProcess"]
 
 
 class EmulatedWorld:
@@ -207,33 +208,13 @@ class EmulatedWorld:
 
 # ------------------------------------------------------------------ in a process of its own
 
-#: the niceness the world's process asks for (lower is more favoured; needs the right to raise priority)
-WORLD_NICENESS = -10
-_METHOD = ("<method>",)
-
-
-def favour_this_process() -> str:
-    """Ask the scheduler to favour this process (before its threads start: they inherit it).
-
-    The emulated devices and the world stand for hardware and physics, which a busy host
-    does not slow down; the controller under test keeps its normal priority. Returns how
-    the process is scheduled, for the record (``"nice -10"``, or ``"normal"`` without the right).
-    ``clomp emulate world`` and :class:`EmulatedWorldProcess` call it; never call it in a
-    process that also runs the controller under test.
-
-    >>> favour_this_process() in ("normal", f"nice {WORLD_NICENESS}")  # doctest: +SKIP
-    True
-    """
-    try:
-        os.setpriority(os.PRIO_PROCESS, 0, WORLD_NICENESS)
-    except (OSError, AttributeError):
-        return "normal"
-    return f"nice {os.getpriority(os.PRIO_PROCESS, 0)}"
+_METHOD = ("<method>",)  # what the child answers for an attribute that is a method
 
 
 def _serve_world(conn: Any, scenario: Any, options: dict[str, Any], favour: bool) -> None:
     """The child process: one EmulatedWorld, answering the parent's requests until told to stop."""
-    scheduling = favour_this_process() if favour else "normal"
+    # before the world's threads start: they inherit it
+    scheduling = favour_this_thread() if favour else "normal"
     try:
         world = EmulatedWorld(scenario, **options).start()
     except BaseException as exc:  # noqa: BLE001 - reported to the parent, which raises it
@@ -302,9 +283,9 @@ class EmulatedWorldProcess:
     Maestro share its interpreter lock and its scheduling: on a busy machine a thread of the
     program holding the lock while the OS has it waiting stalls the emulated LiDAR for tenths
     of a second, and the driver rightly reports a LiDAR that fell silent. Here the devices
-    run apart, and the process asks to be favoured by the scheduler (:data:`WORLD_NICENESS`,
-    where allowed; ``scheduling`` says what it got): real devices and physics do not slow
-    down when the host is busy, while the controller keeps its normal priority.
+    run apart, and the process asks to be favoured by the scheduler
+    (:mod:`runtime.realtime`, where allowed; ``scheduling`` says what it got): real devices
+    and physics do not slow down when the host is busy.
 
     Takes :class:`EmulatedWorld`'s arguments. ``lidar`` and ``maestro`` forward attribute
     reads, writes and method calls (``world.lidar.silent = True``, ``world.maestro.vanish()``)

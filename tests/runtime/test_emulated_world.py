@@ -8,7 +8,8 @@ import time
 
 import pytest
 
-from runtime.robots.emulated import WORLD_NICENESS, EmulatedWorld, EmulatedWorldProcess
+from runtime.realtime import NICENESS
+from runtime.robots.emulated import EmulatedWorld, EmulatedWorldProcess
 from runtime.robots.sim import NoiseConfig
 
 
@@ -40,9 +41,9 @@ def test_the_world_in_its_own_process_answers_like_the_one_in_this_process() -> 
         with pytest.raises(AttributeError):
             getattr(world.lidar, "no_such_attribute")  # noqa: B009 - the read is the test
         if os.geteuid() == 0:  # may raise its priority: it did
-            assert world.scheduling == f"nice {WORLD_NICENESS}"
+            assert world.scheduling == f"nice {NICENESS}"
         else:
-            assert world.scheduling in ("normal", f"nice {WORLD_NICENESS}")
+            assert world.scheduling in ("normal", f"nice {NICENESS}")
     assert not world.alive
     world.stop()  # idempotent
 
