@@ -320,7 +320,7 @@ def _run_world(args: argparse.Namespace) -> int:
                               serial_timeout=args.serial_timeout)
     except (OSError, ScenarioError, ValueError) as exc:
         raise CliError(f"cannot load scenario {args.scenario!r}: {exc}") from None
-    favour_this_thread()  # before the world's threads start: they inherit it
+    favour_this_thread(realtime=True)  # before the world's threads start: they inherit it
     try:
         world.start()
     except OSError as exc:

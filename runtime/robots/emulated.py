@@ -214,7 +214,7 @@ _METHOD = ("<method>",)  # what the child answers for an attribute that is a met
 def _serve_world(conn: Any, scenario: Any, options: dict[str, Any], favour: bool) -> None:
     """The child process: one EmulatedWorld, answering the parent's requests until told to stop."""
     # before the world's threads start: they inherit it
-    scheduling = favour_this_thread() if favour else "normal"
+    scheduling = favour_this_thread(realtime=True) if favour else "normal"
     try:
         world = EmulatedWorld(scenario, **options).start()
     except BaseException as exc:  # noqa: BLE001 - reported to the parent, which raises it
@@ -307,7 +307,7 @@ class EmulatedWorldProcess:
         self._proc: Any = None
         self._lock = threading.Lock()
         self.lidar_port = self.motor_port = ""
-        #: how the world's process is scheduled ("nice -10", "normal")
+        #: how the world's process is scheduled ("realtime", "nice -10", "normal")
         self.scheduling = ""
         self.lidar: Any = _Remote(self, "lidar")
         self.maestro: Any = _Remote(self, "maestro")

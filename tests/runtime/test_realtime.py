@@ -61,3 +61,24 @@ def test_without_the_right_nothing_changes_and_it_says_so() -> None:
     before = _nice()
     with favoured() as how:
         assert how == "normal" and _nice() == before
+
+
+@linux_root
+def test_the_real_time_class_is_asked_for_only_when_told_and_is_inherited() -> None:
+    seen: list[tuple[str, int, int]] = []
+
+    def thread() -> None:
+        how = favour_this_thread(realtime=True)
+        child: list[int] = []
+        t = threading.Thread(target=lambda: child.append(os.sched_getscheduler(0)))
+        t.start()
+        t.join()
+        seen.append((how, os.sched_getscheduler(0), child[0]))
+
+    t = threading.Thread(target=thread)  # a thread of its own: the class stays with it, and it ends
+    t.start()
+    t.join()
+    assert seen == [("realtime", os.SCHED_RR, os.SCHED_RR)]
+    assert os.sched_getscheduler(0) == os.SCHED_OTHER  # this thread was not touched
+    with favoured() as how:
+        assert how == f"nice {NICENESS}" and os.sched_getscheduler(0) == os.SCHED_OTHER
