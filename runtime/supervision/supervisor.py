@@ -39,6 +39,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import time
 from collections import deque
 from typing import Any
 
@@ -558,10 +559,11 @@ class Supervisor:
             return None
         model = self.model
         states = [self._record.state] + [q for q, _ in self._queue]
+        t0 = time.perf_counter()  # the check's time includes perceiving the scan, as a fresh plan's does
         obstacles = perceive_near(self._clean_scan, states, self._plan.origin, self._scan_pose, model)
         verdict = check_plan(states, self._plan.origin, self._scan_pose, self.goal, obstacles, model,
                              tolerance=self.end_tolerance, running=True)
-        rec = TimedRecord(self._now(), verdict.duration_s, verdict.ok, verdict.reason)
+        rec = TimedRecord(self._now(), time.perf_counter() - t0, verdict.ok, verdict.reason)
         self.checks.append(rec)
         self._log("check", ok=rec.ok, duration_s=rec.duration_s, reason=rec.reason)
         return rec
@@ -572,9 +574,11 @@ class Supervisor:
         if last is None or self._recalls_in_a_row >= self.max_recalls:  # recalls leading nowhere
             self.recalls.append(TimedRecord(now - (self._t0 or 0.0), 0.0, False, "skipped: explore anew"))
             return False
+        t0 = time.perf_counter()  # like a fresh plan's time, a recall's includes perceiving the scan
         obstacles = perceive_scan(scan, self.model)
-        found, why, took = recall(last.result, last.origin, self.pose, self.goal, obstacles, self.model,
-                                  check_tolerance=self.end_tolerance)
+        found, why, _ = recall(last.result, last.origin, self.pose, self.goal, obstacles, self.model,
+                               check_tolerance=self.end_tolerance)
+        took = time.perf_counter() - t0
         self.recalls.append(TimedRecord(now - (self._t0 or 0.0), took, found is not None, why))
         self._log("recall", ok=found is not None, duration_s=took, reason=why)
         if found is None:
