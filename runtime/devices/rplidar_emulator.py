@@ -175,6 +175,29 @@ class LidarEmulator(PtyEmulator):
         self._rev_index = 0
         self._busy_until: float | None = None
 
+    # -- faults
+
+    _FAULTS = ("silent", "garbage_rate", "bad_check_rate")
+
+    def inject(self, **faults: float | bool) -> float:
+        """Switch faults on or off now (``silent``, ``garbage_rate``, ``bad_check_rate``) and
+        return the device's time of it: what a fault's consequences are timed from.
+
+        >>> with LidarEmulator() as lidar:
+        ...     lidar.inject(silent=True) <= lidar.clock() and lidar.silent
+        True
+        """
+        unknown = set(faults) - set(self._FAULTS)
+        if unknown:
+            raise ValueError(f"unknown fault(s) {', '.join(sorted(unknown))}; known: {', '.join(self._FAULTS)}")
+        for name in ("garbage_rate", "bad_check_rate"):
+            if name in faults and not 0 <= float(faults[name]) <= 1:
+                raise ValueError(f"{name} is a probability in [0, 1], got {faults[name]!r}")
+        with self._lock:
+            for name, value in faults.items():
+                setattr(self, name, value)
+            return self.clock()
+
     # -- requests
 
     def _on_bytes(self, data: bytes, now: float) -> None:

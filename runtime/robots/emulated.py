@@ -239,7 +239,7 @@ def _serve_world(conn: Any, scenario: Any, options: dict[str, Any], favour: bool
                     setattr(obj, name, args)
                     reply = None
                 else:  # call
-                    reply = getattr(obj, name)(*args)
+                    reply = getattr(obj, name)(*args[0], **args[1])
                 conn.send(("ok", reply))
             except Exception as exc:  # noqa: BLE001 - raised again in the parent
                 conn.send(("error", exc))
@@ -260,7 +260,7 @@ class _Remote:
             raise AttributeError(name)
         value = self._owner._request("get", self._target, name)
         if value == _METHOD:
-            return lambda *args: self._owner._request("call", self._target, name, args)
+            return lambda *args, **kwargs: self._owner._request("call", self._target, name, (args, kwargs))
         return value
 
     def __setattr__(self, name: str, value: Any) -> None:

@@ -209,13 +209,13 @@ def test_a_broken_lidar_stream_stops_the_wheels_within_300_ms(tmp_path: Path, fa
     with EmulatedWorldProcess("open") as world:
         run = Run(world, tmp_path / "run.jsonl")
         wait_driving(world, run)
-        t0 = time.monotonic()
+        # timed from the moment the device went wrong (its own clock: this machine's monotonic time)
         if fault == "garbage":
-            world.lidar.garbage_rate = 1.0  # mostly garbage from now on
+            t0 = world.lidar.inject(garbage_rate=1.0)  # mostly garbage from now on
         elif fault == "bad_check":
-            world.lidar.bad_check_rate = 1.0
+            t0 = world.lidar.inject(bad_check_rate=1.0)
         else:
-            world.lidar.silent = True
+            t0 = world.lidar.inject(silent=True)
         rc = run.finish(timeout=10)
         latency = stop_latency(world.maestro, t0)
     assert rc == 3  # a device fault
