@@ -8,8 +8,13 @@ one of least φ. It stops when a state reaches D_G, when the least-φ state has 
 obstacle-free transition (it was interrupted: ``metadata["stopped_at"]`` names it), or
 when the budget (``max_states``, default 50: the authors' planner never needed more
 than 60 states on the shared scans, and the same shared scans reach the goal with a
-budget of 50 as of 100) is spent, or when the least-φ open state lies on the rim of the
-sensed disc (``frontier``: the goal needs unseen space). States beyond the planning
+budget of 50 as of 100) is spent. A state on the rim of the sensed disc is not expanded
+(what lies beyond is unknown) but stays a candidate end of the plan: when argmin φ is
+one, the plan ends there (``frontier``: the goal needs unseen space) and the closed loop
+drives there and replans. For a goal inside the disc the search goes on past such a
+state (ending it there, as before, gave up on ways round inside the disc: recorded scans
+43, 117, 137); for a goal beyond the disc no way inside reaches it, and the first rim
+state popped ends the search. States beyond the planning
 horizon (a box of half-size ``horizon`` around the start) are kept but not expanded.
 
 γ ∈ [1, 2] on an interrupted state and χ ∈ [0, 1) everywhere, so a hit is popped only
@@ -236,8 +241,9 @@ class Configurator:
         self.horizon = float(horizon)
         self.routes = routes
         """How many ends the search collects before it stops: 1 (Algorithm 1) stops at the
-        first goal state or frontier pop; more keep searching for alternative routes (a
-        goal state or popped frontier is then kept, not expanded), e.g. for a risk-aware
+        first goal state (a popped frontier state is kept, not expanded, and the search
+        goes on when the goal lies inside the sensed disc, else it ends there); more keep searching for alternative routes (a goal state or popped
+        frontier is then kept, not expanded, and counts as one), e.g. for a risk-aware
         choice among them (:class:`planner.robust.RobustConfigurator`)."""
 
     # -- inputs ---------------------------------------------------------------------
@@ -264,10 +270,9 @@ class Configurator:
     def build(self, obstacles: Obstacles, goal: Disturbance | tuple[float, float]) -> PlanResult:
         """Construct the cognitive map for ``goal`` among ``obstacles`` and extract ρ.
 
-        ``stop_reason`` is ``goal`` (a state reached D_G), ``frontier`` (the most
-        promising open state lies where the body meets the rim of the sensed disc, or the
-        plan ends there: the goal needs unseen space; the plan ends at argmin φ, at or
-        near the rim, and the closed loop drives there and replans), ``budget``
+        ``stop_reason`` is ``goal`` (a state reached D_G), ``frontier`` (the plan ends at
+        argmin φ, a state where the body meets the rim of the sensed disc: the goal needs
+        unseen space, and the closed loop drives there and replans), ``budget``
         (``max_states`` spent) or ``exhausted`` (no obstacle-free transition left). ``goal_blocked`` is True when
         the goal lies inside a perceived obstacle: the plan then ends at the reachable
         state closest to it and ``reached_goal`` is False.
@@ -282,6 +287,7 @@ class Configurator:
         gx, gy = g.x, g.y
         d0 = math.hypot(gx, gy)
         r_range = robot.sensor_range
+        goal_seen = d0 <= r_range  # inside the sensed disc: a way to it may lie inside too
         horizon = max(self.horizon, abs(gx) + robot.length, abs(gy) + robot.length)
         cmap = CognitiveMap(goal=g)
         q0 = State(0, TaskKind.STRAIGHT, g, None, origin, origin)
@@ -335,10 +341,13 @@ class Configurator:
         while pq:
             _, qe_id = heapq.heappop(pq)
             if qe_id in frontier_ids:
-                # the most promising state lies on the rim of what the scan saw: what is
-                # beyond is unknown, so planning ends here and the closed loop replans there
+                # the state lies on the rim of what the scan saw: what is beyond is unknown,
+                # so it is not expanded. With one route and the goal inside the disc it stays
+                # a candidate end of the plan (argmin φ, where the closed loop drives and
+                # replans) while the search goes on for a way to the goal inside the disc;
+                # a goal beyond the disc has none, and the search ends here
                 ends += 1
-                if ends + len(goal_ids) < self.routes:
+                if (self.routes == 1 and goal_seen) or ends + len(goal_ids) < self.routes:
                     continue
                 stop = "frontier"
                 break

@@ -9,6 +9,9 @@ point or builds a shape. A task's outcome is computed in closed form from the po
   before it (D_N names the point's box and the point). Nothing in the lane: the task
   runs its length (the controllers drive their error down linearly, tested against the
   engine's tick loop);
+  A step that would end with a point ahead nearer than the body needs to spin in place
+  ends that much earlier (the straight as short as the geometry needs: from there the
+  plan can still turn);
 - a turn spins the footprint in place: only points within its swept disc matter, and
   they are tested at every tick heading (the corner moves at most 1.2 cm between ticks,
   within the 1 cm clearance plus the real body's own sides).
@@ -141,16 +144,40 @@ def straight_limit(obstacles: Obstacles, robot: RobotModel, start: Pose, goal: D
     no sensed point in the lane before it) is one task to the goal. Otherwise straights
     are cut into steps of ``robot.step_length`` (one body length) so that a plan can
     turn along the way; with ``step_length=None`` a straight runs to the sensor range.
-    Either is cut where the body would leave the sensed disc.
+    Either is cut where the body would leave the sensed disc, and a step where the body
+    could no longer spin in place (:func:`_spin_room_step`).
     """
     room = frontier_distance(robot, start)
     step = robot.step_length if robot.step_length is not None else robot.sensor_range
     along = _goal_dead_ahead(robot, start, goal)
-    if along is not None:
-        d = _scene(obstacles, robot, None).straight_gap(start)[0] if len(obstacles) else math.inf
-        if d >= min(along, room):
-            return min(along, room)
-    return min(step, room)
+    d = _scene(obstacles, robot, None).straight_gap(start)[0] if len(obstacles) else math.inf
+    if along is not None and d >= min(along, room):
+        return min(along, room)
+    return _spin_room_step(robot, d, min(step, room))
+
+
+def _spin_room_step(robot: RobotModel, gap: float, limit: float) -> float:
+    """A step of ``limit`` metres with ``gap`` metres free ahead, cut where the body can
+    still spin in place: a step that would end closer to a point ahead than the swept
+    disc reaches past the front ends that much earlier (the straight as short as the
+    geometry needs), unless that leaves less than 3 cm to drive. With the authors' fixed
+    turns (``free_turns=False``) every step is one body length, as theirs.
+
+    >>> round(_spin_room_step(RobotModel(), 0.30, 0.27), 3), _spin_room_step(RobotModel(), 1.0, 0.27)
+    (0.182, 0.27)
+    """
+    if not robot.free_turns:
+        return limit  # the authors' planner: every step one body length
+    spin = robot.swept_radius - robot.front_offset - robot.clearance + _SPIN_SLACK
+    if math.isfinite(gap) and limit <= gap < limit + spin and gap - spin >= _MIN_STEP:
+        return gap - spin
+    return limit
+
+
+# the shortest step worth cutting to keep room to spin (m)
+_MIN_STEP = 0.03
+# kept beyond the swept disc, so that a point ahead is not met on the sweep's very edge (m)
+_SPIN_SLACK = 0.003
 
 
 def _goal_dead_ahead(robot: RobotModel, start: Pose, goal: Disturbance | None) -> float | None:
@@ -506,7 +533,7 @@ def simulate(
         if along is not None and d >= min(along, room):
             limit = min(along, room)  # a clear run to the goal dead ahead: one task
         else:
-            limit = min(step, room)
+            limit = _spin_room_step(robot, d, min(step, room))
         task = Task.straight(robot, start, goal, limit)
         if k >= 0 and scene is not None:
             out = _cut_straight(task, d, obstacles, int(scene.owner[k]), float(scene.x[k]), float(scene.y[k]))

@@ -18,8 +18,9 @@ class RobotModel:
     front edge. Defaults are the paper's robot (DESIGN.md). ``clearance`` is the margin
     the planner keeps between the body and a sensed point. With ``free_turns`` a turn
     ends where its error is zero (facing the goal, or where the way ahead is clear, see
-    :func:`planner.physics.turn_angle`); without, every turn turns ``turn_angle`` (the
-    authors' planner).
+    :func:`planner.physics.turn_angle`) and a step ends early where the body could no
+    longer spin in place; without, every turn turns ``turn_angle`` and every step is
+    ``step_length`` long (the authors' planner).
 
     >>> RobotModel().turn_wheel_speed  # wheel speed for a 0.58 rad/s spin in place
     0.0435
