@@ -20,7 +20,9 @@ reckoning alone. The goal, the remaining plan and every task's error signal come
   new scan from the estimate (:func:`runtime.supervision.plancheck.check_plan`); one that
   now meets an obstacle or would end off the map's prediction sends the supervisor to
   REPLANNING, and so does a task that ended far from the prediction or a plan that ended
-  short of the goal.
+  short of the goal. A plan that ends at the goal by the estimate taken while driving
+  goes to REPLANNING too (with scan feedback): the robot stands, the still revolutions
+  correct the estimate, and the goal is declared (or approached anew) on the settled one.
 - REPLANNING: after the wheels settled, from ``fuse_scans`` revolutions fused into one
   (median range per bearing), first *recall*: match the situation to a state of the map
   it already has and continue the map's plan from there if the new scan agrees
@@ -523,8 +525,12 @@ class Supervisor:
     def _plan_ended(self) -> None:
         g = relative(self.pose, self.goal)
         dist = math.hypot(g.x, g.y)
-        if dist <= self.goal_radius:
+        if dist <= self.goal_radius and self.estimator is None:
             self._fire(E.AT_GOAL, f"plan done at the goal ({dist:.3f} m)")
+        elif dist <= self.goal_radius:
+            # the estimate taken while driving: stand, let the still revolutions correct it,
+            # and decide on the settled pose (REPLANNING ends at the goal or approaches anew)
+            self._fire(E.PLAN_SHORT, f"plan done at the goal by the moving estimate ({dist:.3f} m): settling")
         else:
             self._fire(E.PLAN_SHORT, f"plan done {dist:.3f} m short of the goal")
 
