@@ -29,7 +29,7 @@ import time
 from typing import Any
 
 from planner.configurator import Configurator, PlanResult
-from planner.robust import RobustConfigurator
+from planner.robust import RobustConfigurator, closed_loop_noise
 from runtime.experiment.layouts import make_layout
 from runtime.experiment.runner import run_once
 from runtime.experiment.stats import mcnemar, wilson
@@ -93,6 +93,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--margin", type=float, default=0.1, help="RobustConfigurator's margin (default 0.1)")
     ap.add_argument("--routes", type=int, default=1, help="RobustConfigurator's routes (default 1)")
     ap.add_argument("--frontier-slack", type=float, default=0.03, help="RobustConfigurator's frontier_slack (default 0.03 m)")
+    ap.add_argument("--closed-loop-noise", action="store_true",
+                    help="sample with planner.robust.closed_loop_noise(NOISE): the terms measured in the world's closed loop")
     ap.add_argument("--max-time", type=float, default=120.0)
     ap.add_argument("--predict-every-greedy-plan", action="store_true",
                     help="sample a map for every greedy plan too (default: its first plan only; twice the CPU)")
@@ -112,7 +114,8 @@ def main(argv: list[str] | None = None) -> int:
             line = []
             for name in names:
                 kind = PredictedGreedy if name == "greedy" else RobustConfigurator
-                conf = kind(samples=args.samples, noise=args.noise, seed=1000 * k, margin=args.margin, routes=args.routes,
+                rollout_noise = closed_loop_noise(args.noise) if args.closed_loop_noise else args.noise
+                conf = kind(samples=args.samples, noise=rollout_noise, seed=1000 * k, margin=args.margin, routes=args.routes,
                             frontier_slack=args.frontier_slack)
                 if isinstance(conf, PredictedGreedy):
                     conf.every_plan = args.predict_every_greedy_plan
@@ -135,7 +138,8 @@ def main(argv: list[str] | None = None) -> int:
         rows.append((family, ok, first, per_plan, cpu))
     print(f"\nexecution world, noise {args.noise}, runs {args.first_run}..{args.first_run + args.runs - 1} per family "
           f"(paired: same layout, world and seeds), {args.samples} samples per choice, margin {args.margin}, "
-          f"routes {args.routes}, frontier slack {args.frontier_slack} m:")
+          f"routes {args.routes}, frontier slack {args.frontier_slack} m, "
+          f"rollout noise {'closed-loop ' if args.closed_loop_noise else ''}{args.noise}:")
     print(f"  {'family':<8} {'plans':<7} {'success (goal, no collision) [95% Wilson]':<44} {'Storm P, 1st plan':<18} "
           f"{'Storm P per plan*':<17} {'plans carried to their end [95%]':<36} CPU s/run")
     print("  (* the mean over the plans predicted: every robust plan; the greedy condition's first plans unless "
