@@ -132,6 +132,12 @@ def test_a_recall_on_a_robust_map_follows_the_scheduler_where_the_robot_landed(r
     assert map_policy(type(m).from_dict(m.to_dict())) == r.scheduler  # kept through JSON
     assert _best_from(SimpleNamespace(map=m), 7) == [7, 8]
     assert _best_from(SimpleNamespace(map=m), 8) is None  # at the goal: nothing to continue
+    # a continuation that ends no closer than where the robot is (q5: φ 0.55 ≥ q3's 0.5) is
+    # no recall, as with the least-cost path: it would loop recalls that make no progress
+    from formal.model import TaskKind
+
+    attach_policy(m, {3: TaskKind.STRAIGHT, 4: TaskKind.RIGHT})
+    assert _best_from(SimpleNamespace(map=m), 3) is None
 
 
 def test_a_detour_is_taken_only_where_it_is_safer_by_more_than_the_margin(risky_map):
