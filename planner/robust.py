@@ -194,6 +194,10 @@ class RobustConfigurator(Configurator):
         cmap = c.pm.map
         attach_policy(cmap, c.robust.scheduler)  # a recall on this map follows the scheduler
         cmap.metadata["target"] = sorted(c.target)
-        plan = c.robust.plan
+        sched = c.robust.scheduler
+        kept = all(sched.get(a) is cmap[b].task for a, b in c.greedy.steps())
+        # where the scheduler keeps every task of the best-first plan, the plan is that plan
+        # itself (its nominal states and predicted ends), not the path of most likely outcomes
+        plan = c.greedy if kept and len(c.greedy) > 1 else c.robust.plan
         g = c.greedy_result
         return PlanResult(cmap, plan, g.goal, g.obstacles, g.robot, time.perf_counter() - t0, g.stop_reason, guard(cmap, plan))

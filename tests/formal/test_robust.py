@@ -186,3 +186,22 @@ def test_a_search_for_more_routes_extends_algorithm_1s_map_with_alternatives(nam
     assert ends(one) == 1 and ends(three) >= 2
     with pytest.raises(ValueError, match="routes"):
         Configurator(routes=0)
+
+
+@pytest.mark.parametrize("name", ["open", "corridor"])
+def test_where_the_scheduler_keeps_the_best_first_tasks_the_plan_is_the_best_first_plan(name):
+    """Not the path of most likely outcomes (at harsh noise on these scenes another outcome
+    group is the likelier one): the supervisor then drives the nominal states' predicted
+    ends, exactly as with the plain Configurator."""
+    from planner import Configurator, load_scenario
+    from planner.robust import RobustConfigurator
+
+    scene = load_scenario(name)
+    scan, goal = scene.scan(max_range=1.1), tuple(scene.goal_in_robot_frame())
+    c = RobustConfigurator(samples=10, noise="harsh").sample(scan, goal)
+    assert all(c.robust.scheduler.get(a) is c.pm.map[b].task for a, b in c.greedy.steps())
+    assert c.robust.plan.states != c.greedy.states  # the most likely outcomes' path differs
+    r = RobustConfigurator(samples=10, noise="harsh").plan(scan, goal)
+    plain = Configurator().plan(scan, goal)
+    assert r.plan.states == plain.plan.states
+    assert [r.map[q].end for q in r.plan.states] == [plain.map[q].end for q in plain.plan.states]
