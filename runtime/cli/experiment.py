@@ -136,11 +136,15 @@ def run(args: argparse.Namespace) -> int:
             b.update(initial)
         return b
 
+    from runtime.cli._signals import interrupts_raise
+
     try:
-        records = run_experiment(args.family, args.runs, args.seed, noise=args.noise, noise_scales=scales,
-                                 conditions=conditions, max_time=args.max_time, workers=workers,
-                                 scheduler=args.scheduler, out=out, resume=args.resume, progress=bar,
-                                 feedback=args.feedback)
+        # Ctrl-C and SIGTERM stop it even when started with SIGINT ignored (a background job of a script)
+        with interrupts_raise():
+            records = run_experiment(args.family, args.runs, args.seed, noise=args.noise, noise_scales=scales,
+                                     conditions=conditions, max_time=args.max_time, workers=workers,
+                                     scheduler=args.scheduler, out=out, resume=args.resume, progress=bar,
+                                     feedback=args.feedback)
     except ScenarioError as exc:
         raise CliError(f"{exc} (or a layout family: {', '.join(FAMILIES)})") from None
     except ExperimentInterrupted as exc:
