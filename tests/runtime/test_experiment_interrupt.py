@@ -6,25 +6,18 @@ from __future__ import annotations
 
 import json
 import os
-import signal
 import subprocess
 import sys
-import time
 from pathlib import Path
 
 import pytest
 
 pytest.importorskip("distributed")
 
+sys.path.insert(0, str(Path(__file__).parent))
+from interrupting import interrupt_after_first_record, records  # noqa: E402
+
 RUNS = 5  # layouts, each in both conditions: far more work than the moment between the first record and SIGINT
-
-
-def _records(path: Path) -> list[dict]:
-    """The complete lines of runs.jsonl (a line being written has no newline yet)."""
-    if not path.exists():
-        return []
-    text = path.read_text(encoding="utf-8")
-    return [json.loads(line) for line in text.splitlines(keepends=True) if line.endswith("\n")]
 
 
 def _command(out: Path, *extra: str) -> list[str]:
@@ -38,29 +31,17 @@ def test_ctrl_c_on_dask_keeps_the_finished_runs_and_resume_completes(tmp_path):
     env = {**os.environ, "PYTHONUNBUFFERED": "1"}
     proc = subprocess.Popen(_command(out), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env,
                             start_new_session=True)
-    try:
-        # the event: the first record is on disk (bounded by a generous deadline for a loaded machine)
-        deadline = time.monotonic() + 600
-        while not _records(jsonl):
-            assert proc.poll() is None, f"exited {proc.returncode} before a run finished: {proc.stderr.read()}"
-            assert time.monotonic() < deadline, "no run streamed to runs.jsonl within 600 s"
-            time.sleep(0.01)
-        os.killpg(proc.pid, signal.SIGINT)  # as a terminal's Ctrl-C: the whole process group, workers too
-        stdout, stderr = proc.communicate(timeout=300)
-    finally:
-        if proc.poll() is None:
-            os.killpg(proc.pid, signal.SIGKILL)
-            proc.wait()
+    stdout, stderr = interrupt_after_first_record(proc, jsonl)  # the whole process group, workers too
     assert proc.returncode == 130, stderr
     assert "interrupted" in stderr and "--resume" in stderr and "Traceback" not in stderr
-    kept = _records(jsonl)
+    kept = records(jsonl)
     keys = [r["key"] for r in kept]
     assert 1 <= len(kept) < 2 * RUNS and len(set(keys)) == len(keys)
     assert (out / "runs.csv").exists()  # what finished is also written out as the CSV
 
     rc = subprocess.run(_command(out, "--resume", "--json"), capture_output=True, text=True, env=env, timeout=900)
     assert rc.returncode == 0, rc.stderr
-    final = _records(jsonl)
+    final = records(jsonl)
     assert len(final) == 2 * RUNS and len({r["key"] for r in final}) == 2 * RUNS
     assert final[:len(kept)] == kept  # the runs kept were not run again
     summary = json.loads(rc.stdout)
