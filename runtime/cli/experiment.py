@@ -42,7 +42,7 @@ def register(sub: Any) -> None:
                    help="noise preset of the execution world (default paper)")
     p.add_argument("--noise-scale", type=float, default=1.0, help="factor on every noise term (default 1)")
     p.add_argument("--feedback", choices=("scan", "none"), default="scan",
-                   help="the planning condition's pose estimate: scan matching (default) or dead reckoning only")
+                   help="both conditions' pose estimate: scan matching (default) or dead reckoning only")
     p.add_argument("--noise-sweep", metavar="X,Y,...", default=None,
                    help="run every noise scale in the list (e.g. 0,0.5,1,2,4) and plot success against it")
     p.add_argument("--workers", type=int, default=None,

@@ -5,9 +5,13 @@ closed-loop controller", drawn in its figure 3B as "one-loop-ahead disturbance
 detection". This is that controller, on the same :class:`~runtime.robot.Robot`
 interface as the supervisor, with no plan and no map. Every control tick it
 
-1. updates its pose estimate (odometry when the robot has it, else dead reckoning from
-   the commanded wheel speeds, as the paper's robot did) and moves the newest scan into
-   the body frame;
+1. updates its pose estimate *as the planning condition's supervisor does*: with
+   ``feedback="scan"`` (the default) dead reckoning from the commanded wheel speeds (or the
+   robot's odometry) corrected once a revolution by matching the scan against a local map
+   (:class:`~runtime.estimation.odometry.ScanOdometry`, the supervisor's estimator); with
+   ``feedback="none"`` dead reckoning alone. The two conditions are the same robot with the
+   same sensing and the same estimate, so a difference between them is planning's, not
+   the estimate's. It then moves the newest (de-skewed) scan into the body frame;
 2. looks *one loop ahead*: the loop is one straight task of the planner, so the
    look-ahead is the corridor the body sweeps over one straight step —
    ``front_offset < x <= front_offset + look_ahead``, ``|y| <= width / 2 + clearance``
@@ -36,6 +40,7 @@ goal brings the obstacle back into view.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 
@@ -46,7 +51,8 @@ from formal.model import Pose
 from planner.perception import validate_scan
 from planner.robot import RobotModel
 from runtime.clock import Clock, clock_for
-from runtime.robot import Robot, RobotFault, finite_goal
+from runtime.estimation.odometry import ScanOdometry
+from runtime.robot import Robot, RobotFault, ScanFrame, finite_goal
 
 __all__ = ["ReactiveController", "ReactiveReport"]
 
@@ -101,7 +107,10 @@ class ReactiveController:
         gain: float = 1.5,
         hazard_points: int = 2,
         scan_timeout: float = 1.0,
+        feedback: str = "scan",
     ) -> None:
+        if feedback not in ("scan", "none"):
+            raise ValueError(f"feedback must be 'scan' or 'none', got {feedback!r}")
         self.robot = robot
         self.model = model or RobotModel()
         self.clock: Clock = clock_for(robot, clock)
@@ -124,6 +133,8 @@ class ReactiveController:
         self._cmd = (0.0, 0.0)
         self._scan = np.zeros((0, 2))
         self._scan_pose = self.pose
+        self.feedback = feedback
+        self.estimator: ScanOdometry | None = ScanOdometry(self.model.wheel_base) if feedback == "scan" else None
 
     def run(self, max_time: float = 120.0) -> ReactiveReport:
         """Loop until the goal, a fault (→ HALTED) or ``max_time`` s (→ TIMEOUT); wheels stopped on exit."""
@@ -133,20 +144,22 @@ class ReactiveController:
         last_scan = t0
         odo = self.robot.odometry()
         self.pose = odo if odo is not None else Pose(0.0, 0.0, 0.0)
+        if self.estimator is not None:
+            self.estimator.reset(self.pose, t0)
+            self.estimator.advance(t0, (0.0, 0.0), odo)
         self.goal = compose(self.pose, Pose(*self._goal_robot))
         state, reason = "TIMEOUT", f"time limit of {max_time:g} s reached"
         try:
             while True:
                 now = self.clock.now()
-                self._dead_reckon(now - last)
+                self._dead_reckon(now, now - last)
                 last = now
                 self.trajectory.append((now - t0, self.pose.x, self.pose.y, self.pose.theta))
                 if now - t0 >= max_time:
                     break
                 frame = self.robot.read_scan(timeout=0.0)
                 if frame is not None:
-                    self._scan = validate_scan(frame.points, "scan")
-                    self._scan_pose = self.pose
+                    self._take_scan(frame, now)
                     last_scan = now
                 elif now - last_scan > self.scan_timeout:
                     raise RobotFault(f"sensor silent: no scan for {now - last_scan:.2f} s")
@@ -199,9 +212,29 @@ class ReactiveController:
         xi, yi = x[inside], y[inside]
         return float(yi[int(np.argmin(np.hypot(xi, yi)))])
 
-    def _dead_reckon(self, dt: float) -> None:
+    def _dead_reckon(self, now: float, dt: float) -> None:
         odo = self.robot.odometry()
+        if self.estimator is not None:
+            self.estimator.advance(now, self._cmd, odo)
+            self.pose = self.estimator.pose
+            return
         self.pose = odo if odo is not None else dead_reckon(self.pose, *self._cmd, self.model.wheel_base, dt)
+
+    def _take_scan(self, frame: ScanFrame, now: float) -> None:
+        """Keep the newest revolution (and, with scan feedback, correct the estimate by it,
+        as the supervisor does: a de-skewed revolution is kept at the pose of its timestamp)."""
+        scan = validate_scan(frame.points, "scan")
+        if self.estimator is None:
+            self._scan, self._scan_pose = scan, self.pose
+            return
+        if not (now - 1.0 <= frame.timestamp <= now + 1e-6):  # another clock: take it as now
+            frame = dataclasses.replace(frame, timestamp=now)
+        self.estimator.update(dataclasses.replace(frame, points=scan))
+        self.pose = self.estimator.pose
+        if frame.point_times is not None:
+            self._scan, self._scan_pose = self.estimator.last_points, self.estimator.pose_at(frame.timestamp)
+        else:
+            self._scan, self._scan_pose = scan, self.pose
 
     def _stop(self) -> None:
         self._cmd = (0.0, 0.0)

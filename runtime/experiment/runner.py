@@ -236,8 +236,8 @@ def run_once(
     world with those terms, or None for the simulated robot with the scene's own noise.
     ``log``: a file for the run log (the supervisor's records, as ``clomp run`` writes
     them, in simulated time, with the ground truth beside each scan and task record).
-    ``feedback``: the planning condition's pose estimate — ``"scan"`` (scan matching, the
-    default) or ``"none"`` (dead reckoning, as before scan feedback).
+    ``feedback``: both conditions' pose estimate (the same robot, the same sensing) —
+    ``"scan"`` (scan matching, the default) or ``"none"`` (dead reckoning alone).
 
     >>> from planner import load_scenario
     >>> r = run_once(load_scenario("open"), "reactive", 0, noise="ideal")
@@ -281,7 +281,7 @@ def run_once(
         plans = len(report.plans)
         end_state, reason = report.state.value, report.reason
     else:
-        report = ReactiveController(robot, goal, conf.robot).run(max_time=max_time)  # type: ignore[arg-type]
+        report = ReactiveController(robot, goal, conf.robot, feedback=feedback).run(max_time=max_time)  # type: ignore[arg-type]
         end_state, reason = report.state, report.reason
     wall, cpu = time.perf_counter() - t0, time.thread_time() - c0
     true = robot.ground_truth_pose()
