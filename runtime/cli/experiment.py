@@ -109,8 +109,8 @@ def run(args: argparse.Namespace) -> int:
         raise CliError("--runs: must be at least 1")
     if args.workers is not None and args.workers < 0:
         raise CliError("--workers: must be 0 (this process) or more")
-    if not args.max_time > 0:
-        raise CliError("--max-time: must be positive")
+    if not (math.isfinite(args.max_time) and args.max_time > 0):
+        raise CliError(f"--max-time: must be a finite positive number of seconds, got {args.max_time:g}")
     if not (math.isfinite(args.noise_scale) and args.noise_scale >= 0):
         raise CliError("--noise-scale: must be a finite number >= 0")
     out = Path(args.out)

@@ -25,6 +25,7 @@ from runtime.records.bags import BagError, LaserScan
 
 __all__ = [
     "register",
+    "GOAL_LIMIT_M",
     "parse_goal",
     "configurator_from_args",
     "add_planner_options",
@@ -33,6 +34,11 @@ __all__ = [
     "robust_summary",
     "scenario_goal",
 ]
+
+
+GOAL_LIMIT_M = 1.0e6
+"""The largest goal coordinate ``--goal`` takes (m): the LiDAR sees 12 m, and a goal
+farther than this is a typing slip, not a destination (it would also overflow squared distances)."""
 
 
 def parse_goal(text: str) -> tuple[float, float]:
@@ -45,6 +51,9 @@ def parse_goal(text: str) -> tuple[float, float]:
         raise CliError(f"--goal: expected X,Y in metres, got {text!r}")
     if not all(math.isfinite(p) for p in parts):
         raise CliError(f"--goal: coordinates must be finite, got {text!r}")
+    if max(abs(parts[0]), abs(parts[1])) > GOAL_LIMIT_M:
+        # beyond this a squared distance loses the centimetres the planner works in
+        raise CliError(f"--goal: coordinates beyond {GOAL_LIMIT_M:g} m are not a place to plan to, got {text!r}")
     return parts[0], parts[1]
 
 

@@ -28,9 +28,13 @@ def add_world_options(p: Any) -> None:
 
 
 def check_world_options(args: argparse.Namespace) -> None:
-    """CliError for a noise scale that is not a finite number >= 0."""
+    """CliError for a noise scale that is not a finite number >= 0, or a ``--max-time``
+    that is not a finite positive number of seconds (NaN or inf would never end a run)."""
     if not (math.isfinite(args.noise_scale) and args.noise_scale >= 0):
         raise CliError(f"--noise-scale: must be a finite number >= 0, got {args.noise_scale:g}")
+    max_time = getattr(args, "max_time", None)
+    if max_time is not None and not (math.isfinite(max_time) and max_time > 0):
+        raise CliError(f"--max-time: must be a finite positive number of seconds, got {max_time:g}")
 
 
 def world_noise(args: argparse.Namespace, scene: Any) -> WorldNoise:

@@ -137,7 +137,11 @@ class ReactiveController:
         self.estimator: ScanOdometry | None = ScanOdometry(self.model.wheel_base) if feedback == "scan" else None
 
     def run(self, max_time: float = 120.0) -> ReactiveReport:
-        """Loop until the goal, a fault (→ HALTED) or ``max_time`` s (→ TIMEOUT); wheels stopped on exit."""
+        """Loop until the goal, a fault (→ HALTED) or ``max_time`` s (→ TIMEOUT); wheels stopped on exit.
+
+        ValueError for a ``max_time`` that is NaN (it would never end the run) or not positive."""
+        if not max_time > 0:
+            raise ValueError(f"max_time must be a positive number of seconds, got {max_time!r}")
         tick = self.model.tick
         t0 = self.clock.now()
         last = t0

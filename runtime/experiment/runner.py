@@ -246,6 +246,8 @@ def run_once(
     """
     if condition not in CONDITIONS:
         raise ValueError(f"condition must be one of {', '.join(CONDITIONS)}, got {condition!r}")
+    if not (math.isfinite(max_time) and max_time > 0):  # a simulated run needs an end
+        raise ValueError(f"max_time must be a finite positive number of seconds, got {max_time!r}")
     conf = configurator or Configurator()
     seed_ = 0 if seed is None else int(seed)
     robot: Any

@@ -248,7 +248,11 @@ class Supervisor:
         self._halt(E.ABORT, reason)
 
     def run(self, max_time: float | None = None) -> SupervisorReport:
-        """Tick until a terminal state (or ``max_time`` s of clock time → HALTED)."""
+        """Tick until a terminal state (or ``max_time`` s of clock time → HALTED).
+
+        ValueError for a ``max_time`` that is NaN (it would never end the run) or not positive."""
+        if max_time is not None and not max_time > 0:
+            raise ValueError(f"max_time must be a positive number of seconds or None, got {max_time!r}")
         tick = self.model.tick
         try:
             t_start = self.clock.now()

@@ -108,6 +108,17 @@ def test_simulate_exit_status(tmp_path: Path, capsys: pytest.CaptureFixture[str]
     assert d["reached_goal"] is (status == 0)
 
 
+@pytest.mark.parametrize("command", ["simulate", "experiment"])
+@pytest.mark.parametrize("value", ["nan", "inf", "-5", "0"])
+def test_a_time_limit_that_never_ends_or_never_starts_is_refused(tmp_path: Path, capsys: pytest.CaptureFixture[str],
+                                                                 command: str, value: str) -> None:
+    # NaN compares false with every clock reading: a run under it would never time out
+    where = ["--scenario", "open"] if command == "simulate" else ["open", "--runs", "1", "--workers", "0"]
+    rc, out, err = _rc(capsys, command, *where, "--out", str(tmp_path), "--max-time", value)
+    assert rc == 2, out
+    assert err.startswith("clomp: error: --max-time: ") and len(err.splitlines()) == 1
+
+
 def test_export_says_what_it_wrote(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     dest = tmp_path / "m.prism"
     rc, out, err = _rc(capsys, "export", "--scenario", "overtaking", "-f", "prism", "-o", str(dest))
@@ -171,3 +182,21 @@ def test_counts_are_spelled_for_one_and_many(tmp_path: Path, capsys: pytest.Capt
     two.write_text("0.6 0.3\n0.6 -0.3\n")
     _, out, _ = _rc(capsys, "plan", "--scan", str(two), "--goal", "1,0")
     assert "2 obstacle boxes," in out
+
+
+def test_the_library_refuses_a_time_limit_that_never_ends() -> None:
+    from planner import load_scenario
+    from runtime.experiment.reactive import ReactiveController
+    from runtime.experiment.runner import run_once
+    from runtime.robots.sim import SimRobot
+    from runtime.supervision.supervisor import Supervisor
+
+    scene = load_scenario("open")
+    with pytest.raises(ValueError, match="max_time"):
+        run_once(scene, "planning", 0, noise="ideal", max_time=float("nan"))
+    with pytest.raises(ValueError, match="max_time"):
+        run_once(scene, "planning", 0, noise="ideal", max_time=float("inf"))
+    with pytest.raises(ValueError, match="max_time"):
+        Supervisor(SimRobot(scene, seed=0), scene.goal_in_robot_frame()).run(max_time=float("nan"))
+    with pytest.raises(ValueError, match="max_time"):
+        ReactiveController(SimRobot(scene, seed=0), scene.goal_in_robot_frame()).run(max_time=float("nan"))

@@ -63,6 +63,7 @@ def test_plan_scan_file_and_folder(tmp_path, scans_dir):
         (["--scenario", "atlantis"], "unknown scenario"),
         (["--scenario", "overtaking", "--goal", "0,0"], "robot's own position"),
         (["--scenario", "overtaking", "--goal", "nan,0"], "finite"),
+        (["--scenario", "overtaking", "--goal", "1e200,0"], "beyond"),
         (["--scenario", "overtaking", "--goal", "1"], "X,Y"),
     ],
 )
