@@ -106,6 +106,10 @@ class Maestro:
         self.reply_timeout = reply_timeout
         self.watchdog_stops = 0
         self.watchdog_error: MaestroError | None = None
+        #: called (in the watchdog's thread, under the driver's lock, so no command can
+        #: slip in between) after each stop the watchdog made: whoever dead-reckons from
+        #: the commands learns that the wheels stopped without being told to
+        self.on_watchdog_stop: Callable[[], None] | None = None
         #: the watchdog's time (seconds); ``time.monotonic`` unless a test passes its own
         self.clock: Callable[[], float] = clock or time.monotonic
         #: passes of the watchdog loop so far (a test can wait for it to have looked)
@@ -275,10 +279,12 @@ class Maestro:
                 if wait <= 0:
                     try:
                         self.stop()
-                        self.watchdog_stops += 1
                     except MaestroError as exc:
                         self.watchdog_error = exc
                         self._last_command = self.clock()  # retry after another period
+                    else:
+                        self._tell_watchdog_stop()  # before it is counted: a count means it was told
+                        self.watchdog_stops += 1
                     wait = 0.0
             with self._watch_cond:
                 self.watchdog_passes += 1
@@ -287,6 +293,15 @@ class Maestro:
                 return
             if wait <= 0 and self._closed.is_set():
                 return
+
+    def _tell_watchdog_stop(self) -> None:
+        callback = self.on_watchdog_stop
+        if callback is None:
+            return
+        try:
+            callback()
+        except Exception:  # a listener's bug must not end the watchdog that keeps the robot safe
+            pass
 
     def wait_watchdog(self, passes: int = 1, timeout: float = 10.0) -> bool:
         """Wait until the watchdog has looked at the clock ``passes`` more times (for tests

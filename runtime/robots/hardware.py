@@ -203,7 +203,7 @@ class HardwareRobot:
     def _open_maestro(self, port: str | Any) -> Maestro:
         cfg = self.config
         try:
-            return Maestro(
+            maestro = Maestro(
                 port,
                 baudrate=cfg.maestro_baudrate,
                 protocol=cfg.protocol,
@@ -217,6 +217,8 @@ class HardwareRobot:
             )
         except (MaestroError, ValueError, TypeError) as exc:
             raise RobotFault(f"motor controller: {exc}") from exc
+        maestro.on_watchdog_stop = self._on_watchdog_stop
+        return maestro
 
     def _open_lidar(self, port: str | Any) -> tuple[RPLidar, _CountingPort]:
         cfg = self.config
@@ -346,15 +348,19 @@ class HardwareRobot:
             self._check()
         vmax = self.model.max_speed
         vl, vr = (min(max(float(v), -vmax), vmax) for v in (left, right))
-        self._set_command((vl, vr))
         if self.maestro is None:
+            self._set_command((vl, vr))
             return
         try:
             if self.dry_run:
+                self._set_command((vl, vr))  # a dry run reckons as if the wheels obeyed
                 self._maestro_stop()
                 sent = (0.0, 0.0)
             else:
+                # reckoned from when the command is sent: a watchdog stop just before it
+                # (see _on_watchdog_stop) is then followed, not overwritten, by this command
                 self.maestro.set_speeds(vl / vmax, vr / vmax)
+                self._set_command((vl, vr))
                 sent = (vl / vmax, vr / vmax)
             self._stop_failed = False
         except _DEVICE_ERRORS as exc:
@@ -368,7 +374,9 @@ class HardwareRobot:
         self._halt_wheels("stop")
 
     def odometry(self) -> Pose | None:
-        """Dead reckoning from the commanded speeds (start = origin), or None when disabled."""
+        """Dead reckoning from the commanded speeds (start = origin), or None when disabled.
+
+        A stop by the motor controller's watchdog counts: the pose then stays where it was."""
         if not self.config.odometry:
             return None
         with self._lock:
@@ -433,6 +441,15 @@ class HardwareRobot:
             self._write_log("motor", left=0.0, right=0.0, sent=None, reason=reason, error=msg)
             raise RobotFault(msg) from exc
         self._log_motor((0.0, 0.0), (0.0, 0.0), reason=reason)
+
+    def _on_watchdog_stop(self) -> None:
+        """The Maestro's watchdog stopped the wheels (no command for its timeout, e.g. a
+        stalled control loop): dead reckoning stops with them, and the log says why."""
+        if self._cmd == (0.0, 0.0) or self.dry_run:
+            return
+        self._set_command((0.0, 0.0))
+        self._sent = None
+        self._write_log("motor", left=0.0, right=0.0, sent=[0.0, 0.0], dry_run=False, reason="watchdog")
 
     def _set_command(self, cmd: tuple[float, float]) -> None:
         with self._lock:

@@ -72,7 +72,9 @@ def test_speeds_in_metres_per_second_map_to_normalised_servo_speeds(devices) -> 
 def test_dead_reckoning_follows_the_commands_and_can_be_disabled(devices) -> None:
     lidar, maestro = devices
     clock = ManualClock()  # the robot's time under the test's control: no wall-time luck
-    with HardwareRobot(lidar.port, maestro.port, HardwareConfig(), clock=clock) as robot:
+    # no watchdog: on a loaded machine its real 0.3 s could pass between two commands and
+    # stop the wheels (and, rightly, the reckoning); that is the next test's subject
+    with HardwareRobot(lidar.port, maestro.port, HardwareConfig(watchdog_timeout=None), clock=clock) as robot:
         assert robot.odometry() == Pose(0.0, 0.0, 0.0)
         robot.set_wheel_speeds(0.1, 0.1)
         clock.advance(0.25)
@@ -88,6 +90,35 @@ def test_dead_reckoning_follows_the_commands_and_can_be_disabled(devices) -> Non
         assert robot.odometry() is None
 
 
+def test_a_watchdog_stop_stops_the_dead_reckoning_too(devices, tmp_path: Path) -> None:
+    """A stalled control loop: no command for the watchdog's timeout, the Maestro stops the
+    wheels on its own, and the robot must not go on believing it drives."""
+    lidar, maestro = devices
+    clock = ManualClock()  # the robot's time; the watchdog keeps its own (real) clock
+    with RunLog(tmp_path / "log.jsonl") as log:
+        with HardwareRobot(lidar.port, maestro.port, HardwareConfig(watchdog_timeout=0.05), clock=clock,
+                           log=log) as robot:
+            robot.set_wheel_speeds(0.1, 0.1)
+            clock.advance(0.2)
+            driver = robot.maestro
+            assert driver is not None
+            deadline = time.monotonic() + 10.0  # a bound for a broken watchdog, not a timing window
+            while driver.watchdog_stops < 1 and time.monotonic() < deadline:
+                driver.wait_watchdog(1, timeout=1.0)
+            assert driver.watchdog_stops >= 1  # counted only after the robot was told
+            assert maestro.wait_for(stopped, 5.0)  # and the device got neutral
+            pose = robot.odometry()
+            # it drove until the stop: at the robot's time 0 or 0.2, by when the watchdog woke
+            assert 0.0 <= pose.x <= 0.02 + 1e-12 and pose.y == 0.0
+            clock.advance(10.0)
+            assert robot.odometry() == pose  # and not one metre further after it
+            robot.set_wheel_speeds(0.1, 0.1)  # the loop resumes: reckoning follows again
+            clock.advance(0.1)
+            assert robot.odometry().x == pytest.approx(pose.x + 0.01, abs=1e-12)
+    motor = [r for r in records(tmp_path / "log.jsonl") if r["event"] == "motor"]
+    assert any(r.get("reason") == "watchdog" and r["left"] == 0.0 for r in motor)
+
+
 def test_dead_reckoning_is_the_shared_geometry_step_bit_for_bit(devices) -> None:
     """The hardware robot believes what the supervisor's dead reckoning would compute from the
     same commands (formal.geometry.dead_reckon), through turns past ±180° included."""
@@ -97,7 +128,7 @@ def test_dead_reckoning_is_the_shared_geometry_step_bit_for_bit(devices) -> None
     commands = [((float(a), float(b)), float(dt)) for a, b, dt in
                 zip(rng.uniform(-0.2, 0.1, 200), rng.uniform(-0.1, 0.2, 200), rng.uniform(0.05, 0.5, 200))]
     expected = Pose(0.0, 0.0, 0.0)
-    with HardwareRobot(lidar.port, maestro.port, HardwareConfig(), clock=clock) as robot:
+    with HardwareRobot(lidar.port, maestro.port, HardwareConfig(watchdog_timeout=None), clock=clock) as robot:
         for (left, right), dt in commands:
             robot.set_wheel_speeds(left, right)
             t = clock.now()
