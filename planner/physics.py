@@ -33,7 +33,9 @@ dropped by perception (``Obstacles.exempt``); no other point is ever exempt.
 the planning origin): beyond it nothing is known. A STRAIGHT that would carry the body
 out of the disc ends where the body touches its rim (``Outcome.frontier``); a turn whose
 sweep would leave it is not available (it comes back with ``frontier`` set and is not
-added to the map). LiDAR shadows (the space behind a sensed surface) lie inside the disc
+added to the map). When the goal lies inside the disc, a step that would reach the rim
+ends instead where the body can still spin in place inside it (a way to the goal may
+turn round the end of a wall there), unless that leaves less than 3 cm to drive. LiDAR shadows (the space behind a sensed surface) lie inside the disc
 and are treated as free: to reach one the body has to go round the surface that casts
 it, past its sensed end, and the next scan, taken from there, sees into it before the
 robot drives in.
@@ -153,7 +155,22 @@ def straight_limit(obstacles: Obstacles, robot: RobotModel, start: Pose, goal: D
     d = _scene(obstacles, robot, None).straight_gap(start)[0] if len(obstacles) else math.inf
     if along is not None and d >= min(along, room):
         return min(along, room)
-    return _spin_room_step(robot, d, min(step, room))
+    return _free_step(robot, start, goal, d, min(step, room), room)
+
+
+def _free_step(robot: RobotModel, start: Pose, goal: Disturbance | None, gap: float, limit: float, room: float) -> float:
+    """A step of at most ``limit`` metres (``gap`` free ahead, ``room`` to the rim), cut
+    where the body can still spin in place: short of a point ahead
+    (:func:`_spin_room_step`), and, for a goal inside the sensed disc, short of the rim
+    (:func:`_rim_spin_room`). A step cut at the rim ends a way that needs unseen space
+    (a frontier state, never expanded); cut where the body can still spin, the search
+    can turn there towards a goal round the end of a wall near the rim (recorded scan 138)."""
+    limit = _spin_room_step(robot, gap, limit)
+    if limit >= room - _EPS and goal is not None and robot.free_turns and math.hypot(goal.x, goal.y) <= robot.sensor_range:
+        spin = _rim_spin_room(robot, start)
+        if _MIN_STEP <= spin < limit:
+            return spin
+    return limit
 
 
 def _spin_room_step(robot: RobotModel, gap: float, limit: float) -> float:
@@ -178,6 +195,26 @@ def _spin_room_step(robot: RobotModel, gap: float, limit: float) -> float:
 _MIN_STEP = 0.03
 # kept beyond the swept disc, so that a point ahead is not met on the sweep's very edge (m)
 _SPIN_SLACK = 0.003
+
+
+def _rim_spin_room(robot: RobotModel, start: Pose) -> float:
+    """How far a STRAIGHT from ``start`` can drive with the body still able to spin in
+    place inside the sensed disc (the real body's swept disc within the rim); 0 when it
+    cannot.
+
+    >>> round(_rim_spin_room(RobotModel(), Pose(0.0, 0.0, 0.0)), 3)
+    0.896
+    """
+    c, s = math.cos(start.theta), math.sin(start.theta)
+    r = robot.sensor_range - _body_radius(robot) - _SPIN_SLACK
+    if r <= 0:
+        return 0.0
+    bb = start.x * c + start.y * s
+    q = start.x * start.x + start.y * start.y - r * r
+    disc = bb * bb - q
+    if q > 0 or disc < 0:
+        return 0.0
+    return max(-bb + math.sqrt(disc), 0.0)
 
 
 def _goal_dead_ahead(robot: RobotModel, start: Pose, goal: Disturbance | None) -> float | None:
@@ -533,7 +570,7 @@ def simulate(
         if along is not None and d >= min(along, room):
             limit = min(along, room)  # a clear run to the goal dead ahead: one task
         else:
-            limit = _spin_room_step(robot, d, min(step, room))
+            limit = _free_step(robot, start, goal, d, min(step, room), room)
         task = Task.straight(robot, start, goal, limit)
         if k >= 0 and scene is not None:
             out = _cut_straight(task, d, obstacles, int(scene.owner[k]), float(scene.x[k]), float(scene.y[k]))
@@ -552,3 +589,4 @@ def simulate(
     if goal is not None and out.d_n is None and out.end.distance_to(goal.x, goal.y) <= robot.goal_tolerance:
         out = Outcome(out.task, out.start, out.end, out.distance, out.duration, out.ticks, None, True, out.frontier)
     return out
+

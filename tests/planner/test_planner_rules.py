@@ -241,3 +241,39 @@ def test_a_goal_beyond_the_disc_ends_the_search_at_the_first_rim_state() -> None
     r = Configurator().plan(np.zeros((0, 2)), (3.0, 0.0))
     assert r.stop_reason == "frontier" and not r.reached_goal
     assert r.states <= 6 and [s.task.value for s in r.steps] == ["STRAIGHT"]
+
+
+def test_a_step_towards_the_rim_ends_where_the_body_can_still_spin_when_the_goal_is_inside() -> None:
+    """Open space, a step heading out of the sensed disc. With the goal inside the disc
+    it ends where a full spin in place stays inside (the search can turn there); with
+    the goal beyond the disc, or the authors' fixed steps, it runs to the rim and ends
+    there as a frontier state."""
+    from formal.model import Disturbance, Pose, TaskKind
+    from planner.perception import perceive
+    from planner.physics import _turn_leaves_disc, simulate
+
+    empty = perceive(np.zeros((0, 2)))
+    start = Pose(0.75, 0.0, 0.0)
+    robot = RobotModel()
+    inside = simulate(TaskKind.STRAIGHT, start, Disturbance.goal(0.5, 0.6), empty, robot)
+    assert not inside.frontier and not inside.collided
+    assert 0.03 <= inside.distance < 0.27
+    assert not _turn_leaves_disc(robot, inside.end, 2 * math.pi)
+    # as far as the spin allows: 3 mm inside the rim
+    body = math.hypot(robot.length - robot.front_offset, robot.width / 2)
+    assert robot.sensor_range - (inside.end.x + body) == pytest.approx(0.003, abs=1e-6)
+    for goal, r in ((Disturbance.goal(1.5, 0.6), robot), (Disturbance.goal(0.5, 0.6), RobotModel(free_turns=False))):
+        out = simulate(TaskKind.STRAIGHT, start, goal, empty, r)
+        assert out.frontier and out.distance > inside.distance
+        assert _turn_leaves_disc(r, out.end, math.pi / 2)
+
+
+def test_a_goal_round_a_wall_end_near_the_rim_is_reached(scans_dir: Path) -> None:
+    """Recorded scan 138: a corridor whose right wall ends 0.2 m short of the rim, the goal
+    beyond its end. Steps ran to the rim, where no turn stays inside the disc, and the
+    search spent its 50 states (53 were needed); stopping where the body can spin, the
+    plan turns round the wall's end inside the disc."""
+    scan = load_scan(scans_dir / "map0138.dat")
+    r = Configurator().plan(scan, (1.0, 0.0))
+    assert r.reached_goal and r.stop_reason == "goal", (r.stop_reason, [(s.task.value, s.end) for s in r.steps])
+    assert check_states(scan, r.steps, r.robot).ok
