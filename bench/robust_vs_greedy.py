@@ -95,6 +95,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--frontier-slack", type=float, default=0.03, help="RobustConfigurator's frontier_slack (default 0.03 m)")
     ap.add_argument("--closed-loop-noise", action="store_true",
                     help="sample with planner.robust.closed_loop_noise(NOISE): the terms measured in the world's closed loop")
+    ap.add_argument("--no-confirm", action="store_true",
+                    help="take the scheduler's deviations without the second look on fresh rollouts (RobustConfigurator(confirm=False))")
     ap.add_argument("--max-time", type=float, default=120.0)
     ap.add_argument("--predict-every-greedy-plan", action="store_true",
                     help="sample a map for every greedy plan too (default: its first plan only; twice the CPU)")
@@ -108,6 +110,8 @@ def main(argv: list[str] | None = None) -> int:
         first: dict[str, list[float]] = {name: [] for name in names}
         per_plan: dict[str, list[tuple[float, bool]]] = {name: [] for name in names}
         cpu: dict[str, float] = {name: 0.0 for name in names}
+        decisions: dict[str, int] = {}
+        diverged = 0
         for k in range(args.first_run, args.first_run + args.runs):
             layout = make_layout(family, 0, k)
             scene = layout.scene
@@ -116,7 +120,7 @@ def main(argv: list[str] | None = None) -> int:
                 kind = PredictedGreedy if name == "greedy" else RobustConfigurator
                 rollout_noise = closed_loop_noise(args.noise) if args.closed_loop_noise else args.noise
                 conf = kind(samples=args.samples, noise=rollout_noise, seed=1000 * k, margin=args.margin, routes=args.routes,
-                            frontier_slack=args.frontier_slack)
+                            frontier_slack=args.frontier_slack, confirm=not args.no_confirm)
                 if isinstance(conf, PredictedGreedy):
                     conf.every_plan = args.predict_every_greedy_plan
                 c1 = time.thread_time()
@@ -133,9 +137,16 @@ def main(argv: list[str] | None = None) -> int:
                         per_plan[name].append((preds[i] if i < len(preds) else math.nan, done))
                 line.append(f"{name} {'ok  ' if success else 'FAIL'} ({r.end_state}, {r.final_distance:.2f} m, {r.collisions} coll., "
                             f"{r.plans} plans, P1 {preds[0] if preds else math.nan:.2f})")
+                if name == "robust":
+                    for d in conf.decisions:
+                        decisions[d] = decisions.get(d, 0) + 1
+                    if any(d in ("confirmed", "deviated") for d in conf.decisions):
+                        diverged += 1
+                        line.append("deviations " + ", ".join(f"{v_r:.2f}>{v_g:.2f}" for v_r, v_g in conf.confirmations
+                                                              if v_r > v_g + args.margin) if conf.confirmations else "deviated")
             if not args.quiet:
                 print(f"{family} run {k}: {'; '.join(line)}", flush=True)
-        rows.append((family, ok, first, per_plan, cpu))
+        rows.append((family, ok, first, per_plan, cpu, decisions, diverged))
     print(f"\nexecution world, noise {args.noise}, runs {args.first_run}..{args.first_run + args.runs - 1} per family "
           f"(paired: same layout, world and seeds), {args.samples} samples per choice, margin {args.margin}, "
           f"routes {args.routes}, frontier slack {args.frontier_slack} m, "
@@ -145,7 +156,7 @@ def main(argv: list[str] | None = None) -> int:
     print("  (* the mean over the plans predicted: every robust plan; the greedy condition's first plans unless "
           "--predict-every-greedy-plan)")
     totals = {name: [0, 0] for name in names}
-    for family, ok, first, per_plan, cpu in rows:
+    for family, ok, first, per_plan, cpu, decisions, diverged in rows:
         for name in names:
             s, n = sum(ok[name]), len(ok[name])
             totals[name][0] += s
@@ -159,6 +170,8 @@ def main(argv: list[str] | None = None) -> int:
                   f"{cpu[name] / max(n, 1):.1f}")
         test = mcnemar(ok["greedy"], ok["robust"])
         print(f"  {family:<8} paired: {test}")
+        print(f"  {family:<8} robust plans' decisions: {', '.join(f'{k} {v}' for k, v in sorted(decisions.items()))}; "
+              f"runs with a deviation taken: {diverged}")
     for name in names:
         s, n = totals[name]
         print(f"  {'all':<8} {name:<7} {_ci(s, n)}")

@@ -12,6 +12,8 @@ import time
 from dataclasses import dataclass, replace
 from typing import Any
 
+import numpy as np
+
 from formal.lts import CognitiveMap
 from formal.model import Disturbance, Pose
 from formal.robust import RobustPlan
@@ -29,6 +31,9 @@ from planner.probabilistic import (
 from planner.robot import RobotModel
 
 __all__ = ["plan_target", "RobustChoice", "RobustConfigurator", "SUPERVISOR_HAZARD", "CLOSED_LOOP_TERMS", "closed_loop_noise"]
+
+_CONFIRM_SEED = 2**40
+"""Added to a plan's sampling seed for the map that confirms a deviation (its own worlds)."""
 
 SUPERVISOR_HAZARD = HazardRule()
 """The supervisor's scan test with its defaults (2 points, 5.5 Hz)."""
@@ -111,13 +116,27 @@ class RobustConfigurator(Configurator):
     (``tolerance``), and a rollout is interrupted where the supervisor's scan test would
     stop it (``hazard``). Needs stormpy.
 
-    The scheduler is executed as a policy: it is kept on the map
+    Where the scheduler keeps every task of the best-first plan, :meth:`plan` returns the
+    plain Configurator's result itself (``decision`` "kept"). Where it leaves it, the
+    deviation is confirmed on an independent map of fresh rollouts
+    (:meth:`confirm_deviation`, when ``confirm``): the robust plan is taken only if there
+    too its value beats the best-first plan's by more than ``margin`` ("confirmed"),
+    else the best-first plan is returned unchanged ("rejected"). A maximum over k/N
+    estimates is biased upwards, so without the second look the scheduler takes plans
+    that are safer on sampling noise alone. A run of the closed loop with this
+    Configurator thus differs from one with the plain Configurator only after a
+    confirmed deviation. ``decisions`` lists each plan's decision, ``confirmations``
+    the (robust, best-first) values of every second look.
+
+    A robust plan is executed as a policy: the scheduler is kept on the map
     (:func:`formal.robust.attach_policy`), and the supervisor's recall after a task
     ended in another outcome continues with the scheduler's choice in the state it
     finds the robot in.
 
-    ``last_probabilities`` holds (robust, greedy) of the latest plan, Storm's predictions
-    of reaching the target without a collision; ``predictions`` every plan's.
+    ``last_probabilities`` holds (plan, greedy) of the latest plan: Storm's predictions
+    of reaching the target without a collision for the plan returned and for the
+    best-first plan (equal unless the plan is a confirmed deviation);
+    ``predictions`` every plan's.
 
     >>> import numpy as np
     >>> conf = RobustConfigurator(samples=2, noise="ideal")
@@ -139,6 +158,7 @@ class RobustConfigurator(Configurator):
         routes: int = 1,
         route_states: int = 100,
         frontier_slack: float = POSITION_TOLERANCE,
+        confirm: bool = True,
         **options: Any,
     ) -> None:
         super().__init__(robot, **options)
@@ -152,7 +172,10 @@ class RobustConfigurator(Configurator):
         self.search_routes = routes
         self.route_states = route_states
         self.frontier_slack = frontier_slack
+        self.confirm = confirm
         self._calls = 0
+        self.decisions: list[str] = []
+        self.confirmations: list[tuple[float, float]] = []
         self.last_probabilities: tuple[float, float] | None = None
         self.predictions: list[tuple[float, float]] = []
 
@@ -184,20 +207,76 @@ class RobustConfigurator(Configurator):
         self.predictions.append(self.last_probabilities)
         return RobustChoice(pm, greedy_result, greedy, target, rp, p_greedy)
 
+    def confirm_deviation(self, points: np.ndarray, goal: Disturbance | tuple[float, float], c: RobustChoice,
+                          seed: int) -> tuple[float, float]:
+        """The values of the robust plan and of the best-first plan on an independent
+        probabilistic map (the same rollouts' size and noise, seed ``seed``): each plan's
+        tasks are carried onto it (:func:`formal.robust.follow_tasks`) and followed along
+        its path, Storm's optimal choice elsewhere (the recall), so the two differ only
+        in the choices that make them differ. Returns (robust, best-first).
+
+        Why: the scheduler maximises over many k/N estimates, and the maximum of noisy
+        estimates is biased upwards (the optimiser's curse); values measured on samples
+        that did not choose the plan are not."""
+        from formal.robust import follow_tasks, policy_probability, robust_plan
+
+        base = c.pm.nominal
+        g = c.greedy_result
+        other = sample_map(points, goal, self.samples, self.noise, seed, _Fixed(base, self.cost), self.tolerance, self.hazard)
+        target = plan_target(other.map, g.map[g.plan.end].end, g.goal, self.goal_radius, self.frontier_slack)
+        best = robust_plan(other.map, target).scheduler
+
+        def value(plan: Plan, cmap: CognitiveMap) -> float:
+            carried = follow_tasks(other.map, [cmap[b].task for _, b in plan.steps()])
+            policy = dict(best)
+            policy.update({a: other.map[b].task for a, b in carried.steps()})
+            return policy_probability(other.map, policy, target)
+
+        return value(c.robust.plan, c.pm.map), value(c.greedy, c.pm.map)
+
     def plan(self, scan: Any, goal: Disturbance | tuple[float, float]) -> PlanResult:
         """The robust plan on the probabilistic map of ``scan`` (see the class docstring)."""
         from formal.robust import attach_policy
         from formal.supervisory import guard
 
         t0 = time.perf_counter()
-        c = self.sample(scan, goal)
+        points = load_scan(scan)
+        call = self._calls
+        c = self.sample(points, goal)
         cmap = c.pm.map
-        attach_policy(cmap, c.robust.scheduler)  # a recall on this map follows the scheduler
-        cmap.metadata["target"] = sorted(c.target)
         sched = c.robust.scheduler
-        kept = all(sched.get(a) is cmap[b].task for a, b in c.greedy.steps())
-        # where the scheduler keeps every task of the best-first plan, the plan is that plan
-        # itself (its nominal states and predicted ends), not the path of most likely outcomes
-        plan = c.greedy if kept and len(c.greedy) > 1 else c.robust.plan
         g = c.greedy_result
-        return PlanResult(cmap, plan, g.goal, g.obstacles, g.robot, time.perf_counter() - t0, g.stop_reason, guard(cmap, plan))
+        kept = len(c.greedy) > 1 and all(sched.get(a) is cmap[b].task for a, b in c.greedy.steps())
+        if kept or len(c.robust.plan) <= 1:  # nothing safer found, or no task at all
+            decision = "kept"
+        elif not self.confirm:
+            decision = "deviated"
+        else:
+            v_r, v_g = self.confirm_deviation(points, goal, c, self.seed + call + _CONFIRM_SEED)
+            decision = "confirmed" if v_r > v_g + self.margin else "rejected"
+            self.confirmations.append((v_r, v_g))
+        self.decisions.append(decision)
+        if decision in ("kept", "rejected"):
+            # the best-first plan, exactly as the plain Configurator made it (its map, its
+            # states, their predicted ends): the supervisor executes and recalls it as it
+            # would without Storm, so a run differs only where Storm found a safer plan
+            self.last_probabilities = (c.p_greedy, c.p_greedy)
+            self.predictions[-1] = self.last_probabilities
+            return replace(g, planning_time_s=time.perf_counter() - t0)
+        attach_policy(cmap, sched)  # a recall on this map follows the scheduler
+        cmap.metadata["target"] = sorted(c.target)
+        plan = c.robust.plan
+        return PlanResult(cmap, plan, g.goal, g.obstacles, g.robot, time.perf_counter() - t0, g.stop_reason, guard(cmap, plan),
+                          g.goal_blocked)
+
+
+class _Fixed(Configurator):
+    """A Configurator that hands back one given planning result (a second probabilistic
+    map of the same scan need not plan the nominal map again)."""
+
+    def __init__(self, result: PlanResult, cost: Any) -> None:
+        super().__init__(result.robot, cost)
+        self.result = result
+
+    def plan(self, scan: Any, goal: Disturbance | tuple[float, float]) -> PlanResult:
+        return self.result

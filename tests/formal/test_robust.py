@@ -205,3 +205,83 @@ def test_where_the_scheduler_keeps_the_best_first_tasks_the_plan_is_the_best_fir
     plain = Configurator().plan(scan, goal)
     assert r.plan.states == plain.plan.states
     assert [r.map[q].end for q in r.plan.states] == [plain.map[q].end for q in plain.plan.states]
+
+
+def _stubbed_choice(risky_map):
+    """A RobustChoice on ``risky_map``: the best-first plan is the risky STRAIGHT (q0 → q1,
+    value 0.8), the scheduler's the sure detour (value 1.0)."""
+    import numpy as np
+
+    from formal.supervisory import Plan
+    from planner import Configurator
+    from planner.configurator import PlanResult
+    from planner.perception import perceive
+    from planner.probabilistic import ProbabilisticMap, RolloutNoise
+    from planner.robust import RobustChoice
+
+    robot = Configurator().robot
+    greedy = PlanResult(risky_map, Plan((0, 1)), risky_map.goal, perceive(np.zeros((0, 2)), robot.sensor_range),
+                        robot, 0.0, "test")
+    pm = ProbabilisticMap(risky_map, greedy, 5, RolloutNoise(), 0.0, 0.0, 0)
+    return RobustChoice(pm, greedy, greedy.plan, {1, 6}, robust_plan(risky_map, {1, 6}), 0.8)
+
+
+@pytest.mark.parametrize(("values", "confirm", "decision"), [
+    ((0.85, 0.8), True, "rejected"),   # safer on the second look by less than the margin
+    ((0.8, 0.9), True, "rejected"),    # less safe on the second look
+    ((0.95, 0.8), True, "confirmed"),  # safer by more than the margin: the detour is taken
+    (None, False, "deviated"),         # no second look: the scheduler's plan as it is
+])
+def test_a_deviation_from_the_best_first_plan_is_taken_only_when_fresh_rollouts_confirm_it(risky_map, values, confirm, decision):
+    """The scheduler's maximum over k/N estimates is biased upwards: its detour replaces the
+    best-first plan only where an independent map also finds it safer by more than the
+    margin; otherwise the plan is the plain Configurator's result, unchanged."""
+    import numpy as np
+
+    from planner.robust import RobustConfigurator
+
+    seeds: list[int] = []
+
+    class Stubbed(RobustConfigurator):
+        def sample(self, scan, goal):
+            self._calls += 1
+            self.last_probabilities = (1.0, 0.8)
+            self.predictions.append(self.last_probabilities)
+            return _stubbed_choice(risky_map)
+
+        def confirm_deviation(self, points, goal, c, seed):
+            seeds.append(seed)
+            return values
+
+    conf = Stubbed(samples=5, margin=0.1, confirm=confirm, seed=7)
+    r = conf.plan(np.zeros((0, 2)), (1.0, 0.0))
+    assert conf.decisions == [decision]
+    if decision == "rejected":
+        assert r.plan.states == (0, 1) and r.map is risky_map and "scheduler" not in r.map.metadata
+        assert conf.last_probabilities == conf.predictions[-1] == (0.8, 0.8)
+        assert conf.confirmations == [values]
+    else:
+        assert r.plan.states == (0, 3, 4, 5, 6) and r.map.metadata["scheduler"]["0"] == "LEFT"
+        assert conf.last_probabilities == (1.0, 0.8)
+    if confirm:  # the second look's worlds are not the plan's own
+        assert seeds and seeds[0] != 7
+
+
+def test_the_second_look_values_plans_on_rollouts_of_its_own():
+    """confirm_deviation samples a new map (other worlds: other outcome counts) and values
+    both plans there the same way: carried by their tasks, the optimum elsewhere, so the
+    best-first plan measured against itself is a tie."""
+    from dataclasses import replace
+
+    from planner import load_scenario
+    from planner.robust import RobustConfigurator
+
+    scene = load_scenario("corridor")
+    scan, goal = scene.scan(max_range=1.1), tuple(scene.goal_in_robot_frame())
+    conf = RobustConfigurator(samples=10, noise="harsh")
+    c = conf.sample(scan, goal)
+    same = replace(c, robust=replace(c.robust, plan=c.greedy))
+    v_r, v_g = conf.confirm_deviation(scan, goal, same, seed=12345)
+    assert v_r == pytest.approx(v_g) and 0 <= v_g <= 1
+    values = {conf.confirm_deviation(scan, goal, same, seed=s)[1] for s in range(4)}
+    assert len(values) > 1  # fresh rollouts: the estimate moves with the seed
