@@ -1,15 +1,22 @@
 """Plan checking and recall: the supervisor's use of the cognitive map it already has.
 
-:func:`check_plan` re-simulates the tasks a plan still has to run on the newest scan, from
-the estimated pose, with the planner's own core knowledge (``planner.physics.simulate``
-on what the scan shows): each task must still be free of obstacles and end where the map
-predicted (within ``tolerance``). The supervisor runs it once a revolution; a failed check
-sends it to REPLANNING.
+:func:`check_plan` tests the tasks a plan still has to run against the newest scan, from
+the estimated pose: each task must still be free of the scan's points and end where the
+map predicted (within ``tolerance``). The test is the planner's own geometry in closed
+form (:mod:`planner.physics`: the footprint inflated by the robot's ``clearance``
+translated along a straight, spun through every tick heading of a turn, the
+start-touching rule), done for all remaining tasks at once on the raw points: no
+perception (clustering into boxes) and no rollout objects, so a check costs a few array
+operations, however many tasks remain. The supervisor runs it once a revolution; a
+failed check sends it to REPLANNING. :func:`resimulate_plan` is the same verdict from the
+planner's :func:`planner.physics.simulate` on perceived obstacles (kept as the reference
+the tests compare against).
 
 :func:`recall` is what REPLANNING tries first: match the current situation to a state of
 the existing map — an uninterrupted state whose end pose is where the robot now is
-(within ``tolerance``) — extract the plan the map holds from there to its best state, and
-keep it only if :func:`check_plan` finds its tasks' disturbances consistent with the new
+(within ``tolerance``), looked up in a grid of the map's end poses
+(:class:`RecallIndex`, built once per map) — extract the plan the map holds from there
+to its best state, and keep it only if :func:`check_plan` finds its tasks free on the new
 scan. Only when no state passes does the supervisor explore anew.
 
 Poses: a plan's states are in its *planner frame* (the robot at the time it was made,
@@ -20,10 +27,11 @@ now and what the LiDAR sees from it.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 import time
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -36,7 +44,16 @@ from planner.perception import Obstacles, perceive
 from planner.physics import simulate
 from planner.robot import RobotModel
 
-__all__ = ["CheckResult", "Recall", "check_plan", "perceive_near", "perceive_scan", "recall"]
+__all__ = [
+    "CheckResult",
+    "Recall",
+    "RecallIndex",
+    "check_plan",
+    "perceive_near",
+    "perceive_scan",
+    "recall",
+    "resimulate_plan",
+]
 
 
 @dataclass(frozen=True)
@@ -83,7 +100,232 @@ def _off(a: Pose, b: Pose) -> tuple[float, float]:
     return math.hypot(a.x - b.x, a.y - b.y), abs(wrap_angle(a.theta - b.theta))
 
 
+class _Leg(NamedTuple):
+    """One remaining task as the robot would run it now: from ``start`` (robot frame, x, y,
+    theta), a straight of ``amount`` m or a turn of ``amount`` rad; ``end`` is the map's
+    prediction and ``reached`` where it ends when run as planned from ``start``."""
+
+    k: int
+    kind: TaskKind
+    start: tuple[float, float, float]
+    amount: float
+    end: tuple[float, float, float]
+    reached: tuple[float, float, float]
+
+
+def _legs(states: list[State], frame: Pose, running: bool) -> list[_Leg]:
+    """The remaining tasks chained from the robot's pose (the origin of the robot frame):
+    each starts where the previous one, run as planned, ends (plain floats: a check builds
+    no pose objects)."""
+    legs: list[_Leg] = []
+    fx, fy, fth = frame.x, frame.y, frame.theta
+    fc, fs = math.cos(fth), math.sin(fth)
+    x = y = th = 0.0
+    for k, q in enumerate(states):
+        e = q.end
+        end = (fx + fc * e.x - fs * e.y, fy + fs * e.x + fc * e.y, fth + e.theta)  # the map's end, robot frame
+        c, sn = math.cos(th), math.sin(th)
+        if q.task is TaskKind.STRAIGHT:
+            if k == 0 and running:
+                amount = (end[0] - x) * c + (end[1] - y) * sn
+            else:
+                amount = math.hypot(e.x - q.start.x, e.y - q.start.y)
+        else:
+            amount = abs(wrap_angle(end[2] - th))
+        if amount <= 1e-3:
+            reached = end  # nothing left of it: the next task starts where the map says
+        elif q.task is TaskKind.STRAIGHT:
+            reached = (x + c * amount, y + sn * amount, th)
+        else:
+            reached = (x, y, th + (amount if q.task is TaskKind.LEFT else -amount))
+        legs.append(_Leg(k, q.task, (x, y, th), amount, end, reached))
+        x, y, th = reached
+    return legs
+
+
+def _points(seen: Obstacles | np.ndarray, robot: RobotModel) -> np.ndarray:
+    """The scan's points within the sensor's range as complex x + iy (robot frame now)."""
+    if isinstance(seen, Obstacles):
+        pts = seen.points
+    else:
+        pts = np.asarray(seen, dtype=float).reshape(-1, 2)
+        r2 = pts[:, 0] * pts[:, 0] + pts[:, 1] * pts[:, 1]
+        pts = pts[(r2 <= robot.sensor_range * robot.sensor_range) & (r2 > 1e-6)]
+    z: np.ndarray = pts[:, 0] + 1j * pts[:, 1]
+    return z
+
+
+def _near(z: np.ndarray, legs: list[_Leg], robot: RobotModel) -> np.ndarray:
+    """The points within the body's reach of the box spanned by the legs' starts and ends
+    (the rest cannot touch it): the array operations after it see a fraction of the scan."""
+    if not z.size or not legs:
+        return z
+    xs = [p[0] for g in legs for p in (g.start, g.reached)]
+    ys = [p[1] for g in legs for p in (g.start, g.reached)]
+    reach = _swept_radius(robot) + 0.01
+    x, y = z.real, z.imag
+    keep = (x >= min(xs) - reach) & (x <= max(xs) + reach) & (y >= min(ys) - reach) & (y <= max(ys) + reach)
+    out: np.ndarray = z[keep]
+    return out
+
+
+def _straight_contacts(z: np.ndarray, legs: list[_Leg], robot: RobotModel, allowance: float) -> list[float]:
+    """Per straight leg: how far the body drives before it meets a point (inf: never), to
+    the last control tick before the contact, all legs in one array operation (the
+    planner's rule, :mod:`planner.physics`: the inflated footprint translated along the
+    leg; a point already inside it at the start is held to the real body). ``allowance``
+    (m) shrinks the body a point must enter to count (sensor noise)."""
+    if not z.size:
+        return [math.inf] * len(legs)
+    a = np.array([complex(g.start[0], g.start[1]) for g in legs])
+    e = np.exp(-1j * np.array([g.start[2] for g in legs]))
+    w = (z[None, :] - a[:, None]) * e[:, None]  # legs × points: u + iv in each task's frame
+    u, v = w.real, np.abs(w.imag)
+    c = robot.clearance
+    rear, front, half = robot.rear_offset + c, robot.front_offset + c, robot.width / 2 + c - allowance
+    gap = np.where((v <= half) & (u >= -rear), u - (front - allowance), np.inf)
+    d = gap.min(axis=1)
+    if (d <= allowance).any():
+        # inside the inflated footprint at the start: held to the real body (the
+        # start-touching rule); strictly inside the real body, the robot's own returns
+        rfront, rhalf = robot.front_offset - allowance, robot.width / 2 - allowance
+        waived = gap <= allowance
+        real = np.where(v < rhalf, u - rfront, np.inf)
+        gap = np.where(waived, np.where(real >= allowance, real, np.inf), gap)
+        d = gap.min(axis=1)
+    per_tick = robot.straight_speed * robot.tick
+    # the task ends at the last control tick before the contact, as the planner's rollout
+    return [(max(math.ceil(x / per_tick - 1e-12), 1) - 1) * per_tick if math.isfinite(x) else math.inf for x in d.tolist()]
+
+
+def _turn_contacts(z: np.ndarray, legs: list[_Leg], robot: RobotModel, allowance: float) -> list[float]:
+    """Per turn leg: how far (rad) the inflated body turns in place before it meets a point
+    (inf: never), tested at every tick heading as the planner's rollout does; all legs in
+    one array operation (legs × tick headings × points)."""
+    per_tick = robot.turn_rate * robot.tick
+    ticks = [math.ceil(g.amount / per_tick - 1e-9) for g in legs]
+    if not z.size or max(ticks) <= 0:
+        return [math.inf] * len(legs)
+    d = z[None, :] - np.array([complex(g.start[0], g.start[1]) for g in legs])[:, None]  # legs × points
+    # past a leg's own last tick its heading stays at its end: a repeat, never an earlier contact
+    steps = np.arange(max(ticks) + 1) * per_tick
+    turned = [np.minimum(steps, g.amount) * (1.0 if g.kind is TaskKind.LEFT else -1.0) + g.start[2] for g in legs]
+    w = d[:, None, :] * np.exp(-1j * np.array(turned))[:, :, None]  # legs × ticks × points, body frames
+    c = robot.clearance
+    rear, front, half = robot.rear_offset, robot.front_offset, robot.width / 2
+    mid, length = (front - rear) / 2, (front + rear) / 2
+    u, v = np.abs(w.real - mid), np.abs(w.imag)  # about the body's centre: one test per axis
+    inside = (u <= length + c - allowance) & (v <= half + c - allowance)
+    waived = inside[:, 0, :]
+    if waived.any():
+        real = (u <= length - allowance) & (v <= half - allowance)
+        inside = np.where(waived[:, None, :], real, inside)
+        # strictly inside the real body at the start: the robot's own returns
+        inside &= ~((u[:, 0, :] < length) & (v[:, 0, :] < half))[:, None, :]
+    hit = inside[:, 1:, :].any(axis=2)
+    out = []
+    for i, g in enumerate(legs):
+        rows = np.flatnonzero(hit[i])
+        k = int(rows[0]) + 1 if len(rows) else ticks[i] + 1  # the first tick in contact
+        if waived[i].any():
+            # a point within the margin is held to the real body with no margin for the
+            # corner's path between ticks: tested at eight headings per tick, as the planner does
+            sign = 1.0 if g.kind is TaskKind.LEFT else -1.0
+            k = min(k, _waived_turn(d[i][waived[i]], g.start[2], sign, per_tick, g.amount, ticks[i], robot, allowance))
+        out.append(math.inf if k > ticks[i] else min((k - 1) * per_tick, g.amount))  # the last tick heading before contact
+    return out
+
+
+@functools.lru_cache(maxsize=16)
+def _swept_radius(robot: RobotModel) -> float:
+    return robot.swept_radius
+
+
+def _waived_turn(d: np.ndarray, theta: float, sign: float, per_tick: float, e0: float, ticks: int,
+                 robot: RobotModel, allowance: float) -> int:
+    """The first tick at or after which the real body meets one of these points (complex,
+    relative to the centre; strictly outside the body at the start), eight headings a tick."""
+    rear, front, half = robot.rear_offset - allowance, robot.front_offset - allowance, robot.width / 2 - allowance
+    fine = np.minimum(np.arange(1, 8 * ticks + 1) * (per_tick / 8), e0)
+    w = d[None, :] * np.exp(-1j * (theta + sign * fine))[:, None]
+    u, v = w.real, np.abs(w.imag)
+    w0 = d * complex(math.cos(theta), -math.sin(theta))
+    live = ~((w0.real > -robot.rear_offset) & (w0.real < robot.front_offset) & (np.abs(w0.imag) < robot.width / 2))
+    hit = np.flatnonzero(((u >= -rear) & (u <= front) & (v <= half) & live).any(axis=1))
+    return int(hit[0]) // 8 + 1 if len(hit) else ticks + 1
+
+
 def check_plan(
+    states: list[State],
+    origin: Pose,
+    pose: Pose,
+    goal: Pose,
+    seen: Obstacles | np.ndarray,
+    robot: RobotModel,
+    *,
+    tolerance: tuple[float, float] = (0.08, 0.3),
+    running: bool = False,
+    allowance: float = 0.0,
+) -> CheckResult:
+    """Test ``states`` (planner frame at ``origin``) from ``pose`` against ``seen``: the
+    scan's points (N×2, robot frame at ``pose``) or perceived obstacles; see the module
+    docstring.
+
+    ``goal`` (the supervisor's frame) is kept for the signature :func:`resimulate_plan`
+    shares; the geometry does not need it. ``running``: the first state is the task under
+    way, checked from the current pose to its predicted end. A task fails when it meets a
+    point more than ``tolerance`` before its end (m for a straight, rad for a turn) or
+    would end farther than ``tolerance`` from the map's prediction. ``allowance`` (m): a
+    point must lie that much inside the inflated body to count (the sensor's noise).
+
+    >>> from formal.model import Disturbance
+    >>> g = Disturbance.goal(1.0, 0.0)
+    >>> step = State(1, TaskKind.STRAIGHT, g, None, Pose(0.0, 0.0), Pose(0.5, 0.0), distance=0.5)
+    >>> o = Pose(0.0, 0.0, 0.0)
+    >>> check_plan([step], o, o, Pose(1.0, 0.0), np.zeros((0, 2)), RobotModel()).ok
+    True
+    >>> wall = np.c_[np.full(21, 0.4), np.linspace(-0.2, 0.2, 21)]
+    >>> check_plan([step], o, o, Pose(1.0, 0.0), wall, RobotModel()).reason
+    'task 1 (STRAIGHT) now meets an obstacle after 0.29 of 0.50 m'
+    """
+    del goal  # the straights run their planned length whatever the goal
+    t0 = time.perf_counter()
+    if not states:
+        return CheckResult(True, "nothing left to check", 0, time.perf_counter() - t0)
+    legs = _legs(states, relative(pose, origin), running)
+    live = [g for g in legs if g.amount > 1e-3]
+    z = _near(_points(seen, robot), live, robot)
+    blocked: dict[int, float] = {}
+    if z.size:
+        straights = [g for g in live if g.kind is TaskKind.STRAIGHT]
+        if straights:
+            for g, d in zip(straights, _straight_contacts(z, straights, robot, allowance)):
+                if d < g.amount - tolerance[0]:
+                    blocked[g.k] = d
+        turns = [g for g in live if g.kind is not TaskKind.STRAIGHT and g.k < min(blocked, default=len(legs))]
+        if turns:
+            for g, turned in zip(turns, _turn_contacts(z, turns, robot, allowance)):
+                if turned < g.amount - tolerance[1]:
+                    blocked[g.k] = turned
+    for g in legs:
+        name = f"task {g.k + 1} ({g.kind.value})"
+        if g.k in blocked:
+            if g.kind is TaskKind.STRAIGHT:
+                why = f"{name} now meets an obstacle after {max(blocked[g.k], 0.0):.2f} of {g.amount:.2f} m"
+            else:
+                why = f"{name} now meets an obstacle"
+            return CheckResult(False, why, g.k + 1, time.perf_counter() - t0)
+        if g.amount <= 1e-3:
+            continue
+        (rx, ry, rth), (ex, ey, eth) = g.reached, g.end
+        d, a = math.hypot(rx - ex, ry - ey), abs(wrap_angle(rth - eth))
+        if d > tolerance[0] or a > tolerance[1]:
+            return CheckResult(False, f"{name} would end {d:.3f} m, {math.degrees(a):.0f}° "
+                                      f"from the map's prediction", g.k + 1, time.perf_counter() - t0)
+    return CheckResult(True, f"{len(states)} task(s) still free and on the map", len(states), time.perf_counter() - t0)
+
+
+def resimulate_plan(
     states: list[State],
     origin: Pose,
     pose: Pose,
@@ -94,12 +336,11 @@ def check_plan(
     tolerance: tuple[float, float] = (0.08, 0.3),
     running: bool = False,
 ) -> CheckResult:
-    """Re-simulate ``states`` (planner frame at ``origin``) from ``pose`` among ``obstacles``
-    (perceived in the robot frame at ``pose``); see the module docstring.
+    """:func:`check_plan`'s verdict by re-simulating each task with the planner's
+    :func:`planner.physics.simulate` among perceived ``obstacles`` (the reference; slower).
 
-    ``goal`` is in the supervisor's frame. ``running``: the first state is the task under
-    way, checked from the current pose to its predicted end. Each task starts where the
-    previous one's rollout ended.
+    Each task starts where the previous one's rollout ended; a straight's rollout is the
+    planner's (cut into steps, at the rim of the sensed disc), so it sees no further.
     """
     t0 = time.perf_counter()
     if not states:
@@ -146,6 +387,78 @@ def check_plan(
     return CheckResult(True, f"{len(states)} task(s) still free and on the map", len(states), time.perf_counter() - t0)
 
 
+class RecallIndex:
+    """The states of one map a recall may start from, indexed by end pose.
+
+    The uninterrupted states reachable from q0 go into a grid of ``cell`` m squares by
+    where they end (planner frame), so a recall looks up the few cells around the robot
+    instead of scanning the map; the map's continuation from each state is worked out
+    once and remembered. Given the map's plan ρ (ending at the least-φ state), the
+    continuation from each state of ρ is the rest of ρ, known at once. ``build_s``: the
+    seconds building the index took.
+
+    >>> from formal.lts import CognitiveMap
+    >>> from formal.model import Disturbance
+    >>> g = Disturbance.goal(1.0, 0.0)
+    >>> m = CognitiveMap.from_parts(
+    ...     [State(0, TaskKind.STRAIGHT, g, None, Pose(0, 0), Pose(0, 0), cost=1.0),
+    ...      State(1, TaskKind.STRAIGHT, g, None, Pose(0, 0), Pose(0.3, 0), cost=0.5),
+    ...      State(2, TaskKind.STRAIGHT, g, None, Pose(0.3, 0), Pose(0.6, 0), cost=0.2)], [(0, 1), (1, 2)], goal=g)
+    >>> RecallIndex(m).near(Pose(0.31, 0.0, 0.0))
+    [1]
+    """
+
+    def __init__(self, cmap: Any, cell: float = 0.04, plan: Plan | None = None) -> None:
+        t0 = time.perf_counter()
+        self.map = cmap
+        self.cell = cell
+        self._grid: dict[tuple[int, int], list[int]] = {}
+        best: State | None = None
+        for i in cmap.reachable():
+            q = cmap[i]
+            if not q.interrupted:
+                self._grid.setdefault(self._key(q.end.x, q.end.y), []).append(i)
+                if i != cmap.initial_id and (best is None or (q.cost, q.ident) < (best.cost, best.ident)):
+                    best = q
+        self._paths: dict[int, list[int] | None] = {}
+        self._prefix: dict[int, list[int]] = {}
+        if plan is not None and map_policy(cmap) is None and best is not None and plan.states[-1] == best.ident:
+            # ρ ends at the map's least-φ state, so from each of its states the map's plan
+            # leads on along ρ (the same end :func:`_best_from` finds, by ρ's own path)
+            states = list(plan.states)
+            for k, ident in enumerate(states[:-1]):
+                self._prefix[ident] = states[:k + 1]
+                self._paths[ident] = states[k:] if best.cost < cmap[ident].cost else None
+        self.build_s = time.perf_counter() - t0  # how long building it took (s)
+
+    def _key(self, x: float, y: float) -> tuple[int, int]:
+        return math.floor(x / self.cell), math.floor(y / self.cell)
+
+    def near(self, here: Pose, tolerance: tuple[float, float] = (0.04, 0.15)) -> list[int]:
+        """The indexed states ending within ``tolerance`` of ``here`` (planner frame), least φ first."""
+        cx, cy = self._key(here.x, here.y)
+        r = max(1, math.ceil(tolerance[0] / self.cell))
+        found = []
+        for i in range(cx - r, cx + r + 1):
+            for j in range(cy - r, cy + r + 1):
+                for ident in self._grid.get((i, j), ()):
+                    d, a = _off(self.map[ident].end, here)
+                    if d <= tolerance[0] and a <= tolerance[1]:
+                        found.append((self.map[ident].cost, d, ident))
+        return [ident for _c, _d, ident in sorted(found)]
+
+    def continuation(self, result: PlanResult, source: int) -> list[int] | None:
+        """The map's plan from ``source`` (see :func:`_best_from`), remembered."""
+        if source not in self._paths:
+            self._paths[source] = _best_from(result, source)
+        return self._paths[source]
+
+    def prefix(self, ident: int) -> list[int]:
+        """A path of the map from q0 to ``ident``: along ρ when ``ident`` is on it."""
+        known = self._prefix.get(ident)
+        return list(known) if known is not None else self.map.path(ident)
+
+
 def _best_from(result: PlanResult, source: int) -> list[int] | None:
     """The map's plan from ``source``: a path to its least-φ uninterrupted descendant, or,
     on a map that carries Storm's scheduler (a robust plan), the scheduler's path from
@@ -167,48 +480,62 @@ def _best_from(result: PlanResult, source: int) -> list[int] | None:
     return cmap.path(end.ident, source)
 
 
+def _guard(result: PlanResult, plan: Plan) -> dict[Any, int]:
+    """Ψ of ``plan`` on ``result``'s map: :func:`formal.supervisory.guard`, derived from the
+    guard the result already holds over the same transitions (the keys' hashes are reused,
+    only the plan's steps are set; the map's own guard when the result's does not cover it)."""
+    if len(result.psi) != result.map.n_transitions:
+        return guard(result.map, plan)
+    steps = set(plan.steps())
+    psi = dict.fromkeys(result.psi, 0)
+    for t in result.psi:
+        if (t.source, t.target) in steps:
+            psi[t] = 1
+    return psi
+
+
 def recall(
     result: PlanResult,
     origin: Pose,
     pose: Pose,
     goal: Pose,
-    obstacles: Obstacles,
+    seen: Obstacles | np.ndarray,
     robot: RobotModel,
     *,
     tolerance: tuple[float, float] = (0.04, 0.15),
     check_tolerance: tuple[float, float] = (0.08, 0.3),
+    index: RecallIndex | None = None,
+    allowance: float = 0.0,
 ) -> tuple[Recall | None, str, float]:
     """Recall a plan from ``result``'s map for the robot at ``pose``; see the module docstring.
 
+    ``seen``: the scan's points (robot frame at ``pose``) or perceived obstacles.
     ``tolerance`` is how close (m, rad) a state's end must be to the robot's pose;
-    ``check_tolerance`` is :func:`check_plan`'s. Returns (the recall or None, why, seconds).
+    ``check_tolerance`` and ``allowance`` are :func:`check_plan`'s. ``index``: the map's
+    :class:`RecallIndex` when the caller keeps one (built here otherwise). Returns (the
+    recall or None, why, seconds).
     """
     t0 = time.perf_counter()
     cmap = result.map
+    if index is None or index.map is not cmap:
+        index = RecallIndex(cmap, plan=result.plan)
     here = relative(origin, pose)  # planner frame
-    reach = cmap.reachable()
-    candidates = []
-    for q in cmap.states():
-        if q.ident not in reach or q.interrupted:
-            continue
-        d, a = _off(q.end, here)
-        if d <= tolerance[0] and a <= tolerance[1]:
-            candidates.append((q.cost, d, q.ident))
+    candidates = index.near(here, tolerance)
     if not candidates:
         return None, "no state of the map is where the robot is", time.perf_counter() - t0
     last = "no state of the map leads on from here"
-    for _cost, _d, ident in sorted(candidates):
-        path = _best_from(result, ident)
+    for ident in candidates:
+        path = index.continuation(result, ident)
         if path is None:
             continue
         states = [cmap[i] for i in path[1:]]
-        verdict = check_plan(states, origin, pose, goal, obstacles, robot, tolerance=check_tolerance)
+        verdict = check_plan(states, origin, pose, goal, seen, robot, tolerance=check_tolerance, allowance=allowance)
         if not verdict.ok:
             last = f"from q{ident}: {verdict.reason}"
             continue
         # the recalled plan, as a plan of the same map: ρ from q0 through the recalled state
-        full = cmap.path(ident)[:-1] + path
+        full = index.prefix(ident)[:-1] + path
         plan = Plan(tuple(full))
-        recalled = dataclasses.replace(result, plan=plan, psi=guard(cmap, plan), planning_time_s=time.perf_counter() - t0)
+        recalled = dataclasses.replace(result, plan=plan, psi=_guard(result, plan), planning_time_s=time.perf_counter() - t0)
         return Recall(recalled, ident, verdict), f"recalled from q{ident}: {verdict.reason}", time.perf_counter() - t0
     return None, last, time.perf_counter() - t0

@@ -64,12 +64,15 @@ class TaskRecord:
 
 @dataclass(frozen=True)
 class TimedRecord:
-    """One plan check, recall or fresh plan: when (s), how long it took (s), its verdict and why."""
+    """One plan check, recall or fresh plan: when (s), how long it took (s, wall clock), its
+    verdict and why, and the thread CPU time it took (s; on a loaded machine the wall clock
+    also counts the time other processes had the core)."""
 
     time: float
     duration_s: float
     ok: bool
     reason: str
+    cpu_s: float = 0.0
 
 
 @dataclass

@@ -16,8 +16,8 @@ reckoning alone. The goal, the remaining plan and every task's error signal come
   by its own end criterion; a task may start only over a transition of the map that the
   guard Ψ enables. Every tick, a point of the newest scan in the body's path (an obstacle
   in the way, or a collision imminent within ``lookahead`` s) interrupts the task. Every
-  revolution, the running task and the queued ones are *checked*: re-simulated on the
-  new scan from the estimate (:func:`runtime.supervision.plancheck.check_plan`); one that
+  revolution, the running task and the queued ones are *checked*: tested against the new
+  scan's points from the estimate (:func:`runtime.supervision.plancheck.check_plan`); one that
   now meets an obstacle or would end off the map's prediction sends the supervisor to
   REPLANNING, and so does a task that ended far from the prediction or a plan that ended
   short of the goal. A plan that ends at the goal by the estimate taken while driving
@@ -57,7 +57,7 @@ from planner.tasks import Task
 from runtime.clock import Clock, clock_for
 from runtime.estimation.fusion import fuse_revolutions
 from runtime.estimation.odometry import ScanOdometry
-from runtime.supervision.plancheck import check_plan, perceive_near, perceive_scan, recall
+from runtime.supervision.plancheck import RecallIndex, check_plan, recall
 from runtime.supervision.records import (
     PlanRecord,
     SupervisorReport,
@@ -188,6 +188,7 @@ class Supervisor:
         self.fresh_plans: list[TimedRecord] = []
         self._check_due = False
         self._recalls_in_a_row = 0
+        self._index: RecallIndex | None = None
 
     # -- public -------------------------------------------------------------------------------
     @property
@@ -403,14 +404,17 @@ class Supervisor:
         scan = fuse_revolutions(list(self._still)) if self.fuse_scans > 1 and len(self._still) > 1 else self._scan
         if self.state is S.REPLANNING and self._recall(scan, now):
             return
+        c0 = time.thread_time()
         try:
             result = self.configurator.plan(scan, (g.x, g.y))
         except PlanningError as exc:
             self._fire(E.NO_PLAN, f"goal unreachable: {exc}")
             return
-        self.fresh_plans.append(TimedRecord(now - (self._t0 or 0.0), result.planning_time_s, True, f"{result.states} states"))
+        self._index = RecallIndex(result.map, plan=result.plan)  # part of making the map: timed with it
+        took = result.planning_time_s + self._index.build_s
+        self.fresh_plans.append(TimedRecord(now - (self._t0 or 0.0), took, True, f"{result.states} states", time.thread_time() - c0))
         self._recalls_in_a_row = 0
-        self._log("fresh_plan", duration_s=result.planning_time_s, states=result.states)
+        self._log("fresh_plan", duration_s=took, states=result.states)
         rec = PlanRecord(now - (self._t0 or 0.0), self.pose, result)
         self.plans.append(rec)
         if self.log is not None:
@@ -560,16 +564,14 @@ class Supervisor:
         return None
 
     def _check_remaining(self) -> TimedRecord | None:
-        """Re-simulate the running task and the queued ones on the newest revolution."""
+        """Test the running task and the queued ones against the newest revolution."""
         if self._plan is None or self._record is None or self._clean_scan is None:
             return None
-        model = self.model
         states = [self._record.state] + [q for q, _ in self._queue]
-        t0 = time.perf_counter()  # the check's time includes perceiving the scan, as a fresh plan's does
-        obstacles = perceive_near(self._clean_scan, states, self._plan.origin, self._scan_pose, model)
-        verdict = check_plan(states, self._plan.origin, self._scan_pose, self.goal, obstacles, model,
+        t0, c0 = time.perf_counter(), time.thread_time()  # everything the check needs: it tests the raw points
+        verdict = check_plan(states, self._plan.origin, self._scan_pose, self.goal, self._clean_scan, self.model,
                              tolerance=self.end_tolerance, running=True)
-        rec = TimedRecord(self._now(), time.perf_counter() - t0, verdict.ok, verdict.reason)
+        rec = TimedRecord(self._now(), time.perf_counter() - t0, verdict.ok, verdict.reason, time.thread_time() - c0)
         self.checks.append(rec)
         self._log("check", ok=rec.ok, duration_s=rec.duration_s, reason=rec.reason)
         return rec
@@ -580,12 +582,10 @@ class Supervisor:
         if last is None or self._recalls_in_a_row >= self.max_recalls:  # recalls leading nowhere
             self.recalls.append(TimedRecord(now - (self._t0 or 0.0), 0.0, False, "skipped: explore anew"))
             return False
-        t0 = time.perf_counter()  # like a fresh plan's time, a recall's includes perceiving the scan
-        obstacles = perceive_scan(scan, self.model)
-        found, why, _ = recall(last.result, last.origin, self.pose, self.goal, obstacles, self.model,
-                               check_tolerance=self.end_tolerance)
-        took = time.perf_counter() - t0
-        self.recalls.append(TimedRecord(now - (self._t0 or 0.0), took, found is not None, why))
+        c0 = time.thread_time()  # ``took``: everything a recall needs (the map's index is built with the plan)
+        found, why, took = recall(last.result, last.origin, self.pose, self.goal, scan, self.model,
+                                  check_tolerance=self.end_tolerance, index=self._index)
+        self.recalls.append(TimedRecord(now - (self._t0 or 0.0), took, found is not None, why, time.thread_time() - c0))
         self._log("recall", ok=found is not None, duration_s=took, reason=why)
         if found is None:
             return False

@@ -192,3 +192,105 @@ def test_wheels_drive_only_while_executing_and_a_blocked_plan_is_never_continued
         if blocked_plan is not None and robot.frames_with_wall > seen_before:
             assert not (sup.state is S.EXECUTING and sup._plan is blocked_plan), "continued a blocked plan"
     world.close()
+
+
+# -- the closed-form check against brute force and against the planner's rollouts ----------------
+def _body_sweeps_a_point(pts: np.ndarray, legs: list[Any], m: Any, tol: tuple[float, float]) -> bool:
+    """Brute force: does the real (uninflated) body, moved in 2 mm / 0.5° steps along each
+    leg up to ``tol`` before its end, cover a point that was not already under it at the
+    leg's start?"""
+    for g in legs:
+        if g.amount <= 1e-3:
+            continue
+        x0, y0, th0 = g.start
+        if g.kind is TaskKind.STRAIGHT:
+            n = max(2, int((g.amount - tol[0]) / 0.002) + 1)
+            poses = [(x0 + math.cos(th0) * d, y0 + math.sin(th0) * d, th0)
+                     for d in np.linspace(0.0, max(g.amount - tol[0], 0.0), n)]
+        else:
+            sign = 1.0 if g.kind is TaskKind.LEFT else -1.0
+            n = max(2, int((g.amount - tol[1]) / math.radians(0.5)) + 1)
+            poses = [(x0, y0, th0 + sign * a) for a in np.linspace(0.0, max(g.amount - tol[1], 0.0), n)]
+
+        def under(x: float, y: float, th: float) -> np.ndarray:
+            dx, dy = pts[:, 0] - x, pts[:, 1] - y
+            u = dx * math.cos(th) + dy * math.sin(th)
+            v = -dx * math.sin(th) + dy * math.cos(th)
+            return (u > -m.rear_offset) & (u < m.front_offset) & (np.abs(v) < m.width / 2)
+
+        at_start = under(*poses[0])
+        for p in poses[1:]:
+            if (under(*p) & ~at_start).any():
+                return True
+    return False
+
+
+@given(name=st.sampled_from(["overtaking", "corridor", "doorway", "slalom"]), layout=st.integers(0, 20),
+       dx=st.floats(-0.03, 0.03), dy=st.floats(-0.03, 0.03), dth=st.floats(-0.08, 0.08),
+       wall=st.one_of(st.just(None), st.tuples(st.floats(0.0, 1.0), st.floats(0.0, 1.0), st.floats(-0.15, 0.15),
+                                           st.floats(0.0, math.pi))),
+       noise=st.sampled_from(["ideal", "paper", "harsh"]))
+@settings(max_examples=50, deadline=None)
+def test_a_check_that_passes_leaves_no_point_in_the_bodys_path(name, layout, dx, dy, dth, wall, noise):
+    """Whatever the layout, the pose error, an extra wall anywhere and the sensor noise: when
+    :func:`check_plan` passes a plan's remaining tasks, the real body, moved along them from
+    the estimated pose, covers no point of the scan (up to the tolerance before each end)."""
+    from runtime.experiment.layouts import make_layout
+    from runtime.supervision.plancheck import _legs
+
+    scene = make_layout(name, 0, layout).scene
+    world = make_world_robot(scene, noise, seed=layout)
+    scan = world.read_scan().points
+    goal = Pose(*scene.goal_in_robot_frame())
+    result = Configurator().plan(scan, (goal.x, goal.y))
+    if not result.steps:
+        return
+    pose = Pose(dx, dy, dth)
+    seen = np.asarray(scan)
+    if wall is not None:  # a short wall where the body will pass, at any angle
+        which, t, side, wth = wall
+        q = result.steps[min(int(which * len(result.steps)), len(result.steps) - 1)]
+        if q.task is TaskKind.STRAIGHT:  # ahead of the front along the straight
+            a, r = q.start.theta, result.robot.front_offset + 0.03 + t * max(q.distance - 0.05, 0.0)
+            at = Pose(q.start.x + r * math.cos(a) - side * math.sin(a), q.start.y + r * math.sin(a) + side * math.cos(a), wth)
+        else:  # on the circle the rear corners sweep, somewhere along the turn
+            a = q.start.theta + (1 if q.task is TaskKind.LEFT else -1) * t * abs(q.end.theta - q.start.theta) + math.pi
+            at = Pose(q.start.x + 0.19 * math.cos(a), q.start.y + 0.19 * math.sin(a), wth)
+        seen = np.r_[seen, _wall_across(at, 0.05)]
+    rel = relative(pose, ORIGIN)
+    c, s = math.cos(rel.theta), math.sin(rel.theta)
+    seen = np.c_[rel.x + c * seen[:, 0] - s * seen[:, 1], rel.y + s * seen[:, 0] + c * seen[:, 1]]
+    seen = seen[np.hypot(seen[:, 0], seen[:, 1]) <= result.robot.sensor_range]
+    tol = (0.08, 0.3)
+    v = check_plan(result.steps, ORIGIN, pose, goal, seen, result.robot, tolerance=tol)
+    if v.ok:
+        legs = _legs(result.steps, relative(pose, ORIGIN), False)
+        assert not _body_sweeps_a_point(seen, legs, result.robot, tol), v.reason
+
+
+def test_the_check_agrees_with_re_simulating_the_plan_on_a_blocked_and_a_free_scan():
+    from runtime.supervision.plancheck import resimulate_plan
+
+    result, scan, goal = _plan()
+    robot = result.robot
+    assert check_plan(result.steps, ORIGIN, ORIGIN, goal, scan, robot).ok
+    assert resimulate_plan(result.steps, ORIGIN, ORIGIN, goal, perceive_scan(scan, robot), robot).ok
+    q = next(q for i, q in enumerate(result.steps) if q.task is TaskKind.STRAIGHT and i > 0 and q.distance > 0.1)
+    blocked = np.r_[scan, _wall_across(Pose((q.start.x + q.end.x) / 2, (q.start.y + q.end.y) / 2, q.start.theta))]
+    fast = check_plan(result.steps, ORIGIN, ORIGIN, goal, blocked, robot)
+    slow = resimulate_plan(result.steps, ORIGIN, ORIGIN, goal, perceive_scan(blocked, robot), robot)
+    assert not fast.ok and not slow.ok
+    assert fast.tasks == slow.tasks and fast.reason == slow.reason
+
+
+def test_a_recalled_plans_guard_is_the_maps_guard_of_that_plan():
+    from formal.supervisory import guard
+
+    result, scan, goal = _plan()
+    here = result.map[result.plan.states[2]].end
+    rel = relative(here, ORIGIN)
+    c, s = math.cos(rel.theta), math.sin(rel.theta)
+    seen = np.c_[rel.x + c * scan[:, 0] - s * scan[:, 1], rel.y + s * scan[:, 0] + c * scan[:, 1]]
+    found, why, _ = recall(result, ORIGIN, here, goal, seen, result.robot)
+    assert found is not None, why
+    assert found.result.psi == guard(result.map, found.result.plan)
