@@ -302,3 +302,20 @@ def test_a_run_that_raises_does_not_cost_the_others(tmp_path, monkeypatch):
     assert json.loads((tmp_path / "errors.jsonl").read_text())["error"] == "ZeroDivisionError: a bug"
     monkeypatch.setattr(runner, "run_spec", real)
     assert len(_small(out=tmp_path, resume=True)) == 4 and not (tmp_path / "errors.jsonl").exists()
+
+
+def test_both_conditions_take_the_same_estimate():
+    # --feedback applies to the reactive baseline too: the same robot with the same sensing
+    from formal.geometry import compose
+    from formal.model import Pose
+    from runtime.experiment.layouts import make_layout
+    from runtime.robots.world import WorldNoise
+
+    scene = make_layout("corridor", 0, 0).scene
+    errors = {}
+    for fb in ("scan", "none"):
+        r = run_once(scene, "reactive", 0, noise=WorldNoise(wheel_bias=0.05, wheel_sd=0.01), feedback=fb, keep_report=True)
+        _, x, y, th = r.report.trajectory[-1]
+        est = compose(scene.start, Pose(x, y, th))
+        errors[fb] = math.hypot(est.x - r.final_pose[0], est.y - r.final_pose[1])
+    assert errors["scan"] < 0.02 < errors["none"]
