@@ -111,7 +111,7 @@ def main(argv: list[str] | None = None) -> int:
         per_plan: dict[str, list[tuple[float, bool]]] = {name: [] for name in names}
         cpu: dict[str, float] = {name: 0.0 for name in names}
         decisions: dict[str, int] = {}
-        diverged = 0
+        diverged: list[int] = []  # the runs in which the robust condition took a deviation
         for k in range(args.first_run, args.first_run + args.runs):
             layout = make_layout(family, 0, k)
             scene = layout.scene
@@ -141,7 +141,7 @@ def main(argv: list[str] | None = None) -> int:
                     for d in conf.decisions:
                         decisions[d] = decisions.get(d, 0) + 1
                     if any(d in ("confirmed", "deviated") for d in conf.decisions):
-                        diverged += 1
+                        diverged.append(len(ok[name]) - 1)
                         line.append("deviations " + ", ".join(f"{v_r:.2f}>{v_g:.2f}" for v_r, v_g in conf.confirmations
                                                               if v_r > v_g + args.margin) if conf.confirmations else "deviated")
             if not args.quiet:
@@ -171,7 +171,11 @@ def main(argv: list[str] | None = None) -> int:
         test = mcnemar(ok["greedy"], ok["robust"])
         print(f"  {family:<8} paired: {test}")
         print(f"  {family:<8} robust plans' decisions: {', '.join(f'{k} {v}' for k, v in sorted(decisions.items()))}; "
-              f"runs with a deviation taken: {diverged}")
+              f"runs with a deviation taken: {len(diverged)}")
+        rescued = [args.first_run + i for i in diverged if ok["robust"][i] > ok["greedy"][i]]
+        lost = [args.first_run + i for i in diverged if ok["robust"][i] < ok["greedy"][i]]
+        print(f"  {family:<8} of those, robust succeeded where greedy failed in runs {rescued or 'none'}, "
+              f"failed where greedy succeeded in runs {lost or 'none'} (every other run is the greedy run itself)")
     for name in names:
         s, n = totals[name]
         print(f"  {'all':<8} {name:<7} {_ci(s, n)}")
