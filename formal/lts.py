@@ -72,6 +72,9 @@ class Transition:
         )
 
 
+_ONE = Fraction(1)
+
+
 class CognitiveMap:
     """An explicit labelled transition system of simulated task outcomes.
 
@@ -120,12 +123,17 @@ class CognitiveMap:
         probability: Fraction | int | str = 1,
     ) -> Transition:
         """Add q_source ↪ q_target; the label defaults to the target's task."""
+        states = self._states
         for ident in (source, target):
-            if ident not in self._states:
+            if ident not in states:
                 raise MapError(f"transition names unknown state q{ident}")
         if label is None:
-            label = self._states[target].task
-        t = Transition(source, target, TaskKind(label), Fraction(probability))
+            label = states[target].task
+        # the common case (a TaskKind, probability 1) without conversions: maps grow in the
+        # planner's hot path
+        kind = label if type(label) is TaskKind else TaskKind(label)
+        p = _ONE if probability == 1 and type(probability) in (int, Fraction) else Fraction(probability)
+        t = Transition(source, target, kind, p)
         self._out[source][(target, t.label)] = t
         self._in[target][(source, t.label)] = t
         return t

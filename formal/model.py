@@ -63,7 +63,9 @@ class Pose:
     theta: float = 0.0
 
     def __post_init__(self) -> None:
-        if not all(math.isfinite(v) for v in (self.x, self.y, self.theta)):
+        # one test per coordinate, no generator: poses are built in the planner's hot path
+        isfinite = math.isfinite
+        if not (isfinite(self.x) and isfinite(self.y) and isfinite(self.theta)):
             raise ValueError(f"pose must be finite, got ({self.x}, {self.y}, {self.theta})")
 
     def distance_to(self, x: float, y: float) -> float:

@@ -1,6 +1,6 @@
 """Core knowledge: one task rolled forward in the world of what the scan saw.
 
-A planning run shares one scene: the sensed points perception kept (in surface order)
+A planning run shares one scene (:class:`planner.contact.Scene`): the sensed points perception kept (in surface order)
 as flat arrays, and the body's extents, built once; no rollout allocates anything per
 point or builds a shape. A task's outcome is computed in closed form from the points:
 
@@ -54,7 +54,8 @@ import numpy as np
 
 from formal.geometry import wrap_angle
 from formal.model import Disturbance, Pose, TaskKind
-from planner.engine import Outcome, World, _obstacle_disturbance
+from planner.contact import SPIN_SLACK, Scene, cut_straight, unobstructed
+from planner.engine import Outcome, World
 from planner.perception import Obstacles
 from planner.robot import RobotModel
 from planner.tasks import Task
@@ -96,7 +97,7 @@ def frontier_distance(robot: RobotModel, start: Pose) -> float:
     c, s = math.cos(start.theta), math.sin(start.theta)
     r2 = robot.sensor_range * robot.sensor_range
     best = math.inf
-    for a, b in _corners(robot):
+    for a, b in robot.corners:
         x = start.x + a * c - b * s
         y = start.y + a * s + b * c
         bb = x * c + y * s
@@ -108,24 +109,12 @@ def frontier_distance(robot: RobotModel, start: Pose) -> float:
     return max(best, 0.0)
 
 
-@functools.lru_cache(maxsize=16)
-def _corners(robot: RobotModel) -> tuple[tuple[float, float], ...]:
-    h = robot.width / 2
-    return ((-robot.rear_offset, -h), (robot.front_offset, -h), (robot.front_offset, h), (-robot.rear_offset, h))
-
-
-@functools.lru_cache(maxsize=16)
-def _body_radius(robot: RobotModel) -> float:
-    """The distance from the rotation centre to the real body's farthest corner."""
-    return max(math.hypot(a, b) for a, b in _corners(robot))
-
-
 def _turn_leaves_disc(robot: RobotModel, start: Pose, signed_angle: float) -> bool:
     """True when the real body, spinning in place by ``signed_angle``, leaves the sensed disc."""
     cx, cy = start.x, start.y
     dist = math.hypot(cx, cy)
     reach = robot.sensor_range
-    rmax = _body_radius(robot)
+    rmax = robot.body_radius
     if dist + rmax <= reach:
         return False
     n = max(2, int(math.ceil(abs(signed_angle) / 0.2)))
@@ -133,7 +122,7 @@ def _turn_leaves_disc(robot: RobotModel, start: Pose, signed_angle: float) -> bo
     for k in range(n + 1):
         th = start.theta + signed_angle * k / n
         c, s = math.cos(th), math.sin(th)
-        for a, b in _corners(robot):
+        for a, b in robot.corners:
             if math.hypot(cx + a * c - b * s, cy + a * s + b * c) + grow > reach:
                 return True
     return False
@@ -185,7 +174,7 @@ def _spin_room_step(robot: RobotModel, gap: float, limit: float) -> float:
     """
     if not robot.free_turns:
         return limit  # the authors' planner: every step one body length
-    spin = robot.swept_radius - robot.front_offset - robot.clearance + _SPIN_SLACK
+    spin = robot.swept_radius - robot.front_offset - robot.clearance + SPIN_SLACK
     if math.isfinite(gap) and limit <= gap < limit + spin and gap - spin >= _MIN_STEP:
         return gap - spin
     return limit
@@ -193,8 +182,6 @@ def _spin_room_step(robot: RobotModel, gap: float, limit: float) -> float:
 
 # the shortest step worth cutting to keep room to spin (m)
 _MIN_STEP = 0.03
-# kept beyond the swept disc, so that a point ahead is not met on the sweep's very edge (m)
-_SPIN_SLACK = 0.003
 
 
 def _rim_spin_room(robot: RobotModel, start: Pose) -> float:
@@ -206,7 +193,7 @@ def _rim_spin_room(robot: RobotModel, start: Pose) -> float:
     0.896
     """
     c, s = math.cos(start.theta), math.sin(start.theta)
-    r = robot.sensor_range - _body_radius(robot) - _SPIN_SLACK
+    r = robot.sensor_range - robot.body_radius - SPIN_SLACK
     if r <= 0:
         return 0.0
     bb = start.x * c + start.y * s
@@ -239,211 +226,10 @@ def make_task(kind: TaskKind, obstacles: Obstacles, robot: RobotModel, start: Po
 _EPS = 1e-9
 
 
-class _Scene:
-    """The run's sensed points as flat arrays, and the body's extents: what every
-    rollout of one planning run shares (built once per run, nothing per query)."""
-
-    __slots__ = ("obstacles", "robot", "x", "y", "z", "owner", "real", "infl", "radius2", "gaps", "reach")
-
-    def __init__(self, obstacles: Obstacles, robot: RobotModel) -> None:
-        self.obstacles = obstacles
-        self.robot = robot
-        pts = obstacles.points
-        self.x = np.ascontiguousarray(pts[:, 0])
-        self.y = np.ascontiguousarray(pts[:, 1])
-        self.z = self.x + 1j * self.y  # the points as x + iy: a frame change is one product
-        self.owner = obstacles.owner
-        c = robot.clearance
-        self.real = (robot.rear_offset, robot.front_offset, robot.width / 2)
-        self.infl = (robot.rear_offset + c, robot.front_offset + c, robot.width / 2 + c)
-        self.radius2 = robot.swept_radius ** 2
-        rear, front, half = self.infl
-        self.reach = (math.hypot(rear, half), front, half)
-        self.gaps: dict[tuple[int, int, int], tuple[float, int]] = {}
-
-    def outcome(self, task: Task) -> Outcome:
-        """The outcome of ``task`` among the sensed points (closed form; see the module docstring)."""
-        if not len(self.x):
-            return _unobstructed(task)
-        if task.kind is TaskKind.STRAIGHT:
-            d, k = self.straight_gap(task.start)
-            if k < 0:
-                return _unobstructed(task)
-            return _cut_straight(task, d, self.obstacles, int(self.owner[k]), float(self.x[k]), float(self.y[k]))
-        return self.turn(task)
-
-    def straight_gap(self, s: Pose) -> tuple[float, int]:
-        """(distance the body can drive from ``s`` before it meets a point, that point's
-        index); (inf, -1) when none. Remembered per pose (a turn's choice of angle and
-        the straight after it ask the same question)."""
-        key = (round(s.x * 1e9), round(s.y * 1e9), round(wrap_angle(s.theta) * 1e9))
-        hit = self.gaps.get(key)
-        if hit is None:
-            hit = self.gaps[key] = self._straight_gap(s)
-        return hit
-
-    def _straight_gap(self, s: Pose) -> tuple[float, int]:
-        # :meth:`_gaps` for one heading, on the points in the body's lane only
-        w = (self.z - complex(s.x, s.y)) * complex(math.cos(s.theta), -math.sin(s.theta))
-        rear, front, half = self.infl
-        lane = (np.abs(w.imag) <= half).nonzero()[0]
-        if not len(lane):
-            return math.inf, -1
-        w = w.take(lane)
-        u = w.real
-        ahead = u > front
-        gap = np.where(ahead, u - front, np.inf)
-        # inside the inflated footprint at the start: the margin is waived for these points,
-        # the real body still must not touch them (the start-touching rule)
-        waived = ~ahead & (u >= -rear)
-        if waived.any():
-            _, rfront, rhalf = self.real
-            gap = np.where(waived & (np.abs(w.imag) < rhalf) & (u >= rfront), u - rfront, gap)
-        k = int(gap.argmin())
-        d = float(gap[k])
-        return (d, int(lane[k])) if math.isfinite(d) else (math.inf, -1)
-
-    def _gaps(self, z: np.ndarray, at: complex, headings: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Per heading (K): how far the body can drive from ``at`` before it meets one of
-        the points ``z`` (complex x + iy), and which (index into ``z``); inf when none."""
-        w = (z - at) * np.exp(-1j * headings)[:, None]  # K×N: u + iv in each task frame
-        u = w.real
-        v = np.abs(w.imag)
-        rear, front, half = self.infl
-        lane = v <= half
-        gap = np.where(lane & (u > front), u - front, np.inf)
-        # inside the inflated footprint at the start: the margin is waived for these points,
-        # the real body still must not touch them (the start-touching rule)
-        waived = lane & (u <= front) & (u >= -rear)
-        if waived.any():
-            _, rfront, rhalf = self.real
-            gap = np.where(waived & (v < rhalf) & (u >= rfront), u - rfront, gap)
-        k = gap.argmin(axis=1)
-        return gap[np.arange(len(headings)), k], k
-
-    def first_clear(self, s: Pose, headings: list[float], lengths: list[float]) -> int:
-        """The index of the first heading from which the body, turned in place at ``s``,
-        can drive ``lengths[i]`` without meeting a point; -1 when none can.
-
-        One array operation for all headings, over the points within reach of the
-        longest drive only (a nearer contact is among them; none nearer means clear).
-        """
-        if not headings:
-            return -1
-        at = complex(s.x, s.y)
-        body, front, half = self.reach
-        far = max(lengths)
-        reach = max(body, math.hypot(front + far, half))
-        dz = self.z - at
-        near = (dz.real * dz.real + dz.imag * dz.imag <= reach * reach).nonzero()[0]
-        if not len(near):
-            return 0
-        d, _ = self._gaps(self.z.take(near), at, np.asarray(headings))
-        ok = (d >= np.asarray(lengths) - _EPS).nonzero()[0]
-        return int(ok[0]) if len(ok) else -1
-
-    def _waived_turn(self, dx: np.ndarray, dy: np.ndarray, theta: float, sign: float, per_tick: float, e0: float, ticks: int) -> int:
-        """The first tick at or after which the real body meets one of these points
-        (strictly outside it at the start), sampled at eight headings per tick."""
-        rrear, rfront, rhalf = self.real
-        fine = np.minimum(np.arange(1, 8 * ticks + 1) * (per_tick / 8), e0)
-        th = theta + sign * fine
-        c, sn = np.cos(th)[:, None], np.sin(th)[:, None]
-        u = dx * c + dy * sn
-        v = np.abs(dy * c - dx * sn)
-        u0 = dx * math.cos(theta) + dy * math.sin(theta)
-        v0 = np.abs(dy * math.cos(theta) - dx * math.sin(theta))
-        live = ~((u0 > -rrear) & (u0 < rfront) & (v0 < rhalf))
-        hit = np.flatnonzero(((u >= -rrear) & (u <= rfront) & (v <= rhalf) & live).any(axis=1))
-        return int(hit[0]) // 8 + 1 if len(hit) else ticks + 1
-
-    def turn(self, task: Task) -> Outcome:
-        """A turn among the points within its swept disc, checked at every tick heading."""
-        r = task.robot
-        s = task.start
-        dx, dy = self.x - s.x, self.y - s.y
-        near = np.flatnonzero(dx * dx + dy * dy <= self.radius2)
-        if not len(near):
-            return _unobstructed(task)
-        dx, dy = dx[near], dy[near]
-        e0 = task.error_at(s.x, s.y, s.theta)
-        per_tick = r.turn_rate * r.tick
-        ticks = math.ceil(e0 / per_tick - 1e-9) if e0 > 1e-9 else 0
-        if ticks == 0:
-            return _unobstructed(task)
-        sign = 1.0 if task.kind is TaskKind.LEFT else -1.0
-        th = s.theta + sign * np.minimum(np.arange(ticks + 1) * per_tick, e0)
-        c, sn = np.cos(th)[:, None], np.sin(th)[:, None]
-        u = dx * c + dy * sn
-        v = np.abs(dy * c - dx * sn)
-        rear, front, half = self.infl
-        inside = (u >= -rear) & (u <= front) & (v <= half)
-        waived = inside[0]
-        if waived.any():
-            rrear, rfront, rhalf = self.real
-            real = (u >= -rrear) & (u <= rfront) & (v <= rhalf)
-            inside = np.where(waived, real, inside)
-            # exempt: strictly inside the real body at the start (a point on its edge is not)
-            inside[:, (u[0] > -rrear) & (u[0] < rfront) & (v[0] < rhalf)] = False
-        rows = np.flatnonzero(inside[1:].any(axis=1))
-        k = int(rows[0]) + 1 if len(rows) else ticks + 1  # the first tick in contact
-        if waived.any():
-            # a point within the margin is held to the real body, with no margin for the
-            # corner's path between ticks: test it at eight headings per tick
-            k = min(k, self._waived_turn(dx[waived], dy[waived], s.theta, sign, per_tick, e0, ticks))
-        if k > ticks:
-            return _unobstructed(task)
-        j = int(near[int(np.argmax(inside[k]))]) if inside[k].any() else int(near[np.flatnonzero(waived)[0]])
-        done = k - 1
-        end = Pose(s.x, s.y, wrap_angle(float(th[done]))) if done else s
-        d_n = _obstacle_disturbance(self.obstacles, (int(self.owner[j]), float(self.x[j]), float(self.y[j])))
-        return Outcome(task.kind, s, end, 0.0, done * r.tick, done, d_n, False)
-
-
-def _cut_straight(task: Task, d: float, obstacles: Obstacles, i: int, x: float, y: float) -> Outcome:
-    """A STRAIGHT whose front meets a point after ``d`` metres (inf: never)."""
-    r = task.robot
-    s = task.start
-    e0 = task.error_at(s.x, s.y, s.theta)
-    if d >= e0 or not math.isfinite(d):
-        return _unobstructed(task)
-    per_tick = r.straight_speed * r.tick
-    k = max(1, math.ceil(d / per_tick - 1e-12))  # the first tick whose travel reaches the point
-    done = k - 1
-    travel = done * per_tick
-    c, sn = math.cos(s.theta), math.sin(s.theta)
-    end = Pose(s.x + travel * c, s.y + travel * sn, s.theta) if done else s
-    d_n = _obstacle_disturbance(obstacles, (i, x, y))
-    return Outcome(task.kind, s, end, travel, done * r.tick, done, d_n, False)
-
-
-def _unobstructed(task: Task, frontier: bool = False) -> Outcome:
-    """The outcome of a task that nothing interrupts, in closed form.
-
-    Both controllers drive their error down linearly at full rate and cover the rest in
-    the last tick (see :mod:`planner.tasks`), so the end pose is the start moved by the
-    initial error and the duration is the number of ticks that takes.
-    """
-    r = task.robot
-    s = task.start
-    e0 = task.error_at(s.x, s.y, s.theta)
-    if task.kind is TaskKind.STRAIGHT:
-        per_tick = r.straight_speed * r.tick
-        end = Pose(s.x + e0 * math.cos(s.theta), s.y + e0 * math.sin(s.theta), s.theta)
-        distance = e0
-    else:
-        per_tick = r.turn_rate * r.tick
-        sign = 1.0 if task.kind is TaskKind.LEFT else -1.0
-        end = Pose(s.x, s.y, wrap_angle(s.theta + sign * e0))
-        distance = 0.0
-    ticks = math.ceil(e0 / per_tick - 1e-9) if e0 > 1e-9 else 0
-    return Outcome(task.kind, s, end if ticks else s, distance if ticks else 0.0, ticks * r.tick, ticks, None, False, frontier)
-
-
-def _scene(obstacles: Obstacles, robot: RobotModel, worlds: dict[Any, Any] | None) -> _Scene:
+def _scene(obstacles: Obstacles, robot: RobotModel, worlds: dict[Any, Any] | None) -> Scene:
     scene = worlds.get(()) if worlds is not None else None
-    if not isinstance(scene, _Scene) or scene.robot is not robot or scene.obstacles is not obstacles:
-        scene = _Scene(obstacles, robot)
+    if not isinstance(scene, Scene) or scene.robot is not robot or scene.obstacles is not obstacles:
+        scene = Scene(obstacles, robot)
         if worlds is not None:
             worlds[()] = scene
     return scene
@@ -478,6 +264,52 @@ def turn_angle(
     >>> round(turn_angle(TaskKind.LEFT, Pose(0.0, 0.0, 0.0), Disturbance.goal(0.5, 0.5), perceive(np.zeros((0, 2))), RobotModel()), 4)
     0.7854
     """
+    scene = _scene(obstacles, robot, worlds) if len(obstacles) else None
+    if scene is None:
+        angles, _, fallback = _turn_options(kind, start, goal, robot)
+        return angles[0] if angles else fallback
+    key = (start.x, start.y, start.theta, kind, None if goal is None else (goal.x, goal.y))
+    known = scene.turns.get(key)
+    if known is not None:
+        return known
+    return _turn_pair(kind, start, goal, robot, scene, key)
+
+
+def _turn_pair(
+    kind: TaskKind, start: Pose, goal: Disturbance | None, robot: RobotModel, scene: Scene, key: tuple[Any, ...],
+    straight: float | None = None,
+) -> float:
+    """The angles of both turns from ``start`` (the left and the right turn from one pose
+    are asked one after the other: one array operation answers both, and with
+    ``straight`` the straight from ``start`` too); returns the one of ``kind`` and
+    remembers the other."""
+    kinds = (kind, TaskKind.RIGHT if kind is TaskKind.LEFT else TaskKind.LEFT)
+    groups = []
+    options = []
+    for k in kinds:
+        sign = 1.0 if k is TaskKind.LEFT else -1.0
+        angles, needs, fallback = _turn_options(k, start, goal, robot)
+        # the rim is no nearer than this whatever the heading: most turns need no rim test
+        sure = robot.sensor_range - math.hypot(start.x, start.y) - robot.body_radius
+        lengths = [
+            n if n <= sure else min(n, frontier_distance(robot, Pose(start.x, start.y, start.theta + sign * a)))
+            for a, n in zip(angles, needs)
+        ]
+        heads = [wrap_angle(start.theta + sign * a) for a in angles]
+        groups.append((heads, lengths, angles.index(fallback)))
+        options.append((angles, fallback))
+    found = scene.first_clear_each(start, groups, straight)
+    result = [angles[i] if i >= 0 else fallback for i, (angles, fallback) in zip(found, options)]
+    scene.turns[key] = result[0]
+    scene.turns[key[:3] + (kinds[1], key[4])] = result[1]
+    return result[0]
+
+
+def _turn_options(
+    kind: TaskKind, start: Pose, goal: Disturbance | None, robot: RobotModel
+) -> tuple[list[float], list[float], float]:
+    """The angles a turn from ``start`` may end at, in order of preference, the length of
+    the way each needs clear ahead, and where the turn ends when none is clear."""
     sign = 1.0 if kind is TaskKind.LEFT else -1.0
     full = robot.turn_angle
     towards: float | None = None
@@ -487,7 +319,6 @@ def turn_angle(
             bearing += 2 * math.pi  # the goal straight behind: either turn faces it
         if bearing > 1e-6:
             towards = bearing
-    scene = _scene(obstacles, robot, worlds) if len(obstacles) else None
     step = robot.step_length if robot.step_length is not None else robot.sensor_range
     angles: list[float] = []
     needs: list[float] = []
@@ -501,18 +332,7 @@ def turn_angle(
         if towards is None or abs(a - towards) > 1e-3:
             angles.append(a)
             needs.append(step)
-    if scene is None:
-        return angles[0] if angles else full
-    # the rim is no nearer than this whatever the heading: most turns need no rim test
-    sure = robot.sensor_range - math.hypot(start.x, start.y) - _body_radius(robot)
-    lengths = [
-        n if n <= sure else min(n, frontier_distance(robot, Pose(start.x, start.y, start.theta + sign * a)))
-        for a, n in zip(angles, needs)
-    ]
-    i = scene.first_clear(start, [start.theta + sign * a for a in angles], lengths)
-    if i >= 0:
-        return angles[i]
-    return towards if towards is not None else full
+    return angles, needs, (towards if towards is not None else full)
 
 
 @functools.lru_cache(maxsize=32)
@@ -561,21 +381,35 @@ def simulate(
     scene = _scene(obstacles, robot, worlds) if len(obstacles) else None
     if kind is TaskKind.STRAIGHT:
         step = robot.step_length if robot.step_length is not None else robot.sensor_range
-        d, k = scene.straight_gap(start) if scene is not None else (math.inf, -1)
         along = _goal_dead_ahead(robot, start, goal)
         # the rim is no nearer than ``sure`` whatever the heading: when the task cannot
         # reach that far, the rim does not limit it (and the exact distance is not needed)
-        sure = robot.sensor_range - math.hypot(start.x, start.y) - _body_radius(robot)
+        sure = robot.sensor_range - math.hypot(start.x, start.y) - robot.body_radius
         room = frontier_distance(robot, start) if max(step, along or 0.0) > sure - 1e-6 else math.inf
+        if scene is not None:
+            # what the step's length depends on: a point within a step and room to spin,
+            # or within the run to a goal dead ahead
+            need = max(min(step, room) + scene.spin, min(along, room) if along is not None else 0.0) + 1e-6
+            if robot.free_turns and need <= scene.local_gap and not scene.knows(start, need):
+                # a straight not known from a turn's choice of angle starts where the
+                # search expands a state, and the turns from there are asked next: their
+                # choice of angle and this straight are one array operation
+                tkey = (start.x, start.y, start.theta, TaskKind.LEFT,
+                        None if goal is None else (goal.x, goal.y))
+                if tkey not in scene.turns:
+                    _turn_pair(TaskKind.LEFT, start, goal, robot, scene, tkey, need - scene.spin)
+            d, k = scene.straight_gap(start, need)
+        else:
+            d, k = math.inf, -1
         if along is not None and d >= min(along, room):
             limit = min(along, room)  # a clear run to the goal dead ahead: one task
         else:
             limit = _free_step(robot, start, goal, d, min(step, room), room)
         task = Task.straight(robot, start, goal, limit)
         if k >= 0 and scene is not None:
-            out = _cut_straight(task, d, obstacles, int(scene.owner[k]), float(scene.x[k]), float(scene.y[k]))
+            out = cut_straight(task, d, obstacles, int(scene.owner[k]), float(scene.x[k]), float(scene.y[k]))
         else:
-            out = _unobstructed(task)
+            out = unobstructed(task)
         if limit >= room - _EPS and not out.collided and out.distance >= room - 1e-6:
             out = Outcome(out.task, out.start, out.end, out.distance, out.duration, out.ticks, None, False, True)
     else:
@@ -585,7 +419,22 @@ def simulate(
         task = Task.turn(robot, kind, start, goal, angle)
         if _turn_leaves_disc(robot, start, sign * task.limit):
             return Outcome(kind, start, start, 0.0, 0.0, 0, None, False, True)
-        out = scene.turn(task) if scene is not None else _unobstructed(task)
+        if scene is None:
+            out = unobstructed(task)
+        else:
+            key = (start.x, start.y, start.theta)
+            known = scene.turned.pop(key + (kind, task.limit), None)
+            if known is not None:
+                out = known
+            else:
+                # the other turn from this pose is asked next (its angle is known when
+                # turn_angle chose this one's): one array operation answers both
+                tasks = [task]
+                other_kind = TaskKind.RIGHT if kind is TaskKind.LEFT else TaskKind.LEFT
+                other = scene.turns.get(key + (other_kind, None if goal is None else (goal.x, goal.y)))
+                if other is not None and not _turn_leaves_disc(robot, start, -sign * other):
+                    tasks.append(Task.turn(robot, other_kind, start, goal, other))
+                out = scene.turn_each(tasks)[0]
     if goal is not None and out.d_n is None and out.end.distance_to(goal.x, goal.y) <= robot.goal_tolerance:
         out = Outcome(out.task, out.start, out.end, out.distance, out.duration, out.ticks, None, True, out.frontier)
     return out

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass, fields, replace
 from typing import Any
@@ -74,7 +75,8 @@ class RobotModel:
         """Wheel speed (m/s) that spins the robot in place at ``turn_rate``."""
         return round(self.turn_rate * self.wheel_base / 2, 12)
 
-    @property
+    # derived once per model (the dataclass is frozen: a cached value never goes stale)
+    @functools.cached_property
     def footprint(self) -> tuple[tuple[float, float], ...]:
         """The body outline in the robot frame, inflated by ``clearance``, counter-clockwise."""
         c = self.clearance
@@ -82,10 +84,21 @@ class RobotModel:
         y = self.width / 2 + c
         return ((x0, -y), (x1, -y), (x1, y), (x0, y))
 
-    @property
+    @functools.cached_property
     def swept_radius(self) -> float:
         """Radius of the disc the inflated body sweeps when it spins in place."""
         return max(math.hypot(x, y) for x, y in self.footprint)
+
+    @functools.cached_property
+    def corners(self) -> tuple[tuple[float, float], ...]:
+        """The real body's outline in the robot frame (no clearance), counter-clockwise."""
+        h = self.width / 2
+        return ((-self.rear_offset, -h), (self.front_offset, -h), (self.front_offset, h), (-self.rear_offset, h))
+
+    @functools.cached_property
+    def body_radius(self) -> float:
+        """The distance from the rotation centre to the real body's farthest corner."""
+        return max(math.hypot(a, b) for a, b in self.corners)
 
     def with_(self, **changes: Any) -> "RobotModel":
         """A copy with some parameters changed (validated)."""

@@ -13,7 +13,8 @@ from formal.model import Disturbance, Pose, TaskKind
 from planner import RobotModel, Task, perceive, simulate
 from planner.perception import Obstacles
 from planner.engine import World, _rollout
-from planner.physics import _unobstructed, in_the_way, straight_limit
+from planner.contact import unobstructed
+from planner.physics import in_the_way, straight_limit
 
 ROBOT = RobotModel()
 GOAL = Disturbance.goal(1.0, 0.0)
@@ -85,7 +86,7 @@ poses = st.builds(Pose, st.floats(-0.5, 0.5), st.floats(-0.5, 0.5), st.floats(-3
 def test_closed_form_equals_the_tick_loop(start, kind, limit):
     """With nothing in the way, the O(1) outcome is what the controller does tick by tick."""
     task = Task.straight(ROBOT, start, GOAL, limit) if kind is TaskKind.STRAIGHT else Task.turn(ROBOT, kind, start, GOAL)
-    fast, slow = _unobstructed(task), _rollout(task, None)
+    fast, slow = unobstructed(task), _rollout(task, None)
     assert fast.ticks == slow.ticks
     assert fast.duration == pytest.approx(slow.duration)
     assert fast.end.x == pytest.approx(slow.end.x, abs=1e-9)

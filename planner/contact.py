@@ -1,0 +1,378 @@
+"""Where the body meets the sensed points: the closed forms of :mod:`planner.physics`.
+
+A planning run shares one :class:`Scene`: the sensed points perception kept (in surface
+order) as flat arrays, and the body's extents, built once; a rollout allocates nothing
+per point and builds no shape. Per position it keeps the points within reach of a step
+and its turns (one pass over all points per position, shared by the straight, both turns
+and their choice of angle), and per pose what is known of the way ahead (the exact gap
+to the first point in the lane, or a distance known to be clear), so that a turn's choice
+of angle answers the straight that follows it. Every answer is the one a pass over all
+points would give, to the bit.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from formal.geometry import wrap_angle
+from formal.model import Pose, TaskKind
+from planner.engine import Outcome, _obstacle_disturbance
+from planner.perception import Obstacles
+from planner.robot import RobotModel
+from planner.tasks import Task
+
+__all__ = ["Scene", "cut_straight", "unobstructed", "SPIN_SLACK"]
+
+# kept beyond the swept disc, so that a point ahead is not met on the sweep's very edge (m)
+SPIN_SLACK = 0.003
+_EPS = 1e-9
+
+
+class Scene:
+    """The run's sensed points as flat arrays, and the body's extents: what every
+    rollout of one planning run shares (built once per run, nothing per query)."""
+
+    __slots__ = (
+        "obstacles", "robot", "x", "y", "z", "owner", "real", "infl", "radius2", "gaps", "clear", "reach", "spin",
+        "local", "local2", "local_gap", "turns", "turned",
+    )
+
+    def __init__(self, obstacles: Obstacles, robot: RobotModel) -> None:
+        self.obstacles = obstacles
+        self.robot = robot
+        pts = obstacles.points
+        self.x = np.ascontiguousarray(pts[:, 0])
+        self.y = np.ascontiguousarray(pts[:, 1])
+        self.z = self.x + 1j * self.y  # the points as x + iy: a frame change is one product
+        self.owner = obstacles.owner
+        c = robot.clearance
+        self.real = (robot.rear_offset, robot.front_offset, robot.width / 2)
+        self.infl = (robot.rear_offset + c, robot.front_offset + c, robot.width / 2 + c)
+        self.radius2 = robot.swept_radius ** 2
+        rear, front, half = self.infl
+        self.reach = (math.hypot(rear, half), front, half)
+        self.gaps: dict[tuple[float, float, float], tuple[float, int]] = {}
+        # per pose, a distance the body is known to drive clear of every point (a turn's
+        # choice of angle found it, over the points within its reach)
+        self.clear: dict[tuple[float, float, float], float] = {}
+        # how much farther than a step a point ahead must be for the step to run its length
+        self.spin = robot.swept_radius - robot.front_offset - c + SPIN_SLACK if robot.free_turns else 0.0
+        # per position, the points within reach of a step and its turns (one pass over all
+        # points per position; the straight, both turns and their choice of angle share it)
+        step = robot.step_length if robot.step_length is not None else robot.sensor_range
+        far = step + self.spin + 1e-4
+        self.local2 = max(self.reach[0], math.hypot(front + far, half)) ** 2
+        self.local_gap = far  # a gap up to this is found among the local points
+        self.local: dict[tuple[float, float], tuple[np.ndarray, np.ndarray, bool]] = {}
+        # per pose, kind and goal: the angle a turn ends at (:func:`planner.physics.turn_angle`)
+        self.turns: dict[tuple[Any, ...], float] = {}
+        # per pose, kind and angle: the outcome of a turn answered with another one
+        self.turned: dict[tuple[Any, ...], Outcome] = {}
+
+    def outcome(self, task: Task) -> Outcome:
+        """The outcome of ``task`` among the sensed points (closed form; see the module docstring)."""
+        if not len(self.x):
+            return unobstructed(task)
+        if task.kind is TaskKind.STRAIGHT:
+            d, k = self.straight_gap(task.start)
+            if k < 0:
+                return unobstructed(task)
+            return cut_straight(task, d, self.obstacles, int(self.owner[k]), float(self.x[k]), float(self.y[k]))
+        return self.turn(task)
+
+    def near(self, x: float, y: float) -> tuple[np.ndarray, np.ndarray, bool]:
+        """The points within reach of a step and its turns from (x, y): their indices
+        (ascending), their offsets from (x, y) as complex numbers, and whether any lies
+        within the body's swept disc (else none can be inside the body at any heading)."""
+        key = (x, y)
+        hit = self.local.get(key)
+        if hit is None:
+            dx, dy = self.x - x, self.y - y
+            d2 = dx * dx + dy * dy
+            idx = (d2 <= self.local2).nonzero()[0]
+            dz = self.z.take(idx) - complex(x, y)
+            body = bool(np.count_nonzero(d2.take(idx) <= self.radius2))
+            hit = self.local[key] = (idx, dz, body)
+        return hit
+
+    def knows(self, s: Pose, need: float) -> bool:
+        """True when :meth:`straight_gap` from ``s`` (to ``need`` metres) is remembered."""
+        key = (s.x, s.y, s.theta)
+        return key in self.gaps or self.clear.get(key, -1.0) >= need
+
+    def straight_gap(self, s: Pose, need: float = math.inf) -> tuple[float, int]:
+        """(distance the body can drive from ``s`` before it meets a point, that point's
+        index); (inf, -1) when none, or when none is met within ``need`` metres (what the
+        caller needs to know: beyond it the answer makes no difference). Remembered per
+        pose (a turn's choice of angle and the straight after it ask the same question)."""
+        key = (s.x, s.y, s.theta)
+        hit = self.gaps.get(key)
+        if hit is None:
+            if need < math.inf and self.clear.get(key, -1.0) >= need:
+                return math.inf, -1
+            d, j = self._straight_gap(s, self.near(s.x, s.y))
+            if d <= self.local_gap:
+                hit = self.gaps[key] = (d, j)  # every point that could be nearer is local
+                return hit
+            self.clear[key] = self.local_gap
+            if need <= self.local_gap:
+                return math.inf, -1
+            hit = self.gaps[key] = self._straight_gap(s)
+        return hit
+
+    def _straight_gap(self, s: Pose, near: tuple[np.ndarray, np.ndarray, bool] | None = None) -> tuple[float, int]:
+        # :meth:`_gaps` for one heading, on the points in the body's lane only (of ``near``)
+        rot = complex(math.cos(s.theta), -math.sin(s.theta))
+        if near is None:
+            w = (self.z - complex(s.x, s.y)) * rot
+            body = True
+        else:
+            w = near[1] * rot
+            body = near[2]
+        rear, front, half = self.infl
+        lane = (np.abs(w.imag) <= half).nonzero()[0]
+        if not len(lane):
+            return math.inf, -1
+        lane_idx = lane if near is None else near[0].take(lane)
+        w = w.take(lane)
+        u = w.real
+        ahead = u > front
+        gap = np.where(ahead, u - front, np.inf)
+        if body:
+            # inside the inflated footprint at the start: the margin is waived for these
+            # points, the real body still must not touch them (the start-touching rule)
+            waived = ~ahead & (u >= -rear)
+            if np.count_nonzero(waived):
+                _, rfront, rhalf = self.real
+                gap = np.where(waived & (np.abs(w.imag) < rhalf) & (u >= rfront), u - rfront, gap)
+        k = int(gap.argmin())
+        d = float(gap[k])
+        return (d, int(lane_idx[k])) if math.isfinite(d) else (math.inf, -1)
+
+    def _gaps(self, dz: np.ndarray, rot: np.ndarray, body: bool = True) -> tuple[np.ndarray, np.ndarray]:
+        """Per heading (K, given as ``rot`` = cos h − i sin h): how far the body can drive
+        before it meets one of the points at offsets ``dz`` (complex x + iy from the start),
+        and which (index into ``dz``); inf when none. The same arithmetic as
+        :meth:`_straight_gap`, so that the two agree to the bit. ``body``: whether any point
+        lies within the body's swept disc (else none is inside the footprint at the start)."""
+        w = dz * rot[:, None]  # K×N: u + iv in each task frame
+        u = w.real
+        v = np.abs(w.imag)
+        rear, front, half = self.infl
+        lane = v <= half
+        gap = np.where(lane & (u > front), u - front, np.inf)
+        if body:
+            # inside the inflated footprint at the start: the margin is waived for these
+            # points, the real body still must not touch them (the start-touching rule)
+            waived = lane & (u <= front) & (u >= -rear)
+            if np.count_nonzero(waived):
+                _, rfront, rhalf = self.real
+                gap = np.where(waived & (v < rhalf) & (u >= rfront), u - rfront, gap)
+        k = gap.argmin(axis=1)
+        return gap[np.arange(len(rot)), k], k
+
+    def first_clear(self, s: Pose, headings: list[float], lengths: list[float], fallback: int = -1) -> int:
+        """The index of the first heading (each in (−π, π]) from which the body, turned in
+        place at ``s``, can drive ``lengths[i]`` without meeting a point; -1 when none can
+        (the turn then ends at heading ``fallback``). See :meth:`first_clear_each`."""
+        return self.first_clear_each(s, [(headings, lengths, fallback)])[0]
+
+    def first_clear_each(
+        self, s: Pose, groups: list[tuple[list[float], list[float], int]], straight: float | None = None
+    ) -> list[int]:
+        """:meth:`first_clear` for several turns from ``s`` at once (a left and a right turn:
+        one array operation for both), and with ``straight`` (metres) the way ahead of ``s``
+        itself too (the straight from ``s``, asked just before its turns), remembered as
+        :meth:`straight_gap` would find it.
+
+        Over the points within reach of the longest drive only (a nearer contact is among
+        them; none nearer means clear). The reach is widened by what a step needs beyond
+        its length (room to spin), so that it answers the straight that follows the turn
+        too: a gap found within it is the exact :meth:`straight_gap` of the pose turned to
+        that heading (every point that could be nearer is among those tested), and none
+        found means the way is clear that far; either is remembered for the heading each
+        turn ends at.
+        """
+        heads = [h for g in groups for h in g[0]]
+        if not heads:
+            return [-1] * len(groups)
+        at = complex(s.x, s.y)
+        body, front, half = self.reach
+        far = max([n for g in groups for n in g[1]] + ([straight] if straight is not None else [])) + self.spin + 1e-5
+        reach = max(body, math.hypot(front + far, half))
+        if reach * reach <= self.local2:
+            # a superset of the points within reach: the same answers
+            near, dz, body = self.near(s.x, s.y)
+        else:
+            dz = self.z - at
+            near = (dz.real * dz.real + dz.imag * dz.imag <= reach * reach).nonzero()[0]
+            dz, body = dz.take(near), True
+        kx, ky = s.x, s.y
+        if len(near):
+            rots = [complex(math.cos(h), -math.sin(h)) for h in heads]
+            if straight is not None:
+                rots.append(complex(math.cos(s.theta), -math.sin(s.theta)))  # as _straight_gap
+            d, k = self._gaps(dz, np.array(rots), body)
+            ok = (d[: len(heads)] >= np.array([n for g in groups for n in g[1]]) - _EPS).tolist()
+        if straight is not None:
+            key = (kx, ky, s.theta)
+            ds = float(d[-1]) if len(near) else math.inf
+            if ds <= far:
+                self.gaps.setdefault(key, (ds, int(near[k[-1]])))
+            else:
+                self.clear[key] = max(self.clear.get(key, 0.0), far)
+        out = []
+        base = 0
+        for headings, _, fallback in groups:
+            m = len(headings)
+            if not len(near):
+                i = 0 if m else -1
+            else:
+                i = next((j for j in range(m) if ok[base + j]), -1)
+            j = i if i >= 0 else fallback
+            if j >= 0:
+                key = (kx, ky, headings[j])
+                dj = float(d[base + j]) if len(near) else math.inf
+                if dj <= far:
+                    self.gaps.setdefault(key, (dj, int(near[k[base + j]])))
+                else:
+                    self.clear[key] = far
+            out.append(i)
+            base += m
+        return out
+
+    def _waived_turn(self, dx: np.ndarray, dy: np.ndarray, theta: float, sign: float, per_tick: float, e0: float, ticks: int) -> int:
+        """The first tick at or after which the real body meets one of these points
+        (strictly outside it at the start), sampled at eight headings per tick."""
+        rrear, rfront, rhalf = self.real
+        fine = np.minimum(np.arange(1, 8 * ticks + 1) * (per_tick / 8), e0)
+        th = theta + sign * fine
+        c, sn = np.cos(th)[:, None], np.sin(th)[:, None]
+        u = dx * c + dy * sn
+        v = np.abs(dy * c - dx * sn)
+        u0 = dx * math.cos(theta) + dy * math.sin(theta)
+        v0 = np.abs(dy * math.cos(theta) - dx * math.sin(theta))
+        live = ~((u0 > -rrear) & (u0 < rfront) & (v0 < rhalf))
+        hit = np.logical_or.reduce((u >= -rrear) & (u <= rfront) & (v <= rhalf) & live, axis=1).nonzero()[0]
+        return int(hit[0]) // 8 + 1 if len(hit) else ticks + 1
+
+    def turn(self, task: Task) -> Outcome:
+        """A turn among the points within its swept disc, checked at every tick heading
+        (remembered when :meth:`turn_each` answered it with another turn)."""
+        s = task.start
+        known = self.turned.pop((s.x, s.y, s.theta, task.kind, task.limit), None)
+        return known if known is not None else self.turn_each([task])[0]
+
+    def turn_each(self, tasks: list[Task]) -> list[Outcome]:
+        """:meth:`turn` for turns from one pose (a left and a right turn: one array
+        operation for both); the outcomes after the first are remembered for
+        :meth:`turn`."""
+        s = tasks[0].start
+        local, dz, body = self.near(s.x, s.y)
+        if not body:
+            outs = [unobstructed(t) for t in tasks]
+        else:
+            dx, dy = dz.real, dz.imag
+            sel = (dx * dx + dy * dy <= self.radius2).nonzero()[0]
+            outs = self._turns(tasks, local.take(sel), dx.take(sel), dy.take(sel))
+        key = (s.x, s.y, s.theta)
+        for t, out in zip(tasks[1:], outs[1:]):
+            self.turned[key + (t.kind, t.limit)] = out
+        return outs
+
+    def _turns(self, tasks: list[Task], near: np.ndarray, dx: np.ndarray, dy: np.ndarray) -> list[Outcome]:
+        s = tasks[0].start
+        r = tasks[0].robot
+        per_tick = r.turn_rate * r.tick
+        blocks = []  # per task: (sign, e0, ticks, first row)
+        ths = []
+        row = 0
+        for t in tasks:
+            e0 = t.error_at(s.x, s.y, s.theta)
+            ticks = math.ceil(e0 / per_tick - 1e-9) if e0 > 1e-9 else 0
+            sign = 1.0 if t.kind is TaskKind.LEFT else -1.0
+            blocks.append((sign, e0, ticks, row))
+            if ticks:
+                ths.append(s.theta + sign * np.minimum(np.arange(ticks + 1) * per_tick, e0))
+                row += ticks + 1
+        if not ths:
+            return [unobstructed(t) for t in tasks]
+        th = ths[0] if len(ths) == 1 else np.concatenate(ths)
+        c, sn = np.cos(th)[:, None], np.sin(th)[:, None]
+        u = dx * c + dy * sn
+        v = np.abs(dy * c - dx * sn)
+        rear, front, half = self.infl
+        inside = (u >= -rear) & (u <= front) & (v <= half)
+        waived = inside[0]  # every block's first row is the start heading
+        any_waived = bool(np.count_nonzero(waived))
+        if any_waived:
+            rrear, rfront, rhalf = self.real
+            real = (u >= -rrear) & (u <= rfront) & (v <= rhalf)
+            inside = np.where(waived, real, inside)
+            # exempt: strictly inside the real body at the start (a point on its edge is not)
+            inside[:, (u[0] > -rrear) & (u[0] < rfront) & (v[0] < rhalf)] = False
+        hit_rows = np.logical_or.reduce(inside, axis=1)
+        outs = []
+        for t, (sign, e0, ticks, first) in zip(tasks, blocks):
+            if not ticks:
+                outs.append(unobstructed(t))
+                continue
+            rows = hit_rows[first + 1 : first + ticks + 1].nonzero()[0]
+            k = int(rows[0]) + 1 if len(rows) else ticks + 1  # the first tick in contact
+            if any_waived:
+                # a point within the margin is held to the real body, with no margin for the
+                # corner's path between ticks: test it at eight headings per tick
+                k = min(k, self._waived_turn(dx[waived], dy[waived], s.theta, sign, per_tick, e0, ticks))
+            if k > ticks:
+                outs.append(unobstructed(t))
+                continue
+            at = inside[first + k]
+            j = int(near[int(np.argmax(at))]) if np.count_nonzero(at) else int(near[np.flatnonzero(waived)[0]])
+            done = k - 1
+            end = Pose(s.x, s.y, wrap_angle(float(th[first + done]))) if done else s
+            d_n = _obstacle_disturbance(self.obstacles, (int(self.owner[j]), float(self.x[j]), float(self.y[j])))
+            outs.append(Outcome(t.kind, s, end, 0.0, done * r.tick, done, d_n, False))
+        return outs
+
+
+def cut_straight(task: Task, d: float, obstacles: Obstacles, i: int, x: float, y: float) -> Outcome:
+    """A STRAIGHT whose front meets a point after ``d`` metres (inf: never)."""
+    r = task.robot
+    s = task.start
+    e0 = task.error_at(s.x, s.y, s.theta)
+    if d >= e0 or not math.isfinite(d):
+        return unobstructed(task)
+    per_tick = r.straight_speed * r.tick
+    k = max(1, math.ceil(d / per_tick - 1e-12))  # the first tick whose travel reaches the point
+    done = k - 1
+    travel = done * per_tick
+    c, sn = math.cos(s.theta), math.sin(s.theta)
+    end = Pose(s.x + travel * c, s.y + travel * sn, s.theta) if done else s
+    d_n = _obstacle_disturbance(obstacles, (i, x, y))
+    return Outcome(task.kind, s, end, travel, done * r.tick, done, d_n, False)
+
+
+def unobstructed(task: Task, frontier: bool = False) -> Outcome:
+    """The outcome of a task that nothing interrupts, in closed form.
+
+    Both controllers drive their error down linearly at full rate and cover the rest in
+    the last tick (see :mod:`planner.tasks`), so the end pose is the start moved by the
+    initial error and the duration is the number of ticks that takes.
+    """
+    r = task.robot
+    s = task.start
+    e0 = task.error_at(s.x, s.y, s.theta)
+    if task.kind is TaskKind.STRAIGHT:
+        per_tick = r.straight_speed * r.tick
+        end = Pose(s.x + e0 * math.cos(s.theta), s.y + e0 * math.sin(s.theta), s.theta)
+        distance = e0
+    else:
+        per_tick = r.turn_rate * r.tick
+        sign = 1.0 if task.kind is TaskKind.LEFT else -1.0
+        end = Pose(s.x, s.y, wrap_angle(s.theta + sign * e0))
+        distance = 0.0
+    ticks = math.ceil(e0 / per_tick - 1e-9) if e0 > 1e-9 else 0
+    return Outcome(task.kind, s, end if ticks else s, distance if ticks else 0.0, ticks * r.tick, ticks, None, False, frontier)
