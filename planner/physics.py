@@ -252,10 +252,12 @@ def turn_angle(
     (π/4, 3π/8, π/2 for the default quarter turn; short of the goal's bearing or beyond
     it), from which the way ahead is clear for a step; when none is, it ends facing the
     goal if it turned towards it, else at ``turn_angle``. A turn away from the goal (the
-    goal on the other side, or ahead) has marks on up to a half turn (5π/8 … π): the way
-    out of a nook may lie behind a wall beside the body that a quarter turn would face
-    (recorded scans 126–135). A turn towards the goal stops at ``turn_angle``: further
-    would turn its back on the goal, and such detours fail under execution noise.
+    goal on the other side, or ahead) has marks on up to a half turn, every
+    ``turn_angle / 8`` past ``turn_angle`` (9π/16 … π): the way out of a nook may lie
+    behind a wall beside the body that a quarter turn would face (recorded scans
+    126–135), and may need a mark between the π/8 ones (scan 121: 9π/16). A turn
+    towards the goal stops at ``turn_angle``: further would turn its back on the goal,
+    and such detours fail under execution noise.
 
     >>> from planner.perception import perceive
     >>> g = Disturbance.goal(0.0, 0.5)
@@ -338,19 +340,20 @@ def _turn_options(
 @functools.lru_cache(maxsize=32)
 def _marks(full: float, away: bool) -> tuple[float, ...]:
     """Where a turn contingent on an obstacle may end: every ``full / 4`` from ``full / 2``
-    up to ``full``, or up to π for a turn ``away`` from the goal.
+    up to ``full``; for a turn ``away`` from the goal on past ``full``, every ``full / 8``,
+    up to π.
 
     >>> [round(a / math.pi, 3) for a in _marks(math.pi / 2, False)]
     [0.25, 0.375, 0.5]
-    >>> [round(a / math.pi, 3) for a in _marks(math.pi / 2, True)]
-    [0.25, 0.375, 0.5, 0.625, 0.75, 0.875, 1.0]
+    >>> [round(a / math.pi, 4) for a in _marks(math.pi / 2, True)]
+    [0.25, 0.375, 0.5, 0.5625, 0.625, 0.6875, 0.75, 0.8125, 0.875, 0.9375, 1.0]
     """
-    last = math.pi if away else full
-    out = []
-    k = 2
-    while full * k / 4 <= last + 1e-9:
-        out.append(min(full * k / 4, math.pi))
-        k += 1
+    out = [full * k / 4 for k in range(2, 5)]
+    if away:
+        k = 9
+        while full * k / 8 < math.pi + 1e-9:
+            out.append(min(full * k / 8, math.pi))
+            k += 1
     return tuple(out)
 
 

@@ -277,3 +277,17 @@ def test_a_goal_round_a_wall_end_near_the_rim_is_reached(scans_dir: Path) -> Non
     r = Configurator().plan(scan, (1.0, 0.0))
     assert r.reached_goal and r.stop_reason == "goal", (r.stop_reason, [(s.task.value, s.end) for s in r.steps])
     assert check_states(scan, r.steps, r.robot).ok
+
+
+def test_a_turn_away_from_the_goal_past_a_quarter_turn_may_end_between_the_pi_8_marks(scans_dir: Path) -> None:
+    """Recorded scan 121: the robot in a corridor, the goal beyond its right wall. The way
+    is down the corridor and out through the gap below that wall, which the first turn
+    (away from the goal, which lies ahead) finds at 9π/16; with marks
+    only every π/8 past the quarter turn it ended at 5π/8, and the search spent its 50
+    states (79 were needed)."""
+    scan = load_scan(scans_dir / "map0121.dat")
+    r = Configurator().plan(scan, (1.0, 0.0))
+    assert r.reached_goal and r.stop_reason == "goal", (r.stop_reason, [(s.task.value, s.end) for s in r.steps])
+    assert check_states(scan, r.steps, r.robot).ok
+    first = r.steps[0]
+    assert first.task.value == "RIGHT" and first.end.theta == pytest.approx(-9 * math.pi / 16)
