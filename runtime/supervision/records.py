@@ -125,11 +125,13 @@ def sweep(kind: TaskKind, amount: float) -> np.ndarray:
     return spin
 
 
-def hits(points: np.ndarray, poses: np.ndarray, m: RobotModel) -> int:
-    """How many points lie inside the (uninflated) body at any of ``poses``."""
+def hits(points: np.ndarray, poses: np.ndarray, m: RobotModel, allowance: float = 0.0) -> int:
+    """How many points lie inside the (uninflated) body at any of ``poses``, more than
+    ``allowance`` (m) inside its outline."""
     inside = np.zeros(len(points), dtype=bool)
+    rear, front, half = m.rear_offset - allowance, m.front_offset - allowance, m.width / 2 - allowance
     for x, y, th in poses:
         local = points_to_frame(points, (x, y, th))
         u, v = local[:, 0], local[:, 1]
-        inside |= (u >= -m.rear_offset) & (u <= m.front_offset) & (np.abs(v) <= m.width / 2)
+        inside |= (u >= -rear) & (u <= front) & (np.abs(v) <= half)
     return int(inside.sum())

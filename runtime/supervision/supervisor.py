@@ -57,15 +57,14 @@ from planner.tasks import Task
 from runtime.clock import Clock, clock_for
 from runtime.estimation.fusion import fuse_revolutions
 from runtime.estimation.odometry import ScanOdometry
-from runtime.supervision.plancheck import RecallIndex, check_plan, recall
+from runtime.supervision.alarms import Alarms
+from runtime.supervision.plancheck import RecallIndex, recall
 from runtime.supervision.records import (
     PlanRecord,
     SupervisorReport,
     TaskRecord,
     TimedRecord,
-    hits,
     scan_to_frame,
-    sweep,
 )
 from runtime.records.runlog import RunLogLike, plan_fields
 from runtime.robot import Robot, RobotFault, ScanFrame, finite_goal
@@ -189,6 +188,7 @@ class Supervisor:
         self._check_due = False
         self._recalls_in_a_row = 0
         self._index: RecallIndex | None = None
+        self.alarms = Alarms(clearance=self.model.clearance)  # the hazard test's and the plan check's noise allowance
 
     # -- public -------------------------------------------------------------------------------
     @property
@@ -357,6 +357,7 @@ class Supervisor:
             if not self._turned and (self.estimator is None or frame.point_times is None):
                 self._clean_scan, self._scan_pose = self._scan, self.pose
             self._turned = self._turning()
+            self.alarms.revolution(scan)
         elif now - self._last_scan_at > self.scan_timeout:
             raise RobotFault(f"sensor silent: no scan for {now - self._last_scan_at:.2f} s")
         if self.state in (S.PLANNING, S.REPLANNING):
@@ -546,22 +547,12 @@ class Supervisor:
         return None
 
     def _hazard(self, task: Task, error: float) -> str | None:
-        """A reason to interrupt when the newest scan has points in the body's remaining path."""
+        """A reason to interrupt when the newest scan has points in the body's remaining path
+        (:meth:`runtime.supervision.alarms.Alarms.hazard`: deep at once, shallow when it persists)."""
         if self._clean_scan is None or len(self._clean_scan) == 0:
             return None
         pts = scan_to_frame(self._clean_scan, self._scan_pose, self.pose)
-        m = self.model
-        near = np.hypot(pts[:, 0], pts[:, 1]) <= m.length + error + 0.05
-        pts = pts[near]
-        if len(pts) == 0:
-            return None
-        poses = sweep(task.kind, error)
-        soon = sweep(task.kind, min(error, (m.straight_speed if task.kind is TaskKind.STRAIGHT else m.turn_rate) * self.lookahead))
-        if hits(pts, soon, m) >= self.hazard_points:
-            return "collision imminent: the scan shows an obstacle against the body's next move"
-        if hits(pts, poses, m) >= self.hazard_points:
-            return "an obstacle the plan did not predict is in the way"
-        return None
+        return self.alarms.hazard(pts, task.kind, error, self.model, self.lookahead, self.hazard_points, self.pose)
 
     def _check_remaining(self) -> TimedRecord | None:
         """Test the running task and the queued ones against the newest revolution."""
@@ -569,8 +560,8 @@ class Supervisor:
             return None
         states = [self._record.state] + [q for q, _ in self._queue]
         t0, c0 = time.perf_counter(), time.thread_time()  # everything the check needs: it tests the raw points
-        verdict = check_plan(states, self._plan.origin, self._scan_pose, self.goal, self._clean_scan, self.model,
-                             tolerance=self.end_tolerance, running=True)
+        verdict = self.alarms.check(states, self._plan.origin, self._scan_pose, self.goal, self._clean_scan, self.model,
+                                    self.end_tolerance, running=True)
         rec = TimedRecord(self._now(), time.perf_counter() - t0, verdict.ok, verdict.reason, time.thread_time() - c0)
         self.checks.append(rec)
         self._log("check", ok=rec.ok, duration_s=rec.duration_s, reason=rec.reason)

@@ -1,0 +1,90 @@
+"""The supervisor's alarms under sensor noise: a measured allowance, deep alarms at once,
+shallow ones when they persist (runtime.supervision.alarms)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from formal.model import Pose, TaskKind
+from planner.robot import RobotModel
+from runtime.supervision.alarms import Alarms, hazard_hits, range_noise
+
+M = RobotModel()
+
+
+def _wall_beside(gap: float, sd: float, rng: np.random.Generator) -> np.ndarray:
+    """A wall along the path, ``gap`` m beside the body's left side, each point's range noisy."""
+    x = np.linspace(-0.3, 0.8, 111)
+    pts = np.c_[x, np.full(len(x), M.width / 2 + gap)]
+    r = np.hypot(pts[:, 0], pts[:, 1])
+    return pts * ((r + rng.normal(0.0, sd, len(r))) / r)[:, None]
+
+
+@pytest.mark.parametrize("sd", [0.005, 0.025])
+def test_the_range_noise_a_revolution_shows_is_measured(sd: float) -> None:
+    rng = np.random.default_rng(0)
+    est = [range_noise(_wall_beside(0.2, sd, rng)) for _ in range(10)]
+    assert float(np.median(est)) == pytest.approx(sd, rel=0.3)
+
+
+def test_a_shallow_alarm_stands_only_when_it_persists_a_deep_one_at_once() -> None:
+    a = Alarms()
+    rng = np.random.default_rng(1)
+    a.revolution(_wall_beside(0.2, 0.025, rng))
+    assert a.allowance == pytest.approx(0.03, abs=0.011)  # 1.5 sd less the 1 cm clearance
+    assert not a.stands("hazard", deep=False) and a.deferred == 1
+    assert not a.stands("hazard", deep=False) and a.deferred == 1  # the same revolution: still seen once
+    a.revolution(_wall_beside(0.2, 0.025, rng))
+    assert a.stands("hazard", deep=False)  # seen in two revolutions in a row
+    a.revolution(_wall_beside(0.2, 0.025, rng))
+    a.revolution(_wall_beside(0.2, 0.025, rng))
+    assert not a.stands("hazard", deep=False)  # a gap of a revolution: seen once again
+    assert a.stands("hazard", deep=True)  # deep: at once
+
+
+def test_near_where_an_alarm_stood_a_shallow_one_stands_at_once() -> None:
+    """A robot stopped and replanned where its path grazes a surface does not creep on."""
+    a = Alarms(near=0.05)
+    a.revolution(np.zeros((0, 2)))
+    assert a.stands("check", deep=True, at=Pose(0.5, 0.2, 0.0))
+    for _ in range(5):
+        a.revolution(np.zeros((0, 2)))
+    assert a.stands("check", deep=False, at=Pose(0.52, 0.21, 1.0))  # 2 cm from where it stood
+    for _ in range(5):
+        a.revolution(np.zeros((0, 2)))
+    assert not a.stands("check", deep=False, at=Pose(0.7, 0.2, 0.0))  # 20 cm on: seen once
+
+
+def test_a_noisy_wall_beside_the_path_raises_fewer_deep_alarms_and_one_across_it_always_does() -> None:
+    """Harsh range noise (2.5 cm) on a wall 1 cm beside the body (the planner's clearance):
+    the body meets its points in most revolutions; the body less the allowance in few. A
+    wall across the path 0.15 m ahead is deep in every revolution."""
+    rng = np.random.default_rng(2)
+    a = Alarms()
+    strict = deep = across = 0
+    for _ in range(20):
+        pts = _wall_beside(0.01, 0.025, rng)
+        a.revolution(pts)
+        strict += max(hazard_hits(pts, TaskKind.STRAIGHT, 0.3, M, 0.5)) >= 2
+        deep += max(hazard_hits(pts, TaskKind.STRAIGHT, 0.3, M, 0.5, a.allowance)) >= 2
+        y = np.linspace(-0.2, 0.2, 41)
+        wall = np.c_[np.full(41, M.front_offset + 0.15) + rng.normal(0.0, 0.025, 41), y]
+        across += max(hazard_hits(wall, TaskKind.STRAIGHT, 0.3, M, 0.5, a.allowance)) >= 10
+    assert strict >= 15 and deep <= strict // 2
+    assert across == 20
+
+
+def test_bad_parameters_are_refused() -> None:
+    with pytest.raises(ValueError, match="Alarms needs"):
+        Alarms(k=-1.0)
+    with pytest.raises(ValueError, match="Alarms needs"):
+        Alarms(window=0)
+
+
+def test_at_the_paper_noise_the_clearance_absorbs_it_and_every_alarm_stands() -> None:
+    rng = np.random.default_rng(3)
+    a = Alarms()
+    for _ in range(5):
+        a.revolution(_wall_beside(0.2, 0.005, rng))
+    assert a.allowance == 0.0
