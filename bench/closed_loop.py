@@ -4,20 +4,21 @@
 
 Prints, each beside its target (thread CPU time beside wall time):
 
-1. per-revolution plan check (re-simulating the remaining plan on the scan) vs a fresh
-   plan from the same scan (target: check <= 20 % of a fresh plan, median);
+1. per-revolution plan check (the remaining tasks tested on the raw scan) vs a fresh
+   plan from the same scan (target: check <= 20 % of a fresh plan, median); 1b. the
+   supervisor's own checks, recalls and fresh plans in closed-loop runs;
 2. recall of a plan from the existing map vs exploring anew from the same pose and scan
    (target: recall >= 5x faster, median);
 3. simulated seconds per wall second of the execution world alone (target >= 20x);
 4. scan matching on simulated scan pairs with known motion in scenes like the recorded
    corridor scans (target: median translation error <= 1 cm, heading <= 1 deg), and the
    share of degenerate scenes detected (one wall, a corridor, no returns);
-6. with ``--false-alarms``: how many of the plan checks and hazard interrupts the
-   supervisor acted on in 20 harsh overtaking runs were false alarms (judged again on a
-   noise-free revolution from the true pose), and how many shallow alarms it did not act on;
 5. with ``--experiments``: ``clomp experiment``'s planning condition with scan feedback
    and with ``--feedback none`` side by side (overtaking paper/harsh x20, corridor, doorway,
-   slalom harsh x10).
+   slalom harsh x10);
+6. with ``--false-alarms``: how many of the plan checks and hazard interrupts the
+   supervisor acted on in 20 harsh overtaking runs were false alarms (judged again on a
+   noise-free revolution from the true pose), and how many shallow alarms it did not act on.
 """
 
 from __future__ import annotations
