@@ -51,8 +51,12 @@ class ScanMatch:
     ``pose``: the current frame in the reference frame (the prior's value in unobservable
     directions; the prior itself when ``ok`` is False). ``unobservable``: the directions the
     scene does not constrain, each ``"x"``, ``"y"``, ``"heading"`` or a mixed direction
-    such as ``"0.71x+0.71y"``. ``inlier_fraction``: share of the current points paired
-    within the final correspondence distance; ``rmse``: their point-to-line RMS (m).
+    such as ``"0.71x+0.71y"``. ``information_matrix``: ``JᵀWJ`` of the converged match in
+    state units (m, rad), summed over the correspondences, with the unobservable
+    directions removed — divided by the residual variance, the inverse covariance of the
+    pose (what a filter fuses, :mod:`runtime.estimation.ekf`). ``inlier_fraction``: share
+    of the current points paired within the final correspondence distance; ``rmse``:
+    their point-to-line RMS (m).
     """
 
     pose: Pose
@@ -64,6 +68,7 @@ class ScanMatch:
     iterations: int
     unobservable: tuple[str, ...]
     information: tuple[float, float, float]
+    information_matrix: tuple[tuple[float, float, float], ...] = ((0.0, 0.0, 0.0),) * 3
 
     @property
     def degenerate(self) -> bool:
@@ -209,6 +214,11 @@ def match_scans(
         if np.linalg.norm(step[:2]) < 1e-5 and abs(step[2]) < 1e-5 and dist <= final_distance:
             break
     info = tuple(float(v) for v in np.sort(lam / max(n_used, 1)))
+    seen = lam / max(n_used, 1) >= min_information
+    h_obs = (vecs[:, seen] * lam[seen]) @ vecs[:, seen].T  # the observable part, rotation scaled by lever
+    scale = np.array([1.0, 1.0, lever])
+    h_state = h_obs * scale[:, None] * scale[None, :]
+    imat = tuple(tuple(float(v) for v in row) for row in h_state)
     unobservable = tuple(_direction_name(vecs[:, k]) for k in range(3) if lam[k] / max(n_used, 1) < min_information)
     # final quality
     c, s = math.cos(x[2]), math.sin(x[2])
@@ -232,4 +242,4 @@ def match_scans(
             return ScanMatch(prior, False, f"disagrees with the prior by {dt * 100:.0f} cm, {math.degrees(da):.0f}°: rejected",
                              n_final, frac, rmse, it, unobservable, info)  # type: ignore[arg-type]
     reason = "matched" if not unobservable else f"matched; unobservable: {', '.join(unobservable)} (kept from the prior)"
-    return ScanMatch(pose, True, reason, n_final, frac, rmse, it, unobservable, info)  # type: ignore[arg-type]
+    return ScanMatch(pose, True, reason, n_final, frac, rmse, it, unobservable, info, imat)  # type: ignore[arg-type]
