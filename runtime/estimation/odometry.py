@@ -52,6 +52,7 @@ from formal.geometry import compose, relative, wheel_twist, wrap_angle
 from formal.model import Pose
 from runtime.devices.frame import ScanFrame
 from runtime.estimation.ekf import OdometryFilter
+from runtime.estimation.fusion import fuse_revolutions
 from runtime.estimation.icp import ReferenceScan, match_scans
 
 __all__ = ["ScanOdometry", "FeedbackRecord", "deskew"]
@@ -117,7 +118,10 @@ class ScanOdometry:
     a match's covariance is computed with; ``correlation``: how many neighbouring points
     count as one independent measurement (adjacent rays see the same map errors);
     ``floor_factor``: no match is believed closer than this share of its residual (m; the
-    heading: per 0.5 m of lever), however many points it has.
+    heading: per 0.5 m of lever), however many points it has. ``seed_revolutions``: while
+    the robot has not moved since :meth:`reset`, the seed is the last this many
+    revolutions fused (median range per bearing): the start pose fixes the frame, so the
+    map's first surfaces are the best known.
     """
 
     def __init__(
@@ -135,6 +139,7 @@ class ScanOdometry:
         match_sd: float = 0.01,
         correlation: float = 4.0,
         floor_factor: float = 0.75,
+        seed_revolutions: int = 8,
     ) -> None:
         if not (math.isfinite(wheel_base) and wheel_base > 0):
             raise ValueError(f"wheel_base must be positive, got {wheel_base!r}")
@@ -150,6 +155,7 @@ class ScanOdometry:
         self.match_sd = float(match_sd)
         self.correlation = float(correlation)
         self.floor_factor = float(floor_factor)
+        self.seed_revolutions = max(1, int(seed_revolutions))
         self.filter = OdometryFilter(self.wheel_base)
         self.pose = Pose(0.0, 0.0, 0.0)
         self._t = 0.0
@@ -162,6 +168,7 @@ class ScanOdometry:
         self.last_points = np.zeros((0, 2))
         self._moved_since = 0.0  # m (or wheel-base radians) driven since the last accepted match
         self._last_stamp: float | None = None
+        self._seed: list[np.ndarray] | None = []
 
     # -- dead reckoning -------------------------------------------------------------------------
     def reset(self, pose: Pose, t: float) -> None:
@@ -174,6 +181,7 @@ class ScanOdometry:
         self._odo = None
         self._moved_since = 0.0
         self._last_stamp = None
+        self._seed = []
 
     def advance(self, t: float, wheels: tuple[float, float], odometry: Pose | None = None) -> None:
         """Dead-reckon to time ``t``: from the backend's ``odometry`` when given (its change
@@ -230,6 +238,21 @@ class ScanOdometry:
             # without per-point times a revolution taken while turning is smeared by the turn
             rec = FeedbackRecord(stamp, False, "dead-reckoning", "taken while turning, without point times: smeared",
                                  (0.0, 0.0, 0.0), ("x", "y", "heading"), False)
+            self.records.append(rec)
+            return rec
+        if self._seed is not None and (self._moved_since > 0.0 or self._twist != (0.0, 0.0)):
+            self._seed = None  # the robot moved: the seed is fixed
+        if self._seed is not None and len(points):
+            # still at the start pose, which fixes the frame: each revolution seen from there
+            # joins the seed, fused (median range per bearing), so the map's surfaces are
+            # less noisy than one revolution's and a small face's direction better known
+            self._seed.append(points)
+            n = min(len(self._seed), self.seed_revolutions)
+            seeded = self._add(fuse_revolutions(self._seed[-n:]), at, reseed=True)
+            reason = (f"the map's seed: {n} still revolution{'s' if n > 1 else ''} fused" if seeded
+                      else f"{len(points)} points: too few to seed the map")
+            rec = FeedbackRecord(frame.timestamp, seeded, "map" if seeded else "dead-reckoning", reason, (0.0, 0.0, 0.0),
+                                 () if seeded else ("x", "y", "heading"), seeded)
             self.records.append(rec)
             return rec
         if self._map is None:

@@ -391,9 +391,9 @@ class Supervisor:
 
     # -- planning ---------------------------------------------------------------------------------
     def _plan_tick(self, now: float) -> None:
-        need = self.settle_scans + self.fuse_scans - 1 if self._moved else 1
+        need = self.settle_scans + self.fuse_scans - 1 if self._moved else self.fuse_scans
         if self._scan is None or self._scans_since_stop < need:
-            return  # after driving, let the motion settle, then take ``fuse_scans`` revolutions
+            return  # let driving settle, then take ``fuse_scans`` revolutions (at the start: the map's seed)
         g = relative(self.pose, self.goal)
         dist = math.hypot(g.x, g.y)
         if dist <= self.goal_radius:

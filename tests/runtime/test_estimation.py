@@ -164,3 +164,28 @@ def test_the_supervisor_runs_its_tasks_on_the_scan_matched_estimate():
     assert not blind or all(not r.feedback for r in [final_error("none", 0)[1]])
     with pytest.raises(ValueError, match="feedback"):
         Supervisor(make_world_robot(scene, "ideal"), (1.0, 0.0), feedback="lidar")
+
+
+def test_still_revolutions_at_the_start_are_fused_into_the_map_seed() -> None:
+    """Standing at the start pose (which fixes the frame), every revolution joins the
+    seed, fused: the map's wall is less noisy than one revolution's, so matches later
+    inherit less of its error."""
+    rng = np.random.default_rng(3)
+    ys = np.linspace(-0.6, 0.6, 121)
+
+    def revolution() -> np.ndarray:
+        return np.c_[np.full(len(ys), 1.0) + rng.normal(0.0, 0.025, len(ys)), ys]
+
+    odo = ScanOdometry(0.15)
+    odo.reset(Pose(0.0, 0.0, 0.0), 0.0)
+    first = odo.update(ScanFrame(revolution(), 0.0))
+    assert first.ok and odo._map_points is not None
+    one = float(np.std(odo._map_points[:, 0] - 1.0))
+    for k in range(1, 8):
+        rec = odo.update(ScanFrame(revolution(), 0.18 * k))
+    assert "8 still revolutions fused" in rec.reason
+    fused = float(np.std(odo._map_points[:, 0] - 1.0))
+    assert fused < 0.6 * one, (one, fused)
+    # once the robot moves, the seed is fixed and revolutions are matched against it
+    odo.advance(0.18 * 8 + 0.1, (0.1, 0.1))
+    assert "seed" not in odo.update(ScanFrame(revolution() - [0.01, 0.0], 0.18 * 8 + 0.1)).reason
