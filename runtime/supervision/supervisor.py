@@ -402,7 +402,7 @@ class Supervisor:
         if len(self.fresh_plans) >= self.max_plans:
             self._fire(E.NO_PLAN, f"gave up after {len(self.fresh_plans)} plans")
             return
-        scan = fuse_revolutions(list(self._still)) if self.fuse_scans > 1 and len(self._still) > 1 else self._scan
+        scan = fuse_revolutions(list(self._still)) if self._moved and self.fuse_scans > 1 and len(self._still) > 1 else self._scan
         if self.state is S.REPLANNING and self._recall(scan, now):
             return
         c0 = time.thread_time()
