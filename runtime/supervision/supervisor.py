@@ -27,7 +27,8 @@ reckoning alone. The goal, the remaining plan and every task's error signal come
   (median range per bearing), first *recall*: match the situation to a state of the map
   it already has and continue the map's plan from there if the new scan agrees
   (:func:`runtime.supervision.plancheck.recall`); only when that fails, explore anew
-  (at most ``max_recalls`` recalls in a row).
+  (at most ``max_recalls`` recalls in a row). The hazard test, the check and recall are
+  :class:`runtime.supervision.planwatch.PlanWatch`'s.
 - any exception (a device fault, a silent sensor, a scan with NaN, a planner crash) →
   HALTED, wheels stopped in the same tick. The wheels turn only in EXECUTING, and
   :meth:`Supervisor.run` stops them on every exit path (also Ctrl-C).
@@ -57,14 +58,12 @@ from planner.tasks import Task
 from runtime.clock import Clock, clock_for
 from runtime.estimation.fusion import fuse_revolutions
 from runtime.estimation.odometry import ScanOdometry
-from runtime.supervision.alarms import Alarms
-from runtime.supervision.plancheck import RecallIndex, recall
+from runtime.supervision.planwatch import PlanWatch
 from runtime.supervision.records import (
     PlanRecord,
     SupervisorReport,
     TaskRecord,
     TimedRecord,
-    scan_to_frame,
 )
 from runtime.records.runlog import RunLogLike, plan_fields
 from runtime.robot import Robot, RobotFault, ScanFrame, finite_goal
@@ -182,13 +181,11 @@ class Supervisor:
         self._plan: PlanRecord | None = None
         self._best = math.inf
         self._stalled = 0
-        self.checks: list[TimedRecord] = []
-        self.recalls: list[TimedRecord] = []
         self.fresh_plans: list[TimedRecord] = []
         self._check_due = False
-        self._recalls_in_a_row = 0
-        self._index: RecallIndex | None = None
-        self.alarms = Alarms(clearance=self.model.clearance)  # the hazard test's and the plan check's noise allowance
+        self.watch = PlanWatch(self.model, self._log)  # hazard test, plan check, recall (runtime.supervision.planwatch)
+        self.alarms = self.watch.alarms
+        self.checks, self.recalls = self.watch.checks, self.watch.recalls
 
     # -- public -------------------------------------------------------------------------------
     @property
@@ -411,10 +408,8 @@ class Supervisor:
         except PlanningError as exc:
             self._fire(E.NO_PLAN, f"goal unreachable: {exc}")
             return
-        self._index = RecallIndex(result.map, plan=result.plan)  # part of making the map: timed with it
-        took = result.planning_time_s + self._index.build_s
+        took = result.planning_time_s + self.watch.planned(result)  # indexing the map for recall is part of making it
         self.fresh_plans.append(TimedRecord(now - (self._t0 or 0.0), took, True, f"{result.states} states", time.thread_time() - c0))
-        self._recalls_in_a_row = 0
         self._log("fresh_plan", duration_s=took, states=result.states)
         rec = PlanRecord(now - (self._t0 or 0.0), self.pose, result)
         self.plans.append(rec)
@@ -547,40 +542,24 @@ class Supervisor:
         return None
 
     def _hazard(self, task: Task, error: float) -> str | None:
-        """A reason to interrupt when the newest scan has points in the body's remaining path
-        (:meth:`runtime.supervision.alarms.Alarms.hazard`: deep at once, shallow when it persists)."""
-        if self._clean_scan is None or len(self._clean_scan) == 0:
-            return None
-        pts = scan_to_frame(self._clean_scan, self._scan_pose, self.pose)
-        return self.alarms.hazard(pts, task.kind, error, self.model, self.lookahead, self.hazard_points, self.pose)
+        """A reason to interrupt: the newest scan has points in the body's remaining path."""
+        return self.watch.hazard(self._clean_scan, self._scan_pose, self.pose, task, error, self.lookahead, self.hazard_points)
 
     def _check_remaining(self) -> TimedRecord | None:
         """Test the running task and the queued ones against the newest revolution."""
         if self._plan is None or self._record is None or self._clean_scan is None:
             return None
         states = [self._record.state] + [q for q, _ in self._queue]
-        t0, c0 = time.perf_counter(), time.thread_time()  # everything the check needs: it tests the raw points
-        verdict = self.alarms.check(states, self._plan.origin, self._scan_pose, self.goal, self._clean_scan, self.model,
-                                    self.end_tolerance, running=True)
-        rec = TimedRecord(self._now(), time.perf_counter() - t0, verdict.ok, verdict.reason, time.thread_time() - c0)
-        self.checks.append(rec)
-        self._log("check", ok=rec.ok, duration_s=rec.duration_s, reason=rec.reason)
-        return rec
+        return self.watch.check(states, self._plan, self._scan_pose, self.goal, self._clean_scan, self.end_tolerance,
+                                self._now())
 
     def _recall(self, scan: np.ndarray, now: float) -> bool:
         """REPLANNING's first try: continue a plan from a state of the map the robot has."""
         last = self._plan
-        if last is None or self._recalls_in_a_row >= self.max_recalls:  # recalls leading nowhere
-            self.recalls.append(TimedRecord(now - (self._t0 or 0.0), 0.0, False, "skipped: explore anew"))
+        found = self.watch.recall(last, self.pose, self.goal, scan, self.end_tolerance, self.max_recalls,
+                                  now - (self._t0 or 0.0))
+        if found is None or last is None:
             return False
-        c0 = time.thread_time()  # ``took``: everything a recall needs (the map's index is built with the plan)
-        found, why, took = recall(last.result, last.origin, self.pose, self.goal, scan, self.model,
-                                  check_tolerance=self.end_tolerance, index=self._index)
-        self.recalls.append(TimedRecord(now - (self._t0 or 0.0), took, found is not None, why, time.thread_time() - c0))
-        self._log("recall", ok=found is not None, duration_s=took, reason=why)
-        if found is None:
-            return False
-        self._recalls_in_a_row += 1
         rec = self._plan = PlanRecord(now - (self._t0 or 0.0), last.origin, found.result, recalled=True)
         self.plans.append(rec)
         states = rec.result.plan.states

@@ -1,0 +1,112 @@
+"""The supervisor's watch over its plan: the hazard test, the plan check and recall.
+
+:class:`PlanWatch` is the part of :class:`runtime.supervision.supervisor.Supervisor` that
+asks whether the plan still holds on what the LiDAR now shows, and what of the map the
+robot can reuse when it does not:
+
+- every control tick, :meth:`PlanWatch.hazard`: scan points in the body's remaining path
+  (:meth:`runtime.supervision.alarms.Alarms.hazard`);
+- every revolution while executing, :meth:`PlanWatch.check`: the running task and the
+  queued ones tested against the newest revolution
+  (:meth:`runtime.supervision.alarms.Alarms.check`, i.e.
+  :func:`runtime.supervision.plancheck.check_plan` with the noise allowance);
+- first in REPLANNING, :meth:`PlanWatch.recall`: a plan continued from a state of the map
+  the robot already has (:func:`runtime.supervision.plancheck.recall`), at most
+  ``max_recalls`` in a row before the supervisor explores anew.
+
+It keeps the records of every check and recall (with wall and thread CPU times) and the
+map's recall index, built when a fresh plan is made (:meth:`PlanWatch.planned`). The
+supervisor keeps the state machine, the task queue and the wheels.
+
+>>> from planner.robot import RobotModel
+>>> watch = PlanWatch(RobotModel())
+>>> watch.checks, watch.recalls, watch.index is None
+([], [], True)
+"""
+
+from __future__ import annotations
+
+import time
+from typing import Any, Protocol
+
+import numpy as np
+
+from formal.model import Pose, State
+from planner.configurator import PlanResult
+from planner.robot import RobotModel
+from planner.tasks import Task
+from runtime.supervision.alarms import Alarms
+from runtime.supervision.plancheck import Recall, RecallIndex, recall
+from runtime.supervision.records import PlanRecord, TimedRecord, scan_to_frame
+
+__all__ = ["LogFn", "PlanWatch"]
+
+
+class LogFn(Protocol):
+    """Where the watch writes its events (the supervisor's run log)."""
+
+    def __call__(self, event: str, **fields: Any) -> None: ...
+
+
+def _no_log(event: str, **fields: Any) -> None:
+    del event, fields
+
+
+class PlanWatch:
+    """Hazard test, plan check and recall for one supervisor run; see the module docstring.
+
+    ``model``: the robot the plans are for; ``log``: called with each check and recall.
+    """
+
+    def __init__(self, model: RobotModel, log: LogFn = _no_log) -> None:
+        self.model = model
+        self.log = log
+        self.alarms = Alarms(clearance=model.clearance)  # the hazard test's and the plan check's noise allowance
+        self.checks: list[TimedRecord] = []
+        self.recalls: list[TimedRecord] = []
+        self.index: RecallIndex | None = None
+        self.recalls_in_a_row = 0
+
+    def planned(self, result: PlanResult) -> float:
+        """A fresh plan was made: index its map for recall; returns the seconds that took
+        (part of making the map: the caller times it with the plan)."""
+        self.index = RecallIndex(result.map, plan=result.plan)
+        self.recalls_in_a_row = 0
+        return self.index.build_s
+
+    def hazard(self, clean_scan: np.ndarray | None, scan_pose: Pose, pose: Pose, task: Task, error: float,
+               lookahead: float, needed: int) -> str | None:
+        """A reason to interrupt when the newest clean scan (taken at ``scan_pose``) has
+        points in the body's remaining path from ``pose``: deep at once, shallow when it persists."""
+        if clean_scan is None or len(clean_scan) == 0:
+            return None
+        pts = scan_to_frame(clean_scan, scan_pose, pose)
+        return self.alarms.hazard(pts, task.kind, error, self.model, lookahead, needed, pose)
+
+    def check(self, states: list[State], plan: PlanRecord, scan_pose: Pose, goal: Pose, clean_scan: np.ndarray,
+              tolerance: tuple[float, float], t: float) -> TimedRecord:
+        """Test ``states`` (the running task first, then the queued ones) of ``plan``
+        against the newest revolution, seen from ``scan_pose``; recorded at time ``t``."""
+        t0, c0 = time.perf_counter(), time.thread_time()  # everything the check needs: it tests the raw points
+        verdict = self.alarms.check(states, plan.origin, scan_pose, goal, clean_scan, self.model, tolerance,
+                                    running=True)
+        rec = TimedRecord(t, time.perf_counter() - t0, verdict.ok, verdict.reason, time.thread_time() - c0)
+        self.checks.append(rec)
+        self.log("check", ok=rec.ok, duration_s=rec.duration_s, reason=rec.reason)
+        return rec
+
+    def recall(self, last: PlanRecord | None, pose: Pose, goal: Pose, scan: np.ndarray, tolerance: tuple[float, float],
+               max_recalls: int, t: float) -> Recall | None:
+        """REPLANNING's first try: a plan continued from a state of ``last``'s map where the
+        robot is at ``pose``, its tasks free on ``scan``; None: explore anew."""
+        if last is None or self.recalls_in_a_row >= max_recalls:  # recalls leading nowhere
+            self.recalls.append(TimedRecord(t, 0.0, False, "skipped: explore anew"))
+            return None
+        c0 = time.thread_time()  # ``took``: everything a recall needs (the map's index is built with the plan)
+        found, why, took = recall(last.result, last.origin, pose, goal, scan, self.model,
+                                  check_tolerance=tolerance, index=self.index)
+        self.recalls.append(TimedRecord(t, took, found is not None, why, time.thread_time() - c0))
+        self.log("recall", ok=found is not None, duration_s=took, reason=why)
+        if found is not None:
+            self.recalls_in_a_row += 1
+        return found
