@@ -251,7 +251,9 @@ def turn_angle(
     the way: it ends at the first mark, every ``turn_angle / 4`` from ``turn_angle / 2``
     (π/4, 3π/8, π/2 for the default quarter turn; short of the goal's bearing or beyond
     it), from which the way ahead is clear for a step; when none is, it ends facing the
-    goal if it turned towards it, else at ``turn_angle``. A turn away from the goal (the
+    goal if it turned towards it, else at ``turn_angle``; from the planning origin (the
+    robot's own pose) a turn may also end at ``turn_angle / 4`` (π/8) when no other
+    mark is clear: the smallest turn that frees a robot beside an obstacle. A turn away from the goal (the
     goal on the other side, or ahead) has marks on up to a half turn, every
     ``turn_angle / 8`` past ``turn_angle`` (9π/16 … π): the way out of a nook may lie
     behind a wall beside the body that a quarter turn would face (recorded scans
@@ -334,6 +336,15 @@ def _turn_options(
         if towards is None or abs(a - towards) > 1e-3:
             angles.append(a)
             needs.append(step)
+    if start.x == 0.0 and start.y == 0.0 and start.theta == 0.0:
+        # the planning origin (the robot's sensed pose) may also end a turn at the small
+        # mark, as a last resort: beside an obstacle after a turn overshot, the smallest
+        # turn that clears the way is the one left (overtaking layout 0/1: π/4 faced the
+        # box or the wall and the robot halted UNREACHABLE). Deeper in the search the
+        # mark is not offered: there it spent the budget on shallow detours (honest reach
+        # on the recorded scans 196 -> 195 of 230, scan 117)
+        angles.append(full / 4)
+        needs.append(step)
     return angles, needs, (towards if towards is not None else full)
 
 

@@ -87,6 +87,14 @@ def test_cul_de_sac_success_is_saying_unreachable():
     assert rec["success"] == 0
 
 
+def test_overtaking_run_1_gets_past_the_box_at_paper_noise():
+    """Layout 0/1 (passages 0.33 and 0.36 m beside the box): a 2 degree turn overshoot once
+    left the robot between box and wall with no free task (UNREACHABLE at every noise level);
+    the planning origin's small turn frees it."""
+    rec = run_spec(RunSpec("overtaking", 0, 1, "planning", "paper"))
+    assert (rec["success"], rec["end_state"], rec["collisions"]) == (1, "GOAL_REACHED", 0), rec["reason"]
+
+
 def test_a_run_is_a_pure_function_of_its_spec():
     spec = RunSpec("slalom", 4, 2, "reactive", "paper", 1.0, 30.0)
     a, b = run_spec(spec), run_spec(spec)
