@@ -249,9 +249,12 @@ def test_missing_port_and_silent_port() -> None:
     try:
         with Maestro(os.ttyname(slave), watchdog_timeout=None, reply_timeout=0.2) as m:
             t0 = time.monotonic()
-            with pytest.raises(MaestroTimeout, match="Get Errors"):
+            with pytest.raises(MaestroTimeout, match=r"Get Errors reply within 0\.20 s"):
                 m.get_errors()
-            assert time.monotonic() - t0 < 0.5
+            waited = time.monotonic() - t0
+            # it waits out its own reply timeout (never gives up early), and it ends: the bound
+            # is a hang detector, not a latency claim, so a loaded machine cannot fail it
+            assert 0.2 <= waited < 10.0
     finally:
         os.close(master)
         os.close(slave)
