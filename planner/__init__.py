@@ -9,6 +9,7 @@
 
 from formal.model import Disturbance, DisturbanceKind, Pose, State, TaskKind
 from planner.configurator import (
+    GOAL_LIMIT_M,
     Configurator,
     CostContext,
     CostFunction,
@@ -26,6 +27,7 @@ from planner.scenarios import Scene, ScenarioError, builtin_scenarios, load_scen
 from planner.tasks import Task
 
 __all__ = [
+    "GOAL_LIMIT_M",
     "Configurator",
     "CostContext",
     "CostFunction",

@@ -53,11 +53,16 @@ __all__ = [
     "default_cost",
     "gamma",
     "chi",
+    "GOAL_LIMIT_M",
     "PlanningError",
     "PlanResult",
     "Configurator",
     "plan",
 ]
+
+#: the farthest goal (metres, per coordinate) the planner accepts: beyond it squared distances
+#: lose the centimetres the planner works in (at 1e200 they overflow and the plan comes back empty)
+GOAL_LIMIT_M = 1.0e6
 
 
 class PlanningError(ValueError):
@@ -258,6 +263,8 @@ class Configurator:
             if not (math.isfinite(gx) and math.isfinite(gy)):
                 raise PlanningError(f"goal must be finite, got ({gx}, {gy})")
             g = Disturbance.goal(gx, gy)
+        if not (abs(g.x) <= GOAL_LIMIT_M and abs(g.y) <= GOAL_LIMIT_M):
+            raise PlanningError(f"goal ({g.x:g}, {g.y:g}) is beyond {GOAL_LIMIT_M:g} m: not a place to plan to")
         if math.hypot(g.x, g.y) <= self.robot.goal_tolerance:
             raise PlanningError(
                 f"goal ({g.x:g}, {g.y:g}) is at the robot's own position (within {self.robot.goal_tolerance} m)"

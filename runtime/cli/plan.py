@@ -14,6 +14,7 @@ from typing import Any
 import numpy as np
 
 from formal.lts import MapError
+from planner import GOAL_LIMIT_M as _PLANNER_GOAL_LIMIT_M
 from planner import Configurator, PlanningError, PlanResult, RobotModel, ScanError, scan_files
 from planner.probabilistic import NoiseError, ProbabilisticMap, preset_names, sample_map
 from planner.scenarios import ScenarioError, load_scenario
@@ -36,9 +37,9 @@ __all__ = [
 ]
 
 
-GOAL_LIMIT_M = 1.0e6
-"""The largest goal coordinate ``--goal`` takes (m): the LiDAR sees 12 m, and a goal
-farther than this is a typing slip, not a destination (it would also overflow squared distances)."""
+GOAL_LIMIT_M = _PLANNER_GOAL_LIMIT_M
+"""The largest goal coordinate ``--goal`` takes (m), the planner's own limit: the LiDAR sees
+12 m, and a goal farther than this is a typing slip, not a destination."""
 
 
 def parse_goal(text: str) -> tuple[float, float]:

@@ -126,12 +126,24 @@ def test_json_round_trip(tmp_path):
 
 @pytest.mark.parametrize(
     "goal, message",
-    [((0.0, 0.0), "robot's own position"), ((float("nan"), 0.0), "finite")],
+    [
+        ((0.0, 0.0), "robot's own position"),
+        ((float("nan"), 0.0), "finite"),
+        ((1e200, 0.0), "beyond 1e\\+06 m"),  # squared distances overflowed: an empty plan came back
+        ((0.0, -2e6), "beyond 1e\\+06 m"),
+    ],
 )
 def test_ill_posed_goals(goal, message):
     scene = load_scenario("overtaking")
     with pytest.raises(PlanningError, match=message):
         Configurator().plan(scene.scan(), goal)
+
+
+def test_a_goal_given_as_a_disturbance_is_bounded_too():
+    from planner import Disturbance
+
+    with pytest.raises(PlanningError, match="beyond"):
+        Configurator().plan(load_scenario("overtaking").scan(), Disturbance.goal(1e200, 0.0))
 
 
 def test_a_goal_inside_a_perceived_obstacle_is_a_situation_not_an_error():
