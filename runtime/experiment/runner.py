@@ -45,6 +45,7 @@ from planner.scenarios import Scene, load_scenario
 from runtime.experiment.contacts import Episode, contact_episodes
 from runtime.experiment.layouts import FAMILIES, make_layout, shape_distance
 from runtime.experiment.plots import RunTrace
+from runtime.experiment.provenance import claim_folder
 from runtime.experiment.reactive import ReactiveController
 from runtime.experiment.world import NOISE_PRESETS, make_robot, world_name
 from runtime.records.runlog import RunLog
@@ -526,7 +527,7 @@ def run_experiment(
     sink = None
     if out is not None:
         folder = Path(out)
-        folder.mkdir(parents=True, exist_ok=True)
+        claim_folder(folder, resume)  # refuses to resume another code version's runs
         path = folder / "runs.jsonl"
         if resume:
             for rec in load_records(path):
