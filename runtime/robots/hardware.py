@@ -28,6 +28,7 @@ import math
 import threading
 import time
 from collections import deque
+from collections.abc import Callable
 from dataclasses import asdict, dataclass, field
 from typing import Any, Literal
 
@@ -143,7 +144,9 @@ class HardwareRobot:
     ``lidar_port`` and ``motor_port`` are device paths, pyserial URLs or open serial-like
     objects (objects are not closed by :meth:`close`). ``motor_port`` may be None only
     in dry-run mode. ``log`` receives ``device``, ``motor`` and ``fault`` records (see
-    :mod:`runtime.records.runlog`); ``clock`` times the dead reckoning (wall time by default).
+    :mod:`runtime.records.runlog`); ``clock`` times the dead reckoning (wall time by default); ``device_clock`` the
+    stream watch's windows and the LiDAR driver's deadlines (``time.monotonic`` unless a test
+    drives simulated devices on its own time).
     Opening checks the LiDAR's health, stops the wheels and starts the scan; a device
     that cannot be opened or does not answer raises :class:`RobotFault`.
 
@@ -165,8 +168,10 @@ class HardwareRobot:
         model: RobotModel | None = None,
         log: RunLogLike | None = None,
         clock: Clock | None = None,
+        device_clock: Callable[[], float] | None = None,
     ) -> None:
         self.config = cfg = config or HardwareConfig()
+        self._device_clock: Callable[[], float] = device_clock or time.monotonic
         self.model = model or RobotModel()
         self.dry_run = cfg.dry_run
         self.clock: Clock = clock or WallClock()
@@ -230,7 +235,7 @@ class HardwareRobot:
         counter = _CountingPort(raw)
         try:
             lidar = RPLidar(counter, timeout=cfg.start_timeout, motor_control=cfg.motor_control,
-                            max_range=self.model.sensor_range)
+                            max_range=self.model.sensor_range, clock=self._device_clock)
             health = lidar.health()
             info = lidar.info()
             self._write_log("device", device="lidar", port=lidar.port_name, model=info.model,
@@ -248,7 +253,8 @@ class HardwareRobot:
         """Read revolutions and watch the stream until closed or tripped."""
         cfg = self.config
         lidar, counter = self.lidar, self._counter
-        last_bytes, last_byte_t = counter.bytes_read, time.monotonic()
+        now_fn = self._device_clock  # the stream watch's windows run on the devices' time
+        last_bytes, last_byte_t = counter.bytes_read, now_fn()
         window: deque[tuple[float, int, int]] = deque([(last_byte_t, counter.bytes_read, lidar.dropped_bytes)])
         while not self._closing.is_set():
             try:
@@ -259,7 +265,7 @@ class HardwareRobot:
                 if not self._closing.is_set():
                     self._trip(f"LiDAR on {lidar.port_name} failed: {_describe(exc)}", source="lidar")
                 return
-            now = time.monotonic()
+            now = now_fn()
             if frame is not None:
                 with self._lock:
                     self._latest, self._delivered = frame, False

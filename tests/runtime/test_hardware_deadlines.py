@@ -1,0 +1,62 @@
+"""The LiDAR stream watch's safety deadline, on device time: a broken stream stops the wheels
+within 300 ms of the fault, whatever else the machine is doing.
+
+The same claim is tested end to end on pty emulators in real time (test_hardware.py and
+test_run_cli.py), where a fully loaded machine can delay any thread. Here the devices are the
+same emulator logic on a :class:`SimLine` (simulated time that moves only while the driver
+waits for bytes), so the latency measured is the watch's own windows and timeouts.
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+
+import numpy as np
+import pytest
+
+from runtime.clock import ManualClock
+from runtime.devices.emulators import LidarEmulator, MaestroEmulator
+from runtime.robots.hardware import HardwareConfig, HardwareRobot
+from tests.runtime._simline import SimLine
+
+NEUTRAL = 6000  # 1500 µs in quarter-µs
+WALL = np.array([[0.6, y] for y in np.linspace(-0.3, 0.3, 13)])
+
+
+def _stop_time(maestro: MaestroEmulator, t0: float) -> float | None:
+    """Device time at which both wheels were last commanded to a stop at or after ``t0``."""
+    targets: dict[int, int | None] = {0: None, 1: None}
+    for t, ch, target in maestro.events:
+        if ch in targets:
+            targets[ch] = target
+            if t >= t0 and all(v in (0, NEUTRAL) for v in targets.values()):
+                return t
+    return None
+
+
+@pytest.mark.parametrize(
+    ("fault", "value", "said"),
+    [("silent", True, "silent"), ("garbage_rate", 1.0, "corrupt"), ("bad_check_rate", 1.0, "corrupt")],
+)
+def test_a_broken_stream_stops_the_wheels_within_300_ms_of_device_time(fault: str, value: float, said: str) -> None:
+    clock, lock = ManualClock(100.0), threading.RLock()
+    lidar = LidarEmulator(lambda: WALL, seed=1, clock=clock.now)  # not started: no pty, no thread
+    maestro = MaestroEmulator(clock=clock.now)
+    lidar_line = SimLine(lidar, clock, lock=lock, name="sim-lidar")
+    motor_line = SimLine(maestro, clock, lock=lock, name="sim-maestro")
+    config = HardwareConfig(watchdog_timeout=None)  # the watchdog keeps wall time: not under test here
+    with HardwareRobot(lidar_line, motor_line, config, clock=clock, device_clock=clock.now) as robot:
+        assert robot.read_scan(timeout=30.0) is not None
+        robot.set_wheel_speeds(0.1, 0.1)
+        with lock:  # no simulated time passes between the command and the fault
+            assert _stop_time(maestro, clock.now()) is None
+            t0 = lidar.inject(**{fault: value})
+        # wait for the trip as an event (real time only bounds a hang)
+        give_up = time.monotonic() + 60.0
+        while robot.fault is None and time.monotonic() < give_up:
+            time.sleep(0.005)
+        assert robot.fault is not None and said in robot.fault, robot.fault
+        stop_t = _stop_time(maestro, t0)
+        assert stop_t is not None, "the wheels were never commanded to stop"
+        assert stop_t - t0 < 0.3, f"wheels stopped {stop_t - t0:.3f} s (device time) after the {fault} fault"
