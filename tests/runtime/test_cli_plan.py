@@ -65,6 +65,8 @@ def test_plan_scan_file_and_folder(tmp_path, scans_dir):
         (["--scenario", "overtaking", "--goal", "nan,0"], "finite"),
         (["--scenario", "overtaking", "--goal", "1e200,0"], "beyond"),
         (["--scenario", "overtaking", "--goal", "1"], "X,Y"),
+        (["--scenario", "overtaking", "--robust", "--samples", "1000000"], "--samples: expected a whole number from 1 to 2,000"),
+        (["--scenario", "overtaking", "--samples", "0"], "--samples"),
     ],
 )
 def test_bad_input_is_one_line_and_exit_2(args, needle):
