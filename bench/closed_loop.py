@@ -311,7 +311,7 @@ def bench_experiments(quick: bool) -> None:
                   flush=True)
 
 
-def bench_false_alarms(runs: int, noise: str = "harsh", family: str = "overtaking") -> None:
+def bench_false_alarms(runs: int, noise: str = "harsh", family: str = "overtaking", verbose: bool = False) -> None:
     """Section 6: how many failed plan checks and hazard interrupts were false alarms.
 
     Each failed check and each hazard interrupt of the supervisor is judged again at the
@@ -360,10 +360,16 @@ def bench_false_alarms(runs: int, noise: str = "harsh", family: str = "overtakin
         lay = make_layout(family, 0, k)
         world = make_robot(lay.scene, noise=noise, seed=noise_seed(0, k), model=conf.robot)
         sup = Judged(world, tuple(lay.scene.goal_in_robot_frame()), conf)
-        sup.run(max_time=120.0)
+        rep = sup.run(max_time=120.0)
         deferred += sup.alarms.deferred
         true = world.ground_truth_pose()
-        reached += math.hypot(true.x - lay.scene.goal[0], true.y - lay.scene.goal[1]) <= SUCCESS_RADIUS
+        err = math.hypot(true.x - lay.scene.goal[0], true.y - lay.scene.goal[1])
+        reached += err <= SUCCESS_RADIUS
+        if verbose:
+            false = {kind: sum(f for k_, f in sup.judged if k_ == kind) for kind in {k_ for k_, _ in sup.judged}}
+            print(f"   run {k:2d}: {rep.state.value:<12} {err:.3f} m from the goal, {len(rep.recalls)} recalls "
+                  f"({sum(r.ok for r in rep.recalls)} ok), {len(rep.fresh_plans)} fresh plans, alarms acted on "
+                  f"{len(sup.judged)} (false {false}); {rep.reason[:90]}", flush=True)
         for kind, false in sup.judged:
             row = counts.setdefault(kind, [0, 0])
             row[0] += 1
@@ -381,7 +387,11 @@ def main() -> None:
     ap.add_argument("--quick", action="store_true", help="fewer scenes, pairs and runs")
     ap.add_argument("--experiments", action="store_true", help="also run the experiment comparison (minutes)")
     ap.add_argument("--false-alarms", action="store_true", help="also judge the alarms of harsh overtaking runs (a minute)")
+    ap.add_argument("--only-false-alarms", action="store_true", help="only section 6, one line per run")
     args = ap.parse_args()
+    if args.only_false_alarms:
+        bench_false_alarms(5 if args.quick else 20, verbose=True)
+        return
     bench_check_and_recall(args.quick)
     bench_in_loop(args.quick)
     bench_world(30.0 if args.quick else 120.0)

@@ -70,9 +70,25 @@ def range_noise(points: np.ndarray) -> float:
 def hazard_hits(points: np.ndarray, kind: TaskKind, error: float, m: RobotModel, lookahead: float,
                 allowance: float = 0.0) -> tuple[int, int]:
     """How many ``points`` (robot frame now) the body meets in the next ``lookahead`` s of
-    the task and over all of its remaining ``error``, the body shrunk by ``allowance``."""
+    the task and over all of its remaining ``error``, the body shrunk by ``allowance``.
+
+    Points strictly inside the real body where it stands are not counted: the planner's
+    and the plan check's start-touching rule (the robot's own returns, or range noise of
+    a surface beside it; a surface it truly touches shows points outside the body too).
+    A robot stopped beside a box otherwise sees the box's noisy returns inside its side
+    in most revolutions and never moves again.
+
+    >>> beside = np.array([[0.0, -0.08], [0.02, -0.085]])  # inside the right side, 1 cm deep
+    >>> hazard_hits(beside, TaskKind.STRAIGHT, 0.3, RobotModel(), 0.5)
+    (0, 0)
+    >>> hazard_hits(np.array([[0.12, 0.0], [0.2, 0.02]]), TaskKind.STRAIGHT, 0.3, RobotModel(), 0.5)  # ahead: soon, later
+    (1, 2)
+    """
     pts = np.asarray(points, dtype=float).reshape(-1, 2)
     pts = pts[np.hypot(pts[:, 0], pts[:, 1]) <= m.length + error + 0.05] if len(pts) else pts
+    if len(pts):
+        own = (pts[:, 0] > -m.rear_offset) & (pts[:, 0] < m.front_offset) & (np.abs(pts[:, 1]) < m.width / 2)
+        pts = pts[~own]
     if len(pts) == 0:
         return 0, 0
     rate = m.straight_speed if kind is TaskKind.STRAIGHT else m.turn_rate

@@ -12,7 +12,13 @@ robot can reuse when it does not:
   :func:`runtime.supervision.plancheck.check_plan` with the noise allowance);
 - first in REPLANNING, :meth:`PlanWatch.recall`: a plan continued from a state of the map
   the robot already has (:func:`runtime.supervision.plancheck.recall`), at most
-  ``max_recalls`` in a row before the supervisor explores anew.
+  ``max_recalls`` in a row before the supervisor explores anew;
+- progress: :meth:`PlanWatch.started` notes where each plan (fresh or recalled) began,
+  :meth:`PlanWatch.stalled` counts the plans in a row that ended before the robot moved.
+  After two such plans recall is skipped (a plan interrupted where it began is not
+  continued again: a fresh plan from the current estimate instead); after ``max_stuck``
+  the supervisor gives up with the reason, rather than stand by an obstacle recalling
+  until its time runs out.
 
 It keeps the records of every check and recall (with wall and thread CPU times) and the
 map's recall index, built when a fresh plan is made (:meth:`PlanWatch.planned`). The
@@ -26,11 +32,13 @@ supervisor keeps the state machine, the task queue and the wheels.
 
 from __future__ import annotations
 
+import math
 import time
 from typing import Any, Protocol
 
 import numpy as np
 
+from formal.geometry import wrap_angle
 from formal.model import Pose, State
 from planner.configurator import PlanResult
 from planner.robot import RobotModel
@@ -66,6 +74,33 @@ class PlanWatch:
         self.recalls: list[TimedRecord] = []
         self.index: RecallIndex | None = None
         self.recalls_in_a_row = 0
+        self.stuck = 0  # plans in a row that ended before the robot moved (see :meth:`stalled`)
+        self._from: Pose | None = None
+
+    def started(self, pose: Pose) -> None:
+        """A plan, fresh or recalled, starts executing with the robot at ``pose``."""
+        self._from = pose
+
+    def stalled(self, pose: Pose, min_progress: float, min_turn: float = 0.1) -> int:
+        """REPLANNING is deciding with the robot at ``pose``: how many plans in a row ended
+        before it moved ``min_progress`` m or turned ``min_turn`` rad from where they began
+        (0 once one moved it).
+
+        >>> w = PlanWatch(RobotModel())
+        >>> w.started(Pose(0.0, 0.0)); w.stalled(Pose(0.01, 0.0), 0.03)
+        1
+        >>> w.started(Pose(0.01, 0.0)); w.stalled(Pose(0.01, 0.0), 0.03)
+        2
+        >>> w.started(Pose(0.01, 0.0)); w.stalled(Pose(0.2, 0.0), 0.03)
+        0
+        """
+        if self._from is None:
+            return self.stuck
+        a = self._from
+        moved = math.hypot(pose.x - a.x, pose.y - a.y) >= min_progress or abs(wrap_angle(pose.theta - a.theta)) >= min_turn
+        self.stuck = 0 if moved else self.stuck + 1
+        self._from = None
+        return self.stuck
 
     def planned(self, result: PlanResult) -> float:
         """A fresh plan was made: index its map for recall; returns the seconds that took
@@ -101,6 +136,10 @@ class PlanWatch:
         robot is at ``pose``, its tasks free on ``scan``; None: explore anew."""
         if last is None or self.recalls_in_a_row >= max_recalls:  # recalls leading nowhere
             self.recalls.append(TimedRecord(t, 0.0, False, "skipped: explore anew"))
+            return None
+        if self.stuck >= 2:  # the last plans ended where they began: do not continue them again
+            self.recalls.append(TimedRecord(t, 0.0, False, f"skipped: {self.stuck} plans in a row ended before the robot "
+                                                           f"moved; explore anew from the current estimate"))
             return None
         c0 = time.thread_time()  # ``took``: everything a recall needs (the map's index is built with the plan)
         found, why, took = recall(last.result, last.origin, pose, goal, scan, self.model,

@@ -35,7 +35,8 @@ reckoning alone. The goal, the remaining plan and every task's error signal come
 
 Checks, recalls and fresh plans are kept with their times and logged. UNREACHABLE (wheels
 stopped): no safe task leads closer, ``patience`` plans in a row bring the robot no
-closer, or ``max_plans`` fresh plans were made.
+closer, ``max_stuck`` plans in a row end before it moved at all, or ``max_plans`` fresh
+plans were made.
 """
 
 from __future__ import annotations
@@ -122,6 +123,7 @@ class Supervisor:
         max_plans: int = 30,
         patience: int = 3,
         max_recalls: int = 5,
+        max_stuck: int = 8,
         min_progress: float = 0.03,
         end_tolerance: tuple[float, float] = (0.08, 0.3),
         lookahead: float = 0.5,
@@ -143,6 +145,7 @@ class Supervisor:
         self.max_plans = max_plans
         self.patience = patience
         self.max_recalls = max_recalls
+        self.max_stuck = max_stuck
         self.min_progress = min_progress
         self.end_tolerance = end_tolerance
         self.lookahead = lookahead
@@ -399,6 +402,11 @@ class Supervisor:
         if len(self.fresh_plans) >= self.max_plans:
             self._fire(E.NO_PLAN, f"gave up after {len(self.fresh_plans)} plans")
             return
+        stuck = self.watch.stalled(self.pose, self.min_progress) if self.state is S.REPLANNING else 0
+        if stuck >= self.max_stuck:  # standing by an obstacle, interrupted again and again: a defined end
+            self._fire(E.NO_PLAN, f"goal unreachable: no progress, {stuck} plans in a row ended before the robot moved "
+                                  f"{self.min_progress:g} m (last: {self.reason})")
+            return
         scan = fuse_revolutions(list(self._still)) if self._moved and self.fuse_scans > 1 and len(self._still) > 1 else self._scan
         if self.state is S.REPLANNING and self._recall(scan, now):
             return
@@ -431,6 +439,7 @@ class Supervisor:
         states = result.plan.states
         self._queue = deque((result.map[t], (s, t)) for s, t in zip(states, states[1:]))
         self._fire(E.PLANNED, f"plan {len(self.plans)}: {len(result.steps)} tasks, {result.states} states")
+        self.watch.started(self.pose)
         self._execute_tick(now)
 
     # -- execution ----------------------------------------------------------------------------------
@@ -566,5 +575,6 @@ class Supervisor:
         k = states.index(found.state)
         self._queue = deque((rec.result.map[t], (s, t)) for s, t in zip(states[k:], states[k + 1:]))
         self._fire(E.PLANNED, f"plan {len(self.plans)} recalled from q{found.state} of the map: {len(self._queue)} tasks")
+        self.watch.started(self.pose)
         self._execute_tick(now)
         return True

@@ -88,3 +88,24 @@ def test_at_the_paper_noise_the_clearance_absorbs_it_and_every_alarm_stands() ->
     for _ in range(5):
         a.revolution(_wall_beside(0.2, 0.005, rng))
     assert a.allowance == 0.0
+
+
+def test_a_noisy_box_beside_the_standing_body_raises_no_hazard_one_ahead_does() -> None:
+    """The start-touching rule: returns inside the body where it stands are not an obstacle
+    against its next move. A box 1.5 cm beside the body's side, under harsh range noise
+    (2.5 cm), puts points inside the side in most revolutions: counted, they held a robot
+    beside a box recalling until its time ran out. The same box across the path just
+    ahead of the front is met in every revolution."""
+    rng = np.random.default_rng(4)
+    beside = ahead = 0
+    for _ in range(20):
+        x = np.linspace(-M.rear_offset + 0.01, M.front_offset - 0.01, 40)
+        side = np.c_[x, np.full(len(x), -(M.width / 2 + 0.015))]
+        r = np.hypot(side[:, 0], side[:, 1])
+        side = side * ((r + rng.normal(0.0, 0.025, len(r))) / r)[:, None]
+        y = np.linspace(-0.08, 0.08, 30)
+        front = np.c_[np.full(len(y), M.front_offset + 0.03) + rng.normal(0.0, 0.025, len(y)), y]
+        beside += max(hazard_hits(side, TaskKind.STRAIGHT, 0.3, M, 0.5)) >= 2  # (a turn truly sweeps it)
+        ahead += hazard_hits(front, TaskKind.STRAIGHT, 0.3, M, 0.5)[0] >= 2
+    assert beside == 0
+    assert ahead == 20
