@@ -184,6 +184,7 @@ class Supervisor:
         self._plan: PlanRecord | None = None
         self._best = math.inf
         self._stalled = 0
+        self._recalled: dict[tuple[int, int], tuple[float, int]] = {}  # (map, state) -> distance, tasks done
         self.fresh_plans: list[TimedRecord] = []
         self._check_due = False
         self.watch = PlanWatch(self.model, self._log)  # hazard test, plan check, recall (runtime.supervision.planwatch)
@@ -569,6 +570,18 @@ class Supervisor:
                                   now - (self._t0 or 0.0))
         if found is None or last is None:
             return False
+        # the same continuation again, after the robot finished tasks of it, and no closer than
+        # when it took it: a loop (a cul-de-sac's zig-zag, recalled five times over 90 s, ran
+        # into the time limit). Explore anew instead, where ``patience`` judges progress
+        g = relative(self.pose, self.goal)
+        dist, key = math.hypot(g.x, g.y), (id(found.result.map), found.state)
+        done = sum(1 for t in self.tasks if t.outcome == "done")
+        before = self._recalled.get(key)
+        if before is not None and done > before[1] and dist >= before[0] - self.min_progress:
+            self.watch.recalls[-1] = dataclasses.replace(self.watch.recalls[-1], ok=False, reason="refused: a loop")
+            self.watch.recalls_in_a_row -= 1
+            return False
+        self._recalled[key] = (dist, done)
         rec = self._plan = PlanRecord(now - (self._t0 or 0.0), last.origin, found.result, recalled=True)
         self.plans.append(rec)
         states = rec.result.plan.states

@@ -95,6 +95,14 @@ def test_overtaking_run_1_gets_past_the_box_at_paper_noise():
     assert (rec["success"], rec["end_state"], rec["collisions"]) == (1, "GOAL_REACHED", 0), rec["reason"]
 
 
+def test_a_cul_de_sac_recalled_in_a_loop_ends_unreachable_in_time():
+    """Layout 0/5: the same recalled continuation, driven five times over 90 s without getting
+    closer, ran into the time limit (HALTED); a repeated recall that brought no progress is
+    refused and the robot explores anew, until no safe task leads closer (UNREACHABLE at 110 s)."""
+    rec = run_spec(RunSpec("cul-de-sac", 0, 5, "planning", "paper"))
+    assert (rec["success"], rec["end_state"], rec["collisions"]) == (1, "UNREACHABLE", 0), rec["reason"]
+
+
 def test_a_run_is_a_pure_function_of_its_spec():
     spec = RunSpec("slalom", 4, 2, "reactive", "paper", 1.0, 30.0)
     a, b = run_spec(spec), run_spec(spec)
