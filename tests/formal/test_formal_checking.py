@@ -415,7 +415,7 @@ def test_cli_export_learn_reads_the_folder_as_plan_does(clomp, tmp_path):
 @pytest.mark.parametrize(
     "argv, message",
     [
-        (("export", "--scenario", "doorway", "--samples", "0", "-f", "drn"), "--samples: expected a whole number >= 1"),
+        (("export", "--scenario", "doorway", "--samples", "0", "-f", "drn"), "--samples: expected a whole number from 1 to 2,000, got 0"),
         (("export", "--scenario", "doorway", "--samples", "3", "--noise", "bogus", "-f", "drn"), "unknown noise preset 'bogus'"),
         (("export", "--scenario", "doorway", "--learn", "-f", "drn"), "--learn needs --scan FOLDER"),
         (("plan", "--scenario", "doorway", "--samples", "3"), "go with --robust"),
