@@ -11,13 +11,28 @@ Per folder it prints median and p90 over scans, state counts, the median per-sca
 to ``cpp_anchor.csv``, the honest reach (goal reached with the body inside the sensed
 disc, by the independent sweep of ``tests/planner/sweepcheck.py``), plans over a sensed
 point, the perception time of a 400-point scan and a 200k-point scan's time and memory.
+
+Thread CPU time still varies by up to 1.5x between runs on a shared virtual machine (a busy
+sibling, the host's frequency, cache contention), so beside the times it prints:
+
+- the calibration of this machine (``workcount.calibration``: thread CPU time of a fixed
+  pure-Python workload, before and after the scans) and the times in its units, which can
+  be set beside those of a run on another host;
+- with ``--count``, the work each plan executes (bytecodes, Python calls, C calls; the same
+  on any host for the same code), per category;
+- with ``--callgrind`` (valgrind installed), the machine instructions (Ir) each plan
+  executes, numpy included, counted by callgrind in a child process (a few minutes).
+
+``python bench/planning.py --cpu --repeat 5 --count --callgrind`` prints all of them.
 """
 
 from __future__ import annotations
 
 import argparse
 import csv
+import functools
 import math
+import os
 import statistics
 import sys
 import time
@@ -26,6 +41,9 @@ from pathlib import Path
 import numpy as np
 
 from planner import Configurator, builtin_scenarios, load_scan, load_scenario
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from workcount import calibration, callgrind_available, callgrind_counts, count_python, marked, p90  # noqa: E402
 
 DEFAULT_SCANS = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "scans" / "corridor-2023-10-25"
 
@@ -68,7 +86,39 @@ def _cpu_row(name: str, cpu: list[float], wall: list[float], states: list[int], 
     )
 
 
-def _cpu_bench(folders: list[Path], repeat: int) -> None:
+CATEGORIES = ("something ahead", "all with data", "nothing ahead", "empty")
+
+
+def _categories(folder: Path, files: list[Path], anchor: dict[str, dict[str, str]]) -> list[list[str]]:
+    """Each scan's categories (the anchor's ``ahead`` on the shared scans, else :func:`_ahead`)."""
+    out = []
+    for f in files:
+        pts = load_scan(f)
+        row = anchor.get(f.name) if folder.resolve() == DEFAULT_SCANS.resolve() else None
+        ahead = bool(int(row["ahead"])) if row and row.get("ahead") else _ahead(pts)
+        out.append(["all with data", "something ahead" if ahead else "nothing ahead"] if len(pts) else ["empty"])
+    return out
+
+
+def _scan400(rng: np.random.Generator | None = None) -> np.ndarray:
+    """The 400-point scan whose perception is timed (the first draws of ``default_rng(0)``)."""
+    rng = np.random.default_rng(0) if rng is None else rng
+    a = np.sort(rng.uniform(-math.pi, math.pi, 400))
+    r = 0.5 + 0.1 * np.sin(3 * a)
+    return np.round(np.c_[r * np.cos(a), r * np.sin(a)], 2)
+
+
+def _count_row(name: str, values: list[list[int]], labels: tuple[str, ...], scale: float, unit: str) -> str:
+    if not values:
+        return f"{name:<30} n=   0"
+    cols = []
+    for i, label in enumerate(labels):
+        v = [x[i] / scale for x in values]
+        cols.append(f"{label} median {statistics.median(v):8.1f}{unit} p90 {p90(v):8.1f}{unit} total {sum(v):9.1f}{unit}")
+    return f"{name:<30} n={len(values):4d}  " + "; ".join(cols)
+
+
+def _cpu_bench(folders: list[Path], repeat: int, count: bool = False, callgrind: bool = False) -> None:
     sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests" / "planner"))
     from sweepcheck import check_states
 
@@ -76,14 +126,17 @@ def _cpu_bench(folders: list[Path], repeat: int) -> None:
     robot = conf.robot
     conf.plan(np.zeros((0, 2)), (1.0, 0.0))
     anchor = _anchor(ANCHOR)
+    cal0 = calibration()
     print(f"clomp planning, thread CPU time of plan() per scan, median of {repeat} (python {sys.version.split()[0]})")
+    print(f"  load average {_load()}; calibration (reference workload, thread CPU) median {cal0[0] * 1e3:.3f} ms, min {cal0[1] * 1e3:.3f} ms")
+    medians: dict[str, float] = {}
     for folder in folders:
         files = sorted(folder.glob("*.dat"))
-        groups: dict[str, tuple[list[float], list[float], list[int], list[float]]] = {
-            k: ([], [], [], []) for k in ("something ahead", "all with data", "nothing ahead", "empty")
-        }
+        cats = _categories(folder, files, anchor)
+        groups: dict[str, tuple[list[float], list[float], list[int], list[float]]] = {k: ([], [], [], []) for k in CATEGORIES}
+        counted: dict[str, list[list[int]]] = {k: [] for k in CATEGORIES}
         reach = honest = over = frontier = blocked = with_data = 0
-        for f in files:
+        for f, keys in zip(files, cats):
             pts = load_scan(f)
             cpu, wall = [], []
             for _ in range(repeat):
@@ -96,8 +149,7 @@ def _cpu_bench(folders: list[Path], repeat: int) -> None:
             ratio = None
             if row and row.get("cpp_status") == "ok" and row.get("cpp_cpu_median_s"):
                 ratio = c / float(row["cpp_cpu_median_s"])
-            ahead = bool(int(row["ahead"])) if row and row.get("ahead") else _ahead(pts)
-            keys = ["all with data", "something ahead" if ahead else "nothing ahead"] if len(pts) else ["empty"]
+            work = list(count_python(functools.partial(conf.plan, pts, (1.0, 0.0)))) if count else None
             for k in keys:
                 g = groups[k]
                 g[0].append(c)
@@ -105,6 +157,8 @@ def _cpu_bench(folders: list[Path], repeat: int) -> None:
                 g[2].append(r.states)
                 if ratio is not None:
                     g[3].append(ratio)
+                if work is not None:
+                    counted[k].append(work)
             if len(pts):
                 with_data += 1
                 check = check_states(pts, r.steps, robot)
@@ -116,29 +170,95 @@ def _cpu_bench(folders: list[Path], repeat: int) -> None:
         print(f"{folder} ({len(files)} scans)")
         for k, (cpu, wall, states, ratios) in groups.items():
             print("  " + _cpu_row(k, cpu, wall, states, ratios))
+            if cpu:
+                medians[k] = float(np.median(cpu))
+        if count:
+            print("  work per plan (Python level, sys.settrace/sys.setprofile; the same on any host):")
+            for k in CATEGORIES:
+                print("    " + _count_row(k, counted[k], ("bytecodes", "Python calls", "C calls"), 1e3, "k"))
         if with_data:
             print(
                 f"  honest reach {honest}/{with_data} = {100 * honest / with_data:.1f} % of scans with data"
                 f" (reached {reach}; plans over a sensed point {over}; ended at the frontier {frontier}; goal blocked {blocked})"
             )
-    _perception_and_large()
+    cal1 = calibration()
+    print(f"  load average {_load()}; calibration after the scans: median {cal1[0] * 1e3:.3f} ms, min {cal1[1] * 1e3:.3f} ms")
+    cal = (cal0[0] + cal1[0]) / 2
+    print(
+        "  in calibration units (plan time / reference workload time, comparable across hosts): "
+        + ", ".join(f"{k} median {v / cal:.4f}" for k, v in medians.items())
+    )
+    _perception_and_large(count)
+    if callgrind:
+        _callgrind_report(folders, anchor)
 
 
-def _perception_and_large() -> None:
+def _load() -> str:
+    try:
+        return " ".join(f"{v:.2f}" for v in os.getloadavg())
+    except OSError:
+        return "n/a"
+
+
+def _callgrind_child(folders: list[Path]) -> None:
+    """Under callgrind: plan each scan once through :func:`marked`, then perceive the 400-point scan."""
+    from planner.perception import perceive
+
+    conf = Configurator()
+    conf.plan(np.zeros((0, 2)), (1.0, 0.0))
+    scans = [load_scan(f) for folder in folders for f in sorted(folder.glob("*.dat"))]
+    if scans:
+        conf.plan(scans[0], (1.0, 0.0))
+    scan400 = _scan400()
+    perceive(scan400)
+    for pts in scans:
+        marked(conf.plan, pts, (1.0, 0.0))
+    marked(perceive, scan400)
+
+
+def _callgrind_report(folders: list[Path], anchor: dict[str, dict[str, str]]) -> None:
+    if not callgrind_available():
+        print("callgrind: valgrind is not installed (apt-get install valgrind); no instruction counts")
+        return
+    t0 = time.perf_counter()
+    counts = callgrind_counts([str(Path(__file__).resolve()), "--callgrind-child", "--scans", *map(str, folders)])
+    per_file = [(folder, f, k) for folder in folders for f, k in zip(sorted(folder.glob("*.dat")), _categories(folder, sorted(folder.glob("*.dat")), anchor))]
+    if len(counts) != len(per_file) + 1:
+        print(f"callgrind: {len(counts)} dumps for {len(per_file) + 1} marked calls; no instruction counts")
+        return
+    print(f"machine instructions per plan (valgrind callgrind Ir, numpy included; the same on any host; {time.perf_counter() - t0:.0f} s):")
+    last = None
+    for folder in folders:
+        byk: dict[str, list[list[int]]] = {k: [] for k in CATEGORIES}
+        for (fo, _, keys), n in zip(per_file, counts):
+            if fo == folder:
+                for k in keys:
+                    byk[k].append([n])
+        if folder != last:
+            print(f"  {folder}")
+            last = folder
+        for k in CATEGORIES:
+            print("    " + _count_row(k, byk[k], ("Ir",), 1e6, "M"))
+    print(f"  perception of a 400-point scan: {counts[-1] / 1e6:.3f} M instructions")
+
+
+def _perception_and_large(count: bool = False) -> None:
     import tracemalloc
 
     from planner.perception import perceive
 
     rng = np.random.default_rng(0)
-    a = np.sort(rng.uniform(-math.pi, math.pi, 400))
-    r = 0.5 + 0.1 * np.sin(3 * a)
-    scan400 = np.round(np.c_[r * np.cos(a), r * np.sin(a)], 2)
+    scan400 = _scan400(rng)  # then the same rng draws the large scans, as before
     times = []
     for _ in range(200):
         c0 = time.thread_time()
         perceive(scan400)
         times.append(time.thread_time() - c0)
-    print(f"perception of a 400-point scan: cpu median {np.median(times) * 1e3:.4f} ms, p90 {np.percentile(times, 90) * 1e3:.4f} ms")
+    work = ""
+    if count:
+        b, py, c = count_python(lambda: perceive(scan400))
+        work = f"; {b} bytecodes, {py} Python calls, {c} C calls"
+    print(f"perception of a 400-point scan: cpu median {np.median(times) * 1e3:.4f} ms, p90 {np.percentile(times, 90) * 1e3:.4f} ms{work}")
     conf = Configurator()
     for n in (50_000, 200_000):
         a = rng.uniform(-math.pi, math.pi, n)
@@ -168,9 +288,23 @@ def main(argv: list[str] | None = None) -> int:
         default=["map0001.dat", "map0141.dat"],
         help="recorded scans (with something ahead) each planned --repeat times, for a per-scan median/p90",
     )
+    ap.add_argument(
+        "--count",
+        action="store_true",
+        help="with --cpu: also count the work of each plan (bytecodes, Python and C calls), which no host speed moves",
+    )
+    ap.add_argument(
+        "--callgrind",
+        action="store_true",
+        help="with --cpu: also count machine instructions per plan under valgrind's callgrind (minutes)",
+    )
+    ap.add_argument("--callgrind-child", action="store_true", help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
+    if args.callgrind_child:
+        _callgrind_child(args.scans)
+        return 0
     if args.cpu:
-        _cpu_bench(args.scans, args.repeat if args.repeat != 50 else 15)
+        _cpu_bench(args.scans, args.repeat if args.repeat != 50 else 15, args.count, args.callgrind)
         return 0
     args.scans = args.scans[0]
     conf = Configurator()
