@@ -16,6 +16,8 @@ from dataclasses import dataclass
 from fractions import Fraction
 from typing import IO, Any
 
+import numpy as np
+
 from formal.model import Disturbance, State, TaskKind
 
 __all__ = ["Transition", "CognitiveMap", "MapError", "FORMAT_VERSION"]
@@ -75,6 +77,17 @@ class Transition:
 _ONE = Fraction(1)
 
 
+def _json_ready(value: Any) -> Any:
+    """A metadata value as JSON holds it: a numpy array (the planner keeps its obstacle
+    boxes as one, converting them only when the map is written) becomes nested lists.
+
+    >>> import numpy as np
+    >>> _json_ready(np.zeros((1, 2))), _json_ready([1, 2])
+    ([[0.0, 0.0]], [1, 2])
+    """
+    return value.tolist() if isinstance(value, np.ndarray) else value
+
+
 class CognitiveMap:
     """An explicit labelled transition system of simulated task outcomes.
 
@@ -96,6 +109,8 @@ class CognitiveMap:
         self._out: dict[int, dict[tuple[int, TaskKind], Transition]] = {}
         self._in: dict[int, dict[tuple[int, TaskKind], Transition]] = {}
         self.metadata: dict[str, Any] = {}
+        """What the builder records beside the map (JSON-ready values, or numpy arrays,
+        which :meth:`to_dict` writes as nested lists)."""
 
     # -- construction -------------------------------------------------------------
     def add_state(self, state: State) -> State:
@@ -279,7 +294,7 @@ class CognitiveMap:
             "initial": self._initial,
             "states": [s.to_dict() for s in self.states()],
             "transitions": [t.to_dict() for t in self.transitions()],
-            "metadata": self.metadata,
+            "metadata": {k: _json_ready(v) for k, v in self.metadata.items()},
         }
 
     @classmethod

@@ -26,12 +26,19 @@ from planner.tasks import Task
 __all__ = ["Outcome", "World"]
 
 
-@dataclass(frozen=True, slots=True)
+@dataclass(slots=True)
 class Outcome:
-    """What a rollout of one task produced.
+    """What a rollout of one task produced (never changed once built: derive a new one
+    with :func:`dataclasses.replace`).
 
     ``frontier`` is True when the task was cut where the body meets the rim of the
-    sensed disc (a STRAIGHT), or would have left it (a turn: not available).
+    sensed disc (a STRAIGHT), or would have left it (a turn: not available). Not a
+    frozen dataclass: a plan builds dozens, and a frozen one of nine fields costs six
+    times as much to build (each field set through ``object.__setattr__``).
+
+    >>> o = Outcome(TaskKind.STRAIGHT, Pose(0.0, 0.0), Pose(0.1, 0.0), 0.1, 0.5, 5, None, False)
+    >>> o.collided, o.frontier
+    (False, False)
     """
 
     task: TaskKind

@@ -94,19 +94,39 @@ def frontier_distance(robot: RobotModel, start: Pose) -> float:
     >>> round(frontier_distance(RobotModel(), Pose(0.0, 0.0, 0.0)), 4)
     1.0063
     """
-    c, s = math.cos(start.theta), math.sin(start.theta)
+    return _frontier_at(robot, start.x, start.y, start.theta)
+
+
+def _frontier_at(robot: RobotModel, sx: float, sy: float, theta: float) -> float:
+    # :func:`frontier_distance` for a pose given as three floats (no Pose built)
+    c, s = math.cos(theta), math.sin(theta)
     r2 = robot.sensor_range * robot.sensor_range
     best = math.inf
     for a, b in robot.corners:
-        x = start.x + a * c - b * s
-        y = start.y + a * s + b * c
+        x = sx + a * c - b * s
+        y = sy + a * s + b * c
         bb = x * c + y * s
         q = x * x + y * y - r2
         disc = bb * bb - q
         if q > 0 or disc < 0:
             return 0.0
-        best = min(best, -bb + math.sqrt(disc))
-    return max(best, 0.0)
+        d = -bb + math.sqrt(disc)
+        if d < best:
+            best = d
+    return 0.0 if 0.0 > best else best  # max(best, 0.0), to the bit
+
+
+def _inside_for(robot: RobotModel, x: float, y: float, theta: float, length: float) -> bool:
+    """True when the real body surely stays inside the sensed disc over a STRAIGHT of
+    ``length`` from (x, y) heading ``theta``: its centre's path stays within the rim less
+    the body's radius (then no corner can reach the rim), with 1e-9 m to spare. Then
+    :func:`frontier_distance` is at least ``length`` and need not be computed."""
+    r = robot.sensor_range - robot.body_radius
+    q = x * x + y * y - r * r
+    if q > 0:
+        return False
+    bb = x * math.cos(theta) + y * math.sin(theta)
+    return -bb + math.sqrt(bb * bb - q) >= length + 1e-9
 
 
 def _turn_leaves_disc(robot: RobotModel, start: Pose, signed_angle: float) -> bool:
@@ -224,6 +244,7 @@ def make_task(kind: TaskKind, obstacles: Obstacles, robot: RobotModel, start: Po
 
 
 _EPS = 1e-9
+_TWO_PI = 2 * math.pi
 
 
 def _scene(obstacles: Obstacles, robot: RobotModel, worlds: dict[Any, Any] | None) -> Scene:
@@ -290,16 +311,24 @@ def _turn_pair(
     kinds = (kind, TaskKind.RIGHT if kind is TaskKind.LEFT else TaskKind.LEFT)
     groups = []
     options = []
+    sx, sy, th = start.x, start.y, start.theta
+    # the rim is no nearer than this whatever the heading: most turns need no rim test
+    sure = robot.sensor_range - math.hypot(sx, sy) - robot.body_radius
+    wrapped = _goal_bearing(start, goal)
     for k in kinds:
         sign = 1.0 if k is TaskKind.LEFT else -1.0
-        angles, needs, fallback = _turn_options(k, start, goal, robot)
-        # the rim is no nearer than this whatever the heading: most turns need no rim test
-        sure = robot.sensor_range - math.hypot(start.x, start.y) - robot.body_radius
+        angles, needs, fallback = _turn_options(k, start, goal, robot, wrapped)
         lengths = [
-            n if n <= sure else min(n, frontier_distance(robot, Pose(start.x, start.y, start.theta + sign * a)))
+            n if n <= sure or _inside_for(robot, sx, sy, th + sign * a, n) else min(n, _frontier_at(robot, sx, sy, th + sign * a))
             for a, n in zip(angles, needs)
         ]
-        heads = [wrap_angle(start.theta + sign * a) for a in angles]
+        heads = []
+        for a in angles:
+            # formal.geometry.wrap_angle(th + sign * a), inline (the same arithmetic)
+            h = math.fmod(th + sign * a + math.pi, _TWO_PI)
+            if h <= 0:
+                h += _TWO_PI
+            heads.append(h - math.pi)
         groups.append((heads, lengths, angles.index(fallback)))
         options.append((angles, fallback))
     found = scene.first_clear_each(start, groups, straight)
@@ -309,33 +338,41 @@ def _turn_pair(
     return result[0]
 
 
+def _goal_bearing(start: Pose, goal: Disturbance | None) -> float | None:
+    """The goal's bearing from ``start``, relative to its heading, in (−π, π]; None without a goal."""
+    if goal is None:
+        return None
+    return wrap_angle(math.atan2(goal.y - start.y, goal.x - start.x) - start.theta)
+
+
 def _turn_options(
-    kind: TaskKind, start: Pose, goal: Disturbance | None, robot: RobotModel
+    kind: TaskKind, start: Pose, goal: Disturbance | None, robot: RobotModel, wrapped: float | None = None
 ) -> tuple[list[float], list[float], float]:
     """The angles a turn from ``start`` may end at, in order of preference, the length of
-    the way each needs clear ahead, and where the turn ends when none is clear."""
+    the way each needs clear ahead, and where the turn ends when none is clear.
+    ``wrapped`` is :func:`_goal_bearing` when the caller has it (both turns from one pose)."""
     sign = 1.0 if kind is TaskKind.LEFT else -1.0
     full = robot.turn_angle
     towards: float | None = None
     if goal is not None:
-        bearing = sign * wrap_angle(math.atan2(goal.y - start.y, goal.x - start.x) - start.theta)
+        if wrapped is None:
+            wrapped = wrap_angle(math.atan2(goal.y - start.y, goal.x - start.x) - start.theta)  # _goal_bearing
+        bearing = sign * wrapped
         if bearing < -math.pi + 1e-9:
             bearing += 2 * math.pi  # the goal straight behind: either turn faces it
         if bearing > 1e-6:
             towards = bearing
     step = robot.step_length if robot.step_length is not None else robot.sensor_range
-    angles: list[float] = []
-    needs: list[float] = []
-    if towards is not None and goal is not None:
-        angles.append(towards)
-        needs.append(min(step, math.hypot(goal.x - start.x, goal.y - start.y) - robot.goal_tolerance))
     # short of the goal's bearing too: the free way may lie between the heading and the goal
     # a turn towards the goal's side ends by turn_angle at the latest (further would turn
     # away from the goal); one away from it may go on to a half turn
-    for a in _marks(full, towards is None):
-        if towards is None or abs(a - towards) > 1e-3:
-            angles.append(a)
-            needs.append(step)
+    marks = _marks(full, towards is None)
+    if towards is None or goal is None:
+        angles, needs, fallback = list(marks), [step] * len(marks), full
+    else:
+        angles = [towards] + [a for a in marks if abs(a - towards) > 1e-3]
+        needs = [min(step, math.hypot(goal.x - start.x, goal.y - start.y) - robot.goal_tolerance)] + [step] * (len(angles) - 1)
+        fallback = towards
     if start.x == 0.0 and start.y == 0.0 and start.theta == 0.0:
         # the planning origin (the robot's sensed pose) may also end a turn at the small
         # mark, as a last resort: beside an obstacle after a turn overshot, the smallest
@@ -345,7 +382,7 @@ def _turn_options(
         # on the recorded scans 196 -> 195 of 230, scan 117)
         angles.append(full / 4)
         needs.append(step)
-    return angles, needs, (towards if towards is not None else full)
+    return angles, needs, fallback
 
 
 @functools.lru_cache(maxsize=32)
@@ -399,7 +436,14 @@ def simulate(
         # the rim is no nearer than ``sure`` whatever the heading: when the task cannot
         # reach that far, the rim does not limit it (and the exact distance is not needed)
         sure = robot.sensor_range - math.hypot(start.x, start.y) - robot.body_radius
-        room = frontier_distance(robot, start) if max(step, along or 0.0) > sure - 1e-6 else math.inf
+        far = max(step, along or 0.0)
+        # (nor when the body surely stays inside the disc on this heading: every use of
+        # ``room`` below compares it with at most ``far``, so inf gives the same answers)
+        room = (
+            frontier_distance(robot, start)
+            if far > sure - 1e-6 and not _inside_for(robot, start.x, start.y, start.theta, far + 1e-6)
+            else math.inf
+        )
         if scene is not None:
             # what the step's length depends on: a point within a step and room to spin,
             # or within the run to a goal dead ahead

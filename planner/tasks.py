@@ -29,7 +29,7 @@ __all__ = ["Task", "wrap_angle"]
 _EPS = 1e-9
 
 
-@dataclass
+@dataclass(slots=True)
 class Task:
     """One closed-loop controller, started at ``start`` with its limits fixed then.
 
