@@ -321,7 +321,7 @@ class Configurator:
                 return cmap[known], False
             d_i = reset_from(parent, g)  # R(q1, q2) = D_G, undefined (raises) when q1 was interrupted
             out = simulate(kind, p, d_i, obstacles, robot, worlds)
-            if out.frontier and kind.is_turn:
+            if out.frontier and kind is not _STRAIGHT:
                 index[k] = -1
                 return None, False
             ident = len(cmap)
@@ -364,15 +364,16 @@ class Configurator:
                 # (R is undefined after a hit), so nothing cheaper is left to expand
                 cmap.metadata["stopped_at"] = qe_id
                 break
-            for kind in (TaskKind.STRAIGHT, TaskKind.LEFT, TaskKind.RIGHT):
-                if len(cmap) + (2 if kind.is_turn else 1) > max_states:
+            for kind in _KINDS:
+                turn = kind is not _STRAIGHT
+                if len(cmap) + (2 if turn else 1) > max_states:
                     stop = "budget"
                     break
                 first, new = child(qe, kind)
                 if first is None:
                     continue
                 frontier, fresh = first, new
-                if kind.is_turn and not first.interrupted:
+                if turn and first.d_n is None:
                     second, fresh = child(first, TaskKind.STRAIGHT)
                     assert second is not None
                     frontier = second
@@ -440,6 +441,8 @@ class Configurator:
 
 
 _FRONTIER = (("frontier", 1.0),)
+_STRAIGHT = TaskKind.STRAIGHT
+_KINDS = (TaskKind.STRAIGHT, TaskKind.LEFT, TaskKind.RIGHT)
 
 
 def _state(ident: int, out: Outcome, d_i: Disturbance, cost: float) -> State:

@@ -296,7 +296,7 @@ class Scene:
             sign = 1.0 if t.kind is TaskKind.LEFT else -1.0
             blocks.append((sign, e0, ticks, row))
             if ticks:
-                ths.append(s.theta + sign * np.minimum(np.arange(ticks + 1) * per_tick, e0))
+                ths.append(s.theta + _tick_turns(sign, ticks, per_tick, e0))
                 row += ticks + 1
         if not ths:
             return [unobstructed(t) for t in tasks]
@@ -336,6 +336,27 @@ class Scene:
             d_n = _obstacle_disturbance(self.obstacles, (int(self.owner[j]), float(self.x[j]), float(self.y[j])))
             outs.append(Outcome(t.kind, s, end, 0.0, done * r.tick, done, d_n, False))
         return outs
+
+
+_TICKS: dict[tuple[float, int, float, float], np.ndarray] = {}
+
+
+def _tick_turns(sign: float, ticks: int, per_tick: float, e0: float) -> np.ndarray:
+    """The signed heading change at each tick of a turn by ``e0`` (read-only; remembered:
+    turns end at a few marks, so the same few arrays serve every plan).
+
+    >>> _tick_turns(1.0, 3, 0.1, 0.25).tolist()
+    [0.0, 0.1, 0.2, 0.25]
+    """
+    key = (sign, ticks, per_tick, e0)
+    arr = _TICKS.get(key)
+    if arr is None:
+        if len(_TICKS) >= 512:
+            _TICKS.clear()
+        arr = sign * np.minimum(np.arange(ticks + 1) * per_tick, e0)
+        arr.flags.writeable = False
+        _TICKS[key] = arr
+    return arr
 
 
 def cut_straight(task: Task, d: float, obstacles: Obstacles, i: int, x: float, y: float) -> Outcome:

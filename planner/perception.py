@@ -489,7 +489,6 @@ def perceive(
             own = near[(nx > -rear) & (nx < front) & (np.abs(ny) < half)]
             exempt = len(own)
             keep[own] = False
-    ang = np.arctan2(y, x)
     kept = int(np.count_nonzero(keep))
     if kept < len(pts):
         if (r2 > (sensor_range * (1 + _RANGE_SLACK)) ** 2).any():
@@ -498,11 +497,21 @@ def perceive(
                 warnings.warn(ScanWarning(warning), stacklevel=2)
         if not kept:
             return _NONE if not exempt else Obstacles(_NONE.boxes, _NONE.centres, _NONE.radii, exempt=exempt)
-        ang[~keep] = np.inf  # dropped points sort last and are cut off
-    # order along the surfaces the sensor saw: by bearing from the sensor; the points as
-    # complex numbers x + iy from here on (a piece's frame is then one product per point)
-    z = np.ascontiguousarray(pts).view(np.complex128).ravel().take(ang.argsort(kind="stable")[:kept])
-    n = kept
+    # the points as complex numbers x + iy from here on (a piece's frame is then one
+    # product per point)
+    zall = np.ascontiguousarray(pts).view(np.complex128).ravel()
+    if len(pts) > 1:
+        # a recorded scan repeats most returns (3 of 4 on the shared scans): a point
+        # bit-equal to the one before it in the scan is dropped before the sort. Sorted
+        # stably by bearing it would follow that same point at once (an equal bearing
+        # keeps the scan's order), and be dropped below as a zero step, leaving every
+        # other step as it was: the same surfaces, with less to sort
+        bits = zall.view(np.int64)
+        keep[1:] &= (bits[2::2] != bits[:-2:2]) | (bits[3::2] != bits[1:-2:2])
+    idx = keep.nonzero()[0]
+    # order along the surfaces the sensor saw: by bearing from the sensor
+    z = zall.take(idx.take(np.arctan2(y.take(idx), x.take(idx)).argsort(kind="stable")))
+    n = len(z)
     d = np.empty(n, dtype=np.complex128)
     np.subtract(z[1:], z[:-1], out=d[1:])
     d[0] = z[0] - z[-1]

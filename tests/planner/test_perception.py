@@ -159,3 +159,40 @@ def test_boxes_hug_a_curved_wall(radius, gap, direction, fraction):
         for k in range(4):
             for t in np.linspace(0, 1, 9):
                 assert _to_polyline(box[k] + t * (box[(k + 1) % 4] - box[k]), mine) <= 0.01 + 1e-9
+
+
+def _same_obstacles(a, b) -> bool:
+    """Bit-equal boxes, points and pieces (NaN-free arrays: ``tobytes`` compares the bits)."""
+    return all(x.tobytes() == y.tobytes() for x, y in ((a.boxes, b.boxes), (a.points, b.points), (a.starts, b.starts)))
+
+
+@settings(max_examples=150, deadline=None)
+@given(
+    st.lists(
+        st.tuples(st.integers(-110, 110), st.integers(-110, 110), st.integers(1, 4), st.booleans()),
+        min_size=1,
+        max_size=80,
+    )
+)
+def test_a_repeated_return_changes_nothing(spec):
+    """A recorded scan repeats most returns; perception drops a point bit-equal to the one
+    before it before sorting by bearing. The obstacles are those of the scan with each
+    return once, to the bit, also with signed zeros (-0.0 is not 0.0 to atan2) and with
+    points on one bearing at several ranges."""
+    once, repeated = [], []
+    for ix, iy, times, negzero in spec:
+        x, y = ix / 100, iy / 100
+        if negzero and y == 0.0:
+            y = -0.0
+        once.append((x, y))
+        repeated.extend([(x, y)] * times)
+    # drop consecutive repeats from ``once`` as the scan without them would have none
+    single = [p for i, p in enumerate(once) if i == 0 or np.array(p).tobytes() != np.array(once[i - 1]).tobytes()]
+    a, b = perceive(np.array(single, dtype=float).reshape(-1, 2)), perceive(np.array(repeated, dtype=float).reshape(-1, 2))
+    assert _same_obstacles(a, b)
+    # every distinct return in range is kept (1 cm apart: none is a near-repeat)
+    seen = {(x, y) for x, y in once if 1e-6 < x * x + y * y <= 1.1 * 1.1}
+    assert set(map(tuple, b.points.tolist())) == seen
+    # and one bearing at several ranges, repeated
+    ray = np.array([(0.2, 0.1), (0.4, 0.2), (0.4, 0.2), (0.6, 0.3), (0.2, 0.1), (0.2, 0.1)])
+    assert _same_obstacles(perceive(ray), perceive(ray[[0, 1, 3, 4]]))
