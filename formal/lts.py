@@ -10,6 +10,7 @@ by (source, target, label)), so that the same map renders to the same bytes.
 from __future__ import annotations
 
 import json
+import operator
 import os
 from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
@@ -75,6 +76,7 @@ class Transition:
 
 
 _ONE = Fraction(1)
+_ORDER = operator.attrgetter("source", "target", "label")
 
 
 def _json_ready(value: Any) -> Any:
@@ -193,7 +195,9 @@ class CognitiveMap:
 
     def transitions(self) -> list[Transition]:
         """All transitions, sorted by (source, target, label)."""
-        return sorted(t for out in self._out.values() for t in out.values())
+        # (source, target, label) is unique in a map, so this key orders as the dataclass's
+        # own comparison does, without building two tuples per comparison
+        return sorted((t for out in self._out.values() for t in out.values()), key=_ORDER)
 
     @property
     def n_transitions(self) -> int:

@@ -196,30 +196,37 @@ class Scene:
         found means the way is clear that far; either is remembered for the heading each
         turn ends at.
         """
-        heads = [h for g in groups for h in g[0]]
+        if len(groups) == 2:
+            heads = groups[0][0] + groups[1][0]
+            needs = groups[0][1] + groups[1][1]
+        else:
+            heads = [h for g in groups for h in g[0]]
+            needs = [n for g in groups for n in g[1]]
         if not heads:
             return [-1] * len(groups)
-        at = complex(s.x, s.y)
         body, front, half = self.reach
-        far = max([n for g in groups for n in g[1]] + ([straight] if straight is not None else [])) + self.spin + 1e-5
+        far = (max(needs) if straight is None else max(max(needs), straight)) + self.spin + 1e-5
         reach = max(body, math.hypot(front + far, half))
         if reach * reach <= self.local2:
             # a superset of the points within reach: the same answers
             near, dz, body = self.near(s.x, s.y)
         else:
-            dz = self.z - at
+            dz = self.z - complex(s.x, s.y)
             near = (dz.real * dz.real + dz.imag * dz.imag <= reach * reach).nonzero()[0]
             dz, body = dz.take(near), True
         kx, ky = s.x, s.y
-        if len(near):
-            rots = [complex(math.cos(h), -math.sin(h)) for h in heads]
+        found = len(near) > 0
+        if found:
+            cos, sin = math.cos, math.sin
+            rots = [complex(cos(h), -sin(h)) for h in heads]
             if straight is not None:
-                rots.append(complex(math.cos(s.theta), -math.sin(s.theta)))  # as _straight_gap
-            d, k = self._gaps(dz, np.array(rots), body)
-            ok = (d[: len(heads)] >= np.array([n for g in groups for n in g[1]]) - _EPS).tolist()
+                rots.append(complex(cos(s.theta), -sin(s.theta)))  # as _straight_gap
+            gd, gk = self._gaps(dz, np.array(rots), body)
+            ok = (gd[: len(heads)] >= np.array(needs) - _EPS).tolist()
+            d, k = gd.tolist(), gk.tolist()
         if straight is not None:
             key = (kx, ky, s.theta)
-            ds = float(d[-1]) if len(near) else math.inf
+            ds = d[-1] if found else math.inf
             if ds <= far:
                 self.gaps.setdefault(key, (ds, int(near[k[-1]])))
             else:
@@ -228,14 +235,17 @@ class Scene:
         base = 0
         for headings, _, fallback in groups:
             m = len(headings)
-            if not len(near):
+            if not found:
                 i = 0 if m else -1
             else:
-                i = next((j for j in range(m) if ok[base + j]), -1)
+                try:
+                    i = ok.index(True, base, base + m) - base
+                except ValueError:
+                    i = -1
             j = i if i >= 0 else fallback
             if j >= 0:
                 key = (kx, ky, headings[j])
-                dj = float(d[base + j]) if len(near) else math.inf
+                dj = d[base + j] if found else math.inf
                 if dj <= far:
                     self.gaps.setdefault(key, (dj, int(near[k[base + j]])))
                 else:

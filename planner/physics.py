@@ -315,20 +315,26 @@ def _turn_pair(
     # the rim is no nearer than this whatever the heading: most turns need no rim test
     sure = robot.sensor_range - math.hypot(sx, sy) - robot.body_radius
     wrapped = _goal_bearing(start, goal)
+    # :func:`_inside_for` at this position: the centre's path within the rim less the body radius
+    inner = robot.sensor_range - robot.body_radius
+    q = sx * sx + sy * sy - inner * inner
+    fmod, pi, cos, sin, sqrt = math.fmod, math.pi, math.cos, math.sin, math.sqrt
     for k in kinds:
         sign = 1.0 if k is TaskKind.LEFT else -1.0
         angles, needs, fallback = _turn_options(k, start, goal, robot, wrapped)
-        lengths = [
-            n if n <= sure or _inside_for(robot, sx, sy, th + sign * a, n) else min(n, _frontier_at(robot, sx, sy, th + sign * a))
-            for a, n in zip(angles, needs)
-        ]
+        lengths = []
         heads = []
-        for a in angles:
+        for a, n in zip(angles, needs):
+            t = th + sign * a
+            if n > sure:
+                if q > 0 or -(bb := sx * cos(t) + sy * sin(t)) + sqrt(bb * bb - q) < n + 1e-9:
+                    n = min(n, _frontier_at(robot, sx, sy, t))
+            lengths.append(n)
             # formal.geometry.wrap_angle(th + sign * a), inline (the same arithmetic)
-            h = math.fmod(th + sign * a + math.pi, _TWO_PI)
+            h = fmod(t + pi, _TWO_PI)
             if h <= 0:
                 h += _TWO_PI
-            heads.append(h - math.pi)
+            heads.append(h - pi)
         groups.append((heads, lengths, angles.index(fallback)))
         options.append((angles, fallback))
     found = scene.first_clear_each(start, groups, straight)
@@ -429,7 +435,9 @@ def simulate(
     >>> out.reached_goal, out.frontier, round(out.end.x, 3)
     (True, False, 1.0)
     """
-    scene = _scene(obstacles, robot, worlds) if len(obstacles) else None
+    scene = worlds.get(()) if worlds is not None else None
+    if type(scene) is not Scene or scene.obstacles is not obstacles or scene.robot is not robot:
+        scene = _scene(obstacles, robot, worlds) if len(obstacles) else None  # the run's first rollout
     if kind is TaskKind.STRAIGHT:
         step = robot.step_length if robot.step_length is not None else robot.sensor_range
         along = _goal_dead_ahead(robot, start, goal)
@@ -473,7 +481,14 @@ def simulate(
     else:
         sign = 1.0 if kind is TaskKind.LEFT else -1.0
         if angle is None and robot.free_turns:
-            angle = turn_angle(kind, start, goal, obstacles, robot, worlds)
+            if scene is None:
+                angle = turn_angle(kind, start, goal, obstacles, robot, worlds)
+            else:
+                # turn_angle with the run's scene at hand
+                tkey = (start.x, start.y, start.theta, kind, None if goal is None else (goal.x, goal.y))
+                angle = scene.turns.get(tkey)
+                if angle is None:
+                    angle = _turn_pair(kind, start, goal, robot, scene, tkey)
         task = Task.turn(robot, kind, start, goal, angle)
         if _turn_leaves_disc(robot, start, sign * task.limit):
             return Outcome(kind, start, start, 0.0, 0.0, 0, None, False, True)
