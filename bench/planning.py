@@ -43,7 +43,7 @@ import numpy as np
 from planner import Configurator, builtin_scenarios, load_scan, load_scenario
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from workcount import calibration, callgrind_available, callgrind_counts, count_python, marked, p90  # noqa: E402
+from workcount import calibration, callgrind_available, callgrind_counts, count_python, marked, p90, reference_numpy  # noqa: E402
 
 DEFAULT_SCANS = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "scans" / "corridor-2023-10-25"
 
@@ -126,9 +126,12 @@ def _cpu_bench(folders: list[Path], repeat: int, count: bool = False, callgrind:
     robot = conf.robot
     conf.plan(np.zeros((0, 2)), (1.0, 0.0))
     anchor = _anchor(ANCHOR)
-    cal0 = calibration()
+    cal0, np0 = calibration(), calibration(workload=reference_numpy)
     print(f"clomp planning, thread CPU time of plan() per scan, median of {repeat} (python {sys.version.split()[0]})")
-    print(f"  load average {_load()}; calibration (reference workload, thread CPU) median {cal0[0] * 1e3:.3f} ms, min {cal0[1] * 1e3:.3f} ms")
+    print(
+        f"  load average {_load()}; calibration (thread CPU of fixed workloads): pure Python median {cal0[0] * 1e3:.3f} ms"
+        f" (min {cal0[1] * 1e3:.3f}), numpy on small arrays median {np0[0] * 1e3:.3f} ms (min {np0[1] * 1e3:.3f})"
+    )
     medians: dict[str, float] = {}
     for folder in folders:
         files = sorted(folder.glob("*.dat"))
@@ -181,12 +184,15 @@ def _cpu_bench(folders: list[Path], repeat: int, count: bool = False, callgrind:
                 f"  honest reach {honest}/{with_data} = {100 * honest / with_data:.1f} % of scans with data"
                 f" (reached {reach}; plans over a sensed point {over}; ended at the frontier {frontier}; goal blocked {blocked})"
             )
-    cal1 = calibration()
-    print(f"  load average {_load()}; calibration after the scans: median {cal1[0] * 1e3:.3f} ms, min {cal1[1] * 1e3:.3f} ms")
-    cal = (cal0[0] + cal1[0]) / 2
+    cal1, np1 = calibration(), calibration(workload=reference_numpy)
     print(
-        "  in calibration units (plan time / reference workload time, comparable across hosts): "
-        + ", ".join(f"{k} median {v / cal:.4f}" for k, v in medians.items())
+        f"  load average {_load()}; calibration after the scans: pure Python median {cal1[0] * 1e3:.3f} ms"
+        f" (min {cal1[1] * 1e3:.3f}), numpy median {np1[0] * 1e3:.3f} ms (min {np1[1] * 1e3:.3f})"
+    )
+    cal, cnp = (cal0[0] + cal1[0]) / 2, (np0[0] + np1[0]) / 2
+    print(
+        "  in calibration units (plan time / workload time, comparable across hosts): "
+        + ", ".join(f"{k} {v / cal:.4f} (numpy units {v / cnp:.4f})" for k, v in medians.items())
     )
     _perception_and_large(count)
     if callgrind:

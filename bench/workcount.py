@@ -36,7 +36,11 @@ from pathlib import Path
 from types import FrameType
 from typing import Any
 
-__all__ = ["count_python", "marked", "callgrind_available", "callgrind_counts", "reference_workload", "calibration"]
+import numpy as np
+
+__all__ = [
+    "count_python", "marked", "callgrind_available", "callgrind_counts", "reference_workload", "reference_numpy", "calibration", "p90",
+]
 
 # collection is switched on exactly while this C function runs: the planner never calls it
 MARKER = "starmap_next"
@@ -149,17 +153,39 @@ def _fold(a: float, c: float, s: float) -> float:
     return a * 0.5 + max(c, s) - min(c, s)
 
 
-def calibration(runs: int = 15) -> tuple[float, float]:
-    """(median, min) thread CPU seconds of :func:`reference_workload`, over ``runs`` runs.
+def reference_numpy(n: int = 1_500) -> float:
+    """A fixed workload of numpy calls on small arrays (a few hundred elements: the
+    planner's sizes), where call overhead, allocation and cache traffic weigh as in a plan.
+
+    >>> round(reference_numpy(3), 6) == round(reference_numpy(3), 6)
+    True
+    """
+    base = np.linspace(-1.0, 1.0, 300)
+    z = base + 1j * base[::-1]
+    acc = 0.0
+    for i in range(n):
+        w = z * complex(math.cos(i * 0.01), -math.sin(i * 0.01))
+        u, v = w.real, np.abs(w.imag)
+        gap = np.where((v <= 0.1) & (u > 0.2), u - 0.2, np.inf)
+        k = int(gap.argmin())
+        idx = (u * u + v * v <= 0.5).nonzero()[0]
+        acc += float(gap[k]) if math.isfinite(gap[k]) else 0.0
+        acc += float(np.minimum.reduceat(u, [0, 100, 200]).sum()) + len(idx) * 1e-6
+    return acc
+
+
+def calibration(runs: int = 15, workload: Callable[[], float] | None = None) -> tuple[float, float]:
+    """(median, min) thread CPU seconds of :func:`reference_workload` (or ``workload``), over ``runs`` runs.
 
     On the machine where these figures were first taken (2-vCPU KVM, AMD EPYC, Python 3.11.7,
     load 0.2-6) the median was 10.3-11.6 ms.
     """
-    reference_workload(200)
+    work = reference_workload if workload is None else workload
+    work()
     times = []
     for _ in range(runs):
         c0 = time.thread_time()
-        reference_workload()
+        work()
         times.append(time.thread_time() - c0)
     return statistics.median(times), min(times)
 

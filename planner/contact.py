@@ -90,12 +90,15 @@ class Scene:
         key = (x, y)
         hit = self.local.get(key)
         if hit is None:
-            dx, dy = self.x - x, self.y - y
-            d2 = dx * dx + dy * dy
+            # the offsets as complex numbers: their parts are x - x0 and y - y0 as floats
+            # (z's parts are x and y up to the sign of a zero, which squaring drops)
+            dzall = self.z - complex(x, y)
+            re, im = dzall.real, dzall.imag
+            d2 = re * re + im * im
             idx = (d2 <= self.local2).nonzero()[0]
-            dz = self.z.take(idx) - complex(x, y)
-            body = bool(np.count_nonzero(d2.take(idx) <= self.radius2))
-            hit = self.local[key] = (idx, dz, body)
+            # a point within the swept disc is within reach too (local2 >= radius2)
+            body = len(d2) > 0 and bool(d2.min() <= self.radius2)
+            hit = self.local[key] = (idx, dzall.take(idx), body)
         return hit
 
     def knows(self, s: Pose, need: float) -> bool:
@@ -171,8 +174,7 @@ class Scene:
             if np.count_nonzero(waived):
                 _, rfront, rhalf = self.real
                 gap = np.where(waived & (v < rhalf) & (u >= rfront), u - rfront, gap)
-        k = gap.argmin(axis=1)
-        return gap[np.arange(len(rot)), k], k
+        return gap.min(axis=1), gap.argmin(axis=1)  # the least gap per heading, and where
 
     def first_clear(self, s: Pose, headings: list[float], lengths: list[float], fallback: int = -1) -> int:
         """The index of the first heading (each in (−π, π]) from which the body, turned in
