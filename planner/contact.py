@@ -303,7 +303,7 @@ class Scene:
         ths = []
         row = 0
         for t in tasks:
-            e0 = t.error_at(s.x, s.y, s.theta)
+            e0 = t.start_error()
             ticks = math.ceil(e0 / per_tick - 1e-9) if e0 > 1e-9 else 0
             sign = 1.0 if t.kind is TaskKind.LEFT else -1.0
             blocks.append((sign, e0, ticks, row))
@@ -375,7 +375,7 @@ def cut_straight(task: Task, d: float, obstacles: Obstacles, i: int, x: float, y
     """A STRAIGHT whose front meets a point after ``d`` metres (inf: never)."""
     r = task.robot
     s = task.start
-    e0 = task.error_at(s.x, s.y, s.theta)
+    e0 = task.start_error()
     if d >= e0 or not math.isfinite(d):
         return unobstructed(task)
     per_tick = r.straight_speed * r.tick
@@ -397,7 +397,7 @@ def unobstructed(task: Task, frontier: bool = False) -> Outcome:
     """
     r = task.robot
     s = task.start
-    e0 = task.error_at(s.x, s.y, s.theta)
+    e0 = task.start_error()
     if task.kind is TaskKind.STRAIGHT:
         per_tick = r.straight_speed * r.tick
         end = Pose(s.x + e0 * math.cos(s.theta), s.y + e0 * math.sin(s.theta), s.theta)

@@ -54,6 +54,10 @@ _PAD = 0.002
 _CORNER_U = np.array([0, 1, 1, 0])
 _CORNER_T = np.array([2, 2, 3, 3])
 _SIGNS = np.array([[-1.0], [1.0], [-1.0], [1.0]])
+_SIGNS_PAD = _SIGNS * _PAD
+_SIGNS_PAD.flags.writeable = False
+# from how many points repeats are dropped before the sort (below it the test costs what it saves)
+_DEDUPE_FROM = 512
 
 
 class ScanError(ValueError):
@@ -440,13 +444,13 @@ def _frames(z: np.ndarray, bounds: np.ndarray, counts: np.ndarray) -> tuple[np.n
     a = z.take(bounds[:-1])
     e = z.take(bounds[1:] - 1) - a
     norm = np.abs(e)
-    single = norm < 1e-9
-    if single.any():
+    if norm.min() < 1e-9:
+        single = norm < 1e-9
         norm[single] = 1.0
         e[single] = 1.0
     e /= norm
-    which = np.arange(len(a)).repeat(counts)
-    return a, e, (z - a.take(which)) * e.conj().take(which)
+    # each piece's a and e repeated over its points (as a gather by piece index would)
+    return a, e, (z - a.repeat(counts)) * e.conj().repeat(counts)
 
 
 def perceive(
@@ -500,7 +504,7 @@ def perceive(
     # the points as complex numbers x + iy from here on (a piece's frame is then one
     # product per point)
     zall = np.ascontiguousarray(pts).view(np.complex128).ravel()
-    if len(pts) > 1:
+    if len(pts) > _DEDUPE_FROM:
         # a recorded scan repeats most returns (3 of 4 on the shared scans): a point
         # bit-equal to the one before it in the scan is dropped before the sort. Sorted
         # stably by bearing it would follow that same point at once (an equal bearing
@@ -555,7 +559,7 @@ def perceive(
     u = w.real
     # the extents, padded: rows u0, u1, t0, t1
     ext = np.array((np.minimum.reduceat(u, starts), np.maximum.reduceat(u, starts), t0, t1))
-    ext += _SIGNS * pad
+    ext += _SIGNS_PAD if pad == _PAD else _SIGNS * pad
     # corners a + (u + i·t)·e, counter-clockwise: (u0,t0) (u1,t0) (u1,t1) (u0,t1)
     local = ext.take(_CORNER_U, axis=0) + 1j * ext.take(_CORNER_T, axis=0)
     corners = np.ascontiguousarray((local * e + a).T)

@@ -89,6 +89,23 @@ class Task:
             turned += 2 * math.pi
         return max(self.limit - turned, 0.0)
 
+    def start_error(self) -> float:
+        """:meth:`error_at` the start pose, where a rollout begins, without the terms that are
+        zero there (the distance driven, the angle turned): the same value, but for the sign
+        of a zero error.
+
+        >>> t = Task.straight(RobotModel(), Pose(0.1, 0.2, 0.3), None, 0.27)
+        >>> t.start_error() == t.error(t.start)
+        True
+        """
+        if self.kind is TaskKind.STRAIGHT:
+            e = self.limit
+            if self.goal_ahead and self.goal is not None:
+                s, g = self.start, self.goal
+                e = min(e, (g.x - s.x) * math.cos(s.theta) + (g.y - s.y) * math.sin(s.theta))
+            return max(e, 0.0)
+        return max(self.limit, 0.0)
+
     def done(self, error: float) -> bool:
         """True when the task's error signal has reached zero."""
         return error <= _EPS

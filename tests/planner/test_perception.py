@@ -3,12 +3,14 @@
 from __future__ import annotations
 
 import math
+from unittest import mock
 
 import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from planner import perception
 from planner.perception import ScanError, load_scan, perceive, validate_scan
 
 
@@ -176,9 +178,10 @@ def _same_obstacles(a, b) -> bool:
 )
 def test_a_repeated_return_changes_nothing(spec):
     """A recorded scan repeats most returns; perception drops a point bit-equal to the one
-    before it before sorting by bearing. The obstacles are those of the scan with each
-    return once, to the bit, also with signed zeros (-0.0 is not 0.0 to atan2) and with
-    points on one bearing at several ranges."""
+    before it before sorting by bearing (scans of more than ``_DEDUPE_FROM`` points). The
+    obstacles are those of the scan with each return once, and those of the plain path
+    (no dropping before the sort), to the bit, also with signed zeros (-0.0 is not 0.0 to
+    atan2) and with points on one bearing at several ranges."""
     once, repeated = [], []
     for ix, iy, times, negzero in spec:
         x, y = ix / 100, iy / 100
@@ -188,11 +191,19 @@ def test_a_repeated_return_changes_nothing(spec):
         repeated.extend([(x, y)] * times)
     # drop consecutive repeats from ``once`` as the scan without them would have none
     single = [p for i, p in enumerate(once) if i == 0 or np.array(p).tobytes() != np.array(once[i - 1]).tobytes()]
-    a, b = perceive(np.array(single, dtype=float).reshape(-1, 2)), perceive(np.array(repeated, dtype=float).reshape(-1, 2))
-    assert _same_obstacles(a, b)
+    scan_once, scan = np.array(single, dtype=float).reshape(-1, 2), np.array(repeated, dtype=float).reshape(-1, 2)
+    with mock.patch.object(perception, "_DEDUPE_FROM", 1):
+        a, b = perceive(scan_once), perceive(scan)
+    with mock.patch.object(perception, "_DEDUPE_FROM", 10**9):
+        plain = perceive(scan)
+    assert _same_obstacles(a, b) and _same_obstacles(b, plain)
     # every distinct return in range is kept (1 cm apart: none is a near-repeat)
     seen = {(x, y) for x, y in once if 1e-6 < x * x + y * y <= 1.1 * 1.1}
     assert set(map(tuple, b.points.tolist())) == seen
     # and one bearing at several ranges, repeated
     ray = np.array([(0.2, 0.1), (0.4, 0.2), (0.4, 0.2), (0.6, 0.3), (0.2, 0.1), (0.2, 0.1)])
-    assert _same_obstacles(perceive(ray), perceive(ray[[0, 1, 3, 4]]))
+    # and neighbours sharing one coordinate are not repeats
+    column = np.array([(0.5, 0.1), (0.5, 0.2), (0.6, 0.2), (-0.4, 0.0), (-0.4, -0.0)])
+    with mock.patch.object(perception, "_DEDUPE_FROM", 1):
+        assert _same_obstacles(perceive(ray), perceive(ray[[0, 1, 3, 4]]))
+        assert len(perceive(column).points) == 4  # 0.0 and -0.0: one point (a zero step)
