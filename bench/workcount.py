@@ -177,8 +177,9 @@ def reference_numpy(n: int = 1_500) -> float:
 def calibration(runs: int = 15, workload: Callable[[], float] | None = None) -> tuple[float, float]:
     """(median, min) thread CPU seconds of :func:`reference_workload` (or ``workload``), over ``runs`` runs.
 
-    On the machine where these figures were first taken (2-vCPU KVM, AMD EPYC, Python 3.11.7,
-    load 0.2-6) the median was 10.3-11.6 ms.
+    On the machine where these figures were first taken (2-vCPU KVM, AMD EPYC, Python 3.11.7)
+    the minimum was 9.8-10.9 ms at load 7 and the median 10.1-20.3 ms, up to 22 ms at load 12:
+    the minimum is the steadier figure.
     """
     work = reference_workload if workload is None else workload
     work()
