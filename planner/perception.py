@@ -367,6 +367,19 @@ class Obstacles:
     starts: np.ndarray = field(default_factory=lambda: np.zeros(1, dtype=np.intp))
     exempt: int = 0
 
+    def __post_init__(self) -> None:
+        # a hand-built value with arrays that disagree would fail deep in the planner with a
+        # bare numpy broadcast error; say what is wrong here instead (a few len() calls)
+        m = len(self.boxes)
+        if len(self.centres) != m or len(self.radii) != m or len(self.starts) != m + 1 or (
+            int(self.starts[-1]) != len(self.points) if len(self.starts) else True
+        ):
+            raise ValueError(
+                f"Obstacles: {m} boxes need {m} centres, {m} radii and {m + 1} starts ending at the "
+                f"{len(self.points)} points, got {len(self.centres)}, {len(self.radii)} and {len(self.starts)} "
+                "(build them with Obstacles.from_boxes or perceive)"
+            )
+
     @functools.cached_property
     def owner(self) -> np.ndarray:
         """For every point, the index of the box that covers it."""

@@ -11,7 +11,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from planner import perception
-from planner.perception import ScanError, load_scan, perceive, validate_scan
+from planner.perception import Obstacles, ScanError, load_scan, perceive, validate_scan
 
 
 def test_text_scan_with_tabs_spaces_and_comments(tmp_path):
@@ -207,3 +207,15 @@ def test_a_repeated_return_changes_nothing(spec):
     with mock.patch.object(perception, "_DEDUPE_FROM", 1):
         assert _same_obstacles(perceive(ray), perceive(ray[[0, 1, 3, 4]]))
         assert len(perceive(column).points) == 4  # 0.0 and -0.0: one point (a zero step)
+
+
+def test_hand_built_obstacles_that_disagree_are_refused_with_a_reason():
+    # boxes without the starts that say which points each covers used to fail deep in the
+    # planner with a bare numpy broadcast error
+    box = np.array([[(0.5, -0.1), (0.6, -0.1), (0.6, 0.1), (0.5, 0.1)]], float)
+    with pytest.raises(ValueError, match="1 boxes need 1 centres, 1 radii and 2 starts"):
+        Obstacles(box, box.mean(axis=1), np.array([0.1]))
+    with pytest.raises(ValueError, match="1 radii"):
+        Obstacles(box, box.mean(axis=1), np.zeros(0), np.zeros((0, 2)), np.array([0, 0]))
+    ok = Obstacles.from_boxes(box)
+    assert Obstacles(ok.boxes, ok.centres, ok.radii, ok.points, ok.starts).contains_point(0.55, 0.0) == 0
