@@ -6,7 +6,9 @@ Prints, each beside its target (thread CPU time beside wall time):
 
 1. per-revolution plan check (the remaining tasks tested on the raw scan) vs a fresh
    plan from the same scan (target: check <= 20 % of a fresh plan, median); 1b. the
-   supervisor's own checks, recalls and fresh plans in closed-loop runs;
+   supervisor's own checks, recalls and fresh plans in closed-loop runs; 1c. where its
+   successful recalls spend their time (the plan check of the recalled plan, the index
+   lookup, the guard);
 2. recall of a plan from the existing map vs exploring anew from the same pose and scan
    (target: recall >= 5x faster, median);
 3. simulated seconds per wall second of the execution world alone (target >= 20x);
@@ -43,6 +45,7 @@ from runtime.estimation import match_scans  # noqa: E402
 from runtime.experiment.layouts import make_layout  # noqa: E402
 from runtime.robots import make_world_robot  # noqa: E402
 from runtime.supervision.records import scan_to_frame  # noqa: E402
+from runtime.supervision import plancheck as pc  # noqa: E402
 from runtime.supervision.plancheck import RecallIndex, check_plan, perceive_near, perceive_scan, recall, resimulate_plan  # noqa: E402
 
 
@@ -201,6 +204,78 @@ def bench_in_loop(quick: bool) -> None:
             x = f / med(getattr(x, key) for x in recalls)
             line += f";  fresh / recall {x:.1f}x (target >= 5x: {'reached' if x >= 5 else 'NOT reached'})"
         print(line)
+    with _RecallPhases() as phases:  # the same runs again (simulated time: the same recalls), timed by part
+        for fam in ("overtaking", "corridor", "doorway", "slalom"):
+            for k in range(runs):
+                run_once(make_layout(fam, 0, k).scene, "planning", noise_seed(0, k), run=k, noise="paper")
+    phases.report()
+
+
+class _RecallPhases:
+    """Section 1c: where the supervisor's successful in-loop recalls spend their thread CPU
+    time, by the functions of :mod:`runtime.supervision.plancheck` they call (wrapped for
+    a second pass over the runs of 1b, so that 1b's own figures carry no wrapper; the
+    wrappers' cost is in each recall's total, not in its parts)."""
+
+    PARTS = ("RecallIndex.near", "_legs", "_points", "_near", "_straight_contacts", "_turn_contacts", "check_plan",
+             "_guard")
+
+    def __init__(self) -> None:
+        self.rows: list[dict[str, float]] = []
+        self._acc: dict[str, float] = {}
+        self._saved: list[tuple[Any, str, Any]] = []
+
+    def _wrap(self, owner: Any, name: str) -> None:
+        f = getattr(owner, name)
+        acc = self._acc
+
+        def timed(*a: Any, **k: Any) -> Any:
+            c = time.thread_time()
+            try:
+                return f(*a, **k)
+            finally:
+                key = f"RecallIndex.{name}" if owner is not pc else name
+                acc[key] = acc.get(key, 0.0) + time.thread_time() - c
+
+        self._saved.append((owner, name, f))
+        setattr(owner, name, timed)
+
+    def __enter__(self) -> "_RecallPhases":
+        import runtime.supervision.planwatch as pw
+
+        for name in self.PARTS:
+            owner, attr = (pc.RecallIndex, "near") if name == "RecallIndex.near" else (pc, name)
+            self._wrap(owner, attr)
+        inner = pc.recall
+
+        def recall_timed(*a: Any, **k: Any) -> Any:
+            self._acc.clear()
+            c = time.thread_time()
+            out = inner(*a, **k)
+            if out[0] is not None:
+                self.rows.append(dict(self._acc, total=time.thread_time() - c))
+            return out
+
+        self._saved.append((pw, "recall", pw.recall))  # type: ignore[attr-defined]
+        pw.recall = recall_timed  # type: ignore[attr-defined]
+        return self
+
+    def __exit__(self, *exc: Any) -> None:
+        for owner, name, f in reversed(self._saved):
+            setattr(owner, name, f)
+
+    def report(self) -> None:
+        if not self.rows:
+            return
+        med = statistics.median
+        total = med(r["total"] for r in self.rows)
+        print(f"1c. where a successful in-loop recall spends its thread CPU ({len(self.rows)} recalls; medians,"
+              f" total {total * 1e3:.3f} ms with the timing wrappers)")
+        for name in self.PARTS:
+            v = med(r.get(name, 0.0) for r in self.rows)
+            print(f"   {name:<22} {v * 1e3:7.3f} ms  ({v / total:.0%})")
+        print("   (no perception: the check tests the fused scan's raw points; _legs .. _turn_contacts are inside"
+              " check_plan)")
 
 
 def bench_world(seconds: float) -> None:
@@ -366,10 +441,10 @@ def bench_false_alarms(runs: int, noise: str = "harsh", family: str = "overtakin
         err = math.hypot(true.x - lay.scene.goal[0], true.y - lay.scene.goal[1])
         reached += err <= SUCCESS_RADIUS
         if verbose:
-            false = {kind: sum(f for k_, f in sup.judged if k_ == kind) for kind in {k_ for k_, _ in sup.judged}}
+            wrong = {kind: sum(f for k_, f in sup.judged if k_ == kind) for kind in {k_ for k_, _ in sup.judged}}
             print(f"   run {k:2d}: {rep.state.value:<12} {err:.3f} m from the goal, {len(rep.recalls)} recalls "
                   f"({sum(r.ok for r in rep.recalls)} ok), {len(rep.fresh_plans)} fresh plans, alarms acted on "
-                  f"{len(sup.judged)} (false {false}); {rep.reason[:90]}", flush=True)
+                  f"{len(sup.judged)} (false {wrong}); {rep.reason[:90]}", flush=True)
         for kind, false in sup.judged:
             row = counts.setdefault(kind, [0, 0])
             row[0] += 1
@@ -388,9 +463,13 @@ def main() -> None:
     ap.add_argument("--experiments", action="store_true", help="also run the experiment comparison (minutes)")
     ap.add_argument("--false-alarms", action="store_true", help="also judge the alarms of harsh overtaking runs (a minute)")
     ap.add_argument("--only-false-alarms", action="store_true", help="only section 6, one line per run")
+    ap.add_argument("--only-in-loop", action="store_true", help="only sections 1b and 1c")
     args = ap.parse_args()
     if args.only_false_alarms:
         bench_false_alarms(5 if args.quick else 20, verbose=True)
+        return
+    if args.only_in_loop:
+        bench_in_loop(args.quick)
         return
     bench_check_and_recall(args.quick)
     bench_in_loop(args.quick)
