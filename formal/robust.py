@@ -37,6 +37,7 @@ from formal.export import ExportModel, ModelKind, export_model, write_drn
 from formal.invariants import map_plan
 from formal.lts import CognitiveMap, MapError
 from formal.model import TaskKind
+from formal.retry import STOPS_KEY, map_stops, retry_model
 from formal.supervisory import Plan
 
 __all__ = [
@@ -78,12 +79,14 @@ class RobustPlan:
 
 
 def _build(cmap: CognitiveMap, kind: ModelKind, plan: Plan | None = None,
-           target: Iterable[int] | None = None) -> tuple[Any, ExportModel, Any]:
+           target: Iterable[int] | None = None, retries: int = 0) -> tuple[Any, ExportModel, Any]:
     stormpy = require_stormpy()
     m = export_model(cmap, kind, plan)
     if target is not None:
         wanted = set(target)
         m = replace(m, labels={**m.labels, TARGET: frozenset(k for k, s in enumerate(m.states) if s.ident in wanted)})
+    if retries:
+        m = retry_model(m, map_stops(cmap.metadata), retries)
     with tempfile.TemporaryDirectory() as tmp:
         path = Path(tmp) / "m.drn"
         write_drn(m, path)
@@ -104,6 +107,7 @@ def robust_plan(
     target: Iterable[int] | None = None,
     prefer: Mapping[int, TaskKind] | None = None,
     margin: float = 0.0,
+    retries: int = 0,
 ) -> RobustPlan:
     """``Pmax=? [!"collision" U "goal"]`` on the MDP of ``cmap`` with Storm, its scheduler
     and the plan that follows it along the most likely outcomes.
@@ -114,7 +118,10 @@ def robust_plan(
     the optimum: Storm's scheduler picks arbitrarily among equally good choices, and a
     sampled probability k/N is only an estimate, so a detour is taken only where it is
     safer by more than ``margin``. ``probability`` is then the value of the policy that
-    is returned (equal to Storm's Pmax when ``margin`` is 0).
+    is returned (equal to Storm's Pmax when ``margin`` is 0). ``retries``: a stop of the
+    map's ``metadata["stops"]`` is retried up to that many times, as the supervisor
+    replans after one (:func:`formal.retry.retry_model`); the policy is the scheduler's
+    choice with every retry still left (the one a fresh plan starts with).
 
     >>> from formal.model import Disturbance, Pose, State
     >>> g = Disturbance.goal(1.0, 0.0)
@@ -129,7 +136,7 @@ def robust_plan(
     if not (math.isfinite(margin) and 0 <= margin <= 1):
         raise MapError(f"margin must be a probability in [0, 1], got {margin!r}")
     goal_set = None if target is None else frozenset(target)
-    stormpy, m, model = _build(cmap, "mdp", target=goal_set)
+    stormpy, m, model = _build(cmap, "mdp", target=goal_set, retries=retries)
     prop = stormpy.parse_properties(f"Pmax=? [{_formula(goal_set)}]")[0]
     result = stormpy.model_checking(model, prop, extract_scheduler=True)
     sched = result.get_scheduler() if hasattr(result, "get_scheduler") else result.scheduler
@@ -140,6 +147,8 @@ def robust_plan(
     choice: dict[int, TaskKind] = {}
     kept = False
     for k, s in enumerate(m.states):
+        if s.ident not in cmap:  # a copy with fewer retries left (formal.retry)
+            continue
         row = m.choices[k]
         j = int(sched.get_choice(k).get_deterministic_choice())
         action = row[j].action
@@ -156,13 +165,15 @@ def robust_plan(
         choice = {q: t for q, t in choice.items() if q not in goal_set}
     plan = Plan(tuple(policy_path(cmap, choice, stop=goal_set)))
     if kept:
-        probability = policy_probability(cmap, choice, goal_set)
+        probability = policy_probability(cmap, choice, goal_set, retries)
     return RobustPlan(probability, choice, plan, path_probability(cmap, plan, goal_set))
 
 
-def policy_probability(cmap: CognitiveMap, scheduler: Mapping[int, TaskKind], target: Iterable[int] | None = None) -> float:
+def policy_probability(cmap: CognitiveMap, scheduler: Mapping[int, TaskKind], target: Iterable[int] | None = None,
+                       retries: int = 0) -> float:
     """The value of a policy: ``P=? [!"collision" U "goal"]`` (or ``"target"``) of the map
-    when each state starts only the task ``scheduler`` names (others: absorbing), by Storm.
+    when each state starts only the task ``scheduler`` names (others: absorbing), by Storm;
+    ``retries`` as in :func:`robust_plan`.
 
     >>> from formal.model import Disturbance, Pose, State
     >>> g = Disturbance.goal(1.0, 0.0)
@@ -176,11 +187,13 @@ def policy_probability(cmap: CognitiveMap, scheduler: Mapping[int, TaskKind], ta
     for st in cmap.states():
         sub.add_state(st)
     sub.set_initial(cmap.initial.ident)
+    if STOPS_KEY in cmap.metadata:  # the stops, for the retries; not the plan, whose steps the policy may not take
+        sub.metadata[STOPS_KEY] = cmap.metadata[STOPS_KEY]
     for t in cmap.transitions():
         if scheduler.get(t.source) is t.label:
             sub.add_transition(t.source, t.target, t.label, t.probability)
     goal_set = None if target is None else frozenset(target)
-    stormpy, _m, model = _build(sub, "mdp", target=goal_set)
+    stormpy, _m, model = _build(sub, "mdp", target=goal_set, retries=retries)
     prop = stormpy.parse_properties(f"Pmax=? [{_formula(goal_set)}]")[0]
     result = stormpy.model_checking(model, prop)
     return _value_at(result, int(model.initial_states[0]))
@@ -324,16 +337,17 @@ def follow_tasks(cmap: CognitiveMap, tasks: list[TaskKind]) -> Plan:
     return Plan(tuple(path))
 
 
-def plan_probability(cmap: CognitiveMap, plan: Plan | None = None, target: Iterable[int] | None = None) -> float:
+def plan_probability(cmap: CognitiveMap, plan: Plan | None = None, target: Iterable[int] | None = None,
+                     retries: int = 0) -> float:
     """``P=? [!"collision" U "goal"]`` (or ``"target"``, the states of ``target``) of the
     supervised system that follows ``plan`` (default: the map's own plan, the
-    Configurator's best-first one)."""
+    Configurator's best-first one); ``retries`` as in :func:`robust_plan`."""
     rho = map_plan(cmap) if plan is None else plan
     for s, t in rho.steps():
         if not cmap.has_transition(s, t):
             raise MapError(f"plan step q{s} ↪ q{t} is not a transition of the map")
     goal_set = None if target is None else frozenset(target)
-    stormpy, m, model = _build(cmap, "dtmc", rho, target=goal_set)
+    stormpy, m, model = _build(cmap, "dtmc", rho, target=goal_set, retries=retries)
     prop = stormpy.parse_properties(f"P=? [{_formula(goal_set)}]")[0]
     result = stormpy.model_checking(model, prop)
     init = int(model.initial_states[0])

@@ -11,7 +11,11 @@ and end pose within a tolerance — first onto the nominal successor, then onto 
 of the map with the same task, else into a new state; each group's probability is
 exactly ``k/N``. New free states are frontier leaves (not expanded; a new uninterrupted
 turn gets its nominal STRAIGHT, as Algorithm 1's frontier rule asks), so the chance of
-reaching the goal from them is counted as zero: the estimate is conservative.
+reaching the goal from them is counted as zero: the estimate is conservative. With a
+:class:`HazardRule`, a rollout the supervisor's scan test interrupts is a *stop*, its own
+outcome kind (never grouped with a contact, nor with another source's stop), named in
+``metadata["stops"]`` with the state its task started from, so that an objective can
+retry it as the supervisor does (:mod:`formal.retry`).
 
 :func:`learn_from_scans` learns the same kind of map from repeated *observation*:
 consecutive scans of a recorded run (or the scans of a run log) each give a map; states
@@ -47,6 +51,7 @@ import numpy as np
 
 from formal.lts import CognitiveMap
 from formal.model import Disturbance, DisturbanceKind, Pose, State, TaskKind
+from formal.retry import STOPS_KEY
 from formal.supervisory import extract_plan
 from planner.configurator import Configurator, CostContext, PlanResult
 from planner.perception import Obstacles, load_scan, perceive
@@ -312,6 +317,13 @@ def _hazard_stop(out: Outcome, world: _World, robot: RobotModel, noise: RolloutN
 
 def _rollout(kind: TaskKind, start: Pose, goal: Disturbance, world: _World, robot: RobotModel, noise: RolloutNoise,
              hazard: HazardRule | None = None) -> Outcome:
+    """One noisy rollout of ``kind`` from ``start`` in ``world`` (see :func:`_rollout_stop`)."""
+    return _rollout_stop(kind, start, goal, world, robot, noise, hazard)[0]
+
+
+def _rollout_stop(kind: TaskKind, start: Pose, goal: Disturbance, world: _World, robot: RobotModel, noise: RolloutNoise,
+                  hazard: HazardRule | None = None) -> tuple[Outcome, bool]:
+    """One noisy rollout and whether the ``hazard`` rule stopped it (a stop, not a contact)."""
     base = make_task(kind, world.obstacles, robot, start, goal)
     limit = base.limit
     if kind is TaskKind.STRAIGHT:
@@ -327,11 +339,14 @@ def _rollout(kind: TaskKind, start: Pose, goal: Disturbance, world: _World, robo
     if w is None:
         w = world.cache[key] = World(world.obstacles, robot, idx)
     out = w.rollout(task)
+    stopped = False
     if hazard is not None:
+        free = out
         out = _hazard_stop(out, world, robot, noise, hazard)
+        stopped = out is not free
     if out.d_n is None and out.end.distance_to(goal.x, goal.y) <= robot.goal_tolerance:
         out = replace(out, reached_goal=True)
-    return out
+    return out, stopped
 
 
 def _kind(s: State | Outcome) -> str:
@@ -385,18 +400,26 @@ class _Builder:
             if s.ident != nominal.initial.ident:
                 self.by_task[s.task].append(s.ident)
         self.new: list[int] = []
+        self.stops: dict[int, int] = {}
+        """Stop states (interrupted by the hazard rule, not by a contact) -> their source."""
 
-    def group(self, source: int, kind: TaskKind, nominal_target: int | None, out: Outcome, d_i: Disturbance) -> int:
-        """The state an outcome falls into (created when no state matches)."""
-        k = _kind(out)
+    def _state_kind(self, ident: int) -> str:
+        return "stop" if ident in self.stops else _kind(self.map[ident])
+
+    def group(self, source: int, kind: TaskKind, nominal_target: int | None, out: Outcome, d_i: Disturbance,
+              stop: bool = False) -> int:
+        """The state an outcome falls into (created when no state matches); a ``stop``
+        falls only into a stop of the same source (its retry re-enters that source)."""
+        k = "stop" if stop else _kind(out)
         if nominal_target is not None:
             t = self.map[nominal_target]
-            if _kind(t) == k and _close(t.end, out.end, self.tolerance):
+            if self._state_kind(t.ident) == k and _close(t.end, out.end, self.tolerance) and self.stops.get(t.ident, source) == source:
                 return t.ident
         src_end = self.map[source].end
         for ident in self.by_task[kind]:
             s = self.map[ident]
-            if _kind(s) == k and _close(s.start, src_end) and _close(s.end, out.end, self.tolerance):
+            if (self._state_kind(ident) == k and _close(s.start, src_end) and _close(s.end, out.end, self.tolerance)
+                    and self.stops.get(ident, source) == source):
                 return ident
         ident = max(s.ident for s in self.map.states()) + 1
         s = State(ident, out.task, d_i, out.d_n, out.start, out.end, out.distance, out.duration, reached_goal=out.reached_goal)
@@ -404,6 +427,8 @@ class _Builder:
         self.map.add_state(s)
         self.by_task[kind].append(ident)
         self.new.append(ident)
+        if stop:
+            self.stops[ident] = source
         return ident
 
 
@@ -454,15 +479,16 @@ def sample_map(
         start = nominal.map[source].end
         counts: dict[int, int] = {}
         for w in worlds:
-            out = _rollout(kind, start, nominal.goal, w, robot, nz, hazard)
-            ident = b.group(source, kind, target, out, nominal.goal)
+            out, stopped = _rollout_stop(kind, start, nominal.goal, w, robot, nz, hazard)
+            ident = b.group(source, kind, target, out, nominal.goal, stopped)
             counts[ident] = counts.get(ident, 0) + 1
         for ident, k in sorted(counts.items()):
             b.map.add_transition(source, ident, kind, Fraction(k, samples))
     _complete_turns(b, nominal, conf)
     b.map = _reachable_part(b.map)
     plan = extract_plan(b.map)
-    b.map.metadata.update({"plan": list(plan.states), "samples": samples, "noise": nz.to_dict(), "seed": seed, "nominal_plan": list(nominal.plan.states)})
+    b.map.metadata.update({"plan": list(plan.states), "samples": samples, "noise": nz.to_dict(), "seed": seed, "nominal_plan": list(nominal.plan.states),
+                           STOPS_KEY: {str(i): src for i, src in sorted(b.stops.items()) if i in b.map and src in b.map}})
     kept = sum(1 for i in b.new if i in b.map)
     return ProbabilisticMap(b.map, nominal, samples, nz, time.perf_counter() - t0, time.thread_time() - c0, kept)
 

@@ -114,7 +114,9 @@ class RobustConfigurator(Configurator):
     where a detour is safer by more than ``margin``. The map is sampled as the closed
     loop runs: outcomes within the supervisor's end tolerance are one state
     (``tolerance``), and a rollout is interrupted where the supervisor's scan test would
-    stop it (``hazard``). Needs stormpy.
+    stop it (``hazard``). A stop is retried up to ``retries`` times in Storm's objective,
+    as the supervisor replans after one (:func:`formal.retry.retry_model`; 0: a stop is
+    final). Needs stormpy.
 
     Where the scheduler keeps every task of the best-first plan, :meth:`plan` returns the
     plain Configurator's result itself (``decision`` "kept"). Where it leaves it, the
@@ -159,6 +161,7 @@ class RobustConfigurator(Configurator):
         route_states: int = 100,
         frontier_slack: float = POSITION_TOLERANCE,
         confirm: bool = True,
+        retries: int = 0,
         **options: Any,
     ) -> None:
         super().__init__(robot, **options)
@@ -173,6 +176,9 @@ class RobustConfigurator(Configurator):
         self.route_states = route_states
         self.frontier_slack = frontier_slack
         self.confirm = confirm
+        if isinstance(retries, bool) or not isinstance(retries, int) or retries < 0:
+            raise ValueError(f"retries must be a whole number >= 0, got {retries!r}")
+        self.retries = retries
         self._calls = 0
         self.decisions: list[str] = []
         self.confirmations: list[tuple[float, float]] = []
@@ -201,8 +207,8 @@ class RobustConfigurator(Configurator):
         else:  # some nominal outcome never happened in the rollouts: carried by its tasks
             greedy = follow_tasks(pm.map, [st.task for st in g.steps])
         prefer = {a: pm.map[b].task for a, b in greedy.steps()}
-        rp = robust_plan(pm.map, target, prefer, self.margin)
-        p_greedy = plan_probability(pm.map, greedy, target)
+        rp = robust_plan(pm.map, target, prefer, self.margin, self.retries)
+        p_greedy = plan_probability(pm.map, greedy, target, self.retries)
         self.last_probabilities = (rp.probability, p_greedy)
         self.predictions.append(self.last_probabilities)
         return RobustChoice(pm, greedy_result, greedy, target, rp, p_greedy)
@@ -224,13 +230,13 @@ class RobustConfigurator(Configurator):
         g = c.greedy_result
         other = sample_map(points, goal, self.samples, self.noise, seed, _Fixed(base, self.cost), self.tolerance, self.hazard)
         target = plan_target(other.map, g.map[g.plan.end].end, g.goal, self.goal_radius, self.frontier_slack)
-        best = robust_plan(other.map, target).scheduler
+        best = robust_plan(other.map, target, retries=self.retries).scheduler
 
         def value(plan: Plan, cmap: CognitiveMap) -> float:
             carried = follow_tasks(other.map, [cmap[b].task for _, b in plan.steps()])
             policy = dict(best)
             policy.update({a: other.map[b].task for a, b in carried.steps()})
-            return policy_probability(other.map, policy, target)
+            return policy_probability(other.map, policy, target, self.retries)
 
         return value(c.robust.plan, c.pm.map), value(c.greedy, c.pm.map)
 

@@ -1,0 +1,131 @@
+"""An interruption modelled as what the supervisor does with it: a retry from the stop.
+
+In the cognitive map an interrupted state is absorbing (R is undefined after a hit),
+and the exported models label it ``collision``, so ``!"collision" U "goal"`` counts
+every interruption as a failure. The runtime does not: when the supervisor's scan test
+stops a task (a *stop*, not a contact), it replans from where the robot stands, and
+most such stops under range noise are false alarms that the next plan gets through.
+
+:func:`retry_model` turns an :class:`~formal.export_model.ExportModel` into the model
+the runtime executes: a product of the model with a retry counter ``r = 0 … retries``.
+A stop state reached with ``r < retries`` left is not final: its one choice ``retry``
+goes back into the map, to the state the interrupted task started from (the stop pose
+lies on that task's path; in an MDP every task is again available there, as in the
+supervisor's fresh plan), in layer ``r + 1``. A stop reached with no retry left, and
+every contact, stays labelled ``collision``. Labels gain ``stop`` (every stop state,
+retried or not). Layer 0 keeps the model's own indices and idents, so its states are
+the map's; a copy in layer ``r`` has ident ``ident + r * span`` (``span`` = largest
+ident + 1). Only states reachable from q0 are kept.
+
+Re-entering the task's start treats a retry as a fresh draw of that task's outcomes:
+optimistic for a stop that repeats (a real obstacle), which is why the retries are
+bounded. With ``retries=0`` the model is the input itself, and the value of
+``!"collision" U "goal"`` never decreases with more retries (a retried stop can only
+lead on to the goal, where the stop alone was a failure).
+
+>>> from formal.lts import CognitiveMap
+>>> from formal.model import Disturbance, DisturbanceKind, Pose, State, TaskKind
+>>> from formal.export_model import export_model
+>>> g = Disturbance.goal(1.0, 0.0)
+>>> box = Disturbance(DisturbanceKind.OBSTACLE, 0.5, 0.0)
+>>> m = CognitiveMap(goal=g)
+>>> _ = m.add_state(State(0, TaskKind.STRAIGHT, g, None, Pose(0, 0), Pose(0, 0)))
+>>> _ = m.add_state(State(1, TaskKind.STRAIGHT, g, None, Pose(0, 0), Pose(1, 0), reached_goal=True))
+>>> _ = m.add_state(State(2, TaskKind.STRAIGHT, g, box, Pose(0, 0), Pose(0.3, 0)))
+>>> from fractions import Fraction
+>>> _ = m.add_transition(0, 1, TaskKind.STRAIGHT, Fraction(1, 2))
+>>> _ = m.add_transition(0, 2, TaskKind.STRAIGHT, Fraction(1, 2))
+>>> r = retry_model(export_model(m, "mdp"), {2: 0}, retries=1)
+>>> [s.ident for s in r.states], [c.action for c in r.choices[2]]
+([0, 1, 2, 3, 4, 5], ['retry'])
+>>> sorted(r.states[k].ident for k in r.labels["collision"])
+[5]
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import replace
+from fractions import Fraction
+
+from formal.export_model import STAY, Choice, ExportError, ExportModel
+
+__all__ = ["RETRY", "STOP_LABEL", "STOPS_KEY", "retry_model", "map_stops"]
+
+RETRY = "retry"
+"""The action of a stop state's retry (the supervisor's replan from the stop)."""
+
+STOP_LABEL = "stop"
+"""The label of the stop states (interruptions by the scan test, not contacts)."""
+
+STOPS_KEY = "stops"
+"""The key of a map's ``metadata`` naming its stop states: ident -> the state its task
+started from (JSON-ready: string keys), as :func:`map_stops` reads it."""
+
+
+def map_stops(metadata: Mapping[str, object]) -> dict[int, int]:
+    """The stops a map's ``metadata`` names (see :data:`STOPS_KEY`), or ``{}``.
+
+    >>> map_stops({"stops": {"4": 1}}), map_stops({})
+    ({4: 1}, {})
+    """
+    raw = metadata.get(STOPS_KEY)
+    if not isinstance(raw, Mapping):
+        return {}
+    return {int(k): int(v) for k, v in raw.items()}
+
+
+def retry_model(m: ExportModel, stops: Mapping[int, int], retries: int = 1) -> ExportModel:
+    """The product of ``m`` with ``retries`` retries: ``stops`` maps each stop state's
+    ident to the ident of the state its retry re-enters (see the module docstring).
+    Stops that ``m`` does not hold are ignored (e.g. off the plan of a DTMC); a re-entry
+    state it does not hold is an :class:`ExportError`."""
+    if isinstance(retries, bool) or not isinstance(retries, int) or retries < 0:
+        raise ExportError(f"retries must be a whole number >= 0, got {retries!r}")
+    index = {s.ident: k for k, s in enumerate(m.states)}
+    back: dict[int, int] = {}
+    for stop, source in stops.items():
+        if stop not in index:
+            continue
+        if source not in index:
+            raise ExportError(f"the retry of stop q{stop} re-enters q{source}, which the model does not hold")
+        if not m.states[index[stop]].interrupted:
+            raise ExportError(f"q{stop} is named a stop but was not interrupted")
+        back[index[stop]] = index[source]
+    if retries == 0 or not back:
+        return replace(m, labels={**m.labels, STOP_LABEL: frozenset(back)})
+    span = max(s.ident for s in m.states) + 1
+    n = m.n_states
+    # product states (index in m, layer): layer 0 first, in m's order, then reachable copies
+    order: list[tuple[int, int]] = [(k, 0) for k in range(n)]
+    where = {key: i for i, key in enumerate(order)}
+
+    def at(k: int, r: int) -> int:
+        key = (k, r)
+        if key not in where:
+            where[key] = len(order)
+            order.append(key)
+        return where[key]
+
+    choices: list[tuple[Choice, ...]] = []
+    i = 0
+    while i < len(order):
+        k, r = order[i]
+        if k in back and r < retries:
+            row: tuple[Choice, ...] = (Choice(RETRY, ((at(back[k], r + 1), Fraction(1)),), 0.0, 0.0, True),)
+        else:
+            row = tuple(replace(ch, branches=tuple((at(j, r), p) for j, p in ch.branches)) for ch in m.choices[k])
+        choices.append(row)
+        i += 1
+    states = tuple(m.states[k] if r == 0 else replace(m.states[k], ident=m.states[k].ident + r * span) for k, r in order)
+    labels: dict[str, frozenset[int]] = {}
+    for name, members in m.labels.items():
+        if name in ("init", "goal_in_map"):
+            labels[name] = members
+        else:
+            labels[name] = frozenset(p for p, (k, _) in enumerate(order) if k in members)
+    labels["collision"] = frozenset(p for p in labels.get("collision", frozenset())
+                                    if not (order[p][0] in back and order[p][1] < retries))
+    labels[STOP_LABEL] = frozenset(p for p, (k, _) in enumerate(order) if k in back)
+    loops = tuple(p for p, row in enumerate(choices) if len(row) == 1 and row[0].action == STAY)
+    return replace(m, states=states, choices=tuple(choices), labels=labels, self_loops=loops)
