@@ -2,7 +2,7 @@
 without a collision, beside Storm's predicted probabilities.
 
 Run: ``python bench/robust_vs_greedy.py [--runs 50] [--families doorway clutter]
-[--noise harsh] [--samples 30] [--margin 0.1] [--retries 0]``. Each run is one layout (family, seed 0,
+[--noise harsh] [--samples 30] [--margin 0.1] [--retries 0] [--supervisor-hazard]``. Each run is one layout (family, seed 0,
 run k) of the experiment (:func:`runtime.experiment.layouts.make_layout`) driven by the
 supervisor in the execution world at the given noise, once with the Configurator's
 best-first plans (greedy) and once with :class:`planner.robust.RobustConfigurator`
@@ -29,7 +29,8 @@ import time
 from typing import Any
 
 from planner.configurator import Configurator, PlanResult
-from planner.robust import RobustConfigurator, closed_loop_noise
+from planner.probabilistic import HazardRule, RolloutNoise
+from planner.robust import SUPERVISOR_HAZARD, RobustConfigurator, closed_loop_noise
 from runtime.experiment.layouts import make_layout
 from runtime.experiment.runner import run_once
 from runtime.experiment.stats import mcnemar, wilson
@@ -99,6 +100,9 @@ def main(argv: list[str] | None = None) -> int:
                     help="take the scheduler's deviations without the second look on fresh rollouts (RobustConfigurator(confirm=False))")
     ap.add_argument("--retries", type=int, default=0,
                     help="stops retried in Storm's objective, as the supervisor replans after one (formal.retry; default 0: a stop is final)")
+    ap.add_argument("--supervisor-hazard", action="store_true",
+                    help="interrupt rollouts with the supervisor's noise allowance (HazardRule.supervisor: deep alarms at once, "
+                         "shallow ones when the revolution before raised one; default: any 2 points inside the body)")
     ap.add_argument("--max-time", type=float, default=120.0)
     ap.add_argument("--predict-every-greedy-plan", action="store_true",
                     help="sample a map for every greedy plan too (default: its first plan only; twice the CPU)")
@@ -122,7 +126,8 @@ def main(argv: list[str] | None = None) -> int:
                 kind = PredictedGreedy if name == "greedy" else RobustConfigurator
                 rollout_noise = closed_loop_noise(args.noise) if args.closed_loop_noise else args.noise
                 conf = kind(samples=args.samples, noise=rollout_noise, seed=1000 * k, margin=args.margin, routes=args.routes,
-                            frontier_slack=args.frontier_slack, confirm=not args.no_confirm, retries=args.retries)
+                            frontier_slack=args.frontier_slack, confirm=not args.no_confirm, retries=args.retries,
+                            hazard=HazardRule.supervisor(RolloutNoise.preset(args.noise)) if args.supervisor_hazard else SUPERVISOR_HAZARD)
                 if isinstance(conf, PredictedGreedy):
                     conf.every_plan = args.predict_every_greedy_plan
                 c1 = time.thread_time()
@@ -152,6 +157,7 @@ def main(argv: list[str] | None = None) -> int:
     print(f"\nexecution world, noise {args.noise}, runs {args.first_run}..{args.first_run + args.runs - 1} per family "
           f"(paired: same layout, world and seeds), {args.samples} samples per choice, margin {args.margin}, "
           f"routes {args.routes}, frontier slack {args.frontier_slack} m, retries {args.retries}, "
+          f"hazard rule {'supervisor (allowance)' if args.supervisor_hazard else 'strict'}, "
           f"rollout noise {'closed-loop ' if args.closed_loop_noise else ''}{args.noise}:")
     print(f"  {'family':<8} {'plans':<7} {'success (goal, no collision) [95% Wilson]':<44} {'Storm P, 1st plan':<18} "
           f"{'Storm P per plan*':<17} {'plans carried to their end [95%]':<36} CPU s/run")

@@ -37,14 +37,12 @@ Fraction(1, 1)
 
 from __future__ import annotations
 
-import json
 import math
 import time
 import warnings
 from collections.abc import Iterable
-from dataclasses import asdict, dataclass, field, fields, replace
+from dataclasses import dataclass, field, replace
 from fractions import Fraction
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -54,6 +52,7 @@ from formal.model import Disturbance, DisturbanceKind, Pose, State, TaskKind
 from formal.retry import STOPS_KEY
 from formal.supervisory import extract_plan
 from planner.configurator import Configurator, CostContext, PlanResult
+from planner.noise import NoiseError, RolloutNoise, preset_names
 from planner.perception import Obstacles, load_scan, perceive
 from planner.physics import Outcome, World, frontier_distance, in_the_way, make_task
 from planner.robot import RobotModel
@@ -84,102 +83,6 @@ prediction continues the plan, so for a closed loop outcomes this close are one 
 MAX_SAMPLES = 2000
 """The most rollouts per (state, task) :func:`sample_map` takes: a million ran for hours and
 would need terabytes; 2,000 estimate a probability to within about ±0.02 (95 %)."""
-
-_PRESETS_FILE = Path(__file__).resolve().parents[1] / "specs" / "noise_presets.json"
-
-
-class NoiseError(ValueError):
-    """An unknown noise preset or a bad noise number."""
-
-
-@dataclass(frozen=True)
-class RolloutNoise:
-    """The noise of one sampled rollout world (SI units; the runtime's noise fields).
-
-    ``range_sd``: sd of the LiDAR range error (m); ``angle_sd``: sd of a beam's
-    direction (rad); ``dropout``: probability that a return is lost; ``wheel_sd``:
-    relative sd of each wheel's speed error per tick; ``wheel_bias``: relative sd of a
-    per-run wheel bias; ``drift``: sd (rad/s) of a per-run heading drift while the
-    wheels turn; ``slip``: scale of the speed each wheel loses per tick, |N(0, slip)|;
-    ``turn_sd``: relative sd of the angle a turn actually makes (the robot ends a turn
-    on its own heading estimate; default ``wheel_bias + wheel_sd``, the wheels' relative
-    error). Defaults: the ``paper`` preset of ``specs/noise_presets.json``.
-
-    >>> RolloutNoise().turn_error_sd
-    0.025
-    """
-
-    range_sd: float = 0.005
-    dropout: float = 0.02
-    wheel_sd: float = 0.02
-    wheel_bias: float = 0.005
-    drift: float = 0.002
-    angle_sd: float = 0.002
-    slip: float = 0.01
-    turn_sd: float | None = None
-
-    def __post_init__(self) -> None:
-        for f in fields(self):
-            v = getattr(self, f.name)
-            if v is None and f.name == "turn_sd":
-                continue
-            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v < 0:
-                raise NoiseError(f"noise.{f.name}: expected a finite number >= 0, got {v!r}")
-        if self.dropout >= 1:
-            raise NoiseError(f"noise.dropout: must be below 1, got {self.dropout!r}")
-
-    @property
-    def turn_error_sd(self) -> float:
-        """The relative sd of a turn's angle."""
-        return self.wheel_bias + self.wheel_sd if self.turn_sd is None else self.turn_sd
-
-    @classmethod
-    def preset(cls, name: str, path: str | Path | None = None) -> "RolloutNoise":
-        """The preset ``name`` from ``specs/noise_presets.json`` (or ``path``); without
-        the file, ``paper`` and ``ideal`` are known. Keys the sampler does not use are
-        ignored (a preset may describe more than rollouts need, e.g. ``latency``)."""
-        presets = _read_presets(path)
-        if name not in presets:
-            where = str(path or _PRESETS_FILE)
-            raise NoiseError(f"unknown noise preset {name!r} in {where}: expected one of {', '.join(sorted(presets))}")
-        known = {f.name for f in fields(cls)}
-        data = presets[name]
-        try:
-            return cls(**{k: v for k, v in data.items() if k in known})
-        except TypeError as exc:
-            raise NoiseError(f"noise preset {name!r}: {exc}") from None
-
-    def to_dict(self) -> dict[str, Any]:
-        """JSON-ready form."""
-        return asdict(self)
-
-
-def _read_presets(path: str | Path | None = None) -> dict[str, dict[str, Any]]:
-    if path is None:
-        import specs
-
-        try:
-            return {k: dict(v) for k, v in specs.noise_presets().items()}
-        except (OSError, KeyError, ValueError, json.JSONDecodeError) as exc:
-            raise NoiseError(f"{_PRESETS_FILE}: cannot read noise presets: {exc}") from None
-    p = Path(path)
-    if not p.is_file():
-        raise NoiseError(f"{p}: no such noise preset file")
-    try:
-        data = json.loads(p.read_text(encoding="utf-8"))
-    except (OSError, json.JSONDecodeError) as exc:
-        raise NoiseError(f"{p}: cannot read noise presets: {exc}") from None
-    if isinstance(data, dict) and isinstance(data.get("presets"), dict):
-        data = data["presets"]
-    if not isinstance(data, dict) or not all(isinstance(v, dict) for v in data.values()):
-        raise NoiseError(f"{p}: expected an object of presets, each an object of numbers")
-    return {str(k): dict(v) for k, v in data.items()}
-
-
-def preset_names() -> list[str]:
-    """The noise presets known (from the file, or the built-in ones)."""
-    return sorted(_read_presets())
-
 
 @dataclass
 class _World:
@@ -241,14 +144,31 @@ class HazardRule:
     ``collision`` then means "the task is interrupted", as the closed loop measures it.
     Defaults: the supervisor's ``hazard_points`` (2) and the A1 LiDAR's 5.5 Hz.
 
+    ``allowance`` (m) is the supervisor's noise allowance (runtime/supervision/alarms.py):
+    with it, only points more than ``allowance`` inside the body stop a task at once (a
+    *deep* alarm); points inside the full body only stop it when the revolution before
+    showed such points too (a *shallow* alarm must persist). :meth:`supervisor` gives the
+    rule the supervisor applies at a noise level.
+
     >>> HazardRule().points, HazardRule().scan_rate
     (2, 5.5)
+    >>> round(HazardRule.supervisor(RolloutNoise.preset("harsh")).allowance, 4), HazardRule.supervisor(RolloutNoise()).allowance
+    (0.0275, 0.0)
     """
 
     points: int = 2
     scan_rate: float = 5.5
+    allowance: float = 0.0
+
+    @classmethod
+    def supervisor(cls, noise: RolloutNoise, k: float = 1.5, clearance: float = 0.01, cap: float = 0.03) -> "HazardRule":
+        """The supervisor's rule at ``noise``: its allowance, ``k`` range-noise sd less the
+        planner's ``clearance``, at most ``cap`` (the defaults of the runtime's ``Alarms``)."""
+        return cls(allowance=min(max(k * noise.range_sd - clearance, 0.0), cap))
 
     def __post_init__(self) -> None:
+        if not (isinstance(self.allowance, (int, float)) and math.isfinite(self.allowance) and self.allowance >= 0):
+            raise NoiseError(f"hazard allowance: expected a finite number >= 0, got {self.allowance!r}")
         if isinstance(self.points, bool) or not isinstance(self.points, int) or self.points < 1:
             raise NoiseError(f"hazard points: expected a whole number >= 1, got {self.points!r}")
         if not (isinstance(self.scan_rate, (int, float)) and math.isfinite(self.scan_rate) and self.scan_rate > 0):
@@ -303,7 +223,16 @@ def _hazard_stop(out: Outcome, world: _World, robot: RobotModel, noise: RolloutN
     ahead = np.logical_or.accumulate(inside[:, ::-1, :], axis=1)[:, ::-1, :]
     at = np.minimum((np.arange(revs) / (revs * 1.0) * len(poses)).astype(int), len(poses) - 1)
     counts = ahead[np.arange(revs), at, :].sum(axis=1)
-    hit = np.flatnonzero(counts >= rule.points)
+    alarm = counts >= rule.points
+    if rule.allowance > 0:
+        a_ = rule.allowance
+        deep_in = ((u >= -robot.rear_offset + a_) & (u <= robot.front_offset - a_) & (np.abs(v) <= robot.width / 2 - a_)
+                   & seen[:, None, :])
+        deep_ahead = np.logical_or.accumulate(deep_in[:, ::-1, :], axis=1)[:, ::-1, :]
+        deep = deep_ahead[np.arange(revs), at, :].sum(axis=1) >= rule.points
+        before = np.r_[False, alarm[:-1]]
+        alarm = deep | (alarm & before)  # a shallow alarm stands when the revolution before raised one
+    hit = np.flatnonzero(alarm)
     if len(hit) == 0:
         return out
     k = int(hit[0])

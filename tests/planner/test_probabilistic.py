@@ -155,6 +155,36 @@ def test_the_hazard_rule_interrupts_rollouts_that_pass_close_to_a_wall_under_ran
         HazardRule(points=0)
 
 
+def test_the_supervisors_noise_allowance_spares_a_grazed_wall_not_a_wall_in_the_way():
+    """With the supervisor's allowance (2.75 cm at harsh) a wall the body grazes under
+    range noise stops fewer rollouts than with any 2 points inside the body, and a
+    stop there is a hazard stop, named in the map's stops; at paper noise the allowance
+    is 0 and the rule is the strict one."""
+    from formal.retry import map_stops
+    from planner.probabilistic import HazardRule, RolloutNoise
+
+    from planner.probabilistic import SUPERVISOR_TOLERANCE
+    from planner.robust import closed_loop_noise
+
+    noise = closed_loop_noise("harsh")  # the wheels as the closed loop corrects them: grazing, not driving into it
+    rule = HazardRule.supervisor(noise)
+    assert rule.allowance == pytest.approx(0.0275)
+    close = _corridor_wall(0.09 + 0.04)
+
+    def stopped(scan, hazard):
+        pm = sample_map(scan, (0.8, 0.0), samples=20, noise=noise, seed=0, tolerance=SUPERVISOR_TOLERANCE, hazard=hazard)
+        return sum(t.probability for t in pm.map.out_transitions(0) if pm.map[t.target].interrupted), pm
+
+    (strict, pm), (lenient, _) = stopped(close, HazardRule()), stopped(close, rule)
+    assert lenient < strict - Fraction(1, 10) and strict >= Fraction(1, 2)
+    paper = HazardRule.supervisor(RolloutNoise.preset("paper"))  # 5 mm range noise: no allowance, the strict rule
+    assert paper == HazardRule()
+    stops = map_stops(pm.map.metadata)
+    assert stops and all(pm.map[q].interrupted and src == 0 for q, src in stops.items())
+    with pytest.raises(NoiseError, match="allowance"):
+        HazardRule(allowance=float("nan"))
+
+
 def test_outcomes_within_the_supervisors_end_tolerance_are_one_state():
     """The supervisor continues a plan whose task ended within 0.08 m / 0.3 rad of the
     prediction: grouped so, a choice has fewer, larger outcome groups than at 3 cm."""
