@@ -2,7 +2,7 @@
 without a collision, beside Storm's predicted probabilities.
 
 Run: ``python bench/robust_vs_greedy.py [--runs 50] [--families doorway clutter]
-[--noise harsh] [--samples 30] [--margin 0.1] [--retries 0] [--supervisor-hazard]``. Each run is one layout (family, seed 0,
+[--noise harsh] [--samples 30] [--margin 0.1] [--retries 1] [--supervisor-hazard]``. Each run is one layout (family, seed 0,
 run k) of the experiment (:func:`runtime.experiment.layouts.make_layout`) driven by the
 supervisor in the execution world at the given noise, once with the Configurator's
 best-first plans (greedy) and once with :class:`planner.robust.RobustConfigurator`
@@ -98,8 +98,8 @@ def main(argv: list[str] | None = None) -> int:
                     help="sample with planner.robust.closed_loop_noise(NOISE): the terms measured in the world's closed loop")
     ap.add_argument("--no-confirm", action="store_true",
                     help="take the scheduler's deviations without the second look on fresh rollouts (RobustConfigurator(confirm=False))")
-    ap.add_argument("--retries", type=int, default=0,
-                    help="stops retried in Storm's objective, as the supervisor replans after one (formal.retry; default 0: a stop is final)")
+    ap.add_argument("--retries", type=int, default=1,
+                    help="stops retried in Storm's objective, as the supervisor replans after one (formal.retry; default 1; 0: a stop is final)")
     ap.add_argument("--supervisor-hazard", action="store_true",
                     help="interrupt rollouts with the supervisor's noise allowance (HazardRule.supervisor: deep alarms at once, "
                          "shallow ones when the revolution before raised one; default: any 2 points inside the body)")

@@ -114,9 +114,11 @@ class RobustConfigurator(Configurator):
     where a detour is safer by more than ``margin``. The map is sampled as the closed
     loop runs: outcomes within the supervisor's end tolerance are one state
     (``tolerance``), and a rollout is interrupted where the supervisor's scan test would
-    stop it (``hazard``). A stop is retried up to ``retries`` times in Storm's objective,
-    as the supervisor replans after one (:func:`formal.retry.retry_model`; 0: a stop is
-    final). Needs stormpy.
+    stop it (``hazard``). A stop is retried up to ``retries`` times (default 1) in Storm's
+    objective, as the supervisor replans after one (:func:`formal.retry.retry_model`; 0:
+    a stop is final, as before; at harsh noise, 50 paired runs per family, 1 and 0 gave
+    the same successes: doorway 42 vs greedy 41 both, clutter 16 vs 16 both). Needs
+    stormpy.
 
     Where the scheduler keeps every task of the best-first plan, :meth:`plan` returns the
     plain Configurator's result itself (``decision`` "kept"). Where it leaves it, the
@@ -161,7 +163,7 @@ class RobustConfigurator(Configurator):
         route_states: int = 100,
         frontier_slack: float = POSITION_TOLERANCE,
         confirm: bool = True,
-        retries: int = 0,
+        retries: int = 1,
         **options: Any,
     ) -> None:
         super().__init__(robot, **options)
