@@ -2,7 +2,7 @@
 without a collision, beside Storm's predicted probabilities.
 
 Run: ``python bench/robust_vs_greedy.py [--runs 50] [--families doorway clutter]
-[--noise harsh] [--samples 30] [--margin 0.1] [--retries 1] [--supervisor-hazard]``. Each run is one layout (family, seed 0,
+[--noise harsh] [--samples 30] [--margin 0.1] [--retries 1] [--supervisor-hazard] [--workers K]``. Each run is one layout (family, seed 0,
 run k) of the experiment (:func:`runtime.experiment.layouts.make_layout`) driven by the
 supervisor in the execution world at the given noise, once with the Configurator's
 best-first plans (greedy) and once with :class:`planner.robust.RobustConfigurator`
@@ -24,8 +24,11 @@ from __future__ import annotations
 
 import argparse
 import math
+import multiprocessing
 import statistics
 import time
+from collections.abc import Iterator
+from concurrent.futures import ProcessPoolExecutor
 from typing import Any
 
 from planner.configurator import Configurator, PlanResult
@@ -35,6 +38,8 @@ from runtime.experiment.layouts import make_layout
 from runtime.experiment.runner import run_once
 from runtime.experiment.stats import mcnemar, wilson
 from runtime.supervision.machine import Event, SupervisorState
+
+NAMES = ("greedy", "robust")
 
 
 class PredictedGreedy(RobustConfigurator):
@@ -84,10 +89,63 @@ def _ci(s: int, n: int) -> str:
     return f"{s:3d}/{n:<3d} = {s / n:6.1%} [{lo:5.1%}, {hi:5.1%}]" if n else "  -"
 
 
-def main(argv: list[str] | None = None) -> int:
+def _configurator(name: str, k: int, args: argparse.Namespace) -> RobustConfigurator:
+    kind = PredictedGreedy if name == "greedy" else RobustConfigurator
+    rollout_noise = closed_loop_noise(args.noise) if args.closed_loop_noise else args.noise
+    conf = kind(samples=args.samples, noise=rollout_noise, seed=1000 * k, margin=args.margin, routes=args.routes,
+                frontier_slack=args.frontier_slack, confirm=not args.no_confirm, retries=args.retries,
+                hazard=HazardRule.supervisor(RolloutNoise.preset(args.noise)) if args.supervisor_hazard else SUPERVISOR_HAZARD)
+    if isinstance(conf, PredictedGreedy):
+        conf.every_plan = args.predict_every_greedy_plan
+    return conf
+
+
+def run_pair(family: str, k: int, args: argparse.Namespace) -> dict[str, Any]:
+    """Run ``k`` of ``family`` in both conditions (paired: the same layout, world and
+    seeds); everything the summary needs, in plain data (a worker process returns it).
+    Deterministic: it depends on ``family``, ``k`` and ``args`` alone."""
+    layout = make_layout(family, 0, k)
+    out: dict[str, Any] = {"family": family, "run": k, "line": []}
+    for name in NAMES:
+        conf = _configurator(name, k, args)
+        c1 = time.thread_time()
+        r = run_once(layout.scene, "planning", seed=k, run=k, noise=args.noise, configurator=conf, max_time=args.max_time,
+                     expect=layout.expect, keep_report=True)
+        cpu = time.thread_time() - c1
+        success = r.reached_goal and r.collisions == 0
+        preds = [p[0] if name == "robust" else p[1] for p in conf.predictions]
+        episodes = [(preds[i] if i < len(preds) else math.nan, done) for i, done in plan_episodes(r.report) if i is not None]
+        rec: dict[str, Any] = {"ok": int(success), "first": preds[0] if preds else None, "per_plan": episodes, "cpu": cpu,
+                               "decisions": list(conf.decisions) if name == "robust" else [], "diverged": False}
+        out["line"].append(f"{name} {'ok  ' if success else 'FAIL'} ({r.end_state}, {r.final_distance:.2f} m, {r.collisions} coll., "
+                           f"{r.plans} plans, P1 {preds[0] if preds else math.nan:.2f})")
+        if name == "robust" and any(d in ("confirmed", "deviated") for d in conf.decisions):
+            rec["diverged"] = True
+            out["line"].append("deviations " + ", ".join(f"{v_r:.2f}>{v_g:.2f}" for v_r, v_g in conf.confirmations
+                                                         if v_r > v_g + args.margin) if conf.confirmations else "deviated")
+        out[name] = rec
+    return out
+
+
+def _pairs(args: argparse.Namespace) -> Iterator[dict[str, Any]]:
+    """Every run's pair, in the order of (family, run) whatever ``args.workers``."""
+    todo = [(family, k) for family in args.families for k in range(args.first_run, args.first_run + args.runs)]
+    if args.workers <= 1:
+        for family, k in todo:
+            yield run_pair(family, k, args)
+        return
+    ctx = multiprocessing.get_context("spawn")  # no fork of a parent that may hold Storm's threads
+    with ProcessPoolExecutor(max_workers=args.workers, mp_context=ctx) as pool:
+        yield from pool.map(run_pair, [f for f, _ in todo], [k for _, k in todo], [args] * len(todo))
+
+
+def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
+    """The command line's options (see the module docstring)."""
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--runs", type=int, default=50, help="runs per family (default 50)")
     ap.add_argument("--first-run", type=int, default=0, help="first run index (default 0)")
+    ap.add_argument("--workers", type=int, default=1,
+                    help="processes running pairs at once (default 1; runs are independent, the figures do not depend on it)")
     ap.add_argument("--families", nargs="+", default=["doorway", "clutter"])
     ap.add_argument("--noise", default="harsh")
     ap.add_argument("--samples", type=int, default=30)
@@ -108,86 +166,64 @@ def main(argv: list[str] | None = None) -> int:
                     help="sample a map for every greedy plan too (default: its first plan only; twice the CPU)")
     ap.add_argument("--quiet", action="store_true", help="no line per run")
     args = ap.parse_args(argv)
+    if args.runs < 1 or args.first_run < 0 or args.workers < 0:
+        ap.error("--runs must be >= 1, --first-run and --workers >= 0")
+    return args
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = parse_args(argv)
     w0, c0 = time.perf_counter(), time.thread_time()
-    rows = []
-    names = ("greedy", "robust")
-    for family in args.families:
-        ok: dict[str, list[int]] = {name: [] for name in names}
-        first: dict[str, list[float]] = {name: [] for name in names}
-        per_plan: dict[str, list[tuple[float, bool]]] = {name: [] for name in names}
-        cpu: dict[str, float] = {name: 0.0 for name in names}
-        decisions: dict[str, int] = {}
-        diverged: list[int] = []  # the runs in which the robust condition took a deviation
-        for k in range(args.first_run, args.first_run + args.runs):
-            layout = make_layout(family, 0, k)
-            scene = layout.scene
-            line = []
-            for name in names:
-                kind = PredictedGreedy if name == "greedy" else RobustConfigurator
-                rollout_noise = closed_loop_noise(args.noise) if args.closed_loop_noise else args.noise
-                conf = kind(samples=args.samples, noise=rollout_noise, seed=1000 * k, margin=args.margin, routes=args.routes,
-                            frontier_slack=args.frontier_slack, confirm=not args.no_confirm, retries=args.retries,
-                            hazard=HazardRule.supervisor(RolloutNoise.preset(args.noise)) if args.supervisor_hazard else SUPERVISOR_HAZARD)
-                if isinstance(conf, PredictedGreedy):
-                    conf.every_plan = args.predict_every_greedy_plan
-                c1 = time.thread_time()
-                r = run_once(scene, "planning", seed=k, run=k, noise=args.noise, configurator=conf, max_time=args.max_time,
-                             expect=layout.expect, keep_report=True)
-                cpu[name] += time.thread_time() - c1
-                success = r.reached_goal and r.collisions == 0
-                ok[name].append(int(success))
-                preds = [p[0] if name == "robust" else p[1] for p in conf.predictions]
-                if preds:
-                    first[name].append(preds[0])
-                for i, done in plan_episodes(r.report):
-                    if i is not None:
-                        per_plan[name].append((preds[i] if i < len(preds) else math.nan, done))
-                line.append(f"{name} {'ok  ' if success else 'FAIL'} ({r.end_state}, {r.final_distance:.2f} m, {r.collisions} coll., "
-                            f"{r.plans} plans, P1 {preds[0] if preds else math.nan:.2f})")
-                if name == "robust":
-                    for d in conf.decisions:
-                        decisions[d] = decisions.get(d, 0) + 1
-                    if any(d in ("confirmed", "deviated") for d in conf.decisions):
-                        diverged.append(len(ok[name]) - 1)
-                        line.append("deviations " + ", ".join(f"{v_r:.2f}>{v_g:.2f}" for v_r, v_g in conf.confirmations
-                                                              if v_r > v_g + args.margin) if conf.confirmations else "deviated")
-            if not args.quiet:
-                print(f"{family} run {k}: {'; '.join(line)}", flush=True)
-        rows.append((family, ok, first, per_plan, cpu, decisions, diverged))
+    by_family: dict[str, list[dict[str, Any]]] = {f: [] for f in args.families}
+    for pair in _pairs(args):
+        by_family[pair["family"]].append(pair)
+        if not args.quiet:
+            print(f"{pair['family']} run {pair['run']}: {'; '.join(pair['line'])}", flush=True)
     print(f"\nexecution world, noise {args.noise}, runs {args.first_run}..{args.first_run + args.runs - 1} per family "
           f"(paired: same layout, world and seeds), {args.samples} samples per choice, margin {args.margin}, "
           f"routes {args.routes}, frontier slack {args.frontier_slack} m, retries {args.retries}, "
           f"hazard rule {'supervisor (allowance)' if args.supervisor_hazard else 'strict'}, "
-          f"rollout noise {'closed-loop ' if args.closed_loop_noise else ''}{args.noise}:")
+          f"rollout noise {'closed-loop ' if args.closed_loop_noise else ''}{args.noise}, workers {args.workers}:")
     print(f"  {'family':<8} {'plans':<7} {'success (goal, no collision) [95% Wilson]':<44} {'Storm P, 1st plan':<18} "
           f"{'Storm P per plan*':<17} {'plans carried to their end [95%]':<36} CPU s/run")
     print("  (* the mean over the plans predicted: every robust plan; the greedy condition's first plans unless "
           "--predict-every-greedy-plan)")
-    totals = {name: [0, 0] for name in names}
-    for family, ok, first, per_plan, cpu, decisions, diverged in rows:
-        for name in names:
+    totals = {name: [0, 0] for name in NAMES}
+    cpu_total = 0.0
+    for family, pairs in by_family.items():
+        ok = {name: [p[name]["ok"] for p in pairs] for name in NAMES}
+        for name in NAMES:
             s, n = sum(ok[name]), len(ok[name])
             totals[name][0] += s
             totals[name][1] += n
-            pp = per_plan[name]
+            pp = [e for p in pairs for e in p[name]["per_plan"]]
             completed = sum(int(d) for _, d in pp)
-            mean_first = statistics.fmean(first[name]) if first[name] else math.nan
-            predicted = [p for p, _ in pp if not math.isnan(p)]
+            first = [p[name]["first"] for p in pairs if p[name]["first"] is not None]
+            mean_first = statistics.fmean(first) if first else math.nan
+            predicted = [q for q, _ in pp if not math.isnan(q)]
             mean_pp = statistics.fmean(predicted) if predicted else math.nan
+            cpu = sum(p[name]["cpu"] for p in pairs)
+            cpu_total += cpu
             print(f"  {family:<8} {name:<7} {_ci(s, n):<44} {mean_first:<18.3f} {mean_pp:<17.3f} {_ci(completed, len(pp)):<36} "
-                  f"{cpu[name] / max(n, 1):.1f}")
+                  f"{cpu / max(n, 1):.1f}")
         test = mcnemar(ok["greedy"], ok["robust"])
         print(f"  {family:<8} paired: {test}")
+        decisions: dict[str, int] = {}
+        for p in pairs:
+            for d in p["robust"]["decisions"]:
+                decisions[d] = decisions.get(d, 0) + 1
+        diverged = [p for p in pairs if p["robust"]["diverged"]]
         print(f"  {family:<8} robust plans' decisions: {', '.join(f'{k} {v}' for k, v in sorted(decisions.items()))}; "
               f"runs with a deviation taken: {len(diverged)}")
-        rescued = [args.first_run + i for i in diverged if ok["robust"][i] > ok["greedy"][i]]
-        lost = [args.first_run + i for i in diverged if ok["robust"][i] < ok["greedy"][i]]
+        rescued = [p["run"] for p in diverged if p["robust"]["ok"] > p["greedy"]["ok"]]
+        lost = [p["run"] for p in diverged if p["robust"]["ok"] < p["greedy"]["ok"]]
         print(f"  {family:<8} of those, robust succeeded where greedy failed in runs {rescued or 'none'}, "
               f"failed where greedy succeeded in runs {lost or 'none'} (every other run is the greedy run itself)")
-    for name in names:
+    for name in NAMES:
         s, n = totals[name]
         print(f"  {'all':<8} {name:<7} {_ci(s, n)}")
-    print(f"total wall {time.perf_counter() - w0:.0f} s, thread CPU {time.thread_time() - c0:.0f} s")
+    print(f"total wall {time.perf_counter() - w0:.0f} s; thread CPU of the runs {cpu_total:.0f} s "
+          f"(summed over the workers), of this process {time.thread_time() - c0:.0f} s")
     return 0
 
 
