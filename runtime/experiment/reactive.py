@@ -2,34 +2,59 @@
 
 The paper contrasts planning with "a reactive control strategy which uses a single
 closed-loop controller", drawn in its figure 3B as "one-loop-ahead disturbance
-detection". This is that controller, on the same :class:`~runtime.robot.Robot`
-interface as the supervisor, with no plan and no map. Every control tick it
+detection"; it "never reached the target" and "collided 8 times" in 10 runs. The paper
+describes it no further, so this follows the authors' public code for that condition
+(``glafratta/collision-simulation``: ``reactive_target.cpp`` runs the Configurator with
+``planning = 0``; the loop is ``Configurator::Spawner``'s non-planning branch,
+``Configurator::changeTask``'s ``else`` branch and ``Task::H``; state of September 2024),
+on the same :class:`~runtime.robot.Robot` interface as the supervisor, with no plan and
+no map. The repository's README names the tasks: "go straight, turn left/right 90
+degrees". One task runs at a time:
 
-1. updates its pose estimate *as the planning condition's supervisor does*: with
-   ``feedback="scan"`` (the default) dead reckoning from the commanded wheel speeds (or the
-   robot's odometry) corrected once a revolution by matching the scan against a local map
-   (:class:`~runtime.estimation.odometry.ScanOdometry`, the supervisor's estimator); with
-   ``feedback="none"`` dead reckoning alone. The two conditions are the same robot with the
-   same sensing and the same estimate, so a difference between them is planning's, not
-   the estimate's. It then moves the newest (de-skewed) scan into the body frame;
-2. looks *one loop ahead*: the loop is one straight task of the planner, so the
-   look-ahead is the corridor the body sweeps over one straight step —
-   ``front_offset < x <= front_offset + look_ahead``, ``|y| <= width / 2 + clearance``
-   with ``look_ahead`` = the model's ``step_length`` (0.27 m, one body length, the
-   authors' step; DESIGN.md). ``hazard_points`` (2) or more scan points there are a
-   disturbance (a single point may be noise);
-3. if there is one, spins in place at the turn tasks' rate (0.58 rad/s) *away from the
-   nearest such point* (it is left of the heading → turn right, and the reverse) and
-   keeps that direction until the corridor is clear;
-4. otherwise drives towards the goal at the straight task's speed (0.1 m/s), steering
-   in proportion to the goal's bearing (``gain`` 1.5 /s, saturated at the turn rate; the
-   straight task's error signal is that bearing) and spinning towards the goal first
-   when it lies more than 60° off the heading.
+- **straight** (the default task): drives at the straight task's speed (0.1 m/s) for one
+  step, ``step_length`` = 0.27 m (the Configurator's ``simulationStep``, twice the body's
+  larger half-size; ``motorStep`` counts it out). While it runs, every tick looks *one
+  loop ahead*: the straight continued until the goal, at most ``look_ahead`` = 1.0 m
+  (``simulate`` runs the task for the goal's distance inside the world window of
+  ``BOX2DRANGE`` = 1 m) through the body's corridor —
+  ``front_offset < x <= front_offset + min(goal distance, look_ahead)``,
+  ``|y| <= width / 2 + clearance``. ``hazard_points`` (2) or more scan points there are a
+  predicted crash (ours: a single point may be noise), and the task changes at once;
+- **avoid**: a crash predicted → a turn in place of ``turn_angle`` = 90° (``SAFE_ANGLE``)
+  at the turn tasks' rate (0.58 rad/s) *away from the obstacle* (``Task::H``: the side of
+  the crashed-into body, here the centre of the corridor points' lateral extent; left
+  of the heading → turn right). A turn runs to its end without looking (``Spawner``
+  returns while a turn is under way): the rectangular body swings its rear, 0.18 m
+  behind the axle, through whatever is beside it;
+- after any turn, one **straight** step (``changeTask``: after a turn, a default task
+  with no disturbance);
+- after a straight step ends, **pursue** the goal (``changeTask``: the goal task; the
+  goal is a disturbance on the same loop): more than 0.1 rad off the heading (``Task::H``'s
+  dead band) → a 90° turn towards it, then a straight step; otherwise another straight
+  step. The run starts with this choice.
 
-It stops when it believes it is within ``goal_radius`` of the goal (the model's goal
-tolerance, 0.05 m: the same the planner's tasks end at). It cannot plan round an
-obstacle, only bounce off its edge: with nothing remembered, turning back towards the
-goal brings the obstacle back into view.
+So it steers only in quarter turns: it cannot curve onto the goal, and it re-aims only
+after each 0.27 m step. A turn ends where the pose estimate has turned 90° and a step
+where it has moved 0.27 m, or either after three times its nominal duration (the authors
+count motor callbacks, open loop; with ``feedback="none"`` the estimate is that count). It stops when it believes it is within
+``goal_radius`` of the goal (the model's goal tolerance, 0.05 m, where the planning
+condition's tasks end; the authors' is 0.02 m for both conditions).
+
+Where this departs from the authors' code, and why:
+
+- ``Disturbance::getAngle`` returns ``acos(...)``, never negative, so as written their
+  ``Task::H`` always avoids to the right and pursues to the left; the code's comments
+  ("If the angle >0 means that Disturbance 1 is to the left") say the sign was meant.
+  This uses the signed angle.
+- Their goal task also ends once the robot is 1 m (``BOX2DRANGE``) from where it started,
+  and ``reactive_target.cpp``'s ``set_target`` then returns no value; neither is copied.
+- Pose: as the planning condition's supervisor (the same robot, sensing and estimate, so
+  a difference between the conditions is planning's): with ``feedback="scan"`` (the
+  default) dead reckoning from the commanded wheel speeds (or the robot's odometry)
+  corrected once a revolution by matching the scan against a local map
+  (:class:`~runtime.estimation.odometry.ScanOdometry`); with ``feedback="none"`` dead
+  reckoning alone (the authors' reactive dead-reckons). The newest (de-skewed) scan is
+  moved into the body frame each tick.
 
 >>> from planner import load_scenario
 >>> from runtime.robots.sim import SimRobot
@@ -46,7 +71,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from formal.geometry import compose, dead_reckon, points_from_frame, relative
+from formal.geometry import compose, dead_reckon, points_from_frame, relative, wrap_angle
 from formal.model import Pose
 from planner.perception import validate_scan
 from planner.robot import RobotModel
@@ -54,7 +79,12 @@ from runtime.clock import Clock, clock_for
 from runtime.estimation.odometry import ScanOdometry
 from runtime.robot import Robot, RobotFault, ScanFrame, finite_goal
 
-__all__ = ["ReactiveController", "ReactiveReport"]
+__all__ = ["PURSUE_DEAD_BAND", "WINDOW", "ReactiveController", "ReactiveReport"]
+
+WINDOW = 1.0
+"""Longest look-ahead (m): the authors' ``BOX2DRANGE``, the world window the straight is simulated in."""
+PURSUE_DEAD_BAND = 0.1
+"""Goal bearing (rad) beyond which the goal task turns towards the goal (``Task::H``)."""
 
 
 @dataclass
@@ -62,14 +92,16 @@ class ReactiveReport:
     """The outcome of :meth:`ReactiveController.run`.
 
     ``state`` is ``"GOAL_REACHED"``, ``"TIMEOUT"`` or ``"HALTED"`` (a fault); ``avoid_ticks``
-    counts the ticks spent turning away from a disturbance.
+    counts the ticks spent turning away from a disturbance; ``tasks`` lists
+    ``(time_s, task)`` for each task begun (``"straight"``, ``"left"``, ``"right"``, the
+    turns suffixed ``"/avoid"`` or ``"/pursue"``).
 
     >>> from planner import load_scenario
     >>> from runtime.robots.sim import SimRobot
     >>> scene = load_scenario("open")
     >>> report = ReactiveController(SimRobot(scene, seed=0), scene.goal_in_robot_frame()).run(max_time=60)
-    >>> report.state, report.avoid_ticks
-    ('GOAL_REACHED', 0)
+    >>> report.state, report.avoid_ticks, report.tasks[0][1]
+    ('GOAL_REACHED', 0, 'straight')
     """
 
     state: str
@@ -78,6 +110,7 @@ class ReactiveReport:
     trajectory: list[tuple[float, float, float, float]]
     goal: tuple[float, float]
     avoid_ticks: int
+    tasks: list[tuple[float, str]] = dataclasses.field(default_factory=list)
 
     @property
     def reached_goal(self) -> bool:
@@ -103,33 +136,40 @@ class ReactiveController:
         *,
         clock: Clock | None = None,
         goal_radius: float | None = None,
-        look_ahead: float | None = None,
-        gain: float = 1.5,
+        look_ahead: float = WINDOW,
         hazard_points: int = 2,
         scan_timeout: float = 1.0,
         feedback: str = "scan",
+        sides: str = "signed",
     ) -> None:
+        if sides not in ("signed", "as-coded"):
+            raise ValueError(f"sides must be 'signed' or 'as-coded', got {sides!r}")
+        self.sides = sides
         if feedback not in ("scan", "none"):
             raise ValueError(f"feedback must be 'scan' or 'none', got {feedback!r}")
         self.robot = robot
         self.model = model or RobotModel()
         self.clock: Clock = clock_for(robot, clock)
         self.goal_radius = self.model.goal_tolerance if goal_radius is None else float(goal_radius)
-        self.look_ahead = float(look_ahead if look_ahead is not None else (self.model.step_length or self.model.length))
-        for name, v in (("goal_radius", self.goal_radius), ("look_ahead", self.look_ahead), ("gain", gain)):
+        self.look_ahead = float(look_ahead)
+        self.step = float(self.model.step_length or self.model.length)
+        for name, v in (("goal_radius", self.goal_radius), ("look_ahead", self.look_ahead)):
             if not (math.isfinite(v) and v > 0):
                 raise ValueError(f"{name} must be a positive finite number, got {v!r}")
         if hazard_points < 1:
             raise ValueError(f"hazard_points must be at least 1, got {hazard_points!r}")
-        self.gain = float(gain)
         self.hazard_points = int(hazard_points)
         self.scan_timeout = scan_timeout
         self._goal_robot = finite_goal(goal)
         self.pose = Pose(0.0, 0.0, 0.0)
         self.goal = Pose(*self._goal_robot)
         self.trajectory: list[tuple[float, float, float, float]] = []
+        self.tasks: list[tuple[float, str]] = []
         self.avoid_ticks = 0
-        self._avoid_dir = 0.0  # +1 turning left, -1 right, 0 not avoiding
+        self._task = "straight"  # "straight", "left" or "right"
+        self._avoiding = False
+        self._task_start = self.pose
+        self._task_ticks = 0
         self._cmd = (0.0, 0.0)
         self._scan = np.zeros((0, 2))
         self._scan_pose = self.pose
@@ -152,6 +192,8 @@ class ReactiveController:
             self.estimator.reset(self.pose, t0)
             self.estimator.advance(t0, (0.0, 0.0), odo)
         self.goal = compose(self.pose, Pose(*self._goal_robot))
+        self._t0 = t0
+        self._pursue(t0)
         state, reason = "TIMEOUT", f"time limit of {max_time:g} s reached"
         try:
             while True:
@@ -171,7 +213,7 @@ class ReactiveController:
                 if math.hypot(g.x, g.y) <= self.goal_radius:
                     state, reason = "GOAL_REACHED", f"at the goal ({math.hypot(g.x, g.y):.3f} m)"
                     break
-                vl, vr = self._control(g)
+                vl, vr = self._control(g, now)
                 self.robot.set_wheel_speeds(vl, vr)
                 self._cmd = (vl, vr)
                 self.clock.sleep(now + tick - self.clock.now())
@@ -182,39 +224,66 @@ class ReactiveController:
             state, reason = "HALTED", f"{type(exc).__name__}: {exc}"
         finally:
             self._stop()
-        return ReactiveReport(state, reason, last - t0, list(self.trajectory), (self.goal.x, self.goal.y), self.avoid_ticks)
+        return ReactiveReport(state, reason, last - t0, list(self.trajectory), (self.goal.x, self.goal.y),
+                              self.avoid_ticks, list(self.tasks))
 
     # -- the loop ---------------------------------------------------------------------------
-    def _control(self, g: Pose) -> tuple[float, float]:
-        m = self.model
-        spin = m.turn_wheel_speed
-        nearest_y = self._disturbance_ahead()
-        if nearest_y is not None:
-            if self._avoid_dir == 0.0:  # turn away from the nearest point, and keep to it until clear
-                self._avoid_dir = -1.0 if nearest_y > 0 else 1.0
-            self.avoid_ticks += 1
-            return (-spin, spin) if self._avoid_dir > 0 else (spin, -spin)
-        self._avoid_dir = 0.0
-        bearing = math.atan2(g.y, g.x)
-        if abs(bearing) > math.radians(60):
-            return (-spin, spin) if bearing > 0 else (spin, -spin)
-        v = min(m.straight_speed, math.hypot(g.x, g.y) / m.tick)
-        w = max(-m.turn_rate, min(m.turn_rate, self.gain * bearing))
-        return (v - w * m.wheel_base / 2, v + w * m.wheel_base / 2)
+    def _begin(self, task: str, now: float, why: str = "") -> None:
+        self._task, self._avoiding = task, why == "avoid"
+        self._task_start, self._task_ticks = self.pose, 0
+        self.tasks.append((round(now - self._t0, 9), task + (f"/{why}" if why and task != "straight" else "")))
 
-    def _disturbance_ahead(self) -> float | None:
-        """Lateral position (m, left +) of the nearest scan point in the body's corridor one
-        straight step ahead, or None when fewer than ``hazard_points`` points are there."""
+    def _pursue(self, now: float) -> None:
+        """The goal task (``Task::H`` with the goal as disturbance): quarter turn towards it, or straight."""
+        g = relative(self.pose, self.goal)
+        bearing = math.atan2(g.y, g.x)
+        if abs(bearing) > PURSUE_DEAD_BAND:
+            self._begin("left" if bearing > 0 or self.sides == "as-coded" else "right", now, "pursue")
+        else:
+            self._begin("straight", now)
+
+    def _task_done(self) -> bool:
+        m = self.model
+        if self._task == "straight":
+            moved = math.hypot(self.pose.x - self._task_start.x, self.pose.y - self._task_start.y)
+            return moved >= self.step - m.straight_speed * m.tick / 2 or self._task_ticks >= 3 * self.step / (m.straight_speed * m.tick)
+        turned = abs(wrap_angle(self.pose.theta - self._task_start.theta))
+        return turned >= m.turn_angle - m.turn_rate * m.tick / 2 or self._task_ticks >= 3 * m.turn_angle / (m.turn_rate * m.tick)
+
+    def _control(self, g: Pose, now: float) -> tuple[float, float]:
+        m = self.model
+        if self._task_done():
+            if self._task == "straight":
+                self._pursue(now)
+            else:
+                self._begin("straight", now)
+        if self._task == "straight":
+            side = self._disturbance_ahead(math.hypot(g.x, g.y))
+            if side is not None:  # a crash one loop ahead: turn away from it
+                self._begin("right" if side > 0 or self.sides == "as-coded" else "left", now, "avoid")
+        self._task_ticks += 1
+        if self._task == "straight":
+            return (m.straight_speed, m.straight_speed)
+        if self._avoiding:
+            self.avoid_ticks += 1
+        spin = m.turn_wheel_speed
+        return (-spin, spin) if self._task == "left" else (spin, -spin)
+
+    def _disturbance_ahead(self, goal_distance: float) -> float | None:
+        """Lateral centre (m, left +) of the scan points in the body's corridor over the
+        straight continued to the goal (at most ``look_ahead``), or None when fewer than
+        ``hazard_points`` points are there."""
         if len(self._scan) == 0:
             return None
         m = self.model
+        reach = min(goal_distance, self.look_ahead)
         pts = points_from_frame(self._scan, relative(self.pose, self._scan_pose))
         x, y = pts[:, 0], pts[:, 1]
-        inside = (x > m.front_offset) & (x <= m.front_offset + self.look_ahead) & (np.abs(y) <= m.width / 2 + m.clearance)
+        inside = (x > m.front_offset) & (x <= m.front_offset + reach) & (np.abs(y) <= m.width / 2 + m.clearance)
         if int(inside.sum()) < self.hazard_points:
             return None
-        xi, yi = x[inside], y[inside]
-        return float(yi[int(np.argmin(np.hypot(xi, yi)))])
+        yi = y[inside]
+        return float((yi.min() + yi.max()) / 2)
 
     def _dead_reckon(self, now: float, dt: float) -> None:
         odo = self.robot.odometry()
