@@ -257,9 +257,9 @@ def test_cli_json_keeps_the_table_shape(tmp_path, capsys):
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(strict=False, reason="issue #9's acceptance, half reached on main's world: measured 2026-12-02 "
-                   "on main 957d6d9, planning 10/10 (0 collisions + 0 brushes: reached), reactive 7/10 with 10 "
-                   "collisions + 5 brushes (target <= 2/10: not reached)")
+@pytest.mark.xfail(strict=False, reason="issue #9's acceptance, half reached: measured 2026-12-02 with the "
+                   "authors' reactive task structure, planning 10/10 (0 collisions + 0 brushes: reached), reactive "
+                   "2/10 with 1 collision + 0 brushes (target 4-20 collisions: not reached; it sees the box 1 m ahead)")
 def test_the_papers_claim_holds():
     """Issue #9's acceptance: planning 10/10 with <= 3 collisions + brushes; reactive <= 2/10, 4-20 collisions."""
     recs = run_experiment("overtaking", runs=10, seed=0, noise="paper", workers=2)
