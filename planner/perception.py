@@ -11,20 +11,15 @@ axis-aligned box that would close a corridor.
 from __future__ import annotations
 
 import functools
-import io
 import math
-import os
-import stat
-import tokenize
 import warnings
 from dataclasses import dataclass, field
-from pathlib import Path
 from typing import Any
 
 import numpy as np
-from numpy.lib import format as npy_format
 
 from formal.model import Disturbance, DisturbanceKind
+from planner.scanfile import MAX_SCAN_BYTES, MAX_SCAN_POINTS, SCAN_SUFFIXES, ScanError, load_scan, scan_files, validate_scan
 
 __all__ = [
     "MAX_SCAN_BYTES",
@@ -40,35 +35,22 @@ __all__ = [
     "validate_scan",
 ]
 
-#: the file name endings of scan files in a folder
-SCAN_SUFFIXES: tuple[str, ...] = (".dat", ".txt", ".npy", ".xy")
-
 # a piece is "thin" when its points spread at most this much across its axis
 _THIN = 0.0075
 # surfaces are first cut into pieces of this much path length, then thick pieces halved
 _PIECE = 0.08
 # how far a box stands off its outermost points: the allowance for sensor noise
 _PAD = 0.002
-# which extent (rows u0, u1, t0, t1) gives each corner's along / across offset, and the
-# sign of each row's pad
-_CORNER_U = np.array([0, 1, 1, 0])
-_CORNER_T = np.array([2, 2, 3, 3])
-_SIGNS = np.array([[-1.0], [1.0], [-1.0], [1.0]])
+# each box's four corners, counter-clockwise, as (along, across) pairs taken from its
+# extents (u0, t0, u1, t1): (u0,t0) (u1,t0) (u1,t1) (u0,t1)
+_CORNERS = np.array([0, 1, 2, 1, 2, 3, 0, 3])
+_CORNERS.flags.writeable = False
+# the sign of each extent's pad (rows u0 t0 u1 t1)
+_SIGNS = np.array([[-1.0], [-1.0], [1.0], [1.0]])
 _SIGNS_PAD = _SIGNS * _PAD
 _SIGNS_PAD.flags.writeable = False
 # from how many points repeats are dropped before the sort (below it the test costs what it saves)
 _DEDUPE_FROM = 512
-
-
-class ScanError(ValueError):
-    """A scan cannot be read or is not a valid N×2 array of finite coordinates.
-
-    >>> try:
-    ...     validate_scan(np.array([[np.nan, 0.0]]))
-    ... except ScanError as exc:
-    ...     print(exc)
-    scan: point 0 is not finite (nan, 0.0)
-    """
 
 
 class ScanWarning(UserWarning):
@@ -83,239 +65,9 @@ class ScanWarning(UserWarning):
     """
 
 
-#: A scan holds at most this many points (an RPLIDAR A1 gives about 360 per revolution).
-MAX_SCAN_POINTS = 50_000
-#: A scan file is at most this many bytes (50,000 text lines of ``x y`` fit with room to spare).
-MAX_SCAN_BYTES = 8 * 1024 * 1024
 # points this far beyond the sensor range (as a fraction of it) are worth a warning:
 # recorded scans cropped at the range reach 1.104 m for a 1.1 m range
 _RANGE_SLACK = 0.05
-_EXCERPT = 60
-
-
-def _excerpt(text: str) -> str:
-    """``text`` for an error message: whole when short, else its start and its length."""
-    text = text.strip()
-    if len(text) <= _EXCERPT:
-        return repr(text)
-    return f"{text[:_EXCERPT]!r}… ({len(text):,} characters)"
-
-
-def validate_scan(points: object, name: str = "scan") -> np.ndarray:
-    """Return ``points`` as a float64 N×2 array, or raise :class:`ScanError` saying why.
-
-    Complex values are refused (dropping the imaginary part would invent a scan); in a
-    masked array a masked coordinate is a missing return and its point is dropped.
-
-    >>> validate_scan([[0.5, 0.1]]).shape
-    (1, 2)
-    >>> validate_scan(np.ma.masked_invalid([[0.5, 0.1], [np.nan, 0.2]])).tolist()
-    [[0.5, 0.1]]
-    """
-    if type(points) is np.ndarray and points.dtype == np.float64 and points.ndim == 2 and points.shape[1] == 2:
-        # the common case (a float array from a driver or a file): one check
-        if len(points) <= MAX_SCAN_POINTS and np.isfinite(points).all():
-            return points
-    mask = None
-    if np.ma.isMaskedArray(points):
-        mask = np.ma.getmaskarray(points)
-        points = np.ma.getdata(points)
-    try:
-        raw = np.asarray(points)
-    except (TypeError, ValueError) as exc:
-        raise ScanError(f"{name}: not numeric ({_excerpt(str(exc))})") from None
-    if np.iscomplexobj(raw):
-        raise ScanError(f"{name}: complex values; a scan holds real x, y coordinates")
-    if raw.dtype.kind not in "biuf" and raw.size:
-        if raw.dtype.kind in "OUS":
-            try:
-                raw = raw.astype(np.float64)
-            except (TypeError, ValueError) as exc:
-                raise ScanError(f"{name}: not numeric ({_excerpt(str(exc))})") from None
-        else:
-            raise ScanError(f"{name}: not numeric (dtype {raw.dtype})")
-    if raw.dtype.kind == "b" and raw.size:
-        raise ScanError(f"{name}: boolean values; a scan holds real x, y coordinates")
-    arr = raw.astype(np.float64, copy=False)
-    if arr.size == 0:
-        return np.zeros((0, 2))
-    if arr.ndim != 2 or arr.shape[1] != 2:
-        raise ScanError(f"{name}: expected an N×2 array of x, y, got shape {arr.shape}")
-    if mask is not None:
-        mask = np.broadcast_to(mask, arr.shape)
-        arr = arr[~mask.any(axis=1)]
-    if len(arr) > MAX_SCAN_POINTS:
-        raise ScanError(f"{name}: {len(arr):,} points, more than the limit of {MAX_SCAN_POINTS:,} per scan")
-    bad = ~np.isfinite(arr).all(axis=1)
-    if bad.any():
-        i = int(np.argmax(bad))
-        raise ScanError(f"{name}: point {i} is not finite ({arr[i, 0]}, {arr[i, 1]})")
-    return arr
-
-
-def _kind(mode: int) -> str | None:
-    """What a non-regular file is, in words (None for a regular file)."""
-    for test, what in (
-        (stat.S_ISDIR, "is a folder, not a scan file"),
-        (stat.S_ISFIFO, "is a FIFO (named pipe), not a scan file"),
-        (stat.S_ISCHR, "is a character device, not a scan file"),
-        (stat.S_ISBLK, "is a block device, not a scan file"),
-        (stat.S_ISSOCK, "is a socket, not a scan file"),
-    ):
-        if test(mode):
-            return what
-    return None if stat.S_ISREG(mode) else "is not a regular file"
-
-
-def _read_bounded(path: Path) -> bytes:
-    """The bytes of a regular file of at most :data:`MAX_SCAN_BYTES`, or a ScanError.
-
-    The file is opened without blocking (a FIFO would block an ordinary open until a
-    writer appears) and its type checked on the open descriptor, so no special file is
-    ever read; the read itself stops after the limit (``/proc`` files report size 0).
-    """
-    try:
-        fd = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_NOCTTY", 0))
-    except FileNotFoundError:
-        raise ScanError(f"{path}: no such file") from None
-    except PermissionError:
-        raise ScanError(f"{path}: cannot read: permission denied") from None
-    except OSError as exc:
-        raise ScanError(f"{path}: cannot open: {exc.strerror or exc}") from None
-    try:
-        info = os.fstat(fd)
-        what = _kind(info.st_mode)
-        if what:
-            raise ScanError(f"{path}: {what}")
-        if info.st_size > MAX_SCAN_BYTES:
-            raise ScanError(f"{path}: {info.st_size:,} bytes, larger than the {MAX_SCAN_BYTES // 2**20} MiB limit for a scan file")
-        chunks: list[bytes] = []
-        total = 0
-        while total <= MAX_SCAN_BYTES:
-            chunk = os.read(fd, min(1 << 20, MAX_SCAN_BYTES + 1 - total))
-            if not chunk:
-                break
-            chunks.append(chunk)
-            total += len(chunk)
-        if total > MAX_SCAN_BYTES:
-            raise ScanError(f"{path}: larger than the {MAX_SCAN_BYTES // 2**20} MiB limit for a scan file")
-        return b"".join(chunks)
-    except OSError as exc:
-        raise ScanError(f"{path}: cannot read: {exc.strerror or exc}") from None
-    finally:
-        os.close(fd)
-
-
-def _parse_npy(path: Path, data: bytes) -> np.ndarray:
-    """An N×2 array from the bytes of a ``.npy`` file, the header checked before any allocation."""
-    fp = io.BytesIO(data)
-    try:
-        version = npy_format.read_magic(fp)
-        if version == (1, 0):
-            shape, fortran, dtype = npy_format.read_array_header_1_0(fp)
-        elif version == (2, 0):
-            shape, fortran, dtype = npy_format.read_array_header_2_0(fp)
-        else:
-            raise ScanError(f"{path}: unsupported .npy format version {version[0]}.{version[1]}")
-    except ScanError:
-        raise
-    except (ValueError, SyntaxError, tokenize.TokenError, EOFError, UnicodeDecodeError, TypeError, KeyError) as exc:
-        raise ScanError(f"{path}: not a readable .npy array (bad header: {_excerpt(str(exc))})") from None
-    if dtype.kind == "c":
-        raise ScanError(f"{path}: complex values; a scan holds real x, y coordinates")
-    if dtype.kind not in "iuf" or dtype.hasobject or dtype.fields is not None or dtype.subdtype is not None:
-        raise ScanError(f"{path}: not a numeric .npy array (dtype {dtype})")
-    if not all(isinstance(n, int) and n >= 0 for n in shape):
-        raise ScanError(f"{path}: not a readable .npy array (bad shape {tuple(shape)!r} in header)")
-    count = math.prod(shape)
-    if count == 0:
-        return np.zeros((0, 2))
-    if len(shape) != 2 or shape[1] != 2:
-        raise ScanError(f"{path}: expected an N×2 array of x, y, got shape {tuple(shape)}")
-    if shape[0] > MAX_SCAN_POINTS:
-        raise ScanError(f"{path}: {shape[0]:,} points, more than the limit of {MAX_SCAN_POINTS:,} per scan")
-    offset = fp.tell()
-    need = count * dtype.itemsize
-    if len(data) - offset < need:
-        raise ScanError(f"{path}: truncated .npy array ({len(data) - offset:,} of {need:,} data bytes)")
-    arr = np.frombuffer(data, dtype=dtype, count=count, offset=offset).reshape(shape, order="F" if fortran else "C")
-    return validate_scan(arr, str(path))
-
-
-def _parse_text(path: Path, data: bytes) -> np.ndarray:
-    try:
-        text = data.decode("utf-8")
-    except UnicodeDecodeError:
-        raise ScanError(f"{path}: not a text scan file (binary content)") from None
-    rows: list[tuple[float, float]] = []
-    for lineno, line in enumerate(text.splitlines(), 1):
-        stripped = line.split("#", 1)[0].strip()
-        if not stripped:
-            continue
-        parts = stripped.replace(",", " ").split()
-        if len(parts) != 2:
-            raise ScanError(f"{path}:{lineno}: expected two numbers 'x y', got {_excerpt(line)}")
-        try:
-            x, y = float(parts[0]), float(parts[1])
-        except ValueError:
-            raise ScanError(f"{path}:{lineno}: not a number in {_excerpt(line)}") from None
-        if not (math.isfinite(x) and math.isfinite(y)):
-            raise ScanError(f"{path}:{lineno}: coordinate is not finite in {_excerpt(line)}")
-        if len(rows) == MAX_SCAN_POINTS:
-            raise ScanError(f"{path}:{lineno}: more than the limit of {MAX_SCAN_POINTS:,} points per scan")
-        rows.append((x, y))
-    return np.array(rows, dtype=np.float64).reshape(-1, 2)
-
-
-def load_scan(source: str | os.PathLike[str] | np.ndarray) -> np.ndarray:
-    """Read a scan: a text file or a ``.npy`` N×2 array (metres), or an array.
-
-    A text scan has one point per line, ``x y`` separated by spaces, tabs or a comma;
-    ``#`` starts a comment; blank lines are skipped. An empty file is a scan with no
-    returns (free space). Anything else — a special file (FIFO, device, folder), an
-    unreadable or oversized file (:data:`MAX_SCAN_BYTES`, :data:`MAX_SCAN_POINTS`), a
-    malformed line or header — raises one :class:`ScanError` naming the file.
-
-    >>> load_scan(np.array([[0.5, 0.0]])).tolist()
-    [[0.5, 0.0]]
-    """
-    if not isinstance(source, (str, os.PathLike)):
-        return validate_scan(source)
-    path = Path(source)
-    data = _read_bounded(path)
-    if path.suffix == ".npy" or data.startswith(b"\x93NUMPY"):
-        return _parse_npy(path, data)
-    return _parse_text(path, data)
-
-
-def scan_files(folder: str | os.PathLike[str], suffixes: tuple[str, ...] = SCAN_SUFFIXES) -> list[Path]:
-    """The scan files of ``folder`` (by suffix, sorted by name), or a ScanError saying why not.
-
-    Only the names are listed here; each file is checked when it is read, so one bad
-    file does not hide the others.
-
-    >>> import tempfile
-    >>> folder = Path(tempfile.mkdtemp())
-    >>> for name in ("map0002.dat", "map0001.dat", "notes.md"):
-    ...     _ = (folder / name).write_text("0.5 0.0")
-    >>> [p.name for p in scan_files(folder)]
-    ['map0001.dat', 'map0002.dat']
-    """
-    root = Path(folder)
-    try:
-        entries = sorted(root.iterdir())
-    except FileNotFoundError:
-        raise ScanError(f"{root}: no such folder") from None
-    except NotADirectoryError:
-        raise ScanError(f"{root}: not a folder") from None
-    except PermissionError:
-        raise ScanError(f"{root}: cannot list the folder: permission denied") from None
-    except OSError as exc:
-        raise ScanError(f"{root}: cannot list the folder: {exc.strerror or exc}") from None
-    files = [p for p in entries if p.suffix in suffixes and not p.name.startswith(".")]
-    if not files:
-        raise ScanError(f"{root}: no scan files ({', '.join('*' + s for s in suffixes)}) in this folder")
-    return files
 
 
 def range_warning(points: np.ndarray, sensor_range: float) -> str | None:
@@ -425,6 +177,15 @@ class Obstacles:
 _NONE = Obstacles(np.zeros((0, 4, 2)), np.zeros((0, 2)), np.zeros(0))
 
 
+def _built(boxes: np.ndarray, centres: np.ndarray, radii: np.ndarray, points: np.ndarray, starts: np.ndarray, exempt: int) -> Obstacles:
+    """An :class:`Obstacles` from arrays that agree by construction (perception's own): the
+    checks of ``__post_init__`` and the frozen dataclass's ``__init__`` are a few µs of a
+    perception that takes a few dozen."""
+    obs: Obstacles = object.__new__(Obstacles)
+    obs.__dict__.update(boxes=boxes, centres=centres, radii=radii, points=points, starts=starts, exempt=exempt)
+    return obs
+
+
 def _outline(box: np.ndarray, step: float = 0.005) -> np.ndarray:
     out = []
     for k in range(4):
@@ -446,24 +207,6 @@ def _point_in_convex(box: np.ndarray, x: float, y: float, margin: float) -> bool
         if (ex * (y - ay) - ey * (x - ax)) / norm < -margin:
             return False
     return True
-
-
-def _frames(z: np.ndarray, bounds: np.ndarray, counts: np.ndarray) -> tuple[np.ndarray, ...]:
-    """Per piece (points ``bounds[i]:bounds[i+1]`` of ``z``, complex x + iy): its first
-    point ``a`` and the unit chord ``e`` to its last point; per point ``w = (z - a) / e``,
-    whose real part is the offset along the chord and imaginary part the offset across it
-    (so the extents are one ``reduceat`` each). Methods rather than numpy's functions:
-    on a few hundred points the call overhead is most of the cost."""
-    a = z.take(bounds[:-1])
-    e = z.take(bounds[1:] - 1) - a
-    norm = np.abs(e)
-    if norm.min() < 1e-9:
-        single = norm < 1e-9
-        norm[single] = 1.0
-        e[single] = 1.0
-    e /= norm
-    # each piece's a and e repeated over its points (as a gather by piece index would)
-    return a, e, (z - a.repeat(counts)) * e.conj().repeat(counts)
 
 
 def perceive(
@@ -491,7 +234,14 @@ def perceive(
     >>> round(float((obs.boxes[:, :, 0].max(axis=1) - obs.boxes[:, :, 0].min(axis=1)).max()), 3)  # 4 mm thin
     0.004
     """
-    pts = validate_scan(points)
+    if type(points) is np.ndarray and points.ndim == 2 and points.shape[1] == 2 and points.dtype == np.float64:
+        # the common case: a float array (from a driver or a file). Its finiteness is
+        # checked below only when some point is not kept (a NaN or inf never is)
+        pts, checked = points, False
+        if len(pts) > MAX_SCAN_POINTS:
+            pts, checked = validate_scan(points), True
+    else:
+        pts, checked = validate_scan(points), True
     exempt = 0
     if not len(pts):
         return _NONE
@@ -508,6 +258,8 @@ def perceive(
             keep[own] = False
     kept = int(np.count_nonzero(keep))
     if kept < len(pts):
+        if not checked:
+            validate_scan(pts)  # a ScanError naming the first point that is not finite
         if (r2 > (sensor_range * (1 + _RANGE_SLACK)) ** 2).any():
             warning = range_warning(pts, sensor_range)
             if warning:
@@ -552,32 +304,58 @@ def perceive(
     else:
         brk[0] = True
     # pieces: surfaces cut every _PIECE metres of path, then halved while thick
-    cell = (np.where(brk, 0.0, step).cumsum() * (1.0 / _PIECE)).astype(np.int64)
+    step[brk] = 0.0  # a surface's path starts at its first point
+    path = np.add.accumulate(step)
+    path *= 1.0 / _PIECE
+    cell = path.astype(np.int64)
     cut = np.empty(n + 1, dtype=bool)  # where a piece starts, and the end (n)
     cut[:n] = brk
     cut[1:n] |= cell[1:] != cell[:-1]
     cut[n] = True
+    # each point's predecessor (zl[i + 1] = z[i]): a piece's last point is one take
+    zl = np.empty(n + 1, dtype=np.complex128)
+    zl[1:] = z
     while True:
+        # per piece (points starts[i]:ends[i]): its first point a and the unit chord e
+        # to its last point; per point w = (z - a) / e, whose real part is the offset
+        # along the chord and imaginary part the offset across it (so each extent is one
+        # reduceat). On a few hundred points the cost is the number of numpy calls
         bounds = cut.nonzero()[0]
-        starts = bounds[:-1]
-        counts = bounds[1:] - starts
-        a, e, w = _frames(z, bounds, counts)
+        starts, ends = bounds[:-1], bounds[1:]
+        counts = ends - starts
+        a = z.take(starts)
+        e = zl.take(ends) - a
+        norm = np.abs(e)
+        if np.minimum.reduce(norm) < 1e-9:
+            single = norm < 1e-9
+            norm[single] = 1.0
+            e[single] = 1.0
+        e /= norm
+        w = (z - a.repeat(counts)) * e.conj().repeat(counts)
         t = w.imag
         t0, t1 = np.minimum.reduceat(t, starts), np.maximum.reduceat(t, starts)
-        # only the spread across a piece decides whether it is halved
-        fat = (t1 - t0 > _THIN) & (counts > 2)
+        # only the spread across a piece decides whether it is halved (a piece of one or
+        # two points has none: its points lie on its chord, to a few 1e-17 m)
+        fat = t1 - t0 > _THIN
         if not np.count_nonzero(fat):
             break
-        cut[starts[fat] + counts[fat] // 2] = True
-    u = w.real
-    # the extents, padded: rows u0, u1, t0, t1
-    ext = np.array((np.minimum.reduceat(u, starts), np.maximum.reduceat(u, starts), t0, t1))
-    ext += _SIGNS_PAD if pad == _PAD else _SIGNS * pad
-    # corners a + (u + i·t)·e, counter-clockwise: (u0,t0) (u1,t0) (u1,t1) (u0,t1)
-    local = ext.take(_CORNER_U, axis=0) + 1j * ext.take(_CORNER_T, axis=0)
-    corners = np.ascontiguousarray((local * e + a).T)
+        cut[((starts + ends) >> 1)[fat]] = True  # halved: starts + counts // 2
+    # the extents, padded (rows u0 t0 u1 t1), then each box's corners (along, across),
+    # counter-clockwise: (u0,t0) (u1,t0) (u1,t1) (u0,t1); as complex, a + (u + i·t)·e
     m = len(starts)
+    ext = np.empty((4, m))
+    u = w.real
+    np.minimum.reduceat(u, starts, out=ext[0])
+    ext[1] = t0
+    np.maximum.reduceat(u, starts, out=ext[2])
+    ext[3] = t1
+    ext += _SIGNS_PAD if pad == _PAD else _SIGNS * pad
+    local = ext.T.take(_CORNERS, axis=1).view(np.complex128)
+    if not pad > 0:
+        # an extent may then be -0.0: written as u + 1j·t, as before, to keep its sign the same
+        local = local.real + 1j * local.imag
+    corners = local * e[:, None] + a[:, None]
     boxes = corners.view(np.float64).reshape(m, 4, 2)
     centres = ((corners[:, 0] + corners[:, 2]) * 0.5).view(np.float64).reshape(m, 2)
-    radii = np.abs(local[2] - local[0]) * 0.5
-    return Obstacles(boxes, centres, radii, z.view(np.float64).reshape(n, 2), bounds, exempt)
+    radii = np.abs(local[:, 2] - local[:, 0]) * 0.5
+    return _built(boxes, centres, radii, z.view(np.float64).reshape(n, 2), bounds, exempt)

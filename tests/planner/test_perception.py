@@ -60,6 +60,23 @@ def test_missing_file_and_bad_arrays(tmp_path):
         validate_scan(np.array([[0.1, np.nan]]))
 
 
+@pytest.mark.parametrize("bad", [np.nan, np.inf, -np.inf])
+@pytest.mark.parametrize("order", ["C", "F"])
+def test_perceive_refuses_a_float_array_with_a_point_that_is_not_finite(bad, order):
+    # perceive checks a float array's finiteness only when a point is not kept (a NaN or
+    # an inf never is): the refusal must still name the point, whatever its place
+    for where in (0, 2, 4):
+        pts = np.array([[0.5, 0.0], [0.5, 0.01], [0.5, 0.02], [0.5, 0.03], [0.5, 0.04]], order=order)
+        pts[where, where % 2] = bad
+        with pytest.raises(ScanError, match=f"point {where} is not finite"):
+            perceive(pts)
+        with pytest.raises(ScanError, match=f"point {where} is not finite"):
+            perceive(pts, body=(0.09, 0.09, 0.09))
+    # a finite point whose squared range overflows is beyond the range, not bad input
+    with pytest.warns(UserWarning, match="beyond"):
+        assert len(perceive(np.array([[0.5, 0.0], [1e200, 0.0]]))) == 1
+
+
 def test_points_beyond_range_are_dropped():
     pts = np.array([[0.5, 0.0], [1.5, 0.0]])
     obs = perceive(pts, sensor_range=1.1)

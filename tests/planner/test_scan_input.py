@@ -23,7 +23,7 @@ import pytest
 from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
-from planner import perception, plan
+from planner import plan, scanfile
 from planner.perception import (
     MAX_SCAN_BYTES,
     MAX_SCAN_POINTS,
@@ -227,7 +227,7 @@ def test_the_read_is_bounded_even_when_the_size_is_not_known(monkeypatch):
     proc = Path("/proc/self/status")
     if not proc.exists() or proc.stat().st_size != 0:
         pytest.skip("no /proc file of unknown size here")
-    monkeypatch.setattr(perception, "MAX_SCAN_BYTES", 100)
+    monkeypatch.setattr(scanfile, "MAX_SCAN_BYTES", 100)  # where the reader looks it up
     with pytest.raises(ScanError, match="limit"):
         _in_thread(lambda: load_scan(proc))
 
