@@ -33,7 +33,7 @@ from typing import Any
 
 from planner.configurator import Configurator, PlanResult
 from planner.probabilistic import HazardRule, RolloutNoise
-from planner.robust import SUPERVISOR_HAZARD, RobustConfigurator, closed_loop_noise
+from planner.robust import SUPERVISOR_HAZARD, RobustConfigurator
 from runtime.experiment.layouts import make_layout
 from runtime.experiment.runner import run_once
 from runtime.experiment.stats import mcnemar, wilson
@@ -91,9 +91,9 @@ def _ci(s: int, n: int) -> str:
 
 def _configurator(name: str, k: int, args: argparse.Namespace) -> RobustConfigurator:
     kind = PredictedGreedy if name == "greedy" else RobustConfigurator
-    rollout_noise = closed_loop_noise(args.noise) if args.closed_loop_noise else args.noise
+    rollout_noise = RolloutNoise.preset(args.noise) if args.preset_noise else args.noise  # a name: closed-loop terms
     conf = kind(samples=args.samples, noise=rollout_noise, seed=1000 * k, margin=args.margin, routes=args.routes,
-                frontier_slack=args.frontier_slack, confirm=not args.no_confirm, retries=args.retries,
+                frontier_slack=args.frontier_slack, confirm=not args.no_confirm, retries=args.retries, carry=not args.no_carry,
                 hazard=HazardRule.supervisor(RolloutNoise.preset(args.noise)) if args.supervisor_hazard else SUPERVISOR_HAZARD)
     if isinstance(conf, PredictedGreedy):
         conf.every_plan = args.predict_every_greedy_plan
@@ -152,8 +152,9 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     ap.add_argument("--margin", type=float, default=0.1, help="RobustConfigurator's margin (default 0.1)")
     ap.add_argument("--routes", type=int, default=1, help="RobustConfigurator's routes (default 1)")
     ap.add_argument("--frontier-slack", type=float, default=0.03, help="RobustConfigurator's frontier_slack (default 0.03 m)")
-    ap.add_argument("--closed-loop-noise", action="store_true",
-                    help="sample with planner.robust.closed_loop_noise(NOISE): the terms measured in the world's closed loop")
+    ap.add_argument("--preset-noise", action="store_true",
+                    help="sample with the preset's own terms (default: planner.robust.rollout_noise(NOISE), the terms measured "
+                         "in the world's closed loop)")
     ap.add_argument("--no-confirm", action="store_true",
                     help="take the scheduler's deviations without the second look on fresh rollouts (RobustConfigurator(confirm=False))")
     ap.add_argument("--retries", type=int, default=1,
@@ -161,6 +162,9 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     ap.add_argument("--supervisor-hazard", action="store_true",
                     help="interrupt rollouts with the supervisor's noise allowance (HazardRule.supervisor: deep alarms at once, "
                          "shallow ones when the revolution before raised one; default: any 2 points inside the body)")
+    ap.add_argument("--no-carry", action="store_true",
+                    help="start every rollout of a choice at the state's recorded end (sample_map(carry=False)); default: each "
+                         "noisy world carries its true pose from task to task")
     ap.add_argument("--max-time", type=float, default=120.0)
     ap.add_argument("--predict-every-greedy-plan", action="store_true",
                     help="sample a map for every greedy plan too (default: its first plan only; twice the CPU)")
@@ -183,7 +187,8 @@ def main(argv: list[str] | None = None) -> int:
           f"(paired: same layout, world and seeds), {args.samples} samples per choice, margin {args.margin}, "
           f"routes {args.routes}, frontier slack {args.frontier_slack} m, retries {args.retries}, "
           f"hazard rule {'supervisor (allowance)' if args.supervisor_hazard else 'strict'}, "
-          f"rollout noise {'closed-loop ' if args.closed_loop_noise else ''}{args.noise}, workers {args.workers}:")
+          f"rollout noise {'preset' if args.preset_noise else 'closed-loop'} {args.noise}, "
+          f"poses {'reset at each state' if args.no_carry else 'carried'}, workers {args.workers}:")
     print(f"  {'family':<8} {'plans':<7} {'success (goal, no collision) [95% Wilson]':<44} {'Storm P, 1st plan':<18} "
           f"{'Storm P per plan*':<17} {'plans carried to their end [95%]':<36} CPU s/run")
     print("  (* the mean over the plans predicted: every robust plan; the greedy condition's first plans unless "

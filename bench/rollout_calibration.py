@@ -2,13 +2,15 @@
 sampled rollouts of the same noise preset.
 
 Run: ``python bench/rollout_calibration.py [--runs 20] [--families doorway clutter]
-[--noise harsh]``. World: planning runs of the experiment's layouts driven by the
+[--noise harsh] [--samples 300] [--seed 0]``. World: planning runs of the experiment's layouts driven by the
 supervisor (scan feedback on), each run's log read back; for every task that ended by
 its own criterion, the truth's motion against the estimate's (what the supervisor
 believed it did): a turn's relative angle error, a straight's relative length error and
 its sideways error per metre. Rollouts: :func:`planner.probabilistic.sample_map`'s
 noisy rollouts (:class:`planner.probabilistic.RolloutNoise` of the same preset) of a
-90° turn and a straight to the rim in an empty scene, against the noise-free task.
+90° turn and a straight to the rim in an empty scene, against the noise-free task, with
+the preset's terms and with the closed-loop terms fitted to the world
+(:data:`planner.robust.CLOSED_LOOP_TERMS`).
 Prints mean and standard deviation of each; asserts nothing.
 """
 
@@ -29,6 +31,7 @@ from planner import Configurator
 from planner.perception import perceive
 from planner.physics import simulate
 from planner.probabilistic import RolloutNoise, _rollout, _World
+from planner.robust import closed_loop_noise
 from planner.robot import RobotModel
 from runtime.experiment.layouts import make_layout
 from runtime.experiment.runner import run_once
@@ -75,10 +78,10 @@ def world_errors(families: list[str], runs: int, noise: str) -> dict[str, list[f
     return out
 
 
-def rollout_errors(noise: str, samples: int, seed: int = 0) -> dict[str, list[float]]:
+def rollout_errors(noise: str | RolloutNoise, samples: int, seed: int = 0) -> dict[str, list[float]]:
     """The same errors of sampled rollouts against the noise-free task (empty scene)."""
     robot = RobotModel()
-    nz = RolloutNoise.preset(noise)
+    nz = RolloutNoise.preset(noise) if isinstance(noise, str) else noise
     goal = Disturbance.goal(3.0, 0.0)
     empty = perceive(np.zeros((0, 2)), robot.sensor_range, robot.cluster_distance)
     start = Pose(0.0, 0.0, 0.0)
@@ -88,7 +91,7 @@ def rollout_errors(noise: str, samples: int, seed: int = 0) -> dict[str, list[fl
     out: dict[str, list[float]] = {"turn": [], "length": [], "sideways": []}
     for _ in range(samples):
         r = np.random.default_rng(rng.integers(2**63))
-        bl, br = r.normal(0.0, nz.wheel_bias, 2)
+        bl, br = r.normal(0.0, nz.wheel_bias, 2)  # as sample_map draws a world
         w = _World(empty, float(bl), float(br), float(r.normal(0.0, nz.drift)), r)
         o = _rollout(TaskKind.LEFT, start, goal, w, robot, nz)
         out["turn"].append(o.end.theta / turn.end.theta - 1)
@@ -104,18 +107,22 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--families", nargs="+", default=["doorway", "clutter"])
     ap.add_argument("--noise", default="harsh")
     ap.add_argument("--samples", type=int, default=300, help="rollouts (default 300)")
+    ap.add_argument("--seed", type=int, default=0, help="seed of the rollouts (default 0)")
     args = ap.parse_args(argv)
     w0, c0 = time.perf_counter(), time.thread_time()
     world = world_errors(args.families, args.runs, args.noise)
-    roll = rollout_errors(args.noise, args.samples)
+    roll = rollout_errors(args.noise, args.samples, args.seed)
+    fitted = rollout_errors(closed_loop_noise(args.noise), args.samples, args.seed)
     print(f"task end errors at noise {args.noise}: execution world ({', '.join(args.families)}, {args.runs} runs each; "
-          f"truth against the supervisor's estimate) beside {args.samples} sampled rollouts (against the noise-free task)")
-    print(f"  {'error':<32} {'world n':>8} {'mean':>8} {'sd':>8}   {'rollouts mean':>13} {'sd':>8}")
+          f"truth against the supervisor's estimate) beside {args.samples} sampled rollouts (against the noise-free task) "
+          f"of the preset and of planner.robust.closed_loop_noise({args.noise!r})")
+    print(f"  {'error':<32} {'world n':>8} {'mean':>8} {'sd':>8}   {'preset mean':>11} {'sd':>8}   {'closed-loop mean':>16} {'sd':>8}")
     names = {"turn": "turn angle, relative", "length": "straight length, relative", "sideways": "straight sideways, per metre"}
     for key, label in names.items():
-        w, r = np.array(world[key]), np.array(roll[key])
+        w, r, f = np.array(world[key]), np.array(roll[key]), np.array(fitted[key])
         wm, ws = (float(w.mean()), float(w.std())) if len(w) else (math.nan, math.nan)
-        print(f"  {label:<32} {len(w):>8d} {wm:>8.4f} {ws:>8.4f}   {float(r.mean()):>13.4f} {float(r.std()):>8.4f}")
+        print(f"  {label:<32} {len(w):>8d} {wm:>8.4f} {ws:>8.4f}   {float(r.mean()):>11.4f} {float(r.std()):>8.4f}   "
+              f"{float(f.mean()):>16.4f} {float(f.std()):>8.4f}")
     print(f"wall {time.perf_counter() - w0:.0f} s, thread CPU {time.thread_time() - c0:.0f} s")
     return 0
 

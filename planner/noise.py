@@ -19,6 +19,9 @@ from typing import Any
 
 __all__ = ["NoiseError", "RolloutNoise", "preset_names"]
 
+_SIGNED = frozenset({"turn_mean", "straight_mean"})
+"""The terms that are means (may be negative), not spreads."""
+
 _PRESETS_FILE = Path(__file__).resolve().parents[1] / "specs" / "noise_presets.json"
 
 
@@ -37,7 +40,13 @@ class RolloutNoise:
     wheels turn; ``slip``: scale of the speed each wheel loses per tick, |N(0, slip)|;
     ``turn_sd``: relative sd of the angle a turn actually makes (the robot ends a turn
     on its own heading estimate; default ``wheel_bias + wheel_sd``, the wheels' relative
-    error). Defaults: the ``paper`` preset of ``specs/noise_presets.json``.
+    error); ``turn_mean``: the mean of that relative error (a closed loop that ends its
+    turns late turns too far on average); ``straight_sd`` and ``straight_mean``: the
+    same for the length a straight truly drives against the length it was told (the
+    robot ends a straight on its estimate too). The last four describe a closed loop,
+    not the world: the presets leave them at 0 (``turn_sd`` at its default), and
+    :func:`planner.robust.closed_loop_noise` sets them as measured. Defaults: the
+    ``paper`` preset of ``specs/noise_presets.json``.
 
     >>> RolloutNoise().turn_error_sd
     0.025
@@ -51,14 +60,20 @@ class RolloutNoise:
     angle_sd: float = 0.002
     slip: float = 0.01
     turn_sd: float | None = None
+    turn_mean: float = 0.0
+    straight_sd: float = 0.0
+    straight_mean: float = 0.0
 
     def __post_init__(self) -> None:
         for f in fields(self):
             v = getattr(self, f.name)
             if v is None and f.name == "turn_sd":
                 continue
-            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v < 0:
-                raise NoiseError(f"noise.{f.name}: expected a finite number >= 0, got {v!r}")
+            signed = f.name in _SIGNED
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or (v < 0 and not signed):
+                raise NoiseError(f"noise.{f.name}: expected a finite number{'' if signed else ' >= 0'}, got {v!r}")
+            if signed and abs(v) >= 0.5:
+                raise NoiseError(f"noise.{f.name}: a mean relative error must lie within (-0.5, 0.5), got {v!r}")
         if self.dropout >= 1:
             raise NoiseError(f"noise.dropout: must be below 1, got {self.dropout!r}")
 

@@ -250,15 +250,42 @@ def _rollout(kind: TaskKind, start: Pose, goal: Disturbance, world: _World, robo
     return _rollout_stop(kind, start, goal, world, robot, noise, hazard)[0]
 
 
+def _aimed_limit(kind: TaskKind, start: Pose, aim: State) -> float | None:
+    """The limit the supervisor gives the task that is to end in ``aim`` when the robot
+    starts it at ``start`` (runtime/supervision/supervisor.py, ``_start_next``): a straight
+    drives the planned length from wherever it stands, a turn turns to the planned
+    heading. None when ``aim`` gives no such figure (an interrupted outcome, a straight
+    of no length)."""
+    if aim.interrupted:
+        return None
+    if kind is TaskKind.STRAIGHT:
+        return aim.distance if aim.distance > 0 else None
+    turn = wrap_angle(aim.end.theta - start.theta)
+    angle = turn if kind is TaskKind.LEFT else -turn
+    if angle < -math.pi / 2:  # wrapped: a turn of nearly pi
+        angle += 2 * math.pi
+    return min(max(angle, 0.0), math.pi)
+
+
 def _rollout_stop(kind: TaskKind, start: Pose, goal: Disturbance, world: _World, robot: RobotModel, noise: RolloutNoise,
-                  hazard: HazardRule | None = None) -> tuple[Outcome, bool]:
-    """One noisy rollout and whether the ``hazard`` rule stopped it (a stop, not a contact)."""
+                  hazard: HazardRule | None = None, aim: State | None = None) -> tuple[Outcome, bool]:
+    """One noisy rollout and whether the ``hazard`` rule stopped it (a stop, not a contact).
+    ``aim``: the state the plan means the task to end in; the task is then given the
+    supervisor's limit for it from ``start`` (:func:`_aimed_limit`), as when the robot
+    starts it from where the task before truly ended."""
     base = make_task(kind, world.obstacles, robot, start, goal)
     limit = base.limit
-    if kind is TaskKind.STRAIGHT:
+    aimed = None if aim is None else _aimed_limit(kind, start, aim)
+    if aimed is not None:
+        limit = aimed
+    elif kind is TaskKind.STRAIGHT:
         limit = min(limit, frontier_distance(robot, start))  # as planned: cut at the sensed disc's rim
-    if kind.is_turn and noise.turn_error_sd:
-        limit = min(base.limit * (1 + world.rng.normal(0.0, noise.turn_error_sd)), math.pi)
+    if kind.is_turn and (noise.turn_error_sd or noise.turn_mean):
+        err = world.rng.normal(0.0, noise.turn_error_sd) if noise.turn_error_sd else 0.0
+        limit = min(limit * (1 + noise.turn_mean + err), math.pi)
+    elif kind is TaskKind.STRAIGHT and (noise.straight_sd or noise.straight_mean):
+        err = world.rng.normal(0.0, noise.straight_sd) if noise.straight_sd else 0.0
+        limit = limit * (1 + noise.straight_mean + err)
     task = _NoisyTask(base.kind, robot, start, max(limit, 0.0), base.goal, base.goal_ahead,
                       world.bias_l, world.bias_r, noise.wheel_sd, world.drift, world.rng, noise.slip)
     length = task.limit if kind is TaskKind.STRAIGHT else 0.0
@@ -370,6 +397,7 @@ def sample_map(
     configurator: Configurator | None = None,
     tolerance: tuple[float, float] | None = None,
     hazard: HazardRule | None = None,
+    carry: bool = False,
 ) -> ProbabilisticMap:
     """Build the nominal map of ``scan`` for ``goal`` and estimate every choice's outcome
     from ``samples`` noisy rollouts (see the module docstring); ``seed`` makes it
@@ -377,7 +405,15 @@ def sample_map(
     state's to fall into it (default :data:`POSITION_TOLERANCE`,
     :data:`HEADING_TOLERANCE`; the supervisor continues a plan whose task ended within
     its ``end_tolerance``, 0.08 m and 0.3 rad). ``hazard``: also interrupt a rollout as
-    the supervisor's scan test would (:class:`HazardRule`); default: contacts only."""
+    the supervisor's scan test would (:class:`HazardRule`); default: contacts only.
+    ``carry``: each noisy world carries its robot's true pose from task to task, as the
+    closed loop does: a task is rolled out from where that world's rollout of the task
+    before truly ended (a world whose rollout fell into another state starts from the
+    end of one that fell into this one), with the supervisor's limit for the planned
+    outcome (a straight drives the planned length from there, a turn turns to the
+    planned heading). Without it every rollout of a choice starts at the state's
+    recorded end pose, so an error within the tolerance is forgotten at each step and a
+    later task never meets the obstacle such an error leads it into."""
     if isinstance(samples, bool) or not isinstance(samples, int) or samples < 1:
         raise NoiseError(f"samples must be a whole number >= 1, got {samples!r}")
     if samples > MAX_SAMPLES:
@@ -404,22 +440,47 @@ def sample_map(
     choices: dict[tuple[int, TaskKind], int] = {}
     for t in nominal.map.transitions():
         choices.setdefault((t.source, t.label), t.target)
-    for (source, kind), target in sorted(choices.items(), key=lambda kv: (kv[0][0], list(TaskKind).index(kv[0][1]))):
+    rank = _breadth_first(nominal.map) if carry else {}  # a choice's start is known once its source is reached
+    arrivals: dict[int, dict[int, Pose]] = {}  # with carry: state -> world -> where that world's robot truly is
+    order = sorted(choices.items(), key=lambda kv: (rank.get(kv[0][0], kv[0][0]), list(TaskKind).index(kv[0][1])))
+    for (source, kind), target in order:
         start = nominal.map[source].end
+        here = arrivals.get(source, {})
+        pool = [here[i] for i in sorted(here)]
+        aim = nominal.map[target] if carry else None
         counts: dict[int, int] = {}
-        for w in worlds:
-            out, stopped = _rollout_stop(kind, start, nominal.goal, w, robot, nz, hazard)
+        for i, w in enumerate(worlds):
+            begin = here.get(i, pool[i % len(pool)] if pool else start) if carry else start
+            out, stopped = _rollout_stop(kind, begin, nominal.goal, w, robot, nz, hazard, aim)
+            if carry:
+                out = replace(out, start=start)  # the map's states start where their source ends
             ident = b.group(source, kind, target, out, nominal.goal, stopped)
             counts[ident] = counts.get(ident, 0) + 1
+            if carry and not stopped and out.d_n is None:
+                arrivals.setdefault(ident, {}).setdefault(i, out.end)
         for ident, k in sorted(counts.items()):
             b.map.add_transition(source, ident, kind, Fraction(k, samples))
     _complete_turns(b, nominal, conf)
     b.map = _reachable_part(b.map)
     plan = extract_plan(b.map)
     b.map.metadata.update({"plan": list(plan.states), "samples": samples, "noise": nz.to_dict(), "seed": seed, "nominal_plan": list(nominal.plan.states),
+                           "carry": carry,
                            STOPS_KEY: {str(i): src for i, src in sorted(b.stops.items()) if i in b.map and src in b.map}})
     kept = sum(1 for i in b.new if i in b.map)
     return ProbabilisticMap(b.map, nominal, samples, nz, time.perf_counter() - t0, time.thread_time() - c0, kept)
+
+
+def _breadth_first(cmap: CognitiveMap) -> dict[int, int]:
+    """Each state's rank in a breadth-first walk from q0 (sources before their successors)."""
+    rank = {cmap.initial.ident: 0}
+    queue = [cmap.initial.ident]
+    while queue:
+        q = queue.pop(0)
+        for t in cmap.out_transitions(q):
+            if t.target not in rank:
+                rank[t.target] = len(rank)
+                queue.append(t.target)
+    return rank
 
 
 def _reachable_part(cmap: CognitiveMap) -> CognitiveMap:

@@ -15,7 +15,7 @@ from typing import Any
 import numpy as np
 
 from formal.lts import CognitiveMap
-from formal.model import Disturbance, Pose
+from formal.model import Disturbance, Pose, TaskKind
 from formal.robust import RobustPlan
 from formal.supervisory import Plan
 from planner.configurator import Configurator, PlanResult
@@ -30,7 +30,8 @@ from planner.probabilistic import (
 )
 from planner.robot import RobotModel
 
-__all__ = ["plan_target", "RobustChoice", "RobustConfigurator", "SUPERVISOR_HAZARD", "CLOSED_LOOP_TERMS", "closed_loop_noise"]
+__all__ = ["plan_target", "RobustChoice", "RobustDecision", "RobustConfigurator", "SUPERVISOR_HAZARD", "CLOSED_LOOP_TERMS",
+           "closed_loop_noise", "rollout_noise"]
 
 _CONFIRM_SEED = 2**40
 """Added to a plan's sampling seed for the map that confirms a deviation (its own worlds)."""
@@ -39,14 +40,18 @@ SUPERVISOR_HAZARD = HazardRule()
 """The supervisor's scan test with its defaults (2 points, 5.5 Hz)."""
 
 CLOSED_LOOP_TERMS: dict[str, dict[str, float]] = {
-    "harsh": {"wheel_bias": 0.005, "drift": 0.002, "turn_sd": 0.066},
+    "harsh": {"wheel_bias": 0.005, "drift": 0.002, "turn_sd": 0.058, "turn_mean": 0.058,
+              "straight_sd": 0.041, "straight_mean": 0.061},
 }
-"""Rollout terms of a preset as the execution world's closed loop turns them out, measured
-with ``python bench/rollout_calibration.py --runs 20`` (doorway and clutter, 53 turns and
-70 straights): the supervisor ends a task on its scan-corrected estimate, so a turn's
-angle is off by 6.6 % (sd; the preset's wheels alone give 13 %) and a straight drifts
-5.4 cm sideways per metre (the preset's per-run bias and drift alone give 14 cm). With
-these terms the rollouts give 7.0 % and 6.0 cm."""
+"""Rollout terms of a preset as the execution world's closed loop turns them out, fitted
+to ``python bench/rollout_calibration.py --runs 20`` (doorway and clutter, harsh, after
+the pose filter: 70 turns and 101 straights, the truth's motion against what the
+supervisor's scan-corrected estimate believed it did). The supervisor ends a task on
+that estimate, so a turn truly turns 6.2 % more than it believes (mean; sd 6.2 %; the
+preset's wheels alone give 0.5 % and 13 %), a straight truly drives 4.1 % farther (sd
+4.2 %; the preset's rollouts: 3 % short, sd 2 %) and drifts 6.6 cm sideways per metre
+(sd; the preset: 14 cm). With these terms the rollouts give a turn +6.1 % (sd 6.2 %), a
+straight +4.0 % (sd 4.2 %) and 6.9 cm/m (300 rollouts, seed 0)."""
 
 
 def closed_loop_noise(preset: str) -> RolloutNoise:
@@ -54,9 +59,21 @@ def closed_loop_noise(preset: str) -> RolloutNoise:
     it in the execution world (the preset unchanged where nothing was measured).
 
     >>> closed_loop_noise("harsh").turn_error_sd, closed_loop_noise("paper") == RolloutNoise.preset("paper")
-    (0.066, True)
+    (0.058, True)
     """
     return replace(RolloutNoise.preset(preset), **CLOSED_LOOP_TERMS.get(preset, {}))
+
+
+def rollout_noise(noise: RolloutNoise | str) -> RolloutNoise:
+    """The rollouts' noise for ``noise``: a preset name gives :func:`closed_loop_noise`
+    (what the closed loop turns the preset into, where measured), a
+    :class:`RolloutNoise` is taken as it is. What :class:`RobustConfigurator` and
+    ``clomp plan --robust`` sample with.
+
+    >>> rollout_noise("harsh") == closed_loop_noise("harsh"), rollout_noise(RolloutNoise()) == RolloutNoise()
+    (True, True)
+    """
+    return closed_loop_noise(noise) if isinstance(noise, str) else noise
 
 
 def plan_target(cmap: CognitiveMap, nominal_end: Pose, goal: Disturbance, radius: float = 0.1,
@@ -100,7 +117,9 @@ class RobustChoice:
 
 class RobustConfigurator(Configurator):
     """A Configurator whose plans are Storm's risk-aware ones: each :meth:`plan` builds
-    the probabilistic map (``samples`` noisy rollouts per choice, ``noise`` preset) and
+    the probabilistic map (``samples`` noisy rollouts per choice; ``noise``: a preset
+    name, sampled with the terms the closed loop turns it into, :func:`rollout_noise`, or
+    a :class:`RolloutNoise` as given) and
     returns the plan of the scheduler that maximises P[!collision U target] on it, so
     that a supervisor executes and replans with robust plans. The map is searched for
     ``routes`` ends (goal states or frontiers, :attr:`Configurator.routes`, within
@@ -113,8 +132,10 @@ class RobustConfigurator(Configurator):
     arbitrarily among equal choices, and k/N is an estimate): the plan leaves it only
     where a detour is safer by more than ``margin``. The map is sampled as the closed
     loop runs: outcomes within the supervisor's end tolerance are one state
-    (``tolerance``), and a rollout is interrupted where the supervisor's scan test would
-    stop it (``hazard``). A stop is retried up to ``retries`` times (default 1) in Storm's
+    (``tolerance``), a rollout is interrupted where the supervisor's scan test would
+    stop it (``hazard``), and each noisy world carries its robot's true pose from task to
+    task (``carry``, :func:`planner.probabilistic.sample_map`): a task starts where the
+    one before truly ended, as in the world, not at the state's recorded pose. A stop is retried up to ``retries`` times (default 1) in Storm's
     objective, as the supervisor replans after one (:func:`formal.retry.retry_model`; 0:
     a stop is final, as before; at harsh noise, 50 paired runs per family, 1 and 0 gave
     the same successes: doorway 42 vs greedy 41 both, clutter 16 vs 16 both). Needs
@@ -164,11 +185,12 @@ class RobustConfigurator(Configurator):
         frontier_slack: float = POSITION_TOLERANCE,
         confirm: bool = True,
         retries: int = 1,
+        carry: bool = True,
         **options: Any,
     ) -> None:
         super().__init__(robot, **options)
         self.samples = samples
-        self.noise = RolloutNoise.preset(noise) if isinstance(noise, str) else noise
+        self.noise = rollout_noise(noise)
         self.seed = seed
         self.goal_radius = goal_radius
         self.margin = margin
@@ -181,6 +203,7 @@ class RobustConfigurator(Configurator):
         if isinstance(retries, bool) or not isinstance(retries, int) or retries < 0:
             raise ValueError(f"retries must be a whole number >= 0, got {retries!r}")
         self.retries = retries
+        self.carry = carry
         self._calls = 0
         self.decisions: list[str] = []
         self.confirmations: list[tuple[float, float]] = []
@@ -200,7 +223,8 @@ class RobustConfigurator(Configurator):
                                 routes=self.search_routes)
         else:
             base = plain
-        pm = sample_map(points, goal, self.samples, self.noise, self.seed + self._calls, base, self.tolerance, self.hazard)
+        pm = sample_map(points, goal, self.samples, self.noise, self.seed + self._calls, base, self.tolerance, self.hazard,
+                        self.carry)
         self._calls += 1
         g = greedy_result
         target = plan_target(pm.map, g.map[g.plan.end].end, g.goal, self.goal_radius, self.frontier_slack)
@@ -230,7 +254,8 @@ class RobustConfigurator(Configurator):
 
         base = c.pm.nominal
         g = c.greedy_result
-        other = sample_map(points, goal, self.samples, self.noise, seed, _Fixed(base, self.cost), self.tolerance, self.hazard)
+        other = sample_map(points, goal, self.samples, self.noise, seed, _Fixed(base, self.cost), self.tolerance, self.hazard,
+                           self.carry)
         target = plan_target(other.map, g.map[g.plan.end].end, g.goal, self.goal_radius, self.frontier_slack)
         best = robust_plan(other.map, target, retries=self.retries).scheduler
 
@@ -242,40 +267,85 @@ class RobustConfigurator(Configurator):
 
         return value(c.robust.plan, c.pm.map), value(c.greedy, c.pm.map)
 
+    def choose(self, scan: Any, goal: Disturbance | tuple[float, float]) -> RobustDecision:
+        """One planning step without the plan: the probabilistic map, Storm's policy and
+        the decision (see the class docstring). :meth:`plan` and ``clomp plan --robust``
+        both come through here, so the command line shows the plan a supervisor runs."""
+        points = load_scan(scan)
+        call = self._calls
+        c = self.sample(points, goal)
+        cmap = c.pm.map
+        sched = c.robust.scheduler
+        kept = len(c.greedy) > 1 and all(sched.get(a) is cmap[b].task for a, b in c.greedy.steps())
+        confirmation = None
+        if kept or len(c.robust.plan) <= 1:  # nothing safer found, or no task at all
+            decision = "kept"
+        elif not self.confirm:
+            decision = "deviated"
+        else:
+            confirmation = self.confirm_deviation(points, goal, c, self.seed + call + _CONFIRM_SEED)
+            decision = "confirmed" if confirmation[0] > confirmation[1] + self.margin else "rejected"
+            self.confirmations.append(confirmation)
+        self.decisions.append(decision)
+        d = RobustDecision(c, decision, confirmation)
+        self.last_probabilities = (d.probability, c.p_greedy)
+        self.predictions[-1] = self.last_probabilities
+        return d
+
     def plan(self, scan: Any, goal: Disturbance | tuple[float, float]) -> PlanResult:
         """The robust plan on the probabilistic map of ``scan`` (see the class docstring)."""
         from formal.robust import attach_policy
         from formal.supervisory import guard
 
         t0 = time.perf_counter()
-        points = load_scan(scan)
-        call = self._calls
-        c = self.sample(points, goal)
-        cmap = c.pm.map
-        sched = c.robust.scheduler
-        g = c.greedy_result
-        kept = len(c.greedy) > 1 and all(sched.get(a) is cmap[b].task for a, b in c.greedy.steps())
-        if kept or len(c.robust.plan) <= 1:  # nothing safer found, or no task at all
-            decision = "kept"
-        elif not self.confirm:
-            decision = "deviated"
-        else:
-            v_r, v_g = self.confirm_deviation(points, goal, c, self.seed + call + _CONFIRM_SEED)
-            decision = "confirmed" if v_r > v_g + self.margin else "rejected"
-            self.confirmations.append((v_r, v_g))
-        self.decisions.append(decision)
-        if decision in ("kept", "rejected"):
+        d = self.choose(scan, goal)
+        c, g = d.choice, d.choice.greedy_result
+        if not d.deviates:
             # the best-first plan, exactly as the plain Configurator made it (its map, its
             # states, their predicted ends): the supervisor executes and recalls it as it
             # would without Storm, so a run differs only where Storm found a safer plan
-            self.last_probabilities = (c.p_greedy, c.p_greedy)
-            self.predictions[-1] = self.last_probabilities
             return replace(g, planning_time_s=time.perf_counter() - t0)
-        attach_policy(cmap, sched)  # a recall on this map follows the scheduler
+        cmap = c.pm.map
+        attach_policy(cmap, c.robust.scheduler)  # a recall on this map follows the scheduler
         cmap.metadata["target"] = sorted(c.target)
         plan = c.robust.plan
         return PlanResult(cmap, plan, g.goal, g.obstacles, g.robot, time.perf_counter() - t0, g.stop_reason, guard(cmap, plan),
                           g.goal_blocked)
+
+
+@dataclass
+class RobustDecision:
+    """What :meth:`RobustConfigurator.choose` decided: the step's :class:`RobustChoice`,
+    ``decision`` ("kept", "confirmed", "rejected" or, without the second look,
+    "deviated") and the second look's (robust, best-first) values, if one was taken."""
+
+    choice: RobustChoice
+    decision: str
+    confirmation: tuple[float, float] | None = None
+
+    @property
+    def deviates(self) -> bool:
+        """Whether Storm's policy is executed (else the best-first plan, unchanged)."""
+        return self.decision in ("confirmed", "deviated")
+
+    @property
+    def plan(self) -> Plan:
+        """The plan executed, on the probabilistic map: Storm's, or the best-first one."""
+        return self.choice.robust.plan if self.deviates else self.choice.greedy
+
+    @property
+    def policy(self) -> dict[int, TaskKind]:
+        """The task the supervisor starts in each state it may reach: Storm's scheduler,
+        or the best-first plan's tasks along its path (its recall has no policy)."""
+        if self.deviates:
+            return dict(self.choice.robust.scheduler)
+        cmap = self.choice.pm.map
+        return {a: cmap[b].task for a, b in self.plan.steps()}
+
+    @property
+    def probability(self) -> float:
+        """Storm's P[!collision U target] of the plan executed (with the retries)."""
+        return self.choice.robust.probability if self.deviates else self.choice.p_greedy
 
 
 class _Fixed(Configurator):
