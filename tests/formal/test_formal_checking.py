@@ -350,6 +350,34 @@ def test_cli_plan_robust_json_has_both_probabilities(clomp):
     assert [policy[q] for q in [0] + [st["state"] for st in d["plan"][:-1]]] == [st["task"] for st in d["plan"]]
     code, out, _ = clomp("plan", "--scenario", "doorway", "--robust")
     assert code == 0 and "a policy" in out and f"P = {d['path_probability']:.4f}" in out
+    assert d["decision"] in ("kept", "confirmed", "rejected")
+
+
+@needs_storm
+def test_cli_plan_robust_is_the_runtimes_robust_configurator(clomp, tmp_path):
+    """One code path: ``clomp plan --robust`` gives the decision and figures of
+    :class:`planner.robust.RobustConfigurator` (the supervisor's robust planner) on the
+    same scan: its rollouts stopped by the hazard rule (stops in the map, retried in the
+    objective), poses carried, the closed loop's noise terms, the plan's target."""
+    import json
+
+    from planner import load_scenario
+    from planner.robust import RobustConfigurator, closed_loop_noise
+
+    path = tmp_path / "m.json"
+    code, out, _ = clomp("plan", "--scenario", "doorway", "--robust", "--noise", "harsh", "--samples", "8", "--seed", "3",
+                         "--json", "--map", str(path))
+    assert code in (0, 1)
+    d = json.loads(out)
+    scene = load_scenario("doorway")
+    c = RobustConfigurator(samples=8, noise="harsh", seed=3).choose(scene.scan(max_range=1.1), tuple(scene.goal_in_robot_frame()))
+    assert (d["decision"], d["probability"], d["greedy_probability"]) == (c.decision, c.probability, c.choice.p_greedy)
+    assert d["target"] == sorted(c.choice.target) and d["noise"] == closed_loop_noise("harsh").to_dict()
+    written = json.loads(path.read_text())
+    m = c.choice.pm.map
+    assert written["metadata"]["carry"] is True and written["metadata"]["stops"] == m.metadata["stops"]
+    assert (len(written["states"]), len(written["transitions"])) == (len(m), m.n_transitions) == (d["states"], d["transitions"])
+    assert d["greedy_probability"] <= d["probability"] + 1e-12
 
 
 @needs_storm
