@@ -117,8 +117,8 @@ def bench_check_and_recall(quick: bool) -> None:
         ratios_c.append(wc / wf)
         ratios_b.append(wc / wb)
         # recall from each state along the plan, on the scan seen from there
-        index = RecallIndex(result.map, plan=result.plan)
-        wi, ci, _ = _timed(lambda: RecallIndex(result.map, plan=result.plan))  # noqa: B023
+        index = RecallIndex(result.map, plan=result.plan, psi=result.psi)
+        wi, ci, _ = _timed(lambda: RecallIndex(result.map, plan=result.plan, psi=result.psi))  # noqa: B023
         rec_rows["index"].append((wi, ci))
         for ident in result.plan.states[1:-1]:
             here = result.map[ident].end
@@ -217,8 +217,7 @@ class _RecallPhases:
     a second pass over the runs of 1b, so that 1b's own figures carry no wrapper; the
     wrappers' cost is in each recall's total, not in its parts)."""
 
-    PARTS = ("RecallIndex.near", "_legs", "_points", "_near", "_straight_contacts", "_turn_contacts", "check_plan",
-             "_guard")
+    PARTS = ("RecallIndex.near", "_legs", "_points", "_straight_contacts", "_turn_contacts", "_check", "RecallIndex.guard")
 
     def __init__(self) -> None:
         self.rows: list[dict[str, float]] = []
@@ -244,7 +243,7 @@ class _RecallPhases:
         import runtime.supervision.planwatch as pw
 
         for name in self.PARTS:
-            owner, attr = (pc.RecallIndex, "near") if name == "RecallIndex.near" else (pc, name)
+            owner, attr = (pc.RecallIndex, name.split(".")[1]) if name.startswith("RecallIndex.") else (pc, name)
             self._wrap(owner, attr)
         inner = pc.recall
 
@@ -274,8 +273,8 @@ class _RecallPhases:
         for name in self.PARTS:
             v = med(r.get(name, 0.0) for r in self.rows)
             print(f"   {name:<22} {v * 1e3:7.3f} ms  ({v / total:.0%})")
-        print("   (no perception: the check tests the fused scan's raw points; _legs .. _turn_contacts are inside"
-              " check_plan)")
+        print("   (no perception: the check tests the fused scan's raw points; _legs, _straight_contacts and"
+              " _turn_contacts are inside _check, the check of one candidate's continuation)")
 
 
 def bench_world(seconds: float) -> None:

@@ -44,6 +44,8 @@ from planner.perception import Obstacles, perceive
 from planner.physics import simulate
 from planner.robot import RobotModel
 
+_STRAIGHT, _LEFT = TaskKind.STRAIGHT, TaskKind.LEFT  # looked up once: a member lookup is a descriptor call
+
 __all__ = [
     "CheckResult",
     "Recall",
@@ -125,7 +127,7 @@ def _legs(states: list[State], frame: Pose, running: bool) -> list[_Leg]:
         e = q.end
         end = (fx + fc * e.x - fs * e.y, fy + fs * e.x + fc * e.y, fth + e.theta)  # the map's end, robot frame
         c, sn = math.cos(th), math.sin(th)
-        if q.task is TaskKind.STRAIGHT:
+        if q.task is _STRAIGHT:
             if k == 0 and running:
                 amount = (end[0] - x) * c + (end[1] - y) * sn
             else:
@@ -134,39 +136,28 @@ def _legs(states: list[State], frame: Pose, running: bool) -> list[_Leg]:
             amount = abs(wrap_angle(end[2] - th))
         if amount <= 1e-3:
             reached = end  # nothing left of it: the next task starts where the map says
-        elif q.task is TaskKind.STRAIGHT:
+        elif q.task is _STRAIGHT:
             reached = (x + c * amount, y + sn * amount, th)
         else:
-            reached = (x, y, th + (amount if q.task is TaskKind.LEFT else -amount))
+            reached = (x, y, th + (amount if q.task is _LEFT else -amount))
         legs.append(_Leg(k, q.task, (x, y, th), amount, end, reached))
         x, y, th = reached
     return legs
 
 
 def _points(seen: Obstacles | np.ndarray, robot: RobotModel) -> np.ndarray:
-    """The scan's points within the sensor's range as complex x + iy (robot frame now)."""
+    """The scan's points within the sensor's range as complex x + iy (robot frame now): a
+    scan's N×2 floats read as N complex numbers, no arithmetic (equal to x + 1j * y up to
+    the sign of a zero, which no test of the check sees)."""
     if isinstance(seen, Obstacles):
         pts = seen.points
-    else:
-        pts = np.asarray(seen, dtype=float).reshape(-1, 2)
-        r2 = pts[:, 0] * pts[:, 0] + pts[:, 1] * pts[:, 1]
-        pts = pts[(r2 <= robot.sensor_range * robot.sensor_range) & (r2 > 1e-6)]
-    z: np.ndarray = pts[:, 0] + 1j * pts[:, 1]
-    return z
-
-
-def _near(z: np.ndarray, legs: list[_Leg], robot: RobotModel) -> np.ndarray:
-    """The points within the body's reach of the box spanned by the legs' starts and ends
-    (the rest cannot touch it): the array operations after it see a fraction of the scan."""
-    if not z.size or not legs:
-        return z
-    xs = [p[0] for g in legs for p in (g.start, g.reached)]
-    ys = [p[1] for g in legs for p in (g.start, g.reached)]
-    reach = _swept_radius(robot) + 0.01
+        out: np.ndarray = pts[:, 0] + 1j * pts[:, 1]
+        return out
+    z = np.ascontiguousarray(seen, dtype=float).reshape(-1, 2).view(np.complex128).ravel()
     x, y = z.real, z.imag
-    keep = (x >= min(xs) - reach) & (x <= max(xs) + reach) & (y >= min(ys) - reach) & (y <= max(ys) + reach)
-    out: np.ndarray = z[keep]
-    return out
+    r2 = x * x + y * y
+    keep = (r2 <= robot.sensor_range * robot.sensor_range) & (r2 > 1e-6)
+    return z if keep.all() else z[keep]
 
 
 def _straight_contacts(z: np.ndarray, legs: list[_Leg], robot: RobotModel, allowance: float) -> list[float]:
@@ -175,23 +166,21 @@ def _straight_contacts(z: np.ndarray, legs: list[_Leg], robot: RobotModel, allow
     planner's rule, :mod:`planner.physics`: the inflated footprint translated along the
     leg; a point already inside it at the start is held to the real body). ``allowance``
     (m) shrinks the body a point must enter to count (sensor noise)."""
-    if not z.size:
-        return [math.inf] * len(legs)
     a = np.array([complex(g.start[0], g.start[1]) for g in legs])
     e = np.exp(-1j * np.array([g.start[2] for g in legs]))
     w = (z[None, :] - a[:, None]) * e[:, None]  # legs × points: u + iv in each task's frame
     u, v = w.real, np.abs(w.imag)
     c = robot.clearance
     rear, front, half = robot.rear_offset + c, robot.front_offset + c, robot.width / 2 + c - allowance
-    gap = np.where((v <= half) & (u >= -rear), u - (front - allowance), np.inf)
-    d = gap.min(axis=1)
-    if (d <= allowance).any():
+    beside = (v <= half) & (u >= -rear)
+    d = np.min(u, axis=1, where=beside, initial=np.inf) - (front - allowance)  # = min(u - f): rounding is monotone
+    if d.min() <= allowance:
         # inside the inflated footprint at the start: held to the real body (the
         # start-touching rule); strictly inside the real body, the robot's own returns
+        gap = np.where(beside, u - (front - allowance), np.inf)
         rfront, rhalf = robot.front_offset - allowance, robot.width / 2 - allowance
-        waived = gap <= allowance
         real = np.where(v < rhalf, u - rfront, np.inf)
-        gap = np.where(waived, np.where(real >= allowance, real, np.inf), gap)
+        gap = np.where(gap <= allowance, np.where(real >= allowance, real, np.inf), gap)
         d = gap.min(axis=1)
     per_tick = robot.straight_speed * robot.tick
     # the task ends at the last control tick before the contact, as the planner's rollout
@@ -201,50 +190,64 @@ def _straight_contacts(z: np.ndarray, legs: list[_Leg], robot: RobotModel, allow
 def _turn_contacts(z: np.ndarray, legs: list[_Leg], robot: RobotModel, allowance: float) -> list[float]:
     """Per turn leg: how far (rad) the inflated body turns in place before it meets a point
     (inf: never), tested at every tick heading as the planner's rollout does; all legs in
-    one array operation (legs × tick headings × points)."""
+    one array operation (legs × tick headings × points), on the points within the inflated
+    body's reach of a leg's centre (no other point can meet it at any heading)."""
     per_tick = robot.turn_rate * robot.tick
     ticks = [math.ceil(g.amount / per_tick - 1e-9) for g in legs]
-    if not z.size or max(ticks) <= 0:
+    n = max(ticks)
+    if n <= 0:
         return [math.inf] * len(legs)
     d = z[None, :] - np.array([complex(g.start[0], g.start[1]) for g in legs])[:, None]  # legs × points
+    if len(legs) * n * z.size > 2048:  # a large array: first drop the points out of every leg's reach
+        near = (np.abs(d) <= _reach(robot)).any(axis=0)
+        d = d[:, near]
+        if not d.shape[1]:
+            return [math.inf] * len(legs)
     # past a leg's own last tick its heading stays at its end: a repeat, never an earlier contact
-    steps = np.arange(max(ticks) + 1) * per_tick
-    turned = [np.minimum(steps, g.amount) * (1.0 if g.kind is TaskKind.LEFT else -1.0) + g.start[2] for g in legs]
-    w = d[:, None, :] * np.exp(-1j * np.array(turned))[:, :, None]  # legs × ticks × points, body frames
+    steps = np.arange(n + 1) * per_tick
+    spec = np.array([(g.amount, 1.0 if g.kind is _LEFT else -1.0, g.start[2]) for g in legs])
+    turned = np.minimum(steps[None, :], spec[:, 0:1]) * spec[:, 1:2] + spec[:, 2:3]
+    w = d[:, None, :] * np.exp(-1j * turned)[:, :, None]  # legs × ticks × points, body frames
     c = robot.clearance
     rear, front, half = robot.rear_offset, robot.front_offset, robot.width / 2
     mid, length = (front - rear) / 2, (front + rear) / 2
     u, v = np.abs(w.real - mid), np.abs(w.imag)  # about the body's centre: one test per axis
     inside = (u <= length + c - allowance) & (v <= half + c - allowance)
     waived = inside[:, 0, :]
-    if waived.any():
+    anyw = waived.any(axis=1).tolist()
+    if True in anyw:
         real = (u <= length - allowance) & (v <= half - allowance)
         inside = np.where(waived[:, None, :], real, inside)
-        # strictly inside the real body at the start: the robot's own returns
+    if True in anyw or allowance > c:
+        # strictly inside the real body at the start: the robot's own returns, never a
+        # contact (below the clearance every such point is waived, so only then is there any)
         inside &= ~((u[:, 0, :] < length) & (v[:, 0, :] < half))[:, None, :]
-    hit = inside[:, 1:, :].any(axis=2)
     out = []
-    for i, g in enumerate(legs):
-        rows = np.flatnonzero(hit[i])
-        k = int(rows[0]) + 1 if len(rows) else ticks[i] + 1  # the first tick in contact
-        if waived[i].any():
+    for i, row in enumerate(inside[:, 1:, :].any(axis=2).tolist()):
+        g = legs[i]
+        k = min(row.index(True) + 1 if True in row else n + 1, ticks[i] + 1)  # the first tick in contact
+        if anyw[i] and k > 1:
             # a point within the margin is held to the real body with no margin for the
-            # corner's path between ticks: tested at eight headings per tick, as the planner does
-            sign = 1.0 if g.kind is TaskKind.LEFT else -1.0
-            k = min(k, _waived_turn(d[i][waived[i]], g.start[2], sign, per_tick, g.amount, ticks[i], robot, allowance))
+            # corner's path between ticks: tested at eight headings per tick, as the planner
+            # does (up to the tick before the contact found: only an earlier one matters)
+            sign = 1.0 if g.kind is _LEFT else -1.0
+            k = min(k, _waived_turn(d[i][waived[i]], g.start[2], sign, per_tick, g.amount, min(ticks[i], k - 1),
+                                    robot, allowance))
         out.append(math.inf if k > ticks[i] else min((k - 1) * per_tick, g.amount))  # the last tick heading before contact
     return out
 
 
 @functools.lru_cache(maxsize=16)
-def _swept_radius(robot: RobotModel) -> float:
-    return robot.swept_radius
+def _reach(robot: RobotModel) -> float:
+    """The inflated body's reach from its rotation centre, a margin far above rounding added."""
+    return robot.swept_radius + 1e-6
 
 
 def _waived_turn(d: np.ndarray, theta: float, sign: float, per_tick: float, e0: float, ticks: int,
                  robot: RobotModel, allowance: float) -> int:
     """The first tick at or after which the real body meets one of these points (complex,
-    relative to the centre; strictly outside the body at the start), eight headings a tick."""
+    relative to the centre; strictly outside the body at the start), eight headings a tick,
+    up to ``ticks`` (``ticks + 1``: none)."""
     rear, front, half = robot.rear_offset - allowance, robot.front_offset - allowance, robot.width / 2 - allowance
     fine = np.minimum(np.arange(1, 8 * ticks + 1) * (per_tick / 8), e0)
     w = d[None, :] * np.exp(-1j * (theta + sign * fine))[:, None]
@@ -292,37 +295,57 @@ def check_plan(
     t0 = time.perf_counter()
     if not states:
         return CheckResult(True, "nothing left to check", 0, time.perf_counter() - t0)
-    legs = _legs(states, relative(pose, origin), running)
-    live = [g for g in legs if g.amount > 1e-3]
-    z = _near(_points(seen, robot), live, robot)
+    return _check(states, relative(pose, origin), _points(seen, robot), robot, tolerance, running, allowance, t0)
+
+
+def _check(states: list[State], frame: Pose, z: np.ndarray, robot: RobotModel, tolerance: tuple[float, float],
+           running: bool, allowance: float, t0: float) -> CheckResult:
+    """:func:`check_plan` on the scan's points ``z`` (complex, robot frame), with the plan's
+    frame seen from the robot. The verdict names the first task that is blocked or ends off
+    the map's prediction, so no task after the first that ends off needs a contact test."""
+    legs = _legs(states, frame, running)
+    offs = [_ends_off(g, tolerance) if g.amount > 1e-3 else None for g in legs]
+    cut = next((k for k, off in enumerate(offs) if off is not None), len(legs))
+    live = [g for g in legs if g.amount > 1e-3 and g.k <= cut]
     blocked: dict[int, float] = {}
-    if z.size:
-        straights = [g for g in live if g.kind is TaskKind.STRAIGHT]
+    if z.size and live:
+        straights = [g for g in live if g.kind is _STRAIGHT]
         if straights:
             for g, d in zip(straights, _straight_contacts(z, straights, robot, allowance)):
                 if d < g.amount - tolerance[0]:
                     blocked[g.k] = d
-        turns = [g for g in live if g.kind is not TaskKind.STRAIGHT and g.k < min(blocked, default=len(legs))]
+        turns = [g for g in live if g.kind is not _STRAIGHT and g.k < min(blocked, default=len(legs))]
         if turns:
             for g, turned in zip(turns, _turn_contacts(z, turns, robot, allowance)):
                 if turned < g.amount - tolerance[1]:
                     blocked[g.k] = turned
+    return _verdict(legs, blocked, len(states), offs, t0)
+
+
+def _ends_off(g: _Leg, tolerance: tuple[float, float]) -> tuple[float, float] | None:
+    """How far (m, rad) the leg run as planned ends from the map's prediction, when beyond ``tolerance``."""
+    (rx, ry, rth), (ex, ey, eth) = g.reached, g.end
+    d, a = math.hypot(rx - ex, ry - ey), abs(wrap_angle(rth - eth))
+    return (d, a) if d > tolerance[0] or a > tolerance[1] else None
+
+
+def _verdict(legs: list[_Leg], blocked: dict[int, float], n: int, offs: list[tuple[float, float] | None],
+             t0: float) -> CheckResult:
+    """The check's result: the first leg (in order) that is ``blocked`` (where it meets a
+    point) or ends off the map's prediction (``offs``: :func:`_ends_off` per leg) fails the plan."""
     for g in legs:
         name = f"task {g.k + 1} ({g.kind.value})"
         if g.k in blocked:
-            if g.kind is TaskKind.STRAIGHT:
+            if g.kind is _STRAIGHT:
                 why = f"{name} now meets an obstacle after {max(blocked[g.k], 0.0):.2f} of {g.amount:.2f} m"
             else:
                 why = f"{name} now meets an obstacle"
             return CheckResult(False, why, g.k + 1, time.perf_counter() - t0)
-        if g.amount <= 1e-3:
-            continue
-        (rx, ry, rth), (ex, ey, eth) = g.reached, g.end
-        d, a = math.hypot(rx - ex, ry - ey), abs(wrap_angle(rth - eth))
-        if d > tolerance[0] or a > tolerance[1]:
-            return CheckResult(False, f"{name} would end {d:.3f} m, {math.degrees(a):.0f}° "
+        off = offs[g.k]
+        if off is not None:
+            return CheckResult(False, f"{name} would end {off[0]:.3f} m, {math.degrees(off[1]):.0f}° "
                                       f"from the map's prediction", g.k + 1, time.perf_counter() - t0)
-    return CheckResult(True, f"{len(states)} task(s) still free and on the map", len(states), time.perf_counter() - t0)
+    return CheckResult(True, f"{n} task(s) still free and on the map", n, time.perf_counter() - t0)
 
 
 def resimulate_plan(
@@ -408,16 +431,16 @@ class RecallIndex:
     [1]
     """
 
-    def __init__(self, cmap: Any, cell: float = 0.04, plan: Plan | None = None) -> None:
+    def __init__(self, cmap: Any, cell: float = 0.04, plan: Plan | None = None, psi: dict[Any, int] | None = None) -> None:
         t0 = time.perf_counter()
         self.map = cmap
         self.cell = cell
-        self._grid: dict[tuple[int, int], list[int]] = {}
+        self._grid: dict[tuple[int, int], list[tuple[int, float, float, float, float]]] = {}  # ident, end pose, φ
         best: State | None = None
         for i in cmap.reachable():
             q = cmap[i]
             if not q.interrupted:
-                self._grid.setdefault(self._key(q.end.x, q.end.y), []).append(i)
+                self._grid.setdefault(self._key(q.end.x, q.end.y), []).append((i, q.end.x, q.end.y, q.end.theta, q.cost))
                 if i != cmap.initial_id and (best is None or (q.cost, q.ident) < (best.cost, best.ident)):
                     best = q
         self._paths: dict[int, list[int] | None] = {}
@@ -429,7 +452,37 @@ class RecallIndex:
             for k, ident in enumerate(states[:-1]):
                 self._prefix[ident] = states[:k + 1]
                 self._paths[ident] = states[k:] if best.cost < cmap[ident].cost else None
+        self._psi: dict[Any, int] | None = None  # the guard the template below is made from
+        self._n = 0  # the map's number of transitions (a full guard's size)
+        self._zero: dict[Any, int] = {}
+        self._by_step: dict[tuple[int, int], dict[Any, int]] = {}
+        if psi is not None:
+            self._template(psi)
         self.build_s = time.perf_counter() - t0  # how long building it took (s)
+
+    def _template(self, psi: dict[Any, int]) -> None:
+        self._psi, self._n = psi, self.map.n_transitions
+        self._zero = dict.fromkeys(psi, 0)
+        self._by_step = {}
+        for t in psi:  # each step's transitions set to 1, hashed once (an update copies the hashes)
+            self._by_step.setdefault((t.source, t.target), {})[t] = 1
+
+    def guard(self, result: PlanResult, plan: Plan) -> dict[Any, int]:
+        """Ψ of ``plan`` on ``result``'s map, as :func:`_guard` derives it from the result's
+        guard: a copy of the map's all-zero guard with the plan's steps set (the template
+        is made once per map: with the index when ``psi`` is given, else at the first call)."""
+        if result.map is not self.map:
+            return _guard(result, plan)
+        if self._psi is None:  # every full guard of this map has the same keys: its transitions
+            self._template(result.psi)
+        if len(result.psi) != self._n:
+            return _guard(result, plan)
+        out = self._zero.copy()
+        for step in plan.steps():
+            ones = self._by_step.get(step)
+            if ones is not None:
+                out.update(ones)
+        return out
 
     def _key(self, x: float, y: float) -> tuple[int, int]:
         return math.floor(x / self.cell), math.floor(y / self.cell)
@@ -439,12 +492,13 @@ class RecallIndex:
         cx, cy = self._key(here.x, here.y)
         r = max(1, math.ceil(tolerance[0] / self.cell))
         found = []
+        grid, hx, hy, hth = self._grid, here.x, here.y, here.theta
         for i in range(cx - r, cx + r + 1):
             for j in range(cy - r, cy + r + 1):
-                for ident in self._grid.get((i, j), ()):
-                    d, a = _off(self.map[ident].end, here)
-                    if d <= tolerance[0] and a <= tolerance[1]:
-                        found.append((self.map[ident].cost, d, ident))
+                for ident, x, y, th, cost in grid.get((i, j), ()):
+                    d = math.hypot(x - hx, y - hy)
+                    if d <= tolerance[0] and abs(wrap_angle(th - hth)) <= tolerance[1]:
+                        found.append((cost, d, ident))
         return [ident for _c, _d, ident in sorted(found)]
 
     def continuation(self, result: PlanResult, source: int) -> list[int] | None:
@@ -524,18 +578,23 @@ def recall(
     if not candidates:
         return None, "no state of the map is where the robot is", time.perf_counter() - t0
     last = "no state of the map leads on from here"
+    z, frame = None, relative(pose, origin)  # the scan's points, made once for every candidate
     for ident in candidates:
         path = index.continuation(result, ident)
         if path is None:
             continue
         states = [cmap[i] for i in path[1:]]
-        verdict = check_plan(states, origin, pose, goal, seen, robot, tolerance=check_tolerance, allowance=allowance)
+        if z is None:
+            z = _points(seen, robot)
+        c0 = time.perf_counter()
+        verdict = _check(states, frame, z, robot, check_tolerance, False, allowance, c0) if states else \
+            CheckResult(True, "nothing left to check", 0, 0.0)
         if not verdict.ok:
             last = f"from q{ident}: {verdict.reason}"
             continue
         # the recalled plan, as a plan of the same map: ρ from q0 through the recalled state
         full = index.prefix(ident)[:-1] + path
         plan = Plan(tuple(full))
-        recalled = dataclasses.replace(result, plan=plan, psi=_guard(result, plan), planning_time_s=time.perf_counter() - t0)
+        recalled = dataclasses.replace(result, plan=plan, psi=index.guard(result, plan), planning_time_s=time.perf_counter() - t0)
         return Recall(recalled, ident, verdict), f"recalled from q{ident}: {verdict.reason}", time.perf_counter() - t0
     return None, last, time.perf_counter() - t0

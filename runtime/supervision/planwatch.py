@@ -105,7 +105,7 @@ class PlanWatch:
     def planned(self, result: PlanResult) -> float:
         """A fresh plan was made: index its map for recall; returns the seconds that took
         (part of making the map: the caller times it with the plan)."""
-        self.index = RecallIndex(result.map, plan=result.plan)
+        self.index = RecallIndex(result.map, plan=result.plan, psi=result.psi)
         self.recalls_in_a_row = 0
         return self.index.build_s
 
