@@ -11,6 +11,9 @@ and whether it touched anything.
 
 ``time_scale`` > 1 runs the world (and the LiDAR's pace) faster than real time; the
 controller must then use a :class:`runtime.clock.ScaledClock` of the same scale.
+``clock`` replaces wall time for the world and both emulators (a test's simulated time:
+the world is then advanced whenever the LiDAR starts a revolution or a wheel command
+arrives, and is not started as a thread).
 """
 
 from __future__ import annotations
@@ -72,6 +75,7 @@ class EmulatedWorld:
         device_number: int = 12,
         lidar_options: dict[str, Any] | None = None,
         serial_timeout: float | None = None,
+        clock: Callable[[], float] | None = None,
     ) -> None:
         if not (math.isfinite(time_scale) and time_scale > 0):
             raise ValueError(f"time_scale must be a positive number, got {time_scale!r}")
@@ -86,13 +90,14 @@ class EmulatedWorld:
             self.sim = SimRobot(self.scene, self.model, noise=noise, seed=seed)
         self.time_scale = float(time_scale)
         self.tick = float(tick)
+        self.clock: Callable[[], float] = clock or time.monotonic
         self.error: BaseException | None = None
         self._lock = threading.Lock()
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
         self._last: float | None = None  # wall time up to which the world has been advanced
         options = {"speed": self.time_scale, **(lidar_options or {})}
-        self.lidar = LidarEmulator(self._scan, **options)
+        self.lidar = LidarEmulator(self._scan, clock=clock, **options)
         self.maestro = MaestroEmulator(
             device_number=device_number,
             left=left,
@@ -101,6 +106,7 @@ class EmulatedWorld:
             span_us=span_us,
             on_speeds=self._on_speeds,
             serial_timeout=serial_timeout,
+            clock=clock,
         )
 
     # -- wiring -----------------------------------------------------------------------------
@@ -114,8 +120,8 @@ class EmulatedWorld:
             self.sim.set_wheel_speeds(left * vmax, right * vmax)
 
     def _catch_up(self) -> None:
-        """Advance the world to the wall time now (call with the lock held)."""
-        now = time.monotonic()
+        """Advance the world to the clock's time now (call with the lock held)."""
+        now = self.clock()
         if self._last is not None and now > self._last:
             self.sim.sleep((now - self._last) * self.time_scale)
         self._last = now
@@ -134,7 +140,7 @@ class EmulatedWorld:
 
     def _run(self) -> None:
         with self._lock:
-            self._last = time.monotonic()
+            self._last = self.clock()
         try:
             while not self._stop.wait(self.tick):
                 with self._lock:

@@ -6,18 +6,109 @@ software. :class:`SimLine` instead hands the driver a serial-like object whose f
 same emulator logic (not started: no pty, no thread), with time a :class:`ManualClock` that
 moves only while the reader waits for bytes. Processing costs no simulated time, so what a
 latency measured on it shows is the software's own windows and timeouts.
+
+:class:`LockstepClock` takes this one step further, for a whole control loop in simulated
+time: the controller's ``sleep`` is the only thing that lets time flow (a LiDAR line built
+with ``lockstep=True`` advances it only up to the sleeper's wake-up time), so the controller's
+own computing (planning, checking) takes no simulated time and nothing depends on how busy the
+machine is. That is an idealisation (the real-time cost is what the pty tests measure).
 """
 
 from __future__ import annotations
 
 import threading
+import time
+from collections.abc import Callable
 
 from runtime.clock import ManualClock
 from runtime.devices._pty import PtyEmulator
 
-__all__ = ["SimLine"]
+__all__ = ["LockstepClock", "SimLine"]
 
 _STEP = 0.001  # simulated seconds a waiting reader lets pass at a time
+
+
+class LockstepClock(ManualClock):
+    """Simulated time that flows only while the controller sleeps in it.
+
+    ``sleep(s)`` blocks until a lockstep line (see :class:`SimLine`) has moved the clock to
+    its wake-up time and then found nothing more to read, so whatever the device sent up to
+    then has been taken in before the controller looks; ``step(dt)`` is what such a line
+    calls when it finds nothing waiting: it moves time by at most ``dt`` toward the
+    sleeper's wake-up time and returns how far it moved (0: time stands still).
+    ``release()`` lets time run freely from then on (for shutting down: the reader thread
+    must see its timeouts pass once the controller has stopped sleeping).
+    ``free_when`` (a callable, e.g. "the robot has tripped", after which its reader thread
+    reads no more) releases the clock the same way once it holds. ``max_wall`` bounds a
+    hang: a sleep that waits longer than that in wall time raises.
+    """
+
+    def __init__(self, start: float = 0.0, *, max_wall: float = 60.0) -> None:
+        super().__init__(start)
+        self._cond = threading.Condition()
+        self._until: float | None = None
+        self._reached = False
+        self._free = False
+        self.max_wall = max_wall
+        self.free_when: Callable[[], bool] | None = None
+
+    def sleep(self, seconds: float) -> None:
+        if self._free:
+            super().sleep(seconds)
+            return
+        if not seconds > 0:
+            return
+        give_up = time.monotonic() + self.max_wall
+        with self._cond:
+            until = self._t + seconds
+            self._until, self._reached = until, False
+            self._cond.notify_all()
+            while not self._reached and not self._free:
+                if self.free_when is not None and self.free_when():
+                    self._free = True
+                    break
+                left = give_up - time.monotonic()
+                if left <= 0:
+                    raise RuntimeError(f"simulated time stood still for {self.max_wall} s of wall time "
+                                       f"at t = {self._t:.3f} (no lockstep line is reading?)")
+                self._cond.wait(min(left, 0.05))
+            self._until = None
+            if self._free:  # released while sleeping: the rest of the sleep passes at once
+                self._t = max(self._t, until)
+
+    def advance(self, seconds: float) -> None:
+        """Move time now, whoever sleeps (a line the controller itself waits on)."""
+        with self._cond:
+            if seconds > 0:
+                self._t += seconds
+                self._cond.notify_all()
+
+    def step(self, dt: float) -> float:
+        with self._cond:
+            if self._free:
+                self._t += dt
+                return dt
+            if self._until is None or self._reached:
+                return 0.0
+            if self._t >= self._until:
+                # the line is idle at the wake-up time: all it had to read up to now is read
+                self._reached = True
+                self._cond.notify_all()
+                return 0.0
+            moved = min(dt, self._until - self._t)
+            self._t = self._until if moved < dt else self._t + dt
+            return moved
+
+    def wait_for_sleeper(self, wall: float = 0.05) -> None:
+        """Block (at most ``wall`` s) until a sleeper lets time flow."""
+        with self._cond:
+            if not self._free and (self._until is None or self._reached):
+                self._cond.wait(wall)
+
+    def release(self) -> None:
+        with self._cond:
+            self._free = True
+            self._cond.notify_all()
 
 
 class SimLine:
@@ -27,12 +118,18 @@ class SimLine:
     letting the device emit meanwhile), so time runs only while the reader would block.
     ``running`` (an Event, set by default) pauses such waiting when cleared: a test holds
     time still while it arranges the next step. Lines to several devices on one clock share
-    one ``lock`` (the clock moves under it).
+    one ``lock`` (the clock moves under it). ``lockstep=True`` (with a :class:`LockstepClock`)
+    moves time only while the controller sleeps: the line to the device a background thread
+    reads (the LiDAR). A line the controller itself reads (the Maestro's replies) keeps the
+    default: its waiting is the controller's own.
     """
 
     def __init__(self, device: PtyEmulator, clock: ManualClock, *, timeout: float = 0.01, name: str = "sim",
-                 lock: threading.RLock | None = None) -> None:
+                 lock: threading.RLock | None = None, lockstep: bool = False) -> None:
+        if lockstep and not isinstance(clock, LockstepClock):
+            raise TypeError("lockstep=True needs a LockstepClock")
         self.device, self.clock, self.timeout, self.port = device, clock, timeout, name
+        self.lockstep = lockstep
         self.lock = lock or threading.RLock()
         self.running = threading.Event()
         self.running.set()
@@ -69,9 +166,18 @@ class SimLine:
                     return b""
             self.running.wait()
             with self.lock:
-                self.clock.advance(_STEP)
-                waited += _STEP
-                self.device._tick(self.clock.now())
+                if self.lockstep:
+                    assert isinstance(self.clock, LockstepClock)
+                    moved = self.clock.step(_STEP)
+                else:
+                    self.clock.advance(_STEP)
+                    moved = _STEP
+                if moved:
+                    waited += moved
+                    self.device._tick(self.clock.now())
+            if not moved:
+                assert isinstance(self.clock, LockstepClock)
+                self.clock.wait_for_sleeper()
 
     def close(self) -> None:
         pass

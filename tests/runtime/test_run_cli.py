@@ -122,6 +122,7 @@ def _overtaking(tmp_path: Path, scale: float) -> None:
     assert recs[0]["event"] == "run" and recs[0]["lidar"] == world.lidar_port
 
 
+@pytest.mark.slow  # real time over ptys; the default suite runs it in simulated time (test_stack_simtime.py)
 def test_overtaking_reaches_the_goal_over_ptys_at_double_speed(tmp_path: Path) -> None:
     """The whole stack on the paper's scenario; world, LiDAR pace and controller clock ×2."""
     _overtaking(tmp_path, 2.0)
@@ -150,6 +151,7 @@ def test_the_hardware_stack_closes_the_loop_in_the_harsh_world(tmp_path: Path) -
     assert any(r["event"] == "check" for r in recs)
 
 
+@pytest.mark.slow  # real time over ptys; the default suite runs it in simulated time (test_stack_simtime.py)
 def test_a_little_line_garbage_is_tolerated_and_the_run_still_works(tmp_path: Path) -> None:
     faults = {"garbage_rate": 0.02, "bad_check_rate": 0.01, "seed": 7}
     with EmulatedWorldProcess("open", time_scale=2.0, lidar_options=faults) as world:

@@ -1,0 +1,95 @@
+"""The whole hardware stack closing the loop in simulated time: drivers, hardware robot and
+supervisor against the device emulators and a scenario's world, with no pty and no wall clock.
+
+The same runs over ptys in real time (test_run_cli.py) measure the scheduler as much as the
+software on a loaded machine, so they are kept out of the default suite. Here the devices are
+the emulator logic on :class:`SimLine` and time is a :class:`LockstepClock`: it flows only
+while the supervisor sleeps between ticks, so planning costs no simulated time (an
+idealisation: the real-time cost is what the pty tests measure) and a run's outcome does not
+depend on how busy the machine is.
+"""
+
+from __future__ import annotations
+
+import threading
+from dataclasses import dataclass
+from typing import Any
+
+import pytest
+
+from planner import Configurator
+from runtime.robots.emulated import EmulatedWorld
+from runtime.robots.hardware import HardwareConfig, HardwareRobot
+from runtime.supervision import Supervisor, SupervisorReport
+from tests.runtime._simline import LockstepClock, SimLine
+
+NEUTRAL = 6000  # 1500 µs in quarter-µs
+
+
+@dataclass
+class StackRun:
+    report: SupervisorReport
+    world: EmulatedWorld
+    robot: HardwareRobot
+    elapsed: float  # simulated seconds
+
+
+def run_stack(scenario: str, *, max_time: float = 80.0, seed: int = 0, **world_options: Any) -> StackRun:
+    """Plan and execute ``scenario``'s goal through the real drivers, in simulated time (the
+    world's noise drawn from ``seed``: the same run every time)."""
+    clock, lock = LockstepClock(100.0), threading.RLock()
+    world = EmulatedWorld(scenario, clock=clock.now, seed=seed, **world_options)  # not started: no pty, no thread
+    lidar_line = SimLine(world.lidar, clock, lock=lock, name="sim-lidar", lockstep=True)
+    motor_line = SimLine(world.maestro, clock, lock=lock, name="sim-maestro")
+    # the Maestro driver's watchdog keeps wall time: off, as in test_hardware_deadlines.py
+    config = HardwareConfig(watchdog_timeout=None)
+    conf = Configurator()
+    t0 = clock.now()
+    try:
+        with HardwareRobot(lidar_line, motor_line, config, model=conf.robot, clock=clock,
+                           device_clock=clock.now) as robot:
+            clock.free_when = lambda: robot.fault is not None  # a tripped robot's reader reads no more
+            sup = Supervisor(robot, world.scene.goal_in_robot_frame(), conf, clock=clock)
+            report = sup.run(max_time=max_time)
+            elapsed = clock.now() - t0
+            clock.release()  # let the reader thread's timeouts run out as it closes
+    finally:
+        clock.release()
+    return StackRun(report, world, robot, elapsed)
+
+
+def test_overtaking_reaches_the_goal_through_the_hardware_stack_in_simulated_time() -> None:
+    run = run_stack("overtaking")
+    assert run.report.state.value == "GOAL_REACHED", run.report
+    assert run.world.goal_distance <= 0.12, run.world.pose  # truly there, not only by dead reckoning
+    assert run.world.collisions == 0
+    assert run.world.maestro.speeds == (0.0, 0.0)
+    assert run.robot.fault is None and run.world.lidar.error is None and run.world.maestro.error is None
+    assert run.robot.scans >= 5 * run.elapsed * 0.9  # the A1's ~5.5 revolutions/s of simulated time
+    moved = [t for _, ch, t in run.world.maestro.events if ch in (0, 1) and t not in (0, NEUTRAL)]
+    assert moved, "the wheels were never commanded"
+
+
+def test_a_little_line_garbage_is_tolerated_and_the_run_still_works_in_simulated_time() -> None:
+    faults = {"garbage_rate": 0.02, "bad_check_rate": 0.01, "seed": 7}
+    run = run_stack("open", lidar_options=faults)
+    assert run.report.state.value == "GOAL_REACHED", run.report
+    assert run.world.goal_distance <= 0.12, run.world.pose
+    assert run.world.lidar.garbage_bytes_sent > 0
+    assert run.robot.fault is None
+
+
+@pytest.mark.parametrize("noise", ["harsh"])
+def test_the_hardware_stack_closes_the_loop_in_the_harsh_world_in_simulated_time(noise: str) -> None:
+    run = run_stack("overtaking", noise=noise, max_time=90.0)
+    assert run.report.state.value == "GOAL_REACHED", run.report
+    assert run.world.goal_distance <= 0.15, run.world.pose
+    assert run.world.collisions == 0
+
+
+def test_a_run_in_simulated_time_is_the_same_run_every_time() -> None:
+    """What makes the runs above independent of the machine's load: the same seed gives the
+    same wheel commands, at the same simulated times, and the same end pose."""
+    a, b = run_stack("open"), run_stack("open")
+    assert a.world.maestro.events == b.world.maestro.events
+    assert a.world.pose == b.world.pose and a.elapsed == b.elapsed
