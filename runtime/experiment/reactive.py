@@ -46,6 +46,9 @@ Where this departs from the authors' code, and why:
   ``Task::H`` always avoids to the right and pursues to the left; the code's comments
   ("If the angle >0 means that Disturbance 1 is to the left") say the sign was meant.
   This uses the signed angle.
+- ``sides="as-coded"`` reproduces that (for probes); ``detect=False`` the authors' code
+  before 2024-10-09 (commit 3fa42f0), whose reactive branch simulated the task in a world
+  with no bodies, so it never predicted a crash: a blind pursuer.
 - Their goal task also ends once the robot is 1 m (``BOX2DRANGE``) from where it started,
   and ``reactive_target.cpp``'s ``set_target`` then returns no value; neither is copied.
 - Pose: as the planning condition's supervisor (the same robot, sensing and estimate, so
@@ -141,10 +144,12 @@ class ReactiveController:
         scan_timeout: float = 1.0,
         feedback: str = "scan",
         sides: str = "signed",
+        detect: bool = True,
     ) -> None:
         if sides not in ("signed", "as-coded"):
             raise ValueError(f"sides must be 'signed' or 'as-coded', got {sides!r}")
         self.sides = sides
+        self.detect = bool(detect)
         if feedback not in ("scan", "none"):
             raise ValueError(f"feedback must be 'scan' or 'none', got {feedback!r}")
         self.robot = robot
@@ -273,7 +278,7 @@ class ReactiveController:
         """Lateral centre (m, left +) of the scan points in the body's corridor over the
         straight continued to the goal (at most ``look_ahead``), or None when fewer than
         ``hazard_points`` points are there."""
-        if len(self._scan) == 0:
+        if len(self._scan) == 0 or not self.detect:
             return None
         m = self.model
         reach = min(goal_distance, self.look_ahead)

@@ -13,9 +13,8 @@ the layout is :func:`~runtime.experiment.layouts.make_layout` (family, seed, run
 the world's noise seed depends on (seed, run) only, so the two conditions of a run meet
 the same world and the same noise (paired), and a result does not depend on which
 process computed it or when. :func:`run_experiment` maps it over every run, in this
-process (``workers=0``) or on Dask (a local cluster of ``workers`` processes, or an
-existing scheduler), streaming each record to ``runs.jsonl`` in the output folder as it
-finishes, skipping the ones already there with ``resume=True``.
+process (``workers=0``) or on Dask (a local cluster of ``workers`` processes, or an existing
+scheduler), streaming each record to ``runs.jsonl`` as it finishes (``resume=True`` skips those there).
 
 Success (``success``): for a family whose goal can be reached, the robot truly ends
 within :data:`SUCCESS_RADIUS` of it (ground truth, whatever the controller believed);
@@ -53,20 +52,8 @@ from runtime.robots.sim import NoiseConfig
 from runtime.robots.world import WorldNoise, make_world_robot
 from runtime.supervision.supervisor import Supervisor
 
-__all__ = [
-    "CONDITIONS",
-    "PAPER",
-    "SUCCESS_RADIUS",
-    "ExperimentInterrupted",
-    "RunsFailed",
-    "RunResult",
-    "RunSpec",
-    "experiment_specs",
-    "load_records",
-    "run_experiment",
-    "run_once",
-    "run_spec",
-]
+__all__ = ["CONDITIONS", "PAPER", "SUCCESS_RADIUS", "ExperimentInterrupted", "RunsFailed", "RunResult", "RunSpec",
+           "experiment_specs", "load_records", "run_experiment", "run_once", "run_spec"]
 
 CONDITIONS = ("planning", "reactive")
 SUCCESS_RADIUS = 0.1
@@ -228,6 +215,7 @@ def run_once(
     keep_report: bool = False,
     log: str | os.PathLike[str] | None = None,
     feedback: str = "scan",
+    reactive: dict[str, Any] | None = None,
 ) -> RunResult:
     """Run one condition in ``scene`` on a fresh robot; see the module docstring.
 
@@ -239,6 +227,7 @@ def run_once(
     them, in simulated time, with the ground truth beside each scan and task record).
     ``feedback``: both conditions' pose estimate (the same robot, the same sensing) —
     ``"scan"`` (scan matching, the default) or ``"none"`` (dead reckoning alone).
+    ``reactive``: keyword arguments for the ReactiveController (``bench/experiment_reactive.py``).
 
     >>> from planner import load_scenario
     >>> r = run_once(load_scenario("open"), "reactive", 0, noise="ideal")
@@ -284,7 +273,8 @@ def run_once(
         plans = len(report.plans)
         end_state, reason = report.state.value, report.reason
     else:
-        report = ReactiveController(robot, goal, conf.robot, feedback=feedback).run(max_time=max_time)  # type: ignore[arg-type]
+        opts: dict[str, Any] = {"model": conf.robot, "feedback": feedback, **(reactive or {})}
+        report = ReactiveController(robot, goal, **opts).run(max_time=max_time)  # type: ignore[arg-type]
         end_state, reason = report.state, report.reason
     wall, cpu = time.perf_counter() - t0, time.thread_time() - c0
     true = robot.ground_truth_pose()

@@ -18,6 +18,7 @@ from runtime.experiment.results import (
     table,
     write_csv,
 )
+from runtime.experiment.layouts import make_layout
 from runtime.experiment.runner import (
     SUCCESS_RADIUS,
     ExperimentInterrupted,
@@ -77,6 +78,14 @@ def test_belief_and_ground_truth_are_reported_apart():
     r = run_once(scene, "reactive", 3, noise=skewed)
     assert r.believed_goal and not r.reached_goal and r.final_distance > SUCCESS_RADIUS
     assert "truly" in r.reason
+
+
+def test_run_once_passes_options_to_the_reactive_baseline():
+    scene = make_layout("overtaking", 0, 4).scene  # the box lies across the straight line to the goal
+    blind = run_once(scene, "reactive", 0, noise="ideal", max_time=30, reactive={"detect": False})
+    seeing = run_once(scene, "reactive", 0, noise="ideal", max_time=30)
+    assert blind.collisions >= 1 and not blind.reached_goal
+    assert seeing.collisions == 0
 
 
 def test_cul_de_sac_success_is_saying_unreachable():

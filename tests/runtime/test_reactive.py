@@ -99,6 +99,11 @@ def test_as_coded_sides_always_avoid_right_and_pursue_left():
     assert _kind(_first_command([], (1.0, -0.5))) == "right"
 
 
+def test_without_detection_it_is_a_blind_pursuer():
+    # the authors' reactive branch before 2024-10-09 simulated the task in a world with no bodies
+    assert _kind(_first_command([[FRONT + 0.25, 0.05], [FRONT + 0.25, 0.06]], detect=False)) == "ahead"
+
+
 class _Driven(_Still):
     """A robot without odometry: the controller dead-reckons its commands; scans by tick."""
 
