@@ -291,16 +291,16 @@ def perceive(
         if distinct < n:
             if not distinct:
                 uniq[0] = True
-            z, step = z[uniq], step[uniq]
+            sel = uniq.nonzero()[0]
+            z, step = z.take(sel), step.take(sel)
             n = len(z)
     brk = step > cluster_distance
     first = int(brk.argmax())
     if brk[first]:
         # start at a break, so that a surface crossing the bearing ±π is not cut
         if first:
-            z = np.concatenate((z[first:], z[:first]))
-            brk = np.concatenate((brk[first:], brk[:first]))
-            step = np.concatenate((step[first:], step[:first]))
+            turn = np.arange(first, first + n)
+            z, brk, step = z.take(turn, mode="wrap"), brk.take(turn, mode="wrap"), step.take(turn, mode="wrap")
     else:
         brk[0] = True
     # pieces: surfaces cut every _PIECE metres of path, then halved while thick
@@ -326,7 +326,7 @@ def perceive(
         a = z.take(starts)
         e = zl.take(ends) - a
         norm = np.abs(e)
-        if np.minimum.reduce(norm) < 1e-9:
+        if norm[norm.argmin()] < 1e-9:
             single = norm < 1e-9
             norm[single] = 1.0
             e[single] = 1.0
@@ -350,12 +350,12 @@ def perceive(
     np.maximum.reduceat(u, starts, out=ext[2])
     ext[3] = t1
     ext += _SIGNS_PAD if pad == _PAD else _SIGNS * pad
-    local = ext.T.take(_CORNERS, axis=1).view(np.complex128)
+    local = np.ascontiguousarray(ext.take(_CORNERS, axis=0).T).view(np.complex128)
     if not pad > 0:
         # an extent may then be -0.0: written as u + 1j·t, as before, to keep its sign the same
         local = local.real + 1j * local.imag
-    corners = local * e[:, None] + a[:, None]
+    corners = local.ravel() * e.repeat(4) + a.repeat(4)
     boxes = corners.view(np.float64).reshape(m, 4, 2)
-    centres = ((corners[:, 0] + corners[:, 2]) * 0.5).view(np.float64).reshape(m, 2)
+    centres = ((corners[0::4] + corners[2::4]) * 0.5).view(np.float64).reshape(m, 2)
     radii = np.abs(local[:, 2] - local[:, 0]) * 0.5
     return _built(boxes, centres, radii, z.view(np.float64).reshape(n, 2), bounds, exempt)
