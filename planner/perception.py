@@ -246,7 +246,8 @@ def perceive(
     if not len(pts):
         return _NONE
     x, y = pts[:, 0], pts[:, 1]
-    r2 = x * x + y * y
+    sq = pts * pts  # one product over the array, then x² + y² (the same sum)
+    r2 = sq[:, 0] + sq[:, 1]
     keep = (r2 <= sensor_range * sensor_range) & (r2 > 1e-6)
     if body is not None:
         rear, front, half = body
@@ -275,11 +276,14 @@ def perceive(
         # stably by bearing it would follow that same point at once (an equal bearing
         # keeps the scan's order), and be dropped below as a zero step, leaving every
         # other step as it was: the same surfaces, with less to sort
-        bits = zall.view(np.int64)
-        keep[1:] &= (bits[2::2] != bits[:-2:2]) | (bits[3::2] != bits[1:-2:2])
+        bits = zall.view(np.int64).reshape(-1, 2)
+        # a point differs from the one before when either coordinate's bits do: the two
+        # flags of a row, read as one 16-bit number, are nonzero
+        keep[1:] &= (bits[1:] != bits[:-1]).view(np.uint16).ravel().astype(bool)
     idx = keep.nonzero()[0]
     # order along the surfaces the sensor saw: by bearing from the sensor
-    z = zall.take(idx.take(np.arctan2(y.take(idx), x.take(idx)).argsort(kind="stable")))
+    z = zall.take(idx)
+    z = z.take(np.arctan2(z.imag.copy(), z.real.copy()).argsort(kind="stable"))
     n = len(z)
     d = np.empty(n, dtype=np.complex128)
     np.subtract(z[1:], z[:-1], out=d[1:])
