@@ -57,30 +57,48 @@ class PredictedGreedy(RobustConfigurator):
         return c.greedy_result
 
 
-def plan_episodes(report: Any) -> list[tuple[int, bool]]:
-    """(index among fresh plans, carried to its end?) for every fresh plan the supervisor
-    started executing: an episode runs from its PLANNED to the next fresh PLANNED or the
-    end of the run, and is complete when the supervisor reports ``plan done`` (AT_GOAL or
-    PLAN_SHORT from EXECUTING) within it."""
+def _ending(reason: str) -> str:
+    """The kind of a DISAGREE that interrupted a plan."""
+    if reason.startswith("plan check:"):
+        return "check: meets an obstacle" if "meets an obstacle" in reason else "check: would end off the map"
+    if "collision imminent" in reason or "did not predict" in reason:
+        return "hazard"
+    if "far from the map's prediction" in reason:
+        return "task ended off the map"
+    if "overran" in reason:
+        return "task overran"
+    return reason.split(":")[0][:40]
+
+
+def plan_episodes(report: Any) -> list[tuple[int | None, bool, str]]:
+    """(index among fresh plans, carried to its end?, how it ended) for every fresh plan
+    the supervisor started executing: an episode runs from its PLANNED to the next fresh
+    PLANNED or the end of the run, and is complete when the supervisor reports ``plan
+    done`` (AT_GOAL or PLAN_SHORT from EXECUTING) within it. How it ended: "done", else
+    the kind of the last interruption in it (a plan check of a queued task, the hazard
+    test, ...; :func:`_ending`), else "run ended"."""
     fresh_index = {}
     k = 0
     for n, rec in enumerate(report.plans, 1):
         if not rec.recalled:
             fresh_index[n] = k
             k += 1
-    out: list[tuple[int, bool]] = []
+    out: list[tuple[int | None, bool, str]] = []
     current: int | None = None
-    done = False
+    started = done = False
+    why = "run ended"
     for tr in report.transitions:
         if tr.event is Event.PLANNED and "recalled" not in tr.reason:
-            if current is not None:
-                out.append((current, done))
+            if started:
+                out.append((current, done, "done" if done else why))
             n = int(tr.reason.split(":")[0].split()[1])
-            current, done = fresh_index.get(n), False
+            current, started, done, why = fresh_index.get(n), True, False, "run ended"
         elif tr.event in (Event.AT_GOAL, Event.PLAN_SHORT) and tr.source is SupervisorState.EXECUTING:
             done = True
-    if current is not None:
-        out.append((current, done))
+        elif tr.event is Event.DISAGREE:
+            why = _ending(tr.reason)
+    if started:
+        out.append((current, done, "done" if done else why))
     return out
 
 
@@ -114,8 +132,10 @@ def run_pair(family: str, k: int, args: argparse.Namespace) -> dict[str, Any]:
         cpu = time.thread_time() - c1
         success = r.reached_goal and r.collisions == 0
         preds = [p[0] if name == "robust" else p[1] for p in conf.predictions]
-        episodes = [(preds[i] if i < len(preds) else math.nan, done) for i, done in plan_episodes(r.report) if i is not None]
+        ep = [(i, done, why) for i, done, why in plan_episodes(r.report) if i is not None]
+        episodes = [(preds[i] if i < len(preds) else math.nan, done) for i, done, _ in ep]
         rec: dict[str, Any] = {"ok": int(success), "first": preds[0] if preds else None, "per_plan": episodes, "cpu": cpu,
+                               "endings": [why for _, _, why in ep],
                                "decisions": list(conf.decisions) if name == "robust" else [], "diverged": False}
         out["line"].append(f"{name} {'ok  ' if success else 'FAIL'} ({r.end_state}, {r.final_distance:.2f} m, {r.collisions} coll., "
                            f"{r.plans} plans, P1 {preds[0] if preds else math.nan:.2f})")
@@ -211,6 +231,14 @@ def main(argv: list[str] | None = None) -> int:
             cpu_total += cpu
             print(f"  {family:<8} {name:<7} {_ci(s, n):<44} {mean_first:<18.3f} {mean_pp:<17.3f} {_ci(completed, len(pp)):<36} "
                   f"{cpu / max(n, 1):.1f}")
+        for name in NAMES:
+            endings: dict[str, int] = {}
+            for p in pairs:
+                for why in p[name]["endings"]:
+                    endings[why] = endings.get(why, 0) + 1
+            total = sum(endings.values())
+            print(f"  {family:<8} {name:<7} how its {total} fresh plans ended: "
+                  + ", ".join(f"{k} {v} ({v / total:.0%})" for k, v in sorted(endings.items(), key=lambda kv: -kv[1])))
         test = mcnemar(ok["greedy"], ok["robust"])
         print(f"  {family:<8} paired: {test}")
         decisions: dict[str, int] = {}
