@@ -16,7 +16,7 @@ from formal.supervisory import guard
 from planner import Configurator
 from runtime.experiment.layouts import make_layout
 from runtime.robots import make_world_robot
-from runtime.supervision.checkref import check_plan_reference
+from tests.runtime._checkref import check_plan_reference
 from runtime.supervision.plancheck import RecallIndex, _legs, check_plan, perceive_scan, recall
 
 ORIGIN = Pose(0.0, 0.0, 0.0)
@@ -153,7 +153,8 @@ def test_the_fast_contacts_are_the_reference_contacts(seed, n_legs, n_pts, allow
     whichever other tasks are tested with them (no task's answer depends on another's); a
     turn's also with far points added (which the reach filter of a large array drops)."""
     from formal.model import TaskKind
-    from runtime.supervision import checkref, plancheck
+    from runtime.supervision import plancheck
+    from tests.runtime import _checkref as checkref
 
     m = Configurator().robot
     legs, z = _legs_and_points(np.random.default_rng(seed), m, n_legs, n_pts)
