@@ -104,11 +104,17 @@ def add_sampling_options(p: argparse.ArgumentParser) -> None:
     g.add_argument("--learn", action="store_true", help="with --scan FOLDER or a run log: learn the probabilities from consecutive scans of one place")
 
 
+def _check_samples(samples: int) -> None:
+    """CliError naming ``--samples`` unless it is 1 to :data:`planner.probabilistic.MAX_SAMPLES`
+    (the library refuses the same, with a NoiseError the callers here would word as ``--noise``)."""
+    if not 1 <= samples <= MAX_SAMPLES:
+        raise CliError(f"--samples: expected a whole number from 1 to {MAX_SAMPLES:,}, got {samples:,} "
+                       "(time and memory grow with the rollouts: about 12 s and 0.5 GB at 300 on overtaking)")
+
+
 def probabilistic_from_args(args: argparse.Namespace, conf: Configurator, scan: Any, goal: tuple[float, float]) -> ProbabilisticMap:
     """The probabilistic map of ``scan`` the sampling options ask for (``--samples`` set)."""
-    if not 1 <= args.samples <= MAX_SAMPLES:
-        raise CliError(f"--samples: expected a whole number from 1 to {MAX_SAMPLES:,}, got {args.samples:,} "
-                       "(time and memory grow with the rollouts: about 12 s and 0.5 GB at 300 on overtaking)")
+    _check_samples(args.samples)
     try:
         return sample_map(scan, goal, samples=args.samples, noise=args.noise, seed=args.seed, configurator=conf)
     except NoiseError as exc:
@@ -242,9 +248,7 @@ def _run_robust(args: argparse.Namespace, conf: Configurator) -> int:
         goal, scan, title = (parse_goal(args.goal) if args.goal else (1.0, 0.0)), path, str(path)
     if args.samples is None:
         args.samples = 30
-    if not 1 <= args.samples <= MAX_SAMPLES:
-        raise CliError(f"--samples: expected a whole number from 1 to {MAX_SAMPLES:,}, got {args.samples:,} "
-                       "(time and memory grow with the rollouts: about 12 s and 0.5 GB at 300 on overtaking)")
+    _check_samples(args.samples)
     try:
         noise = rollout_noise(args.noise)
     except NoiseError as exc:
