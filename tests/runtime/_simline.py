@@ -16,6 +16,7 @@ machine is. That is an idealisation (the real-time cost is what the pty tests me
 
 from __future__ import annotations
 
+import errno
 import threading
 import time
 from collections.abc import Callable
@@ -121,7 +122,9 @@ class SimLine:
     one ``lock`` (the clock moves under it). ``lockstep=True`` (with a :class:`LockstepClock`)
     moves time only while the controller sleeps: the line to the device a background thread
     reads (the LiDAR). A line the controller itself reads (the Maestro's replies) keeps the
-    default: its waiting is the controller's own.
+    default: its waiting is the controller's own. Once the device has vanished
+    (``device.vanish()``, an unplugged USB device) every call raises ``OSError(EIO)``, as a
+    serial port whose device is gone does.
     """
 
     def __init__(self, device: PtyEmulator, clock: ManualClock, *, timeout: float = 0.01, name: str = "sim",
@@ -135,13 +138,19 @@ class SimLine:
         self.running.set()
         self.dtr = False
 
+    def _check_present(self) -> None:
+        if self.device._vanish.is_set():
+            raise OSError(errno.EIO, f"{self.port}: Input/output error (the device has vanished)")
+
     @property
     def in_waiting(self) -> int:
+        self._check_present()
         with self.lock:
             self.device._tick(self.clock.now())
             return len(self.device._out)
 
     def write(self, data: bytes) -> int:
+        self._check_present()
         with self.lock:
             self.device._on_bytes(bytes(data), self.clock.now())
         return len(data)
@@ -156,6 +165,7 @@ class SimLine:
     def read(self, size: int = 1) -> bytes:
         waited = 0.0
         while True:
+            self._check_present()
             with self.lock:
                 out = self.device._out
                 if out:

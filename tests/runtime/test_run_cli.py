@@ -20,6 +20,7 @@ import runtime.cli as cli
 from runtime.devices.emulators import MaestroEmulator
 from runtime.robots.emulated import EmulatedWorldProcess
 from runtime.records.runlog import read_log
+from tests.runtime._stack import wheels_stopped_at
 
 NEUTRAL = 6000
 _RUN_MODULE = "runtime.cli.run"
@@ -77,21 +78,12 @@ def wait_driving(world: EmulatedWorldProcess, run: Run, timeout: float = 15.0) -
         pytest.fail(f"the robot never drove (exit {run.proc.returncode}):\n{run.stderr}")
 
 
-def stop_latency(emu: MaestroEmulator, t0: float) -> float:
-    """Seconds from ``t0`` until both wheels were commanded to stop, checking they stayed stopped."""
-    targets = {0: None, 1: None}
-    stop_at = None
-    for t, ch, target in list(emu.events):
-        if ch not in targets:
-            continue
-        targets[ch] = target
-        halted = all(v in (0, NEUTRAL) for v in targets.values())
-        if t >= t0 and halted and stop_at is None:
-            stop_at = t
-        elif stop_at is not None and not halted:
-            pytest.fail(f"the wheels were commanded to move again at {t - t0:.3f} s")
-    assert stop_at is not None, "the wheels were never commanded to stop"
-    return stop_at - t0
+def assert_stopped_after(emu: MaestroEmulator, t0: float) -> None:
+    """Both wheels were commanded to stop at or after ``t0`` and never to move again.
+
+    No bound on how soon: over ptys in real time that measures the machine's scheduler; the
+    software's own latency is measured in simulated time (test_stack_faults_simtime.py)."""
+    wheels_stopped_at(emu, t0)
 
 
 def assert_clean_failure(run: Run, rc: int, wheels: str = "wheels stopped") -> None:
@@ -195,10 +187,10 @@ def test_ctrl_c_stops_the_wheels_logs_why_and_exits_non_zero(tmp_path: Path) -> 
         t0 = time.monotonic()
         run.proc.send_signal(signal.SIGINT)
         rc = run.finish(timeout=10)
-        latency = stop_latency(world.maestro, t0)
+        assert_stopped_after(world.maestro, t0)  # stopped after the signal, and stayed stopped
+    # how soon, measured on the simulated clock: test_stack_faults_simtime.py
     assert rc == 130
     assert_clean_failure(run, rc)
-    assert latency < 0.3, f"wheels stopped {latency:.3f} s after Ctrl-C"
     stop = [r for r in run.records() if r["event"] == "stop"]
     assert stop and "SIGINT" in stop[-1]["reason"] and stop[-1]["status"] == "HALTED"
 
@@ -210,7 +202,7 @@ def test_ctrl_c_stops_the_wheels_logs_why_and_exits_non_zero(tmp_path: Path) -> 
 def test_a_broken_lidar_stream_stops_the_wheels_and_says_why(tmp_path: Path, fault: str, said: str) -> None:
     """End to end on pty emulators in real time. The 300 ms deadline itself is tested on device
     time in test_hardware_deadlines.py: here a fully loaded machine may delay any of the three
-    processes, so the wall-clock bound only catches a stop that never comes in time to matter."""
+    processes, so no wall-clock bound is asserted here: only that the stop came and held."""
     with EmulatedWorldProcess("open") as world:
         run = Run(world, tmp_path / "run.jsonl")
         wait_driving(world, run)
@@ -222,11 +214,10 @@ def test_a_broken_lidar_stream_stops_the_wheels_and_says_why(tmp_path: Path, fau
         else:
             t0 = world.lidar.inject(silent=True)
         rc = run.finish(timeout=10)
-        latency = stop_latency(world.maestro, t0)
+        assert_stopped_after(world.maestro, t0)  # stopped after the fault, and stayed stopped
     assert rc == 3  # a device fault
     assert_clean_failure(run, rc)
     assert said in run.stderr
-    assert latency < 2.0, f"wheels stopped {latency:.3f} s after the {fault} fault"
     faults = [r for r in run.records() if r["event"] == "fault"]
     assert faults and all(said in r["reason"] for r in faults)
     assert run.records()[-1]["event"] == "stop" and run.records()[-1]["status"] == "HALTED"
@@ -246,7 +237,7 @@ def test_the_motor_controller_vanishing_is_detected_within_a_tick(tmp_path: Path
     assert "motor controller" in run.stderr
     fault = next(r for r in run.records() if r["event"] == "fault")
     assert fault["source"] == "motors"
-    assert run.abs_time(fault) - t0 < 0.3
+    assert run.abs_time(fault) >= t0  # detected after it happened; how soon: test_stack_faults_simtime.py
     assert any(r["event"] == "motor" and "could not stop" in r.get("error", "") for r in run.records())
 
 
@@ -266,10 +257,9 @@ def test_an_exception_inside_planning_halts_with_the_wheels_stopped(
     with EmulatedWorldProcess("open") as world:
         rc = cli.main(["run", "--lidar", world.lidar_port, "--motors", world.motor_port, "--goal", "1.0,0.0",
                        "--log", str(log), "--max-time", "10"])
-        latency = stop_latency(world.maestro, raised[0])
+        assert_stopped_after(world.maestro, raised[0])  # stopped after the raise, and stayed stopped
     err = capsys.readouterr().err
     assert rc == 1 and "Traceback" not in err and "boom in the planner" in err
-    assert latency < 0.3
     faults = [r for r in read_log(log) if r["event"] == "fault"]
     assert faults and "RuntimeError: boom in the planner" in faults[0]["reason"]
 

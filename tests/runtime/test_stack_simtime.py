@@ -11,51 +11,9 @@ depend on how busy the machine is.
 
 from __future__ import annotations
 
-import threading
-from dataclasses import dataclass
-from typing import Any
-
 import pytest
 
-from planner import Configurator
-from runtime.robots.emulated import EmulatedWorld
-from runtime.robots.hardware import HardwareConfig, HardwareRobot
-from runtime.supervision import Supervisor, SupervisorReport
-from tests.runtime._simline import LockstepClock, SimLine
-
-NEUTRAL = 6000  # 1500 µs in quarter-µs
-
-
-@dataclass
-class StackRun:
-    report: SupervisorReport
-    world: EmulatedWorld
-    robot: HardwareRobot
-    elapsed: float  # simulated seconds
-
-
-def run_stack(scenario: str, *, max_time: float = 80.0, seed: int = 0, **world_options: Any) -> StackRun:
-    """Plan and execute ``scenario``'s goal through the real drivers, in simulated time (the
-    world's noise drawn from ``seed``: the same run every time)."""
-    clock, lock = LockstepClock(100.0), threading.RLock()
-    world = EmulatedWorld(scenario, clock=clock.now, seed=seed, **world_options)  # not started: no pty, no thread
-    lidar_line = SimLine(world.lidar, clock, lock=lock, name="sim-lidar", lockstep=True)
-    motor_line = SimLine(world.maestro, clock, lock=lock, name="sim-maestro")
-    # the Maestro driver's watchdog keeps wall time: off, as in test_hardware_deadlines.py
-    config = HardwareConfig(watchdog_timeout=None)
-    conf = Configurator()
-    t0 = clock.now()
-    try:
-        with HardwareRobot(lidar_line, motor_line, config, model=conf.robot, clock=clock,
-                           device_clock=clock.now) as robot:
-            clock.free_when = lambda: robot.fault is not None  # a tripped robot's reader reads no more
-            sup = Supervisor(robot, world.scene.goal_in_robot_frame(), conf, clock=clock)
-            report = sup.run(max_time=max_time)
-            elapsed = clock.now() - t0
-            clock.release()  # let the reader thread's timeouts run out as it closes
-    finally:
-        clock.release()
-    return StackRun(report, world, robot, elapsed)
+from tests.runtime._stack import NEUTRAL, run_stack
 
 
 def test_overtaking_reaches_the_goal_through_the_hardware_stack_in_simulated_time() -> None:

@@ -1,0 +1,100 @@
+"""Faults while driving, through the whole hardware stack in simulated time: how soon the
+wheels are commanded to stop, measured on the simulated clock.
+
+The same faults over ptys in real time (test_run_cli.py) show the end-to-end behaviour of
+``clomp run`` (exit codes, log records, messages); a wall-clock bound there would measure the
+machine's scheduler as much as the software. Here time flows only while the supervisor sleeps
+(tests/runtime/_stack.py), so the figure is the software's own: a fault met inside a tick
+stops the wheels in that same tick (0 s of simulated time), one met between ticks at the
+next command (within one tick, 0.1 s).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import pytest
+
+from planner import Configurator
+from runtime.supervision import SupervisorState
+from runtime.supervision.machine import Event
+from tests.runtime._simline import LockstepClock
+from tests.runtime._stack import NEUTRAL, StackRun, run_stack, wheels_stopped_at
+
+TICK = 0.1  # the supervisor's control period (RobotModel.tick)
+T_FAULT = 1.5  # simulated seconds into the run: the robot is driving its first straight
+
+
+def _driving(run: StackRun) -> bool:
+    return any(ch in (0, 1) and t not in (0, NEUTRAL) for _, ch, t in run.world.maestro.events)
+
+
+def _at(t_fault: float, act: Any) -> Any:
+    """A hook that calls ``act(run)`` once, at the first wake-up at or after ``t_fault`` s of
+    the run, and remembers that moment in ``run.notes["t_fault"]``."""
+    def hook(t: float, run: StackRun) -> None:
+        t0 = run.notes.setdefault("t0", t)
+        if "t_fault" not in run.notes and t - t0 >= t_fault:
+            assert _driving(run), "the fault is meant to come while the wheels turn"
+            run.notes["t_fault"] = t
+            act(run)
+    return hook
+
+
+def test_ctrl_c_between_ticks_stops_the_wheels_at_once() -> None:
+    def interrupt(run: StackRun) -> None:
+        raise KeyboardInterrupt("interrupted by SIGINT")
+
+    run = run_stack("overtaking", hook=_at(T_FAULT, interrupt))
+    assert isinstance(run.raised, KeyboardInterrupt)
+    t_fault = run.notes["t_fault"]
+    assert wheels_stopped_at(run.world.maestro, t_fault) - t_fault == 0.0  # in the same instant, before any wait
+    assert run.world.maestro.speeds == (0.0, 0.0)
+
+
+def test_ctrl_c_inside_a_tick_halts_the_supervisor_with_the_wheels_stopped() -> None:
+    def arm(run: StackRun) -> None:
+        assert run.robot is not None
+        drive = run.robot.set_wheel_speeds
+
+        def interrupted(*a: Any, **k: Any) -> None:
+            run.notes["raised_at"] = run.clock.now()
+            raise KeyboardInterrupt("interrupted by SIGINT")
+
+        run.robot.set_wheel_speeds = interrupted  # type: ignore[method-assign]
+        run.notes["drive"] = drive
+
+    run = run_stack("overtaking", hook=_at(T_FAULT, arm))
+    assert isinstance(run.raised, KeyboardInterrupt)
+    sup = run.supervisor
+    assert sup is not None and sup.state is SupervisorState.HALTED and "SIGINT" in sup.reason
+    raised_at = run.notes["raised_at"]
+    assert wheels_stopped_at(run.world.maestro, raised_at) - raised_at == 0.0
+    assert raised_at - run.notes["t_fault"] <= TICK
+
+
+def test_the_motor_controller_vanishing_is_detected_at_the_next_command() -> None:
+    run = run_stack("overtaking", hook=_at(T_FAULT, lambda run: run.world.maestro.vanish()))
+    assert run.raised is None and run.report is not None
+    assert run.report.state is SupervisorState.HALTED
+    assert run.robot is not None and run.robot.fault is not None and "motor controller" in run.robot.fault
+    fault = next(tr for tr in run.report.transitions if tr.event is Event.FAULT)
+    # the transitions' times are the supervisor's (seconds since its start)
+    t_fault = run.notes["t_fault"] - run.notes["t0"]
+    assert 0.0 <= fault.time - t_fault <= TICK + 1e-9, (fault.time, t_fault)
+
+
+def test_an_exception_inside_planning_halts_with_the_wheels_stopped(monkeypatch: pytest.MonkeyPatch) -> None:
+    clock = LockstepClock(100.0)
+    raised: list[float] = []
+
+    def broken_plan(self: Any, scan: Any, goal: Any) -> Any:
+        raised.append(clock.now())
+        raise RuntimeError("boom in the planner")
+
+    monkeypatch.setattr(Configurator, "plan", broken_plan)
+    run = run_stack("overtaking", clock=clock)
+    assert run.report is not None and run.report.state is SupervisorState.HALTED
+    assert "boom in the planner" in run.report.reason and "RuntimeError" in run.report.reason
+    assert raised and wheels_stopped_at(run.world.maestro, raised[0]) - raised[0] == 0.0
+    assert not _driving(run)  # no plan, no task: the wheels were never commanded to move
