@@ -142,7 +142,8 @@ def test_silent_lidar_raises_timeout_within_the_timeout() -> None:
             t0 = time.monotonic()
             with pytest.raises(LidarTimeout, match="no full revolution"):
                 lidar.read_scan(timeout=0.5, newest=False)
-            assert time.monotonic() - t0 < 0.6
+            # not before the timeout; how late, on an injected clock: test_rplidar.py's ClockedPort tests
+            assert time.monotonic() - t0 >= 0.5
             lidar.stop()
             with pytest.raises(LidarTimeout):
                 lidar.health(timeout=0.2)  # silent: no answers either
@@ -152,11 +153,9 @@ def test_silent_lidar_raises_timeout_within_the_timeout() -> None:
 def test_lidar_vanishing_mid_scan_is_a_port_error() -> None:
     with LidarEmulator(lambda: np.array([[0.5, 0.0]]), speed=4.0, vanish_after=1.5) as emu:
         lidar = RPLidar(emu.port)
-        t0 = time.monotonic()
-        with pytest.raises(LidarPortError, match="unplugged"):
+        with pytest.raises(LidarPortError, match="unplugged"):  # a port error, not a LidarTimeout
             for _ in range(10):
                 lidar.read_scan(timeout=1.0)
-        assert time.monotonic() - t0 < 1.0
         deadline = time.monotonic() + 1.0
         while emu.running and time.monotonic() < deadline:
             time.sleep(0.01)  # the emulator thread ends right after closing the pty

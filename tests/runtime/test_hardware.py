@@ -182,7 +182,8 @@ def test_an_unhealthy_or_silent_lidar_fails_at_start(devices) -> None:
         t0 = time.monotonic()
         with pytest.raises(RobotFault, match="does not answer"):
             HardwareRobot(mute.port, maestro.port, HardwareConfig(start_timeout=0.3))
-        assert time.monotonic() - t0 < 2.0
+        # not before the timeout; how late, on device time: test_hardware_deadlines.py
+        assert time.monotonic() - t0 >= 0.3
     assert stopped(maestro)
 
 

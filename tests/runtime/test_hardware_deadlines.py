@@ -17,6 +17,7 @@ import pytest
 
 from runtime.clock import ManualClock
 from runtime.devices.emulators import LidarEmulator, MaestroEmulator
+from runtime.robot import RobotFault
 from runtime.robots.hardware import HardwareConfig, HardwareRobot
 from tests.runtime._simline import SimLine
 
@@ -61,3 +62,19 @@ def test_a_broken_stream_stops_the_wheels_within_300_ms_of_device_time(fault: st
         assert stop_t is not None, "the wheels were never commanded to stop"
         assert robot.fault is not None and said in robot.fault, robot.fault
         assert stop_t - t0 < 0.3, f"wheels stopped {stop_t - t0:.3f} s (device time) after the {fault} fault"
+
+
+def test_a_silent_lidar_fails_the_start_after_the_start_timeout_of_device_time() -> None:
+    """The pty version (test_hardware.py) shows the message; this one how long it takes."""
+    clock, lock = ManualClock(100.0), threading.RLock()
+    lidar = LidarEmulator(lambda: WALL, silent_after=0, clock=clock.now)
+    lidar.silent = True
+    maestro = MaestroEmulator(clock=clock.now)
+    config = HardwareConfig(watchdog_timeout=None, start_timeout=0.3)
+    t0 = clock.now()
+    with pytest.raises(RobotFault, match="does not answer"):
+        HardwareRobot(SimLine(lidar, clock, lock=lock, name="sim-lidar"),
+                      SimLine(maestro, clock, lock=lock, name="sim-maestro"), config,
+                      clock=clock, device_clock=clock.now)
+    assert 0.3 <= clock.now() - t0 <= 0.3 + 0.01 + 1e-9  # not before it, late by at most one read (10 ms)
+    assert _stop_time(maestro, t0) is not None  # the wheels were held stopped meanwhile

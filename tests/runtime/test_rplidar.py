@@ -536,7 +536,8 @@ def test_silent_pty_times_out() -> None:
         t0 = time.monotonic()
         with pytest.raises(LidarTimeout):
             lidar.health(timeout=0.3)
-        assert time.monotonic() - t0 < 0.5
+        # not before the timeout; how late, on an injected clock: test_silent_device_times_out_on_queries
+        assert time.monotonic() - t0 >= 0.3
         lidar.close()
     finally:
         os.close(master)
