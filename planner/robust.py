@@ -210,21 +210,39 @@ class RobustConfigurator(Configurator):
         self.last_probabilities: tuple[float, float] | None = None
         self.predictions: list[tuple[float, float]] = []
 
+    def _plain(self) -> Configurator:
+        return Configurator(self.robot, self.cost, self.max_states, self.horizon)
+
+    def probabilistic_map(self, scan: Any, goal: Disturbance | tuple[float, float],
+                          seed: int | None = None) -> ProbabilisticMap:
+        """The probabilistic map this configurator chooses on, for ``seed`` (default
+        ``self.seed``: the map of the first :meth:`plan`): rollouts with the supervisor's
+        tolerance, hazard stops and carried poses, on the map searched for ``routes``
+        ends. Needs no Storm; ``clomp export --samples`` writes this map, so the model a
+        user checks is the one ``clomp plan --robust`` and the runtime plan on.
+
+        >>> import numpy as np
+        >>> pm = RobustConfigurator(samples=2, noise="ideal").probabilistic_map(np.zeros((0, 2)), (1.0, 0.0))
+        >>> pm.samples, pm.map.metadata["carry"]
+        (2, True)
+        """
+        if self.search_routes > 1:
+            base = Configurator(self.robot, self.cost, max(self.max_states, self.route_states), self.horizon,
+                                routes=self.search_routes)
+        else:
+            base = self._plain()
+        return sample_map(scan, goal, self.samples, self.noise, self.seed if seed is None else seed, base,
+                          self.tolerance, self.hazard, self.carry)
+
     def sample(self, scan: Any, goal: Disturbance | tuple[float, float]) -> RobustChoice:
         """The probabilistic map of ``scan``, the best-first plan and Storm's policy on it
         (one call to :meth:`plan` without the choice; seeds advance per call)."""
         from formal.robust import follow_tasks, plan_probability, robust_plan
 
         points = load_scan(scan)
-        plain = Configurator(self.robot, self.cost, self.max_states, self.horizon)
+        plain = self._plain()
         greedy_result = plain.plan(points, goal)
-        if self.search_routes > 1:
-            base = Configurator(self.robot, self.cost, max(self.max_states, self.route_states), self.horizon,
-                                routes=self.search_routes)
-        else:
-            base = plain
-        pm = sample_map(points, goal, self.samples, self.noise, self.seed + self._calls, base, self.tolerance, self.hazard,
-                        self.carry)
+        pm = self.probabilistic_map(points, goal, self.seed + self._calls)
         self._calls += 1
         g = greedy_result
         target = plan_target(pm.map, g.map[g.plan.end].end, g.goal, self.goal_radius, self.frontier_slack)

@@ -16,7 +16,7 @@ import numpy as np
 from formal.lts import MapError
 from planner import GOAL_LIMIT_M as _PLANNER_GOAL_LIMIT_M
 from planner import Configurator, PlanningError, PlanResult, RobotModel, ScanError, scan_files
-from planner.probabilistic import MAX_SAMPLES, NoiseError, ProbabilisticMap, preset_names, sample_map
+from planner.probabilistic import MAX_SAMPLES, NoiseError, ProbabilisticMap, preset_names
 from planner.scenarios import ScenarioError, load_scenario
 from runtime.cli import EXIT_NOT_REACHED, EXIT_OK, CliError, plural
 from runtime.cli._bags import add_bag_options, is_bag, labelled_scans, lidar_offset, open_topic, scan_label
@@ -25,7 +25,7 @@ from runtime.cli._progress import progress
 from runtime.records.bags import BagError, LaserScan
 
 if TYPE_CHECKING:
-    from planner.robust import RobustDecision
+    from planner.robust import RobustConfigurator, RobustDecision
 
 __all__ = [
     "register",
@@ -112,13 +112,32 @@ def _check_samples(samples: int) -> None:
                        "(time and memory grow with the rollouts: about 12 s and 0.5 GB at 300 on overtaking)")
 
 
-def probabilistic_from_args(args: argparse.Namespace, conf: Configurator, scan: Any, goal: tuple[float, float]) -> ProbabilisticMap:
-    """The probabilistic map of ``scan`` the sampling options ask for (``--samples`` set)."""
+def robust_from_args(args: argparse.Namespace, conf: Configurator) -> RobustConfigurator:
+    """The runtime's robust configurator for the sampling options (``--samples``, default
+    30; ``--noise``; ``--seed``) and the planner options of ``conf``: one construction for
+    ``plan --robust`` and the maps ``export``/``check --samples`` write, so they agree."""
+    from planner.robust import RobustConfigurator, rollout_noise
+
+    if args.samples is None:
+        args.samples = 30
     _check_samples(args.samples)
     try:
-        return sample_map(scan, goal, samples=args.samples, noise=args.noise, seed=args.seed, configurator=conf)
+        noise = rollout_noise(args.noise)
     except NoiseError as exc:
         raise CliError(f"--noise: {exc}") from None
+    return RobustConfigurator(conf.robot, samples=args.samples, noise=noise, seed=args.seed,
+                              max_states=conf.max_states, horizon=conf.horizon)
+
+
+def probabilistic_from_args(args: argparse.Namespace, conf: Configurator, scan: Any, goal: tuple[float, float]) -> ProbabilisticMap:
+    """The probabilistic map of ``scan`` the sampling options ask for (``--samples`` set):
+    the map ``plan --robust`` chooses its first plan on (the supervisor's end tolerance,
+    hazard stops and carried poses; :meth:`planner.robust.RobustConfigurator.probabilistic_map`)."""
+    robust = robust_from_args(args, conf)
+    try:
+        return robust.probabilistic_map(scan, goal)
+    except NoiseError as exc:
+        raise CliError(str(exc)) from None
 
 
 def register(sub: Any) -> None:
@@ -229,7 +248,6 @@ def robust_summary(d: "RobustDecision") -> dict[str, Any]:
 
 def _run_robust(args: argparse.Namespace, conf: Configurator) -> int:
     from formal.checking import StormMissing
-    from planner.robust import RobustConfigurator, rollout_noise
 
     if args.learn:
         raise CliError("--learn goes with clomp export or check; plan --robust samples the map (--samples)")
@@ -246,17 +264,9 @@ def _run_robust(args: argparse.Namespace, conf: Configurator) -> int:
         if not path.is_file():
             raise CliError(f"--scan: {path}: --robust plans on one scan file")
         goal, scan, title = (parse_goal(args.goal) if args.goal else (1.0, 0.0)), path, str(path)
-    if args.samples is None:
-        args.samples = 30
-    _check_samples(args.samples)
-    try:
-        noise = rollout_noise(args.noise)
-    except NoiseError as exc:
-        raise CliError(f"--noise: {exc}") from None
     # the runtime's robust configurator itself: the same rollouts (hazard stops, the
     # supervisor's tolerance, poses carried), target, retry and second look
-    robust = RobustConfigurator(conf.robot, samples=args.samples, noise=noise, seed=args.seed,
-                                max_states=conf.max_states, horizon=conf.horizon)
+    robust = robust_from_args(args, conf)
     try:
         decision = robust.choose(scan, goal)
     except (ScanError, PlanningError) as exc:

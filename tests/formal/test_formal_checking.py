@@ -4,6 +4,7 @@ differential check against the plan, and the ``clomp check`` / ``clomp export`` 
 from __future__ import annotations
 
 import math
+from fractions import Fraction
 import sys
 from pathlib import Path
 
@@ -378,6 +379,23 @@ def test_cli_plan_robust_is_the_runtimes_robust_configurator(clomp, tmp_path):
     assert written["metadata"]["carry"] is True and written["metadata"]["stops"] == m.metadata["stops"]
     assert (len(written["states"]), len(written["transitions"])) == (len(m), m.n_transitions) == (d["states"], d["transitions"])
     assert d["greedy_probability"] <= d["probability"] + 1e-12
+
+
+@needs_storm
+def test_cli_export_samples_writes_the_map_plan_robust_chooses_on(clomp, tmp_path):
+    """The model a user exports and checks is the one the robust planner and the runtime
+    plan on: the same rollouts (supervisor's tolerance, hazard stops, carried poses), the
+    same seed, so the same states, transitions and k/N, the plan's metadata aside."""
+    import json
+
+    chosen, exported = tmp_path / "chosen.json", tmp_path / "exported.json"
+    opts = ("--scenario", "doorway", "--noise", "harsh", "--samples", "8", "--seed", "3")
+    assert clomp("plan", *opts, "--robust", "--json", "--map", str(chosen))[0] in (0, 1)
+    assert clomp("export", *opts, "-f", "json", "-o", str(exported))[0] == 0
+    a, b = json.loads(chosen.read_text()), json.loads(exported.read_text())
+    assert b["metadata"]["carry"] is True and b["metadata"]["stops"] == a["metadata"]["stops"]
+    assert a["states"] == b["states"] and a["transitions"] == b["transitions"]
+    assert any(0 < Fraction(t["probability"]) < 1 for t in b["transitions"])  # a probabilistic map indeed
 
 
 @needs_storm
