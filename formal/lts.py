@@ -55,6 +55,12 @@ class Transition:
     label: TaskKind
     probability: Fraction = Fraction(1)
 
+    def __hash__(self) -> int:
+        # (source, target) only: equal transitions have equal ends, so this is a valid hash,
+        # and it spares the two Python-level hashes of the dataclass's own (TaskKind's enum
+        # hash and Fraction's), which Ψ's table pays for every transition of every plan
+        return hash((self.source, self.target))
+
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready form; the probability as an exact ``"p/q"`` string."""
         return {
@@ -246,10 +252,13 @@ class CognitiveMap:
         self[target]
         parent: dict[int, int | None] = {start: None}
         frontier = [start]
+        out_of = self._out
         while frontier and target not in parent:
             nxt: list[int] = []
             for u in frontier:
-                for v in sorted({k[0] for k in self._out[u]}):
+                # the keys (target, label) sorted: targets in ascending order, a target
+                # named twice (two labels) met again at once and skipped as already seen
+                for v, _ in sorted(out_of[u]):
                     if v not in parent:
                         parent[v] = u
                         nxt.append(v)

@@ -147,10 +147,11 @@ def plan_end(cmap: CognitiveMap) -> State:
     2
     """
     reach = cmap.reachable()
-    candidates = [s for s in cmap.states() if s.ident in reach and not s.interrupted]
-    if not candidates:
-        return cmap.initial
-    return min(candidates, key=lambda s: (s.cost, s.ident))
+    best: State | None = None
+    for s in cmap.states():  # by ident: the first of equal cost is the lowest ident
+        if s.d_n is None and s.ident in reach and (best is None or s.cost < best.cost):
+            best = s
+    return cmap.initial if best is None else best
 
 
 def extract_plan(cmap: CognitiveMap) -> Plan:
