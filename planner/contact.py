@@ -224,7 +224,6 @@ class Scene:
             if straight is not None:
                 rots.append(complex(cos(s.theta), -sin(s.theta)))  # as _straight_gap
             gd, gk = self._gaps(dz, np.array(rots), body)
-            ok = (gd[: len(heads)] >= np.array(needs) - _EPS).tolist()
             d, k = gd.tolist(), gk.tolist()
         if straight is not None:
             key = (kx, ky, s.theta)
@@ -240,10 +239,13 @@ class Scene:
             if not found:
                 i = 0 if m else -1
             else:
-                try:
-                    i = ok.index(True, base, base + m) - base
-                except ValueError:
-                    i = -1
+                # the first heading with its way clear (most often the first asked: no
+                # array of the needs is built for the rest)
+                i = -1
+                for q in range(base, base + m):
+                    if d[q] >= needs[q] - _EPS:
+                        i = q - base
+                        break
             j = i if i >= 0 else fallback
             if j >= 0:
                 key = (kx, ky, headings[j])
