@@ -43,10 +43,12 @@ class Scene:
     def __init__(self, obstacles: Obstacles, robot: RobotModel) -> None:
         self.obstacles = obstacles
         self.robot = robot
-        pts = obstacles.points
-        self.x = np.ascontiguousarray(pts[:, 0])
-        self.y = np.ascontiguousarray(pts[:, 1])
-        self.z = self.x + 1j * self.y  # the points as x + iy: a frame change is one product
+        # the points as x + iy (a frame change is one product): the points' own memory read
+        # as complex, as perception built them (before, x + 1j * y: the same parts up to
+        # the sign of a zero part, which no test or square tells apart); x and y are views
+        self.z = np.ascontiguousarray(obstacles.points, dtype=np.float64).view(np.complex128).reshape(-1)
+        self.x = self.z.real
+        self.y = self.z.imag
         self.owner = obstacles.owner
         c = robot.clearance
         self.real = (robot.rear_offset, robot.front_offset, robot.width / 2)

@@ -314,7 +314,7 @@ def _turn_pair(
     sx, sy, th = start.x, start.y, start.theta
     # the rim is no nearer than this whatever the heading: most turns need no rim test
     sure = robot.sensor_range - math.hypot(sx, sy) - robot.body_radius
-    wrapped = _goal_bearing(start, goal)
+    wrapped = None if goal is None else wrap_angle(math.atan2(goal.y - sy, goal.x - sx) - th)  # _goal_bearing
     # :func:`_inside_for` at this position: the centre's path within the rim less the body radius
     inner = robot.sensor_range - robot.body_radius
     q = sx * sx + sy * sy - inner * inner
@@ -322,19 +322,15 @@ def _turn_pair(
     for k in kinds:
         sign = 1.0 if k is TaskKind.LEFT else -1.0
         angles, needs, fallback = _turn_options(k, start, goal, robot, wrapped)
-        lengths = []
-        heads = []
-        for a, n in zip(angles, needs):
-            t = th + sign * a
-            if n > sure:
-                if q > 0 or -(bb := sx * cos(t) + sy * sin(t)) + sqrt(bb * bb - q) < n + 1e-9:
-                    n = min(n, _frontier_at(robot, sx, sy, t))
-            lengths.append(n)
-            # formal.geometry.wrap_angle(th + sign * a), inline (the same arithmetic)
-            h = fmod(t + pi, _TWO_PI)
-            if h <= 0:
-                h += _TWO_PI
-            heads.append(h - pi)
+        # formal.geometry.wrap_angle(th + sign * a), inline (the same arithmetic)
+        heads = [(h if (h := fmod(th + sign * a + pi, _TWO_PI)) > 0 else h + _TWO_PI) - pi for a in angles]
+        lengths = needs  # a fresh list from _turn_options: cut in place where the rim is nearer
+        if max(needs) > sure:
+            for i, (a, n) in enumerate(zip(angles, needs)):
+                if n > sure:
+                    t = th + sign * a
+                    if q > 0 or -(bb := sx * cos(t) + sy * sin(t)) + sqrt(bb * bb - q) < n + 1e-9:
+                        lengths[i] = min(n, _frontier_at(robot, sx, sy, t))
         groups.append((heads, lengths, angles.index(fallback)))
         options.append((angles, fallback))
     found = scene.first_clear_each(start, groups, straight)
