@@ -13,7 +13,7 @@ import json
 import operator
 import os
 from collections.abc import Iterable, Iterator
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 from fractions import Fraction
 from typing import IO, Any
 
@@ -83,6 +83,27 @@ class Transition:
 
 _ONE = Fraction(1)
 _ORDER = operator.attrgetter("source", "target", "label")
+# Transition(...) through the slots' own setters (a frozen dataclass's __init__ goes through
+# object.__setattr__ per field): the same record, for the maps the planner grows
+_T_SETTERS = tuple(Transition.__dict__[name].__set__ for name in ("source", "target", "label", "probability"))
+if tuple(f.name for f in fields(Transition)) != ("source", "target", "label", "probability"):  # pragma: no cover
+    raise ImportError("formal.lts: _transition() names Transition's fields in another order than Transition has them")
+_set_source, _set_target, _set_label, _set_probability = _T_SETTERS
+_new = object.__new__
+
+
+def _transition(source: int, target: int, label: TaskKind, probability: Fraction) -> Transition:
+    """``Transition(source, target, label, probability)``, built at less than half the cost.
+
+    >>> _transition(0, 1, TaskKind.LEFT, _ONE) == Transition(0, 1, TaskKind.LEFT)
+    True
+    """
+    t: Transition = _new(Transition)
+    _set_source(t, source)
+    _set_target(t, target)
+    _set_label(t, label)
+    _set_probability(t, probability)
+    return t
 
 
 def _json_ready(value: Any) -> Any:
@@ -156,7 +177,7 @@ class CognitiveMap:
         # planner's hot path
         kind = label if type(label) is TaskKind else TaskKind(label)
         p = _ONE if probability == 1 and type(probability) in (int, Fraction) else Fraction(probability)
-        t = Transition(source, target, kind, p)
+        t = _transition(source, target, kind, p)
         self._out[source][(target, t.label)] = t
         self._in[target][(source, t.label)] = t
         return t

@@ -41,7 +41,7 @@ from typing import Any
 import numpy as np
 
 from formal.lts import CognitiveMap
-from formal.model import Disturbance, Pose, State, TaskKind
+from formal.model import Disturbance, Pose, State, TaskKind, new_state
 from formal.supervisory import Plan, extract_plan, guard, reset_from
 from planner.perception import Obstacles, load_scan, perceive
 from planner.physics import Outcome, simulate
@@ -446,7 +446,7 @@ _KINDS = (TaskKind.STRAIGHT, TaskKind.LEFT, TaskKind.RIGHT)
 
 
 def _state(ident: int, out: Outcome, d_i: Disturbance, cost: float) -> State:
-    return State(
+    return new_state(
         ident,
         out.task,
         d_i,

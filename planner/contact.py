@@ -18,7 +18,7 @@ from typing import Any
 import numpy as np
 
 from formal.geometry import wrap_angle
-from formal.model import Pose, TaskKind
+from formal.model import Pose, TaskKind, new_pose
 from planner.engine import Outcome, _obstacle_disturbance
 from planner.perception import Obstacles
 from planner.robot import RobotModel
@@ -29,6 +29,7 @@ __all__ = ["Scene", "cut_straight", "unobstructed", "SPIN_SLACK"]
 # kept beyond the swept disc, so that a point ahead is not met on the sweep's very edge (m)
 SPIN_SLACK = 0.003
 _EPS = 1e-9
+_TWO_PI = 2 * math.pi
 
 
 class Scene:
@@ -348,7 +349,7 @@ class Scene:
             at = inside[first + k]
             j = int(near[int(np.argmax(at))]) if np.count_nonzero(at) else int(near[np.flatnonzero(waived)[0]])
             done = k - 1
-            end = Pose(s.x, s.y, wrap_angle(float(th[first + done]))) if done else s
+            end = new_pose(s.x, s.y, wrap_angle(float(th[first + done]))) if done else s
             d_n = _obstacle_disturbance(self.obstacles, (int(self.owner[j]), float(self.x[j]), float(self.y[j])))
             outs.append(Outcome(t.kind, s, end, 0.0, done * r.tick, done, d_n, False))
         return outs
@@ -387,7 +388,7 @@ def cut_straight(task: Task, d: float, obstacles: Obstacles, i: int, x: float, y
     done = k - 1
     travel = done * per_tick
     c, sn = math.cos(s.theta), math.sin(s.theta)
-    end = Pose(s.x + travel * c, s.y + travel * sn, s.theta) if done else s
+    end = new_pose(s.x + travel * c, s.y + travel * sn, s.theta) if done else s
     d_n = _obstacle_disturbance(obstacles, (i, x, y))
     return Outcome(task.kind, s, end, travel, done * r.tick, done, d_n, False)
 
@@ -402,14 +403,18 @@ def unobstructed(task: Task, frontier: bool = False) -> Outcome:
     r = task.robot
     s = task.start
     e0 = task.start_error()
-    if task.kind is TaskKind.STRAIGHT:
-        per_tick = r.straight_speed * r.tick
-        end = Pose(s.x + e0 * math.cos(s.theta), s.y + e0 * math.sin(s.theta), s.theta)
-        distance = e0
-    else:
-        per_tick = r.turn_rate * r.tick
-        sign = 1.0 if task.kind is TaskKind.LEFT else -1.0
-        end = Pose(s.x, s.y, wrap_angle(s.theta + sign * e0))
-        distance = 0.0
+    kind = task.kind
+    straight = kind is TaskKind.STRAIGHT
+    per_tick = r.straight_speed * r.tick if straight else r.turn_rate * r.tick
     ticks = math.ceil(e0 / per_tick - 1e-9) if e0 > 1e-9 else 0
-    return Outcome(task.kind, s, end if ticks else s, distance if ticks else 0.0, ticks * r.tick, ticks, None, False, frontier)
+    if not ticks:
+        return Outcome(kind, s, s, 0.0, ticks * r.tick, ticks, None, False, frontier)
+    if straight:
+        th = s.theta
+        end = new_pose(s.x + e0 * math.cos(th), s.y + e0 * math.sin(th), th)
+        return Outcome(kind, s, end, e0, ticks * r.tick, ticks, None, False, frontier)
+    # formal.geometry.wrap_angle(s.theta + sign * e0), inline (the same arithmetic)
+    h = math.fmod(s.theta + (e0 if kind is TaskKind.LEFT else -e0) + math.pi, _TWO_PI)
+    if h <= 0:
+        h += _TWO_PI
+    return Outcome(kind, s, new_pose(s.x, s.y, h - math.pi), 0.0, ticks * r.tick, ticks, None, False, frontier)
