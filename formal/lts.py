@@ -249,15 +249,22 @@ class CognitiveMap:
 
     def has_transition(self, source: int, target: int) -> bool:
         """True when some transition q_source ↪ q_target exists."""
-        return any(k[0] == target for k in self._out.get(source, {}))
+        out = self._out.get(source)
+        if not out:
+            return False
+        for k in out:
+            if k[0] == target:
+                return True
+        return False
 
     def reachable(self, source: int | None = None) -> set[int]:
         """Idents reachable from ``source`` (default q0), itself included."""
         start = self.initial.ident if source is None else self[source].ident
         seen = {start}
         stack = [start]
+        out = self._out
         while stack:
-            for (target, _), _t in self._out[stack.pop()].items():
+            for target, _ in out[stack.pop()]:  # the keys (target, label)
                 if target not in seen:
                     seen.add(target)
                     stack.append(target)
@@ -277,9 +284,12 @@ class CognitiveMap:
         while frontier and target not in parent:
             nxt: list[int] = []
             for u in frontier:
+                keys = out_of[u]
+                if not keys:
+                    continue
                 # the keys (target, label) sorted: targets in ascending order, a target
                 # named twice (two labels) met again at once and skipped as already seen
-                for v, _ in sorted(out_of[u]):
+                for v, _ in sorted(keys):
                     if v not in parent:
                         parent[v] = u
                         nxt.append(v)

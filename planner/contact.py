@@ -382,7 +382,7 @@ def cut_straight(task: Task, d: float, obstacles: Obstacles, i: int, x: float, y
     s = task.start
     e0 = task.start_error()
     if d >= e0 or not math.isfinite(d):
-        return unobstructed(task)
+        return unobstructed(task, e0=e0)
     per_tick = r.straight_speed * r.tick
     k = max(1, math.ceil(d / per_tick - 1e-12))  # the first tick whose travel reaches the point
     done = k - 1
@@ -393,16 +393,18 @@ def cut_straight(task: Task, d: float, obstacles: Obstacles, i: int, x: float, y
     return Outcome(task.kind, s, end, travel, done * r.tick, done, d_n, False)
 
 
-def unobstructed(task: Task, frontier: bool = False) -> Outcome:
+def unobstructed(task: Task, frontier: bool = False, e0: float | None = None) -> Outcome:
     """The outcome of a task that nothing interrupts, in closed form.
 
     Both controllers drive their error down linearly at full rate and cover the rest in
     the last tick (see :mod:`planner.tasks`), so the end pose is the start moved by the
-    initial error and the duration is the number of ticks that takes.
+    initial error and the duration is the number of ticks that takes. ``e0`` is the
+    task's :meth:`~planner.tasks.Task.start_error` when the caller has it.
     """
     r = task.robot
     s = task.start
-    e0 = task.start_error()
+    if e0 is None:
+        e0 = task.start_error()
     kind = task.kind
     straight = kind is TaskKind.STRAIGHT
     per_tick = r.straight_speed * r.tick if straight else r.turn_rate * r.tick

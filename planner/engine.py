@@ -300,6 +300,6 @@ def _body_frame(px: np.ndarray, py: np.ndarray, x: float, y: float, th: float) -
 
 def _obstacle_disturbance(obstacles: Obstacles, hit: tuple[int, float, float]) -> Disturbance:
     i, x, y = hit
-    return Disturbance(DisturbanceKind.OBSTACLE, x, y, tuple(map(tuple, obstacles.boxes[i].tolist())), i)
+    return Disturbance(DisturbanceKind.OBSTACLE, x, y, obstacles.outline(i), i)
 
 

@@ -141,6 +141,22 @@ class Obstacles:
         return len(self.boxes)
 
     @functools.cached_property
+    def _outlines(self) -> dict[int, tuple[tuple[float, float], ...]]:
+        return {}
+
+    def outline(self, i: int) -> tuple[tuple[float, float], ...]:
+        """Box ``i``'s corners as (x, y) floats, counter-clockwise (remembered: the rollouts
+        of one plan name a few boxes many times, as the D_N of the tasks they interrupt).
+
+        >>> Obstacles.from_boxes([[(0.5, -0.1), (0.6, -0.1), (0.6, 0.1), (0.5, 0.1)]]).outline(0)
+        ((0.5, -0.1), (0.6, -0.1), (0.6, 0.1), (0.5, 0.1))
+        """
+        known = self._outlines.get(i)
+        if known is None:
+            known = self._outlines[i] = tuple(map(tuple, self.boxes[i].tolist()))
+        return known
+
+    @functools.cached_property
     def disturbances(self) -> tuple[Disturbance, ...]:
         """One obstacle :class:`Disturbance` per box (centre and outline)."""
         return tuple(
