@@ -36,7 +36,10 @@ reckoning alone. The goal, the remaining plan and every task's error signal come
 Checks, recalls and fresh plans are kept with their times and logged. UNREACHABLE (wheels
 stopped): no safe task leads closer, ``patience`` plans in a row bring the robot no
 closer, ``max_stuck`` plans in a row end before it moved at all, or ``max_plans`` fresh
-plans were made.
+plans were made. ``patience`` is 6: a slalom's first plans go sideways round the first
+box and, at the ``harsh`` noise, a plan check of a queued task often ends them early;
+with 3, three of ten harsh slalom runs (seed 0) gave up 5-8 s into their 120 s with the
+estimate within 1 cm of the truth.
 """
 
 from __future__ import annotations
@@ -121,7 +124,7 @@ class Supervisor:
         goal_radius: float = 0.08,
         scan_timeout: float = 1.0,
         max_plans: int = 30,
-        patience: int = 3,
+        patience: int = 6,
         max_recalls: int = 5,
         max_stuck: int = 8,
         min_progress: float = 0.03,
