@@ -159,25 +159,29 @@ class Scene:
         return (d, int(lane_idx[k])) if math.isfinite(d) else (math.inf, -1)
 
     def _gaps(self, dz: np.ndarray, rot: np.ndarray, body: bool = True) -> tuple[np.ndarray, np.ndarray]:
-        """Per heading (K, given as ``rot`` = cos h − i sin h): how far the body can drive
-        before it meets one of the points at offsets ``dz`` (complex x + iy from the start),
-        and which (index into ``dz``); inf when none. The same arithmetic as
+        """Per heading (K, given as ``rot`` = cos h − i sin h) and point at offset ``dz``
+        (complex x + iy from the start), K×N: how far the body can drive before it meets
+        the point (inf when it never does), and per heading which point it meets first
+        (its column: the least gap of row r is ``gap[r, k[r]]``). The same arithmetic as
         :meth:`_straight_gap`, so that the two agree to the bit. ``body``: whether any point
         lies within the body's swept disc (else none is inside the footprint at the start)."""
         w = dz * rot[:, None]  # K×N: u + iv in each task frame
-        u = w.real
+        u = w.real.copy()  # contiguous: read three to five times below
         v = np.abs(w.imag)
         rear, front, half = self.infl
         lane = v <= half
         gap = np.where(lane & (u > front), u - front, np.inf)
         if body:
             # inside the inflated footprint at the start: the margin is waived for these
-            # points, the real body still must not touch them (the start-touching rule)
-            waived = lane & (u <= front) & (u >= -rear)
-            if np.count_nonzero(waived):
-                _, rfront, rhalf = self.real
-                gap = np.where(waived & (v < rhalf) & (u >= rfront), u - rfront, gap)
-        return gap.min(axis=1), gap.argmin(axis=1)  # the least gap per heading, and where
+            # points, the real body still must not touch them (the start-touching rule).
+            # The waived points the real body meets ahead are those with v < rhalf (so in
+            # the lane) and rfront <= u <= front (so not ahead of the inflated front, and
+            # ahead of its rear): one mask, not the waived ones first and then these
+            _, rfront, rhalf = self.real
+            met = (v < rhalf) & (u <= front) & (u >= rfront)
+            if np.count_nonzero(met):
+                gap = np.where(met, u - rfront, gap)
+        return gap, gap.argmin(axis=1)
 
     def first_clear(self, s: Pose, headings: list[float], lengths: list[float], fallback: int = -1) -> int:
         """The index of the first heading (each in (−π, π]) from which the body, turned in
@@ -226,11 +230,14 @@ class Scene:
             rots = [complex(cos(h), -sin(h)) for h in heads]
             if straight is not None:
                 rots.append(complex(cos(s.theta), -sin(s.theta)))  # as _straight_gap
-            gd, gk = self._gaps(dz, np.array(rots), body)
-            d, k = gd.tolist(), gk.tolist()
+            gap, gk = self._gaps(dz, np.array(rots), body)
+            # each heading's least gap read where argmin found it (gap.item(row, k[row])),
+            # only for the headings looked at: a min over every row costs more
+            k = gk.tolist()
+            item = gap.item
         if straight is not None:
             key = (kx, ky, s.theta)
-            ds = d[-1] if found else math.inf
+            ds = item(len(k) - 1, k[-1]) if found else math.inf
             if ds <= far:
                 self.gaps.setdefault(key, (ds, int(near[k[-1]])))
             else:
@@ -246,13 +253,13 @@ class Scene:
                 # array of the needs is built for the rest)
                 i = -1
                 for q in range(base, base + m):
-                    if d[q] >= needs[q] - _EPS:
+                    if item(q, k[q]) >= needs[q] - _EPS:
                         i = q - base
                         break
             j = i if i >= 0 else fallback
             if j >= 0:
                 key = (kx, ky, headings[j])
-                dj = d[base + j] if found else math.inf
+                dj = item(base + j, k[base + j]) if found else math.inf
                 if dj <= far:
                     self.gaps.setdefault(key, (dj, int(near[k[base + j]])))
                 else:
