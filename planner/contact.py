@@ -96,8 +96,9 @@ class Scene:
             # the offsets as complex numbers: their parts are x - x0 and y - y0 as floats
             # (z's parts are x and y up to the sign of a zero, which squaring drops)
             dzall = self.z - complex(x, y)
-            re, im = dzall.real, dzall.imag
-            d2 = re * re + im * im
+            sq = dzall.view(np.float64)
+            sq = sq * sq  # one contiguous product, then re² + im² (the same sum)
+            d2 = sq[0::2] + sq[1::2]
             idx = (d2 <= self.local2).nonzero()[0]
             # a point within the swept disc is within reach too (local2 >= radius2)
             body = len(d2) > 0 and bool(d2.min() <= self.radius2)

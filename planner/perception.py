@@ -185,7 +185,7 @@ class Obstacles:
             return None
         near = np.flatnonzero(np.hypot(self.centres[:, 0] - x, self.centres[:, 1] - y) <= self.radii + margin + 1e-12)
         for i in near.tolist():
-            if _point_in_convex(self.boxes[i], x, y, margin):
+            if _point_in_convex(self.boxes[i].tolist(), x, y, margin):  # as floats: the same arithmetic
                 return int(i)
         return None
 
@@ -212,7 +212,7 @@ def _outline(box: np.ndarray, step: float = 0.005) -> np.ndarray:
     return np.concatenate(out)
 
 
-def _point_in_convex(box: np.ndarray, x: float, y: float, margin: float) -> bool:
+def _point_in_convex(box: list[list[float]], x: float, y: float, margin: float) -> bool:
     n = len(box)
     for k in range(n):
         ax, ay = box[k]
