@@ -215,6 +215,7 @@ def _pose_error(x: float, y: float, theta: float) -> ValueError:
     return ValueError(f"pose must be finite, got ({x}, {y}, {theta})")
 
 
+_new = object.__new__  # a record without its __init__: the setters below fill every slot
 _set_x, _set_y, _set_theta = (Pose.__dict__[name].__set__ for name in ("x", "y", "theta"))
 _isfinite = math.isfinite
 
@@ -284,5 +285,3 @@ def new_state(
     _set_extra(s, extra)
     return s
 
-
-_new = object.__new__

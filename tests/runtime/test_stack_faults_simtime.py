@@ -55,14 +55,12 @@ def test_ctrl_c_between_ticks_stops_the_wheels_at_once() -> None:
 def test_ctrl_c_inside_a_tick_halts_the_supervisor_with_the_wheels_stopped() -> None:
     def arm(run: StackRun) -> None:
         assert run.robot is not None
-        drive = run.robot.set_wheel_speeds
 
         def interrupted(*a: Any, **k: Any) -> None:
             run.notes["raised_at"] = run.clock.now()
             raise KeyboardInterrupt("interrupted by SIGINT")
 
         run.robot.set_wheel_speeds = interrupted  # type: ignore[method-assign]
-        run.notes["drive"] = drive
 
     run = run_stack("overtaking", hook=_at(T_FAULT, arm))
     assert isinstance(run.raised, KeyboardInterrupt)
