@@ -1,7 +1,7 @@
 """The reactive baseline's variants against the paper's figures (prints figures; not a test).
 
     python bench/experiment_reactive.py [--family overtaking] [--seed 0] [--runs 10] [--noise paper]
-                                        [--workers 2] [--variants faithful,as-coded,blind,step-0.5]
+                                        [--workers 2] [--variants faithful,as-coded,blind,step-0.5,window-1.0]
 
 Runs the reactive condition of ``clomp experiment`` (same layouts, noise seeds, ground
 truth and counter: :func:`runtime.experiment.runner.run_once`) for each variant of
@@ -12,7 +12,10 @@ truth and counter: :func:`runtime.experiment.runner.run_once`) for each variant 
   always avoids right, pursues left);
 - ``blind``: ``detect=False``, their code before 2024-10-09, whose reactive branch
   simulated the task in a world with no bodies;
-- ``step-0.5``: straight steps of 0.5 m, ``reactive_target.cpp``'s command-line option.
+- ``step-0.5``: straight steps (and so the look-ahead) of 0.5 m, ``reactive_target.cpp``'s
+  command-line option;
+- ``window-1.0``: the look-ahead over the whole 1 m world window (``BOX2DRANGE``), the
+  default before the look-ahead was read as ``simulationStep``.
 
 Prints per variant: reached (ground truth, 0.1 m), believed, collisions + brushes, the
 median final error, and the paper's 0/10 with 8 collisions beside them (issue #9's band:
@@ -42,6 +45,7 @@ VARIANTS: dict[str, dict[str, Any]] = {
     "as-coded": {"sides": "as-coded"},
     "blind": {"detect": False},
     "step-0.5": {"model": dataclasses.replace(RobotModel(), step_length=0.5)},
+    "window-1.0": {"look_ahead": 1.0},
 }
 
 

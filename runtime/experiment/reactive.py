@@ -14,12 +14,16 @@ degrees". One task runs at a time:
 - **straight** (the default task): drives at the straight task's speed (0.1 m/s) for one
   step, ``step_length`` = 0.27 m (the Configurator's ``simulationStep``, twice the body's
   larger half-size; ``motorStep`` counts it out). While it runs, every tick looks *one
-  loop ahead*: the straight continued until the goal, at most ``look_ahead`` = 1.0 m
-  (``simulate`` runs the task for the goal's distance inside the world window of
-  ``BOX2DRANGE`` = 1 m) through the body's corridor —
+  loop ahead*: one step of the straight, ``look_ahead`` = ``step_length`` by default, or
+  less when the goal is nearer, through the body's corridor —
   ``front_offset < x <= front_offset + min(goal distance, look_ahead)``,
-  ``|y| <= width / 2 + clearance``. ``hazard_points`` (2) or more scan points there are a
-  predicted crash (ours: a single point may be noise), and the task changes at once;
+  ``|y| <= width / 2 + clearance``. (``simulate`` passes ``simulationStep`` to
+  ``Task::willCollide``, which ends the simulated straight once it has covered that
+  distance, or the goal's distance in time; ``target.cpp``, the planning and reactive
+  runs of October 2024, sets it to 0.27 m, ``reactive_target.cpp`` to 0.27 m or 0.5 m.
+  ``BOX2DRANGE`` = 1 m, :data:`WINDOW`, only bounds the simulated world.)
+  ``hazard_points`` (2) or more scan points there are a predicted crash (ours: a single
+  point may be noise), and the task changes at once;
 - **avoid**: a crash predicted → a turn in place of ``turn_angle`` = 90° (``SAFE_ANGLE``)
   at the turn tasks' rate (0.58 rad/s) *away from the obstacle* (``Task::H``: the side of
   the crashed-into body, here the centre of the corridor points' lateral extent; left
@@ -85,7 +89,7 @@ from runtime.robot import Robot, RobotFault, ScanFrame, finite_goal
 __all__ = ["PURSUE_DEAD_BAND", "WINDOW", "ReactiveController", "ReactiveReport"]
 
 WINDOW = 1.0
-"""Longest look-ahead (m): the authors' ``BOX2DRANGE``, the world window the straight is simulated in."""
+"""The authors' ``BOX2DRANGE`` (m): the window their simulated world spans; a probe's longest look-ahead."""
 PURSUE_DEAD_BAND = 0.1
 """Goal bearing (rad) beyond which the goal task turns towards the goal (``Task::H``)."""
 
@@ -139,7 +143,7 @@ class ReactiveController:
         *,
         clock: Clock | None = None,
         goal_radius: float | None = None,
-        look_ahead: float = WINDOW,
+        look_ahead: float | None = None,
         hazard_points: int = 2,
         scan_timeout: float = 1.0,
         feedback: str = "scan",
@@ -156,8 +160,8 @@ class ReactiveController:
         self.model = model or RobotModel()
         self.clock: Clock = clock_for(robot, clock)
         self.goal_radius = self.model.goal_tolerance if goal_radius is None else float(goal_radius)
-        self.look_ahead = float(look_ahead)
         self.step = float(self.model.step_length or self.model.length)
+        self.look_ahead = self.step if look_ahead is None else float(look_ahead)
         for name, v in (("goal_radius", self.goal_radius), ("look_ahead", self.look_ahead)):
             if not (math.isfinite(v) and v > 0):
                 raise ValueError(f"{name} must be a positive finite number, got {v!r}")
@@ -276,7 +280,7 @@ class ReactiveController:
 
     def _disturbance_ahead(self, goal_distance: float) -> float | None:
         """Lateral centre (m, left +) of the scan points in the body's corridor over the
-        straight continued to the goal (at most ``look_ahead``), or None when fewer than
+        straight's next ``look_ahead`` (at most to the goal), or None when fewer than
         ``hazard_points`` points are there."""
         if len(self._scan) == 0 or not self.detect:
             return None

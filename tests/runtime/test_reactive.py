@@ -77,19 +77,29 @@ def _kind(command):
 FRONT = RobotModel().front_offset
 
 
+STEP = RobotModel().step_length
+
+
 @pytest.mark.parametrize("points, goal, expect", [
     ([[FRONT + 0.25, 0.05], [FRONT + 0.25, 0.06]], (1.0, 0.0), "right"),  # left of the heading: turn right
     ([[FRONT + 0.25, -0.05], [FRONT + 0.25, -0.06]], (1.0, 0.0), "left"),
-    ([[FRONT + 0.95, 0.01], [FRONT + 0.96, 0.0]], (1.0, 0.0), "right"),  # the straight continued to the goal
-    ([[FRONT + 0.60, 0.0], [FRONT + 0.61, 0.0]], (0.5, 0.0), "ahead"),  # beyond the goal
-    ([[FRONT + 1.05, 0.0], [FRONT + 1.06, 0.0]], (2.0, 0.0), "ahead"),  # beyond the 1 m window
+    ([[FRONT + STEP - 0.01, 0.01], [FRONT + STEP - 0.005, 0.0]], (1.0, 0.0), "right"),  # within one step
+    ([[FRONT + STEP + 0.01, 0.01], [FRONT + STEP + 0.02, 0.0]], (1.0, 0.0), "ahead"),  # beyond one step
+    ([[FRONT + 0.16, 0.0], [FRONT + 0.17, 0.0]], (0.15, 0.0), "ahead"),  # beyond the goal
     ([[FRONT + 0.1, 0.12], [FRONT + 0.1, -0.12]], (1.0, 0.0), "ahead"),  # beside the body's corridor
     ([[FRONT + 0.1, 0.0]], (1.0, 0.0), "ahead"),  # a single point may be noise
     # away from the centre of the points' lateral extent (the crashed-into body's), not the nearest point
-    ([[FRONT + 0.1, -0.02], [FRONT + 0.3, 0.09], [FRONT + 0.3, 0.08]], (1.0, 0.0), "right"),
+    ([[FRONT + 0.1, -0.02], [FRONT + 0.2, 0.09], [FRONT + 0.2, 0.08]], (1.0, 0.0), "right"),
 ])
-def test_the_look_ahead_is_the_body_corridor_along_the_straight_to_the_goal(points, goal, expect):
+def test_the_look_ahead_is_the_body_corridor_over_one_straight_step(points, goal, expect):
+    # the authors' Task::willCollide ends the simulated straight after simulationStep (0.27 m)
     assert _kind(_first_command(points, goal)) == expect
+
+
+def test_a_longer_look_ahead_is_a_probe_up_to_the_goal():
+    far = [[FRONT + 0.95, 0.01], [FRONT + 0.96, 0.0]]
+    assert _kind(_first_command(far, (1.0, 0.0), look_ahead=1.0)) == "right"
+    assert _kind(_first_command(far, (0.5, 0.0), look_ahead=1.0)) == "ahead"  # beyond the goal
 
 
 def test_as_coded_sides_always_avoid_right_and_pursue_left():
