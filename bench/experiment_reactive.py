@@ -1,21 +1,24 @@
 """The reactive baseline's variants against the paper's figures (prints figures; not a test).
 
     python bench/experiment_reactive.py [--family overtaking] [--seed 0] [--runs 10] [--noise paper]
-                                        [--workers 2] [--variants faithful,as-coded,blind,step-0.5,window-1.0]
+                                        [--workers 2] [--variants default,signed,blind,step-0.5,window-1.0]
 
 Runs the reactive condition of ``clomp experiment`` (same layouts, noise seeds, ground
 truth and counter: :func:`runtime.experiment.runner.run_once`) for each variant of
 :class:`~runtime.experiment.reactive.ReactiveController`:
 
-- ``faithful``: the default, the authors' reactive_target task structure (signed sides);
-- ``as-coded``: ``sides="as-coded"``, their ``Disturbance::getAngle`` as written (acos:
-  always avoids right, pursues left);
+- ``default``: the authors' task structure and sides as their code ran (``Disturbance::
+  getAngle`` is acos: always avoids right, pursues left), a one-step (0.27 m) look-ahead;
+- ``signed``: ``sides="signed"``, the sides their code's comments meant (away from the
+  obstacle, towards the goal);
 - ``blind``: ``detect=False``, their code before 2024-10-09, whose reactive branch
   simulated the task in a world with no bodies;
 - ``step-0.5``: straight steps (and so the look-ahead) of 0.5 m, ``reactive_target.cpp``'s
   command-line option;
-- ``window-1.0``: the look-ahead over the whole 1 m world window (``BOX2DRANGE``), the
-  default before the look-ahead was read as ``simulationStep``.
+- ``window-1.0``: the look-ahead over the whole 1 m world window (``BOX2DRANGE``), as
+  this baseline read their code before b68adf9.
+
+Every variant but ``signed`` takes the default's sides.
 
 Prints per variant: reached (ground truth, 0.1 m), believed, collisions + brushes, the
 median final error, and the paper's 0/10 with 8 collisions beside them (issue #9's band:
@@ -41,8 +44,8 @@ from runtime.experiment.layouts import make_layout  # noqa: E402
 from runtime.experiment.runner import noise_seed, run_once  # noqa: E402
 
 VARIANTS: dict[str, dict[str, Any]] = {
-    "faithful": {},
-    "as-coded": {"sides": "as-coded"},
+    "default": {},
+    "signed": {"sides": "signed"},
     "blind": {"detect": False},
     "step-0.5": {"model": dataclasses.replace(RobotModel(), step_length=0.5)},
     "window-1.0": {"look_ahead": 1.0},

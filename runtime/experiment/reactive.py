@@ -5,8 +5,9 @@ closed-loop controller", drawn in its figure 3B as "one-loop-ahead disturbance
 detection"; it "never reached the target" and "collided 8 times" in 10 runs. The paper
 describes it no further, so this follows the authors' public code for that condition
 (``glafratta/collision-simulation``: ``reactive_target.cpp`` runs the Configurator with
-``planning = 0``; the loop is ``Configurator::Spawner``'s non-planning branch,
-``Configurator::changeTask``'s ``else`` branch and ``Task::H``; state of September 2024),
+``planning = 0``, as ``target.cpp`` does with its no-planning option from 2024-10-09; the
+loop is ``Configurator::Spawner``'s non-planning branch, ``Configurator::changeTask``'s
+``else`` branch and ``Task::H``; state of October 2024),
 on the same :class:`~runtime.robot.Robot` interface as the supervisor, with no plan and
 no map. The repository's README names the tasks: "go straight, turn left/right 90
 degrees". One task runs at a time:
@@ -25,17 +26,20 @@ degrees". One task runs at a time:
   ``hazard_points`` (2) or more scan points there are a predicted crash (ours: a single
   point may be noise), and the task changes at once;
 - **avoid**: a crash predicted → a turn in place of ``turn_angle`` = 90° (``SAFE_ANGLE``)
-  at the turn tasks' rate (0.58 rad/s) *away from the obstacle* (``Task::H``: the side of
-  the crashed-into body, here the centre of the corridor points' lateral extent; left
-  of the heading → turn right). A turn runs to its end without looking (``Spawner``
-  returns while a turn is under way): the rectangular body swings its rear, 0.18 m
-  behind the axle, through whatever is beside it;
+  at the turn tasks' rate (0.58 rad/s), chosen by ``Task::H`` from the angle of the
+  crashed-into body (here the centre of the corridor points' lateral extent). As their
+  code ran, that angle is never negative (below), so the turn is always to the *right*,
+  whichever side the obstacle is on; ``sides="signed"`` turns away from it, as their
+  comments meant. A turn runs to its end without looking (``Spawner`` returns while a
+  turn is under way): the rectangular body swings its rear, 0.18 m behind the axle,
+  through whatever is beside it;
 - after any turn, one **straight** step (``changeTask``: after a turn, a default task
   with no disturbance);
 - after a straight step ends, **pursue** the goal (``changeTask``: the goal task; the
   goal is a disturbance on the same loop): more than 0.1 rad off the heading (``Task::H``'s
-  dead band) → a 90° turn towards it, then a straight step; otherwise another straight
-  step. The run starts with this choice.
+  dead band) → a 90° turn, then a straight step; otherwise another straight step. The
+  run starts with this choice. As their code ran, the turn is always to the *left*
+  (towards the goal with ``sides="signed"``).
 
 So it steers only in quarter turns: it cannot curve onto the goal, and it re-aims only
 after each 0.27 m step. A turn ends where the pose estimate has turned 90° and a step
@@ -46,13 +50,16 @@ condition's tasks end; the authors' is 0.02 m for both conditions).
 
 Where this departs from the authors' code, and why:
 
-- ``Disturbance::getAngle`` returns ``acos(...)``, never negative, so as written their
-  ``Task::H`` always avoids to the right and pursues to the left; the code's comments
-  ("If the angle >0 means that Disturbance 1 is to the left") say the sign was meant.
-  This uses the signed angle.
-- ``sides="as-coded"`` reproduces that (for probes); ``detect=False`` the authors' code
-  before 2024-10-09 (commit 3fa42f0), whose reactive branch simulated the task in a world
-  with no bodies, so it never predicted a crash: a blind pursuer.
+- None in ``Task::H``'s sides: ``Disturbance::getAngle`` returns ``acos(...)``, never
+  negative, in every version of their code from May 2024 on, the runs of October 2024
+  included. So ``Task::H`` avoids to the right and pursues to the left whatever the
+  side; the paper's reactive figures come from that loop, and it is the default
+  (``sides="as-coded"``). The code's comments ("If the angle >0 means that Disturbance 1
+  is to the left") say a sign was meant: ``sides="signed"`` is that loop, for probes.
+- ``detect=False`` is their code before 2024-10-09 (commit 3fa42f0, "fixed reactive
+  test"; the same day ``target.cpp`` got its no-planning option), whose reactive branch
+  simulated the task in a world with no bodies, so it never predicted a crash: a blind
+  pursuer.
 - Their goal task also ends once the robot is 1 m (``BOX2DRANGE``) from where it started,
   and ``reactive_target.cpp``'s ``set_target`` then returns no value; neither is copied.
 - Pose: as the planning condition's supervisor (the same robot, sensing and estimate, so
@@ -147,7 +154,7 @@ class ReactiveController:
         hazard_points: int = 2,
         scan_timeout: float = 1.0,
         feedback: str = "scan",
-        sides: str = "signed",
+        sides: str = "as-coded",
         detect: bool = True,
     ) -> None:
         if sides not in ("signed", "as-coded"):

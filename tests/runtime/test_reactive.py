@@ -92,8 +92,9 @@ STEP = RobotModel().step_length
     ([[FRONT + 0.1, -0.02], [FRONT + 0.2, 0.09], [FRONT + 0.2, 0.08]], (1.0, 0.0), "right"),
 ])
 def test_the_look_ahead_is_the_body_corridor_over_one_straight_step(points, goal, expect):
-    # the authors' Task::willCollide ends the simulated straight after simulationStep (0.27 m)
-    assert _kind(_first_command(points, goal)) == expect
+    # the authors' Task::willCollide ends the simulated straight after simulationStep (0.27 m);
+    # signed sides, so that the side taken shows which points were seen
+    assert _kind(_first_command(points, goal, sides="signed")) == expect
 
 
 def test_a_longer_look_ahead_is_a_probe_up_to_the_goal():
@@ -102,11 +103,13 @@ def test_a_longer_look_ahead_is_a_probe_up_to_the_goal():
     assert _kind(_first_command(far, (0.5, 0.0), look_ahead=1.0)) == "ahead"  # beyond the goal
 
 
-def test_as_coded_sides_always_avoid_right_and_pursue_left():
-    # the authors' Disturbance::getAngle is acos(...), never negative (see the module docstring)
-    assert _kind(_first_command([[FRONT + 0.25, -0.05], [FRONT + 0.25, -0.06]], sides="as-coded")) == "right"
-    assert _kind(_first_command([], (1.0, -0.5), sides="as-coded")) == "left"
-    assert _kind(_first_command([], (1.0, -0.5))) == "right"
+def test_by_default_it_always_avoids_right_and_pursues_left_as_the_authors_code_ran():
+    # their Disturbance::getAngle is acos(...), never negative (see the module docstring)
+    right_of_heading = [[FRONT + 0.25, -0.05], [FRONT + 0.25, -0.06]]
+    assert _kind(_first_command(right_of_heading)) == "right"
+    assert _kind(_first_command([], (1.0, -0.5))) == "left"
+    assert _kind(_first_command(right_of_heading, sides="signed")) == "left"
+    assert _kind(_first_command([], (1.0, -0.5), sides="signed")) == "right"
 
 
 def test_without_detection_it_is_a_blind_pursuer():
@@ -162,7 +165,7 @@ def test_an_avoiding_turn_is_a_blind_quarter_turn_then_one_straight_step():
 @pytest.mark.parametrize("goal, first", [((1.0, 0.09), "ahead"), ((1.0, 0.2), "left"), ((1.0, -0.2), "right")])
 def test_the_goal_task_turns_a_quarter_when_the_goal_is_over_0_1_rad_off(goal, first):
     robot = _Driven(lambda k: [[FRONT + 0.2, 1.5]])
-    ReactiveController(robot, goal, feedback="none").run(max_time=4.0)
+    ReactiveController(robot, goal, feedback="none", sides="signed").run(max_time=4.0)
     runs = _runs(robot.commands)
     assert runs[0][0] == first
     if first != "ahead":  # a quarter turn, not until it faces the goal (0.2 rad: 4 ticks)
