@@ -5,9 +5,9 @@ the estimated pose: each task must still be free of the scan's points and end wh
 map predicted (within ``tolerance``). The test is the planner's own geometry in closed
 form (:mod:`planner.physics`: the footprint inflated by the robot's ``clearance``
 translated along a straight, spun through every tick heading of a turn, the
-start-touching rule), done for all remaining tasks at once on the raw points: no
-perception (clustering into boxes) and no rollout objects, so a check costs a few array
-operations, however many tasks remain. The supervisor runs it once a revolution; a
+start-touching rule; :mod:`runtime.supervision.checkgeometry`), done for all remaining
+tasks at once on the raw points: no perception (clustering into boxes) and no rollout
+objects, so a check costs a few array operations, however many tasks remain. The supervisor runs it once a revolution; a
 failed check sends it to REPLANNING. :func:`resimulate_plan` is the same verdict from the
 planner's :func:`planner.physics.simulate` on perceived obstacles (kept as the reference
 the tests compare against).
@@ -27,11 +27,10 @@ now and what the LiDAR sees from it.
 from __future__ import annotations
 
 import dataclasses
-import functools
 import math
 import time
 from dataclasses import dataclass
-from typing import Any, NamedTuple
+from typing import Any
 
 import numpy as np
 
@@ -43,8 +42,9 @@ from planner.configurator import PlanResult
 from planner.perception import Obstacles, perceive
 from planner.physics import simulate
 from planner.robot import RobotModel
+from runtime.supervision.checkgeometry import _ends_off, _Leg, _legs, _points, _straight_contacts, _turn_contacts
 
-_STRAIGHT, _LEFT = TaskKind.STRAIGHT, TaskKind.LEFT  # looked up once: a member lookup is a descriptor call
+_STRAIGHT = TaskKind.STRAIGHT  # looked up once: a member lookup is a descriptor call
 
 __all__ = [
     "CheckResult",
@@ -101,161 +101,6 @@ def perceive_near(scan: np.ndarray, states: list[State], origin: Pose, pose: Pos
 def _off(a: Pose, b: Pose) -> tuple[float, float]:
     return math.hypot(a.x - b.x, a.y - b.y), abs(wrap_angle(a.theta - b.theta))
 
-
-class _Leg(NamedTuple):
-    """One remaining task as the robot would run it now: from ``start`` (robot frame, x, y,
-    theta), a straight of ``amount`` m or a turn of ``amount`` rad; ``end`` is the map's
-    prediction and ``reached`` where it ends when run as planned from ``start``."""
-
-    k: int
-    kind: TaskKind
-    start: tuple[float, float, float]
-    amount: float
-    end: tuple[float, float, float]
-    reached: tuple[float, float, float]
-
-
-def _legs(states: list[State], frame: Pose, running: bool) -> list[_Leg]:
-    """The remaining tasks chained from the robot's pose (the origin of the robot frame):
-    each starts where the previous one, run as planned, ends (plain floats: a check builds
-    no pose objects)."""
-    legs: list[_Leg] = []
-    fx, fy, fth = frame.x, frame.y, frame.theta
-    fc, fs = math.cos(fth), math.sin(fth)
-    x = y = th = 0.0
-    for k, q in enumerate(states):
-        e = q.end
-        end = (fx + fc * e.x - fs * e.y, fy + fs * e.x + fc * e.y, fth + e.theta)  # the map's end, robot frame
-        c, sn = math.cos(th), math.sin(th)
-        if q.task is _STRAIGHT:
-            if k == 0 and running:
-                amount = (end[0] - x) * c + (end[1] - y) * sn
-            else:
-                amount = math.hypot(e.x - q.start.x, e.y - q.start.y)
-        else:
-            amount = abs(wrap_angle(end[2] - th))
-        if amount <= 1e-3:
-            reached = end  # nothing left of it: the next task starts where the map says
-        elif q.task is _STRAIGHT:
-            reached = (x + c * amount, y + sn * amount, th)
-        else:
-            reached = (x, y, th + (amount if q.task is _LEFT else -amount))
-        legs.append(_Leg(k, q.task, (x, y, th), amount, end, reached))
-        x, y, th = reached
-    return legs
-
-
-def _points(seen: Obstacles | np.ndarray, robot: RobotModel) -> np.ndarray:
-    """The scan's points within the sensor's range as complex x + iy (robot frame now): a
-    scan's N×2 floats read as N complex numbers, no arithmetic (equal to x + 1j * y up to
-    the sign of a zero, which no test of the check sees)."""
-    if isinstance(seen, Obstacles):
-        pts = seen.points
-        out: np.ndarray = pts[:, 0] + 1j * pts[:, 1]
-        return out
-    z = np.ascontiguousarray(seen, dtype=float).reshape(-1, 2).view(np.complex128).ravel()
-    x, y = z.real, z.imag
-    r2 = x * x + y * y
-    keep = (r2 <= robot.sensor_range * robot.sensor_range) & (r2 > 1e-6)
-    return z if keep.all() else z[keep]
-
-
-def _straight_contacts(z: np.ndarray, legs: list[_Leg], robot: RobotModel, allowance: float) -> list[float]:
-    """Per straight leg: how far the body drives before it meets a point (inf: never), to
-    the last control tick before the contact, all legs in one array operation (the
-    planner's rule, :mod:`planner.physics`: the inflated footprint translated along the
-    leg; a point already inside it at the start is held to the real body). ``allowance``
-    (m) shrinks the body a point must enter to count (sensor noise)."""
-    a = np.array([complex(g.start[0], g.start[1]) for g in legs])
-    e = np.exp(-1j * np.array([g.start[2] for g in legs]))
-    w = (z[None, :] - a[:, None]) * e[:, None]  # legs × points: u + iv in each task's frame
-    u, v = w.real, np.abs(w.imag)
-    c = robot.clearance
-    rear, front, half = robot.rear_offset + c, robot.front_offset + c, robot.width / 2 + c - allowance
-    beside = (v <= half) & (u >= -rear)
-    d = np.min(u, axis=1, where=beside, initial=np.inf) - (front - allowance)  # = min(u - f): rounding is monotone
-    if d.min() <= allowance:
-        # inside the inflated footprint at the start: held to the real body (the
-        # start-touching rule); strictly inside the real body, the robot's own returns
-        gap = np.where(beside, u - (front - allowance), np.inf)
-        rfront, rhalf = robot.front_offset - allowance, robot.width / 2 - allowance
-        real = np.where(v < rhalf, u - rfront, np.inf)
-        gap = np.where(gap <= allowance, np.where(real >= allowance, real, np.inf), gap)
-        d = gap.min(axis=1)
-    per_tick = robot.straight_speed * robot.tick
-    # the task ends at the last control tick before the contact, as the planner's rollout
-    return [(max(math.ceil(x / per_tick - 1e-12), 1) - 1) * per_tick if math.isfinite(x) else math.inf for x in d.tolist()]
-
-
-def _turn_contacts(z: np.ndarray, legs: list[_Leg], robot: RobotModel, allowance: float) -> list[float]:
-    """Per turn leg: how far (rad) the inflated body turns in place before it meets a point
-    (inf: never), tested at every tick heading as the planner's rollout does; all legs in
-    one array operation (legs × tick headings × points), on the points within the inflated
-    body's reach of a leg's centre (no other point can meet it at any heading)."""
-    per_tick = robot.turn_rate * robot.tick
-    ticks = [math.ceil(g.amount / per_tick - 1e-9) for g in legs]
-    n = max(ticks)
-    if n <= 0:
-        return [math.inf] * len(legs)
-    d = z[None, :] - np.array([complex(g.start[0], g.start[1]) for g in legs])[:, None]  # legs × points
-    if len(legs) * n * z.size > 2048:  # a large array: first drop the points out of every leg's reach
-        near = (np.abs(d) <= _reach(robot)).any(axis=0)
-        d = d[:, near]
-        if not d.shape[1]:
-            return [math.inf] * len(legs)
-    # past a leg's own last tick its heading stays at its end: a repeat, never an earlier contact
-    steps = np.arange(n + 1) * per_tick
-    spec = np.array([(g.amount, 1.0 if g.kind is _LEFT else -1.0, g.start[2]) for g in legs])
-    turned = np.minimum(steps[None, :], spec[:, 0:1]) * spec[:, 1:2] + spec[:, 2:3]
-    w = d[:, None, :] * np.exp(-1j * turned)[:, :, None]  # legs × ticks × points, body frames
-    c = robot.clearance
-    rear, front, half = robot.rear_offset, robot.front_offset, robot.width / 2
-    mid, length = (front - rear) / 2, (front + rear) / 2
-    u, v = np.abs(w.real - mid), np.abs(w.imag)  # about the body's centre: one test per axis
-    inside = (u <= length + c - allowance) & (v <= half + c - allowance)
-    waived = inside[:, 0, :]
-    anyw = waived.any(axis=1).tolist()
-    if True in anyw:
-        real = (u <= length - allowance) & (v <= half - allowance)
-        inside = np.where(waived[:, None, :], real, inside)
-    if True in anyw or allowance > c:
-        # strictly inside the real body at the start: the robot's own returns, never a
-        # contact (below the clearance every such point is waived, so only then is there any)
-        inside &= ~((u[:, 0, :] < length) & (v[:, 0, :] < half))[:, None, :]
-    out = []
-    for i, row in enumerate(inside[:, 1:, :].any(axis=2).tolist()):
-        g = legs[i]
-        k = min(row.index(True) + 1 if True in row else n + 1, ticks[i] + 1)  # the first tick in contact
-        if anyw[i] and k > 1:
-            # a point within the margin is held to the real body with no margin for the
-            # corner's path between ticks: tested at eight headings per tick, as the planner
-            # does (up to the tick before the contact found: only an earlier one matters)
-            sign = 1.0 if g.kind is _LEFT else -1.0
-            k = min(k, _waived_turn(d[i][waived[i]], g.start[2], sign, per_tick, g.amount, min(ticks[i], k - 1),
-                                    robot, allowance))
-        out.append(math.inf if k > ticks[i] else min((k - 1) * per_tick, g.amount))  # the last tick heading before contact
-    return out
-
-
-@functools.lru_cache(maxsize=16)
-def _reach(robot: RobotModel) -> float:
-    """The inflated body's reach from its rotation centre, a margin far above rounding added."""
-    return robot.swept_radius + 1e-6
-
-
-def _waived_turn(d: np.ndarray, theta: float, sign: float, per_tick: float, e0: float, ticks: int,
-                 robot: RobotModel, allowance: float) -> int:
-    """The first tick at or after which the real body meets one of these points (complex,
-    relative to the centre; strictly outside the body at the start), eight headings a tick,
-    up to ``ticks`` (``ticks + 1``: none)."""
-    rear, front, half = robot.rear_offset - allowance, robot.front_offset - allowance, robot.width / 2 - allowance
-    fine = np.minimum(np.arange(1, 8 * ticks + 1) * (per_tick / 8), e0)
-    w = d[None, :] * np.exp(-1j * (theta + sign * fine))[:, None]
-    u, v = w.real, np.abs(w.imag)
-    w0 = d * complex(math.cos(theta), -math.sin(theta))
-    live = ~((w0.real > -robot.rear_offset) & (w0.real < robot.front_offset) & (np.abs(w0.imag) < robot.width / 2))
-    hit = np.flatnonzero(((u >= -rear) & (u <= front) & (v <= half) & live).any(axis=1))
-    return int(hit[0]) // 8 + 1 if len(hit) else ticks + 1
 
 
 def check_plan(
@@ -320,13 +165,6 @@ def _check(states: list[State], frame: Pose, z: np.ndarray, robot: RobotModel, t
                 if turned < g.amount - tolerance[1]:
                     blocked[g.k] = turned
     return _verdict(legs, blocked, len(states), offs, t0)
-
-
-def _ends_off(g: _Leg, tolerance: tuple[float, float]) -> tuple[float, float] | None:
-    """How far (m, rad) the leg run as planned ends from the map's prediction, when beyond ``tolerance``."""
-    (rx, ry, rth), (ex, ey, eth) = g.reached, g.end
-    d, a = math.hypot(rx - ex, ry - ey), abs(wrap_angle(rth - eth))
-    return (d, a) if d > tolerance[0] or a > tolerance[1] else None
 
 
 def _verdict(legs: list[_Leg], blocked: dict[int, float], n: int, offs: list[tuple[float, float] | None],

@@ -27,7 +27,8 @@ from formal.geometry import relative
 from formal.model import Pose, State, TaskKind
 from planner.perception import Obstacles
 from planner.robot import RobotModel
-from runtime.supervision.plancheck import CheckResult, _ends_off, _Leg, _legs, _verdict, _waived_turn
+from runtime.supervision.checkgeometry import _ends_off, _Leg, _legs, _waived_turn
+from runtime.supervision.plancheck import CheckResult, _verdict
 
 __all__ = ["check_plan_reference"]
 

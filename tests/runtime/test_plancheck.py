@@ -236,7 +236,7 @@ def test_a_check_that_passes_leaves_no_point_in_the_bodys_path(name, layout, dx,
     :func:`check_plan` passes a plan's remaining tasks, the real body, moved along them from
     the estimated pose, covers no point of the scan (up to the tolerance before each end)."""
     from runtime.experiment.layouts import make_layout
-    from runtime.supervision.plancheck import _legs
+    from runtime.supervision.checkgeometry import _legs
 
     scene = make_layout(name, 0, layout).scene
     world = make_world_robot(scene, noise, seed=layout)

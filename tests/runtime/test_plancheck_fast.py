@@ -17,7 +17,8 @@ from planner import Configurator
 from runtime.experiment.layouts import make_layout
 from runtime.robots import make_world_robot
 from tests.runtime._checkref import check_plan_reference
-from runtime.supervision.plancheck import RecallIndex, _legs, check_plan, perceive_scan, recall
+from runtime.supervision.checkgeometry import _legs
+from runtime.supervision.plancheck import RecallIndex, check_plan, perceive_scan, recall
 
 ORIGIN = Pose(0.0, 0.0, 0.0)
 
@@ -122,7 +123,7 @@ def _legs_and_points(rng: np.random.Generator, m: Any, n_legs: int, n_pts: int) 
     """Random tasks of one kind family and points about their starts: uniform in the
     swept disc and within 3 cm of the real body's outline (inside it, in the clearance, out)."""
     from formal.model import TaskKind
-    from runtime.supervision.plancheck import _Leg
+    from runtime.supervision.checkgeometry import _Leg
 
     legs, pts = [], []
     for k in range(n_legs):
@@ -153,17 +154,17 @@ def test_the_fast_contacts_are_the_reference_contacts(seed, n_legs, n_pts, allow
     whichever other tasks are tested with them (no task's answer depends on another's); a
     turn's also with far points added (which the reach filter of a large array drops)."""
     from formal.model import TaskKind
-    from runtime.supervision import plancheck
+    from runtime.supervision import checkgeometry
     from tests.runtime import _checkref as checkref
 
     m = Configurator().robot
     legs, z = _legs_and_points(np.random.default_rng(seed), m, n_legs, n_pts)
-    for which, fast, ref in ((lambda g: g.kind is TaskKind.STRAIGHT, plancheck._straight_contacts, checkref._straight_contacts),
-                             (lambda g: g.kind is not TaskKind.STRAIGHT, plancheck._turn_contacts, checkref._turn_contacts)):
+    for which, fast, ref in ((lambda g: g.kind is TaskKind.STRAIGHT, checkgeometry._straight_contacts, checkref._straight_contacts),
+                             (lambda g: g.kind is not TaskKind.STRAIGHT, checkgeometry._turn_contacts, checkref._turn_contacts)):
         group = [g for g in legs if which(g)]
         if group:
             together = fast(z, group, m, allowance)
             assert together == ref(z, group, m, allowance)
             assert together == [fast(z, [g], m, allowance)[0] for g in group]
-            if fast is plancheck._turn_contacts:  # far points in a large array: the reach filter runs
+            if fast is checkgeometry._turn_contacts:  # far points in a large array: the reach filter runs
                 assert fast(np.r_[z, 5.0 * np.exp(1j * np.linspace(0.0, 6.0, 3000))], group, m, allowance) == together
