@@ -77,11 +77,18 @@ def _points(seen: Obstacles | np.ndarray, robot: RobotModel) -> np.ndarray:
         pts = seen.points
         out: np.ndarray = pts[:, 0] + 1j * pts[:, 1]
         return out
-    z = np.ascontiguousarray(seen, dtype=float).reshape(-1, 2).view(np.complex128).ravel()
-    x, y = z.real, z.imag
-    r2 = x * x + y * y
-    keep = (r2 <= robot.sensor_range * robot.sensor_range) & (r2 > 1e-6)
-    return z if keep.all() else z[keep]
+    xy = np.ascontiguousarray(seen, dtype=float).reshape(-1, 2)
+    z = xy.view(np.complex128).ravel()
+    if not z.size:
+        return z
+    r2 = _SUM(xy * xy, axis=1)  # x * x + y * y
+    if _MAX(r2) <= robot.sensor_range * robot.sensor_range and _MIN(r2) > 1e-6:  # the usual scan: all kept (a NaN: not)
+        return z
+    return z[(r2 <= robot.sensor_range * robot.sensor_range) & (r2 > 1e-6)]
+
+
+# the ufuncs' own reductions: ndarray.min and np.min go through Python wrappers first
+_SUM, _MIN, _MAX, _ANY = np.add.reduce, np.minimum.reduce, np.maximum.reduce, np.logical_or.reduce
 
 
 def _straight_contacts(z: np.ndarray, legs: list[_Leg], robot: RobotModel, allowance: float) -> list[float]:
@@ -90,25 +97,35 @@ def _straight_contacts(z: np.ndarray, legs: list[_Leg], robot: RobotModel, allow
     planner's rule, :mod:`planner.physics`: the inflated footprint translated along the
     leg; a point already inside it at the start is held to the real body). ``allowance``
     (m) shrinks the body a point must enter to count (sensor noise)."""
-    a = np.array([complex(g.start[0], g.start[1]) for g in legs])
-    e = np.exp(-1j * np.array([g.start[2] for g in legs]))
-    w = (z[None, :] - a[:, None]) * e[:, None]  # legs × points: u + iv in each task's frame
+    # each leg's start and exp(-i theta) (cos, -sin: bit-equal to np.exp(-1j * theta)), as legs × 1
+    a, e = np.array([[complex(g.start[0], g.start[1]) for g in legs],
+                     [complex(math.cos(g.start[2]), -math.sin(g.start[2])) for g in legs]])[:, :, None]
+    w = (z - a) * e  # legs × points: u + iv in each task's frame
     u, v = w.real, np.abs(w.imag)
     c = robot.clearance
     rear, front, half = robot.rear_offset + c, robot.front_offset + c, robot.width / 2 + c - allowance
     beside = (v <= half) & (u >= -rear)
-    d = np.min(u, axis=1, where=beside, initial=np.inf) - (front - allowance)  # = min(u - f): rounding is monotone
-    if d.min() <= allowance:
+    f = front - allowance
+    d = [x - f for x in _MIN(u, axis=1, where=beside, initial=math.inf).tolist()]  # = min(u - f): rounding is monotone
+    if min(d) <= allowance:
         # inside the inflated footprint at the start: held to the real body (the
         # start-touching rule); strictly inside the real body, the robot's own returns
-        gap = np.where(beside, u - (front - allowance), np.inf)
+        gap = np.where(beside, u - f, np.inf)
         rfront, rhalf = robot.front_offset - allowance, robot.width / 2 - allowance
         real = np.where(v < rhalf, u - rfront, np.inf)
         gap = np.where(gap <= allowance, np.where(real >= allowance, real, np.inf), gap)
-        d = gap.min(axis=1)
+        d = _MIN(gap, axis=1).tolist()
     per_tick = robot.straight_speed * robot.tick
     # the task ends at the last control tick before the contact, as the planner's rollout
-    return [(max(math.ceil(x / per_tick - 1e-12), 1) - 1) * per_tick if math.isfinite(x) else math.inf for x in d.tolist()]
+    return [(max(math.ceil(x / per_tick - 1e-12), 1) - 1) * per_tick if math.isfinite(x) else math.inf for x in d]
+
+
+@functools.lru_cache(maxsize=64)
+def _steps(n: int, per_tick: float) -> np.ndarray:
+    """The angles turned at ticks 0 … n, as a column (read-only: the array is shared)."""
+    out = (np.arange(n + 1) * per_tick)[:, None]
+    out.setflags(write=False)
+    return out
 
 
 def _turn_contacts(z: np.ndarray, legs: list[_Leg], robot: RobotModel, allowance: float) -> list[float]:
@@ -121,50 +138,41 @@ def _turn_contacts(z: np.ndarray, legs: list[_Leg], robot: RobotModel, allowance
     n = max(ticks)
     if n <= 0:
         return [math.inf] * len(legs)
-    d = z[None, :] - np.array([complex(g.start[0], g.start[1]) for g in legs])[:, None]  # legs × points
+    d = z - np.array([complex(g.start[0], g.start[1]) for g in legs])[:, None, None]  # legs × 1 × points
     if len(legs) * n * z.size > 2048:  # a large array: first drop the points out of every leg's reach
-        near = (np.abs(d) <= _reach(robot)).any(axis=0)
-        d = d[:, near]
-        if not d.shape[1]:
+        near = _ANY(np.abs(d) <= robot.swept_radius + 1e-6, axis=(0, 1))  # a margin far above rounding
+        d = d[:, :, near]
+        if not d.shape[2]:
             return [math.inf] * len(legs)
     # past a leg's own last tick its heading stays at its end: a repeat, never an earlier contact
-    steps = np.arange(n + 1) * per_tick
-    spec = np.array([(g.amount, 1.0 if g.kind is _LEFT else -1.0, g.start[2]) for g in legs])
-    turned = np.minimum(steps[None, :], spec[:, 0:1]) * spec[:, 1:2] + spec[:, 2:3]
-    w = d[:, None, :] * np.exp(-1j * turned)[:, :, None]  # legs × ticks × points, body frames
+    amount, sign, start = np.array([(g.amount, 1.0 if g.kind is _LEFT else -1.0, g.start[2]) for g in legs]).T[:, :, None, None]
+    w = d * np.exp(-1j * (np.minimum(_steps(n, per_tick), amount) * sign + start))  # legs × ticks × points, body frames
     c = robot.clearance
     rear, front, half = robot.rear_offset, robot.front_offset, robot.width / 2
     mid, length = (front - rear) / 2, (front + rear) / 2
     u, v = np.abs(w.real - mid), np.abs(w.imag)  # about the body's centre: one test per axis
     inside = (u <= length + c - allowance) & (v <= half + c - allowance)
-    waived = inside[:, 0, :]
-    anyw = waived.any(axis=1).tolist()
-    if True in anyw:
-        real = (u <= length - allowance) & (v <= half - allowance)
-        inside = np.where(waived[:, None, :], real, inside)
+    hit = _ANY(inside, axis=2).tolist()  # legs × ticks; at tick 0: points within the margin at the start
+    waived, anyw = inside[:, 0, :], [row[0] for row in hit]
     if True in anyw or allowance > c:
+        if True in anyw:
+            inside = np.where(waived[:, None, :], (u <= length - allowance) & (v <= half - allowance), inside)
         # strictly inside the real body at the start: the robot's own returns, never a
         # contact (below the clearance every such point is waived, so only then is there any)
         inside &= ~((u[:, 0, :] < length) & (v[:, 0, :] < half))[:, None, :]
+        hit = _ANY(inside, axis=2).tolist()
     out = []
-    for i, row in enumerate(inside[:, 1:, :].any(axis=2).tolist()):
-        g = legs[i]
+    for i, g in enumerate(legs):
+        row = hit[i][1:]
         k = min(row.index(True) + 1 if True in row else n + 1, ticks[i] + 1)  # the first tick in contact
         if anyw[i] and k > 1:
             # a point within the margin is held to the real body with no margin for the
             # corner's path between ticks: tested at eight headings per tick, as the planner
             # does (up to the tick before the contact found: only an earlier one matters)
-            sign = 1.0 if g.kind is _LEFT else -1.0
-            k = min(k, _waived_turn(d[i][waived[i]], g.start[2], sign, per_tick, g.amount, min(ticks[i], k - 1),
-                                    robot, allowance))
+            k = min(k, _waived_turn(d[i, 0][waived[i]], g.start[2], 1.0 if g.kind is _LEFT else -1.0, per_tick,
+                                    g.amount, min(ticks[i], k - 1), robot, allowance))
         out.append(math.inf if k > ticks[i] else min((k - 1) * per_tick, g.amount))  # the last tick heading before contact
     return out
-
-
-@functools.lru_cache(maxsize=16)
-def _reach(robot: RobotModel) -> float:
-    """The inflated body's reach from its rotation centre, a margin far above rounding added."""
-    return robot.swept_radius + 1e-6
 
 
 def _waived_turn(d: np.ndarray, theta: float, sign: float, per_tick: float, e0: float, ticks: int,

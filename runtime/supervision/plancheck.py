@@ -149,17 +149,23 @@ def _check(states: list[State], frame: Pose, z: np.ndarray, robot: RobotModel, t
     frame seen from the robot. The verdict names the first task that is blocked or ends off
     the map's prediction, so no task after the first that ends off needs a contact test."""
     legs = _legs(states, frame, running)
-    offs = [_ends_off(g, tolerance) if g.amount > 1e-3 else None for g in legs]
-    cut = next((k for k, off in enumerate(offs) if off is not None), len(legs))
-    live = [g for g in legs if g.amount > 1e-3 and g.k <= cut]
+    offs: list[tuple[float, float] | None] = [None] * len(legs)
+    straights: list[_Leg] = []
+    turns: list[_Leg] = []
+    for g in legs:
+        if g.amount > 1e-3:
+            (straights if g.kind is _STRAIGHT else turns).append(g)
+            off = offs[g.k] = _ends_off(g, tolerance)
+            if off is not None:  # the verdict: this task at the latest, so none after it needs testing
+                break
     blocked: dict[int, float] = {}
-    if z.size and live:
-        straights = [g for g in live if g.kind is _STRAIGHT]
+    if z.size:
         if straights:
             for g, d in zip(straights, _straight_contacts(z, straights, robot, allowance)):
                 if d < g.amount - tolerance[0]:
                     blocked[g.k] = d
-        turns = [g for g in live if g.kind is not _STRAIGHT and g.k < min(blocked, default=len(legs))]
+        first = min(blocked, default=len(legs))
+        turns = [g for g in turns if g.k < first]
         if turns:
             for g, turned in zip(turns, _turn_contacts(z, turns, robot, allowance)):
                 if turned < g.amount - tolerance[1]:
@@ -172,17 +178,20 @@ def _verdict(legs: list[_Leg], blocked: dict[int, float], n: int, offs: list[tup
     """The check's result: the first leg (in order) that is ``blocked`` (where it meets a
     point) or ends off the map's prediction (``offs``: :func:`_ends_off` per leg) fails the plan."""
     for g in legs:
-        name = f"task {g.k + 1} ({g.kind.value})"
-        if g.k in blocked:
+        k = g.k
+        off = offs[k]
+        if k not in blocked and off is None:
+            continue
+        name = f"task {k + 1} ({g.kind.value})"
+        if k in blocked:
             if g.kind is _STRAIGHT:
-                why = f"{name} now meets an obstacle after {max(blocked[g.k], 0.0):.2f} of {g.amount:.2f} m"
+                why = f"{name} now meets an obstacle after {max(blocked[k], 0.0):.2f} of {g.amount:.2f} m"
             else:
                 why = f"{name} now meets an obstacle"
-            return CheckResult(False, why, g.k + 1, time.perf_counter() - t0)
-        off = offs[g.k]
-        if off is not None:
-            return CheckResult(False, f"{name} would end {off[0]:.3f} m, {math.degrees(off[1]):.0f}° "
-                                      f"from the map's prediction", g.k + 1, time.perf_counter() - t0)
+            return CheckResult(False, why, k + 1, time.perf_counter() - t0)
+        assert off is not None
+        return CheckResult(False, f"{name} would end {off[0]:.3f} m, {math.degrees(off[1]):.0f}° "
+                                  f"from the map's prediction", k + 1, time.perf_counter() - t0)
     return CheckResult(True, f"{n} task(s) still free and on the map", n, time.perf_counter() - t0)
 
 
