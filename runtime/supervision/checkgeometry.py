@@ -84,7 +84,8 @@ def _points(seen: Obstacles | np.ndarray, robot: RobotModel) -> np.ndarray:
     r2 = _SUM(xy * xy, axis=1)  # x * x + y * y
     if _MAX(r2) <= robot.sensor_range * robot.sensor_range and _MIN(r2) > 1e-6:  # the usual scan: all kept (a NaN: not)
         return z
-    return z[(r2 <= robot.sensor_range * robot.sensor_range) & (r2 > 1e-6)]
+    kept: np.ndarray = z[(r2 <= robot.sensor_range * robot.sensor_range) & (r2 > 1e-6)]
+    return kept
 
 
 # the ufuncs' own reductions: ndarray.min and np.min go through Python wrappers first
