@@ -98,9 +98,9 @@ def _straight_contacts(z: np.ndarray, legs: list[_Leg], robot: RobotModel, allow
     planner's rule, :mod:`planner.physics`: the inflated footprint translated along the
     leg; a point already inside it at the start is held to the real body). ``allowance``
     (m) shrinks the body a point must enter to count (sensor noise)."""
-    # each leg's start and exp(-i theta) (cos, -sin: bit-equal to np.exp(-1j * theta)), as legs × 1
-    a, e = np.array([[complex(g.start[0], g.start[1]) for g in legs],
-                     [complex(math.cos(g.start[2]), -math.sin(g.start[2])) for g in legs]])[:, :, None]
+    # each leg's start and exp(-i theta) (cos, -sin: bit-equal to np.exp(-1j * theta)), made as legs × 1
+    a = np.array([[complex(g.start[0], g.start[1])] for g in legs])
+    e = np.array([[complex(math.cos(g.start[2]), -math.sin(g.start[2]))] for g in legs])
     w = (z - a) * e  # legs × points: u + iv in each task's frame
     u, v = w.real, np.abs(w.imag)
     c = robot.clearance
@@ -139,14 +139,16 @@ def _turn_contacts(z: np.ndarray, legs: list[_Leg], robot: RobotModel, allowance
     n = max(ticks)
     if n <= 0:
         return [math.inf] * len(legs)
-    d = z - np.array([complex(g.start[0], g.start[1]) for g in legs])[:, None, None]  # legs × 1 × points
+    d = z - np.array([[[complex(g.start[0], g.start[1])]] for g in legs])  # legs × 1 × points
     if len(legs) * n * z.size > 2048:  # a large array: first drop the points out of every leg's reach
         near = _ANY(np.abs(d) <= robot.swept_radius + 1e-6, axis=(0, 1))  # a margin far above rounding
         d = d[:, :, near]
         if not d.shape[2]:
             return [math.inf] * len(legs)
     # past a leg's own last tick its heading stays at its end: a repeat, never an earlier contact
-    amount, sign, start = np.array([(g.amount, 1.0 if g.kind is _LEFT else -1.0, g.start[2]) for g in legs]).T[:, :, None, None]
+    amount = np.array([[[g.amount]] for g in legs])  # legs × 1 × 1, as the sign and the start heading
+    sign = np.array([[[1.0 if g.kind is _LEFT else -1.0]] for g in legs])
+    start = np.array([[[g.start[2]]] for g in legs])
     w = d * np.exp(-1j * (np.minimum(_steps(n, per_tick), amount) * sign + start))  # legs × ticks × points, body frames
     c = robot.clearance
     rear, front, half = robot.rear_offset, robot.front_offset, robot.width / 2
