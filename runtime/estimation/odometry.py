@@ -52,7 +52,7 @@ from formal.geometry import compose, relative, wheel_twist, wrap_angle
 from formal.model import Pose
 from runtime.devices.frame import ScanFrame
 from runtime.estimation.ekf import OdometryFilter
-from runtime.estimation.fusion import fuse_revolutions
+from runtime.estimation.fusion import fuse_revolutions, range_spread
 from runtime.estimation.icp import ReferenceScan, match_scans
 
 __all__ = ["ScanOdometry", "FeedbackRecord", "deskew"]
@@ -121,7 +121,15 @@ class ScanOdometry:
     heading: per 0.5 m of lever), however many points it has. ``seed_revolutions``: while
     the robot has not moved since :meth:`reset`, the seed is the last this many
     revolutions fused (median range per bearing): the start pose fixes the frame, so the
-    map's first surfaces are the best known.
+    map's first surfaces are the best known. The same still revolutions measure the LiDAR's
+    range noise (:func:`~runtime.estimation.fusion.range_spread`, :attr:`range_sd`): a match's
+    residual is believed no smaller than ``noise_factor`` times it (a scan point and the map
+    point it meets each carry that noise). The residual a match reports is measured only
+    over the points it paired within a few centimetres and so understates a noisy sensor:
+    at 2.5 cm of range noise it read about 1 cm, the filter believed each match to a
+    fraction of a degree while the estimate drifted 5-13° from the truth, and scan feedback
+    reached the goal of the ``slalom`` layouts less often than dead reckoning alone (1 of
+    10 against 7 of 10 at seed 0, every other noise term at ``paper``).
     """
 
     def __init__(
@@ -140,6 +148,7 @@ class ScanOdometry:
         correlation: float = 4.0,
         floor_factor: float = 0.75,
         seed_revolutions: int = 8,
+        noise_factor: float = math.sqrt(2.0),
     ) -> None:
         if not (math.isfinite(wheel_base) and wheel_base > 0):
             raise ValueError(f"wheel_base must be positive, got {wheel_base!r}")
@@ -156,6 +165,8 @@ class ScanOdometry:
         self.correlation = float(correlation)
         self.floor_factor = float(floor_factor)
         self.seed_revolutions = max(1, int(seed_revolutions))
+        self.noise_factor = float(noise_factor)
+        self.range_sd: float | None = None  # m, measured from the still revolutions of the seed
         self.filter = OdometryFilter(self.wheel_base)
         self.pose = Pose(0.0, 0.0, 0.0)
         self._t = 0.0
@@ -248,6 +259,9 @@ class ScanOdometry:
             # less noisy than one revolution's and a small face's direction better known
             self._seed.append(points)
             n = min(len(self._seed), self.seed_revolutions)
+            spread = range_spread(self._seed[-n:])
+            if spread is not None:
+                self.range_sd = spread
             seeded = self._add(fuse_revolutions(self._seed[-n:]), at, reseed=True)
             reason = (f"the map's seed: {n} still revolution{'s' if n > 1 else ''} fused" if seeded
                       else f"{len(points)} points: too few to seed the map")
@@ -275,7 +289,7 @@ class ScanOdometry:
             # the match measures the pose in the directions the scene observes: fused with
             # the prediction by the filter, whose calibration learns from it
             z = match.pose
-            sd2 = max(match.rmse, self.match_sd) ** 2 * self.correlation
+            sd2 = max(match.rmse, self.match_sd, self.noise_factor * (self.range_sd or 0.0)) ** 2 * self.correlation
             info = np.asarray(match.information_matrix) / sd2
             before = f.pose
             # the map's own errors do not average out: no match is believed closer than

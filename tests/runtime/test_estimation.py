@@ -189,3 +189,66 @@ def test_still_revolutions_at_the_start_are_fused_into_the_map_seed() -> None:
     # once the robot moves, the seed is fixed and revolutions are matched against it
     odo.advance(0.18 * 8 + 0.1, (0.1, 0.1))
     assert "seed" not in odo.update(ScanFrame(revolution() - [0.01, 0.0], 0.18 * 8 + 0.1)).reason
+
+
+POSTS = {"goal": [1.6, 0.0], "obstacles": [
+    {"type": "box", "center": [0.45, 0.35], "size": [0.1, 0.2]},
+    {"type": "box", "center": [0.9, -0.35], "size": [0.1, 0.2]},
+    {"type": "box", "center": [1.35, 0.35], "size": [0.1, 0.2]},
+]}
+
+
+def _past_posts(seed: int, feedback: bool, noise_factor: float = math.sqrt(2.0)) -> tuple[float, float | None]:
+    """Stand 1 s, then drive 1.6 m straight past three posts on good wheels with a noisy
+    LiDAR (2.5 cm of range noise, every other term at ``paper``); the estimate's true
+    error (m) at the end, and the range noise the estimator measured."""
+    from runtime.robots.world import WorldNoise
+
+    noise = WorldNoise(**{**WorldNoise.preset("paper").to_dict(), "range_sd": 0.025})
+    world = make_world_robot(parse_scenario(POSTS, "posts"), noise, seed=seed)
+    odo = ScanOdometry(0.15, noise_factor=noise_factor)
+    odo.reset(Pose(0.0, 0.0, 0.0), 0.0)
+    cmd = (0.0, 0.0)
+    for k in range(170):
+        odo.advance(world.now(), cmd)
+        frame = world.read_scan(0.0)
+        if frame is not None and feedback:
+            odo.update(frame)
+        cmd = (0.0, 0.0) if k < 10 else (0.1, 0.1)
+        world.set_wheel_speeds(*cmd)
+        world.sleep(0.1)
+    odo.advance(world.now(), cmd)
+    truth = relative(world.start_pose, world.ground_truth_pose())
+    return math.hypot(odo.pose.x - truth.x, odo.pose.y - truth.y), odo.range_sd
+
+
+def test_a_noisy_lidar_is_trusted_only_as_far_as_its_measured_noise() -> None:
+    """With 2.5 cm of range noise the still revolutions at the start measure it, and the
+    matches are weighted by it: scan feedback then beats dead reckoning past small posts.
+    Believing the matches' own residual (about 1 cm over the points they pair), as the
+    estimator once did (``noise_factor=0``), made it drift further than dead reckoning."""
+    seeds = range(6)
+    honest = [_past_posts(s, True) for s in seeds]
+    overconfident = [_past_posts(s, True, noise_factor=0.0)[0] for s in seeds]
+    blind = [_past_posts(s, False)[0] for s in seeds]
+    assert all(sd is not None and 0.018 < sd < 0.04 for _, sd in honest), honest
+    errors = [e for e, _ in honest]
+    assert np.median(errors) < np.median(blind), (errors, blind)
+    assert np.median(errors) < 0.6 * np.median(overconfident), (errors, overconfident)
+
+
+def test_range_spread_reads_the_noise_and_ignores_edges() -> None:
+    from runtime.estimation.fusion import range_spread
+
+    rng = np.random.default_rng(1)
+    ang = np.radians(np.arange(-60, 60, 1.0))
+    base = 0.8 / np.cos(ang)
+    revs = []
+    for k in range(5):
+        r = base + rng.normal(0.0, 0.01, len(ang))
+        r[::15] = np.where(k % 2, 2.5, r[::15])  # edge bins: the object one revolution, the far wall the next
+        revs.append(np.c_[r * np.cos(ang), r * np.sin(ang)])
+    sd = range_spread(revs)
+    assert sd is not None and 0.008 < sd < 0.013, sd
+    assert range_spread(revs[:1]) is None                        # one revolution: nothing to compare
+    assert range_spread([np.zeros((0, 2)), np.zeros((0, 2))]) is None  # no returns
