@@ -1,0 +1,118 @@
+"""How much of the closed loop's misses is the estimate's: the same runs on the true pose.
+
+    python bench/estimate_ceiling.py [--families overtaking slalom] [--runs 20 10]
+                                     [--noise harsh] [--seed 0] [--workers 2]
+                                     [--term range_sd]   # paper, with this one term at harsh
+
+Runs ``clomp experiment``'s planning condition three ways on the same layouts and noise
+seeds, and prints each family's reach beside the issue's target:
+
+- ``scan``: the supervisor as shipped (scan-matched estimate, :mod:`runtime.estimation`);
+- ``none``: dead reckoning alone (``--feedback none``);
+- ``truth``: an ablation that no robot has — the supervisor's pose, and the pose its
+  newest revolution is placed at, are the execution world's ground truth. What ``truth``
+  still misses is the planner's and the supervisor's (a gap that noisy ranges close, a
+  plan check that gives up), not the estimate's: it bounds what estimation work alone can
+  gain.
+
+Each line gives the runs reached (ground truth within 0.1 m of the goal), the median
+final error, how the misses ended (``believed``: the robot stopped believing it was at the
+goal; ``unreachable``: it gave up; ``other``) and the runs' thread CPU time. ``--term
+NAME`` runs every mode at ``paper`` noise with that one term raised to its ``harsh`` value
+(``runtime.robots.world.WorldNoise``'s fields): which of harsh's terms costs what.
+"""
+
+from __future__ import annotations
+
+import argparse
+import statistics
+import sys
+import time
+from concurrent.futures import ProcessPoolExecutor
+from pathlib import Path
+from typing import Any
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from runtime.experiment.runner import RunSpec, noise_seed, run_once, _scene_for  # noqa: E402
+from runtime.supervision import Supervisor  # noqa: E402
+
+TARGETS = {("overtaking", "harsh"): "18/20", ("slalom", "harsh"): "9/10", ("corridor", "harsh"): "9/10",
+           ("doorway", "harsh"): "9/10", ("overtaking", "paper"): "20/20"}
+
+
+class _TruthFed(Supervisor):
+    """The ablation: the pose estimate replaced by the world's ground truth (start frame)."""
+
+    def _update_pose(self, now: float) -> None:
+        super()._update_pose(now)
+        self.pose = self.robot.ground_truth_pose()  # type: ignore[attr-defined]
+
+    def _scan_feedback(self, frame: Any, now: float) -> None:
+        super()._scan_feedback(frame, now)
+        self.pose = self.robot.ground_truth_pose()  # type: ignore[attr-defined]
+        if frame.point_times is not None:  # the de-skewed revolution, placed at the true pose
+            self._scan_pose = self.pose
+
+
+def _one(args: tuple[str, int, int, str, str, str | None]) -> tuple[bool, float, str, float]:
+    family, seed, run, preset, mode, term = args
+    import runtime.experiment.runner as runner
+    from runtime.robots.world import WorldNoise
+
+    noise: str | WorldNoise = preset
+    if term is not None:
+        noise = WorldNoise(**{**WorldNoise.preset("paper").to_dict(), term: getattr(WorldNoise.preset("harsh"), term)})
+
+    spec = RunSpec(family, seed, run, "planning", preset)
+    scene, expect = _scene_for(spec)
+    saved = runner.Supervisor
+    if mode == "truth":
+        runner.Supervisor = _TruthFed  # type: ignore[misc]
+    try:
+        c0 = time.thread_time()
+        r = run_once(scene, "planning", noise_seed(seed, run), run=run, noise=noise, expect=expect,
+                     feedback="none" if mode == "none" else "scan")
+        cpu = time.thread_time() - c0
+    finally:
+        runner.Supervisor = saved  # type: ignore[misc]
+    how = "reached" if r.reached_goal else ("believed" if r.believed_goal else
+                                           "unreachable" if r.end_state == "UNREACHABLE" else "other")
+    return r.reached_goal, r.final_distance, how, cpu
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--families", nargs="+", default=["overtaking", "slalom"])
+    ap.add_argument("--runs", nargs="+", type=int, default=[20, 10], help="runs per family (one value, or one per family)")
+    ap.add_argument("--noise", default="harsh")
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--workers", type=int, default=2)
+    ap.add_argument("--modes", nargs="+", default=["scan", "none", "truth"], choices=["scan", "none", "truth"])
+    ap.add_argument("--term", default=None, help="paper noise with this one term at its harsh value")
+    a = ap.parse_args()
+    from runtime.robots.world import WorldNoise
+
+    if a.term is not None and a.term not in WorldNoise.preset("paper").to_dict():
+        ap.error(f"--term: one of {', '.join(WorldNoise.preset('paper').to_dict())}")
+    runs = a.runs if len(a.runs) == len(a.families) else [a.runs[0]] * len(a.families)
+    label = f"paper with {a.term} at harsh" if a.term else a.noise
+    print(f"noise {label}, seed {a.seed}; reached = ground truth within 0.1 m of the goal")
+    with ProcessPoolExecutor(a.workers) as pool:
+        for family, n in zip(a.families, runs):
+            for mode in a.modes:
+                t0 = time.perf_counter()
+                res = list(pool.map(_one, [(family, a.seed, k, a.noise, mode, a.term) for k in range(n)]))
+                wall = time.perf_counter() - t0
+                reached = sum(1 for r in res if r[0])
+                med = statistics.median(r[1] for r in res)
+                ends = {k: sum(1 for r in res if r[2] == k) for k in ("believed", "unreachable", "other")}
+                target = "-" if a.term else TARGETS.get((family, a.noise), "-")
+                print(f"{family:11s} {mode:6s} {reached:3d}/{n:<3d} (target {target:>5s})  median error {med:.3f} m  "
+                      f"misses: {ends['believed']} believed at goal, {ends['unreachable']} unreachable, "
+                      f"{ends['other']} other   [{wall:.0f} s wall, {sum(r[3] for r in res):.0f} s thread CPU]",
+                      flush=True)
+
+
+if __name__ == "__main__":
+    main()
