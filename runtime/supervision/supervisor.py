@@ -34,7 +34,9 @@ reckoning alone. The goal, the remaining plan and every task's error signal come
   :meth:`Supervisor.run` stops them on every exit path (also Ctrl-C).
 
 Checks, recalls and fresh plans are kept with their times and logged. UNREACHABLE (wheels
-stopped): no safe task leads closer, ``patience`` plans in a row bring the robot no
+stopped): no safe task leads closer on ``confirm`` plans in a row, each from revolutions
+taken afresh (one fused scan at ``harsh`` puts a surface beside the body 2-4 cm into its
+way), ``patience`` plans in a row bring the robot no
 closer, ``max_stuck`` plans in a row end before it moved at all, or ``max_plans`` fresh
 plans were made. ``patience`` is 6: a slalom's first plans go sideways round the first
 box and, at the ``harsh`` noise, a plan check of a queued task often ends them early;
@@ -134,6 +136,7 @@ class Supervisor:
         settle_scans: int = 2,
         feedback: str = "scan",
         fuse_scans: int = 3,
+        confirm: int = 3,
         log: RunLogLike | None = None,
     ) -> None:
         gx, gy = finite_goal(goal)
@@ -160,6 +163,10 @@ class Supervisor:
         if not (isinstance(fuse_scans, int) and fuse_scans >= 1):
             raise ValueError(f"fuse_scans must be a positive integer, got {fuse_scans!r}")
         self.fuse_scans = fuse_scans if feedback == "scan" else 1
+        if not (isinstance(confirm, int) and confirm >= 1):
+            raise ValueError(f"confirm must be a positive integer, got {confirm!r}")
+        self.confirm = confirm
+        self._empty = 0  # plans in a row, each from fresh revolutions at this stop, that found no safe task
         self._still: deque[np.ndarray] = deque(maxlen=self.fuse_scans)
         self.estimator: ScanOdometry | None = ScanOdometry(self.model.wheel_base) if feedback == "scan" else None
 
@@ -428,8 +435,16 @@ class Supervisor:
         if self.log is not None:
             self._log("plan", **plan_fields(result, rec.origin))
         if not result.steps:
-            self._fire(E.NO_PLAN, "goal unreachable: no safe task leads closer to the goal")
+            self._empty += 1
+            if self._empty < self.confirm:
+                # a verdict from one fused scan: range noise puts points of a surface beside
+                # the body into the way. Stand, take fresh revolutions and plan again.
+                self._scans_since_stop, self._still = 0, deque(maxlen=self.fuse_scans)
+                return
+            self._fire(E.NO_PLAN, "goal unreachable: no safe task leads closer to the goal"
+                       + (f" (on {self._empty} scans in a row)" if self._empty > 1 else ""))
             return
+        self._empty = 0
         # progress is what the robot achieved, not what a plan to the disc's rim promised
         if result.reached_goal or dist < self._best - self.min_progress:
             self._stalled = 0
