@@ -34,6 +34,7 @@ from __future__ import annotations
 
 import math
 import time
+from collections import deque
 from typing import Any, Protocol
 
 import numpy as np
@@ -43,6 +44,7 @@ from formal.model import Pose, State
 from planner.configurator import PlanResult
 from planner.robot import RobotModel
 from planner.tasks import Task
+from runtime.estimation.fusion import fuse_revolutions
 from runtime.supervision.alarms import Alarms
 from runtime.supervision.plancheck import Recall, RecallIndex, recall
 from runtime.supervision.records import PlanRecord, TimedRecord, scan_to_frame
@@ -76,6 +78,7 @@ class PlanWatch:
         self.recalls_in_a_row = 0
         self.stuck = 0  # plans in a row that ended before the robot moved (see :meth:`stalled`)
         self._from: Pose | None = None
+        self._recent: deque[tuple[np.ndarray, Pose]] = deque(maxlen=3)  # the newest clean revolutions, where taken
 
     def started(self, pose: Pose) -> None:
         """A plan, fresh or recalled, starts executing with the robot at ``pose``."""
@@ -115,8 +118,13 @@ class PlanWatch:
         points in the body's remaining path from ``pose``: deep at once, shallow when it persists."""
         if clean_scan is None or len(clean_scan) == 0:
             return None
+        if not self._recent or self._recent[-1][0] is not clean_scan:
+            self._recent.append((clean_scan, scan_pose))
         pts = scan_to_frame(clean_scan, scan_pose, pose)
-        return self.alarms.hazard(pts, task.kind, error, self.model, lookahead, needed, pose)
+        recent = None
+        if self.alarms.allowance > 0 and len(self._recent) >= 2:
+            recent = fuse_revolutions([scan_to_frame(s, p, pose) for s, p in self._recent])
+        return self.alarms.hazard(pts, task.kind, error, self.model, lookahead, needed, pose, recent)
 
     def check(self, states: list[State], plan: PlanRecord, scan_pose: Pose, goal: Pose, clean_scan: np.ndarray,
               tolerance: tuple[float, float], t: float) -> TimedRecord:

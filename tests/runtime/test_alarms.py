@@ -109,3 +109,45 @@ def test_a_noisy_box_beside_the_standing_body_raises_no_hazard_one_ahead_does() 
         ahead += hazard_hits(front, TaskKind.STRAIGHT, 0.3, M, 0.5)[0] >= 2
     assert beside == 0
     assert ahead == 20
+
+
+
+def _polar_noise(pts: np.ndarray, sd: float, rng: np.random.Generator) -> np.ndarray:
+    r = np.hypot(pts[:, 0], pts[:, 1])
+    return pts * ((r + rng.normal(0.0, sd, len(r))) / r)[:, None]
+
+
+def _wall_rays(y: float) -> np.ndarray:
+    """A wall along the path at ``y`` (left), hit by a ray a degree as the LiDAR's."""
+    a = np.radians(np.arange(5.0, 175.0, 1.0))
+    return np.c_[y / np.tan(a), np.full(len(a), y)]
+
+
+@pytest.mark.parametrize("gap, clear", [(0.015, True), (-0.01, False)])
+def test_a_shallow_alarm_that_the_recent_revolutions_fused_do_not_raise_is_the_noise(gap: float, clear: bool) -> None:
+    """A wall 1.5 cm beside the body's side at the harsh range noise (2.5 cm): single
+    revolutions put points inside the body revolution after revolution (a shallow alarm
+    that persists), so a robot standing there saw every plan interrupted ("collision
+    imminent") and gave up after ``max_stuck`` plans with the wall truly clear of its path
+    (overtaking 0/5, 0/12, 0/16 at harsh on the true pose). The same revolutions fused
+    (median range per bearing) place the wall outside the body: the alarm is the noise's.
+    A wall 1 cm inside the body stays an alarm."""
+    from runtime.estimation.fusion import fuse_revolutions
+
+    rng = np.random.default_rng(3)
+    plain, fused = Alarms(), Alarms()
+    revs: list[np.ndarray] = []
+    stood_plain = stood_fused = 0
+    for _ in range(20):
+        rev = _polar_noise(_wall_rays(M.width / 2 + gap), 0.025, rng)
+        revs = (revs + [rev])[-3:]
+        plain.revolution(rev)
+        fused.revolution(rev)
+        stood_plain += plain.hazard(rev, TaskKind.STRAIGHT, 0.27, M, 0.5, 2) is not None
+        recent = fuse_revolutions(revs) if len(revs) >= 2 else None
+        stood_fused += fused.hazard(rev, TaskKind.STRAIGHT, 0.27, M, 0.5, 2, recent=recent) is not None
+    if clear:
+        assert stood_plain >= 6, stood_plain  # the noise alone stops the robot again and again
+        assert stood_fused <= 2, stood_fused
+    else:
+        assert stood_fused >= 15, stood_fused  # a surface truly in the path: an alarm as before
