@@ -34,14 +34,11 @@ reckoning alone. The goal, the remaining plan and every task's error signal come
   :meth:`Supervisor.run` stops them on every exit path (also Ctrl-C).
 
 Checks, recalls and fresh plans are kept with their times and logged. UNREACHABLE (wheels
-stopped): no safe task leads closer on ``confirm`` plans in a row, each from revolutions
-taken afresh (one fused scan at ``harsh`` puts a surface beside the body 2-4 cm into its
-way), ``patience`` plans in a row bring the robot no
-closer, ``max_stuck`` plans in a row end before it moved at all, or ``max_plans`` fresh
-plans were made. ``patience`` is 6: a slalom's first plans go sideways round the first
-box and, at the ``harsh`` noise, a plan check of a queued task often ends them early;
-with 3, three of ten harsh slalom runs (seed 0) gave up 5-8 s into their 120 s with the
-estimate within 1 cm of the truth.
+stopped): ``confirm`` plans in a row, each from revolutions taken afresh, find no safe task
+(one fused scan at ``harsh`` can put a surface beside the body 2-4 cm into its way);
+``patience`` (6) plans in a row bring the robot no closer (with 3, three of ten harsh slalom
+runs gave up 5-8 s in, the estimate within 1 cm of the truth); ``max_stuck`` plans in a row
+end before it moved at all; or ``max_plans`` fresh plans were made.
 """
 
 from __future__ import annotations
@@ -65,32 +62,12 @@ from runtime.clock import Clock, clock_for
 from runtime.estimation.fusion import fuse_revolutions
 from runtime.estimation.odometry import ScanOdometry
 from runtime.supervision.planwatch import PlanWatch
-from runtime.supervision.records import (
-    PlanRecord,
-    SupervisorReport,
-    TaskRecord,
-    TimedRecord,
-)
+from runtime.supervision.records import PlanRecord, SupervisorReport, TaskRecord, TimedRecord
 from runtime.records.runlog import RunLogLike, plan_fields
 from runtime.robot import Robot, RobotFault, ScanFrame, finite_goal
-from runtime.supervision.machine import (
-    MOTOR_STATES,
-    TERMINAL,
-    TRANSITIONS,
-    Event,
-    SupervisorState,
-    TransitionRecord,
-)
+from runtime.supervision.machine import MOTOR_STATES, TERMINAL, TRANSITIONS, Event, SupervisorState, TransitionRecord
 
-__all__ = [
-    "FEEDBACK",
-    "GuardViolation",
-    "PlanRecord",
-    "Supervisor",
-    "SupervisorReport",
-    "TaskRecord",
-    "TimedRecord",
-]
+__all__ = ["FEEDBACK", "GuardViolation", "PlanRecord", "Supervisor", "SupervisorReport", "TaskRecord", "TimedRecord"]
 
 
 S, E = SupervisorState, Event
