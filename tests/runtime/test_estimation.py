@@ -88,24 +88,29 @@ def test_deskew_puts_each_point_where_it_was_at_the_revolutions_end():
     assert deskew(pts, None, 0.1, 0.0) is pts
 
 
-def _drive(feedback: bool, seed: int) -> float:
-    """Drive a biased robot in the room; return the final estimate's true error (m)."""
-    scene = parse_scenario(ROOM, "t")
-    world = make_world_robot(scene, "harsh", seed=seed)
-    odo = ScanOdometry(0.15)
+def _run_commands(world: Any, odo: ScanOdometry, commands: list[tuple[float, float]], feedback: bool) -> float:
+    """Drive ``world`` through one wheel command a 0.1 s tick, ``odo`` estimating (with the
+    scans when ``feedback``); the final estimate's true error (m)."""
     odo.reset(Pose(0.0, 0.0, 0.0), 0.0)
     cmd = (0.0, 0.0)
-    for k in range(90):
+    for nxt in commands:
         odo.advance(world.now(), cmd)
         frame = world.read_scan(0.0)
         if frame is not None and feedback:
             odo.update(frame)
-        cmd = (0.0, 0.0) if k < 5 else ((0.08, 0.1) if k < 50 else (0.1, 0.08))
+        cmd = nxt
         world.set_wheel_speeds(*cmd)
         world.sleep(0.1)
     odo.advance(world.now(), cmd)
     truth = relative(world.start_pose, world.ground_truth_pose())
     return math.hypot(odo.pose.x - truth.x, odo.pose.y - truth.y)
+
+
+def _drive(feedback: bool, seed: int) -> float:
+    """Drive a biased robot in the room; return the final estimate's true error (m)."""
+    world = make_world_robot(parse_scenario(ROOM, "t"), "harsh", seed=seed)
+    commands = [(0.0, 0.0) if k < 5 else ((0.08, 0.1) if k < 50 else (0.1, 0.08)) for k in range(90)]
+    return _run_commands(world, ScanOdometry(0.15), commands, feedback)
 
 
 def test_scan_odometry_beats_dead_reckoning_in_a_harsh_world():
@@ -207,19 +212,8 @@ def _past_posts(seed: int, feedback: bool, noise_factor: float = math.sqrt(2.0))
     noise = WorldNoise(**{**WorldNoise.preset("paper").to_dict(), "range_sd": 0.025})
     world = make_world_robot(parse_scenario(POSTS, "posts"), noise, seed=seed)
     odo = ScanOdometry(0.15, noise_factor=noise_factor)
-    odo.reset(Pose(0.0, 0.0, 0.0), 0.0)
-    cmd = (0.0, 0.0)
-    for k in range(170):
-        odo.advance(world.now(), cmd)
-        frame = world.read_scan(0.0)
-        if frame is not None and feedback:
-            odo.update(frame)
-        cmd = (0.0, 0.0) if k < 10 else (0.1, 0.1)
-        world.set_wheel_speeds(*cmd)
-        world.sleep(0.1)
-    odo.advance(world.now(), cmd)
-    truth = relative(world.start_pose, world.ground_truth_pose())
-    return math.hypot(odo.pose.x - truth.x, odo.pose.y - truth.y), odo.range_sd
+    commands = [(0.0, 0.0) if k < 10 else (0.1, 0.1) for k in range(170)]
+    return _run_commands(world, odo, commands, feedback), odo.range_sd
 
 
 def test_a_noisy_lidar_is_trusted_only_as_far_as_its_measured_noise() -> None:
