@@ -122,7 +122,8 @@ class Alarms:
         self._raised: dict[str, int] = {}  # the last revolution each kind of alarm was raised in
         self._before: dict[str, int] = {}  # and the one before that
         self._stood: dict[str, Pose] = {}  # where an alarm of each kind last stood
-        self.deferred = 0  # shallow alarms seen once and not acted on
+        self.deferred = 0  # shallow alarms not acted on (seen once, or not in the revolutions fused)
+        self._dismissed = -1  # the last revolution a shallow hazard alarm was dismissed as the noise's
 
     @property
     def allowance(self) -> float:
@@ -167,7 +168,8 @@ class Alarms:
         deep = hazard_hits(points, kind, error, m, lookahead, self.allowance) if self.allowance > 0 else (soon, ahead)
         is_deep = max(deep) >= needed
         if not is_deep and recent is not None and max(hazard_hits(recent, kind, error, m, lookahead)) < needed:
-            self.deferred += 1
+            self.deferred += self._dismissed != self._revolution  # once a revolution, as :meth:`stands` counts
+            self._dismissed = self._revolution
             return None
         if not self.stands("hazard", is_deep, at):
             return None

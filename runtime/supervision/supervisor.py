@@ -582,6 +582,7 @@ class Supervisor:
         states = rec.result.plan.states
         k = states.index(found.state)
         self._queue = deque((rec.result.map[t], (s, t)) for s, t in zip(states[k:], states[k + 1:]))
+        self._empty = 0  # a plan runs: an earlier empty one no longer counts towards ``confirm``
         self._fire(E.PLANNED, f"plan {len(self.plans)} recalled from q{found.state} of the map: {len(self._queue)} tasks")
         self.watch.started(self.pose)
         self._execute_tick(now)

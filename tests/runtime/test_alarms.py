@@ -151,3 +151,28 @@ def test_a_shallow_alarm_that_the_recent_revolutions_fused_do_not_raise_is_the_n
         assert stood_fused <= 2, stood_fused
     else:
         assert stood_fused >= 15, stood_fused  # a surface truly in the path: an alarm as before
+
+
+@pytest.mark.parametrize("gap, alarm", [(0.015, False), (-0.01, True)])
+def test_the_watch_fuses_each_revolution_where_it_was_taken(gap: float, alarm: bool) -> None:
+    """PlanWatch's hazard test fuses the last revolutions in the robot's frame now, each
+    moved from the pose it was taken at. A robot drifting 3 cm a revolution away from a wall
+    that ends 1.5 cm clear of its body raises no alarm; fused as if taken where it stands
+    now, the older revolutions (taken nearer) would put that wall inside it, in every
+    revolution. A wall 1 cm inside the body stays an alarm."""
+    from formal.model import Disturbance
+    from planner.tasks import Task
+    from runtime.supervision.planwatch import PlanWatch
+
+    rng = np.random.default_rng(5)
+    watch = PlanWatch(M, lambda *a, **k: None)
+    wall_y = M.width / 2 + gap  # in the start frame; each drift ends at y = 0
+    stood = 0
+    for k in range(12):
+        at = Pose(0.0, 0.06 - 0.03 * (k % 3), 0.0)
+        rev = _polar_noise(_wall_rays(wall_y - at.y), 0.025, rng)
+        watch.alarms.revolution(rev)
+        verdict = watch.hazard(rev, at, at, Task.straight(M, at, Disturbance.goal(2.0, at.y), 1.0), 0.27, 0.5, 2)
+        stood += k % 3 == 2 and verdict is not None  # judged where each drift ends
+    assert watch.alarms.allowance > 0.01  # harsh: shallow alarms are judged on the fused revolutions
+    assert (stood >= 3) if alarm else (stood == 0), stood

@@ -305,7 +305,10 @@ def test_no_safe_task_is_a_verdict_only_when_fresh_revolutions_confirm_it(blind,
     assert (rep.state is S.GOAL_REACHED) == reached, rep.reason
     if not reached:
         assert rep.state is S.UNREACHABLE and "no safe task" in rep.reason
-        assert sum(1 for p in rep.plans if not p.result.steps) == confirm
+        empty = [p.time for p in rep.plans if not p.result.steps]
+        assert len(empty) == confirm
+        # each retry plans on revolutions taken after the last one: none in the same breath
+        assert all(b - a >= 2 * sup.model.tick for a, b in zip(empty, empty[1:])), empty
 
 
 def test_confirm_is_validated():
