@@ -96,6 +96,13 @@ def main() -> None:
     if a.term is not None and a.term not in WorldNoise.preset("paper").to_dict():
         ap.error(f"--term: one of {', '.join(WorldNoise.preset('paper').to_dict())}")
     runs = a.runs if len(a.runs) == len(a.families) else [a.runs[0]] * len(a.families)
+    if min(runs) < 1:
+        ap.error("--runs: at least 1 run per family")
+    for family in a.families:
+        try:
+            _scene_for(RunSpec(family, a.seed, 0, "planning", a.noise))
+        except Exception as exc:  # an unknown family or scenario file: said here, not in a worker
+            ap.error(f"--families: {family}: {exc}")
     label = f"paper with {a.term} at harsh" if a.term else a.noise
     print(f"noise {label}, seed {a.seed}; reached = ground truth within 0.1 m of the goal")
     with ProcessPoolExecutor(a.workers) as pool:

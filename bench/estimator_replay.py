@@ -86,12 +86,8 @@ def _record_one(args: tuple[str, int, int, str, str]) -> str:
     scene, _ = _scene_for(RunSpec(family, seed, run, "planning", noise))
     conf = Configurator()
     robot = make_robot(scene, noise=noise, seed=noise_seed(seed, run), model=conf.robot)
-    saved = sup_module.ScanOdometry
-    sup_module.ScanOdometry = _Recorder  # type: ignore[misc]
-    try:
-        sup = sup_module.Supervisor(robot, tuple(scene.goal_in_robot_frame()), conf, feedback="scan")
-    finally:
-        sup_module.ScanOdometry = saved  # type: ignore[misc]
+    sup = sup_module.Supervisor(robot, tuple(scene.goal_in_robot_frame()), conf, feedback="scan")
+    sup.estimator = _Recorder(conf.robot.wheel_base)  # the same estimator, keeping what it is fed
     rep = sup.run(max_time=120.0)
     est = sup.estimator
     assert isinstance(est, _Recorder)
@@ -120,7 +116,9 @@ def _record_one(args: tuple[str, int, int, str, str]) -> str:
 
 
 def _variant(spec: dict[str, Any]) -> ScanOdometry:
-    odo = ScanOdometry(0.15, **spec.get("odometry", {}))
+    from planner.robot import RobotModel
+
+    odo = ScanOdometry(RobotModel().wheel_base, **spec.get("odometry", {}))
     if spec.get("filter"):
         odo.filter = OdometryFilter(odo.wheel_base, **spec["filter"])
     return odo
@@ -128,9 +126,16 @@ def _variant(spec: dict[str, Any]) -> ScanOdometry:
 
 def _replay_one(args: tuple[str, dict[str, Any]]) -> tuple[str, float, float, float]:
     path, spec = args
-    if spec.get("match"):
-        base = odometry_module.match_scans
+    base = odometry_module.match_scans
+    if spec.get("match"):  # every match the estimator makes, with these settings (restored below)
         odometry_module.match_scans = lambda *a, **k: base(*a, **{**k, **spec["match"]})  # type: ignore[assignment]
+    try:
+        return _replay(path, spec)
+    finally:
+        odometry_module.match_scans = base  # type: ignore[assignment]
+
+
+def _replay(path: str, spec: dict[str, Any]) -> tuple[str, float, float, float]:
     d = np.load(path, allow_pickle=False)
     odo = _variant(spec)
     frame_no = 0
@@ -168,6 +173,13 @@ def main() -> None:
         if a.mode == "record":
             os.makedirs(a.dir, exist_ok=True)
             runs = a.runs if len(a.runs) == len(a.families) else [a.runs[0]] * len(a.families)
+            from runtime.experiment.runner import RunSpec, _scene_for
+
+            for family in a.families:
+                try:
+                    _scene_for(RunSpec(family, 0, 0, "planning", a.noise))
+                except Exception as exc:  # an unknown family or scenario file: said here, not in a worker
+                    ap.error(f"--families: {family}: {exc}")
             jobs = [(f, s, k, a.noise, a.dir) for f, n in zip(a.families, runs) for s in a.seeds for k in range(n)]
             t0 = time.perf_counter()
             done = list(pool.map(_record_one, jobs))
@@ -175,8 +187,15 @@ def main() -> None:
             return
         try:
             spec = {n: json.loads(getattr(a, n)) for n in ("odometry", "filter", "match")}
+            _variant(spec)  # a setting the estimator does not take is named here, not in a worker
+            if spec["match"]:
+                from runtime.estimation.icp import match_scans
+
+                match_scans(np.zeros((0, 2)), np.zeros((0, 2)), Pose(0.0, 0.0, 0.0), **spec["match"])
         except json.JSONDecodeError as exc:
             ap.error(f"settings are JSON objects: {exc}")
+        except (TypeError, ValueError) as exc:
+            ap.error(f"a setting the estimator does not take: {exc}")
         files = sorted(glob.glob(os.path.join(a.dir, "*.npz")))
         if not files:
             ap.error(f"no recorded runs in {a.dir} (run: python bench/estimator_replay.py record --dir {a.dir})")
