@@ -214,6 +214,36 @@ class OdometryFilter:
         q[3:, 3:] = np.diag(np.square(self.calibration_walk)) * dt
         self.P = f @ self.P @ f.T + q
 
+    def correct_heading(self, offset: float, sd: float) -> tuple[bool, float]:
+        """Update with a heading measured directly: ``offset`` (rad, measured minus the
+        estimate) with standard deviation ``sd`` (rad), as a compass gives it against faces
+        fixed in this frame (:class:`~runtime.estimation.faces.FaceCompass`). The position
+        follows through its correlation with the heading, and the calibration learns from
+        it (the faces carry no error of the estimate, unlike a map drawn from it). Returns
+        (accepted, squared Mahalanobis distance); beyond ``gate``, rejected.
+
+        >>> f = OdometryFilter(0.15)
+        >>> for _ in range(20):
+        ...     f.predict(0.1, 0.0, 0.1)
+        >>> ok, d2 = f.correct_heading(0.02, 0.01)
+        >>> ok, round(f.pose.theta, 3) > 0, f.calibration[2] > 0   # turned, and learnt that straights curve left
+        (True, True, True)
+        """
+        nu = wrap_angle(float(offset))
+        if not (math.isfinite(nu) and math.isfinite(sd) and sd > 0):
+            return False, 0.0
+        s = float(self.P[2, 2]) + sd * sd
+        d2 = nu * nu / s
+        if d2 > self.gate:
+            return False, d2
+        k = self.P[:, 2] / s
+        self.x = self.x + k * nu
+        self.x[3:] = np.clip(self.x[3:], -self.calibration_bound, self.calibration_bound)
+        self.x[2] = wrap_angle(float(self.x[2]))
+        ikh = np.eye(_N) - np.outer(k, np.eye(_N)[2])
+        self.P = ikh @ self.P @ ikh.T + np.outer(k, k) * sd * sd  # Joseph form
+        return True, d2
+
     def correct(self, innovation: Sequence[float] | np.ndarray, information: Sequence[Sequence[float]] | np.ndarray,
                 min_information: float = 1e-9, floor: Sequence[float] | None = None,
                 learn: bool = True) -> tuple[bool, float]:

@@ -52,6 +52,7 @@ from formal.geometry import compose, relative, wheel_twist, wrap_angle
 from formal.model import Pose
 from runtime.devices.frame import ScanFrame
 from runtime.estimation.ekf import OdometryFilter
+from runtime.estimation.faces import FaceCompass
 from runtime.estimation.fusion import fuse_revolutions, range_spread
 from runtime.estimation.icp import ReferenceScan, match_scans
 
@@ -149,6 +150,7 @@ class ScanOdometry:
         floor_factor: float = 0.75,
         seed_revolutions: int = 8,
         noise_factor: float = math.sqrt(2.0),
+        compass: bool = True,
     ) -> None:
         if not (math.isfinite(wheel_base) and wheel_base > 0):
             raise ValueError(f"wheel_base must be positive, got {wheel_base!r}")
@@ -180,6 +182,8 @@ class ScanOdometry:
         self._moved_since = 0.0  # m (or wheel-base radians) driven since the last accepted match
         self._last_stamp: float | None = None
         self._seed: list[np.ndarray] | None = []
+        self._seed_pose = self.pose
+        self.compass: FaceCompass | None = FaceCompass() if compass else None
 
     # -- dead reckoning -------------------------------------------------------------------------
     def reset(self, pose: Pose, t: float) -> None:
@@ -193,6 +197,9 @@ class ScanOdometry:
         self._moved_since = 0.0
         self._last_stamp = None
         self._seed = []
+        self._seed_pose = pose
+        if self.compass is not None:
+            self.compass.reset()
 
     def advance(self, t: float, wheels: tuple[float, float], odometry: Pose | None = None) -> None:
         """Dead-reckon to time ``t``: from the backend's ``odometry`` when given (its change
@@ -252,12 +259,15 @@ class ScanOdometry:
             self.records.append(rec)
             return rec
         if self._seed is not None and (self._moved_since > 0.0 or self._twist != (0.0, 0.0)):
+            if self.compass is not None and self._seed:  # the faces seen standing fix the compass
+                self.compass.seed(self._seed[-self.seed_revolutions:], self._seed_pose, self.range_sd)
             self._seed = None  # the robot moved: the seed is fixed
         if self._seed is not None and len(points):
             # still at the start pose, which fixes the frame: each revolution seen from there
             # joins the seed, fused (median range per bearing), so the map's surfaces are
             # less noisy than one revolution's and a small face's direction better known
             self._seed.append(points)
+            self._seed_pose = at
             n = min(len(self._seed), self.seed_revolutions)
             spread = range_spread(self._seed[-n:])
             if spread is not None:
@@ -298,13 +308,8 @@ class ScanOdometry:
             ok, d2 = f.correct((z.x - at.x, z.y - at.y, wrap_angle(z.theta - at.theta)), info,
                                floor=(fl, fl, fl / 0.5), learn=self._moved_since > 0.0)
             if ok:
-                after = f.pose
-                corrected = compose(after, relative(before, at))
+                corrected = self._carry(before, at, frame.timestamp)
                 self._moved_since = 0.0
-                self.pose = after
-                # carry the correction through the history since the scan
-                self._history = deque((t, compose(after, relative(before, p))) if t >= frame.timestamp else (t, p)
-                                      for t, p in self._history)
             else:
                 reason = f"{match.reason}, but inconsistent with the prediction (d² {d2:.0f}): rejected"
         match = dataclasses.replace(match, ok=ok)
@@ -312,11 +317,38 @@ class ScanOdometry:
         # because the map does not cover what it sees re-seeds it (dead-reckoned)
         lost = not match.ok and match.inlier_fraction < self.min_overlap and "too few points" not in match.reason
         added = self._add(points, corrected, reseed=lost) if (match.ok or lost) else False
+        if self.compass is not None and self.compass.seeded:
+            corrected, reason = self._steer(points, corrected, frame.timestamp, reason)
         d = (corrected.x - at.x, corrected.y - at.y, wrap_angle(corrected.theta - at.theta))
         rec = FeedbackRecord(frame.timestamp, match.ok, "map" if match.ok else "dead-reckoning", reason, d,
                              match.unobservable, added)
         self.records.append(rec)
         return rec
+
+    def _carry(self, before: Pose, at: Pose, stamp: float) -> Pose:
+        """The filter moved from ``before``: take its pose, carry the correction through the
+        history since ``stamp``, and return where ``at`` (the estimate at ``stamp``) moved."""
+        after = self.filter.pose
+        self.pose = after
+        self._history = deque((t, compose(after, relative(before, p))) if t >= stamp else (t, p) for t, p in self._history)
+        return compose(after, relative(before, at))
+
+    def _steer(self, points: np.ndarray, at: Pose, stamp: float, reason: str) -> tuple[Pose, str]:
+        """The compass (:class:`~runtime.estimation.faces.FaceCompass`): the heading measured
+        on the faces this revolution sees, fused; then the faces it shows for the first time
+        may join. Returns the estimate at ``stamp`` after it, and the record's reason."""
+        assert self.compass is not None
+        got = self.compass.measure(points, at, self.range_sd, self.filter.sigma_theta)
+        if got is not None:
+            offset, sd, n = got
+            before = self.filter.pose
+            ok, _d2 = self.filter.correct_heading(offset, sd)
+            if ok:
+                at = self._carry(before, at, stamp)
+            reason += (f"; compass: {n} face{'s' if n > 1 else ''}, {math.degrees(offset):+.1f}° "
+                       f"(sd {math.degrees(sd):.1f}°){'' if ok else ', rejected'}")
+        self.compass.grow(points, at, self.filter.sigma_theta, self.range_sd)
+        return at, reason
 
     def _add(self, points: np.ndarray, pose: Pose, reseed: bool) -> bool:
         """Put a revolution seen from ``pose`` into the map (1 cm grid, within ``map_radius``)."""
