@@ -148,7 +148,7 @@ class ScanOdometry:
         match_sd: float = 0.01,
         correlation: float = 4.0,
         floor_factor: float = 0.75,
-        seed_revolutions: int = 8,
+        seed_revolutions: int = 10,
         noise_factor: float = math.sqrt(2.0),
         compass: bool = True,
     ) -> None:

@@ -11,7 +11,10 @@ a revolution by matching the scan against a local map
 reckoning alone. The goal, the remaining plan and every task's error signal come from it.
 
 - PLANNING: wheels stopped, plan from the newest scan to the goal seen from the estimate
-  (the planner's frame: the robot then), queue the plan's tasks and start the first.
+  (the planner's frame: the robot then), queue the plan's tasks and start the first. At
+  the start, with scan feedback, only after ``start_scans`` revolutions: the estimator's
+  map, its face compass and the LiDAR's noise are measured on them (the start fixes the
+  frame, so what is seen there is the best known; see :mod:`runtime.estimation.faces`).
 - EXECUTING: run the current task as a closed loop (:class:`planner.tasks.Task`): it ends
   by its own end criterion; a task may start only over a transition of the map that the
   guard Ψ enables. Every tick, a point of the newest scan in the body's path (an obstacle
@@ -113,6 +116,7 @@ class Supervisor:
         settle_scans: int = 2,
         feedback: str = "scan",
         fuse_scans: int = 3,
+        start_scans: int = 10,
         confirm: int = 3,
         log: RunLogLike | None = None,
     ) -> None:
@@ -140,6 +144,9 @@ class Supervisor:
         if not (isinstance(fuse_scans, int) and fuse_scans >= 1):
             raise ValueError(f"fuse_scans must be a positive integer, got {fuse_scans!r}")
         self.fuse_scans = fuse_scans if feedback == "scan" else 1
+        if not (isinstance(start_scans, int) and start_scans >= 1):
+            raise ValueError(f"start_scans must be a positive integer, got {start_scans!r}")
+        self.start_scans = max(start_scans, self.fuse_scans) if feedback == "scan" else self.fuse_scans
         if not (isinstance(confirm, int) and confirm >= 1):
             raise ValueError(f"confirm must be a positive integer, got {confirm!r}")
         self.confirm = confirm
@@ -379,9 +386,9 @@ class Supervisor:
 
     # -- planning ---------------------------------------------------------------------------------
     def _plan_tick(self, now: float) -> None:
-        need = self.settle_scans + self.fuse_scans - 1 if self._moved else self.fuse_scans
+        need = self.settle_scans + self.fuse_scans - 1 if self._moved else self.start_scans
         if self._scan is None or self._scans_since_stop < need:
-            return  # let driving settle, then take ``fuse_scans`` revolutions (at the start: the map's seed)
+            return  # let driving settle, then take ``fuse_scans`` revolutions (at the start, ``start_scans``: the map's seed)
         g = relative(self.pose, self.goal)
         dist = math.hypot(g.x, g.y)
         if dist <= self.goal_radius:

@@ -22,7 +22,8 @@ from tests.runtime._simline import LockstepClock
 from tests.runtime._stack import NEUTRAL, StackRun, run_stack, wheels_stopped_at
 
 TICK = 0.1  # the supervisor's control period (RobotModel.tick)
-T_FAULT = 1.5  # simulated seconds into the run: the robot is driving its first straight
+T_FAULT = 3.0  # simulated seconds into the run: the robot is driving its first straight (it stands
+# the first ten revolutions, about 1.8 s at 5.5 Hz, to seed its map)
 
 
 def _driving(run: StackRun) -> bool:

@@ -316,3 +316,32 @@ def test_no_safe_task_is_a_verdict_only_when_fresh_revolutions_confirm_it(blind,
 def test_confirm_is_validated():
     with pytest.raises(ValueError, match="confirm"):
         Supervisor(SimRobot(load_scenario("open"), seed=0), (1.0, 0.0), confirm=0)
+
+
+@pytest.mark.parametrize("feedback, start", [("scan", 10), ("scan", 4), ("none", 10)])
+def test_with_scan_feedback_the_robot_looks_before_it_moves(feedback: str, start: int) -> None:
+    """With scan feedback the wheels stay still for the first ``start_scans`` revolutions:
+    the map's seed, the compass's faces and the LiDAR's noise are measured on them (with 3,
+    a 0.2 m face's direction came out 5-18° off in 1 of 12 harsh runs). Dead reckoning
+    alone has nothing to seed and plans on its first fused scans as before."""
+    scene = load_scenario("overtaking")
+    world = make_world_robot(scene, "harsh", seed=1)
+    seen = {"scans": 0, "first_drive": None}
+    read, drive = world.read_scan, world.set_wheel_speeds
+
+    def counting_read(timeout: float | None = None) -> ScanFrame | None:
+        frame = read(timeout)
+        if frame is not None:
+            seen["scans"] += 1
+        return frame
+
+    def watching_drive(left: float, right: float) -> None:
+        if (left, right) != (0.0, 0.0) and seen["first_drive"] is None:
+            seen["first_drive"] = seen["scans"]
+        drive(left, right)
+
+    world.read_scan, world.set_wheel_speeds = counting_read, watching_drive  # type: ignore[method-assign]
+    Supervisor(world, scene.goal_in_robot_frame(), feedback=feedback, start_scans=start).run(max_time=6.0)
+    expected = start if feedback == "scan" else 1
+    assert seen["first_drive"] is not None and seen["first_drive"] >= expected, seen
+    assert seen["first_drive"] <= expected + 2, seen  # and then it does move
