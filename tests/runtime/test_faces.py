@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from formal.model import Pose
@@ -160,3 +160,23 @@ def test_a_face_found_on_the_way_is_squared_to_the_corner_it_meets(corner_deg: f
     turn = (new.angle - start.angle) % (math.pi / 2)
     assert (min(turn, math.pi / 2 - turn) < 1e-9) is squared, math.degrees(turn)
     assert (new.sd == start.sd) is squared
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.lists(st.tuples(st.floats(-1.2, 1.2), st.floats(-1.2, 1.2)), min_size=0, max_size=80),
+       st.floats(-math.pi, math.pi), st.floats(0.0, 0.05))
+@example([(0.5, 0.1)] * 40, 0.0, 0.0)  # one point, forty times
+@example([(0.5, y / 100) for y in range(-20, 20)] * 2, 0.1, 0.0)  # a noiseless face, every point twice
+def test_any_points_give_a_reading_or_none_never_an_error(pts: list[tuple[float, float]], heading: float,
+                                                          sd: float) -> None:
+    """Whatever a revolution holds (nothing, a few points, one point repeated, clutter),
+    the compass seeds, reads and grows without raising, and a reading is finite."""
+    points = np.asarray(pts, dtype=float).reshape(-1, 2)
+    compass = FaceCompass(grow_revolutions=2, grow_unsquared=True)
+    compass.seed([points, points[::-1]], Pose(0.0, 0.0, 0.0), sd or None)
+    for face in compass.faces:
+        assert all(math.isfinite(v) for v in (*face.centre, *face.direction, face.start, face.end))
+    got = compass.measure(points, Pose(0.01, -0.02, heading), sd or None, prior_sd=0.2)
+    assert got is None or (math.isfinite(got[0]) and got[1] > 0 and got[2] >= 1)
+    for _ in range(2):
+        compass.grow(points, Pose(0.0, 0.0, heading), 0.01, sd or None)
