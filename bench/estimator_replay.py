@@ -42,6 +42,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
+from formal.geometry import compose, relative  # noqa: E402
 from formal.model import Pose  # noqa: E402
 from runtime.devices.frame import ScanFrame  # noqa: E402
 from runtime.estimation import odometry as odometry_module  # noqa: E402
@@ -151,10 +152,15 @@ def _replay(path: str, spec: dict[str, Any]) -> tuple[str, float, float, float]:
             odo.update(ScanFrame(d["points"][a:b], float(sc[0]), point_times=pt))
             frame_no += 1
     cpu = time.thread_time() - c0
-    t = d["truth"][-1]
+    # the truth is in the world's frame, the estimate in the supervisor's (its reset pose is
+    # where the robot stood at the start): a corridor layout starts turned up to 0.15 rad
+    first, last = d["truth"][0], d["truth"][-1]
+    reset = next((Pose(float(sc[1]), float(sc[2]), float(sc[3])) for kind, sc in zip(d["kinds"], d["scalars"])
+                  if kind == RESET), Pose(0.0, 0.0, 0.0))
+    t = compose(reset, relative(Pose(*map(float, first[1:4])), Pose(*map(float, last[1:4]))))
     p = odo.pose
-    heading = abs(math.degrees(math.atan2(math.sin(p.theta - t[3]), math.cos(p.theta - t[3]))))
-    return os.path.basename(path), math.hypot(p.x - t[1], p.y - t[2]), heading, cpu
+    heading = abs(math.degrees(math.atan2(math.sin(p.theta - t.theta), math.cos(p.theta - t.theta))))
+    return os.path.basename(path), math.hypot(p.x - t.x, p.y - t.y), heading, cpu
 
 
 def main() -> None:
