@@ -365,7 +365,7 @@ class FaceCompass:
             steep = np.abs(ray[cand] @ face_n) >= self.incidence
             if (sel & steep).sum() < 8:
                 continue
-            if not (sel & steep).all() and (sel & ~steep).any():
+            if (sel & ~steep).any():  # refitted on the steep points alone
                 got = refine_line(world[cand][steep], c, d, tol)
                 if got is None or got[2].sum() < 8:
                     continue
