@@ -446,9 +446,8 @@ class FaceCompass:
         sd, f, turn = best
         a = f.angle + turn
         d = np.array([math.cos(a), math.sin(a)])
-        old_d = np.asarray(new.direction)
-        c = np.asarray(new.centre)
-        s0, s1 = sorted(float((c + t * old_d - c) @ d) for t in (new.start, new.end))
+        along = float(np.asarray(new.direction) @ d)  # its ends, measured along the squared direction
+        s0, s1 = sorted(t * along for t in (new.start, new.end))
         return dataclasses.replace(new, direction=(float(d[0]), float(d[1])), start=s0, end=s1, sd=sd)
 
     @staticmethod
