@@ -114,6 +114,10 @@ class RPLidar:
     cannot set DTR, such as a pseudo-terminal, is tolerated), ``"none"``, or a
     callable ``motor(on: bool)``. Scans come back in the robot frame (x forward,
     y left, metres) without zero distances and cropped to ``max_range`` metres.
+    A frame's ``timestamp`` is when its revolution ended (when the next one's first
+    sample was read); once a revolution has been timed, each point also carries when it
+    was measured (``point_times``, from its angle and :attr:`period`, the smoothed time
+    between revolution ends), so a scan taken while moving can be de-skewed.
     ``clock`` is the time of the driver's deadlines and of the scans' timestamps
     (``time.monotonic`` unless a test passes its own); waiting for the line to fall quiet
     after STOP is always on wall time.
@@ -143,6 +147,8 @@ class RPLidar:
         self._decoder = ScanDecoder()
         self._pending: collections.deque[ScanFrame] = collections.deque()
         self.skipped_scans = 0
+        self.period: float | None = None  # s a revolution takes, measured from their ends
+        self._last_end: float | None = None
         if isinstance(port, str):
             self._spec: str | None = port
             self._owns_port = True
@@ -305,6 +311,7 @@ class RPLidar:
         self._read_descriptor(SCAN_DESCRIPTOR, deadline, "SCAN")
         self._decoder = ScanDecoder()
         self._pending.clear()
+        self._last_end = None
         self._scanning = True
 
     def stop(self) -> None:
@@ -359,7 +366,19 @@ class RPLidar:
         now = self.clock()
         for rev in self._decoder.feed(data):
             points, quality = rev.to_points(self.max_range)
-            self._pending.append(ScanFrame(points=points, timestamp=now, quality=quality))
+            times = self._times(now)
+            self._pending.append(ScanFrame(points=points, timestamp=now, quality=quality,
+                                           point_times=None if times is None else rev.point_times(times, self.max_range)))
+
+    def _times(self, end: float) -> float | None:
+        """A revolution ended at ``end``: the period its points are timed with (the time
+        between the ends of consecutive revolutions, smoothed; an A1 turns at 1-10 Hz), or
+        None while no period is known, so a frame carries per-point times only when they
+        can be trusted."""
+        last, self._last_end = self._last_end, end
+        if last is not None and 0.09 <= end - last <= 1.1:
+            self.period = end - last if self.period is None else 0.8 * self.period + 0.2 * (end - last)
+        return self.period
 
     def read_scan(self, timeout: float | None = None, *, newest: bool = True) -> ScanFrame:
         """The next full revolution (starting the scan if needed).

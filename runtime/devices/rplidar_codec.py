@@ -315,13 +315,31 @@ class Revolution:
     def __len__(self) -> int:
         return len(self.angle_deg)
 
-    def to_points(self, max_range: float | None = None) -> tuple[np.ndarray, np.ndarray]:
-        """(points N×2 in metres, quality N) without zero distances, cropped to max_range."""
+    def _kept(self, max_range: float | None) -> np.ndarray:
         keep = self.distance_mm > 0
         if max_range is not None:
             keep &= self.distance_mm <= max_range * 1000.0
+        return keep
+
+    def to_points(self, max_range: float | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """(points N×2 in metres, quality N) without zero distances, cropped to max_range."""
+        keep = self._kept(max_range)
         points = polar_to_robot(self.angle_deg[keep], self.distance_mm[keep])
         return points, self.quality[keep]
+
+    def point_times(self, period: float, max_range: float | None = None) -> np.ndarray:
+        """When each point of :meth:`to_points` was measured (s, <= 0), relative to the
+        revolution's end, for a sweep of ``period`` s: the A1 turns at a steady rate and
+        the revolution ends where the next begins, at 360°, so a sample at angle a was
+        measured (360 - a) / 360 of a period before that.
+
+        >>> rev = Revolution(np.array([0.0, 90.0, 270.0]), np.array([500.0, 0.0, 800.0]), np.array([15, 0, 15]))
+        >>> rev.point_times(0.2).tolist()
+        [-0.2, -0.05]
+        """
+        a = np.clip(self.angle_deg[self._kept(max_range)], 0.0, 360.0)
+        out: np.ndarray = (a / 360.0 - 1.0) * period
+        return out
 
 
 class ScanDecoder:

@@ -25,6 +25,7 @@ from runtime.devices import rplidar_codec as _r
 from runtime.devices._pty import PtyEmulator
 
 __all__ = [
+    "SampleStream",
     "ScanSource",
     "LidarEmulator",
     "load_scan_file",
@@ -33,6 +34,9 @@ __all__ = [
 ]
 
 ScanSource = Callable[[], np.ndarray]
+SampleStream = Callable[[], "list[tuple[float, float, bool]]"]
+"""Samples measured since the last call, in order: (angle_deg clockwise, distance_mm, 0: no
+return; whether it begins a revolution)."""
 
 _MAP_FILE = re.compile(r"^map\d+\.dat$")
 
@@ -114,6 +118,12 @@ class LidarEmulator(PtyEmulator):
     ``bad_check_rate`` (probability per sample of C = 0), ``silent_after`` (revolutions,
     then no output and no answers), ``vanish_after`` (revolutions, fractional for
     mid-scan; then the pty is closed). ``seed`` makes the faults reproducible.
+
+    ``sample_stream`` (instead of ``scan_source``): a world that measures each sample at
+    its own time (:meth:`runtime.robots.world.WorldRobot.stream`); each tick sends what it
+    measured since the last, so a sample is on the wire when it is measured, as on the
+    device, and the world sets the pace (``sample_rate`` and ``speed`` then only answer
+    GET_SAMPLERATE).
     """
 
     _name = "lidar-emulator"
@@ -138,6 +148,7 @@ class LidarEmulator(PtyEmulator):
         max_backlog: int = 65536,
         seed: int | None = None,
         clock: Callable[[], float] | None = None,
+        sample_stream: SampleStream | None = None,
     ) -> None:
         super().__init__(clock)
         if speed <= 0 or sample_rate <= 0:
@@ -147,6 +158,7 @@ class LidarEmulator(PtyEmulator):
         if not (0 <= garbage_rate <= 1 and 0 <= bad_check_rate <= 1):
             raise ValueError("garbage_rate and bad_check_rate are probabilities in [0, 1]")
         self.scan_source: ScanSource = scan_source or (lambda: np.empty((0, 2)))
+        self.sample_stream = sample_stream
         self.speed = speed
         self.sample_rate = sample_rate
         self.samples_per_rev = samples_per_rev
@@ -173,6 +185,7 @@ class LidarEmulator(PtyEmulator):
         self._scan_due_base = 0
         self._rev: list[tuple[int, int, int]] = []
         self._rev_index = 0
+        self._synced = False
         self._busy_until: float | None = None
 
     # -- faults
@@ -243,6 +256,7 @@ class LidarEmulator(PtyEmulator):
             self._scan_t0 = now
             self._scan_due_base = 0
             self._rev_index = 0
+            self._synced = False  # a streamed scan starts at the next revolution's first sample
         elif cmd == C.GET_INFO:
             self._send(_r.encode_descriptor(_r.INFO_DESCRIPTOR) + _r.encode_info(self.info))
         elif cmd == C.GET_HEALTH:
@@ -285,41 +299,80 @@ class LidarEmulator(PtyEmulator):
             self._busy_until = None
             self._in.clear()
             self._send(self.BANNER)
+        if self.sample_stream is not None:
+            self._stream(send=self.scanning and not self.silent)
+            return
         if not self.scanning or self.silent:
             return
         due = int((now - self._scan_t0) * self.sample_rate * self.speed) - self._scan_due_base
         if due <= 0:
             return
         self._scan_due_base += due
-        rng = self._rng
         for _ in range(min(due, 4 * self.samples_per_rev)):
             if self._rev_index == 0:
                 self._new_revolution()
             angle_q6, dist_q2, quality = self._rev[self._rev_index]
-            sample = _r.encode_sample(
-                self._rev_index == 0,
-                quality,
-                angle_q6,
-                dist_q2,
-                check_bit=not (self.bad_check_rate and rng.random() < self.bad_check_rate),
-            )
-            if self.garbage_rate and rng.random() < self.garbage_rate:
-                junk = bytes(rng.randrange(256) for _ in range(rng.randint(1, 8)))
-                self.garbage_bytes_sent += len(junk)
-                sample = junk + sample
-            if len(self._out) + len(sample) <= self.max_backlog:
-                self._send(sample)
-            else:
-                self.backlog_dropped += len(sample)  # the host is not reading: bytes lost
-            self.samples_sent += 1
+            first = self._rev_index == 0
             self._rev_index += 1
             if self._rev_index >= len(self._rev):
                 self._rev_index = 0
-                self.revolutions_sent += 1
-                if self.silent_after is not None and self.revolutions_sent >= self.silent_after:
-                    self.silent = True
-                    return
-            if self.vanish_after is not None and self.samples_sent >= self.vanish_after * self.samples_per_rev:
-                self._flush()
-                self._vanish.set()
+            if not self._emit(first, quality, angle_q6, dist_q2, self._rev_index == 0):
                 return
+
+    def _stream(self, send: bool) -> None:
+        """Send the samples the world measured since the last tick, as it measured them (the
+        world keeps the time); not scanning or silent, they are taken and lost, as the
+        device's are."""
+        try:
+            samples = self.sample_stream() if self.sample_stream is not None else []
+        except Exception as exc:  # a broken source must not kill the device: nothing sent
+            self.source_errors.append(exc)
+            return
+        if not send:
+            return
+        full = _r.FULL_CIRCLE_Q6
+        for angle, dist, first in samples:
+            if not self._synced:
+                if not first:
+                    continue  # measured before the scan began, or the rest of that revolution
+                self._synced = True
+            d = min(0xFFFF, int(round(dist * 4))) if dist > 0 else 0
+            if not self._emit(bool(first), self.quality if d else 0, int(round(angle * 64)) % full, d, False):
+                return
+
+    def _emit(self, first: bool, quality: int, angle_q6: int, dist_q2: int, ends: bool) -> bool:
+        """Send one sample (with the faults in force); ``ends``: it closes a revolution.
+        False when the device has gone silent or vanished and nothing more may be sent."""
+        rng = self._rng
+        if first and self.sample_stream is not None and self.samples_sent:
+            ends = True  # the previous revolution is complete: counted as the next begins
+            self.revolutions_sent += 1
+            if self.silent_after is not None and self.revolutions_sent >= self.silent_after:
+                self.silent = True
+                return False
+        sample = _r.encode_sample(
+            first,
+            quality,
+            angle_q6,
+            dist_q2,
+            check_bit=not (self.bad_check_rate and rng.random() < self.bad_check_rate),
+        )
+        if self.garbage_rate and rng.random() < self.garbage_rate:
+            junk = bytes(rng.randrange(256) for _ in range(rng.randint(1, 8)))
+            self.garbage_bytes_sent += len(junk)
+            sample = junk + sample
+        if len(self._out) + len(sample) <= self.max_backlog:
+            self._send(sample)
+        else:
+            self.backlog_dropped += len(sample)  # the host is not reading: bytes lost
+        self.samples_sent += 1
+        if ends and self.sample_stream is None:
+            self.revolutions_sent += 1
+            if self.silent_after is not None and self.revolutions_sent >= self.silent_after:
+                self.silent = True
+                return False
+        if self.vanish_after is not None and self.samples_sent >= self.vanish_after * self.samples_per_rev:
+            self._flush()
+            self._vanish.set()
+            return False
+        return True

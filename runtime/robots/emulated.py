@@ -4,7 +4,11 @@
 scenario) in real time — a thread advances it every ``tick`` seconds of wall time — and
 puts the two device emulators on pseudo-terminals in front of it: the Maestro
 emulator's decoded wheel speeds drive the simulated robot's wheels, and each LiDAR
-revolution is a scan of the simulated robot's current pose in the world. ``clomp run``
+revolution is a scan of the simulated robot's current pose in the world. With the
+execution world (a ``noise`` preset), the world's LiDAR turns clockwise as an A1 does and
+the emulated A1 sends each sample in the emulator tick after the world measured it
+(:meth:`~runtime.robots.world.WorldRobot.stream`), so a revolution reaches the driver
+when it ends, skewed by the motion during it, as from the device. ``clomp run``
 pointed at the two ptys then runs the whole hardware stack (drivers, the hardware
 robot, the supervisor) without hardware, and the world tells whether it reached the goal
 and whether it touched anything.
@@ -84,8 +88,8 @@ class EmulatedWorld:
         self.scene = scenario if isinstance(scenario, Scene) else load_scenario(scenario)
         self.model = model or RobotModel()
         self.sim: SimRobot | WorldRobot
-        if isinstance(noise, (str, WorldNoise)):
-            self.sim = make_world_robot(self.scene, noise, seed=seed, robot=self.model)
+        if isinstance(noise, (str, WorldNoise)):  # the A1 turns clockwise: so does the world's LiDAR
+            self.sim = make_world_robot(self.scene, noise, seed=seed, robot=self.model, sweep=-1)
         else:
             self.sim = SimRobot(self.scene, self.model, noise=noise, seed=seed)
         self.time_scale = float(time_scale)
@@ -97,6 +101,8 @@ class EmulatedWorld:
         self._thread: threading.Thread | None = None
         self._last: float | None = None  # wall time up to which the world has been advanced
         options = {"speed": self.time_scale, **(lidar_options or {})}
+        if isinstance(self.sim, WorldRobot):  # each sample sent when the world measured it
+            options.setdefault("sample_stream", self._samples)
         self.lidar = LidarEmulator(self._scan, clock=clock, **options)
         self.maestro = MaestroEmulator(
             device_number=device_number,
@@ -137,6 +143,24 @@ class EmulatedWorld:
             else:
                 pts = self.sim.scan_now()
         return np.round(pts, 2)
+
+    def _samples(self) -> list[tuple[float, float, bool]]:
+        """The execution world's LiDAR samples measured since the last call, as an A1 sends
+        them: (angle clockwise in degrees, distance in mm of the point on the 1 cm grid, 0 for
+        no return; whether it begins a revolution)."""
+        assert isinstance(self.sim, WorldRobot)
+        with self._lock:
+            self._catch_up()
+            steps = self.sim.stream()
+        out: list[tuple[float, float, bool]] = []
+        for angle, rng, _t, first in steps:
+            ok = np.isfinite(rng)
+            r = np.where(ok, rng, 0.0)
+            x, y = np.round(r * np.cos(angle), 2), np.round(r * np.sin(angle), 2)
+            dist = np.where(ok, np.hypot(x, y) * 1000.0, 0.0)
+            cw = np.degrees(-angle) % 360.0
+            out += [(float(a), float(d), first and k == 0) for k, (a, d) in enumerate(zip(cw, dist))]
+        return out
 
     def _run(self) -> None:
         with self._lock:

@@ -190,6 +190,7 @@ class WorldRobot(SimulatedBackend):
         dt: float = 0.01,
         control_tick: float = 0.1,
         start: Pose | None = None,
+        sweep: int = 1,
     ) -> None:
         if not (isinstance(rays, int) and 360 <= rays <= 720):
             raise ValueError(f"rays: an RPLIDAR A1 takes 360 to 720 samples a revolution, got {rays!r}")
@@ -200,6 +201,8 @@ class WorldRobot(SimulatedBackend):
                 raise ValueError(f"{name}: expected a positive number, got {v!r}")
         if not (math.isfinite(resolution) and resolution >= 0):
             raise ValueError(f"resolution: expected a number >= 0, got {resolution!r}")
+        if sweep not in (1, -1):
+            raise ValueError(f"sweep: 1 (counter-clockwise) or -1 (clockwise, as an A1 turns), got {sweep!r}")
         self.scene = scene
         self.noise = noise or WorldNoise()
         self.body = body or BodySpec()
@@ -232,7 +235,8 @@ class WorldRobot(SimulatedBackend):
         self._contact_ended = -math.inf
         self._build()
         self.trajectory: list[tuple[float, float, float, float]] = [(0.0, *self._xyth())]
-        self._ray_angles = np.arange(rays) * (2 * math.pi / rays)
+        self._ray_angles = sweep * np.arange(rays) * (2 * math.pi / rays)
+        self._stream: list[tuple[np.ndarray, np.ndarray, float, bool]] | None = None  # see :meth:`stream`
         self._next_ray = 0
         self._rev_start = 0.0
         self._pending_rays: list[tuple[Any, ...]] = []
@@ -356,6 +360,28 @@ class WorldRobot(SimulatedBackend):
         (for a device emulator that streams the world's LiDAR at its own pace)."""
         return self._latest
 
+    def stream(self) -> list[tuple[np.ndarray, np.ndarray, float, bool]]:
+        """The LiDAR's rays measured since the last call, as they were measured: per physics
+        step, ``(angle, range, time, first)`` — the nominal angles (rad, robot frame), the
+        ranges (m, with the range noise; ``inf``: no return, a dropout or beyond
+        ``max_range``), the step's time and whether the step began a revolution. For a
+        device emulator that streams each sample when it is measured, as an A1 does; the
+        first call starts the recording (its rays are cast step by step from then on,
+        with the same draws and the same result as a whole revolution cast at once).
+
+        >>> from planner.scenarios import load_scenario
+        >>> w = make_world_robot(load_scenario("open"), "ideal", seed=0, sweep=-1)
+        >>> w.stream(); w.sleep(0.1)
+        []
+        >>> steps = w.stream(); len(steps), steps[0][3], round(float(steps[1][0][0]), 4)   # clockwise from the front
+        (10, True, -0.3316)
+        """
+        if self._stream is None:
+            self._stream = []
+            return []
+        out, self._stream = self._stream, []
+        return out
+
     def scan_now(self) -> np.ndarray:
         """A complete revolution from the current pose, taken instantly, noise-free (robot frame)."""
         x, y, th = self._xyth()
@@ -466,7 +492,17 @@ class WorldRobot(SimulatedBackend):
         x, y, th = pose
         noise = n.range_sd * self._rng.standard_normal(k) if n.range_sd else None
         kept = self._rng.random(k) >= n.dropout if n.dropout else None
-        self._pending_rays.append((x, y, th + beam, nominal, noise, kept, self._t))
+        batch = (x, y, th + beam, nominal, noise, kept, self._t)
+        if self._stream is not None:  # cast now: the emulator sends these samples now
+            dist = _first_hits(x, y, th + beam, self._edges, self._circles, self.max_range * 1.2)
+            if noise is not None:
+                dist = dist + noise
+            out = ~(np.isfinite(dist) & (dist > 0) & (dist <= self.max_range))
+            if kept is not None:
+                out |= ~kept
+            self._stream.append((nominal, np.where(out, np.inf, dist), self._t, i0 == 0))
+            batch += (dist,)
+        self._pending_rays.append(batch)
 
     def _revolution(self) -> tuple[np.ndarray, np.ndarray]:
         """Cast the revolution's rays; its points (robot frame at each ray's time) and times."""
@@ -479,9 +515,12 @@ class WorldRobot(SimulatedBackend):
         world = np.concatenate([r[2] for r in rays])
         nominal = np.concatenate([r[3] for r in rays])
         t = np.repeat([r[6] for r in rays], counts)
-        dist = _first_hits(x, y, world, self._edges, self._circles, self.max_range * 1.2)
-        if self.noise.range_sd:
-            dist = dist + np.concatenate([r[4] for r in rays])
+        if all(len(r) > 7 for r in rays):  # cast step by step for the stream (noise added)
+            dist = np.concatenate([r[7] for r in rays])
+        else:
+            dist = _first_hits(x, y, world, self._edges, self._circles, self.max_range * 1.2)
+            if self.noise.range_sd:
+                dist = dist + np.concatenate([r[4] for r in rays])
         keep = np.isfinite(dist) & (dist > 0) & (dist <= self.max_range)
         if self.noise.dropout:
             keep &= np.concatenate([r[5] for r in rays])

@@ -6,11 +6,15 @@ from __future__ import annotations
 import os
 import time
 
+import numpy as np
 import pytest
 
+from runtime.clock import ManualClock
+from runtime.devices.rplidar import RPLidar
 from runtime.realtime import NICENESS
 from runtime.robots.emulated import EmulatedWorld, EmulatedWorldProcess
 from runtime.robots.sim import NoiseConfig
+from tests.runtime._simline import SimLine
 
 
 def test_a_wheel_command_drives_the_world_from_the_moment_it_arrived() -> None:
@@ -51,3 +55,32 @@ def test_the_world_in_its_own_process_answers_like_the_one_in_this_process() -> 
 def test_a_world_that_cannot_start_says_why_in_the_parent() -> None:
     with pytest.raises(Exception, match="no-such-scenario"):
         EmulatedWorldProcess("no-such-scenario").start()
+
+
+def test_the_emulated_lidar_sends_each_revolution_when_the_world_measured_it() -> None:
+    """Through the A1's bytes and the real driver: a revolution reaches the driver when the
+    world's LiDAR finished it (within a physics step and the emulator's tick, not a
+    revolution later), with the points the world measured (to the 1 cm grid's angle), and,
+    once the driver has timed a revolution, with each point's time from its place in the
+    sweep — so a revolution taken while turning is de-skewed on the hardware stack too."""
+    clock = ManualClock(100.0)
+    world = EmulatedWorld("overtaking", noise="harsh", seed=1, clock=clock.now)
+    world._on_speeds(0.2, 0.6)  # from t = 100: driving along a curve, every revolution skewed
+    lidar = RPLidar(SimLine(world.lidar, clock, name="sim-lidar"), motor_control="none", clock=clock.now)
+    try:
+        frames = []
+        for _ in range(6):
+            got = lidar.read_scan(timeout=2.0, newest=False)
+            frames.append((got, world.sim.newest_revolution()))
+    finally:
+        lidar.close()
+    assert frames[0][0].point_times is None  # no period measured yet: no times rather than wrong ones
+    for k, (got, truth) in enumerate(frames):
+        assert truth is not None
+        assert 0.0 <= (got.timestamp - 100.0) - truth.timestamp <= 0.02
+        assert len(got.points) == len(truth.points) > 10
+        assert np.max(np.hypot(*(got.points - truth.points).T)) <= 0.008  # the nominal angle, the grid's range
+        if k:
+            assert got.point_times is not None
+            assert np.max(np.abs(got.point_times - truth.point_times)) <= 0.015
+    assert abs(lidar.period - 1 / 5.5) < 0.005

@@ -569,3 +569,30 @@ def test_newest_skips_backlog_and_iter_scans_keeps_every_revolution() -> None:
     scans = lidar.iter_scans(timeout=1.0)
     assert [len(next(scans).points) for _ in range(4)] == [72] * 4
     assert lidar.skipped_scans == 0
+
+
+def test_each_point_carries_when_it_was_measured_once_a_revolution_was_timed() -> None:
+    """A revolution's samples come in the order the A1 measured them, at a steady turn: the
+    driver times the revolution from the ends of the revolutions before it and each point
+    from its angle, so the last point is the newest and the first a period older. The first
+    revolution, with no period yet, carries no times rather than guessed ones."""
+    from runtime.devices.rplidar_emulator import LidarEmulator
+    from tests.runtime._simline import SimLine
+
+    ring = np.c_[0.6 * np.cos(np.radians(np.arange(0, 360, 3))), 0.6 * np.sin(np.radians(np.arange(0, 360, 3)))]
+    clock = ManualClock(50.0)
+    device = LidarEmulator(lambda: ring, sample_rate=2000.0, samples_per_rev=360, clock=clock.now)  # 0.18 s a turn
+    lidar = RPLidar(SimLine(device, clock, name="sim-lidar"), motor_control="none", clock=clock.now)
+    try:
+        frames = [lidar.read_scan(timeout=2.0, newest=False) for _ in range(5)]
+    finally:
+        lidar.close()
+    assert frames[0].point_times is None
+    assert lidar.period is not None and abs(lidar.period - 0.18) < 0.006
+    for f in frames[1:]:
+        assert f.point_times is not None and len(f.point_times) == len(f.points) == 120
+        cw = np.degrees(-np.arctan2(f.points[:, 1], f.points[:, 0])) % 360.0
+        np.testing.assert_allclose(f.point_times, (cw / 360.0 - 1.0) * 0.18, atol=0.008)
+        assert np.all(np.diff(f.point_times) >= 0) and f.point_times[-1] <= 0.0
+    stamps = np.diff([f.timestamp for f in frames])
+    np.testing.assert_allclose(stamps, 0.18, atol=0.006)

@@ -239,3 +239,43 @@ def test_the_lidars_rays_hit_what_pymunks_segment_queries_hit(family):
                 want.append(math.inf if hit is None else hit.alpha * reach)
             assert np.isfinite(got).sum() > 0
             np.testing.assert_allclose(got, want, rtol=0, atol=1e-9)
+
+
+def test_a_streamed_lidar_measures_the_same_revolutions_sample_by_sample() -> None:
+    """:meth:`WorldRobot.stream` (what the emulated A1 sends, as the world measures it) holds
+    the revolution the world delivers: the same draws, cast step by step instead of at the
+    revolution's end, give the same points bit for bit; the A1's sweep is clockwise, one
+    sweep per revolution, in the order of time."""
+    scene = load_scenario("overtaking")
+    plain = make_world_robot(scene, "harsh", seed=3, sweep=-1)
+    streamed = make_world_robot(scene, "harsh", seed=3, sweep=-1)
+    assert streamed.stream() == []  # the first call starts the recording
+    steps: list = []
+    delivered = {}
+    for k in range(40):  # driving and turning, so every revolution is skewed
+        for w in (plain, streamed):
+            w.set_wheel_speeds(0.08, 0.12 if k % 20 < 10 else 0.03)
+            w.sleep(0.1)
+        steps += streamed.stream()
+        a, b = plain.newest_revolution(), streamed.newest_revolution()
+        assert (a is None) == (b is None)
+        if a is not None and b is not None:
+            assert np.array_equal(a.points, b.points) and np.array_equal(a.point_times, b.point_times)
+            delivered[round(b.timestamp, 6)] = b
+    times = [t for _a, _r, t, _f in steps]
+    assert times == sorted(times)
+    firsts = [k for k, s in enumerate(steps) if s[3]]
+    assert len(firsts) == 22  # 4 s at 5.5 revolutions a second, each begun once
+    for i, j in zip(firsts, firsts[1:]):
+        sweep = np.concatenate([s[0] for s in steps[i:j]])
+        assert len(sweep) == 360 and sweep[0] == 0.0 and np.all(np.diff(sweep) < 0)  # clockwise from the front
+        # what the world delivered at that revolution's end is its streamed samples with a return
+        ang, rng = sweep, np.concatenate([s[1] for s in steps[i:j]])
+        ok = np.isfinite(rng)
+        pts = np.round(np.c_[rng[ok] * np.cos(ang[ok]), rng[ok] * np.sin(ang[ok])] / 0.01) * 0.01
+        rev = delivered.get(round(steps[j - 1][2], 6))
+        if rev is not None:  # (the revolutions ended at a 0.1 s boundary are all looked at)
+            assert np.array_equal(rev.points, pts) and len(pts) > 10
+    assert len(delivered) >= 18
+    with pytest.raises(ValueError, match="sweep"):
+        make_world_robot(scene, "paper", seed=0, sweep=2)
