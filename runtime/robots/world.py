@@ -492,7 +492,7 @@ class WorldRobot(SimulatedBackend):
         x, y, th = pose
         noise = n.range_sd * self._rng.standard_normal(k) if n.range_sd else None
         kept = self._rng.random(k) >= n.dropout if n.dropout else None
-        batch = (x, y, th + beam, nominal, noise, kept, self._t)
+        batch: tuple[Any, ...] = (x, y, th + beam, nominal, noise, kept, self._t)
         if self._stream is not None:  # cast now: the emulator sends these samples now
             dist = _first_hits(x, y, th + beam, self._edges, self._circles, self.max_range * 1.2)
             if noise is not None:
