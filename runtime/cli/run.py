@@ -325,16 +325,16 @@ def _run_world(args: argparse.Namespace) -> int:
         world.start()
     except OSError as exc:
         raise CliError(f"cannot open the pseudo-terminals: {exc}") from None
-    try:
-        with interrupts_raise():
+    with interrupts_raise():  # a second Ctrl-C while it stops is ignored: the summary still comes
+        try:
             _serve_world(world, args)
-    except KeyboardInterrupt:
-        pass
-    finally:
-        world.stop()
-    p = world.pose
-    print(f"robot at ({p.x:.3f}, {p.y:.3f}, {math.degrees(p.theta):.0f}°), {world.goal_distance:.3f} m from the goal, "
-          f"{world.collisions} collision(s)", flush=True)
+        except KeyboardInterrupt:
+            pass
+        finally:
+            world.stop()
+        p = world.pose
+        print(f"robot at ({p.x:.3f}, {p.y:.3f}, {math.degrees(p.theta):.0f}°), {world.goal_distance:.3f} m from the goal, "
+              f"{world.collisions} collision(s)", flush=True)
     if world.error is not None:
         raise CliError(f"the emulated world failed: {world.error}")
     return 0

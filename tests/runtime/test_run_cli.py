@@ -373,3 +373,41 @@ def test_emulate_world_serves_a_whole_stack_a_user_can_run(tmp_path: Path) -> No
     assert world.returncode == 0, err
     x = float(out.split("robot at (", 1)[1].split(",", 1)[0])
     assert x == pytest.approx(0.3, abs=0.06) and "0 collision(s)" in out
+
+
+def test_a_second_ctrl_c_while_the_emulated_world_stops_still_gives_its_summary(
+        monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]) -> None:
+    """Ctrl-C pressed twice (or sent by a shell and by ``timeout``): the second one lands while
+    the world stops; it is ignored, the world still stops and the summary still comes. The
+    signals are real and sent by the process to itself at those two moments (no timing)."""
+    import os
+
+    import runtime.realtime
+    import runtime.robots.emulated
+    from formal.model import Pose
+
+    class World:
+        scene, pose, goal_distance, collisions, error = None, Pose(0.1, 0.0, 0.0), 0.9, 0, None
+        stopped = 0
+
+        def __init__(self, *args: Any, **kwargs: Any) -> None:
+            pass
+
+        def start(self) -> None:
+            pass
+
+        def stop(self) -> None:
+            os.kill(os.getpid(), signal.SIGINT)  # the second Ctrl-C, while stopping
+            World.stopped += 1
+
+    def serve(world: Any, args: Any) -> None:
+        os.kill(os.getpid(), signal.SIGINT)  # the first Ctrl-C, while serving
+        time.sleep(5.0)  # interrupted at once by the first
+        raise AssertionError("the first Ctrl-C did not interrupt serving")
+
+    monkeypatch.setattr(runtime.robots.emulated, "EmulatedWorld", World)
+    monkeypatch.setattr(runtime.realtime, "favour_this_thread", lambda **kw: None)
+    monkeypatch.setattr("runtime.cli.run._serve_world", serve)
+    assert cli.main(["emulate", "world", "--scenario", "open"]) == 0
+    out = capsys.readouterr().out
+    assert World.stopped == 1 and "robot at (0.100, 0.000, 0°), 0.900 m from the goal, 0 collision(s)" in out
