@@ -128,22 +128,29 @@ def _rows(ref: ReferenceScan, cur: np.ndarray, moved: np.ndarray, idx: np.ndarra
           lever: float) -> tuple[np.ndarray, np.ndarray]:
     """Residuals and Jacobian rows: point-to-line where the reference point lies on a line,
     point-to-point (two rows) elsewhere (corners, small objects)."""
-    q = ref.points[idx]
-    dp = np.column_stack((-s * cur[:, 0] - c * cur[:, 1], c * cur[:, 0] - s * cur[:, 1]))  # d(moved)/d(theta)
-    diff = moved - q
+    cx, cy = cur[:, 0], cur[:, 1]
+    dp = np.empty_like(cur)  # d(moved)/d(theta)
+    dp[:, 0] = -s * cx - c * cy
+    dp[:, 1] = c * cx - s * cy
+    diff = moved - ref.points[idx]
     line = ref.line[idx]
     nrm = ref.normals[idx[line]]
-    r_line = np.einsum("ij,ij->i", nrm, diff[line])
-    j_line = np.column_stack((nrm, np.einsum("ij,ij->i", nrm, dp[line]) / lever))
+    n_line = len(nrm)
     pt = ~line
-    k = int(pt.sum())
-    r_pt = diff[pt].reshape(-1)
-    j_pt = np.zeros((2 * k, 3))
+    k = len(idx) - n_line
+    r = np.empty(n_line + 2 * k)
+    jac = np.zeros((n_line + 2 * k, 3))
+    r[:n_line] = np.einsum("ij,ij->i", nrm, diff[line])
+    jac[:n_line, :2] = nrm
+    jac[:n_line, 2] = np.einsum("ij,ij->i", nrm, dp[line]) / lever
+    r[n_line:] = diff[pt].reshape(-1)
+    j_pt = jac[n_line:]
     j_pt[0::2, 0] = 1.0
     j_pt[1::2, 1] = 1.0
-    j_pt[0::2, 2] = dp[pt, 0] / lever
-    j_pt[1::2, 2] = dp[pt, 1] / lever
-    return np.concatenate((r_line, r_pt)), np.concatenate((j_line, j_pt))
+    dpp = dp[pt]
+    j_pt[0::2, 2] = dpp[:, 0] / lever
+    j_pt[1::2, 2] = dpp[:, 1] / lever
+    return r, jac
 
 
 def match_scans(
@@ -188,19 +195,23 @@ def match_scans(
     lam = np.zeros(3)
     vecs = np.eye(3)
     n_used = 0
+    cx, cy = np.ascontiguousarray(cur[:, 0]), np.ascontiguousarray(cur[:, 1])
+    moved = np.empty_like(cur)
     for it in range(1, max_iterations + 1):
         c, s = math.cos(x[2]), math.sin(x[2])
-        moved = np.column_stack((x[0] + c * cur[:, 0] - s * cur[:, 1], x[1] + s * cur[:, 0] + c * cur[:, 1]))
+        moved[:, 0] = x[0] + c * cx - s * cy
+        moved[:, 1] = x[1] + s * cx + c * cy
         d, idx = ref.tree.query(moved, distance_upper_bound=dist)
         use = np.isfinite(d)
-        n_used = int(use.sum())
+        n_used = int(np.count_nonzero(use))
         if n_used < min_points:
             return fail(f"too few correspondences ({n_used}) within {dist:.2f} m", n_used, n_used / len(cur), it=it)
         r, jac = _rows(ref, cur[use], moved[use], idx[use], c, s, lever)
         a = np.abs(r)
         w = np.where(a <= huber, 1.0, huber / np.maximum(a, 1e-12))
-        h = (jac * w[:, None]).T @ jac
-        g = (jac * w[:, None]).T @ r
+        jw = (jac * w[:, None]).T
+        h = jw @ jac
+        g = jw @ r
         lam, vecs = np.linalg.eigh(h)
         observable = lam / n_used >= min_information
         step = np.zeros(3)
@@ -222,7 +233,8 @@ def match_scans(
     unobservable = tuple(_direction_name(vecs[:, k]) for k in range(3) if lam[k] / max(n_used, 1) < min_information)
     # final quality
     c, s = math.cos(x[2]), math.sin(x[2])
-    moved = np.column_stack((x[0] + c * cur[:, 0] - s * cur[:, 1], x[1] + s * cur[:, 0] + c * cur[:, 1]))
+    moved[:, 0] = x[0] + c * cx - s * cy
+    moved[:, 1] = x[1] + s * cx + c * cy
     d, idx = ref.tree.query(moved, distance_upper_bound=final_distance)
     use = np.isfinite(d)
     frac = float(use.mean())
