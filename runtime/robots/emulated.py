@@ -146,17 +146,20 @@ class EmulatedWorld:
 
     def _samples(self) -> list[tuple[float, float, bool]]:
         """The execution world's LiDAR samples measured since the last call, as an A1 sends
-        them: (angle clockwise in degrees, distance in mm of the point on the 1 cm grid, 0 for
-        no return; whether it begins a revolution)."""
+        them: (angle clockwise in degrees, distance in mm of the point on the world's grid
+        (1 cm), 0 for no return; whether it begins a revolution)."""
         assert isinstance(self.sim, WorldRobot)
         with self._lock:
             self._catch_up()
             steps = self.sim.stream()
+        res = self.sim.resolution
         out: list[tuple[float, float, bool]] = []
         for angle, rng, _t, first in steps:
             ok = np.isfinite(rng)
             r = np.where(ok, rng, 0.0)
-            x, y = np.round(r * np.cos(angle), 2), np.round(r * np.sin(angle), 2)
+            x, y = r * np.cos(angle), r * np.sin(angle)
+            if res > 0:
+                x, y = np.round(x / res) * res, np.round(y / res) * res
             dist = np.where(ok, np.hypot(x, y) * 1000.0, 0.0)
             cw = np.degrees(-angle) % 360.0
             out += [(float(a), float(d), first and k == 0) for k, (a, d) in enumerate(zip(cw, dist))]
