@@ -341,12 +341,12 @@ class LidarEmulator(PtyEmulator):
                 return
 
     def _emit(self, first: bool, quality: int, angle_q6: int, dist_q2: int, ends: bool) -> bool:
-        """Send one sample (with the faults in force); ``ends``: it closes a revolution.
-        False when the device has gone silent or vanished and nothing more may be sent."""
+        """Send one sample (with the faults in force); ``ends``: it closes a paced
+        revolution (a streamed one is counted when the next begins). False when the device
+        has gone silent or vanished and nothing more may be sent."""
         rng = self._rng
         if first and self.sample_stream is not None and self.samples_sent:
-            ends = True  # the previous revolution is complete: counted as the next begins
-            self.revolutions_sent += 1
+            self.revolutions_sent += 1  # streamed: the previous revolution is complete as the next begins
             if self.silent_after is not None and self.revolutions_sent >= self.silent_after:
                 self.silent = True
                 return False
