@@ -497,12 +497,14 @@ class WorldRobot(SimulatedBackend):
             dist = _first_hits(x, y, th + beam, self._edges, self._circles, self.max_range * 1.2)
             if noise is not None:
                 dist = dist + noise
-            out = ~(np.isfinite(dist) & (dist > 0) & (dist <= self.max_range))
-            if kept is not None:
-                out |= ~kept
-            self._stream.append((nominal, np.where(out, np.inf, dist), self._t, i0 == 0))
+            self._stream.append((nominal, np.where(self._returned(dist, kept), dist, np.inf), self._t, i0 == 0))
             batch += (dist,)
         self._pending_rays.append(batch)
+
+    def _returned(self, dist: np.ndarray, kept: np.ndarray | None) -> np.ndarray:
+        """Which rays gave a return: a range above 0 within ``max_range``, not dropped."""
+        keep: np.ndarray = np.isfinite(dist) & (dist > 0) & (dist <= self.max_range)
+        return keep if kept is None else keep & kept
 
     def _revolution(self) -> tuple[np.ndarray, np.ndarray]:
         """Cast the revolution's rays; its points (robot frame at each ray's time) and times."""
@@ -521,9 +523,7 @@ class WorldRobot(SimulatedBackend):
             dist = _first_hits(x, y, world, self._edges, self._circles, self.max_range * 1.2)
             if self.noise.range_sd:
                 dist = dist + np.concatenate([r[4] for r in rays])
-        keep = np.isfinite(dist) & (dist > 0) & (dist <= self.max_range)
-        if self.noise.dropout:
-            keep &= np.concatenate([r[5] for r in rays])
+        keep = self._returned(dist, np.concatenate([r[5] for r in rays]) if self.noise.dropout else None)
         dist, a = dist[keep], nominal[keep]
         pts = np.stack([dist * np.cos(a), dist * np.sin(a)], axis=1)
         if self.resolution > 0:
