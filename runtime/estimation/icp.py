@@ -40,8 +40,12 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from formal.model import Pose
+from runtime.estimation._icp_core import cell_keys, grid_index, icp_iterations
 
 __all__ = ["ScanMatch", "ReferenceScan", "match_scans"]
+
+# the reference grid's cell (m): about the first iteration's correspondence distance
+_CELL = 0.1
 
 
 @dataclass(frozen=True)
@@ -89,6 +93,7 @@ class ReferenceScan:
         self.line = np.zeros(len(pts), dtype=bool)
         self.tree: cKDTree | None = cKDTree(pts) if len(pts) else None
         if len(pts) < neighbours:
+            self._set_rows()
             return
         d, idx = cKDTree(pts).query(pts, k=neighbours, distance_upper_bound=normal_radius)
         near = np.isfinite(d)
@@ -110,6 +115,24 @@ class ReferenceScan:
         self.normals = np.c_[-np.sin(angle), np.cos(angle)][usable]
         self.line = line[usable]
         self.tree = cKDTree(self.points) if len(self.points) else None
+        self._set_rows()
+
+    def _set_rows(self) -> None:
+        """Each point's two residual directions — its normal (and nothing) on a line, x and y
+        elsewhere — and the grid the compiled matcher (:mod:`._icp_core`) searches, with the
+        points sorted by its cells."""
+        n = len(self.points)
+        rows = np.zeros((n, 2, 2))
+        rows[:, 0, 0], rows[:, 1, 1] = 1.0, 1.0
+        rows[self.line, 0, :] = self.normals[self.line]
+        rows[self.line, 1, 1] = 0.0
+        real = np.ones((n, 2), dtype=bool)
+        real[self.line, 1] = False
+        starts, self._grid = grid_index(self.points, _CELL)
+        order = np.argsort(cell_keys(self.points, self._grid), kind="stable")
+        self._starts = starts
+        self._sorted = (np.ascontiguousarray(self.points[order]), np.ascontiguousarray(rows[order]),
+                        np.ascontiguousarray(real[order]))
 
     def __len__(self) -> int:
         return len(self.points)
@@ -122,35 +145,6 @@ def _direction_name(v: np.ndarray) -> str:
         return ("x", "y", "heading")[k]
     v = v if v[k] > 0 else -v
     return "+".join(f"{c:.2f}{n}" for c, n in zip(v, ("x", "y", "heading")) if abs(c) >= 0.05).replace("+-", "-")
-
-
-def _rows(ref: ReferenceScan, cur: np.ndarray, moved: np.ndarray, idx: np.ndarray, c: float, s: float,
-          lever: float) -> tuple[np.ndarray, np.ndarray]:
-    """Residuals and Jacobian rows: point-to-line where the reference point lies on a line,
-    point-to-point (two rows) elsewhere (corners, small objects)."""
-    cx, cy = cur[:, 0], cur[:, 1]
-    dp = np.empty_like(cur)  # d(moved)/d(theta)
-    dp[:, 0] = -s * cx - c * cy
-    dp[:, 1] = c * cx - s * cy
-    diff = moved - ref.points[idx]
-    line = ref.line[idx]
-    nrm = ref.normals[idx[line]]
-    n_line = len(nrm)
-    pt = ~line
-    k = len(idx) - n_line
-    r = np.empty(n_line + 2 * k)
-    jac = np.zeros((n_line + 2 * k, 3))
-    r[:n_line] = np.einsum("ij,ij->i", nrm, diff[line])
-    jac[:n_line, :2] = nrm
-    jac[:n_line, 2] = np.einsum("ij,ij->i", nrm, dp[line]) / lever
-    r[n_line:] = diff[pt].reshape(-1)
-    j_pt = jac[n_line:]
-    j_pt[0::2, 0] = 1.0
-    j_pt[1::2, 1] = 1.0
-    dpp = dp[pt]
-    j_pt[0::2, 2] = dpp[:, 0] / lever
-    j_pt[1::2, 2] = dpp[:, 1] / lever
-    return r, jac
 
 
 def match_scans(
@@ -181,7 +175,6 @@ def match_scans(
     ref = reference if isinstance(reference, ReferenceScan) else ReferenceScan(reference)
     cur = np.asarray(current, dtype=float).reshape(-1, 2)
     cur = cur[np.all(np.isfinite(cur), axis=1)]
-    x = np.array([prior.x, prior.y, prior.theta], dtype=float)
     every = ("x", "y", "heading")
 
     def fail(reason: str, n: int = 0, frac: float = 0.0, rmse: float = math.nan, it: int = 0,
@@ -190,40 +183,12 @@ def match_scans(
 
     if len(cur) < min_points or len(ref) < min_points or ref.tree is None:
         return fail(f"too few points to match ({len(cur)} current, {len(ref)} reference)")
-    dist = max_distance
-    it = 0
-    lam = np.zeros(3)
-    vecs = np.eye(3)
-    n_used = 0
-    cx, cy = np.ascontiguousarray(cur[:, 0]), np.ascontiguousarray(cur[:, 1])
-    moved = np.empty_like(cur)
-    for it in range(1, max_iterations + 1):
-        c, s = math.cos(x[2]), math.sin(x[2])
-        moved[:, 0] = x[0] + c * cx - s * cy
-        moved[:, 1] = x[1] + s * cx + c * cy
-        d, idx = ref.tree.query(moved, distance_upper_bound=dist)
-        use = np.isfinite(d)
-        n_used = int(np.count_nonzero(use))
-        if n_used < min_points:
-            return fail(f"too few correspondences ({n_used}) within {dist:.2f} m", n_used, n_used / len(cur), it=it)
-        r, jac = _rows(ref, cur[use], moved[use], idx[use], c, s, lever)
-        a = np.abs(r)
-        w = np.where(a <= huber, 1.0, huber / np.maximum(a, 1e-12))
-        jw = (jac * w[:, None]).T
-        h = jw @ jac
-        g = jw @ r
-        lam, vecs = np.linalg.eigh(h)
-        observable = lam / n_used >= min_information
-        step = np.zeros(3)
-        for k in range(3):
-            if observable[k]:
-                step -= vecs[:, k] * (vecs[:, k] @ g) / lam[k]
-        step[2] /= lever
-        x += step
-        x[2] = math.atan2(math.sin(x[2]), math.cos(x[2]))
-        dist = max(final_distance, dist * 0.7)
-        if np.linalg.norm(step[:2]) < 1e-5 and abs(step[2]) < 1e-5 and dist <= final_distance:
-            break
+    pts, rows, real = ref._sorted
+    stopped, x, lam, vecs, n_used, it, dist, n_final, rmse = icp_iterations(
+        pts, rows, real, ref._starts, *ref._grid, np.ascontiguousarray(cur), np.array([prior.x, prior.y, prior.theta]),
+        max_iterations, max_distance, final_distance, huber, lever, min_information, min_points)
+    if stopped:
+        return fail(f"too few correspondences ({n_used}) within {dist:.2f} m", n_used, n_used / len(cur), it=it)
     info = tuple(float(v) for v in np.sort(lam / max(n_used, 1)))
     seen = lam / max(n_used, 1) >= min_information
     h_obs = (vecs[:, seen] * lam[seen]) @ vecs[:, seen].T  # the observable part, rotation scaled by lever
@@ -231,16 +196,8 @@ def match_scans(
     h_state = h_obs * scale[:, None] * scale[None, :]
     imat = tuple(tuple(float(v) for v in row) for row in h_state)
     unobservable = tuple(_direction_name(vecs[:, k]) for k in range(3) if lam[k] / max(n_used, 1) < min_information)
-    # final quality
-    c, s = math.cos(x[2]), math.sin(x[2])
-    moved[:, 0] = x[0] + c * cx - s * cy
-    moved[:, 1] = x[1] + s * cx + c * cy
-    d, idx = ref.tree.query(moved, distance_upper_bound=final_distance)
-    use = np.isfinite(d)
-    frac = float(use.mean())
-    rmse = float(np.sqrt(np.mean(_rows(ref, cur[use], moved[use], idx[use], c, s, lever)[0] ** 2))) if use.any() else math.nan
+    frac = n_final / len(cur)
     pose = Pose(float(x[0]), float(x[1]), float(x[2]))
-    n_final = int(use.sum())
     if len(unobservable) == 3:
         return ScanMatch(prior, False, "no direction is observable in this scene", n_final, frac, rmse, it, every, info)  # type: ignore[arg-type]
     if frac < min_inlier_fraction:

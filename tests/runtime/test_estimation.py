@@ -7,6 +7,8 @@ from typing import Any
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from formal.geometry import compose, relative
 from formal.model import Pose
@@ -247,3 +249,32 @@ def test_range_spread_reads_the_noise_and_ignores_edges() -> None:
     assert sd is not None and 0.008 < sd < 0.013, sd
     assert range_spread(revs[:1]) is None                        # one revolution: nothing to compare
     assert range_spread([np.zeros((0, 2)), np.zeros((0, 2))]) is None  # no returns
+
+
+# -- the compiled matcher's nearest-point search -------------------------------------------------
+coords = st.floats(-3.0, 3.0, allow_nan=False)
+
+
+@settings(max_examples=100, deadline=None)
+@given(ref=st.lists(st.tuples(coords, coords), min_size=1, max_size=60),
+       near=st.lists(st.tuples(st.integers(0, 59), st.floats(-0.7, 0.7), st.floats(-0.7, 0.7)), min_size=1, max_size=20),
+       bound=st.floats(0.01, 0.6), cell=st.sampled_from([0.05, 0.1, 0.3]))
+def test_the_grid_search_finds_what_a_kd_tree_finds(ref, near, bound, cell):
+    """Invariant: within the bound, the grid's nearest point is as near as the k-d tree's
+    nearest (ties may pick another point at the same distance); beyond it, none."""
+    from scipy.spatial import cKDTree
+
+    from runtime.estimation._icp_core import cell_keys, grid_index, nearest
+
+    pts = np.array(ref, dtype=float)
+    queries = [(pts[i % len(pts), 0] + dx, pts[i % len(pts), 1] + dy) for i, dx, dy in near]  # near a point, or not
+    starts, grid = grid_index(pts, cell)
+    ordered = pts[np.argsort(cell_keys(pts, grid), kind="stable")]
+    d_tree, _ = cKDTree(pts).query(np.array(queries), distance_upper_bound=bound)
+    for (qx, qy), want in zip(queries, d_tree):
+        k, d2 = nearest(qx, qy, bound * bound, ordered, starts, *grid)
+        if k < 0:
+            assert not want < bound * (1 - 1e-12)
+        else:
+            assert math.isclose(math.hypot(qx - ordered[k, 0], qy - ordered[k, 1]), want, rel_tol=1e-9, abs_tol=1e-12)
+            assert math.isclose(d2, want * want, rel_tol=1e-9, abs_tol=1e-15)
