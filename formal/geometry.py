@@ -101,7 +101,7 @@ def points_from_frame(points: np.ndarray, frame: FrameLike) -> np.ndarray:
         return points
     x, y, th = _xyt(frame)
     c, s = math.cos(th), math.sin(th)
-    out: np.ndarray = np.c_[x + c * points[:, 0] - s * points[:, 1], y + s * points[:, 0] + c * points[:, 1]]
+    out: np.ndarray = np.stack((x + c * points[:, 0] - s * points[:, 1], y + s * points[:, 0] + c * points[:, 1]), axis=1)
     return out
 
 
@@ -114,7 +114,7 @@ def points_to_frame(points: np.ndarray, frame: FrameLike) -> np.ndarray:
     x, y, th = _xyt(frame)
     c, s = math.cos(th), math.sin(th)
     rel = np.asarray(points, dtype=float) - np.array([x, y])
-    out: np.ndarray = np.c_[rel[:, 0] * c + rel[:, 1] * s, -rel[:, 0] * s + rel[:, 1] * c]
+    out: np.ndarray = np.stack((rel[:, 0] * c + rel[:, 1] * s, -rel[:, 0] * s + rel[:, 1] * c), axis=1)
     return out
 
 

@@ -227,7 +227,7 @@ def _crosses(a: Face, b: Face) -> bool:
 
 def _to_frame(points: np.ndarray, pose: Pose) -> np.ndarray:
     c, s = math.cos(pose.theta), math.sin(pose.theta)
-    out: np.ndarray = np.c_[pose.x + c * points[:, 0] - s * points[:, 1], pose.y + s * points[:, 0] + c * points[:, 1]]
+    out: np.ndarray = np.stack((pose.x + c * points[:, 0] - s * points[:, 1], pose.y + s * points[:, 0] + c * points[:, 1]), axis=1)
     return out
 
 

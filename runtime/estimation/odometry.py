@@ -98,7 +98,7 @@ def deskew(points: np.ndarray, point_times: np.ndarray | None, v: float, w: floa
         r = v / w
         px, py = r * np.sin(th), r * (1 - np.cos(th))
     c, s = np.cos(th), np.sin(th)
-    out: np.ndarray = np.c_[px + c * points[:, 0] - s * points[:, 1], py + s * points[:, 0] + c * points[:, 1]]
+    out: np.ndarray = np.stack((px + c * points[:, 0] - s * points[:, 1], py + s * points[:, 0] + c * points[:, 1]), axis=1)
     return out
 
 
@@ -355,7 +355,7 @@ class ScanOdometry:
         if len(points) < self.min_points:
             return False
         c, s = math.cos(pose.theta), math.sin(pose.theta)
-        world = np.c_[pose.x + c * points[:, 0] - s * points[:, 1], pose.y + s * points[:, 0] + c * points[:, 1]]
+        world = np.stack((pose.x + c * points[:, 0] - s * points[:, 1], pose.y + s * points[:, 0] + c * points[:, 1]), axis=1)
         old = self._map_points if (self._map_points is not None and not reseed) else np.zeros((0, 2))
         if len(old) and self._map is not None and self._map.tree is not None:
             # only surfaces the map does not hold yet: re-adding known ones would smear them
