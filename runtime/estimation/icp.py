@@ -185,8 +185,9 @@ def match_scans(
         return fail(f"too few points to match ({len(cur)} current, {len(ref)} reference)")
     pts, rows, real = ref._sorted
     stopped, x, lam, vecs, n_used, it, dist, n_final, rmse = icp_iterations(
-        pts, rows, real, ref._starts, *ref._grid, np.ascontiguousarray(cur), np.array([prior.x, prior.y, prior.theta]),
-        max_iterations, max_distance, final_distance, huber, lever, min_information, min_points)
+        pts, rows, real, ref._starts, *ref._grid, np.ascontiguousarray(cur), np.array([prior.x, prior.y, prior.theta], dtype=float),
+        int(max_iterations), float(max_distance), float(final_distance), float(huber), float(lever), float(min_information),
+        int(min_points))  # one signature: the loop is compiled once, whatever numbers the caller passes
     if stopped:
         return fail(f"too few correspondences ({n_used}) within {dist:.2f} m", n_used, n_used / len(cur), it=it)
     info = tuple(float(v) for v in np.sort(lam / max(n_used, 1)))

@@ -278,3 +278,13 @@ def test_the_grid_search_finds_what_a_kd_tree_finds(ref, near, bound, cell):
         else:
             assert math.isclose(math.hypot(qx - ordered[k, 0], qy - ordered[k, 1]), want, rel_tol=1e-9, abs_tol=1e-12)
             assert math.isclose(d2, want * want, rel_tol=1e-9, abs_tol=1e-15)
+
+
+def test_integer_arguments_match_as_their_floats():
+    """The compiled loop has one signature: a prior or thresholds given as integers are taken
+    as the same numbers in floating point (numba cannot add a float step to an int pose)."""
+    ref = np.array([[1.0, y] for y in np.linspace(-0.5, 0.5, 51)] + [[x, 0.5] for x in np.linspace(0.0, 1.0, 51)])
+    cur = ref - [0.05, 0.0]
+    ints = match_scans(ref, cur, Pose(0, 0, 0), max_distance=1, final_distance=1, max_iterations=30)
+    floats = match_scans(ref, cur, Pose(0.0, 0.0, 0.0), max_distance=1.0, final_distance=1.0, max_iterations=30)
+    assert ints.ok and ints == floats
