@@ -288,3 +288,27 @@ def test_integer_arguments_match_as_their_floats():
     ints = match_scans(ref, cur, Pose(0, 0, 0), max_distance=1, final_distance=1, max_iterations=30)
     floats = match_scans(ref, cur, Pose(0.0, 0.0, 0.0), max_distance=1.0, final_distance=1.0, max_iterations=30)
     assert ints.ok and ints == floats
+
+
+def test_the_matcher_compiles_without_a_writable_cache(monkeypatch):
+    """Where numba finds nowhere to write its cache it raises at decoration; the matcher then
+    compiles in each process instead of making the estimation package fail to import."""
+    import importlib
+
+    import numba.core.caching
+
+    from runtime.estimation import _icp_core
+
+    def nowhere(self: Any, py_func: Any) -> None:
+        raise RuntimeError(f"cannot cache function {py_func!r}: no locator available for file '/ro'")
+
+    monkeypatch.setattr(numba.core.caching.FunctionCache, "__init__", nowhere)
+    try:
+        fresh = importlib.reload(_icp_core)
+        pts = np.array([[0.0, 0.0], [0.3, 0.0]])
+        starts, grid = fresh.grid_index(pts, 0.1)
+        assert fresh.nearest(0.28, 0.01, 0.01, pts, starts, *grid)[0] == 1
+        assert fresh.icp_iterations._cache.__class__.__name__ == "NullCache"
+    finally:
+        monkeypatch.undo()
+        importlib.reload(_icp_core)
