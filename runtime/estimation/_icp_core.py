@@ -27,7 +27,7 @@ from typing import Any
 import numpy as np
 from numba import njit
 
-__all__ = ["grid_index", "cell_keys", "nearest", "icp_iterations"]
+__all__ = ["grid_index", "cell_keys", "nearest", "icp_iterations", "warm_up"]
 
 def _compiled(fn: Callable[..., Any]) -> Any:
     """``fn`` compiled, its machine code cached beside this module (or in the user's cache)
@@ -180,3 +180,13 @@ def icp_iterations(pts: np.ndarray, rows: np.ndarray, real: np.ndarray, starts: 
                 rows_used += 1
     rmse = math.sqrt(sq / rows_used) if rows_used else math.nan
     return False, x, lam, vecs, n_used, it, dist, n_final, rmse
+
+
+def warm_up() -> None:
+    """Compile (or load from the cache) the matcher now, with the argument types a match
+    uses: a robot calls this before it moves, so that the first match — seconds of
+    compiling on a fresh install — never stalls a control loop that is driving."""
+    pts = np.zeros((1, 2))
+    starts, grid = grid_index(pts, 0.1)
+    icp_iterations(pts, np.zeros((1, 2, 2)), np.ones((1, 2), dtype=bool), starts, *grid, np.zeros((1, 2)), np.zeros(3),
+                   1, 0.1, 0.1, 0.01, 0.5, 0.02, 1)

@@ -54,6 +54,7 @@ from runtime.devices.frame import ScanFrame
 from runtime.estimation.ekf import OdometryFilter
 from runtime.estimation.faces import FaceCompass
 from runtime.estimation.fusion import fuse_revolutions, range_spread
+from runtime.estimation._icp_core import warm_up
 from runtime.estimation.icp import ReferenceScan, match_scans
 
 __all__ = ["ScanOdometry", "FeedbackRecord", "deskew"]
@@ -184,6 +185,7 @@ class ScanOdometry:
         self._seed: list[np.ndarray] | None = []
         self._seed_pose = self.pose
         self.compass: FaceCompass | None = FaceCompass() if compass else None
+        warm_up()  # the compiled matcher is ready before the robot moves
 
     # -- dead reckoning -------------------------------------------------------------------------
     def reset(self, pose: Pose, t: float) -> None:

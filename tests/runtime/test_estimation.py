@@ -312,3 +312,25 @@ def test_the_matcher_compiles_without_a_writable_cache(monkeypatch):
     finally:
         monkeypatch.undo()
         importlib.reload(_icp_core)
+
+
+def test_the_matcher_is_compiled_before_the_robot_moves():
+    """A fresh process: making the odometry compiles (or loads) the matcher with the types a
+    match uses, so the first match in a driving control loop does not stall it."""
+    import subprocess
+    import sys
+
+    code = ("from runtime.estimation import _icp_core as c\n"
+            "from runtime.estimation.odometry import ScanOdometry\n"
+            "assert not c.icp_iterations.signatures\n"
+            "ScanOdometry(0.2)\n"
+            "n = len(c.icp_iterations.signatures)\n"
+            "import numpy as np\n"
+            "from formal.model import Pose\n"
+            "from runtime.estimation import match_scans\n"
+            "ref = np.array([[1.0, y] for y in np.linspace(-0.5, 0.5, 51)] + [[x, 0.5] for x in np.linspace(0.0, 1.0, 51)])\n"
+            "assert match_scans(ref, ref, Pose(0, 0, 0)).ok\n"
+            "print(n, len(c.icp_iterations.signatures))\n")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.split() == ["1", "1"]  # compiled once, and a real match needed no other signature
