@@ -21,23 +21,13 @@ True
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
 from typing import Any
 
 import numpy as np
-from numba import njit
+
+from runtime.jit import compiled
 
 __all__ = ["grid_index", "cell_keys", "nearest", "icp_iterations", "warm_up"]
-
-def _compiled(fn: Callable[..., Any]) -> Any:
-    """``fn`` compiled, its machine code cached beside this module (or in the user's cache)
-    for the next process; compiled afresh in each process where numba finds no writable
-    place for the cache (a read-only install without a home directory) rather than failing."""
-    try:
-        return njit(cache=True, nogil=True)(fn)
-    except RuntimeError:  # numba: "cannot cache function …: no locator available"
-        return njit(nogil=True)(fn)
-
 
 # a grid of at most this many cells per axis: a scan with far outliers gets coarser cells
 # rather than a huge index
@@ -69,7 +59,7 @@ def cell_keys(points: np.ndarray, grid: tuple[float, float, float, int, int]) ->
     return keys
 
 
-@_compiled
+@compiled
 def nearest(qx: float, qy: float, bound2: float, pts: np.ndarray, starts: np.ndarray, x0: float, y0: float,
             cell: float, nx: int, ny: int) -> tuple[int, float]:
     """The grid-sorted point nearest (qx, qy) closer than ``sqrt(bound2)``: (index, squared
@@ -93,7 +83,7 @@ def nearest(qx: float, qy: float, bound2: float, pts: np.ndarray, starts: np.nda
     return found, best
 
 
-@_compiled
+@compiled
 def icp_iterations(pts: np.ndarray, rows: np.ndarray, real: np.ndarray, starts: np.ndarray, x0: float, y0: float,
                    cell: float, nx: int, ny: int, cur: np.ndarray, prior: np.ndarray, max_iterations: int,
                    max_distance: float, final_distance: float, huber: float, lever: float, min_information: float,

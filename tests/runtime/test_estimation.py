@@ -334,3 +334,35 @@ def test_the_matcher_is_compiled_before_the_robot_moves():
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
     assert out.returncode == 0, out.stderr
     assert out.stdout.split() == ["1", "1"]  # compiled once, and a real match needed no other signature
+
+
+def test_ctrl_c_during_matching_is_a_keyboard_interrupt():
+    """Interrupted in the middle of matches, a process sees KeyboardInterrupt — never a
+    SystemError from the compiled matcher (as it did when the loop released the GIL: 157
+    of 200 interrupts). Whenever each interrupt lands, the exception must be the same."""
+    import subprocess
+    import sys
+
+    code = """
+import os, signal, threading
+import numpy as np
+from formal.model import Pose
+from runtime.estimation import ReferenceScan, match_scans
+ref = np.array([[1.0, y] for y in np.linspace(-0.5, 0.5, 151)] + [[x, 0.5] for x in np.linspace(0.0, 1.0, 151)])
+cur, r = ref - [0.05, 0.0], ReferenceScan(ref)
+match_scans(r, cur, Pose(0.0, 0.0, 0.0))
+seen = []
+for i in range(40):
+    t = threading.Timer(0.001 + 0.0005 * i, os.kill, (os.getpid(), signal.SIGINT))
+    t.start()
+    try:
+        while True:
+            match_scans(r, cur, Pose(0.0, 0.0, 0.0))
+    except BaseException as e:
+        seen.append(type(e).__name__)
+    t.join()
+print(sorted(set(seen)))
+"""
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.strip() == "['KeyboardInterrupt']"
