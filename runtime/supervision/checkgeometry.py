@@ -5,14 +5,13 @@ numbers, and where each leg's body first meets a point.
 The planner's rule (:mod:`planner.physics`): the footprint inflated by the robot's
 ``clearance``, translated along a straight or spun through every tick heading of a turn,
 with the start-touching rule (a point already inside the inflated body at a task's start
-is held to the real body). Each contact function tests all its legs in one array
-operation on the raw points; the tests hold them bit-equal to the reference check
-(``tests/runtime/_checkref.py``).
+is held to the real body). Each contact function tests all its legs on the raw points
+in one compiled loop (:mod:`runtime.supervision._contacts_core`); the tests hold them
+bit-equal to the reference check (``tests/runtime/_checkref.py``).
 """
 
 from __future__ import annotations
 
-import functools
 import math
 from typing import NamedTuple
 
@@ -22,6 +21,7 @@ from formal.geometry import wrap_angle
 from formal.model import Pose, State, TaskKind
 from planner.perception import Obstacles
 from planner.robot import RobotModel
+from runtime.supervision._contacts_core import straight_gaps, turn_first_ticks
 
 _STRAIGHT, _LEFT = TaskKind.STRAIGHT, TaskKind.LEFT  # looked up once: a member lookup is a descriptor call
 
@@ -89,90 +89,56 @@ def _points(seen: Obstacles | np.ndarray, robot: RobotModel) -> np.ndarray:
 
 
 # the ufuncs' own reductions: ndarray.min and np.min go through Python wrappers first
-_SUM, _MIN, _MAX, _ANY = np.add.reduce, np.minimum.reduce, np.maximum.reduce, np.logical_or.reduce
+_SUM, _MIN, _MAX = np.add.reduce, np.minimum.reduce, np.maximum.reduce
 
 
 def _straight_contacts(z: np.ndarray, legs: list[_Leg], robot: RobotModel, allowance: float) -> list[float]:
     """Per straight leg: how far the body drives before it meets a point (inf: never), to
-    the last control tick before the contact, all legs in one array operation (the
-    planner's rule, :mod:`planner.physics`: the inflated footprint translated along the
-    leg; a point already inside it at the start is held to the real body). ``allowance``
-    (m) shrinks the body a point must enter to count (sensor noise)."""
-    # each leg's start and exp(-i theta) (cos, -sin: bit-equal to np.exp(-1j * theta)), made as legs × 1
-    a = np.array([[complex(g.start[0], g.start[1])] for g in legs])
-    e = np.array([[complex(math.cos(g.start[2]), -math.sin(g.start[2]))] for g in legs])
-    w = (z - a) * e  # legs × points: u + iv in each task's frame
-    u, v = w.real, np.abs(w.imag)
+    the last control tick before the contact (the planner's rule, :mod:`planner.physics`:
+    the inflated footprint translated along the leg; a point already inside it at the
+    start is held to the real body). ``allowance`` (m) shrinks the body a point must
+    enter to count (sensor noise). The points are tested by a compiled loop
+    (:func:`~runtime.supervision._contacts_core.straight_gaps`)."""
     c = robot.clearance
     rear, front, half = robot.rear_offset + c, robot.front_offset + c, robot.width / 2 + c - allowance
-    beside = (v <= half) & (u >= -rear)
-    f = front - allowance
-    d = [x - f for x in _MIN(u, axis=1, where=beside, initial=math.inf).tolist()]  # = min(u - f): rounding is monotone
-    if min(d) <= allowance:
-        # inside the inflated footprint at the start: held to the real body (the
-        # start-touching rule); strictly inside the real body, the robot's own returns
-        gap = np.where(beside, u - f, np.inf)
-        rfront, rhalf = robot.front_offset - allowance, robot.width / 2 - allowance
-        real = np.where(v < rhalf, u - rfront, np.inf)
-        gap = np.where(gap <= allowance, np.where(real >= allowance, real, np.inf), gap)
-        d = _MIN(gap, axis=1).tolist()
+    out = np.empty(len(legs))
+    straight_gaps(np.ascontiguousarray(z.real), np.ascontiguousarray(z.imag), np.array([g.start[0] for g in legs]),
+                  np.array([g.start[1] for g in legs]), np.array([math.cos(g.start[2]) for g in legs]),
+                  np.array([math.sin(g.start[2]) for g in legs]), rear, half, front - allowance, allowance,
+                  robot.front_offset - allowance, robot.width / 2 - allowance, out)
     per_tick = robot.straight_speed * robot.tick
     # the task ends at the last control tick before the contact, as the planner's rollout
-    return [(max(math.ceil(x / per_tick - 1e-12), 1) - 1) * per_tick if math.isfinite(x) else math.inf for x in d]
-
-
-@functools.lru_cache(maxsize=64)
-def _steps(n: int, per_tick: float) -> np.ndarray:
-    """The angles turned at ticks 0 … n, as a column (read-only: the array is shared)."""
-    out = (np.arange(n + 1) * per_tick)[:, None]
-    out.setflags(write=False)
-    return out
+    return [(max(math.ceil(x / per_tick - 1e-12), 1) - 1) * per_tick if math.isfinite(x) else math.inf for x in out.tolist()]
 
 
 def _turn_contacts(z: np.ndarray, legs: list[_Leg], robot: RobotModel, allowance: float) -> list[float]:
     """Per turn leg: how far (rad) the inflated body turns in place before it meets a point
-    (inf: never), tested at every tick heading as the planner's rollout does; all legs in
-    one array operation (legs × tick headings × points), on the points within the inflated
-    body's reach of a leg's centre (no other point can meet it at any heading)."""
+    (inf: never), tested at every tick heading as the planner's rollout does (a compiled
+    loop, :func:`~runtime.supervision._contacts_core.turn_first_ticks`); a point within the
+    margin at the start is held to the real body, between ticks too (:func:`_waived_turn`)."""
     per_tick = robot.turn_rate * robot.tick
     ticks = [math.ceil(g.amount / per_tick - 1e-9) for g in legs]
-    n = max(ticks)
-    if n <= 0:
+    if max(ticks) <= 0:
         return [math.inf] * len(legs)
-    d = z - np.array([[[complex(g.start[0], g.start[1])]] for g in legs])  # legs × 1 × points
-    if len(legs) * n * z.size > 2048:  # a large array: first drop the points out of every leg's reach
-        near = _ANY(np.abs(d) <= robot.swept_radius + 1e-6, axis=(0, 1))  # a margin far above rounding
-        d = d[:, :, near]
-        if not d.shape[2]:
-            return [math.inf] * len(legs)
-    # past a leg's own last tick its heading stays at its end: a repeat, never an earlier contact
-    amount = np.array([[[g.amount]] for g in legs])  # legs × 1 × 1, as the sign and the start heading
-    sign = np.array([[[1.0 if g.kind is _LEFT else -1.0]] for g in legs])
-    start = np.array([[[g.start[2]]] for g in legs])
-    w = d * np.exp(-1j * (np.minimum(_steps(n, per_tick), amount) * sign + start))  # legs × ticks × points, body frames
+    n = len(legs)
+    sign = [1.0 if g.kind is _LEFT else -1.0 for g in legs]
     c = robot.clearance
     rear, front, half = robot.rear_offset, robot.front_offset, robot.width / 2
     mid, length = (front - rear) / 2, (front + rear) / 2
-    u, v = np.abs(w.real - mid), np.abs(w.imag)  # about the body's centre: one test per axis
-    inside = (u <= length + c - allowance) & (v <= half + c - allowance)
-    hit = _ANY(inside, axis=2).tolist()  # legs × ticks; at tick 0: points within the margin at the start
-    waived, anyw = inside[:, 0, :], [row[0] for row in hit]
-    if True in anyw or allowance > c:
-        if True in anyw:
-            inside = np.where(waived[:, None, :], (u <= length - allowance) & (v <= half - allowance), inside)
-        # strictly inside the real body at the start: the robot's own returns, never a
-        # contact (below the clearance every such point is waived, so only then is there any)
-        inside &= ~((u[:, 0, :] < length) & (v[:, 0, :] < half))[:, None, :]
-        hit = _ANY(inside, axis=2).tolist()
+    first, anyw, waived = np.empty(n, dtype=np.int64), np.empty(n, dtype=bool), np.empty((n, z.size), dtype=bool)
+    turn_first_ticks(np.ascontiguousarray(z.real), np.ascontiguousarray(z.imag), np.array([g.start[0] for g in legs]),
+                     np.array([g.start[1] for g in legs]), np.array([g.start[2] for g in legs]), np.array(sign),
+                     np.array([g.amount for g in legs]), np.array(ticks, dtype=np.int64), per_tick,
+                     robot.swept_radius + 1e-6, mid, length + c - allowance, half + c - allowance, length - allowance,
+                     half - allowance, length, half, first, anyw, waived)
     out = []
     for i, g in enumerate(legs):
-        row = hit[i][1:]
-        k = min(row.index(True) + 1 if True in row else n + 1, ticks[i] + 1)  # the first tick in contact
+        k = int(first[i])
         if anyw[i] and k > 1:
             # a point within the margin is held to the real body with no margin for the
             # corner's path between ticks: tested at eight headings per tick, as the planner
             # does (up to the tick before the contact found: only an earlier one matters)
-            k = min(k, _waived_turn(d[i, 0][waived[i]], g.start[2], 1.0 if g.kind is _LEFT else -1.0, per_tick,
+            k = min(k, _waived_turn(z[waived[i]] - complex(g.start[0], g.start[1]), g.start[2], sign[i], per_tick,
                                     g.amount, min(ticks[i], k - 1), robot, allowance))
         out.append(math.inf if k > ticks[i] else min((k - 1) * per_tick, g.amount))  # the last tick heading before contact
     return out
