@@ -354,8 +354,8 @@ match_scans(r, cur, Pose(0.0, 0.0, 0.0))
 seen = []
 for i in range(40):
     t = threading.Timer(0.001 + 0.0005 * i, os.kill, (os.getpid(), signal.SIGINT))
-    t.start()
     try:
+        t.start()  # the interrupt may land before start() returns: inside the try
         while True:
             match_scans(r, cur, Pose(0.0, 0.0, 0.0))
     except BaseException as e:
