@@ -24,7 +24,7 @@ import numpy as np
 
 from runtime.jit import compiled
 
-__all__ = ["straight_gaps", "turn_first_ticks"]
+__all__ = ["straight_gaps", "turn_first_ticks", "warm_up"]
 
 
 @compiled
@@ -106,3 +106,13 @@ def turn_first_ticks(zr: np.ndarray, zi: np.ndarray, sx: np.ndarray, sy: np.ndar
             if hit:
                 k_out[g] = t
                 break
+
+
+def warm_up() -> None:
+    """Compile (or load from the cache) both loops now, with the argument types a check
+    uses: the supervisor calls this before the robot moves, so that the first plan check
+    — seconds of compiling on a fresh install — never stalls a driving control loop."""
+    one, flag = np.zeros(1), np.zeros(1, dtype=bool)
+    straight_gaps(one, one, one, one, one, one, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, np.zeros(1))
+    turn_first_ticks(one, one, one, one, one, one, one, np.zeros(1, dtype=np.int64), 0.1, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+                     0.0, 0.0, np.zeros(1, dtype=np.int64), flag, np.zeros((1, 1), dtype=bool))

@@ -46,6 +46,7 @@ from planner.robot import RobotModel
 from planner.tasks import Task
 from runtime.estimation.fusion import fuse_revolutions
 from runtime.supervision.alarms import Alarms
+from runtime.supervision._contacts_core import warm_up as contacts_warm_up
 from runtime.supervision.plancheck import Recall, RecallIndex, recall
 from runtime.supervision.records import PlanRecord, TimedRecord, scan_to_frame
 
@@ -79,6 +80,7 @@ class PlanWatch:
         self.stuck = 0  # plans in a row that ended before the robot moved (see :meth:`stalled`)
         self._from: Pose | None = None
         self._recent: deque[tuple[np.ndarray, Pose]] = deque(maxlen=3)  # the newest clean revolutions, where taken
+        contacts_warm_up()  # the compiled plan check is ready before the robot moves
 
     def started(self, pose: Pose) -> None:
         """A plan, fresh or recalled, starts executing with the robot at ``pose``."""

@@ -168,3 +168,33 @@ def test_the_fast_contacts_are_the_reference_contacts(seed, n_legs, n_pts, allow
             assert together == [fast(z, [g], m, allowance)[0] for g in group]
             if fast is checkgeometry._turn_contacts:  # far points in a large array: the reach filter runs
                 assert fast(np.r_[z, 5.0 * np.exp(1j * np.linspace(0.0, 6.0, 3000))], group, m, allowance) == together
+
+
+def test_the_compiled_check_is_ready_before_the_robot_moves():
+    """A fresh process: the supervisor's plan watch compiles (or loads) the check's loops
+    with the types a check uses, so the first check of a driving robot does not compile."""
+    import subprocess
+    import sys
+
+    code = """
+from runtime.supervision import _contacts_core as c
+from runtime.supervision.planwatch import PlanWatch
+from runtime.experiment.layouts import make_layout
+from runtime.robots import make_world_robot
+from planner import Configurator
+from formal.model import Pose
+from runtime.supervision.plancheck import check_plan
+assert not c.straight_gaps.signatures and not c.turn_first_ticks.signatures
+conf = Configurator()
+PlanWatch(conf.robot)
+before = (len(c.straight_gaps.signatures), len(c.turn_first_ticks.signatures))
+scene = make_layout("slalom", 0, 1).scene
+scan = make_world_robot(scene, "paper", seed=1).read_scan().points
+result = conf.plan(scan, tuple(scene.goal_in_robot_frame()))
+ORIGIN = Pose(0.0, 0.0, 0.0)
+check_plan(list(result.steps), ORIGIN, ORIGIN, Pose(1.0, 0.0), scan, result.robot)
+print(before, (len(c.straight_gaps.signatures), len(c.turn_first_ticks.signatures)))
+"""
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.strip() == "(1, 1) (1, 1)"
