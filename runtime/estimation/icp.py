@@ -4,7 +4,8 @@
 frame (x forward, y left, theta counter-clockwise). Each reference point gets the normal
 of the line through its neighbours (principal axes of the points within ``normal_radius``;
 points with no clear line are left out); each current point is paired with its nearest
-reference point (scipy's cKDTree) and the point-to-line distances are minimised by
+reference point (a uniform grid, searched by the compiled loop of
+:mod:`runtime.estimation._icp_core`) and the point-to-line distances are minimised by
 Gauss–Newton with Huber weights, starting from the ``prior`` (dead reckoning).
 
 Degeneracy: the information matrix ``H = JᵀWJ`` of the converged match (rotation scaled
@@ -91,11 +92,12 @@ class ReferenceScan:
         self.points = pts
         self.normals = np.zeros((len(pts), 2))
         self.line = np.zeros(len(pts), dtype=bool)
-        self.tree: cKDTree | None = cKDTree(pts) if len(pts) else None
-        if len(pts) < neighbours:
+        tree = cKDTree(pts) if len(pts) else None
+        self.tree: cKDTree | None = tree
+        if tree is None or len(pts) < neighbours:
             self._set_rows()
             return
-        d, idx = cKDTree(pts).query(pts, k=neighbours, distance_upper_bound=normal_radius)
+        d, idx = tree.query(pts, k=neighbours, distance_upper_bound=normal_radius)
         near = np.isfinite(d)
         count = near.sum(axis=1)
         nb = pts[np.where(near, idx, 0)]  # N×k×2, padded with point 0 where no neighbour
