@@ -29,9 +29,9 @@ from runtime.jit import compiled
 
 __all__ = ["grid_index", "cell_keys", "nearest", "icp_iterations", "warm_up"]
 
-# a grid of at most this many cells per axis: a scan with far outliers gets coarser cells
-# rather than a huge index
-_MAX_CELLS = 2048
+# a grid of at most this many cells per axis (a quarter of a million in all): a scan
+# spread over more than 51 m (far outliers) gets coarser cells rather than a huge index
+_MAX_CELLS = 512
 
 
 def grid_index(points: np.ndarray, cell: float) -> tuple[np.ndarray, tuple[float, float, float, int, int]]:
