@@ -84,6 +84,20 @@ def nearest(qx: float, qy: float, bound2: float, pts: np.ndarray, starts: np.nda
 
 
 @compiled
+def _paired(cur: np.ndarray, i: int, x: np.ndarray, c: float, s: float, bound2: float, pts: np.ndarray,
+            starts: np.ndarray, x0: float, y0: float, cell: float, nx: int, ny: int) -> tuple[int, float, float, float, float]:
+    """Current point ``i`` moved by the pose ``x`` (its heading's cos ``c``, sin ``s``): its
+    nearest reference point within ``sqrt(bound2)`` (-1: none), where it moved, and the
+    offset from that reference point."""
+    mx = x[0] + c * cur[i, 0] - s * cur[i, 1]
+    my = x[1] + s * cur[i, 0] + c * cur[i, 1]
+    k, _ = nearest(mx, my, bound2, pts, starts, x0, y0, cell, nx, ny)
+    if k < 0:
+        return k, mx, my, 0.0, 0.0
+    return k, mx, my, mx - pts[k, 0], my - pts[k, 1]
+
+
+@compiled
 def icp_iterations(pts: np.ndarray, rows: np.ndarray, real: np.ndarray, starts: np.ndarray, x0: float, y0: float,
                    cell: float, nx: int, ny: int, cur: np.ndarray, prior: np.ndarray, max_iterations: int,
                    max_distance: float, final_distance: float, huber: float, lever: float, min_information: float,
@@ -111,13 +125,10 @@ def icp_iterations(pts: np.ndarray, rows: np.ndarray, real: np.ndarray, starts: 
         g = np.zeros(3)
         n_used = 0
         for i in range(n):
-            mx = x[0] + c * cur[i, 0] - s * cur[i, 1]
-            my = x[1] + s * cur[i, 0] + c * cur[i, 1]
-            k, _ = nearest(mx, my, dist * dist, pts, starts, x0, y0, cell, nx, ny)
+            k, mx, my, dx, dy = _paired(cur, i, x, c, s, dist * dist, pts, starts, x0, y0, cell, nx, ny)
             if k < 0:
                 continue
             n_used += 1
-            dx, dy = mx - pts[k, 0], my - pts[k, 1]
             dpx, dpy = x[1] - my, mx - x[0]  # d(moved)/d(theta): the point about the pose, turned a right angle
             for j in range(2):
                 if not real[k, j]:
@@ -156,13 +167,10 @@ def icp_iterations(pts: np.ndarray, rows: np.ndarray, real: np.ndarray, starts: 
     sq = 0.0
     rows_used = 0
     for i in range(n):
-        mx = x[0] + c * cur[i, 0] - s * cur[i, 1]
-        my = x[1] + s * cur[i, 0] + c * cur[i, 1]
-        k, _ = nearest(mx, my, final_distance * final_distance, pts, starts, x0, y0, cell, nx, ny)
+        k, _, _, dx, dy = _paired(cur, i, x, c, s, final_distance * final_distance, pts, starts, x0, y0, cell, nx, ny)
         if k < 0:
             continue
         n_final += 1
-        dx, dy = mx - pts[k, 0], my - pts[k, 1]
         for j in range(2):
             if real[k, j]:
                 r = rows[k, j, 0] * dx + rows[k, j, 1] * dy
