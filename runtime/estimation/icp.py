@@ -34,6 +34,7 @@ must not teleport the robot.
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
@@ -82,7 +83,8 @@ class ScanMatch:
 
 
 class ReferenceScan:
-    """A reference scan prepared once for many matches: its k-d tree and line normals."""
+    """A reference scan prepared once for many matches: its line normals and the grid the
+    compiled matcher searches (``tree``, a k-d tree of its points, is built on first use)."""
 
     def __init__(self, points: np.ndarray, normal_radius: float = 0.08, neighbours: int = 12) -> None:
         pts = np.asarray(points, dtype=float).reshape(-1, 2)
@@ -92,12 +94,10 @@ class ReferenceScan:
         self.points = pts
         self.normals = np.zeros((len(pts), 2))
         self.line = np.zeros(len(pts), dtype=bool)
-        tree = cKDTree(pts) if len(pts) else None
-        self.tree: cKDTree | None = tree
-        if tree is None or len(pts) < neighbours:
+        if len(pts) < neighbours:
             self._set_rows()
             return
-        d, idx = tree.query(pts, k=neighbours, distance_upper_bound=normal_radius)
+        d, idx = cKDTree(pts).query(pts, k=neighbours, distance_upper_bound=normal_radius)
         near = np.isfinite(d)
         count = near.sum(axis=1)
         nb = pts[np.where(near, idx, 0)]  # N×k×2, padded with point 0 where no neighbour
@@ -116,8 +116,13 @@ class ReferenceScan:
         self.points = pts[usable]
         self.normals = np.c_[-np.sin(angle), np.cos(angle)][usable]
         self.line = line[usable]
-        self.tree = cKDTree(self.points) if len(self.points) else None
         self._set_rows()
+
+    @functools.cached_property
+    def tree(self) -> cKDTree | None:
+        """A k-d tree of the points (None when there are none), for callers' own queries:
+        the matcher itself searches the grid."""
+        return cKDTree(self.points) if len(self.points) else None
 
     def _set_rows(self) -> None:
         """Each point's two residual directions — its normal (and nothing) on a line, x and y
@@ -183,7 +188,7 @@ def match_scans(
              info: tuple[float, float, float] = (0.0, 0.0, 0.0)) -> ScanMatch:
         return ScanMatch(prior, False, reason, n, frac, rmse, it, every, info)
 
-    if len(cur) < min_points or len(ref) < min_points or ref.tree is None:
+    if len(cur) < min_points or len(ref) < min_points or len(ref) == 0:
         return fail(f"too few points to match ({len(cur)} current, {len(ref)} reference)")
     pts, rows, real = ref._sorted
     stopped, x, lam, vecs, n_used, it, dist, n_final, rmse = icp_iterations(

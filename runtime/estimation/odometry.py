@@ -359,7 +359,7 @@ class ScanOdometry:
         c, s = math.cos(pose.theta), math.sin(pose.theta)
         world = np.stack((pose.x + c * points[:, 0] - s * points[:, 1], pose.y + s * points[:, 0] + c * points[:, 1]), axis=1)
         old = self._map_points if (self._map_points is not None and not reseed) else np.zeros((0, 2))
-        if len(old) and self._map is not None and self._map.tree is not None:
+        if len(old) and self._map is not None and len(self._map):
             # only surfaces the map does not hold yet: re-adding known ones would smear them
             # along the robot's estimation error and let the estimate drift with them
             d, _ = cKDTree(old).query(world, distance_upper_bound=self.new_surface)
