@@ -44,7 +44,7 @@ def test_is_a_robot_and_reads_robot_frame_scans(devices) -> None:
     lidar, maestro = devices
     with open_robot(lidar, maestro) as robot:
         assert isinstance(robot, Robot)
-        frame = robot.read_scan(timeout=2.0)
+        frame = robot.read_scan(timeout=10.0)
         assert frame is not None
         assert len(frame.points) >= 10
         assert np.allclose(frame.points[:, 0], 0.6, atol=0.01)  # the wall ahead, x forward
@@ -57,15 +57,15 @@ def test_speeds_in_metres_per_second_map_to_normalised_servo_speeds(devices) -> 
     lidar, maestro = devices
     with open_robot(lidar, maestro) as robot:
         robot.set_wheel_speeds(0.1, -0.05)  # max_speed 0.2 m/s
-        assert maestro.wait_for(lambda e: e.speeds != (0.0, 0.0), 1.0)
+        assert maestro.wait_for(lambda e: e.speeds != (0.0, 0.0), 10.0)
         assert maestro.speeds == pytest.approx((0.5, -0.25), abs=0.01)
         robot.set_wheel_speeds(0.5, -0.5)  # beyond the top speed: saturated
-        assert maestro.wait_for(lambda e: e.speeds[0] > 0.9, 1.0)
+        assert maestro.wait_for(lambda e: e.speeds[0] > 0.9, 10.0)
         assert maestro.speeds == pytest.approx((1.0, -1.0), abs=0.01)
         assert not robot.wheels_stopped
         robot.stop()
         assert robot.wheels_stopped
-        assert maestro.wait_for(stopped, 1.0)
+        assert maestro.wait_for(stopped, 10.0)
     assert stopped(maestro)
 
 
@@ -143,7 +143,7 @@ def test_dry_run_holds_the_wheels_stopped_but_reads_and_reckons(devices, tmp_pat
     with RunLog(tmp_path / "log.jsonl") as log:
         robot = HardwareRobot(lidar.port, maestro.port, HardwareConfig(dry_run=True), log=log)
         with robot:
-            assert robot.read_scan(timeout=2.0) is not None
+            assert robot.read_scan(timeout=10.0) is not None
             for _ in range(3):
                 robot.set_wheel_speeds(0.1, 0.1)
                 time.sleep(0.1)
@@ -158,7 +158,7 @@ def test_dry_run_needs_no_motor_port(devices) -> None:
     with open_robot(lidar, None, dry_run=True) as robot:
         robot.set_wheel_speeds(0.1, 0.1)
         robot.stop()
-        assert robot.read_scan(timeout=2.0) is not None
+        assert robot.read_scan(timeout=10.0) is not None
     with pytest.raises(ValueError, match="motor port"):
         open_robot(lidar, None)
 
@@ -191,9 +191,9 @@ def test_an_unhealthy_or_silent_lidar_fails_at_start(devices) -> None:
 def test_a_broken_lidar_stream_trips_the_robot_and_stops_the_wheels(devices, fault: str, tmp_path: Path) -> None:
     lidar, maestro = devices
     with RunLog(tmp_path / "log.jsonl") as log, HardwareRobot(lidar.port, maestro.port, log=log) as robot:
-        assert robot.read_scan(timeout=2.0) is not None
+        assert robot.read_scan(timeout=10.0) is not None
         robot.set_wheel_speeds(0.1, 0.1)
-        assert maestro.wait_for(lambda e: not stopped(e), 1.0)
+        assert maestro.wait_for(lambda e: not stopped(e), 10.0)
         t0 = time.monotonic()
         if fault == "silent":
             lidar.silent = True
@@ -223,8 +223,8 @@ def test_a_little_garbage_is_resynchronised_and_tolerated() -> None:
     with LidarEmulator(lambda: WALL, speed=2.0, garbage_rate=0.02, bad_check_rate=0.01, seed=3) as lidar, \
             MaestroEmulator() as maestro, HardwareRobot(lidar.port, maestro.port) as robot:
         frames = []
-        deadline = time.monotonic() + 1.5
-        while time.monotonic() < deadline:
+        give_up = time.monotonic() + 60.0  # frames are counted, not timed: this only bounds a hang
+        while len(frames) < 5 and time.monotonic() < give_up:
             frame = robot.read_scan(timeout=0.5)
             if frame is not None:
                 frames.append(frame)
@@ -257,10 +257,10 @@ def test_non_finite_speeds_stop_the_wheels(devices) -> None:
     lidar, maestro = devices
     with open_robot(lidar, maestro) as robot:
         robot.set_wheel_speeds(0.1, 0.1)
-        assert maestro.wait_for(lambda e: not stopped(e), 1.0)
+        assert maestro.wait_for(lambda e: not stopped(e), 10.0)
         with pytest.raises(RobotFault, match="non-finite"):
             robot.set_wheel_speeds(math.nan, 0.1)
-        assert maestro.wait_for(stopped, 0.3)
+        assert maestro.wait_for(stopped, 10.0)  # sent before the raise; real time only bounds a hang
 
 
 def test_config_rejects_nonsense() -> None:

@@ -116,13 +116,13 @@ def _wheel_targets(e: MaestroEmulator) -> tuple[int, int]:
 def test_set_speeds_reaches_the_servos(emu: MaestroEmulator) -> None:
     with Maestro(emu.port, watchdog_timeout=None) as m:
         m.set_speeds(0.5, 0.5)
-        assert emu.wait_for(lambda e: _wheel_targets(e) == (6200, 5800), 1.0)
+        assert emu.wait_for(lambda e: _wheel_targets(e) == (6200, 5800), 10.0)
         assert emu.speeds == (0.5, 0.5)
         m.set_speeds(3.0, -3.0)  # clamped
-        assert emu.wait_for(lambda e: _wheel_targets(e) == (6400, 6400), 1.0)
+        assert emu.wait_for(lambda e: _wheel_targets(e) == (6400, 6400), 10.0)
         assert m.speeds == (1.0, -1.0)
         m.stop()
-        assert emu.wait_for(lambda e: _wheel_targets(e) == (6000, 6000), 1.0)
+        assert emu.wait_for(lambda e: _wheel_targets(e) == (6000, 6000), 10.0)
         assert m.get_position(0) == 6000
 
 
@@ -130,7 +130,7 @@ def test_set_speeds_reaches_the_servos(emu: MaestroEmulator) -> None:
 def test_pololu_protocol_and_multiple_targets(emu: MaestroEmulator, options: dict) -> None:
     with Maestro(emu.port, watchdog_timeout=None, **options) as m:
         m.set_speeds(-0.25, 1.0)
-        assert emu.wait_for(lambda e: _wheel_targets(e) == (5900, 5600), 1.0)
+        assert emu.wait_for(lambda e: _wheel_targets(e) == (5900, 5600), 10.0)
         assert not m.get_errors()
 
 
@@ -158,10 +158,10 @@ def test_get_errors_decodes_and_clears(emu: MaestroEmulator) -> None:
 def test_nan_is_rejected_and_stops_the_wheels(emu: MaestroEmulator) -> None:
     with Maestro(emu.port, watchdog_timeout=None) as m:
         m.set_speeds(0.8, 0.8)
-        assert emu.wait_for(lambda e: _wheel_targets(e) == (6320, 5680), 1.0)
+        assert emu.wait_for(lambda e: _wheel_targets(e) == (6320, 5680), 10.0)
         with pytest.raises(ValueError, match="NaN"):
             m.set_speeds(math.nan, 0.2)
-        assert emu.wait_for(lambda e: _wheel_targets(e) == (6000, 6000), 1.0)
+        assert emu.wait_for(lambda e: _wheel_targets(e) == (6000, 6000), 10.0)
 
 
 def _watchdog_latency(timeout: float | None, margin: float = 0.004) -> float:
@@ -211,7 +211,7 @@ def test_close_stops_first(emu: MaestroEmulator) -> None:
     m = Maestro(emu.port, watchdog_timeout=None)
     m.set_speeds(1.0, 1.0)
     m.close()
-    assert emu.wait_for(lambda e: _wheel_targets(e) == (6000, 6000), 1.0)
+    assert emu.wait_for(lambda e: _wheel_targets(e) == (6000, 6000), 10.0)
     with pytest.raises(MaestroError, match="closed"):
         m.set_speeds(0.1, 0.1)
 
@@ -274,9 +274,9 @@ def test_sigint_handler_stops_the_wheels_then_interrupts(emu: MaestroEmulator, p
     with Maestro(emu.port, watchdog_timeout=None) as m:
         uninstall = m.install_stop_handlers()
         m.set_speeds(1.0, 1.0)
-        assert emu.wait_for(lambda e: _wheel_targets(e) == (6400, 5600), 1.0)
+        assert emu.wait_for(lambda e: _wheel_targets(e) == (6400, 5600), 10.0)
         with pytest.raises(KeyboardInterrupt):
             signal.raise_signal(signal.SIGINT)
-        assert emu.wait_for(lambda e: _wheel_targets(e) == (6000, 6000), 1.0)
+        assert emu.wait_for(lambda e: _wheel_targets(e) == (6000, 6000), 10.0)
         uninstall()
         assert signal.getsignal(signal.SIGINT) is before
