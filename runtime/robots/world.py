@@ -331,6 +331,20 @@ class WorldRobot(SimulatedBackend):
         x, y, th = self._xyth()
         return Pose(x, y, wrap_angle(th))
 
+    def drive_truth(self) -> dict[str, float]:
+        """The drive's systematic terms drawn for this run (ground truth for ablations, as
+        :meth:`ground_truth_pose` is): each wheel's speed bias (a factor), the heading drift
+        while the wheels turn (rad/s) and the mean fraction of speed that slip takes
+        (``E|N(0, slip)|``, both wheels alike); the per-tick errors average out.
+
+        >>> from planner.scenarios import load_scenario
+        >>> make_world_robot(load_scenario("open"), noise="ideal", seed=0).drive_truth()
+        {'bias_left': 1.0, 'bias_right': 1.0, 'drift': 0.0, 'slip_mean': 0.0}
+        """
+        bl, br = self._bias_lr
+        return {"bias_left": bl, "bias_right": br, "drift": float(self._drift),
+                "slip_mean": float(self.noise.slip) * math.sqrt(2.0 / math.pi)}
+
     @property
     def pose(self) -> Pose:
         """Same as :meth:`ground_truth_pose`."""

@@ -279,3 +279,33 @@ def test_a_streamed_lidar_measures_the_same_revolutions_sample_by_sample() -> No
     assert len(delivered) >= 18
     with pytest.raises(ValueError, match="sweep"):
         make_world_robot(scene, "paper", seed=0, sweep=2)
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_drive_truth_names_the_terms_the_world_drives_with(seed):
+    """A straight curves by the wheels' bias difference over the wheel base plus the drift,
+    and a straight loses the mean slip: the numbers an ablation hands the estimator."""
+    body = BodySpec()
+    w = make_world_robot(load_scenario("open"), WorldNoise(wheel_bias=0.05, drift=0.02), seed=seed)
+    t = w.drive_truth()
+    assert t["slip_mean"] == 0.0 and t["bias_left"] != t["bias_right"] and t["drift"] != 0.0
+    w.set_wheel_speeds(0.1, 0.1)
+    w.sleep(0.5)  # past the latency and the ramp
+    a = w.ground_truth_pose()
+    w.sleep(3.0)
+    b = w.ground_truth_pose()
+    rate = math.atan2(math.sin(b.theta - a.theta), math.cos(b.theta - a.theta)) / 3.0
+    v = 0.1 * (t["bias_left"] + t["bias_right"]) / 2
+    expected = 0.1 * (t["bias_right"] - t["bias_left"]) / body.wheel_base + t["drift"]
+    assert rate == pytest.approx(expected, rel=1e-3, abs=1e-5)
+    assert math.hypot(b.x - a.x, b.y - a.y) == pytest.approx(v * 3.0, rel=2e-3)
+
+    slippy = make_world_robot(load_scenario("open"), WorldNoise(slip=0.1), seed=seed)
+    assert slippy.drive_truth()["slip_mean"] == pytest.approx(0.1 * math.sqrt(2 / math.pi))
+    slippy.set_wheel_speeds(0.1, 0.1)
+    slippy.sleep(0.5)
+    a = slippy.ground_truth_pose()
+    slippy.sleep(10.0)
+    b = slippy.ground_truth_pose()
+    # 2 wheels x 100 ticks of slip draws: their mean loss is the slip_mean to 0.4 % (one sd)
+    assert math.hypot(b.x - a.x, b.y - a.y) / 1.0 == pytest.approx(1 - slippy.drive_truth()["slip_mean"], abs=0.012)
