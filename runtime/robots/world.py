@@ -210,17 +210,13 @@ class WorldRobot(SimulatedBackend):
         self.rays = rays
         self.scan_rate = float(scan_rate)
         self.max_range = float(max_range)
-        self.resolution = float(resolution)
-        self.dt = float(dt)
-        self.control_tick = float(control_tick)
+        self.resolution, self.dt, self.control_tick = float(resolution), float(dt), float(control_tick)
         self._rng = np.random.default_rng(seed)
         n = self.noise
         self._bias = 1.0 + n.wheel_bias * self._rng.standard_normal(2)
         self._drift = n.drift * float(self._rng.standard_normal())
         self._start = scene.start if start is None else start
-        self._t = 0.0
-        self._closed = False
-        self._cmd = (0.0, 0.0)
+        self._t, self._closed, self._cmd = 0.0, False, (0.0, 0.0)
         self._pending: deque[tuple[float, tuple[float, float]]] = deque()
         self._applied = (0.0, 0.0)
         self._bias_lr = (float(self._bias[0]), float(self._bias[1]))
@@ -332,15 +328,9 @@ class WorldRobot(SimulatedBackend):
         return Pose(x, y, wrap_angle(th))
 
     def drive_truth(self) -> dict[str, float]:
-        """The drive's systematic terms drawn for this run (ground truth for ablations, as
-        :meth:`ground_truth_pose` is): each wheel's speed bias (a factor), the heading drift
-        while the wheels turn (rad/s) and the mean fraction of speed that slip takes
-        (``E|N(0, slip)|``, both wheels alike); the per-tick errors average out.
-
-        >>> from planner.scenarios import load_scenario
-        >>> make_world_robot(load_scenario("open"), noise="ideal", seed=0).drive_truth()
-        {'bias_left': 1.0, 'bias_right': 1.0, 'drift': 0.0, 'slip_mean': 0.0}
-        """
+        """This run's systematic drive terms, ground truth for ablations: each wheel's speed
+        bias (a factor), the heading drift while the wheels turn (rad/s), the mean share of
+        speed slip takes (``E|N(0, slip)|``); ``{'bias_left': 1.0, ...}`` with no noise."""
         bl, br = self._bias_lr
         return {"bias_left": bl, "bias_right": br, "drift": float(self._drift),
                 "slip_mean": float(self.noise.slip) * math.sqrt(2.0 / math.pi)}
