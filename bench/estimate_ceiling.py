@@ -1,7 +1,8 @@
-"""How much of the closed loop's misses is the estimate's: the same runs on the true pose.
+"""How much of the closed loop's misses is the estimate's: the same runs on the true pose (or calibration).
 
     python bench/estimate_ceiling.py [--families overtaking slalom] [--runs 20 10]
                                      [--noise harsh] [--seed 0] [--workers 2]
+                                     [--modes scan none truth calibration]
                                      [--term range_sd]   # paper, with this one term at harsh
 
 Runs ``clomp experiment``'s planning condition three ways on the same layouts and noise
