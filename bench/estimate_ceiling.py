@@ -5,7 +5,7 @@
                                      [--modes scan none truth calibration]
                                      [--term range_sd]   # paper, with this one term at harsh
 
-Runs ``clomp experiment``'s planning condition three ways on the same layouts and noise
+Runs ``clomp experiment``'s planning condition in each mode on the same layouts and noise
 seeds, and prints each family's reach beside the issue's target:
 
 - ``scan``: the supervisor as shipped (scan-matched estimate, :mod:`runtime.estimation`);
