@@ -25,7 +25,7 @@ from typing import Any
 
 import numpy as np
 
-from runtime.jit import compiled
+from runtime.jit import compiled, interruptible
 
 __all__ = ["grid_index", "cell_keys", "nearest", "icp_iterations", "warm_up"]
 
@@ -186,5 +186,5 @@ def warm_up() -> None:
     compiling on a fresh install — never stalls a control loop that is driving."""
     pts = np.zeros((1, 2))
     starts, grid = grid_index(pts, 0.1)
-    icp_iterations(pts, np.zeros((1, 2, 2)), np.ones((1, 2), dtype=bool), starts, *grid, np.zeros((1, 2)), np.zeros(3),
-                   1, 0.1, 0.1, 0.01, 0.5, 0.02, 1)
+    interruptible(icp_iterations, pts, np.zeros((1, 2, 2)), np.ones((1, 2), dtype=bool), starts, *grid, np.zeros((1, 2)),
+                  np.zeros(3), 1, 0.1, 0.1, 0.01, 0.5, 0.02, 1)

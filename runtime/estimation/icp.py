@@ -43,6 +43,7 @@ from scipy.spatial import cKDTree
 
 from formal.model import Pose
 from runtime.estimation._icp_core import cell_keys, grid_index, icp_iterations
+from runtime.jit import interruptible
 
 __all__ = ["ScanMatch", "ReferenceScan", "match_scans"]
 
@@ -191,8 +192,8 @@ def match_scans(
     if len(cur) < min_points or len(ref) < min_points or len(ref) == 0:
         return fail(f"too few points to match ({len(cur)} current, {len(ref)} reference)")
     pts, rows, real = ref._sorted
-    stopped, x, lam, vecs, n_used, it, dist, n_final, rmse = icp_iterations(
-        pts, rows, real, ref._starts, *ref._grid, np.ascontiguousarray(cur), np.array([prior.x, prior.y, prior.theta], dtype=float),
+    stopped, x, lam, vecs, n_used, it, dist, n_final, rmse = interruptible(
+        icp_iterations, pts, rows, real, ref._starts, *ref._grid, np.ascontiguousarray(cur), np.array([prior.x, prior.y, prior.theta], dtype=float),
         int(max_iterations), float(max_distance), float(final_distance), float(huber), float(lever), float(min_information),
         int(min_points))  # one signature: the loop is compiled once, whatever numbers the caller passes
     if stopped:

@@ -22,7 +22,7 @@ import math
 
 import numpy as np
 
-from runtime.jit import compiled
+from runtime.jit import compiled, interruptible
 
 __all__ = ["straight_gaps", "turn_first_ticks", "warm_up"]
 
@@ -113,6 +113,6 @@ def warm_up() -> None:
     uses: the supervisor calls this before the robot moves, so that the first plan check
     — seconds of compiling on a fresh install — never stalls a driving control loop."""
     one, flag = np.zeros(1), np.zeros(1, dtype=bool)
-    straight_gaps(one, one, one, one, one, one, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, np.zeros(1))
-    turn_first_ticks(one, one, one, one, one, one, one, np.zeros(1, dtype=np.int64), 0.1, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
-                     0.0, 0.0, np.zeros(1, dtype=np.int64), flag, np.zeros((1, 1), dtype=bool))
+    interruptible(straight_gaps, one, one, one, one, one, one, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, np.zeros(1))
+    interruptible(turn_first_ticks, one, one, one, one, one, one, one, np.zeros(1, dtype=np.int64), 0.1, 0.0, 0.0, 0.0,
+                  0.0, 0.0, 0.0, 0.0, 0.0, np.zeros(1, dtype=np.int64), flag, np.zeros((1, 1), dtype=bool))

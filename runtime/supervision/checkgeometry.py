@@ -21,6 +21,7 @@ from formal.geometry import wrap_angle
 from formal.model import Pose, State, TaskKind
 from planner.perception import Obstacles
 from planner.robot import RobotModel
+from runtime.jit import interruptible
 from runtime.supervision._contacts_core import straight_gaps, turn_first_ticks
 
 _STRAIGHT, _LEFT = TaskKind.STRAIGHT, TaskKind.LEFT  # looked up once: a member lookup is a descriptor call
@@ -102,7 +103,7 @@ def _straight_contacts(z: np.ndarray, legs: list[_Leg], robot: RobotModel, allow
     c = robot.clearance
     rear, front, half = robot.rear_offset + c, robot.front_offset + c, robot.width / 2 + c - allowance
     out = np.empty(len(legs))
-    straight_gaps(np.ascontiguousarray(z.real), np.ascontiguousarray(z.imag), np.array([g.start[0] for g in legs]),
+    interruptible(straight_gaps, np.ascontiguousarray(z.real), np.ascontiguousarray(z.imag), np.array([g.start[0] for g in legs]),
                   np.array([g.start[1] for g in legs]), np.array([math.cos(g.start[2]) for g in legs]),
                   np.array([math.sin(g.start[2]) for g in legs]), rear, half, front - allowance, allowance,
                   robot.front_offset - allowance, robot.width / 2 - allowance, out)
@@ -126,7 +127,7 @@ def _turn_contacts(z: np.ndarray, legs: list[_Leg], robot: RobotModel, allowance
     rear, front, half = robot.rear_offset, robot.front_offset, robot.width / 2
     mid, length = (front - rear) / 2, (front + rear) / 2
     first, anyw, waived = np.empty(n, dtype=np.int64), np.empty(n, dtype=bool), np.empty((n, z.size), dtype=bool)
-    turn_first_ticks(np.ascontiguousarray(z.real), np.ascontiguousarray(z.imag), np.array([g.start[0] for g in legs]),
+    interruptible(turn_first_ticks, np.ascontiguousarray(z.real), np.ascontiguousarray(z.imag), np.array([g.start[0] for g in legs]),
                      np.array([g.start[1] for g in legs]), np.array([g.start[2] for g in legs]), np.array(sign),
                      np.array([g.amount for g in legs]), np.array(ticks, dtype=np.int64), per_tick,
                      robot.swept_radius + 1e-6, mid, length + c - allowance, half + c - allowance, length - allowance,
