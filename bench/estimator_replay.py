@@ -49,6 +49,9 @@ from runtime.estimation import odometry as odometry_module  # noqa: E402
 from runtime.estimation.ekf import OdometryFilter  # noqa: E402
 from runtime.estimation.odometry import ScanOdometry  # noqa: E402
 
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from estimate_ceiling import true_calibration  # noqa: E402
+
 RESET, ADVANCE, UPDATE = 0, 1, 2
 
 
@@ -112,7 +115,8 @@ def _record_one(args: tuple[str, int, int, str, str]) -> str:
         offsets=np.array(offsets, dtype=np.int64), stamped=np.array(stamped, dtype=bool),
         points=np.concatenate(points) if points else np.zeros((0, 2)),
         point_times=np.concatenate(times) if times else np.zeros(0), truth=truth,
-        goal=np.array(scene.goal, dtype=float), outcome=np.array(rep.state.value))
+        goal=np.array(scene.goal, dtype=float), outcome=np.array(rep.state.value),
+        calibration=np.array(true_calibration(robot, conf.robot.wheel_base), dtype=float))
     return name
 
 
@@ -125,7 +129,12 @@ def _variant(spec: dict[str, Any]) -> ScanOdometry:
     return odo
 
 
-def _replay_one(args: tuple[str, dict[str, Any]]) -> tuple[str, float, float, float]:
+Result = tuple[str, float, float, float, tuple[float, ...], tuple[float, ...] | None]
+"""(file, final position error m, heading error deg, thread CPU s, the filter's learnt (s, k,
+c, d), the world's (s, k, c, d) or None in a recording made before it was kept)."""
+
+
+def _replay_one(args: tuple[str, dict[str, Any]]) -> Result:
     path, spec = args
     base = odometry_module.match_scans
     if spec.get("match"):  # every match the estimator makes, with these settings (restored below)
@@ -136,7 +145,7 @@ def _replay_one(args: tuple[str, dict[str, Any]]) -> tuple[str, float, float, fl
         odometry_module.match_scans = base  # type: ignore[assignment]
 
 
-def _replay(path: str, spec: dict[str, Any]) -> tuple[str, float, float, float]:
+def _replay(path: str, spec: dict[str, Any]) -> Result:
     d = np.load(path, allow_pickle=False)
     odo = _variant(spec)
     frame_no = 0
@@ -160,7 +169,43 @@ def _replay(path: str, spec: dict[str, Any]) -> tuple[str, float, float, float]:
     t = compose(reset, relative(Pose(*map(float, first[1:4])), Pose(*map(float, last[1:4]))))
     p = odo.pose
     heading = abs(math.degrees(math.atan2(math.sin(p.theta - t.theta), math.cos(p.theta - t.theta))))
-    return os.path.basename(path), math.hypot(p.x - t.x, p.y - t.y), heading, cpu
+    truth = tuple(float(v) for v in d["calibration"]) if "calibration" in d.files else None
+    return (os.path.basename(path), math.hypot(p.x - t.x, p.y - t.y), heading, cpu,
+            tuple(float(v) for v in odo.filter.calibration), truth)
+
+
+def family_of(name: str) -> str:
+    """The family of a recording named ``{family}-{seed}-{run}-{noise}.npz`` (a family's own
+    name may hold hyphens: ``u-trap``, ``cul-de-sac``).
+
+    >>> family_of("cul-de-sac-0-3-harsh.npz")
+    'cul-de-sac'
+    """
+    return name.rsplit("-", 3)[0]
+
+
+def calibration_line(rows: list[Result], least: float = 0.05) -> str:
+    """How well the filter learnt the drive within the runs: the curvature's sign (over runs
+    whose true curvature is at least ``least`` rad/m) and the median errors of the curvature
+    and the forward scale, beside the true terms' spread. A filter whose calibration learns
+    from matches against a map drawn from its own estimate can learn the wrong sign.
+
+    >>> world = (-0.05, -0.05, 0.3, 0.0)
+    >>> right = ("f", 0.0, 0.0, 0.0, (0.0, 0.0, 0.1, 0.0), world)
+    >>> wrong = ("f", 0.0, 0.0, 0.0, (0.0, 0.0, -0.2, 0.0), world)
+    >>> calibration_line([right, wrong])
+    'calibration learnt: curvature sign right in 1/2 runs, |c - true| median 0.35 rad/m (true |c| median 0.30), |s - true| median 0.050'
+    """
+    known = [(r[4], r[5]) for r in rows if r[5] is not None]
+    if not known:
+        return "calibration learnt: not recorded (record again to keep the world's drive terms)"
+    big = [(a, b) for a, b in known if abs(b[2]) >= least]
+    right = sum(1 for a, b in big if a[2] * b[2] > 0)
+    c_err = statistics.median(abs(a[2] - b[2]) for a, b in known)
+    c_true = statistics.median(abs(b[2]) for _, b in known)
+    s_err = statistics.median(abs(a[0] - b[0]) for a, b in known)
+    return (f"calibration learnt: curvature sign right in {right}/{len(big)} runs, |c - true| median {c_err:.2f} rad/m "
+            f"(true |c| median {c_true:.2f}), |s - true| median {s_err:.3f}")
 
 
 def main() -> None:
@@ -207,14 +252,15 @@ def main() -> None:
             ap.error(f"no recorded runs in {a.dir} (run: python bench/estimator_replay.py record --dir {a.dir})")
         out = list(pool.map(_replay_one, [(f, spec) for f in files]))
     print(f"settings {json.dumps(spec)}; {len(out)} recorded runs in {a.dir}")
-    for family in sorted({name.split("-")[0] for name, *_ in out}):
-        rows = [r for r in out if r[0].split("-")[0] == family]
+    for family in sorted({family_of(r[0]) for r in out}):
+        rows = [r for r in out if family_of(r[0]) == family]
         pos = [r[1] for r in rows]
         head = [r[2] for r in rows]
         within = sum(1 for e in pos if e <= 0.05)
         print(f"{family:11s} n={len(rows):3d}  final position error median {statistics.median(pos) * 100:5.1f} cm, "
               f"p75 {np.percentile(pos, 75) * 100:5.1f} cm, within 5 cm {within}/{len(rows)};  heading error median "
               f"{statistics.median(head):4.1f} deg;  {sum(r[3] for r in rows) / len(rows) * 1000:.0f} ms thread CPU a run")
+        print(f"{'':11s} {calibration_line(rows)}")
 
 
 if __name__ == "__main__":

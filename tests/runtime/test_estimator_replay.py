@@ -1,0 +1,53 @@
+"""``bench/estimator_replay.py``: a recording keeps the world's drive terms, and the replay
+reports how well the filter learnt them (per family, hyphenated family names included)."""
+
+from __future__ import annotations
+
+import importlib
+import sys
+from pathlib import Path
+from types import ModuleType
+
+import numpy as np
+
+BENCH = Path(__file__).resolve().parents[2] / "bench"
+
+
+def _module(name: str) -> ModuleType:
+    if str(BENCH) not in sys.path:
+        sys.path.insert(0, str(BENCH))
+    return importlib.import_module(name)
+
+
+def test_a_recording_keeps_the_drive_and_the_replay_compares_the_learnt_calibration(tmp_path: Path) -> None:
+    replay = _module("estimator_replay")
+    path = replay._record_one(("overtaking", 0, 0, "harsh", str(tmp_path)))
+    kept = np.load(path)["calibration"]
+    # the same terms a world built from the same (family, seed, run, noise) drives with
+    from planner import Configurator
+    from runtime.experiment.runner import RunSpec, _scene_for, noise_seed
+    from runtime.experiment.world import make_robot
+
+    scene, _ = _scene_for(RunSpec("overtaking", 0, 0, "planning", "harsh"))
+    model = Configurator().robot
+    robot = make_robot(scene, noise="harsh", seed=noise_seed(0, 0), model=model)
+    expected = _module("estimate_ceiling").true_calibration(robot, model.wheel_base)
+    assert np.allclose(kept, expected) and abs(kept[2]) > 0.0
+    name, position, heading, cpu, learnt, truth = replay._replay(path, {})
+    assert name.startswith("overtaking-0-0-harsh") and position >= 0.0 and heading >= 0.0
+    assert len(learnt) == 4 and truth is not None and np.allclose(truth, expected)
+    assert "curvature sign right in" in replay.calibration_line([(name, position, heading, cpu, learnt, truth)])
+
+
+def test_family_names_with_hyphens_and_the_sign_count() -> None:
+    replay = _module("estimator_replay")
+    assert replay.family_of("cul-de-sac-3-12-harsh.npz") == "cul-de-sac"
+    assert replay.family_of("u-trap-0-1-paper.npz") == "u-trap"
+    assert replay.family_of("slalom-0-9-harsh.npz") == "slalom"
+    world = (-0.05, -0.05, 0.3, 0.0)
+    small = (0.0, 0.0, 0.01, 0.0)  # too small a curvature to count its sign
+    rows = [("f", 0.0, 0.0, 0.0, (0.0, 0.0, c, 0.0), world) for c in (0.2, 0.1, -0.1)]
+    rows.append(("f", 0.0, 0.0, 0.0, (0.0, 0.0, -0.3, 0.0), small))
+    assert "sign right in 2/3 runs" in replay.calibration_line(rows)
+    old = [("f", 0.0, 0.0, 0.0, (0.0,) * 4, None)]
+    assert "not recorded" in replay.calibration_line(old)
