@@ -194,7 +194,6 @@ def test_a_broken_lidar_stream_trips_the_robot_and_stops_the_wheels(devices, fau
         assert robot.read_scan(timeout=10.0) is not None
         robot.set_wheel_speeds(0.1, 0.1)
         assert maestro.wait_for(lambda e: not stopped(e), 10.0)
-        t0 = time.monotonic()
         if fault == "silent":
             lidar.silent = True
         elif fault == "garbage":
@@ -203,11 +202,13 @@ def test_a_broken_lidar_stream_trips_the_robot_and_stops_the_wheels(devices, fau
             lidar.bad_check_rate = 1.0
         else:
             lidar.vanish()
-        assert maestro.wait_for(stopped, 5.0)
-        latency = next(t for t, _, target in maestro.events if t >= t0 and target == NEUTRAL) - t0
-        # real time on a pty: the 300 ms deadline itself is tested on device time
-        # (test_hardware_deadlines.py); here a loaded machine may delay the threads
-        assert latency < 2.0, f"wheels stopped {latency:.3f} s after the {fault} fault"
+        assert maestro.wait_for(stopped, 10.0)  # a bound for a hang, not a timing window
+        # the stop is the trip's: how soon it comes (the 300 ms deadline) is tested on device
+        # time in test_hardware_deadlines.py, not on this machine's wall clock
+        give_up = time.monotonic() + 10.0  # waits for the trip; bounds only a hang
+        while robot.fault is None and time.monotonic() < give_up:
+            time.sleep(0.01)
+        assert robot.fault is not None and "LiDAR" in robot.fault
         with pytest.raises(RobotFault, match="LiDAR") as err:
             robot.read_scan(timeout=0.5)
         with pytest.raises(RobotFault):
@@ -215,6 +216,10 @@ def test_a_broken_lidar_stream_trips_the_robot_and_stops_the_wheels(devices, fau
         assert stopped(maestro)
     faults = [r for r in records(tmp_path / "log.jsonl") if r["event"] == "fault"]
     assert faults and faults[0]["reason"] == str(err.value)
+    # the trip itself stopped the wheels (the driver's watchdog would too, 0.3 s later)
+    after = list(records(tmp_path / "log.jsonl"))
+    after = after[after.index(faults[0]):]
+    assert any(r["event"] == "motor" and r.get("reason") == "fault" for r in after)
     expected = {"silent": "silent", "garbage": "corrupt", "bad_check": "corrupt", "vanish": "failed"}[fault]
     assert expected in faults[0]["reason"]
 
