@@ -44,7 +44,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from formal.model import Pose  # noqa: E402
 from runtime.estimation.odometry import ScanOdometry  # noqa: E402
-from runtime.experiment.runner import RunSpec, noise_seed, run_once, _scene_for  # noqa: E402
+from runtime.experiment.runner import RunSpec, noise_seed, run_once, scene_for  # noqa: E402
 from runtime.supervision import Supervisor  # noqa: E402
 
 TARGETS = {("overtaking", "harsh"): "18/20", ("slalom", "harsh"): "9/10", ("corridor", "harsh"): "9/10",
@@ -109,7 +109,7 @@ def _one(args: tuple[str, int, int, str, str, str | None]) -> tuple[bool, float,
         noise = WorldNoise(**{**WorldNoise.preset("paper").to_dict(), term: getattr(WorldNoise.preset("harsh"), term)})
 
     spec = RunSpec(family, seed, run, "planning", preset)
-    scene, expect = _scene_for(spec)
+    scene, expect = scene_for(spec)
     saved = runner.Supervisor
     if mode == "truth":
         runner.Supervisor = _TruthFed  # type: ignore[misc]
@@ -146,7 +146,7 @@ def main() -> None:
         ap.error("--runs: at least 1 run per family")
     for family in a.families:
         try:
-            _scene_for(RunSpec(family, a.seed, 0, "planning", a.noise))
+            scene_for(RunSpec(family, a.seed, 0, "planning", a.noise))
         except Exception as exc:  # an unknown family or scenario file: said here, not in a worker
             ap.error(f"--families: {family}: {exc}")
     label = f"paper with {a.term} at harsh" if a.term else a.noise

@@ -83,11 +83,11 @@ class _Recorder(ScanOdometry):
 def _record_one(args: tuple[str, int, int, str, str]) -> str:
     family, seed, run, noise, folder = args
     import runtime.supervision.supervisor as sup_module
-    from runtime.experiment.runner import RunSpec, _ground_truth_path, _scene_for, noise_seed
+    from runtime.experiment.runner import RunSpec, _ground_truth_path, scene_for, noise_seed
     from runtime.experiment.world import make_robot
     from planner import Configurator
 
-    scene, _ = _scene_for(RunSpec(family, seed, run, "planning", noise))
+    scene, _ = scene_for(RunSpec(family, seed, run, "planning", noise))
     conf = Configurator()
     robot = make_robot(scene, noise=noise, seed=noise_seed(seed, run), model=conf.robot)
     sup = sup_module.Supervisor(robot, tuple(scene.goal_in_robot_frame()), conf, feedback="scan")
@@ -224,11 +224,11 @@ def main() -> None:
         if a.mode == "record":
             os.makedirs(a.dir, exist_ok=True)
             runs = a.runs if len(a.runs) == len(a.families) else [a.runs[0]] * len(a.families)
-            from runtime.experiment.runner import RunSpec, _scene_for
+            from runtime.experiment.runner import RunSpec, scene_for
 
             for family in a.families:
                 try:
-                    _scene_for(RunSpec(family, 0, 0, "planning", a.noise))
+                    scene_for(RunSpec(family, 0, 0, "planning", a.noise))
                 except Exception as exc:  # an unknown family or scenario file: said here, not in a worker
                     ap.error(f"--families: {family}: {exc}")
             jobs = [(f, s, k, a.noise, a.dir) for f, n in zip(a.families, runs) for s in a.seeds for k in range(n)]

@@ -53,7 +53,8 @@ from runtime.robots.world import WorldNoise, make_world_robot
 from runtime.supervision.supervisor import Supervisor
 
 __all__ = ["CONDITIONS", "PAPER", "SUCCESS_RADIUS", "ExperimentInterrupted", "RunsFailed", "RunResult", "RunSpec",
-           "experiment_specs", "load_records", "run_experiment", "run_once", "run_spec"]
+           "experiment_specs", "load_records", "run_experiment", "run_once", "run_spec",
+           "scene_for"]
 
 CONDITIONS = ("planning", "reactive")
 SUCCESS_RADIUS = 0.1
@@ -325,7 +326,17 @@ def noise_seed(seed: int, run: int) -> int:
     return int(np.random.default_rng([int(seed), int(run), 1]).integers(2**31))
 
 
-def _scene_for(spec: RunSpec) -> tuple[Scene, str]:
+def scene_for(spec: RunSpec) -> tuple[Scene, str]:
+    """The world a run is in and what success means there: ``(scene, expect)``, where
+    ``expect`` is ``"reach"`` or ``"unreachable"``. A layout family draws run ``spec.run``
+    of seed ``spec.seed`` (:func:`~runtime.experiment.layouts.make_layout`); any other
+    name is a built-in scenario or a scenario file, the same world every run. Benchmarks
+    and ablations use it to put a variant in exactly the world :func:`run_spec` would.
+
+    >>> scene, expect = scene_for(RunSpec("overtaking", 0, 3, "planning", "paper"))
+    >>> scene == scene_for(RunSpec("overtaking", 0, 3, "reactive", "harsh"))[0], expect
+    (True, 'reach')
+    """
     if spec.family in FAMILIES:
         lay = make_layout(spec.family, spec.seed, spec.run)
         return lay.scene, lay.expect
@@ -340,7 +351,7 @@ def _r(v: float | None, nd: int) -> float | None:
 
 def run_spec(spec: RunSpec) -> dict[str, Any]:
     """One run as a JSON-ready record (the CSV columns plus what the plots need)."""
-    scene, expect = _scene_for(spec)
+    scene, expect = scene_for(spec)
     r = run_once(scene, spec.condition, noise_seed(spec.seed, spec.run), run=spec.run, noise=spec.noise,
                  noise_scale=spec.noise_scale, max_time=spec.max_time, expect=expect, feedback=spec.feedback)
     return {

@@ -25,10 +25,10 @@ def test_a_recording_keeps_the_drive_and_the_replay_compares_the_learnt_calibrat
     kept = np.load(path)["calibration"]
     # the same terms a world built from the same (family, seed, run, noise) drives with
     from planner import Configurator
-    from runtime.experiment.runner import RunSpec, _scene_for, noise_seed
+    from runtime.experiment.runner import RunSpec, scene_for, noise_seed
     from runtime.experiment.world import make_robot
 
-    scene, _ = _scene_for(RunSpec("overtaking", 0, 0, "planning", "harsh"))
+    scene, _ = scene_for(RunSpec("overtaking", 0, 0, "planning", "harsh"))
     model = Configurator().robot
     robot = make_robot(scene, noise="harsh", seed=noise_seed(0, 0), model=model)
     expected = _module("estimate_ceiling").true_calibration(robot, model.wheel_base)
