@@ -53,3 +53,31 @@ def test_the_true_calibration_makes_dead_reckoning_follow_the_world(seed: int) -
 def test_without_it_the_same_drive_goes_astray() -> None:
     # the check above has something to tell: uncalibrated, the same seeds end far off
     assert max(_dead_reckoning_error(seed, known=False)[0] for seed in range(4)) > 0.1
+
+
+def test_the_true_pose_is_fed_in_the_supervisors_frame() -> None:
+    """A corridor layout starts turned in the world (here -0.145 rad): the truth ablation
+    must hand the supervisor the world's pose seen from the start, as its estimate is, or
+    the goal turns with the start heading and the "ceiling" misses corridors it should not."""
+    from formal.geometry import relative
+    from planner import Configurator
+    from runtime.experiment.runner import RunSpec, scene_for
+    from runtime.experiment.world import make_robot
+
+    scene, _ = scene_for(RunSpec("corridor", 0, 0, "planning", "harsh"))
+    assert abs(scene.start.theta) > 0.1  # the case this test is about
+    conf = Configurator()
+    robot = make_robot(scene, noise="harsh", seed=0, model=conf.robot)
+    sup = _bench()._TruthFed(robot, tuple(scene.goal_in_robot_frame()), conf, feedback="scan")
+    sup.start()
+    poses = []
+    for _ in range(400):  # 40 s: the still start, a plan, driving
+        sup.step()
+        poses.append((sup.pose, relative(scene.start, robot.ground_truth_pose())))
+        if sup.terminal:
+            break
+        sup.clock.sleep(conf.robot.tick)  # simulated time, as Supervisor.run ticks it
+    moved = [(p, w) for p, w in poses if math.hypot(w.x, w.y) > 0.05]
+    assert moved, "the robot never drove"
+    for p, w in poses:
+        assert math.hypot(p.x - w.x, p.y - w.y) < 1e-9 and abs(p.theta - w.theta) < 1e-9
