@@ -177,6 +177,7 @@ class ScanOdometry:
         self._history: deque[tuple[float, Pose]] = deque()
         self._map: ReferenceScan | None = None
         self._map_points: np.ndarray | None = None
+        self._map_tree: cKDTree | None = None  # of _map_points, built when first asked after a change
         self._odo: Pose | None = None
         self.records: list[FeedbackRecord] = []
         self.last_points = np.zeros((0, 2))
@@ -194,7 +195,7 @@ class ScanOdometry:
         self.filter.reset(pose)
         self._history = deque([(self._t, pose)])
         self._map = None
-        self._map_points = None
+        self._map_points = self._map_tree = None
         self._odo = None
         self._moved_since = 0.0
         self._last_stamp = None
@@ -362,7 +363,9 @@ class ScanOdometry:
         if len(old) and self._map is not None and len(self._map):
             # only surfaces the map does not hold yet: re-adding known ones would smear them
             # along the robot's estimation error and let the estimate drift with them
-            d, _ = cKDTree(old).query(world, distance_upper_bound=self.new_surface)
+            if self._map_tree is None:  # one tree per map, not one per revolution (a tenth of them change it)
+                self._map_tree = cKDTree(old)
+            d, _ = self._map_tree.query(world, distance_upper_bound=self.new_surface)
             world = world[~np.isfinite(d)]
             if len(world) == 0:
                 return False
@@ -371,6 +374,6 @@ class ScanOdometry:
         merged = merged[near]
         if self._map_points is not None and not reseed and len(merged) == len(self._map_points):
             return False  # nothing new
-        self._map_points = merged
+        self._map_points, self._map_tree = merged, None
         self._map = ReferenceScan(merged)
         return True
