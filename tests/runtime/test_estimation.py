@@ -410,3 +410,16 @@ def test_ctrl_c_masked_inside_the_matcher_or_the_plan_check_is_a_keyboard_interr
         leg = geometry._Leg(0, kind, (0.0, 0.0, 0.0), 0.3, Pose(0.3, 0.0, 0.0), Pose(0.3, 0.0, 0.0))
         with pytest.raises(KeyboardInterrupt):
             contacts(z, [leg], RobotModel(), 0.0)
+
+
+def test_a_surface_joins_the_map_once_whatever_the_map_held_before() -> None:
+    """The new-surface test asks the map as it is now: a surface that joined it is known the
+    next time, even seen 1.5 cm off (within ``new_surface``, on other grid cells)."""
+    odo = ScanOdometry(0.15)
+    wall = np.c_[np.full(40, 0.6), np.linspace(-0.3, 0.3, 40)]
+    box = np.c_[np.linspace(0.3, 0.5, 20), np.full(20, 0.4)]
+    at = Pose(0.0, 0.0, 0.0)
+    assert odo._add(wall, at, reseed=True)            # the seed
+    assert not odo._add(wall, at, reseed=False)       # known: nothing new (the map's tree is built here)
+    assert odo._add(box, at, reseed=False)            # a new surface joins
+    assert not odo._add(box + [0.0, 0.015], at, reseed=False)  # and is known from then on
