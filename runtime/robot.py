@@ -16,7 +16,7 @@ from typing import Protocol, runtime_checkable
 from formal.model import Pose
 from runtime.devices.frame import ScanFrame
 
-__all__ = ["ScanFrame", "Robot", "RobotFault", "finite_goal"]
+__all__ = ["ScanFrame", "Robot", "RobotFault", "TurnSensing", "finite_goal"]
 
 
 class RobotFault(RuntimeError):
@@ -62,6 +62,24 @@ class Robot(Protocol):
 
     def close(self) -> None:
         """Stop and release the devices."""
+        ...
+
+
+@runtime_checkable
+class TurnSensing(Protocol):
+    """A backend that measures its own rotation (a rate gyro; the paper's robot measured it
+    by its camera's optic flow). Optional: the supervisor's estimator takes the heading from
+    it when a backend has it, and from the wheels otherwise.
+
+    >>> from planner import load_scenario
+    >>> from runtime.robots import make_world_robot
+    >>> isinstance(make_world_robot(load_scenario("open"), "paper", seed=0), TurnSensing)
+    True
+    """
+
+    def rotation(self) -> float | None:
+        """The heading turned since start-up (rad, counter-clockwise), as the sensor
+        integrates it; None when the sensor has nothing (yet)."""
         ...
 
 

@@ -20,7 +20,8 @@ __all__ = ["SPECS_DIR", "NOISE_FIELDS", "noise_presets", "noise_preset"]
 
 SPECS_DIR = Path(__file__).resolve().parent
 
-NOISE_FIELDS = ("range_sd", "angle_sd", "dropout", "wheel_sd", "wheel_bias", "drift", "slip", "latency")
+NOISE_FIELDS = ("range_sd", "angle_sd", "dropout", "wheel_sd", "wheel_bias", "drift", "slip", "latency",
+                "rate_sd", "rate_bias", "rate_scale")
 
 
 def noise_presets() -> dict[str, dict[str, float]]:

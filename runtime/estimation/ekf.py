@@ -20,6 +20,13 @@ calibration for mobile robot*, Autonomous Robots 2007).
 gets from mismatched wheels (rad/m), ``d`` a heading drift (rad/s)), with its covariance.
 :meth:`predict` propagates both over a control step with the commanded (or measured)
 wheel speeds; its random part is ``wheel_noise`` of each wheel's distance.
+
+A robot with a rate gyro gives :meth:`predict` the rotation it measured over the step
+(``turned``): the heading then follows the gyro, ``theta' = theta + turned (1 + k) - b dt``
+(gyrodometry: the wheels for distance, the gyro for rotation), ``k`` now the gyro's scale
+and ``b`` an eighth state, the gyro's zero-rate offset (rad/s), with ``rate_noise``
+(rad/√s) of angle random walk. Standing still, :meth:`zero_rate` measures ``b``: what the
+gyro reads then is its offset.
 :meth:`correct` takes a scan match as a measurement of the pose *in the directions the
 scene observes* (the eigen-directions of the match's information matrix), each with its
 variance, and updates the calibration terms through their correlation with the pose:
@@ -55,6 +62,11 @@ the wrong way (at the ``paper`` noise it taught -0.25 to -0.44 rad/m to wheels o
 >>> ok, d2 = g.correct((0.0, 0.003, 0.05), [[1e6, 0, 0], [0, 1e6, 0], [0, 0, 0]])
 >>> ok, round(g.pose.y, 3), g.calibration         # the position alone: corrected, nothing learnt
 (True, 0.003, (0.0, 0.0, 0.0, 0.0))
+>>> h = OdometryFilter(wheel_base=0.15)
+>>> for _ in range(10):
+...     h.predict(0.1, 0.0, 0.1, turned=0.01)      # the gyro: 0.1 rad turned in 1 s
+>>> round(h.pose.theta, 3)
+0.1
 """
 
 from __future__ import annotations
@@ -69,7 +81,7 @@ from formal.model import Pose
 
 __all__ = ["OdometryFilter"]
 
-_N = 7  # x, y, theta, s, k, c, d
+_N = 8  # x, y, theta, s, k, c, d, b (the gyro's offset)
 
 
 class OdometryFilter:
@@ -87,7 +99,9 @@ class OdometryFilter:
     ``hold_unobserved``: a match that leaves a direction unobserved in which the heading
     has a share (over 0.3 of it, state units) moves the pose only along the directions it
     observes (False: the full gain, which moves the unobserved ones too, through their
-    correlation with the observed).
+    correlation with the observed). ``rate_noise`` (rad/√s), ``rate_offset_sd`` (rad/s,
+    prior) and ``rate_offset_walk`` (rad/s per √s): the gyro's white noise and offset, when
+    :meth:`predict` is given its rotation.
     """
 
     def __init__(
@@ -101,6 +115,9 @@ class OdometryFilter:
         match_floor: tuple[float, float, float] = (0.015, 0.015, 0.017),
         learn_heading_sd: float | None = math.radians(0.5),
         hold_unobserved: bool = True,
+        rate_noise: float = 0.0025,
+        rate_offset_sd: float = 0.05,
+        rate_offset_walk: float = 0.0005,
     ) -> None:
         if not (math.isfinite(wheel_base) and wheel_base > 0):
             raise ValueError(f"wheel_base must be positive, got {wheel_base!r}")
@@ -111,10 +128,13 @@ class OdometryFilter:
         self.gate = float(gate)
         self.learn_heading_sd = None if learn_heading_sd is None else float(learn_heading_sd)
         self.hold_unobserved = bool(hold_unobserved)
+        self.rate_noise = float(rate_noise)
+        self.rate_offset_sd = float(rate_offset_sd)
+        self.rate_offset_walk = float(rate_offset_walk)
         self.match_floor = np.square(np.asarray(match_floor, dtype=float))
         # no learnt term beyond three prior standard deviations: a wrong association must
         # not teach the filter wheels no robot has
-        self.calibration_bound = 3.0 * np.asarray(self.calibration_sd, dtype=float)
+        self.calibration_bound = 3.0 * np.asarray((*self.calibration_sd, self.rate_offset_sd), dtype=float)
         self.x = np.zeros(_N)
         self.P = np.zeros((_N, _N))
         self.reset(Pose(0.0, 0.0, 0.0))
@@ -128,7 +148,7 @@ class OdometryFilter:
         if keep_calibration:
             self.x[3:], self.P[3:, 3:] = cal, pcal
         else:
-            self.P[3:, 3:] = np.diag(np.square(self.calibration_sd))
+            self.P[3:, 3:] = np.diag(np.square((*self.calibration_sd, self.rate_offset_sd)))
         self.P[:3, :3] = np.eye(3) * 1e-10
 
     @property
@@ -139,8 +159,13 @@ class OdometryFilter:
     @property
     def calibration(self) -> tuple[float, float, float, float]:
         """The estimated (s, k, c, d)."""
-        s, k, c, d = (float(v) for v in self.x[3:])
+        s, k, c, d = (float(v) for v in self.x[3:7])
         return s, k, c, d
+
+    @property
+    def rate_offset(self) -> float:
+        """The estimated zero-rate offset of the gyro (rad/s; 0 until it is measured)."""
+        return float(self.x[7])
 
     @property
     def sigma_xy(self) -> float:
@@ -179,40 +204,74 @@ class OdometryFilter:
         """Move the pose estimate to ``pose`` (an outside correction), keeping the covariance."""
         self.x[:3] = (pose.x, pose.y, pose.theta)
 
-    def predict(self, v: float, w: float, dt: float) -> None:
-        """Propagate over ``dt`` s at the commanded linear speed ``v`` and turn rate ``w``."""
+    def predict(self, v: float, w: float, dt: float, turned: float | None = None) -> None:
+        """Propagate over ``dt`` s at the commanded linear speed ``v`` and turn rate ``w``;
+        ``turned`` (rad): the rotation a gyro measured over the same ``dt``, which then
+        gives the heading instead of the wheels (also standing, when the body may still
+        coast)."""
         if not dt > 0:
             return
         moving = v != 0.0 or w != 0.0
-        x, y, th, s, k, c, d = self.x
+        if not moving and turned is None:
+            return
+        x, y, th, s, k, c, d, b = self.x
         m = 1.0 if moving else 0.0
         vt = v * (1 + s)
-        wt = w * (1 + k) + c * v + d * m
-        thm = th + wt * dt / 2
+        if turned is None:
+            dth = (w * (1 + k) + c * v + d * m) * dt
+            dwt = np.array([0.0, 0.0, 0.0, 0.0, w, v, m, 0.0]) * dt  # d(dth)/d(state)
+        else:
+            dth = turned * (1 + k) - b * dt
+            dwt = np.array([0.0, 0.0, 0.0, 0.0, turned, 0.0, 0.0, -dt])
+        thm = th + dth / 2
         cs, sn = math.cos(thm), math.sin(thm)
         self.x[0] = x + vt * dt * cs
         self.x[1] = y + vt * dt * sn
-        self.x[2] = wrap_angle(th + wt * dt)
-        if not moving:
-            return
+        self.x[2] = wrap_angle(th + dth)
         f = np.eye(_N)
-        dwt = np.array([0.0, 0.0, 0.0, 0.0, w, v, m]) * dt  # d(wt dt)/d(state)
         f[0, 2], f[1, 2] = -vt * dt * sn, vt * dt * cs
         f[0, 3], f[1, 3] = v * dt * cs, v * dt * sn
         f[0, :] += -vt * dt * sn * dwt / 2
         f[1, :] += vt * dt * cs * dwt / 2
         f[2, :] += dwt
         # random wheel error: each wheel's distance is good to wheel_noise
-        b = self.wheel_base
-        left, right = abs(v - w * b / 2) * dt, abs(v + w * b / 2) * dt
+        bw = self.wheel_base
+        left, right = abs(v - w * bw / 2) * dt, abs(v + w * bw / 2) * dt
         var_l, var_r = (self.wheel_noise * left) ** 2, (self.wheel_noise * right) ** 2
-        var_d, var_th = (var_l + var_r) / 4, (var_l + var_r) / b**2
-        cov_dth = (var_r - var_l) / (2 * b)
+        var_d, var_th = (var_l + var_r) / 4, (var_l + var_r) / bw**2
+        cov_dth = (var_r - var_l) / (2 * bw)
+        if turned is not None:  # the heading is the gyro's: its white noise, not the wheels'
+            var_th, cov_dth = self.rate_noise**2 * dt, 0.0
         g = np.array([[cs, 0.0], [sn, 0.0], [0.0, 1.0]])
         q = np.zeros((_N, _N))
         q[:3, :3] = g @ np.array([[var_d, cov_dth], [cov_dth, var_th]]) @ g.T
-        q[3:, 3:] = np.diag(np.square(self.calibration_walk)) * dt
+        q[3:7, 3:7] = np.diag(np.square(self.calibration_walk)) * dt * m
+        q[7, 7] = self.rate_offset_walk**2 * dt
         self.P = f @ self.P @ f.T + q
+
+    def zero_rate(self, turned: float, dt: float) -> None:
+        """The robot is known to stand still over ``dt`` s, in which the gyro measured
+        ``turned`` (rad): that is its offset times ``dt`` and noise. The heading stays; the
+        offset is learnt (and the heading errors it caused, through their correlation).
+
+        >>> f = OdometryFilter(0.15)
+        >>> for _ in range(20):
+        ...     f.zero_rate(0.003, 0.1)                  # reads 0.03 rad/s standing
+        >>> round(f.rate_offset, 3), f.pose.theta
+        (0.03, 0.0)
+        """
+        if not (dt > 0 and math.isfinite(turned)):
+            return
+        self.P[7, 7] += self.rate_offset_walk**2 * dt
+        r = self.rate_noise**2 / dt
+        nu = turned / dt - float(self.x[7])
+        s = float(self.P[7, 7]) + r
+        k = self.P[:, 7] / s
+        self.x = self.x + k * nu
+        self.x[3:] = np.clip(self.x[3:], -self.calibration_bound, self.calibration_bound)
+        self.x[2] = wrap_angle(float(self.x[2]))
+        ikh = np.eye(_N) - np.outer(k, np.eye(_N)[7])
+        self.P = ikh @ self.P @ ikh.T + np.outer(k, k) * r
 
     def correct_heading(self, offset: float, sd: float) -> tuple[bool, float]:
         """Update with a heading measured directly: ``offset`` (rad, measured minus the

@@ -131,7 +131,9 @@ class ScanOdometry:
     at 2.5 cm of range noise it read about 1 cm, the filter believed each match to a
     fraction of a degree while the estimate drifted 5-13° from the truth, and scan feedback
     reached the goal of the ``slalom`` layouts less often than dead reckoning alone (1 of
-    10 against 7 of 10 at seed 0, every other noise term at ``paper``).
+    10 against 7 of 10 at seed 0, every other noise term at ``paper``). ``still_after`` (s):
+    how long after the wheels were commanded to stop the body is taken to stand (the
+    latency and the deceleration end within it), so that a gyro's reading is its offset.
     """
 
     def __init__(
@@ -152,6 +154,7 @@ class ScanOdometry:
         seed_revolutions: int = 10,
         noise_factor: float = math.sqrt(2.0),
         compass: bool = True,
+        still_after: float = 0.5,
     ) -> None:
         if not (math.isfinite(wheel_base) and wheel_base > 0):
             raise ValueError(f"wheel_base must be positive, got {wheel_base!r}")
@@ -179,6 +182,9 @@ class ScanOdometry:
         self._map_points: np.ndarray | None = None
         self._map_tree: cKDTree | None = None  # of _map_points, built when first asked after a change
         self._odo: Pose | None = None
+        self._rot: float | None = None  # the gyro's reading at the last advance
+        self._still_since: float | None = 0.0  # since when the wheels are commanded still
+        self.still_after = float(still_after)
         self.records: list[FeedbackRecord] = []
         self.last_points = np.zeros((0, 2))
         self._moved_since = 0.0  # m (or wheel-base radians) driven since the last accepted match
@@ -197,6 +203,8 @@ class ScanOdometry:
         self._map = None
         self._map_points = self._map_tree = None
         self._odo = None
+        self._rot = None
+        self._still_since = self._t
         self._moved_since = 0.0
         self._last_stamp = None
         self._seed = []
@@ -204,22 +212,39 @@ class ScanOdometry:
         if self.compass is not None:
             self.compass.reset()
 
-    def advance(self, t: float, wheels: tuple[float, float], odometry: Pose | None = None) -> None:
+    def advance(self, t: float, wheels: tuple[float, float], odometry: Pose | None = None,
+                rotation: float | None = None) -> None:
         """Dead-reckon to time ``t``: from the backend's ``odometry`` when given (its change
-        since the last call), else from the ``wheels`` (m/s) commanded since the last call."""
+        since the last call), else from the ``wheels`` (m/s) commanded since the last call;
+        ``rotation`` (rad): the heading turned since start-up by the backend's gyro
+        (:class:`~runtime.robot.TurnSensing`), which then gives the heading. Once the wheels
+        have been commanded still for ``still_after`` s, the gyro's reading measures its
+        offset instead (:meth:`OdometryFilter.zero_rate`)."""
         dt = float(t) - self._t
+        turned = None
+        if rotation is not None:
+            if self._rot is not None and math.isfinite(rotation):
+                turned = float(rotation) - self._rot
+            self._rot = float(rotation) if math.isfinite(rotation) else None
         if odometry is not None:
             if self._odo is not None and dt > 0:
                 step = relative(self._odo, odometry)
-                self.filter.predict(step.x / dt, step.theta / dt, dt)
+                self.filter.predict(step.x / dt, step.theta / dt, dt, turned)
                 self._moved_since += math.hypot(step.x, step.y) + abs(step.theta) * self.wheel_base
             self._odo = odometry
             self._twist = wheel_twist(wheels[0], wheels[1], self.wheel_base)
         else:
             v, w = wheel_twist(wheels[0], wheels[1], self.wheel_base)
             self._twist = (v, w)
-            if dt > 0 and (v != 0.0 or w != 0.0):
-                self.filter.predict(v, w, dt)
+            if v != 0.0 or w != 0.0:
+                self._still_since = None
+            elif self._still_since is None:
+                self._still_since = self._t
+            if dt > 0 and turned is not None and self._still_since is not None \
+                    and self._t - self._still_since >= self.still_after:
+                self.filter.zero_rate(turned, dt)
+            elif dt > 0 and (v != 0.0 or w != 0.0 or turned is not None):
+                self.filter.predict(v, w, dt, turned)
                 self._moved_since += (abs(v) + abs(w) * self.wheel_base) * dt
         self.pose = self.filter.pose
         if dt > 0:

@@ -50,6 +50,8 @@ from formal.geometry import wrap_angle
 from formal.model import Pose
 from planner.scenarios import Scene, ScenarioError
 from runtime.devices.frame import ScanFrame
+from runtime.robots._gyro import RateGyro
+from runtime.robots._raycast import first_hits as _first_hits
 from runtime.robots._simulated import SimulatedBackend
 
 __all__ = ["BodySpec", "WorldNoise", "WorldRobot", "WorldContact", "make_world_robot", "NOISE_PRESETS"]
@@ -82,6 +84,9 @@ class WorldNoise:
     drift: float = 0.0
     slip: float = 0.0
     latency: float = 0.0
+    rate_sd: float = 0.0
+    rate_bias: float = 0.0
+    rate_scale: float = 0.0
 
     def __post_init__(self) -> None:
         for f in fields(self):
@@ -171,7 +176,8 @@ class WorldRobot(SimulatedBackend):
     """A differential-drive robot with an RPLIDAR A1 in a scenario's world (see the module).
 
     Implements :class:`runtime.robot.Robot` and a simulated clock. It has no wheel
-    encoders (:meth:`odometry` is None), like the paper's robot.
+    encoders (:meth:`odometry` is None), like the paper's robot; it has a rate gyro
+    (:meth:`rotation`; ``gyro=False`` takes it off).
     """
 
     _what = "the simulated world robot"
@@ -191,6 +197,7 @@ class WorldRobot(SimulatedBackend):
         control_tick: float = 0.1,
         start: Pose | None = None,
         sweep: int = 1,
+        gyro: bool = True,
     ) -> None:
         if not (isinstance(rays, int) and 360 <= rays <= 720):
             raise ValueError(f"rays: an RPLIDAR A1 takes 360 to 720 samples a revolution, got {rays!r}")
@@ -215,6 +222,7 @@ class WorldRobot(SimulatedBackend):
         n = self.noise
         self._bias = 1.0 + n.wheel_bias * self._rng.standard_normal(2)
         self._drift = n.drift * float(self._rng.standard_normal())
+        self._gyro = RateGyro(sd=n.rate_sd, bias=n.rate_bias, scale=n.rate_scale, seed=seed) if gyro else None
         self._start = scene.start if start is None else start
         self._t, self._closed, self._cmd = 0.0, False, (0.0, 0.0)
         self._pending: deque[tuple[float, tuple[float, float]]] = deque()
@@ -320,6 +328,11 @@ class WorldRobot(SimulatedBackend):
     def odometry(self) -> Pose | None:
         """None: the robot has no wheel encoders."""
         return None
+
+    def rotation(self) -> float | None:
+        """The heading turned since start-up as the rate gyro integrates it (rad; see
+        :class:`~runtime.robots._gyro.RateGyro`), or None when built with ``gyro=False``."""
+        return None if self._gyro is None else self._gyro.angle
 
     # -- ground truth ----------------------------------------------------------------------------
     def ground_truth_pose(self) -> Pose:
@@ -429,6 +442,8 @@ class WorldRobot(SimulatedBackend):
         _set_angular_velocity(control, w)
         _set_position(control, body.position)
         self._space.step(dt)
+        if self._gyro is not None:
+            self._gyro.step((body.angle - th) / dt, dt)
         self._t += dt
         self._contacts()
         pose = self._xyth()
@@ -533,38 +548,6 @@ class WorldRobot(SimulatedBackend):
         if self.resolution > 0:
             pts = np.round(pts / self.resolution) * self.resolution
         return pts, t[keep]
-
-
-def _first_hits(x: float | np.ndarray, y: float | np.ndarray, angles: np.ndarray, edges: np.ndarray, circles: np.ndarray,
-                reach: float) -> np.ndarray:
-    """Distance from (x, y) along each angle to the first edge (start x, y, vector x, y per
-    row) or circle (centre x, y, radius per row) within ``reach``; inf where none is.
-    ``x`` and ``y`` may be columns (one origin per angle).
-
-    >>> square = np.array([[1, -1, 0, 2], [1, 1, -2, 0], [-1, 1, 0, -2], [-1, -1, 2, 0]], float) + [2, 0, 0, 0]
-    >>> _first_hits(0.0, 0.0, np.array([0.0, math.pi]), square, np.array([[-3.0, 0.0, 0.5]]), 5.0).tolist()
-    [1.0, 2.5]
-    """
-    c, s = np.cos(angles)[:, None], np.sin(angles)[:, None]
-    best = np.full(len(angles), np.inf)
-    if len(edges):
-        wx, wy, ex, ey = edges[:, 0] - x, edges[:, 1] - y, edges[:, 2], edges[:, 3]
-        # (x, y) + t (c, s) = edge start + u edge vector, by Cramer's rule
-        det = ex * s - ey * c
-        with np.errstate(divide="ignore", invalid="ignore"):
-            t = (ex * wy - ey * wx) / det
-            u = (c * wy - s * wx) / det
-        t = np.where((det != 0) & (u >= 0) & (u <= 1) & (t >= 0) & (t <= reach), t, np.inf)
-        best = np.minimum(best, t.min(axis=1))
-    if len(circles):
-        dx, dy, r = circles[:, 0] - x, circles[:, 1] - y, circles[:, 2]
-        b = dx * c + dy * s
-        disc = b * b - (dx * dx + dy * dy - r * r)
-        with np.errstate(invalid="ignore"):
-            t = b - np.sqrt(disc)
-        t = np.where((disc >= 0) & (t >= 0) & (t <= reach), t, np.inf)
-        best = np.minimum(best, t.min(axis=1))
-    return best
 
 
 def make_world_robot(

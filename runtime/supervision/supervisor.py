@@ -67,7 +67,7 @@ from runtime.estimation.odometry import ScanOdometry
 from runtime.supervision.planwatch import PlanWatch
 from runtime.supervision.records import PlanRecord, SupervisorReport, TaskRecord, TimedRecord
 from runtime.records.runlog import RunLogLike, plan_fields
-from runtime.robot import Robot, RobotFault, ScanFrame, finite_goal
+from runtime.robot import Robot, RobotFault, ScanFrame, TurnSensing, finite_goal
 from runtime.supervision.machine import MOTOR_STATES, TERMINAL, TRANSITIONS, Event, SupervisorState, TransitionRecord
 
 __all__ = ["FEEDBACK", "GuardViolation", "PlanRecord", "Supervisor", "SupervisorReport", "TaskRecord", "TimedRecord"]
@@ -124,6 +124,7 @@ class Supervisor:
         if feedback not in FEEDBACK:
             raise ValueError(f"feedback must be one of {', '.join(FEEDBACK)}, got {feedback!r}")
         self.robot = robot
+        self._rotation = robot.rotation if isinstance(robot, TurnSensing) else lambda: None  # a gyro, when it has one
         self.configurator = configurator or Configurator()
         self.model: RobotModel = self.configurator.robot
         self.clock: Clock = clock_for(robot, clock)
@@ -213,7 +214,7 @@ class Supervisor:
         self.pose = odo if odo is not None else Pose(0.0, 0.0, 0.0)
         if self.estimator is not None:
             self.estimator.reset(self.pose, now)
-            self.estimator.advance(now, (0.0, 0.0), odo)
+            self.estimator.advance(now, (0.0, 0.0), odo, self._rotation())
         self.goal = compose(self.pose, Pose(*self._goal_robot))
         self._log("start", goal=[self.goal.x, self.goal.y], robot=self.model.to_dict())
         self._fire(E.START, "started")
@@ -379,7 +380,7 @@ class Supervisor:
         self._last_update = now
         odo = self.robot.odometry()
         if self.estimator is not None:
-            self.estimator.advance(now, self._cmd, odo)
+            self.estimator.advance(now, self._cmd, odo, self._rotation())
             self.pose = self.estimator.pose
             return
         self.pose = odo if odo is not None else dead_reckon(self.pose, *self._cmd, self.model.wheel_base, dt)

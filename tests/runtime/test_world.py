@@ -42,9 +42,11 @@ def test_the_world_imports_nothing_of_the_planners_model():
     planner = {n for n in names if n == "planner" or n.startswith("planner.")}
     assert planner <= allowed_planner, f"the world imports {sorted(planner - allowed_planner)}"
     runtime = {n for n in names if n.startswith("runtime")}
-    allowed_runtime = {"runtime.robot", "runtime.devices.frame", "runtime.robots._simulated"}
+    allowed_runtime = {"runtime.robot", "runtime.devices.frame", "runtime.robots._simulated",
+                       "runtime.robots._gyro", "runtime.robots._raycast"}
     assert runtime <= allowed_runtime, f"the world imports {sorted(runtime - allowed_runtime)}"
-    for module in ("runtime/robot.py", "runtime/devices/frame.py", "runtime/robots/_simulated.py"):
+    for module in ("runtime/robot.py", "runtime/devices/frame.py", "runtime/robots/_simulated.py",
+                   "runtime/robots/_gyro.py", "runtime/robots/_raycast.py"):
         for node in ast.walk(ast.parse((ROOT / module).read_text(encoding="utf-8"))):
             if isinstance(node, ast.ImportFrom) and node.module:
                 assert not node.module.startswith(("planner", "runtime.supervision")), (module, node.module)
@@ -216,7 +218,7 @@ def test_the_lidars_rays_hit_what_pymunks_segment_queries_hit(family):
     import pymunk
 
     from runtime.experiment.layouts import make_layout
-    from runtime.robots.world import _first_hits
+    from runtime.robots._raycast import first_hits as _first_hits
 
     rng = np.random.default_rng(7)
     for index in range(4):

@@ -1,0 +1,51 @@
+"""The world robot's rate gyro: the body's true turn rate, measured as a MEMS gyro does.
+
+The paper's robot measured its rotation while driving (the average horizontal optic flow
+of its camera, the error signal of its straight task); a yaw-rate gyro is the usual
+sensor for the same quantity. Per run the gyro draws a scale error (``rate_scale``,
+relative) and a zero-rate offset (``rate_bias``, rad/s); every physics step it adds white
+noise of ``rate_sd`` rad/√s (angle random walk). It integrates what it measures, so a
+reader sees the heading turned since start-up, as a gyro driver reports it.
+
+Its draws come from a generator of their own (seeded from the run's seed), so the
+drive's and the LiDAR's draws are the same with and without it.
+
+>>> g = RateGyro(sd=0.0, bias=0.0, scale=0.0, seed=0)
+>>> for _ in range(100):
+...     g.step(0.5, 0.01)                  # 1 s at 0.5 rad/s
+>>> round(g.angle, 6)
+0.5
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+__all__ = ["RateGyro"]
+
+_BLOCK = 1024  # white-noise draws taken at once (one draw per physics step)
+
+
+class RateGyro:
+    """A yaw-rate gyro with a per-run scale error and offset and white noise (see the module)."""
+
+    def __init__(self, *, sd: float, bias: float, scale: float, seed: int | None) -> None:
+        self._rng = np.random.default_rng(None if seed is None else [int(seed), 0x6779726F])
+        self.sd = float(sd)
+        self.offset = float(bias) * float(self._rng.standard_normal())
+        self.gain = 1.0 + float(scale) * float(self._rng.standard_normal())
+        self.angle = 0.0
+        self._noise = np.zeros(0)
+        self._k = 0
+
+    def step(self, rate: float, dt: float) -> None:
+        """Integrate over ``dt`` s while the body turns at ``rate`` rad/s (the truth)."""
+        walk = 0.0
+        if self.sd:
+            if self._k >= len(self._noise):
+                self._noise, self._k = self._rng.standard_normal(_BLOCK), 0
+            walk = self.sd * math.sqrt(dt) * float(self._noise[self._k])
+            self._k += 1
+        self.angle += (self.gain * rate + self.offset) * dt + walk

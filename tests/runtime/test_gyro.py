@@ -1,0 +1,131 @@
+"""The rate gyro: the world measures its turn as a gyro does, and the estimator's heading
+follows it (gyrodometry), its offset measured while the robot stands."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from formal.geometry import relative, wrap_angle
+from formal.model import Pose
+from planner.scenarios import load_scenario
+from runtime.estimation.ekf import OdometryFilter
+from runtime.estimation.odometry import ScanOdometry
+from runtime.robot import TurnSensing
+from runtime.robots import make_world_robot
+from runtime.robots.world import WorldNoise
+
+# a spin on the spot and back, then a long curve: what a gyro and a wheel model see differently
+COMMANDS = [(0.0, 0.0)] * 15 + [(-0.04, 0.04)] * 20 + [(0.1, 0.1)] * 40 + [(0.04, -0.04)] * 10 + [(0.1, 0.08)] * 40
+
+
+def _drive(world, commands, odo: ScanOdometry | None = None) -> list[tuple[float, float]]:
+    """(true heading turned, gyro reading) after each 0.1 s tick; ``odo`` dead-reckons along."""
+    out = []
+    cmd = (0.0, 0.0)
+    if odo is not None:
+        odo.reset(Pose(0.0, 0.0, 0.0), world.now())
+        odo.advance(world.now(), cmd, None, world.rotation())
+    for nxt in commands:
+        cmd = nxt
+        world.set_wheel_speeds(*cmd)
+        world.sleep(0.1)
+        if odo is not None:
+            odo.advance(world.now(), cmd, None, world.rotation())
+        turned = wrap_angle(world.ground_truth_pose().theta - world.start_pose.theta)
+        out.append((turned, world.rotation()))
+    return out
+
+
+def test_the_world_robot_offers_a_gyro_and_can_go_without() -> None:
+    scene = load_scenario("open")
+    assert isinstance(make_world_robot(scene, "paper", seed=0), TurnSensing)
+    assert make_world_robot(scene, "paper", seed=0, gyro=False).rotation() is None
+
+
+def test_a_noiseless_gyro_reads_the_bodys_true_turn() -> None:
+    world = make_world_robot(load_scenario("open"), "ideal", seed=0)
+    for turned, read in _drive(world, COMMANDS):
+        assert read == pytest.approx(turned, abs=1e-9)
+
+
+def test_a_noisy_gyro_errs_by_its_offset_scale_and_walk_and_not_more() -> None:
+    noise = WorldNoise(rate_sd=0.0025, rate_bias=0.05, rate_scale=0.05)
+    errors = []
+    for seed in range(20):
+        world = make_world_robot(load_scenario("open"), noise, seed=seed)
+        trace = _drive(world, COMMANDS)
+        errors.append(trace[-1][1] - trace[-1][0])
+    # 12.5 s: an offset of 0.05 rad/s is 0.6 rad at 1 sd; the scale and the walk add little
+    assert 0.2 < float(np.std(errors)) < 1.2, errors
+    assert len(set(errors)) == 20  # every run draws its own
+
+
+def test_the_gyro_draws_change_nothing_else_in_the_world() -> None:
+    """Its own random generator: the drive and the LiDAR are the same with and without it."""
+    scene = load_scenario("overtaking")
+    a = make_world_robot(scene, "harsh", seed=3)
+    b = make_world_robot(scene, "harsh", seed=3, gyro=False)
+    _drive(a, COMMANDS[:60])
+    _drive(b, COMMANDS[:60])
+    assert a.trajectory == b.trajectory
+    assert np.array_equal(a.read_scan(0.0).points, b.read_scan(0.0).points)
+
+
+def test_standing_still_measures_the_offset_and_keeps_the_heading() -> None:
+    f = OdometryFilter(0.15)
+    for _ in range(30):
+        f.zero_rate(0.004 + 0.0005 * math.sin(_), 0.1)
+    assert f.rate_offset == pytest.approx(0.04, abs=0.002)
+    assert f.pose.theta == 0.0
+    # driving on, the offset is taken off what the gyro reads
+    for _ in range(10):
+        f.predict(0.1, 0.0, 0.1, turned=0.004)
+    assert f.pose.theta == pytest.approx(0.0, abs=0.002)
+
+
+def test_the_heading_is_the_gyros_not_the_wheels() -> None:
+    f = OdometryFilter(0.15)
+    for _ in range(10):
+        f.predict(0.1, 0.0, 0.1, turned=0.02)  # commanded straight; the body turned 0.2 rad
+    assert f.pose.theta == pytest.approx(0.2, abs=1e-9)
+    assert f.pose.y > 0.005  # and the path curved with it
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_dead_reckoning_with_the_gyro_holds_the_heading_the_wheels_lose(seed: int) -> None:
+    """Harsh world, no scans: the wheels' heading drifts by degrees; the gyro's, its offset
+    measured in the 1.5 s standing at the start, stays within 3 degrees."""
+    scene = load_scenario("open")
+    errs = {}
+    for gyro in (True, False):
+        world = make_world_robot(scene, "harsh", seed=seed, gyro=gyro)
+        odo = ScanOdometry(0.15, compass=False)
+        _drive(world, COMMANDS, odo)
+        truth = relative(world.start_pose, world.ground_truth_pose())
+        errs[gyro] = abs(wrap_angle(odo.pose.theta - truth.theta))
+    assert errs[True] < math.radians(3), errs
+    assert errs[True] < errs[False], errs
+
+
+def test_the_supervisor_feeds_the_gyro_to_its_estimate() -> None:
+    """A whole harsh overtaking run: the supervisor's filter learnt the gyro's offset the world
+    drew (measured in the still revolutions at the start and at every stop), and without the
+    gyro it learns none."""
+    from runtime.supervision import Supervisor
+
+    scene = load_scenario("overtaking")
+    learnt = {}
+    for gyro in (True, False):
+        world = make_world_robot(scene, "harsh", seed=1, gyro=gyro)
+        sup = Supervisor(world, scene.goal_in_robot_frame())
+        sup.run(max_time=60)
+        assert sup.estimator is not None
+        learnt[gyro] = sup.estimator.filter.rate_offset
+        if gyro:
+            drawn = world._gyro.offset
+            assert abs(drawn) > 0.01  # a draw worth measuring
+            assert learnt[gyro] == pytest.approx(drawn, abs=0.005), (learnt, drawn)
+    assert learnt[False] == 0.0
