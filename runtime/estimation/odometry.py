@@ -267,12 +267,35 @@ class ScanOdometry:
                 return Pose(p0.x + f * (p1.x - p0.x), p0.y + f * (p1.y - p0.y), wrap_angle(p0.theta + f * dth))
         return self.pose  # pragma: no cover - the loop covers [h[0], h[-1]]
 
+    def _deskew_along(self, points: np.ndarray, point_times: np.ndarray, stamp: float) -> np.ndarray:
+        """A revolution as if taken at once at ``stamp``, each point moved by the estimate's
+        own motion since it was taken (the kept history, whose heading a gyro gave): unlike
+        the commanded twist, this follows a turn that starts or ends within the revolution
+        (the commands lead the body by the actuation latency)."""
+        h = self._history
+        t = np.fromiter((q[0] for q in h), float, len(h))
+        hx = np.fromiter((q[1].x for q in h), float, len(h))
+        hy = np.fromiter((q[1].y for q in h), float, len(h))
+        hth = np.unwrap(np.fromiter((q[1].theta for q in h), float, len(h)))
+        when = stamp + point_times
+        x, y, th = np.interp(when, t, hx), np.interp(when, t, hy), np.interp(when, t, hth)
+        x0, y0, th0 = float(np.interp(stamp, t, hx)), float(np.interp(stamp, t, hy)), float(np.interp(stamp, t, hth))
+        c0, s0 = math.cos(th0), math.sin(th0)
+        dx, dy = c0 * (x - x0) + s0 * (y - y0), -s0 * (x - x0) + c0 * (y - y0)  # where each was taken, seen from stamp
+        c, s = np.cos(th - th0), np.sin(th - th0)
+        out: np.ndarray = np.stack((dx + c * points[:, 0] - s * points[:, 1], dy + s * points[:, 0] + c * points[:, 1]), axis=1)
+        return out
+
     # -- scans ------------------------------------------------------------------------------------
     def update(self, frame: ScanFrame, twist: tuple[float, float] | None = None) -> FeedbackRecord:
         """Correct the estimate with one revolution; ``twist`` (v, w) during it for de-skewing
         (default: the one last dead-reckoned)."""
         v, w = self._twist if twist is None else twist
-        points = deskew(np.asarray(frame.points, dtype=float).reshape(-1, 2), frame.point_times, v, w)
+        raw = np.asarray(frame.points, dtype=float).reshape(-1, 2)
+        if twist is None and self._rot is not None and frame.point_times is not None and len(raw):
+            points = self._deskew_along(raw, np.asarray(frame.point_times, dtype=float), frame.timestamp)
+        else:
+            points = deskew(raw, frame.point_times, v, w)
         self.last_points = points
         # a revolution without per-point times was taken over the period before its stamp:
         # on average half a period earlier (taken as that)

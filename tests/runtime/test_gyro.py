@@ -129,3 +129,46 @@ def test_the_supervisor_feeds_the_gyro_to_its_estimate() -> None:
             assert abs(drawn) > 0.01  # a draw worth measuring
             assert learnt[gyro] == pytest.approx(drawn, abs=0.005), (learnt, drawn)
     assert learnt[False] == 0.0
+
+
+ROOM = {"goal": [0.5, 0.0], "obstacles": [
+    {"type": "wall", "from": [-0.8, 0.6], "to": [0.8, 0.6]},
+    {"type": "wall", "from": [0.8, 0.6], "to": [0.8, -0.6]},
+    {"type": "wall", "from": [0.8, -0.6], "to": [-0.8, -0.6]},
+    {"type": "box", "center": [0.3, 0.3], "size": [0.1, 0.1]},
+]}
+
+
+def test_a_revolution_is_deskewed_along_the_gyros_heading_not_the_commands() -> None:
+    """With 0.1 s of actuation latency the body turns a tick after the command: a revolution
+    taken as a turn starts or stops, deskewed along the estimate's history (its heading the
+    gyro's), lands where an instant scan at its stamp sees the room; the commanded twist
+    misplaces it."""
+    from scipy.spatial import cKDTree
+
+    from planner.scenarios import parse_scenario
+    from runtime.estimation.odometry import deskew
+
+    world = make_world_robot(parse_scenario(ROOM, "room"), WorldNoise(latency=0.1), seed=0)
+    odo = ScanOdometry(0.15, compass=False)
+    odo.reset(Pose(0.0, 0.0, 0.0), 0.0)
+    odo.advance(0.0, (0.0, 0.0), None, world.rotation())
+    cmd, along, commanded = (0.0, 0.0), [], []
+    for k in range(60):
+        cmd = (-0.05, 0.05) if 10 <= k % 20 < 17 else (0.0, 0.0)  # turn 0.7 s, stand 1.3 s
+        world.set_wheel_speeds(*cmd)
+        for _ in range(10):  # 0.1 s in physics steps: a revolution is caught as it ends
+            world.sleep(0.01)
+            odo.advance(world.now(), cmd, None, world.rotation())
+            frame = world.read_scan(0.0)
+            if frame is None or frame.point_times is None:
+                continue
+            truth = cKDTree(world.scan_now())
+            fixed = odo._deskew_along(np.asarray(frame.points), np.asarray(frame.point_times), frame.timestamp)
+            v, w = odo._twist
+            naive = deskew(np.asarray(frame.points), frame.point_times, v, w)
+            along.append(float(np.median(truth.query(fixed)[0])))
+            commanded.append(float(np.median(truth.query(naive)[0])))
+    worst_along, worst_commanded = max(along), max(commanded)
+    assert worst_along < 0.01, along
+    assert worst_commanded > 2 * worst_along, (worst_along, worst_commanded)
