@@ -18,7 +18,8 @@ seeds, and prints each family's reach beside the issue's target:
 - ``calibration``: another ablation — the scan-matched estimate as shipped, but its
   filter starts knowing the drive's systematic terms this run drew (each wheel's bias, the
   heading drift, the mean slip: :meth:`~runtime.robots.world.WorldRobot.drive_truth`, as
-  the filter's speed and turn scales, curvature and drift) to within 1e-4. What it gains
+  the filter's speed and turn scales, curvature and drift; with the gyro, its scale and
+  offset, :meth:`~runtime.robots.world.WorldRobot.gyro_truth`) to within 1e-4. What it gains
   over ``scan`` is what learning the wheels' calibration within the run could gain.
 
 Each line gives the runs reached (ground truth within 0.1 m of the goal), the median
@@ -77,18 +78,20 @@ class _TruthFed(Supervisor):
 
 
 class _KnownWheels(ScanOdometry):
-    """Scan odometry whose filter starts with the drive's true calibration, held firmly."""
+    """Scan odometry whose filter starts with the drive's true calibration, held firmly
+    (with a gyro: the wheels' forward scale and the gyro's scale and offset)."""
 
-    def __init__(self, wheel_base: float, calibration: tuple[float, float, float, float]) -> None:
+    def __init__(self, wheel_base: float, calibration: tuple[float, ...]) -> None:
         super().__init__(wheel_base)
         self.known = calibration
 
     def reset(self, pose: Pose, t: float) -> None:
         super().reset(pose, t)
-        self.filter.x[3:7] = self.known
-        self.filter.P[3:7, :] = 0.0
-        self.filter.P[:, 3:7] = 0.0
-        self.filter.P[3:7, 3:7] = np.eye(4) * 1e-8
+        n = len(self.known)
+        self.filter.x[3:3 + n] = self.known
+        self.filter.P[3:3 + n, :] = 0.0
+        self.filter.P[:, 3:3 + n] = 0.0
+        self.filter.P[3:3 + n, 3:3 + n] = np.eye(n) * 1e-8
 
 
 def true_calibration(robot: Any, wheel_base: float) -> tuple[float, float, float, float]:
@@ -101,13 +104,24 @@ def true_calibration(robot: Any, wheel_base: float) -> tuple[float, float, float
     return scale, scale, (t["bias_right"] - t["bias_left"]) / wheel_base, t["drift"]
 
 
+def true_gyro_calibration(robot: Any, wheel_base: float) -> tuple[float, float, float, float, float]:
+    """The filter's (s, k, c, d, b) for a robot whose heading comes from its gyro: the
+    wheels' forward scale, the gyro's scale as ``k`` (it reads ``gain`` times the turn, so
+    ``1 + k = 1 / gain``) and its offset as ``b`` (rad/s, in the turn's units); ``c`` and
+    ``d`` act on the wheels' turn, which the heading no longer uses."""
+    s = true_calibration(robot, wheel_base)[0]
+    g = robot.gyro_truth()
+    return s, 1.0 / g["gain"] - 1.0, 0.0, 0.0, g["offset"] / g["gain"]
+
+
 class _CalibrationFed(Supervisor):
-    """The ablation: the scan-matched estimate, its filter told the wheels' true calibration."""
+    """The ablation: the scan-matched estimate, its filter told the drive's true calibration."""
 
     def __init__(self, robot: Any, *args: Any, **kwargs: Any) -> None:
         super().__init__(robot, *args, **kwargs)
         if self.estimator is not None:
-            self.estimator = _KnownWheels(self.model.wheel_base, true_calibration(robot, self.model.wheel_base))
+            known = (true_gyro_calibration if robot.rotation() is not None else true_calibration)(robot, self.model.wheel_base)
+            self.estimator = _KnownWheels(self.model.wheel_base, known)
 
 
 def _one(args: tuple[str, int, int, str, str, str | None]) -> tuple[bool, float, str, float]:

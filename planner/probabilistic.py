@@ -109,8 +109,8 @@ class _NoisyTask(Task):
     rng: Any = None
     slip: float = 0.0
 
-    def wheel_speeds(self, error: float) -> tuple[float, float]:
-        vl, vr = super().wheel_speeds(error)
+    def wheel_speeds(self, error: float, turned: float = 0.0) -> tuple[float, float]:
+        vl, vr = super().wheel_speeds(error, turned)
         if self.rng is not None and self.wheel_sd:
             el, er = self.rng.normal(0.0, self.wheel_sd, 2)
         else:

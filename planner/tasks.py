@@ -24,9 +24,13 @@ from formal.geometry import wrap_angle
 from formal.model import Disturbance, Pose, TaskKind
 from planner.robot import RobotModel
 
-__all__ = ["Task", "wrap_angle"]
+__all__ = ["HOLD_GAIN", "HOLD_LIMIT", "Task", "wrap_angle"]
 
 _EPS = 1e-9
+HOLD_GAIN = 1.0
+"""rad/s of turn per rad a STRAIGHT has turned off its start heading (:meth:`Task.wheel_speeds`)."""
+HOLD_LIMIT = 0.5
+"""rad/s: the most a STRAIGHT turns to hold its heading."""
 
 
 @dataclass(slots=True)
@@ -110,11 +114,26 @@ class Task:
         """True when the task's error signal has reached zero."""
         return error <= _EPS
 
-    def wheel_speeds(self, error: float) -> tuple[float, float]:
-        """M = H(E): (left, right) wheel speeds in m/s for this tick."""
+    def wheel_speeds(self, error: float, turned: float = 0.0) -> tuple[float, float]:
+        """M = H(E): (left, right) wheel speeds in m/s for this tick.
+
+        ``turned`` (rad): for a STRAIGHT, how far the robot's heading has turned since the
+        task began, a second error signal measured on the robot (the authors' robot measured
+        its rotation by its camera's optic flow and corrected its straights on it): the
+        wheels steer it back at ``HOLD_GAIN`` rad/s per rad, at most ``HOLD_LIMIT`` rad/s.
+        The rollouts' unicycle drives straight and passes 0.
+
+        >>> t = Task.straight(RobotModel(), Pose(0.0, 0.0), None, 0.27)
+        >>> left, right = t.wheel_speeds(0.27, turned=0.1)    # turned left: steer right
+        >>> left > right
+        True
+        """
         r = self.robot
         if self.kind is TaskKind.STRAIGHT:
             v = min(r.straight_speed, error / r.tick)
+            if turned and v > 0:
+                w = max(-HOLD_LIMIT, min(HOLD_LIMIT, -HOLD_GAIN * turned))
+                return v - w * r.wheel_base / 2, v + w * r.wheel_base / 2
             return v, v
         w = min(r.turn_rate, error / r.tick)
         wheel = w * r.wheel_base / 2

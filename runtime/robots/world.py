@@ -348,6 +348,12 @@ class WorldRobot(SimulatedBackend):
         return {"bias_left": bl, "bias_right": br, "drift": float(self._drift),
                 "slip_mean": float(self.noise.slip) * math.sqrt(2.0 / math.pi)}
 
+    def gyro_truth(self) -> dict[str, float]:
+        """This run's gyro terms, ground truth for ablations: it reads ``gain`` times the
+        body's turn rate plus ``offset`` (rad/s); ``{'gain': 1.0, 'offset': 0.0}`` without one."""
+        g = self._gyro
+        return {"gain": 1.0, "offset": 0.0} if g is None else {"gain": g.gain, "offset": g.offset}
+
     @property
     def pose(self) -> Pose:
         """Same as :meth:`ground_truth_pose`."""

@@ -25,7 +25,8 @@ reckoning alone. The goal, the remaining plan and every task's error signal come
   REPLANNING, and so does a task that ended far from the prediction or a plan that ended
   short of the goal. A plan that ends at the goal by the estimate taken while driving
   goes to REPLANNING too (with scan feedback): the robot stands, the still revolutions
-  correct the estimate, and the goal is declared (or approached anew) on the settled one.
+  correct the estimate, and the goal is declared (or approached anew) on the settled one,
+  within ``goal_radius`` (default: the planner's goal tolerance, 0.05 m; 0.08 m before).
 - REPLANNING: after the wheels settled, from ``fuse_scans`` revolutions fused into one
   (median range per bearing), first *recall*: match the situation to a state of the map
   it already has and continue the map's plan from there if the new scan agrees
@@ -103,7 +104,7 @@ class Supervisor:
         configurator: Configurator | None = None,
         *,
         clock: Clock | None = None,
-        goal_radius: float = 0.08,
+        goal_radius: float | None = None,
         scan_timeout: float = 1.0,
         max_plans: int = 30,
         patience: int = 6,
@@ -128,7 +129,7 @@ class Supervisor:
         self.configurator = configurator or Configurator()
         self.model: RobotModel = self.configurator.robot
         self.clock: Clock = clock_for(robot, clock)
-        self.goal_radius = goal_radius
+        self.goal_radius = self.model.goal_tolerance if goal_radius is None else float(goal_radius)  # the plan's own
         self.scan_timeout = scan_timeout
         self.max_plans = max_plans
         self.patience = patience
@@ -520,7 +521,7 @@ class Supervisor:
         if self._task_ticks > 2 * task.max_ticks() + 10:
             self._fire(E.DISAGREE, "task overran its expected duration")
             return
-        vl, vr = task.wheel_speeds(e)
+        vl, vr = task.wheel_speeds(e, wrap_angle(self.pose.theta - task.start.theta))  # a STRAIGHT holds its heading
         if self.state not in MOTOR_STATES:  # the machine's table forbids the wheels here
             raise GuardViolation(f"the wheels may not turn in {self.state.value}")
         self.robot.set_wheel_speeds(vl, vr)
