@@ -64,7 +64,9 @@ Where this departs from the authors' code, and why:
   and ``reactive_target.cpp``'s ``set_target`` then returns no value; neither is copied.
 - Pose: as the planning condition's supervisor (the same robot, sensing and estimate, so
   a difference between the conditions is planning's): with ``feedback="scan"`` (the
-  default) dead reckoning from the commanded wheel speeds (or the robot's odometry)
+  default) dead reckoning from the commanded wheel speeds (or the robot's odometry), the
+  heading from the robot's gyro when it has one (it then stands ``start_still`` s first, as
+  the planning robot stands for its first scans, so that the gyro's offset is measured),
   corrected once a revolution by matching the scan against a local map
   (:class:`~runtime.estimation.odometry.ScanOdometry`); with ``feedback="none"`` dead
   reckoning alone (the authors' reactive dead-reckons). The newest (de-skewed) scan is
@@ -91,7 +93,7 @@ from planner.perception import validate_scan
 from planner.robot import RobotModel
 from runtime.clock import Clock, clock_for
 from runtime.estimation.odometry import ScanOdometry
-from runtime.robot import Robot, RobotFault, ScanFrame, finite_goal
+from runtime.robot import Robot, RobotFault, ScanFrame, TurnSensing, finite_goal
 
 __all__ = ["PURSUE_DEAD_BAND", "WINDOW", "ReactiveController", "ReactiveReport"]
 
@@ -156,6 +158,7 @@ class ReactiveController:
         feedback: str = "scan",
         sides: str = "as-coded",
         detect: bool = True,
+        start_still: float = 1.0,
     ) -> None:
         if sides not in ("signed", "as-coded"):
             raise ValueError(f"sides must be 'signed' or 'as-coded', got {sides!r}")
@@ -191,6 +194,8 @@ class ReactiveController:
         self._scan_pose = self.pose
         self.feedback = feedback
         self.estimator: ScanOdometry | None = ScanOdometry(self.model.wheel_base) if feedback == "scan" else None
+        self._rotation = robot.rotation if isinstance(robot, TurnSensing) else lambda: None  # the same gyro as the planner's
+        self.start_still = float(start_still)
 
     def run(self, max_time: float = 120.0) -> ReactiveReport:
         """Loop until the goal, a fault (→ HALTED) or ``max_time`` s (→ TIMEOUT); wheels stopped on exit.
@@ -206,7 +211,7 @@ class ReactiveController:
         self.pose = odo if odo is not None else Pose(0.0, 0.0, 0.0)
         if self.estimator is not None:
             self.estimator.reset(self.pose, t0)
-            self.estimator.advance(t0, (0.0, 0.0), odo)
+            self.estimator.advance(t0, (0.0, 0.0), odo, self._rotation())
         self.goal = compose(self.pose, Pose(*self._goal_robot))
         self._t0 = t0
         self._pursue(t0)
@@ -229,7 +234,10 @@ class ReactiveController:
                 if math.hypot(g.x, g.y) <= self.goal_radius:
                     state, reason = "GOAL_REACHED", f"at the goal ({math.hypot(g.x, g.y):.3f} m)"
                     break
-                vl, vr = self._control(g, now)
+                if self.estimator is not None and now - t0 < self.start_still and self._rotation() is not None:
+                    vl, vr = 0.0, 0.0  # stand while the gyro's offset is measured, as the planning robot does
+                else:
+                    vl, vr = self._control(g, now)
                 self.robot.set_wheel_speeds(vl, vr)
                 self._cmd = (vl, vr)
                 self.clock.sleep(now + tick - self.clock.now())
@@ -304,7 +312,7 @@ class ReactiveController:
     def _dead_reckon(self, now: float, dt: float) -> None:
         odo = self.robot.odometry()
         if self.estimator is not None:
-            self.estimator.advance(now, self._cmd, odo)
+            self.estimator.advance(now, self._cmd, odo, self._rotation())
             self.pose = self.estimator.pose
             return
         self.pose = odo if odo is not None else dead_reckon(self.pose, *self._cmd, self.model.wheel_base, dt)

@@ -206,3 +206,23 @@ def test_a_straight_holds_its_heading_on_the_gyro(seed: int) -> None:
     held, free = _straight_on_the_estimate(True, seed), _straight_on_the_estimate(False, seed)
     assert held < math.radians(2), (held, free)
     assert free > 2 * held, (held, free)
+
+
+def test_the_reactive_baseline_measures_the_gyro_standing_then_drives() -> None:
+    """The same sensing for both conditions: the reactive loop takes its heading from the
+    gyro too, after standing its first second to measure the offset (without a gyro it
+    drives at once, as before)."""
+    from runtime.experiment.reactive import ReactiveController
+
+    scene = load_scenario("open")
+    for gyro in (True, False):
+        world = make_world_robot(scene, "harsh", seed=2, gyro=gyro)
+        c = ReactiveController(world, scene.goal_in_robot_frame())
+        c.run(max_time=3.0)
+        moved_at = next(t for t, *pose in world.trajectory if math.hypot(pose[0], pose[1]) > 1e-3)
+        assert c.estimator is not None
+        if gyro:
+            assert moved_at > 1.0
+            assert c.estimator.filter.rate_offset == pytest.approx(world.gyro_truth()["offset"], abs=0.005)
+        else:
+            assert moved_at < 0.5 and c.estimator.filter.rate_offset == 0.0
