@@ -271,10 +271,11 @@ def test_cli_json_keeps_the_table_shape(tmp_path, capsys):
 @pytest.mark.slow
 # strict: the runs are pure functions of the seed, so the day the target is met this fails
 # (XPASS) and the marker must go; a non-strict xfail could never fail at all
-@pytest.mark.xfail(strict=True, reason="issue #9's acceptance, half reached: measured 2026-12-03 with the "
-                   "authors' reactive loop as it ran (one-step look-ahead, always avoid right, pursue left), planning "
-                   "10/10 (0 collisions + 0 brushes: reached), reactive 0/10 with 2 collisions + 0 brushes at seed 0 "
-                   "(target 4-20: not reached; seeds 1-4 give 6, 7, 10, 8; on 2026-12-04 the same at seed 0, 6, 7, 10, 9)")
+@pytest.mark.xfail(strict=True, reason="issue #9's acceptance, half reached: measured 2026-12-04 with the gyro "
+                   "in both conditions, reactive 2/10 with 6 collisions + 0 brushes at seed 0 (reached), planning "
+                   "9/10 with 0 + 0 (not reached: run 1 ends in the pocket between box and wall, see "
+                   "test_overtaking_run_1_gets_past_the_box_at_paper_noise); before the gyro planning was 10/10 and "
+                   "reactive 0/10 with 2 collisions")
 def test_the_papers_claim_holds():
     """Issue #9's acceptance: planning 10/10 with <= 3 collisions + brushes; reactive <= 2/10, 4-20 collisions."""
     recs = run_experiment("overtaking", runs=10, seed=0, noise="paper", workers=2)
