@@ -31,7 +31,10 @@ reckoning alone. The goal, the remaining plan and every task's error signal come
   (median range per bearing), first *recall*: match the situation to a state of the map
   it already has and continue the map's plan from there if the new scan agrees
   (:func:`runtime.supervision.plancheck.recall`); only when that fails, explore anew
-  (at most ``max_recalls`` recalls in a row). The hazard test, the check and recall are
+  (at most ``max_recalls`` recalls in a row). A search that spends the configurator's
+  budget is run again with ``deepen`` (4) times the budget
+  (:func:`runtime.supervision.planwatch.plan_deepening`): the plan of a spent budget can end
+  inside a U-trap. The hazard test, the check and recall are
   :class:`runtime.supervision.planwatch.PlanWatch`'s.
 - any exception (a device fault, a silent sensor, a scan with NaN, a planner crash) →
   HALTED, wheels stopped in the same tick. The wheels turn only in EXECUTING, and
@@ -65,7 +68,7 @@ from planner.tasks import Task
 from runtime.clock import Clock, clock_for
 from runtime.estimation.fusion import fuse_revolutions
 from runtime.estimation.odometry import ScanOdometry
-from runtime.supervision.planwatch import PlanWatch
+from runtime.supervision.planwatch import PlanWatch, plan_deepening
 from runtime.supervision.records import PlanRecord, SupervisorReport, TaskRecord, TimedRecord
 from runtime.records.runlog import RunLogLike, plan_fields
 from runtime.robot import Robot, RobotFault, ScanFrame, TurnSensing, finite_goal
@@ -119,6 +122,7 @@ class Supervisor:
         fuse_scans: int = 3,
         start_scans: int = 10,
         confirm: int = 3,
+        deepen: int = 4,
         log: RunLogLike | None = None,
     ) -> None:
         gx, gy = finite_goal(goal)
@@ -143,15 +147,12 @@ class Supervisor:
         self._goal_robot = (gx, gy)
         self.log = log
         self.feedback = feedback
-        if not (isinstance(fuse_scans, int) and fuse_scans >= 1):
-            raise ValueError(f"fuse_scans must be a positive integer, got {fuse_scans!r}")
+        for name, n in (("fuse_scans", fuse_scans), ("start_scans", start_scans), ("confirm", confirm), ("deepen", deepen)):
+            if not (isinstance(n, int) and not isinstance(n, bool) and n >= 1):
+                raise ValueError(f"{name} must be a positive integer, got {n!r}")
         self.fuse_scans = fuse_scans if feedback == "scan" else 1
-        if not (isinstance(start_scans, int) and start_scans >= 1):
-            raise ValueError(f"start_scans must be a positive integer, got {start_scans!r}")
         self.start_scans = max(start_scans, self.fuse_scans) if feedback == "scan" else self.fuse_scans
-        if not (isinstance(confirm, int) and confirm >= 1):
-            raise ValueError(f"confirm must be a positive integer, got {confirm!r}")
-        self.confirm = confirm
+        self.confirm, self.deepen = confirm, deepen
         self._empty = 0  # plans in a row, each from fresh revolutions at this stop, that found no safe task
         self._still: deque[np.ndarray] = deque(maxlen=self.fuse_scans)
         self.estimator: ScanOdometry | None = ScanOdometry(self.model.wheel_base) if feedback == "scan" else None
@@ -409,7 +410,7 @@ class Supervisor:
             return
         c0 = time.thread_time()
         try:
-            result = self.configurator.plan(scan, (g.x, g.y))
+            result = plan_deepening(self.configurator, scan, (g.x, g.y), self.deepen)
         except PlanningError as exc:
             self._fire(E.NO_PLAN, f"goal unreachable: {exc}")
             return

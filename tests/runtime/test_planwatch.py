@@ -35,3 +35,66 @@ def test_a_robot_interrupted_each_time_before_it_moves_gives_up_with_the_reason(
     p = world.ground_truth_pose()
     assert abs(p.x - scene.start.x) < 0.02 and abs(p.y - scene.start.y) < 0.02
     world.close()
+
+
+# -- a spent budget is searched again, deeper -------------------------------------------------------
+def _u_trap() -> tuple[Any, Any, dict[str, Any]]:
+    """A U open toward the robot with the goal behind it (layout family ``u-trap``, seed 0, run 1):
+    from the start, the paper's budget of 50 states runs out with the plan's end inside the U."""
+    from runtime.experiment.layouts import make_layout
+
+    layout = make_layout("u-trap", 0, 1)
+    scene = layout.scene
+    return scene, scene.scan(), layout.params
+
+
+def _inside(end: Any, p: dict[str, Any]) -> bool:
+    return bool(p["back_x"] - p["arm"] < end.x < p["back_x"] and abs(end.y - p["y"]) < p["inner_width"] / 2)
+
+
+def test_a_spent_budget_is_searched_again_deeper_and_gets_round_the_u() -> None:
+    """The plan of a spent budget ends at argmin φ, inside the U; ``plan_deepening`` searches
+    the same scan with four times the budget and its plan ends behind the U. A search that
+    did not spend its budget comes back as it was; ``deepen=1`` never searches again."""
+    from planner.configurator import Configurator
+    from runtime.supervision.planwatch import plan_deepening
+
+    scene, scan, p = _u_trap()
+    goal = scene.goal_in_robot_frame()
+    first = Configurator().plan(scan, goal)
+    assert first.stop_reason == "budget" and _inside(first.map[first.plan.states[-1]].end, p)
+    assert plan_deepening(Configurator(), scan, goal, deepen=1).states == first.states
+    deeper = plan_deepening(Configurator(), scan, goal)
+    end = deeper.map[deeper.plan.states[-1]].end
+    assert deeper.states > 50 and end.x > p["back_x"] and not _inside(end, p)
+    open_field = plan_deepening(Configurator(), scene.scan()[:0], goal)
+    assert open_field.stop_reason == "goal" and open_field.states < 50
+
+
+def test_the_supervisor_deepens_a_spent_search_unless_told_not_to() -> None:
+    """The supervisor plans through ``plan_deepening``: with the default ``deepen`` a search
+    that spent its 50 states is followed by one of 200 from the same scan; with ``deepen=1``
+    none is; 0 is refused."""
+    import pytest
+
+    from planner.configurator import Configurator
+
+    class Recording(Configurator):
+        budgets: list[tuple[int, str]] = []  # (budget, stop reason) of each search, shared by the copies
+
+        def plan(self, scan: Any, goal: Any) -> Any:
+            r = super().plan(scan, goal)
+            self.budgets.append((self.max_states, r.stop_reason))
+            return r
+
+    scene, _, _ = _u_trap()
+    for deepen, expect in ((4, True), (1, False)):
+        budgets = Recording.budgets = []
+        world = make_world_robot(scene, "ideal", seed=0)
+        Supervisor(world, scene.goal_in_robot_frame(), Recording(), deepen=deepen).run(max_time=4.0)
+        world.close()
+        assert budgets and budgets[0] == (50, "budget")
+        assert (len(budgets) > 1 and budgets[1][0] == 200) is expect, budgets
+        assert all(m == 50 for m, _ in budgets) is not expect
+    with pytest.raises(ValueError, match="deepen must be a positive integer"):
+        Supervisor(make_world_robot(scene, "ideal", seed=0), scene.goal_in_robot_frame(), deepen=0)
