@@ -133,7 +133,7 @@ class EmulatedWorld:
         self._last = now
 
     def _scan(self) -> np.ndarray:
-        """One LiDAR revolution: the world seen from the simulated robot's pose now (1 cm grid);
+        """One LiDAR revolution: the world seen from the simulated robot's pose now (ranges to 1 cm);
         in the execution world, its newest revolution as its own LiDAR took it."""
         with self._lock:
             self._catch_up()  # the world as it is now, not at the last tick
@@ -146,8 +146,9 @@ class EmulatedWorld:
 
     def _samples(self) -> list[tuple[float, float, bool]]:
         """The execution world's LiDAR samples measured since the last call, as an A1 sends
-        them: (angle clockwise in degrees, distance in mm of the point on the world's grid
-        (1 cm), 0 for no return; whether it begins a revolution)."""
+        them: (angle clockwise in degrees, distance in mm rounded as the world's LiDAR rounds
+        it, 1 cm: the range, or the point on its grid; 0 for no return; whether it begins a
+        revolution)."""
         assert isinstance(self.sim, WorldRobot)
         with self._lock:
             self._catch_up()
@@ -157,10 +158,12 @@ class EmulatedWorld:
         for angle, rng, _t, first in steps:
             ok = np.isfinite(rng)
             r = np.where(ok, rng, 0.0)
-            x, y = r * np.cos(angle), r * np.sin(angle)
-            if res > 0:
-                x, y = np.round(x / res) * res, np.round(y / res) * res
-            dist = np.where(ok, np.hypot(x, y) * 1000.0, 0.0)
+            if res > 0 and self.sim.rounding == "range":  # the range as the world's LiDAR reports it
+                r = np.round(r / res) * res
+            elif res > 0:  # the range of the point on the world's grid
+                x, y = np.round(r * np.cos(angle) / res) * res, np.round(r * np.sin(angle) / res) * res
+                r = np.hypot(x, y)
+            dist = np.where(ok, r * 1000.0, 0.0)
             cw = np.degrees(-angle) % 360.0
             out += [(float(a), float(d), first and k == 0) for k, (a, d) in enumerate(zip(cw, dist))]
         return out

@@ -198,7 +198,10 @@ class WorldRobot(SimulatedBackend):
         start: Pose | None = None,
         sweep: int = 1,
         gyro: bool = True,
+        rounding: str = "grid",
     ) -> None:
+        if rounding not in ("grid", "range"):
+            raise ValueError(f"rounding: 'grid' (x and y) or 'range' (along the beam, as an A1), got {rounding!r}")
         if not (isinstance(rays, int) and 360 <= rays <= 720):
             raise ValueError(f"rays: an RPLIDAR A1 takes 360 to 720 samples a revolution, got {rays!r}")
         if not (5.5 <= scan_rate <= 10.0):
@@ -218,6 +221,7 @@ class WorldRobot(SimulatedBackend):
         self.scan_rate = float(scan_rate)
         self.max_range = float(max_range)
         self.resolution, self.dt, self.control_tick = float(resolution), float(dt), float(control_tick)
+        self.rounding = rounding  # "grid": each point's x and y (the default so far); "range": the range
         self._rng = np.random.default_rng(seed)
         n = self.noise
         self._bias = 1.0 + n.wheel_bias * self._rng.standard_normal(2)
@@ -550,10 +554,11 @@ class WorldRobot(SimulatedBackend):
                 dist = dist + np.concatenate([r[4] for r in rays])
         keep = self._returned(dist, np.concatenate([r[5] for r in rays]) if self.noise.dropout else None)
         dist, a = dist[keep], nominal[keep]
+        grid = self.resolution > 0 and self.rounding == "grid"
+        if self.resolution > 0 and not grid:  # the range as an A1 reports it, along the beam it names
+            dist = np.round(dist / self.resolution) * self.resolution
         pts = np.stack([dist * np.cos(a), dist * np.sin(a)], axis=1)
-        if self.resolution > 0:
-            pts = np.round(pts / self.resolution) * self.resolution
-        return pts, t[keep]
+        return (np.round(pts / self.resolution) * self.resolution if grid else pts), t[keep]
 
 
 def make_world_robot(
