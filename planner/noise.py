@@ -17,7 +17,11 @@ from dataclasses import asdict, dataclass, fields
 from pathlib import Path
 from typing import Any
 
-__all__ = ["NoiseError", "RolloutNoise", "preset_names"]
+__all__ = ["ALARM_DEVIATIONS", "NoiseError", "RolloutNoise", "preset_names"]
+
+ALARM_DEVIATIONS = 3.0
+"""The supervisor's noise allowance in range-noise standard deviations (less the planner's
+clearance): one figure for the runtime's ``Alarms`` and the rollouts' ``HazardRule.supervisor``."""
 
 _SIGNED = frozenset({"turn_mean", "straight_mean"})
 """The terms that are means (may be negative), not spreads."""

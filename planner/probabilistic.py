@@ -52,7 +52,7 @@ from formal.model import Disturbance, DisturbanceKind, Pose, State, TaskKind
 from formal.retry import STOPS_KEY
 from formal.supervisory import extract_plan
 from planner.configurator import Configurator, CostContext, PlanResult
-from planner.noise import NoiseError, RolloutNoise, preset_names
+from planner.noise import ALARM_DEVIATIONS, NoiseError, RolloutNoise, preset_names
 from planner.perception import Obstacles, load_scan, perceive
 from planner.physics import Outcome, World, frontier_distance, in_the_way, make_task
 from planner.robot import RobotModel
@@ -152,8 +152,8 @@ class HazardRule:
 
     >>> HazardRule().points, HazardRule().scan_rate
     (2, 5.5)
-    >>> round(HazardRule.supervisor(RolloutNoise.preset("harsh")).allowance, 4), HazardRule.supervisor(RolloutNoise()).allowance
-    (0.0275, 0.0)
+    >>> round(HazardRule.supervisor(RolloutNoise.preset("harsh")).allowance, 4), round(HazardRule.supervisor(RolloutNoise()).allowance, 4)
+    (0.03, 0.005)
     """
 
     points: int = 2
@@ -161,7 +161,7 @@ class HazardRule:
     allowance: float = 0.0
 
     @classmethod
-    def supervisor(cls, noise: RolloutNoise, k: float = 1.5, clearance: float = 0.01, cap: float = 0.03) -> "HazardRule":
+    def supervisor(cls, noise: RolloutNoise, k: float = ALARM_DEVIATIONS, clearance: float = 0.01, cap: float = 0.03) -> "HazardRule":
         """The supervisor's rule at ``noise``: its allowance, ``k`` range-noise sd less the
         planner's ``clearance``, at most ``cap`` (the defaults of the runtime's ``Alarms``)."""
         return cls(allowance=min(max(k * noise.range_sd - clearance, 0.0), cap))

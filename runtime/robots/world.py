@@ -198,7 +198,7 @@ class WorldRobot(SimulatedBackend):
         start: Pose | None = None,
         sweep: int = 1,
         gyro: bool = True,
-        rounding: str = "grid",
+        rounding: str = "range",
     ) -> None:
         if rounding not in ("grid", "range"):
             raise ValueError(f"rounding: 'grid' (x and y) or 'range' (along the beam, as an A1), got {rounding!r}")
@@ -221,7 +221,7 @@ class WorldRobot(SimulatedBackend):
         self.scan_rate = float(scan_rate)
         self.max_range = float(max_range)
         self.resolution, self.dt, self.control_tick = float(resolution), float(dt), float(control_tick)
-        self.rounding = rounding  # "grid": each point's x and y (the default so far); "range": the range
+        self.rounding = rounding  # "range": the range along its beam, as an A1; "grid": each point's x and y
         self._rng = np.random.default_rng(seed)
         n = self.noise
         self._bias = 1.0 + n.wheel_bias * self._rng.standard_normal(2)

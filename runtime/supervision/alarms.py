@@ -8,8 +8,11 @@ against the planner's 1 cm clearance), and each such alarm costs a stop and a re
 - the allowance is ``k`` times the range noise the revolutions show
   (:func:`range_noise`, the median over the last ``window`` revolutions) less the
   planner's clearance (1 cm: the margin it plans with already absorbs that much), at most
-  ``cap``. At the ``paper`` preset (5 mm; 5–7 mm measured) it is 0 and every alarm
-  stands at once, as before; at ``harsh`` (2.5 cm) about 2.5 cm;
+  ``cap``. At the ``paper`` preset (5 mm, with the A1's 1 cm range rounding 6–7 mm
+  measured) it is about 0.5–1 cm; at ``harsh`` (2.5 cm) the cap, 3 cm. ``k`` is 3: at
+  1.5 a wall 1 cm beside the path at paper noise put points inside the body often enough
+  that the demo replanned 9 times on its way (the world's LiDAR rounded each point to a
+  grid along the robot's axes then, which left walls along them free of noise and hid it);
 - a *deep* alarm — points more than the allowance inside the body (the body shrunk by
   the allowance on every side still meets them) — stands at once, in the revolution
   that shows it: an obstacle truly in the way is never driven on;
@@ -42,6 +45,7 @@ from collections import deque
 import numpy as np
 
 from formal.model import Pose, State, TaskKind
+from planner.noise import ALARM_DEVIATIONS
 from planner.robot import RobotModel
 from runtime.supervision.plancheck import CheckResult, check_plan
 from runtime.supervision.records import hits, sweep
@@ -111,7 +115,7 @@ class Alarms:
     it, one revolution a plan).
     """
 
-    def __init__(self, k: float = 1.5, cap: float = 0.03, window: int = 10, near: float = 0.05,
+    def __init__(self, k: float = ALARM_DEVIATIONS, cap: float = 0.03, window: int = 10, near: float = 0.05,
                  clearance: float = 0.01) -> None:
         if not (k >= 0 and math.isfinite(k)) or not (cap >= 0 and math.isfinite(cap)) or window < 1 or not near >= 0:
             raise ValueError(f"Alarms needs k >= 0, cap >= 0, window >= 1 and near >= 0, got {k!r}, {cap!r}, "

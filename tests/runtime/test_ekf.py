@@ -127,7 +127,9 @@ def test_standing_still_leaves_the_covariance_alone() -> None:
 
 
 def test_icp_information_is_empty_along_a_corridor() -> None:
-    """The information matrix a match hands the filter has nothing along a corridor's axis."""
+    """The information matrix a match hands the filter has next to nothing along a corridor's
+    axis (the walls' normals, fitted to ranges rounded to 1 cm, tilt by about a milliradian,
+    which leaves it near 1e-6 of the information across)."""
     doc = {"goal": [1.0, 0.0], "obstacles": [{"type": "wall", "from": [-3.0, 0.35], "to": [3.0, 0.35]},
                                              {"type": "wall", "from": [-3.0, -0.35], "to": [3.0, -0.35]}]}
     scene = parse_scenario(doc, "corridor")
@@ -137,7 +139,7 @@ def test_icp_information_is_empty_along_a_corridor() -> None:
     m = match_scans(a.points, b.points, Pose(0.05, 0.0, 0.0))
     info = np.asarray(m.information_matrix)
     assert m.unobservable == ("x",)
-    assert info[0, 0] < 1e-6 * info[1, 1] and info[1, 1] > 0
+    assert info[0, 0] < 1e-5 * info[1, 1] and info[1, 1] > 0
 
 
 def test_a_match_seen_again_while_standing_corrects_the_pose_but_teaches_nothing() -> None:

@@ -128,7 +128,8 @@ def test_lidar_rate_samples_crop_and_quantisation():
     assert np.diff([f.timestamp for f in frames]) == pytest.approx(0.1, abs=0.011)  # type: ignore[union-attr]
     pts = frames[-1].points  # type: ignore[union-attr]
     assert len(pts) > 300 and np.all(np.hypot(pts[:, 0], pts[:, 1]) <= 1.1 + 0.01)
-    assert np.allclose(pts * 100, np.round(pts * 100), atol=1e-6)
+    r = np.hypot(pts[:, 0], pts[:, 1])
+    assert np.allclose(r * 100, np.round(r * 100), atol=1e-6)  # each range to the centimetre, as an A1's
     times = frames[-1].point_times  # type: ignore[union-attr]
     assert times is not None and len(times) == len(pts) and np.all((times <= 0) & (times >= -0.1 - 1e-9))
 
@@ -274,7 +275,8 @@ def test_a_streamed_lidar_measures_the_same_revolutions_sample_by_sample() -> No
         # what the world delivered at that revolution's end is its streamed samples with a return
         ang, rng = sweep, np.concatenate([s[1] for s in steps[i:j]])
         ok = np.isfinite(rng)
-        pts = np.round(np.c_[rng[ok] * np.cos(ang[ok]), rng[ok] * np.sin(ang[ok])] / 0.01) * 0.01
+        r = np.round(rng[ok] / 0.01) * 0.01  # the range to the centimetre, along its beam
+        pts = np.stack([r * np.cos(ang[ok]), r * np.sin(ang[ok])], axis=1)
         rev = delivered.get(round(steps[j - 1][2], 6))
         if rev is not None:  # (the revolutions ended at a 0.1 s boundary are all looked at)
             assert np.array_equal(rev.points, pts) and len(pts) > 10
@@ -315,10 +317,11 @@ def test_drive_truth_names_the_terms_the_world_drives_with(seed):
 
 def test_the_lidar_rounds_the_range_or_the_grid_as_asked():
     """``rounding="range"`` reports each point at its beam's own angle with the range rounded
-    to 1 cm, as an RPLIDAR A1 reports (angle, distance). ``"grid"``, the default so far,
+    to 1 cm, as an RPLIDAR A1 reports (angle, distance); it is the default. ``"grid"``
     rounds each point's x and y in the robot frame instead. That grid lines up with the
     robot's axes, which no real sensor's does: without a gyro it let the face compass read
-    about three times as often in harsh overtaking runs (README, *Still idealised*)."""
+    about twice as often in harsh overtaking runs (README, *The world's LiDAR rounds the range*)."""
+    assert WorldRobot(load_scenario("open")).rounding == "range"
     scene = load_scenario("overtaking")
     frames = {}
     for rounding in ("range", "grid"):
