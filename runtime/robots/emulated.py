@@ -133,8 +133,9 @@ class EmulatedWorld:
         self._last = now
 
     def _scan(self) -> np.ndarray:
-        """One LiDAR revolution: the world seen from the simulated robot's pose now (ranges to 1 cm);
-        in the execution world, its newest revolution as its own LiDAR took it."""
+        """One LiDAR revolution: the world seen from the simulated robot's pose now (rounded as
+        the world's LiDAR rounds); in the execution world, its newest revolution as its own
+        LiDAR took it."""
         with self._lock:
             self._catch_up()  # the world as it is now, not at the last tick
             if isinstance(self.sim, WorldRobot):
@@ -147,7 +148,7 @@ class EmulatedWorld:
     def _samples(self) -> list[tuple[float, float, bool]]:
         """The execution world's LiDAR samples measured since the last call, as an A1 sends
         them: (angle clockwise in degrees, distance in mm rounded as the world's LiDAR rounds
-        it, 1 cm: the range, or the point on its grid; 0 for no return; whether it begins a
+        it: the range, or the point on its grid; 0 for no return; whether it begins a
         revolution)."""
         assert isinstance(self.sim, WorldRobot)
         with self._lock:

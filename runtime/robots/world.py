@@ -19,8 +19,13 @@ The LiDAR is an RPLIDAR A1: ``scan_rate`` revolutions a second (5.5–10 Hz), ``
 samples a revolution (360–720), each ray cast at its own time from the body's pose then
 (a revolution taken while moving is skewed as on the real sensor), along a beam jittered
 by ``angle_sd`` around the angle reported, with Gaussian range noise, dropouts, the crop
-at ``max_range`` and coordinates rounded to 1 cm. Each revolution is a
-:class:`~runtime.robot.ScanFrame`.
+at ``max_range`` and each range rounded along its beam to ``resolution``: by default
+0.25 mm, the unit an A1 reports distances in (``distance_q2 / 4`` mm; its datasheet gives
+a resolution under 0.5 mm at these ranges). ``resolution=0.01`` rounds to 1 cm, and
+``rounding="grid"`` rounds each point's x and y instead, as the paper's recorded scans
+are (the authors' software rounded them, not the sensor). A coarse rounding fixed to
+the robot's frame biases scan matching either way; README, *The world's LiDAR*. Each
+revolution is a :class:`~runtime.robot.ScanFrame`.
 
 Ground truth for experiments: :meth:`WorldRobot.ground_truth_pose` (world frame) and
 :meth:`WorldRobot.contact_trace` — one ``(time_s, penetration_m)`` sample per physics
@@ -192,7 +197,7 @@ class WorldRobot(SimulatedBackend):
         rays: int = 360,
         scan_rate: float = 5.5,
         max_range: float = 1.1,
-        resolution: float = 0.01,
+        resolution: float = 0.00025,
         dt: float = 0.01,
         control_tick: float = 0.1,
         start: Pose | None = None,

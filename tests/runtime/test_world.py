@@ -129,7 +129,8 @@ def test_lidar_rate_samples_crop_and_quantisation():
     pts = frames[-1].points  # type: ignore[union-attr]
     assert len(pts) > 300 and np.all(np.hypot(pts[:, 0], pts[:, 1]) <= 1.1 + 0.01)
     r = np.hypot(pts[:, 0], pts[:, 1])
-    assert np.allclose(r * 100, np.round(r * 100), atol=1e-6)  # each range to the centimetre, as an A1's
+    assert np.allclose(r * 4000, np.round(r * 4000), atol=1e-6)  # each range in the A1's unit, 0.25 mm
+    assert not np.allclose(r * 100, np.round(r * 100), atol=1e-6)  # not on the centimetre
     times = frames[-1].point_times  # type: ignore[union-attr]
     assert times is not None and len(times) == len(pts) and np.all((times <= 0) & (times >= -0.1 - 1e-9))
 
@@ -275,7 +276,7 @@ def test_a_streamed_lidar_measures_the_same_revolutions_sample_by_sample() -> No
         # what the world delivered at that revolution's end is its streamed samples with a return
         ang, rng = sweep, np.concatenate([s[1] for s in steps[i:j]])
         ok = np.isfinite(rng)
-        r = np.round(rng[ok] / 0.01) * 0.01  # the range to the centimetre, along its beam
+        r = np.round(rng[ok] / 0.00025) * 0.00025  # the range in the A1's unit (0.25 mm), along its beam
         pts = np.stack([r * np.cos(ang[ok]), r * np.sin(ang[ok])], axis=1)
         rev = delivered.get(round(steps[j - 1][2], 6))
         if rev is not None:  # (the revolutions ended at a 0.1 s boundary are all looked at)
@@ -316,16 +317,19 @@ def test_drive_truth_names_the_terms_the_world_drives_with(seed):
 
 
 def test_the_lidar_rounds_the_range_or_the_grid_as_asked():
-    """``rounding="range"`` reports each point at its beam's own angle with the range rounded
-    to 1 cm, as an RPLIDAR A1 reports (angle, distance); it is the default. ``"grid"``
-    rounds each point's x and y in the robot frame instead. That grid lines up with the
-    robot's axes, which no real sensor's does: without a gyro it let the face compass read
-    about twice as often in harsh overtaking runs (README, *The world's LiDAR rounds the range*)."""
-    assert WorldRobot(load_scenario("open")).rounding == "range"
+    """``rounding="range"`` reports each point at its beam's own angle with the range rounded,
+    as an RPLIDAR A1 reports (angle, distance); it is the default, in the A1's unit (0.25 mm).
+    Here at 1 cm. ``"grid"`` rounds each point's x and y in the robot frame instead, as the
+    paper's recorded scans are. That grid lines up with the robot's axes, which no real
+    sensor's does: without a gyro it let the face compass read about twice as often in
+    harsh overtaking runs (README, *The world's LiDAR*)."""
+    default = WorldRobot(load_scenario("open"))
+    assert (default.rounding, default.resolution) == ("range", 0.00025)
+    default.close()
     scene = load_scenario("overtaking")
     frames = {}
     for rounding in ("range", "grid"):
-        w = WorldRobot(scene, noise=WorldNoise(), seed=0, rounding=rounding)
+        w = WorldRobot(scene, noise=WorldNoise(), seed=0, rounding=rounding, resolution=0.01)
         w.sleep(0.5)
         frames[rounding] = w.read_scan().points
         w.close()
