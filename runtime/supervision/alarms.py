@@ -8,11 +8,10 @@ against the planner's 1 cm clearance), and each such alarm costs a stop and a re
 - the allowance is ``k`` times the range noise the revolutions show
   (:func:`range_noise`, the median over the last ``window`` revolutions) less the
   planner's clearance (1 cm: the margin it plans with already absorbs that much), at most
-  ``cap``. At the ``paper`` preset (5 mm, with the A1's 1 cm range rounding 6–7 mm
-  measured) it is about 0.5–1 cm; at ``harsh`` (2.5 cm) the cap, 3 cm. ``k`` is 3: at
-  1.5 a wall 1 cm beside the path at paper noise put points inside the body often enough
-  that the demo replanned 9 times on its way (the world's LiDAR rounded each point to a
-  grid along the robot's axes then, which left walls along them free of noise and hid it);
+  ``cap``. At the ``paper`` preset (5 mm; 5–7 mm measured) it is about 0.5 cm; at
+  ``harsh`` (2.5 cm) the cap, 3 cm. ``k`` is 3, the usual bound for Gaussian noise: at
+  1.5 (0 at ``paper``) a LiDAR whose ranges are rounded to 1 cm put points of a wall 1 cm
+  beside the path inside the body often enough that the demo replanned 9 times;
 - a *deep* alarm — points more than the allowance inside the body (the body shrunk by
   the allowance on every side still meets them) — stands at once, in the revolution
   that shows it: an obstacle truly in the way is never driven on;
