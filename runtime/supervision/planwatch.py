@@ -167,8 +167,16 @@ class PlanWatch:
         """Test ``states`` (the running task first, then the queued ones) of ``plan``
         against the newest revolution, seen from ``scan_pose``; recorded at time ``t``."""
         t0, c0 = time.perf_counter(), time.thread_time()  # everything the check needs: it tests the raw points
+        if not self._recent or self._recent[-1][0] is not clean_scan:
+            self._recent.append((clean_scan, scan_pose))
+
+        def recent() -> np.ndarray | None:  # fused only when a shallow failure asks
+            if len(self._recent) < 2:
+                return None
+            return fuse_revolutions([scan_to_frame(s, p, scan_pose) for s, p in self._recent])
+
         verdict = self.alarms.check(states, plan.origin, scan_pose, goal, clean_scan, self.model, tolerance,
-                                    running=True)
+                                    running=True, recent=recent)
         rec = TimedRecord(t, time.perf_counter() - t0, verdict.ok, verdict.reason, time.thread_time() - c0)
         self.checks.append(rec)
         self.log("check", ok=rec.ok, duration_s=rec.duration_s, reason=rec.reason)
