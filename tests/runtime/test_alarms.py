@@ -216,7 +216,7 @@ def test_a_shallow_check_failure_the_fused_revolutions_do_not_show_is_dismissed(
             seen.append(revolution(k, y))
             a.revolution(seen[-1])
             fused = fuse_revolutions(seen[-3:]) if len(seen) >= 2 else None
-            verdicts.append(a.check([step], o, o, goal, seen[-1], M, (0.08, 0.3), running=True, recent=lambda: fused))
+            verdicts.append(a.check([step], o, o, goal, seen[-1], M, (0.08, 0.3), running=True, recent=lambda f=fused: f))
             assert a.allowance == pytest.approx(0.03)
             assert "meets an obstacle" in verdicts[-1].reason, grazed  # every single revolution fails the check
         assert verdicts[0].ok  # seen once: not acted on
