@@ -96,13 +96,13 @@ def test_cul_de_sac_success_is_saying_unreachable():
     assert rec["success"] == 0
 
 
-@pytest.mark.xfail(strict=True, reason="since the gyro (192a34c) this run's draws end a plan in the 0.33 m passage "
-                   "between box and wall, 3.5 cm too close to the wall to turn: only a reverse task would leave "
-                   "(README, 'Where the harsh misses come from')")
 def test_overtaking_run_1_gets_past_the_box_at_paper_noise():
     """Layout 0/1 (passages 0.33 and 0.36 m beside the box): a 2 degree turn overshoot once
     left the robot between box and wall with no free task (UNREACHABLE at every noise level);
-    the planning origin's small turn frees it."""
+    the planning origin's small turn freed it. From the gyro (192a34c) until the plan check
+    asked the fused revolutions (7b03dba) a plan ended in the 0.33 m passage, too close to
+    the wall to turn; the body can pass there only in a band 1.7 cm wide, so this run stays
+    a sensitive one."""
     rec = run_spec(RunSpec("overtaking", 0, 1, "planning", "paper"))
     assert (rec["success"], rec["end_state"], rec["collisions"]) == (1, "GOAL_REACHED", 0), rec["reason"]
 
@@ -269,13 +269,6 @@ def test_cli_json_keeps_the_table_shape(tmp_path, capsys):
 
 
 @pytest.mark.slow
-# strict: the runs are pure functions of the seed, so the day the target is met this fails
-# (XPASS) and the marker must go; a non-strict xfail could never fail at all
-@pytest.mark.xfail(strict=True, reason="issue #9's acceptance, half reached: measured 2026-12-05 with the gyro "
-                   "in both conditions, reactive 2/10 with 7 collisions + 0 brushes at seed 0 (reached), planning "
-                   "9/10 with 0 + 0 (not reached: run 1 ends in the pocket between box and wall, see "
-                   "test_overtaking_run_1_gets_past_the_box_at_paper_noise); before the gyro planning was 10/10 and "
-                   "reactive 0/10 with 2 collisions")
 def test_the_papers_claim_holds():
     """Issue #9's acceptance: planning 10/10 with <= 3 collisions + brushes; reactive <= 2/10, 4-20 collisions."""
     recs = run_experiment("overtaking", runs=10, seed=0, noise="paper", workers=2)
