@@ -154,29 +154,30 @@ class PlanWatch:
         points in the body's remaining path from ``pose``: deep at once, shallow when it persists."""
         if clean_scan is None or len(clean_scan) == 0:
             return None
+        self._remember(clean_scan, scan_pose)
+        pts = scan_to_frame(clean_scan, scan_pose, pose)
+        recent = self._fused(pose) if self.alarms.allowance > 0 else None
+        return self.alarms.hazard(pts, task.kind, error, self.model, lookahead, needed, pose, recent)
+
+    def _remember(self, clean_scan: np.ndarray, scan_pose: Pose) -> None:
+        """Keep the newest clean revolution, where it was taken (once, however often asked)."""
         if not self._recent or self._recent[-1][0] is not clean_scan:
             self._recent.append((clean_scan, scan_pose))
-        pts = scan_to_frame(clean_scan, scan_pose, pose)
-        recent = None
-        if self.alarms.allowance > 0 and len(self._recent) >= 2:
-            recent = fuse_revolutions([scan_to_frame(s, p, pose) for s, p in self._recent])
-        return self.alarms.hazard(pts, task.kind, error, self.model, lookahead, needed, pose, recent)
+
+    def _fused(self, frame: Pose) -> np.ndarray | None:
+        """The kept revolutions fused in the robot frame at ``frame``; None with fewer than two."""
+        if len(self._recent) < 2:
+            return None
+        return fuse_revolutions([scan_to_frame(s, p, frame) for s, p in self._recent])
 
     def check(self, states: list[State], plan: PlanRecord, scan_pose: Pose, goal: Pose, clean_scan: np.ndarray,
               tolerance: tuple[float, float], t: float) -> TimedRecord:
         """Test ``states`` (the running task first, then the queued ones) of ``plan``
         against the newest revolution, seen from ``scan_pose``; recorded at time ``t``."""
         t0, c0 = time.perf_counter(), time.thread_time()  # everything the check needs: it tests the raw points
-        if not self._recent or self._recent[-1][0] is not clean_scan:
-            self._recent.append((clean_scan, scan_pose))
-
-        def recent() -> np.ndarray | None:  # fused only when a shallow failure asks
-            if len(self._recent) < 2:
-                return None
-            return fuse_revolutions([scan_to_frame(s, p, scan_pose) for s, p in self._recent])
-
+        self._remember(clean_scan, scan_pose)
         verdict = self.alarms.check(states, plan.origin, scan_pose, goal, clean_scan, self.model, tolerance,
-                                    running=True, recent=recent)
+                                    running=True, recent=lambda: self._fused(scan_pose))  # fused only when asked
         rec = TimedRecord(t, time.perf_counter() - t0, verdict.ok, verdict.reason, time.thread_time() - c0)
         self.checks.append(rec)
         self.log("check", ok=rec.ok, duration_s=rec.duration_s, reason=rec.reason)

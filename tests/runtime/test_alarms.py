@@ -221,3 +221,28 @@ def test_a_shallow_check_failure_the_fused_revolutions_do_not_show_is_dismissed(
             assert "meets an obstacle" in verdicts[-1].reason, grazed  # every single revolution fails the check
         assert verdicts[0].ok  # seen once: not acted on
         assert [not v.ok for v in verdicts[1:]] == [stands] * 3, (grazed, [v.reason for v in verdicts])
+
+
+def test_the_supervisors_plan_check_hands_the_fused_revolutions_to_the_alarms() -> None:
+    """PlanWatch.check keeps each revolution where it was taken and fuses them when a
+    shallow failure asks: the noisy wall of the test above does not stop the plan."""
+    from types import SimpleNamespace
+
+    from formal.model import Disturbance, State
+    from runtime.supervision.planwatch import PlanWatch
+
+    step = State(1, TaskKind.STRAIGHT, Disturbance.goal(1.0, 0.0), None, Pose(0.0, 0.0), Pose(0.5, 0.0), distance=0.5)
+    o = Pose(0.0, 0.0, 0.0)
+    rng = np.random.default_rng(5)
+    watch = PlanWatch(M)
+    for _ in range(8):
+        watch.alarms.revolution(_wall_beside(0.2, 0.025, rng))
+    x = np.linspace(0.0, 0.6, 61)
+    oks = []
+    for k in range(4):
+        pts = np.c_[x, np.full(len(x), M.width / 2 + M.clearance + 0.015)]
+        pts[15 + 7 * k:18 + 7 * k, 1] -= 0.025  # three returns 2.5 cm short, other ones each revolution
+        watch.alarms.revolution(pts)
+        oks.append(watch.check([step], SimpleNamespace(origin=o), o, Pose(1.0, 0.0), pts, (0.08, 0.3), float(k)).ok)
+    assert oks == [True] * 4
+    assert any("fused" in c.reason for c in watch.checks)
