@@ -37,16 +37,16 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from formal.geometry import compose, relative  # noqa: E402
-from formal.model import Pose  # noqa: E402
-from planner import Configurator, load_scenario  # noqa: E402
-from planner.scenarios import parse_scenario  # noqa: E402
-from runtime.estimation import match_scans  # noqa: E402
-from runtime.experiment.layouts import make_layout  # noqa: E402
-from runtime.robots import make_world_robot  # noqa: E402
-from runtime.supervision.records import scan_to_frame  # noqa: E402
-from runtime.supervision import plancheck as pc  # noqa: E402
-from runtime.supervision.plancheck import RecallIndex, check_plan, perceive_near, perceive_scan, recall, resimulate_plan  # noqa: E402
+from clomp.formal.geometry import compose, relative  # noqa: E402
+from clomp.formal.model import Pose  # noqa: E402
+from clomp.planner import Configurator, load_scenario  # noqa: E402
+from clomp.planner.scenarios import parse_scenario  # noqa: E402
+from clomp.runtime.estimation import match_scans  # noqa: E402
+from clomp.runtime.experiment.layouts import make_layout  # noqa: E402
+from clomp.runtime.robots import make_world_robot  # noqa: E402
+from clomp.runtime.supervision.records import scan_to_frame  # noqa: E402
+from clomp.runtime.supervision import plancheck as pc  # noqa: E402
+from clomp.runtime.supervision.plancheck import RecallIndex, check_plan, perceive_near, perceive_scan, recall, resimulate_plan  # noqa: E402
 
 
 def _timed(fn: Any, *args: Any, repeat: int = 5) -> tuple[float, float, Any]:
@@ -82,7 +82,7 @@ def bench_check_and_recall(quick: bool) -> None:
     planner's closed-form geometry on the points) and a fresh plan perceives the scan and
     explores: each is timed for everything it needs. Perception alone, exploration alone
     and the former check (perceive the points near the plan, re-simulate each task with
-    ``planner.physics.simulate``) are printed beside them.
+    ``clomp.planner.physics.simulate``) are printed beside them.
     """
     conf = Configurator()
     robot = conf.robot
@@ -174,7 +174,7 @@ def bench_in_loop(quick: bool) -> None:
     """The same comparison as the supervisor meets it: every per-revolution check (on the
     remaining tasks, perceiving the points near them) and every recall (perceiving the
     fused scan) of closed-loop runs, against the fresh plans of the same runs."""
-    from runtime.experiment.runner import noise_seed, run_once
+    from clomp.runtime.experiment.runner import noise_seed, run_once
 
     checks: list[Any] = []
     fresh: list[Any] = []
@@ -213,7 +213,7 @@ def bench_in_loop(quick: bool) -> None:
 
 class _RecallPhases:
     """Section 1c: where the supervisor's successful in-loop recalls spend their thread CPU
-    time, by the functions of :mod:`runtime.supervision.plancheck` they call (wrapped for
+    time, by the functions of :mod:`clomp.runtime.supervision.plancheck` they call (wrapped for
     a second pass over the runs of 1b, so that 1b's own figures carry no wrapper; the
     wrappers' cost is in each recall's total, not in its parts)."""
 
@@ -240,7 +240,7 @@ class _RecallPhases:
         setattr(owner, name, timed)
 
     def __enter__(self) -> "_RecallPhases":
-        import runtime.supervision.planwatch as pw
+        import clomp.runtime.supervision.planwatch as pw
 
         for name in self.PARTS:
             owner, attr = (pc.RecallIndex, name.split(".")[1]) if name.startswith("RecallIndex.") else (pc, name)
@@ -362,7 +362,7 @@ def bench_matching(pairs: int) -> None:
 
 
 def bench_experiments(quick: bool) -> None:
-    from runtime.experiment.runner import run_experiment
+    from clomp.runtime.experiment.runner import run_experiment
 
     cases = [("overtaking", "paper", 20), ("overtaking", "harsh", 20), ("corridor", "harsh", 10),
              ("doorway", "harsh", 10), ("slalom", "harsh", 10)]
@@ -394,11 +394,11 @@ def bench_false_alarms(runs: int, noise: str = "harsh", family: str = "overtakin
     sensor's noise (range noise, jitter, dropouts, the skew of a moving revolution), not
     from what is there. The pose estimate's error is kept in both.
     """
-    from runtime.experiment.layouts import make_layout
-    from runtime.experiment.runner import SUCCESS_RADIUS, noise_seed
-    from runtime.experiment.world import make_robot
-    from runtime.supervision import Supervisor
-    from runtime.supervision.alarms import hazard_hits
+    from clomp.runtime.experiment.layouts import make_layout
+    from clomp.runtime.experiment.runner import SUCCESS_RADIUS, noise_seed
+    from clomp.runtime.experiment.world import make_robot
+    from clomp.runtime.supervision import Supervisor
+    from clomp.runtime.supervision.alarms import hazard_hits
 
     class Judged(Supervisor):
         """A supervisor that judges each of its alarms on the noise-free revolution."""

@@ -8,7 +8,7 @@
 Runs ``clomp experiment``'s planning condition in each mode on the same layouts and noise
 seeds, and prints each family's reach beside the issue's target:
 
-- ``scan``: the supervisor as shipped (scan-matched estimate, :mod:`runtime.estimation`);
+- ``scan``: the supervisor as shipped (scan-matched estimate, :mod:`clomp.runtime.estimation`);
 - ``none``: dead reckoning alone (``--feedback none``);
 - ``truth``: an ablation that no robot has — the supervisor's pose, and the pose its
   newest revolution is placed at, are the execution world's ground truth. What ``truth``
@@ -17,16 +17,16 @@ seeds, and prints each family's reach beside the issue's target:
   gain;
 - ``calibration``: another ablation — the scan-matched estimate as shipped, but its
   filter starts knowing the drive's systematic terms this run drew (each wheel's bias, the
-  heading drift, the mean slip: :meth:`~runtime.robots.world.WorldRobot.drive_truth`, as
+  heading drift, the mean slip: :meth:`~clomp.runtime.robots.world.WorldRobot.drive_truth`, as
   the filter's speed and turn scales, curvature and drift; with the gyro, its scale and
-  offset, :meth:`~runtime.robots.world.WorldRobot.gyro_truth`) to within 1e-4. What it gains
+  offset, :meth:`~clomp.runtime.robots.world.WorldRobot.gyro_truth`) to within 1e-4. What it gains
   over ``scan`` is what learning the wheels' calibration within the run could gain.
 
 Each line gives the runs reached (ground truth within 0.1 m of the goal), the median
 final error, how the misses ended (``believed``: the robot stopped believing it was at the
 goal; ``unreachable``: it gave up; ``other``) and the runs' thread CPU time. ``--term
 NAME`` runs every mode at ``paper`` noise with that one term raised to its ``harsh`` value
-(``runtime.robots.world.WorldNoise``'s fields): which of harsh's terms costs what.
+(``clomp.runtime.robots.world.WorldNoise``'s fields): which of harsh's terms costs what.
 """
 
 from __future__ import annotations
@@ -43,11 +43,11 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from formal.geometry import relative  # noqa: E402
-from formal.model import Pose  # noqa: E402
-from runtime.estimation.odometry import ScanOdometry  # noqa: E402
-from runtime.experiment.runner import RunSpec, noise_seed, run_once, scene_for  # noqa: E402
-from runtime.supervision import Supervisor  # noqa: E402
+from clomp.formal.geometry import relative  # noqa: E402
+from clomp.formal.model import Pose  # noqa: E402
+from clomp.runtime.estimation.odometry import ScanOdometry  # noqa: E402
+from clomp.runtime.experiment.runner import RunSpec, noise_seed, run_once, scene_for  # noqa: E402
+from clomp.runtime.supervision import Supervisor  # noqa: E402
 
 TARGETS = {("overtaking", "harsh"): "18/20", ("slalom", "harsh"): "9/10", ("corridor", "harsh"): "9/10",
            ("doorway", "harsh"): "9/10", ("overtaking", "paper"): "20/20"}
@@ -95,7 +95,7 @@ class _KnownWheels(ScanOdometry):
 
 
 def true_calibration(robot: Any, wheel_base: float) -> tuple[float, float, float, float]:
-    """The filter's (s, k, c, d) (:class:`~runtime.estimation.ekf.OdometryFilter`) for the
+    """The filter's (s, k, c, d) (:class:`~clomp.runtime.estimation.ekf.OdometryFilter`) for the
     world's drive: a straight's and a turn's speed is scaled by the wheels' mean bias less
     the mean slip, a straight curves by the bias difference over the wheel base, and the
     drift is the world's."""
@@ -126,8 +126,8 @@ class _CalibrationFed(Supervisor):
 
 def _one(args: tuple[str, int, int, str, str, str | None]) -> tuple[bool, float, str, float]:
     family, seed, run, preset, mode, term = args
-    import runtime.experiment.runner as runner
-    from runtime.robots.world import WorldNoise
+    import clomp.runtime.experiment.runner as runner
+    from clomp.runtime.robots.world import WorldNoise
 
     noise: str | WorldNoise = preset
     if term is not None:
@@ -162,7 +162,7 @@ def main() -> None:
     ap.add_argument("--modes", nargs="+", default=["scan", "none", "truth"], choices=["scan", "none", "truth", "calibration"])
     ap.add_argument("--term", default=None, help="paper noise with this one term at its harsh value")
     a = ap.parse_args()
-    from runtime.robots.world import WorldNoise
+    from clomp.runtime.robots.world import WorldNoise
 
     if a.term is not None and a.term not in WorldNoise.preset("paper").to_dict():
         ap.error(f"--term: one of {', '.join(WorldNoise.preset('paper').to_dict())}")

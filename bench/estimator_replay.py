@@ -8,7 +8,7 @@
 A closed-loop run's outcome (reached or not) depends on the estimate, the planner and the
 supervisor together, and 20 runs give a count whose noise hides a small change to the
 estimator. ``record`` runs the planning condition (scan feedback) and keeps, per run,
-exactly what :class:`~runtime.estimation.odometry.ScanOdometry` was given — every
+exactly what :class:`~clomp.runtime.estimation.odometry.ScanOdometry` was given — every
 ``reset``, ``advance`` (time, commanded wheel speeds) and ``update`` (the revolution: its
 points, timestamp and per-point times) — with the world's ground truth, in one ``.npz``
 per run (numbers only, no pickles). ``replay`` feeds the same inputs to an estimator built
@@ -42,12 +42,12 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from formal.geometry import compose, relative  # noqa: E402
-from formal.model import Pose  # noqa: E402
-from runtime.devices.frame import ScanFrame  # noqa: E402
-from runtime.estimation import odometry as odometry_module  # noqa: E402
-from runtime.estimation.ekf import OdometryFilter  # noqa: E402
-from runtime.estimation.odometry import ScanOdometry  # noqa: E402
+from clomp.formal.geometry import compose, relative  # noqa: E402
+from clomp.formal.model import Pose  # noqa: E402
+from clomp.runtime.devices.frame import ScanFrame  # noqa: E402
+from clomp.runtime.estimation import odometry as odometry_module  # noqa: E402
+from clomp.runtime.estimation.ekf import OdometryFilter  # noqa: E402
+from clomp.runtime.estimation.odometry import ScanOdometry  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from estimate_ceiling import true_calibration  # noqa: E402
@@ -82,10 +82,10 @@ class _Recorder(ScanOdometry):
 
 def _record_one(args: tuple[str, int, int, str, str]) -> str:
     family, seed, run, noise, folder = args
-    import runtime.supervision.supervisor as sup_module
-    from runtime.experiment.runner import RunSpec, _ground_truth_path, scene_for, noise_seed
-    from runtime.experiment.world import make_robot
-    from planner import Configurator
+    import clomp.runtime.supervision.supervisor as sup_module
+    from clomp.runtime.experiment.runner import RunSpec, _ground_truth_path, scene_for, noise_seed
+    from clomp.runtime.experiment.world import make_robot
+    from clomp.planner import Configurator
 
     scene, _ = scene_for(RunSpec(family, seed, run, "planning", noise))
     conf = Configurator()
@@ -121,7 +121,7 @@ def _record_one(args: tuple[str, int, int, str, str]) -> str:
 
 
 def _variant(spec: dict[str, Any]) -> ScanOdometry:
-    from planner.robot import RobotModel
+    from clomp.planner.robot import RobotModel
 
     odo = ScanOdometry(RobotModel().wheel_base, **spec.get("odometry", {}))
     if spec.get("filter"):
@@ -224,7 +224,7 @@ def main() -> None:
         if a.mode == "record":
             os.makedirs(a.dir, exist_ok=True)
             runs = a.runs if len(a.runs) == len(a.families) else [a.runs[0]] * len(a.families)
-            from runtime.experiment.runner import RunSpec, scene_for
+            from clomp.runtime.experiment.runner import RunSpec, scene_for
 
             for family in a.families:
                 try:
@@ -240,7 +240,7 @@ def main() -> None:
             spec = {n: json.loads(getattr(a, n)) for n in ("odometry", "filter", "match")}
             _variant(spec)  # a setting the estimator does not take is named here, not in a worker
             if spec["match"]:
-                from runtime.estimation.icp import match_scans
+                from clomp.runtime.estimation.icp import match_scans
 
                 match_scans(np.zeros((0, 2)), np.zeros((0, 2)), Pose(0.0, 0.0, 0.0), **spec["match"])
         except json.JSONDecodeError as exc:

@@ -31,8 +31,8 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from runtime.experiment.results import summarise  # noqa: E402
-from runtime.experiment.runner import load_records, run_experiment  # noqa: E402
+from clomp.runtime.experiment.results import summarise  # noqa: E402
+from clomp.runtime.experiment.runner import load_records, run_experiment  # noqa: E402
 
 
 def main() -> int:

@@ -4,8 +4,8 @@
                                         [--workers 2] [--variants default,signed,blind,step-0.5,window-1.0]
 
 Runs the reactive condition of ``clomp experiment`` (same layouts, noise seeds, ground
-truth and counter: :func:`runtime.experiment.runner.run_once`) for each variant of
-:class:`~runtime.experiment.reactive.ReactiveController`:
+truth and counter: :func:`clomp.runtime.experiment.runner.run_once`) for each variant of
+:class:`~clomp.runtime.experiment.reactive.ReactiveController`:
 
 - ``default``: the authors' task structure and sides as their code ran (``Disturbance::
   getAngle`` is acos: always avoids right, pursues left), a one-step (0.27 m) look-ahead;
@@ -39,9 +39,9 @@ from typing import Any
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from planner.robot import RobotModel  # noqa: E402
-from runtime.experiment.layouts import make_layout  # noqa: E402
-from runtime.experiment.runner import noise_seed, run_once  # noqa: E402
+from clomp.planner.robot import RobotModel  # noqa: E402
+from clomp.runtime.experiment.layouts import make_layout  # noqa: E402
+from clomp.runtime.experiment.runner import noise_seed, run_once  # noqa: E402
 
 VARIANTS: dict[str, dict[str, Any]] = {
     "default": {},

@@ -38,7 +38,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "tests" / "planner"))
 
-from planner import Configurator, load_scan  # noqa: E402
+from clomp.planner import Configurator, load_scan  # noqa: E402
 from sweepcheck import check_states  # noqa: E402
 
 DEFAULT_SCANS = ROOT.parent / "shared" / "data" / "scans" / "corridor-2023-10-25"

@@ -22,7 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
-from planner import Configurator, builtin_scenarios, load_scan, load_scenario
+from clomp.planner import Configurator, builtin_scenarios, load_scan, load_scenario
 
 DEFAULT_SCANS = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "scans" / "corridor-2023-10-25"
 

@@ -40,7 +40,7 @@ from pathlib import Path
 
 import numpy as np
 
-from planner import Configurator, builtin_scenarios, load_scan, load_scenario
+from clomp.planner import Configurator, builtin_scenarios, load_scan, load_scenario
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from workcount import calibration, callgrind_available, callgrind_counts, count_python, marked, p90, reference_numpy  # noqa: E402
@@ -208,7 +208,7 @@ def _load() -> str:
 
 def _callgrind_child(folders: list[Path]) -> None:
     """Under callgrind: plan each scan once through :func:`marked`, then perceive the 400-point scan."""
-    from planner.perception import perceive
+    from clomp.planner.perception import perceive
 
     conf = Configurator()
     conf.plan(np.zeros((0, 2)), (1.0, 0.0))
@@ -251,7 +251,7 @@ def _callgrind_report(folders: list[Path], anchor: dict[str, dict[str, str]]) ->
 def _perception_and_large(count: bool = False) -> None:
     import tracemalloc
 
-    from planner.perception import perceive
+    from clomp.planner.perception import perceive
 
     rng = np.random.default_rng(0)
     scan400 = _scan400(rng)  # then the same rng draws the large scans, as before

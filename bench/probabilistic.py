@@ -3,7 +3,7 @@ Storm's time to solve Pmax=? [!"collision" U "goal"] (with its scheduler) on it.
 
 Run: ``python bench/probabilistic.py [--scenario overtaking] [--samples 30] [--repeat 5]
 [--noise paper] [--no-carry]``. The map is the one the robust planner chooses on
-(:meth:`planner.robust.RobustConfigurator.probabilistic_map`: the supervisor's tolerance,
+(:meth:`clomp.planner.robust.RobustConfigurator.probabilistic_map`: the supervisor's tolerance,
 hazard stops, poses carried from task to task); ``--no-carry`` starts every rollout at the
 state's recorded end instead. Prints wall and thread CPU time (median of the repeats);
 asserts nothing.
@@ -15,9 +15,9 @@ import argparse
 import statistics
 import time
 
-from formal.robust import robust_plan
-from planner import load_scenario
-from planner.robust import RobustConfigurator
+from clomp.formal.robust import robust_plan
+from clomp.planner import load_scenario
+from clomp.planner.robust import RobustConfigurator
 
 
 def main(argv: list[str] | None = None) -> int:

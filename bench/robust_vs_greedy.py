@@ -3,9 +3,9 @@ without a collision, beside Storm's predicted probabilities.
 
 Run: ``python bench/robust_vs_greedy.py [--runs 50] [--families doorway clutter]
 [--noise harsh] [--samples 30] [--margin 0.1] [--retries 1] [--supervisor-hazard] [--workers K]``. Each run is one layout (family, seed 0,
-run k) of the experiment (:func:`runtime.experiment.layouts.make_layout`) driven by the
+run k) of the experiment (:func:`clomp.runtime.experiment.layouts.make_layout`) driven by the
 supervisor in the execution world at the given noise, once with the Configurator's
-best-first plans (greedy) and once with :class:`planner.robust.RobustConfigurator`
+best-first plans (greedy) and once with :class:`clomp.planner.robust.RobustConfigurator`
 (Storm's scheduler on a map of ``--samples`` noisy rollouts per choice, the same noise
 preset, executed as a policy, replanning robustly). The two conditions of a run meet
 the same layout, world and noise seed (paired), and each plan of either condition is
@@ -13,7 +13,7 @@ predicted on a probabilistic map sampled with the same seeds.
 
 Success: the robot truly ends within the experiment's success radius of the goal
 (ground truth) with no collision episode. Storm's predictions are per plan:
-``P[!collision U target]`` with the target of :func:`planner.robust.plan_target`
+``P[!collision U target]`` with the target of :func:`clomp.planner.robust.plan_target`
 (the goal within 0.1 m, or, beyond the sensed disc, a frontier as close as the
 best-first plan gets); they are set beside the observed rate at which a fresh plan was
 carried to its end (the supervisor's ``plan done`` before the next fresh plan; a recall
@@ -31,13 +31,13 @@ from collections.abc import Iterator
 from concurrent.futures import ProcessPoolExecutor
 from typing import Any
 
-from planner.configurator import Configurator, PlanResult
-from planner.probabilistic import HazardRule, RolloutNoise
-from planner.robust import SUPERVISOR_HAZARD, RobustConfigurator
-from runtime.experiment.layouts import make_layout
-from runtime.experiment.runner import run_once
-from runtime.experiment.stats import mcnemar, wilson
-from runtime.supervision.machine import Event, SupervisorState
+from clomp.planner.configurator import Configurator, PlanResult
+from clomp.planner.probabilistic import HazardRule, RolloutNoise
+from clomp.planner.robust import SUPERVISOR_HAZARD, RobustConfigurator
+from clomp.runtime.experiment.layouts import make_layout
+from clomp.runtime.experiment.runner import run_once
+from clomp.runtime.experiment.stats import mcnemar, wilson
+from clomp.runtime.supervision.machine import Event, SupervisorState
 
 NAMES = ("greedy", "robust")
 
@@ -173,12 +173,12 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     ap.add_argument("--routes", type=int, default=1, help="RobustConfigurator's routes (default 1)")
     ap.add_argument("--frontier-slack", type=float, default=0.03, help="RobustConfigurator's frontier_slack (default 0.03 m)")
     ap.add_argument("--preset-noise", action="store_true",
-                    help="sample with the preset's own terms (default: planner.robust.rollout_noise(NOISE), the terms measured "
+                    help="sample with the preset's own terms (default: clomp.planner.robust.rollout_noise(NOISE), the terms measured "
                          "in the world's closed loop)")
     ap.add_argument("--no-confirm", action="store_true",
                     help="take the scheduler's deviations without the second look on fresh rollouts (RobustConfigurator(confirm=False))")
     ap.add_argument("--retries", type=int, default=1,
-                    help="stops retried in Storm's objective, as the supervisor replans after one (formal.retry; default 1; 0: a stop is final)")
+                    help="stops retried in Storm's objective, as the supervisor replans after one (clomp.formal.retry; default 1; 0: a stop is final)")
     ap.add_argument("--supervisor-hazard", action="store_true",
                     help="interrupt rollouts with the supervisor's noise allowance (HazardRule.supervisor: deep alarms at once, "
                          "shallow ones when the revolution before raised one; default: any 2 points inside the body)")

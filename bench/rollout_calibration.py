@@ -6,11 +6,11 @@ Run: ``python bench/rollout_calibration.py [--runs 20] [--families doorway clutt
 supervisor (scan feedback on), each run's log read back; for every task that ended by
 its own criterion, the truth's motion against the estimate's (what the supervisor
 believed it did): a turn's relative angle error, a straight's relative length error and
-its sideways error per metre. Rollouts: :func:`planner.probabilistic.sample_map`'s
-noisy rollouts (:class:`planner.probabilistic.RolloutNoise` of the same preset) of a
+its sideways error per metre. Rollouts: :func:`clomp.planner.probabilistic.sample_map`'s
+noisy rollouts (:class:`clomp.planner.probabilistic.RolloutNoise` of the same preset) of a
 90° turn and a straight to the rim in an empty scene, against the noise-free task, with
 the preset's terms and with the closed-loop terms fitted to the world
-(:data:`planner.robust.CLOSED_LOOP_TERMS`).
+(:data:`clomp.planner.robust.CLOSED_LOOP_TERMS`).
 Prints mean and standard deviation of each; asserts nothing.
 """
 
@@ -25,16 +25,16 @@ import time
 
 import numpy as np
 
-from formal.geometry import wrap_angle
-from formal.model import Disturbance, Pose, TaskKind
-from planner import Configurator
-from planner.perception import perceive
-from planner.physics import simulate
-from planner.probabilistic import RolloutNoise, _rollout, _World
-from planner.robust import closed_loop_noise
-from planner.robot import RobotModel
-from runtime.experiment.layouts import make_layout
-from runtime.experiment.runner import run_once
+from clomp.formal.geometry import wrap_angle
+from clomp.formal.model import Disturbance, Pose, TaskKind
+from clomp.planner import Configurator
+from clomp.planner.perception import perceive
+from clomp.planner.physics import simulate
+from clomp.planner.probabilistic import RolloutNoise, _rollout, _World
+from clomp.planner.robust import closed_loop_noise
+from clomp.planner.robot import RobotModel
+from clomp.runtime.experiment.layouts import make_layout
+from clomp.runtime.experiment.runner import run_once
 
 
 def world_errors(families: list[str], runs: int, noise: str) -> dict[str, list[float]]:
@@ -115,7 +115,7 @@ def main(argv: list[str] | None = None) -> int:
     fitted = rollout_errors(closed_loop_noise(args.noise), args.samples, args.seed)
     print(f"task end errors at noise {args.noise}: execution world ({', '.join(args.families)}, {args.runs} runs each; "
           f"truth against the supervisor's estimate) beside {args.samples} sampled rollouts (against the noise-free task) "
-          f"of the preset and of planner.robust.closed_loop_noise({args.noise!r})")
+          f"of the preset and of clomp.planner.robust.closed_loop_noise({args.noise!r})")
     print(f"  {'error':<32} {'world n':>8} {'mean':>8} {'sd':>8}   {'preset mean':>11} {'sd':>8}   {'closed-loop mean':>16} {'sd':>8}")
     names = {"turn": "turn angle, relative", "length": "straight length, relative", "sideways": "straight sideways, per metre"}
     for key, label in names.items():

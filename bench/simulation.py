@@ -17,9 +17,9 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from planner import load_scenario  # noqa: E402
-from runtime.experiment.runner import run_once  # noqa: E402
-from runtime.robots.sim import SimRobot  # noqa: E402
+from clomp.planner import load_scenario  # noqa: E402
+from clomp.runtime.experiment.runner import run_once  # noqa: E402
+from clomp.runtime.robots.sim import SimRobot  # noqa: E402
 
 
 def bare(seconds: float = 60.0) -> float:

@@ -3,10 +3,13 @@
 Knows nothing of physics: states, transitions, the plan ρ, the guard Ψ and the reset R.
 """
 
-from formal.lts import FORMAT_VERSION, CognitiveMap, MapError, Transition
-from formal.model import Disturbance, DisturbanceKind, Pose, State, TaskKind
-from formal.invariants import Invariant, InvariantError, Violation, assert_map_valid, check_map
-from formal.supervisory import Guard, Plan, Reset, ResetUndefined, extract_plan, guard, plan_end, reset
+if __name__ != "clomp.formal":  # the repository keeps formal/ at the top; it is installed only as clomp.formal
+    raise ImportError(f"{__name__} is part of clomp: import clomp.formal, not {__name__}")
+
+from clomp.formal.lts import FORMAT_VERSION, CognitiveMap, MapError, Transition
+from clomp.formal.model import Disturbance, DisturbanceKind, Pose, State, TaskKind
+from clomp.formal.invariants import Invariant, InvariantError, Violation, assert_map_valid, check_map
+from clomp.formal.supervisory import Guard, Plan, Reset, ResetUndefined, extract_plan, guard, plan_end, reset
 
 __all__ = [
     "CognitiveMap",

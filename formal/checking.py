@@ -32,9 +32,9 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from formal.export import ExportModel, ModelKind, export_model, write_drn, write_prism
-from formal.invariants import map_plan
-from formal.lts import CognitiveMap, MapError
+from clomp.formal.export import ExportModel, ModelKind, export_model, write_drn, write_prism
+from clomp.formal.invariants import map_plan
+from clomp.formal.lts import CognitiveMap, MapError
 
 __all__ = [
     "SpecError",
@@ -224,8 +224,7 @@ def read_properties(path: str | os.PathLike[str]) -> PropertyFile:
 
 def default_property_files() -> list[Path]:
     """The property files shipped in ``specs/properties/``."""
-    import specs
-
+    from clomp import specs
     folder = Path(specs.__file__).resolve().parent / "properties"
     return sorted(folder.glob("*.pctl"))
 
@@ -253,7 +252,7 @@ class StormModel:
 
     def reachable(self) -> list[int]:
         """Storm states reachable from the initial states, sorted (a DRN file's
-        :data:`~formal.export.LABEL_HOLDER` state is not among them)."""
+        :data:`~clomp.formal.export.LABEL_HOLDER` state is not among them)."""
         seen = {int(s) for s in self.model.initial_states}
         stack = list(seen)
         while stack:

@@ -19,10 +19,10 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
-from formal.checking import PropertyFile, check_properties, default_property_files, load_storm_model, read_properties
-from formal.export import ExportModel, ModelKind, export_model, write_drn, write_prism
-from formal.lts import CognitiveMap
-from formal.prism import check_with_prism
+from clomp.formal.checking import PropertyFile, check_properties, default_property_files, load_storm_model, read_properties
+from clomp.formal.export import ExportModel, ModelKind, export_model, write_drn, write_prism
+from clomp.formal.lts import CognitiveMap
+from clomp.formal.prism import check_with_prism
 
 __all__ = ["AGREEMENT", "LOADS", "CrossCheck", "cross_check", "values_agree"]
 

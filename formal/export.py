@@ -1,6 +1,6 @@
 """Exporters: one intermediate model extracted from a cognitive map, then renderers.
 
-:func:`export_model` (:mod:`formal.export_model`) extracts the intermediate model; the
+:func:`export_model` (:mod:`clomp.formal.export_model`) extracts the intermediate model; the
 renderers below print it.
 
 
@@ -24,9 +24,9 @@ from fractions import Fraction
 from pathlib import Path
 from typing import IO, Any
 
-from formal.export_model import LABELS, STAY, Choice, ExportError, ExportModel, ModelKind, export_model
-from formal.lts import CognitiveMap
-from formal.model import State
+from clomp.formal.export_model import LABELS, STAY, Choice, ExportError, ExportModel, ModelKind, export_model
+from clomp.formal.lts import CognitiveMap
+from clomp.formal.model import State
 
 __all__ = [
     "ModelKind",

@@ -16,7 +16,7 @@ interrupted), ``collision`` (interrupted, D_N ≠ ∅), ``plan`` (states of ρ) 
 Configurator found a way). Rewards ``distance`` (metres) and ``time`` (seconds) are
 earned on choices: the expected distance / duration of the task started.
 
->>> from formal.model import Disturbance, Pose, State
+>>> from clomp.formal.model import Disturbance, Pose, State
 >>> g = Disturbance.goal(1.0, 0.0)
 >>> cmap = CognitiveMap(goal=g)
 >>> q0 = cmap.add_state(State(0, TaskKind.STRAIGHT, g, None, Pose(0, 0), Pose(0, 0)))
@@ -34,9 +34,9 @@ from fractions import Fraction
 from collections.abc import Mapping
 from typing import Any, Literal
 
-from formal.lts import CognitiveMap, MapError
-from formal.model import State, TaskKind
-from formal.supervisory import Guard, Plan
+from clomp.formal.lts import CognitiveMap, MapError
+from clomp.formal.model import State, TaskKind
+from clomp.formal.supervisory import Guard, Plan
 
 __all__ = ["Choice", "ExportError", "ExportModel", "LABELS", "ModelKind", "STAY", "export_model"]
 
@@ -118,7 +118,7 @@ def export_model(cmap: CognitiveMap, kind: ModelKind = "mdp", plan: Plan | None 
     :class:`ExportError` for an empty map, a map without q0, a distribution that does not
     sum to 1, or (for the DTMC) a guard that enables two tasks in one state.
     """
-    from formal.invariants import map_plan
+    from clomp.formal.invariants import map_plan
 
     if kind not in ("mdp", "dtmc"):
         raise ExportError(f"unknown model kind {kind!r}: expected 'mdp' or 'dtmc'")

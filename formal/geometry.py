@@ -1,6 +1,6 @@
 """Planar geometry of a differential-drive robot: the one place for frames and motion.
 
-Poses are :class:`formal.model.Pose` (x forward, y left, theta counter-clockwise, in
+Poses are :class:`clomp.formal.model.Pose` (x forward, y left, theta counter-clockwise, in
 metres and radians). Everything in clomp that composes frames, wraps angles or moves a
 pose by wheel speeds uses these functions; nothing else re-implements them (a test scans
 the source for it).
@@ -11,7 +11,7 @@ the source for it).
 - :func:`arc_step` / :func:`drive` — the exact motion of a unicycle at constant linear speed
   ``v`` and turn rate ``w`` over ``dt`` (a circular arc, a straight line when ``w`` = 0).
 
->>> from formal.model import Pose
+>>> from clomp.formal.model import Pose
 >>> p = compose(Pose(1.0, 0.0, math.pi / 2), Pose(2.0, 0.0))
 >>> round(p.x, 9), round(p.y, 9), round(p.theta, 9)
 (1.0, 2.0, 1.570796327)
@@ -26,7 +26,7 @@ import math
 
 import numpy as np
 
-from formal.model import Pose
+from clomp.formal.model import Pose
 
 __all__ = [
     "arc_step",

@@ -14,7 +14,7 @@ property fails and *where*, not just that something is wrong. The invariants are
 6. ``PROBABILITY`` — for every (state, task) the outgoing probabilities are in (0, 1] and
    sum to exactly 1.
 
->>> from formal.model import Disturbance, Pose, State, TaskKind
+>>> from clomp.formal.model import Disturbance, Pose, State, TaskKind
 >>> g = Disturbance.goal(1.0, 0.0)
 >>> m = CognitiveMap.from_parts(
 ...     [State(0, TaskKind.STRAIGHT, g, None, Pose(0, 0), Pose(0, 0), cost=0.5),
@@ -32,9 +32,9 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from fractions import Fraction
 
-from formal.lts import CognitiveMap, MapError, Transition
-from formal.model import TaskKind
-from formal.supervisory import Plan, extract_plan, guard
+from clomp.formal.lts import CognitiveMap, MapError, Transition
+from clomp.formal.model import TaskKind
+from clomp.formal.supervisory import Plan, extract_plan, guard
 
 __all__ = [
     "Invariant",
@@ -110,10 +110,10 @@ def check_map(
     """Every violated invariant of ``cmap``, in invariant order; [] when the map is good.
 
     ``plan`` defaults to :func:`map_plan`; ``psi`` (a table Transition → {0, 1}) defaults
-    to :func:`~formal.supervisory.guard` of that plan. Passing the ``psi`` a planner
+    to :func:`~clomp.formal.supervisory.guard` of that plan. Passing the ``psi`` a planner
     produced checks that table instead of one computed here.
 
-    >>> from formal.model import Disturbance, Pose, State, TaskKind
+    >>> from clomp.formal.model import Disturbance, Pose, State, TaskKind
     >>> g = Disturbance.goal(1.0, 0.0)
     >>> m = CognitiveMap(goal=g)
     >>> _ = m.add_state(State(0, TaskKind.STRAIGHT, g, None, Pose(0, 0), Pose(0, 0), cost=0.5))
@@ -148,7 +148,7 @@ def assert_map_valid(cmap: CognitiveMap, plan: Plan | None = None, psi: Mapping[
     >>> assert_map_valid(CognitiveMap())
     Traceback (most recent call last):
     ...
-    formal.invariants.InvariantError: ...the map is empty...
+    clomp.formal.invariants.InvariantError: ...the map is empty...
     """
     violations = check_map(cmap, plan, psi)
     if violations:

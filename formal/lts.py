@@ -1,6 +1,6 @@
 """The cognitive map G = (Q, ↪): an explicit labelled transition system.
 
-States are :class:`~formal.model.State` records keyed by their ident; transitions are
+States are :class:`~clomp.formal.model.State` records keyed by their ident; transitions are
 labelled with the task kind of their target (the task the Configurator starts when it
 takes the transition). The map holds the goal D_G it was built for and exactly one
 initial state q0. Iteration is always in a stable order (states by ident, transitions
@@ -19,7 +19,7 @@ from typing import IO, Any
 
 import numpy as np
 
-from formal.model import Disturbance, State, TaskKind
+from clomp.formal.model import Disturbance, State, TaskKind
 
 __all__ = ["Transition", "CognitiveMap", "MapError", "FORMAT_VERSION"]
 
@@ -87,7 +87,7 @@ _ORDER = operator.attrgetter("source", "target", "label")
 # object.__setattr__ per field): the same record, for the maps the planner grows
 _T_SETTERS = tuple(Transition.__dict__[name].__set__ for name in ("source", "target", "label", "probability"))
 if tuple(f.name for f in fields(Transition)) != ("source", "target", "label", "probability"):  # pragma: no cover
-    raise ImportError("formal.lts: _transition() names Transition's fields in another order than Transition has them")
+    raise ImportError("clomp.formal.lts: _transition() names Transition's fields in another order than Transition has them")
 _set_source, _set_target, _set_label, _set_probability = _T_SETTERS
 _new = object.__new__
 
@@ -120,7 +120,7 @@ def _json_ready(value: Any) -> Any:
 class CognitiveMap:
     """An explicit labelled transition system of simulated task outcomes.
 
-    >>> from formal.model import Pose, State, TaskKind, Disturbance
+    >>> from clomp.formal.model import Pose, State, TaskKind, Disturbance
     >>> g = Disturbance.goal(1.0, 0.0)
     >>> m = CognitiveMap(goal=g)
     >>> q0 = m.add_state(State(0, TaskKind.STRAIGHT, g, None, Pose(0, 0), Pose(0, 0)))

@@ -5,8 +5,8 @@ its events (each *controllable* — the supervisor decides it: starting a task, 
 the wheels — or *uncontrollable* — the world does: a scan, a collision, a fault, a task
 ending), the transitions with their guards (named conditions, described in
 :attr:`Machine.guards`), and in which states the wheels may turn. The runtime's
-supervisor executes this table (``runtime.supervision.machine`` reads it), and the
-renderers draw it through :func:`machine_model`, an :class:`~formal.export.ExportModel`
+supervisor executes this table (``clomp.runtime.supervision.machine`` reads it), and the
+renderers draw it through :func:`machine_model`, an :class:`~clomp.formal.export.ExportModel`
 like a cognitive map's, so PRISM, DRN, explicit files and DOT all come from one place.
 
 Ramadge & Wonham: the robot is the *plant* :data:`PLANT` (what can physically happen,
@@ -204,7 +204,7 @@ SUPERVISOR = Machine(
         *(_T(s, e.name, s) for s in _TERMINAL for e in _EVENTS if not e.controllable),
     ),
 )
-"""The supervisor's machine: the table ``runtime.supervision`` executes."""
+"""The supervisor's machine: the table ``clomp.runtime.supervision`` executes."""
 
 PLANT = Machine(
     name="robot",
@@ -332,19 +332,19 @@ class MachineNode:
 
 def machine_model(sup: Machine = SUPERVISOR, plant: Machine | None = PLANT, remember_last: bool | None = None) -> Any:
     """The closed loop sup × plant (``plant=None``: the supervisor alone) as an
-    :class:`~formal.export.ExportModel`, an MDP whose actions are the events. With
+    :class:`~clomp.formal.export.ExportModel`, an MDP whose actions are the events. With
     ``remember_last`` (default: when a plant is given) each state also remembers the
     event that led to it, so that properties can speak of what follows an event.
     Labels: ``init``, ``motors`` (the machine lets the wheels turn), ``driving`` (the
     plant runs a task), ``after_fault``, ``terminal``, and the machine's states in lower
-    case. The renderers of :mod:`formal.export` draw it like a cognitive map.
+    case. The renderers of :mod:`clomp.formal.export` draw it like a cognitive map.
 
     >>> m = machine_model(SUPERVISOR, None)
     >>> m.n_states, sorted(m.states[k].name for k in m.labels["motors"])
     (7, ['EXECUTING'])
     """
-    from formal.export import STAY, Choice, ExportModel
-    from formal.supervisory import Plan
+    from clomp.formal.export import STAY, Choice, ExportModel
+    from clomp.formal.supervisory import Plan
 
     last_too = plant is not None if remember_last is None else remember_last
     ts = sup.table()
@@ -395,8 +395,7 @@ def machine_model(sup: Machine = SUPERVISOR, plant: Machine | None = PLANT, reme
 
 def machine_property_file() -> Any:
     """``specs/properties/supervisor/machine.pctl``: what the closed loop must satisfy."""
-    import specs
-
+    from clomp import specs
     from pathlib import Path
 
     return Path(specs.__file__).resolve().parent / "properties" / "supervisor" / "machine.pctl"
@@ -404,8 +403,8 @@ def machine_property_file() -> Any:
 
 def check_machine(sup: Machine = SUPERVISOR, plant: Machine = PLANT, via: str = "drn") -> list[Any]:
     """Storm's verdict on every property of :func:`machine_property_file` for the closed
-    loop of ``sup`` and ``plant`` (a list of :class:`~formal.checking.CheckResult`)."""
-    from formal.checking import build_storm_model, check_properties, read_properties
+    loop of ``sup`` and ``plant`` (a list of :class:`~clomp.formal.checking.CheckResult`)."""
+    from clomp.formal.checking import build_storm_model, check_properties, read_properties
 
     pf = read_properties(machine_property_file())
     return check_properties(build_storm_model(machine_model(sup, plant), via=via), pf)

@@ -244,7 +244,7 @@ def new_pose(x: float, y: float, theta: float) -> Pose:
 # the slots' own setters, in field order: :func:`new_state` builds a State with them
 _STATE_FIELDS = ("ident", "task", "d_i", "d_n", "start", "end", "distance", "duration", "cost", "reached_goal", "extra")
 if tuple(f.name for f in fields(State)) != _STATE_FIELDS:  # pragma: no cover - a guard for whoever edits State
-    raise ImportError("formal.model: new_state() names State's fields in another order than State has them")
+    raise ImportError("clomp.formal.model: new_state() names State's fields in another order than State has them")
 (_set_ident, _set_task, _set_d_i, _set_d_n, _set_start, _set_end, _set_distance, _set_duration, _set_cost,
  _set_reached_goal, _set_extra) = (State.__dict__[name].__set__ for name in _STATE_FIELDS)
 

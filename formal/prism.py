@@ -23,8 +23,8 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from formal.export import ExportModel, ModelKind, export_model, prism_import_args, write_prism, write_prism_explicit
-from formal.lts import CognitiveMap, MapError
+from clomp.formal.export import ExportModel, ModelKind, export_model, prism_import_args, write_prism, write_prism_explicit
+from clomp.formal.lts import CognitiveMap, MapError
 
 __all__ = ["PrismMissing", "PrismError", "PrismResult", "find_prism", "require_prism", "run_prism", "check_with_prism", "ENV_VAR"]
 

@@ -6,7 +6,7 @@ every interruption as a failure. The runtime does not: when the supervisor's sca
 stops a task (a *stop*, not a contact), it replans from where the robot stands, and
 most such stops under range noise are false alarms that the next plan gets through.
 
-:func:`retry_model` turns an :class:`~formal.export_model.ExportModel` into the model
+:func:`retry_model` turns an :class:`~clomp.formal.export_model.ExportModel` into the model
 the runtime executes: a product of the model with a retry counter ``r = 0 … retries``.
 A stop state reached with ``r < retries`` left is not final: its one choice ``retry``
 goes back into the map, to the state the interrupted task started from (the stop pose
@@ -23,9 +23,9 @@ bounded. With ``retries=0`` the model is the input itself, and the value of
 ``!"collision" U "goal"`` never decreases with more retries (a retried stop can only
 lead on to the goal, where the stop alone was a failure).
 
->>> from formal.lts import CognitiveMap
->>> from formal.model import Disturbance, DisturbanceKind, Pose, State, TaskKind
->>> from formal.export_model import export_model
+>>> from clomp.formal.lts import CognitiveMap
+>>> from clomp.formal.model import Disturbance, DisturbanceKind, Pose, State, TaskKind
+>>> from clomp.formal.export_model import export_model
 >>> g = Disturbance.goal(1.0, 0.0)
 >>> box = Disturbance(DisturbanceKind.OBSTACLE, 0.5, 0.0)
 >>> m = CognitiveMap(goal=g)
@@ -48,7 +48,7 @@ from collections.abc import Mapping
 from dataclasses import replace
 from fractions import Fraction
 
-from formal.export_model import STAY, Choice, ExportError, ExportModel
+from clomp.formal.export_model import STAY, Choice, ExportError, ExportModel
 
 __all__ = ["RETRY", "STOP_LABEL", "STOPS_KEY", "retry_model", "map_stops"]
 

@@ -32,13 +32,13 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
-from formal.checking import require_stormpy
-from formal.export import ExportModel, ModelKind, export_model, write_drn
-from formal.invariants import map_plan
-from formal.lts import CognitiveMap, MapError
-from formal.model import TaskKind
-from formal.retry import STOPS_KEY, map_stops, retry_model
-from formal.supervisory import Plan
+from clomp.formal.checking import require_stormpy
+from clomp.formal.export import ExportModel, ModelKind, export_model, write_drn
+from clomp.formal.invariants import map_plan
+from clomp.formal.lts import CognitiveMap, MapError
+from clomp.formal.model import TaskKind
+from clomp.formal.retry import STOPS_KEY, map_stops, retry_model
+from clomp.formal.supervisory import Plan
 
 __all__ = [
     "SAFE_GOAL",
@@ -120,10 +120,10 @@ def robust_plan(
     safer by more than ``margin``. ``probability`` is then the value of the policy that
     is returned (equal to Storm's Pmax when ``margin`` is 0). ``retries``: a stop of the
     map's ``metadata["stops"]`` is retried up to that many times, as the supervisor
-    replans after one (:func:`formal.retry.retry_model`); the policy is the scheduler's
+    replans after one (:func:`clomp.formal.retry.retry_model`); the policy is the scheduler's
     choice with every retry still left (the one a fresh plan starts with).
 
-    >>> from formal.model import Disturbance, Pose, State
+    >>> from clomp.formal.model import Disturbance, Pose, State
     >>> g = Disturbance.goal(1.0, 0.0)
     >>> m = CognitiveMap.from_parts(
     ...     [State(0, TaskKind.STRAIGHT, g, None, Pose(0, 0), Pose(0, 0), cost=0.5),
@@ -147,7 +147,7 @@ def robust_plan(
     choice: dict[int, TaskKind] = {}
     kept = False
     for k, s in enumerate(m.states):
-        if s.ident not in cmap:  # a copy with fewer retries left (formal.retry)
+        if s.ident not in cmap:  # a copy with fewer retries left (clomp.formal.retry)
             continue
         row = m.choices[k]
         j = int(sched.get_choice(k).get_deterministic_choice())
@@ -175,7 +175,7 @@ def policy_probability(cmap: CognitiveMap, scheduler: Mapping[int, TaskKind], ta
     when each state starts only the task ``scheduler`` names (others: absorbing), by Storm;
     ``retries`` as in :func:`robust_plan`.
 
-    >>> from formal.model import Disturbance, Pose, State
+    >>> from clomp.formal.model import Disturbance, Pose, State
     >>> g = Disturbance.goal(1.0, 0.0)
     >>> m = CognitiveMap.from_parts(
     ...     [State(0, TaskKind.STRAIGHT, g, None, Pose(0, 0), Pose(0, 0)),
@@ -205,7 +205,7 @@ def policy_path(cmap: CognitiveMap, scheduler: Mapping[int, TaskKind], source: i
     then its most likely outcome (ties: the lower ident), until an interrupted or goal
     state (or one of ``stop``), a state without a choice, or a state seen before.
 
-    >>> from formal.model import Disturbance, Pose, State
+    >>> from clomp.formal.model import Disturbance, Pose, State
     >>> g = Disturbance.goal(1.0, 0.0)
     >>> m = CognitiveMap.from_parts(
     ...     [State(0, TaskKind.STRAIGHT, g, None, Pose(0, 0), Pose(0, 0)),
@@ -240,7 +240,7 @@ def path_probability(cmap: CognitiveMap, plan: Plan, target: Iterable[int] | Non
     last state is a goal state (none of its states interrupted), else 0. At most the
     policy's value, which also counts the other outcomes from which the goal is reached.
 
-    >>> from formal.model import Disturbance, Pose, State
+    >>> from clomp.formal.model import Disturbance, Pose, State
     >>> g = Disturbance.goal(1.0, 0.0)
     >>> m = CognitiveMap.from_parts(
     ...     [State(0, TaskKind.STRAIGHT, g, None, Pose(0, 0), Pose(0, 0)),
@@ -263,7 +263,7 @@ def policy_states(cmap: CognitiveMap, scheduler: dict[int, TaskKind]) -> list[in
     """The states the policy can visit from q0 (every outcome of each chosen task, not
     just the most likely one), sorted; where it acts, ``scheduler`` names the task.
 
-    >>> from formal.model import Disturbance, Pose, State
+    >>> from clomp.formal.model import Disturbance, Pose, State
     >>> g = Disturbance.goal(1.0, 0.0)
     >>> m = CognitiveMap.from_parts(
     ...     [State(0, TaskKind.STRAIGHT, g, None, Pose(0, 0), Pose(0, 0)),
@@ -317,7 +317,7 @@ def follow_tasks(cmap: CognitiveMap, tasks: list[TaskKind]) -> Plan:
     choice does not exist. This is how a plan made on another map (e.g. the nominal,
     noise-free one) is carried onto a probabilistic map whose outcomes differ.
 
-    >>> from formal.model import Disturbance, Pose, State
+    >>> from clomp.formal.model import Disturbance, Pose, State
     >>> g = Disturbance.goal(1.0, 0.0)
     >>> m = CognitiveMap.from_parts(
     ...     [State(0, TaskKind.STRAIGHT, g, None, Pose(0, 0), Pose(0, 0)),

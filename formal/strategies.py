@@ -2,12 +2,12 @@
 
 :func:`cognitive_maps` grows a map by hand the way Algorithm 1 grows one, so that an
 exporter, a checker or a supervisor can be property-tested on maps that hold every
-invariant of :func:`formal.check_map` — with ``probabilistic=True`` a task may have several
+invariant of :func:`clomp.formal.check_map` — with ``probabilistic=True`` a task may have several
 outcomes (the probabilities of each choice sum to 1). Maps planned in generated scenes
-are :func:`planner.strategies.planned_maps`. Requires ``hypothesis``.
+are :func:`clomp.planner.strategies.planned_maps`. Requires ``hypothesis``.
 
 >>> from hypothesis import given, settings
->>> from formal import check_map
+>>> from clomp.formal import check_map
 >>> @settings(max_examples=10, deadline=None)
 ... @given(cognitive_maps(probabilistic=True))
 ... def test_grown_maps_are_valid(m):
@@ -21,8 +21,8 @@ from fractions import Fraction
 
 from hypothesis import strategies as st
 
-from formal.lts import CognitiveMap
-from formal.model import Disturbance, DisturbanceKind, Pose, State, TaskKind
+from clomp.formal.lts import CognitiveMap
+from clomp.formal.model import Disturbance, DisturbanceKind, Pose, State, TaskKind
 
 __all__ = ["GOAL", "OBSTACLE", "cognitive_maps"]
 

@@ -13,8 +13,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
-from formal.lts import CognitiveMap, MapError, Transition
-from formal.model import Disturbance, State, TaskKind
+from clomp.formal.lts import CognitiveMap, MapError, Transition
+from clomp.formal.model import Disturbance, State, TaskKind
 
 __all__ = ["Plan", "ResetUndefined", "Guard", "Reset", "guard", "reset", "reset_from", "plan_end", "extract_plan", "plan_tasks"]
 
@@ -74,7 +74,7 @@ def reset_from(source: State, goal: Disturbance | None) -> Disturbance:
     :class:`ResetUndefined` when ``source`` was interrupted (D_N ≠ ∅) and
     :class:`MapError` when there is no goal.
 
-    >>> from formal.model import Pose, TaskKind
+    >>> from clomp.formal.model import Pose, TaskKind
     >>> g = Disturbance.goal(1.0, 0.0)
     >>> reset_from(State(0, TaskKind.STRAIGHT, g, None, Pose(0, 0), Pose(0, 0)), g) == g
     True
@@ -82,7 +82,7 @@ def reset_from(source: State, goal: Disturbance | None) -> Disturbance:
     >>> reset_from(hit, g)
     Traceback (most recent call last):
     ...
-    formal.supervisory.ResetUndefined: R(q1, ·) is undefined: q1 was interrupted (D_N ≠ ∅)
+    clomp.formal.supervisory.ResetUndefined: R(q1, ·) is undefined: q1 was interrupted (D_N ≠ ∅)
     """
     if source.interrupted:
         raise ResetUndefined(f"R(q{source.ident}, ·) is undefined: q{source.ident} was interrupted (D_N ≠ ∅)")
@@ -98,7 +98,7 @@ def reset(cmap: CognitiveMap, source: int, target: int) -> Disturbance:
     the map's goal D_G. Raises :class:`ResetUndefined` when the source was interrupted
     and :class:`MapError` when there is no such transition or the map has no goal.
 
-    >>> from formal.model import Pose
+    >>> from clomp.formal.model import Pose
     >>> g = Disturbance.goal(1.0, 0.0)
     >>> m = CognitiveMap(goal=g)
     >>> _ = m.add_state(State(0, TaskKind.STRAIGHT, g, None, Pose(0, 0), Pose(0, 0)))
@@ -115,7 +115,7 @@ def reset(cmap: CognitiveMap, source: int, target: int) -> Disturbance:
 def guard(cmap: CognitiveMap, plan: Plan) -> dict[Transition, int]:
     """Ψ: every transition of the map mapped to 1 if it is a step of ``plan``, else 0.
 
-    >>> from formal.model import Disturbance, Pose
+    >>> from clomp.formal.model import Disturbance, Pose
     >>> g = Disturbance.goal(1.0, 0.0)
     >>> m = CognitiveMap(goal=g)
     >>> for i in range(3):
@@ -137,7 +137,7 @@ def plan_end(cmap: CognitiveMap) -> State:
     Only states reachable from q0 count. When every reachable state but q0 is
     interrupted, the plan ends at q0 (the empty plan).
 
-    >>> from formal.model import Disturbance, Pose
+    >>> from clomp.formal.model import Disturbance, Pose
     >>> g = Disturbance.goal(1.0, 0.0)
     >>> m = CognitiveMap(goal=g)
     >>> for i, cost in enumerate((0.9, 0.4, 0.2)):
@@ -157,7 +157,7 @@ def plan_end(cmap: CognitiveMap) -> State:
 def extract_plan(cmap: CognitiveMap) -> Plan:
     """ρ: the shortest path from q0 to :func:`plan_end` through uninterrupted states.
 
-    >>> from formal.model import Disturbance, Pose
+    >>> from clomp.formal.model import Disturbance, Pose
     >>> g = Disturbance.goal(1.0, 0.0)
     >>> m = CognitiveMap(goal=g)
     >>> for i, cost in enumerate((0.9, 0.4, 0.2)):
@@ -182,7 +182,7 @@ class Guard:
     when t is a step of the plan ρ, so the supervisor enables one task per state of ρ and
     disables every other option the Configurator explored. Usable on a map built by hand:
 
-    >>> from formal.model import Disturbance, Pose, State, TaskKind
+    >>> from clomp.formal.model import Disturbance, Pose, State, TaskKind
     >>> g = Disturbance.goal(1.0, 0.0)
     >>> m = CognitiveMap.from_parts(
     ...     [State(0, TaskKind.STRAIGHT, g, None, Pose(0, 0), Pose(0, 0), cost=0.5),
@@ -252,7 +252,7 @@ class Reset:
     collision. The codomain is {D_G}. :meth:`inject` applies R to a pair of states that
     are not (yet) in a map, which is how a map is grown by hand:
 
-    >>> from formal.model import Disturbance, Pose, State, TaskKind
+    >>> from clomp.formal.model import Disturbance, Pose, State, TaskKind
     >>> g = Disturbance.goal(1.0, 0.0)
     >>> q0 = State(0, TaskKind.STRAIGHT, g, None, Pose(0, 0), Pose(0, 0))
     >>> q1 = Reset(CognitiveMap(goal=g)).inject(q0, State(1, TaskKind.LEFT, None, None, Pose(0, 0), Pose(0, 0, 1.57)))

@@ -1,14 +1,17 @@
 """clomp.planner — core knowledge (a pymunk world) and the Configurator.
 
 >>> import numpy as np
->>> from planner import plan
+>>> from clomp.planner import plan
 >>> result = plan(np.zeros((0, 2)), goal=(1.0, 0.0))
 >>> result.reached_goal, [s.task.value for s in result.steps]
 (True, ['STRAIGHT'])
 """
 
-from formal.model import Disturbance, DisturbanceKind, Pose, State, TaskKind
-from planner.configurator import (
+if __name__ != "clomp.planner":  # the repository keeps planner/ at the top; it is installed only as clomp.planner
+    raise ImportError(f"{__name__} is part of clomp: import clomp.planner, not {__name__}")
+
+from clomp.formal.model import Disturbance, DisturbanceKind, Pose, State, TaskKind
+from clomp.planner.configurator import (
     GOAL_LIMIT_M,
     Configurator,
     CostContext,
@@ -20,11 +23,11 @@ from planner.configurator import (
     gamma,
     plan,
 )
-from planner.perception import Obstacles, ScanError, ScanWarning, load_scan, perceive, scan_files, validate_scan
-from planner.physics import simulate
-from planner.robot import RobotModel
-from planner.scenarios import Scene, ScenarioError, builtin_scenarios, load_scenario
-from planner.tasks import Task
+from clomp.planner.perception import Obstacles, ScanError, ScanWarning, load_scan, perceive, scan_files, validate_scan
+from clomp.planner.physics import simulate
+from clomp.planner.robot import RobotModel
+from clomp.planner.scenarios import Scene, ScenarioError, builtin_scenarios, load_scenario
+from clomp.planner.tasks import Task
 
 __all__ = [
     "GOAL_LIMIT_M",

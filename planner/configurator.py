@@ -40,12 +40,12 @@ from typing import Any
 
 import numpy as np
 
-from formal.lts import CognitiveMap
-from formal.model import Disturbance, Pose, State, TaskKind, new_state
-from formal.supervisory import Plan, extract_plan, guard, reset_from
-from planner.perception import Obstacles, load_scan, perceive
-from planner.physics import Outcome, simulate
-from planner.robot import RobotModel
+from clomp.formal.lts import CognitiveMap
+from clomp.formal.model import Disturbance, Pose, State, TaskKind, new_state
+from clomp.formal.supervisory import Plan, extract_plan, guard, reset_from
+from clomp.planner.perception import Obstacles, load_scan, perceive
+from clomp.planner.physics import Outcome, simulate
+from clomp.planner.robot import RobotModel
 
 __all__ = [
     "CostContext",
@@ -249,7 +249,7 @@ class Configurator:
         first goal state (a popped frontier state is kept, not expanded, and the search
         goes on when the goal lies inside the sensed disc, else it ends there); more keep searching for alternative routes (a goal state or popped
         frontier is then kept, not expanded, and counts as one), e.g. for a risk-aware
-        choice among them (:class:`planner.robust.RobustConfigurator`)."""
+        choice among them (:class:`clomp.planner.robust.RobustConfigurator`)."""
 
     # -- inputs ---------------------------------------------------------------------
     def _goal(self, goal: Disturbance | tuple[float, float], obstacles: Obstacles) -> tuple[Disturbance, bool]:

@@ -1,4 +1,4 @@
-"""Where the body meets the sensed points: the closed forms of :mod:`planner.physics`.
+"""Where the body meets the sensed points: the closed forms of :mod:`clomp.planner.physics`.
 
 A planning run shares one :class:`Scene`: the sensed points perception kept (in surface
 order) as flat arrays, and the body's extents, built once; a rollout allocates nothing
@@ -17,12 +17,12 @@ from typing import Any
 
 import numpy as np
 
-from formal.geometry import wrap_angle
-from formal.model import Pose, TaskKind, new_pose
-from planner.engine import Outcome, _obstacle_disturbance
-from planner.perception import Obstacles
-from planner.robot import RobotModel
-from planner.tasks import Task
+from clomp.formal.geometry import wrap_angle
+from clomp.formal.model import Pose, TaskKind, new_pose
+from clomp.planner.engine import Outcome, _obstacle_disturbance
+from clomp.planner.perception import Obstacles
+from clomp.planner.robot import RobotModel
+from clomp.planner.tasks import Task
 
 __all__ = ["Scene", "cut_straight", "unobstructed", "SPIN_SLACK"]
 
@@ -70,7 +70,7 @@ class Scene:
         self.local2 = max(self.reach[0], math.hypot(front + far, half)) ** 2
         self.local_gap = far  # a gap up to this is found among the local points
         self.local: dict[tuple[float, float], tuple[np.ndarray, np.ndarray, bool]] = {}
-        # per pose, kind and goal: the angle a turn ends at (:func:`planner.physics.turn_angle`)
+        # per pose, kind and goal: the angle a turn ends at (:func:`clomp.planner.physics.turn_angle`)
         self.turns: dict[tuple[Any, ...], float] = {}
         # per pose, kind and angle: the outcome of a turn answered with another one
         self.turned: dict[tuple[Any, ...], Outcome] = {}
@@ -405,9 +405,9 @@ def unobstructed(task: Task, frontier: bool = False, e0: float | None = None) ->
     """The outcome of a task that nothing interrupts, in closed form.
 
     Both controllers drive their error down linearly at full rate and cover the rest in
-    the last tick (see :mod:`planner.tasks`), so the end pose is the start moved by the
+    the last tick (see :mod:`clomp.planner.tasks`), so the end pose is the start moved by the
     initial error and the duration is the number of ticks that takes. ``e0`` is the
-    task's :meth:`~planner.tasks.Task.start_error` when the caller has it.
+    task's :meth:`~clomp.planner.tasks.Task.start_error` when the caller has it.
     """
     r = task.robot
     s = task.start
@@ -423,7 +423,7 @@ def unobstructed(task: Task, frontier: bool = False, e0: float | None = None) ->
         th = s.theta
         end = new_pose(s.x + e0 * math.cos(th), s.y + e0 * math.sin(th), th)
         return Outcome(kind, s, end, e0, ticks * r.tick, ticks, None, False, frontier)
-    # formal.geometry.wrap_angle(s.theta + sign * e0), inline (the same arithmetic)
+    # clomp.formal.geometry.wrap_angle(s.theta + sign * e0), inline (the same arithmetic)
     h = math.fmod(s.theta + (e0 if kind is TaskKind.LEFT else -e0) + math.pi, _TWO_PI)
     if h <= 0:
         h += _TWO_PI

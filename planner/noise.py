@@ -1,8 +1,8 @@
 """Rollout noise: the terms of a noise preset that concern one task's rollout.
 
-The presets live in ``specs/noise_presets.json`` (``specs.noise_presets()``), the ones
+The presets live in ``specs/noise_presets.json`` (``clomp.specs.noise_presets()``), the ones
 the execution world uses; :class:`RolloutNoise` keeps the terms a rollout of
-:mod:`planner.probabilistic` applies (ranges, beam angles, dropout, wheel error, bias,
+:mod:`clomp.planner.probabilistic` applies (ranges, beam angles, dropout, wheel error, bias,
 drift, slip, a turn's angle), not ``latency``.
 
 >>> RolloutNoise.preset("harsh").range_sd
@@ -49,7 +49,7 @@ class RolloutNoise:
     same for the length a straight truly drives against the length it was told (the
     robot ends a straight on its estimate too). The last four describe a closed loop,
     not the world: the presets leave them at 0 (``turn_sd`` at its default), and
-    :func:`planner.robust.closed_loop_noise` sets them as measured. Defaults: the
+    :func:`clomp.planner.robust.closed_loop_noise` sets them as measured. Defaults: the
     ``paper`` preset of ``specs/noise_presets.json``.
 
     >>> RolloutNoise().turn_error_sd
@@ -109,8 +109,7 @@ class RolloutNoise:
 
 def _read_presets(path: str | Path | None = None) -> dict[str, dict[str, Any]]:
     if path is None:
-        import specs
-
+        from clomp import specs
         try:
             return {k: dict(v) for k, v in specs.noise_presets().items()}
         except (OSError, KeyError, ValueError, json.JSONDecodeError) as exc:

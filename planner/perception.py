@@ -18,8 +18,8 @@ from typing import Any
 
 import numpy as np
 
-from formal.model import Disturbance, DisturbanceKind
-from planner.scanfile import MAX_SCAN_BYTES, MAX_SCAN_POINTS, SCAN_SUFFIXES, ScanError, load_scan, scan_files, validate_scan
+from clomp.formal.model import Disturbance, DisturbanceKind
+from clomp.planner.scanfile import MAX_SCAN_BYTES, MAX_SCAN_POINTS, SCAN_SUFFIXES, ScanError, load_scan, scan_files, validate_scan
 
 __all__ = [
     "MAX_SCAN_BYTES",

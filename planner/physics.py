@@ -1,6 +1,6 @@
 """Core knowledge: one task rolled forward in the world of what the scan saw.
 
-A planning run shares one scene (:class:`planner.contact.Scene`): the sensed points perception kept (in surface order)
+A planning run shares one scene (:class:`clomp.planner.contact.Scene`): the sensed points perception kept (in surface order)
 as flat arrays, and the body's extents, built once; no rollout allocates anything per
 point or builds a shape. A task's outcome is computed in closed form from the points:
 
@@ -16,7 +16,7 @@ point or builds a shape. A task's outcome is computed in closed form from the po
   they are tested at every tick heading (the corner moves at most 1.2 cm between ticks,
   within the 1 cm clearance plus the real body's own sides).
 
-The boxes of :mod:`planner.perception` are the obstacles' outlines (D_N, the map, the
+The boxes of :mod:`clomp.planner.perception` are the obstacles' outlines (D_N, the map, the
 goal test); the rollouts test the points themselves, so **the margin between the body
 and a sensed point is exactly the body's** ``clearance`` **(1 cm)**, however thick a
 box is. The recorded scans round coordinates to 1 cm, so a surface may lie up to 7 mm
@@ -40,7 +40,7 @@ and are treated as free: to reach one the body has to go round the surface that 
 it, past its sensed end, and the next scan, taken from there, sees into it before the
 robot drives in.
 
-:class:`planner.engine.World` is the pymunk engine the closed forms are tested against;
+:class:`clomp.planner.engine.World` is the pymunk engine the closed forms are tested against;
 rollouts are deterministic: the same inputs give bit-identical outcomes.
 """
 
@@ -52,13 +52,13 @@ from typing import Any
 
 import numpy as np
 
-from formal.geometry import wrap_angle
-from formal.model import Disturbance, Pose, TaskKind
-from planner.contact import SPIN_SLACK, Scene, cut_straight, unobstructed
-from planner.engine import Outcome, World
-from planner.perception import Obstacles
-from planner.robot import RobotModel
-from planner.tasks import Task
+from clomp.formal.geometry import wrap_angle
+from clomp.formal.model import Disturbance, Pose, TaskKind
+from clomp.planner.contact import SPIN_SLACK, Scene, cut_straight, unobstructed
+from clomp.planner.engine import Outcome, World
+from clomp.planner.perception import Obstacles
+from clomp.planner.robot import RobotModel
+from clomp.planner.tasks import Task
 
 __all__ = ["Outcome", "World", "in_the_way", "straight_limit", "simulate", "make_task", "frontier_distance", "turn_angle"]
 
@@ -282,7 +282,7 @@ def turn_angle(
     towards the goal stops at ``turn_angle``: further would turn its back on the goal,
     and such detours fail under execution noise.
 
-    >>> from planner.perception import perceive
+    >>> from clomp.planner.perception import perceive
     >>> g = Disturbance.goal(0.0, 0.5)
     >>> round(turn_angle(TaskKind.LEFT, Pose(0.0, 0.0, 0.0), g, perceive(np.zeros((0, 2))), RobotModel()), 4)
     1.5708
@@ -322,7 +322,7 @@ def _turn_pair(
     for k in kinds:
         sign = 1.0 if k is TaskKind.LEFT else -1.0
         angles, needs, fallback = _turn_options(k, start, goal, robot, wrapped)
-        # formal.geometry.wrap_angle(th + sign * a), inline (the same arithmetic)
+        # clomp.formal.geometry.wrap_angle(th + sign * a), inline (the same arithmetic)
         heads = [(h if (h := fmod(th + sign * a + pi, _TWO_PI)) > 0 else h + _TWO_PI) - pi for a in angles]
         lengths = needs  # a fresh list from _turn_options: cut in place where the rim is nearer
         if max(needs) > sure:
@@ -426,7 +426,7 @@ def simulate(
     there (``frontier``); a turn that would leave it comes back with ``frontier`` set
     and its end at its start (not available).
 
-    >>> from planner.perception import perceive
+    >>> from clomp.planner.perception import perceive
     >>> out = simulate(TaskKind.STRAIGHT, Pose(0.0, 0.0, 0.0), Disturbance.goal(1.0, 0.0), perceive(np.zeros((0, 2))), RobotModel())
     >>> out.reached_goal, out.frontier, round(out.end.x, 3)
     (True, False, 1.0)

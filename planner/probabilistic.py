@@ -15,14 +15,14 @@ reaching the goal from them is counted as zero: the estimate is conservative. Wi
 :class:`HazardRule`, a rollout the supervisor's scan test interrupts is a *stop*, its own
 outcome kind (never grouped with a contact, nor with another source's stop), named in
 ``metadata["stops"]`` with the state its task started from, so that an objective can
-retry it as the supervisor does (:mod:`formal.retry`).
+retry it as the supervisor does (:mod:`clomp.formal.retry`).
 
 :func:`learn_from_scans` learns the same kind of map from repeated *observation*:
 consecutive scans of a recorded run (or the scans of a run log) each give a map; states
 are matched across scans by the tasks that lead to them from q0, and each observation
 of a (state, task) adds one count to the outcome group it falls into.
 
-Noise numbers come from ``specs/noise_presets.json`` (``specs.noise_presets()``), the
+Noise numbers come from ``specs/noise_presets.json`` (``clomp.specs.noise_presets()``), the
 presets the execution world uses; a rollout uses the terms that concern one task
 (ranges, beam angles, dropout, wheel error, bias, drift, slip), not ``latency``.
 
@@ -47,17 +47,17 @@ from typing import Any
 
 import numpy as np
 
-from formal.lts import CognitiveMap
-from formal.model import Disturbance, DisturbanceKind, Pose, State, TaskKind
-from formal.retry import STOPS_KEY
-from formal.supervisory import extract_plan
-from planner.configurator import Configurator, CostContext, PlanResult
-from planner.noise import ALARM_DEVIATIONS, NoiseError, RolloutNoise, preset_names
-from planner.perception import Obstacles, load_scan, perceive
-from planner.physics import Outcome, World, frontier_distance, in_the_way, make_task
-from planner.robot import RobotModel
-from formal.geometry import wrap_angle
-from planner.tasks import Task
+from clomp.formal.lts import CognitiveMap
+from clomp.formal.model import Disturbance, DisturbanceKind, Pose, State, TaskKind
+from clomp.formal.retry import STOPS_KEY
+from clomp.formal.supervisory import extract_plan
+from clomp.planner.configurator import Configurator, CostContext, PlanResult
+from clomp.planner.noise import ALARM_DEVIATIONS, NoiseError, RolloutNoise, preset_names
+from clomp.planner.perception import Obstacles, load_scan, perceive
+from clomp.planner.physics import Outcome, World, frontier_distance, in_the_way, make_task
+from clomp.planner.robot import RobotModel
+from clomp.formal.geometry import wrap_angle
+from clomp.planner.tasks import Task
 
 __all__ = [
     "RolloutNoise",
@@ -503,7 +503,7 @@ def _reachable_part(cmap: CognitiveMap) -> CognitiveMap:
 
 def _complete_turns(b: _Builder, nominal: PlanResult, conf: Configurator) -> None:
     """A new uninterrupted turn gets its nominal STRAIGHT (Algorithm 1's frontier rule)."""
-    from planner.physics import simulate
+    from clomp.planner.physics import simulate
 
     for ident in list(b.new):
         s = b.map[ident]

@@ -2,7 +2,7 @@
 
 :class:`RobustConfigurator` is a Configurator whose plans are the policy that maximises
 the chance of reaching the plan's target without a collision (:func:`plan_target`) on
-a probabilistic map (:func:`planner.probabilistic.sample_map`) sampled as the closed
+a probabilistic map (:func:`clomp.planner.probabilistic.sample_map`) sampled as the closed
 loop runs; a supervisor executes and replans with it. Needs stormpy.
 """
 
@@ -14,13 +14,13 @@ from typing import Any
 
 import numpy as np
 
-from formal.lts import CognitiveMap
-from formal.model import Disturbance, Pose, TaskKind
-from formal.robust import RobustPlan
-from formal.supervisory import Plan
-from planner.configurator import Configurator, PlanResult
-from planner.perception import load_scan
-from planner.probabilistic import (
+from clomp.formal.lts import CognitiveMap
+from clomp.formal.model import Disturbance, Pose, TaskKind
+from clomp.formal.robust import RobustPlan
+from clomp.formal.supervisory import Plan
+from clomp.planner.configurator import Configurator, PlanResult
+from clomp.planner.perception import load_scan
+from clomp.planner.probabilistic import (
     POSITION_TOLERANCE,
     SUPERVISOR_TOLERANCE,
     HazardRule,
@@ -28,7 +28,7 @@ from planner.probabilistic import (
     RolloutNoise,
     sample_map,
 )
-from planner.robot import RobotModel
+from clomp.planner.robot import RobotModel
 
 __all__ = ["plan_target", "RobustChoice", "RobustDecision", "RobustConfigurator", "SUPERVISOR_HAZARD", "CLOSED_LOOP_TERMS",
            "closed_loop_noise", "rollout_noise"]
@@ -134,9 +134,9 @@ class RobustConfigurator(Configurator):
     loop runs: outcomes within the supervisor's end tolerance are one state
     (``tolerance``), a rollout is interrupted where the supervisor's scan test would
     stop it (``hazard``), and each noisy world carries its robot's true pose from task to
-    task (``carry``, :func:`planner.probabilistic.sample_map`): a task starts where the
+    task (``carry``, :func:`clomp.planner.probabilistic.sample_map`): a task starts where the
     one before truly ended, as in the world, not at the state's recorded pose. A stop is retried up to ``retries`` times (default 1) in Storm's
-    objective, as the supervisor replans after one (:func:`formal.retry.retry_model`; 0:
+    objective, as the supervisor replans after one (:func:`clomp.formal.retry.retry_model`; 0:
     a stop is final, as before; at harsh noise, 50 paired runs per family, 1 and 0 gave
     the same successes: doorway 42 vs greedy 41 both, clutter 16 vs 16 both). Needs
     stormpy.
@@ -154,7 +154,7 @@ class RobustConfigurator(Configurator):
     the (robust, best-first) values of every second look.
 
     A robust plan is executed as a policy: the scheduler is kept on the map
-    (:func:`formal.robust.attach_policy`), and the supervisor's recall after a task
+    (:func:`clomp.formal.robust.attach_policy`), and the supervisor's recall after a task
     ended in another outcome continues with the scheduler's choice in the state it
     finds the robot in.
 
@@ -237,7 +237,7 @@ class RobustConfigurator(Configurator):
     def sample(self, scan: Any, goal: Disturbance | tuple[float, float]) -> RobustChoice:
         """The probabilistic map of ``scan``, the best-first plan and Storm's policy on it
         (one call to :meth:`plan` without the choice; seeds advance per call)."""
-        from formal.robust import follow_tasks, plan_probability, robust_plan
+        from clomp.formal.robust import follow_tasks, plan_probability, robust_plan
 
         points = load_scan(scan)
         plain = self._plain()
@@ -261,14 +261,14 @@ class RobustConfigurator(Configurator):
                           seed: int) -> tuple[float, float]:
         """The values of the robust plan and of the best-first plan on an independent
         probabilistic map (the same rollouts' size and noise, seed ``seed``): each plan's
-        tasks are carried onto it (:func:`formal.robust.follow_tasks`) and followed along
+        tasks are carried onto it (:func:`clomp.formal.robust.follow_tasks`) and followed along
         its path, Storm's optimal choice elsewhere (the recall), so the two differ only
         in the choices that make them differ. Returns (robust, best-first).
 
         Why: the scheduler maximises over many k/N estimates, and the maximum of noisy
         estimates is biased upwards (the optimiser's curse); values measured on samples
         that did not choose the plan are not."""
-        from formal.robust import follow_tasks, policy_probability, robust_plan
+        from clomp.formal.robust import follow_tasks, policy_probability, robust_plan
 
         base = c.pm.nominal
         g = c.greedy_result
@@ -312,8 +312,8 @@ class RobustConfigurator(Configurator):
 
     def plan(self, scan: Any, goal: Disturbance | tuple[float, float]) -> PlanResult:
         """The robust plan on the probabilistic map of ``scan`` (see the class docstring)."""
-        from formal.robust import attach_policy
-        from formal.supervisory import guard
+        from clomp.formal.robust import attach_policy
+        from clomp.formal.supervisory import guard
 
         t0 = time.perf_counter()
         d = self.choose(scan, goal)

@@ -17,8 +17,8 @@ from typing import Any
 
 import numpy as np
 
-from formal.geometry import points_to_frame
-from formal.model import Pose
+from clomp.formal.geometry import points_to_frame
+from clomp.formal.model import Pose
 
 __all__ = ["ScenarioError", "Shape", "Scene", "load_scenario", "builtin_scenarios", "scenario_path"]
 
@@ -241,7 +241,7 @@ def parse_scenario(data: Any, name: str = "scenario") -> Scene:
 
 
 def _scenario_dir() -> Path:
-    from specs import SPECS_DIR
+    from clomp.specs import SPECS_DIR
 
     return SPECS_DIR / "scenarios"
 

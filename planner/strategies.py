@@ -4,19 +4,19 @@ Use them to state an invariant of your own cost function, task or exporter over 
 generated worlds; the project's own property tests use the same strategies.
 
 - :func:`scans` — a LiDAR scan (N×2 points, robot frame) of a few short walls;
-- :func:`scenes` — a :class:`~planner.scenarios.Scene` of a few boxes around the robot;
+- :func:`scenes` — a :class:`~clomp.planner.scenarios.Scene` of a few boxes around the robot;
 - :func:`goals` — a goal (x, y) in the robot frame within a distance band;
-- :func:`robot_models` — :class:`~planner.robot.RobotModel` variants (width, step, turn angle);
-- :func:`planned_maps` — the :class:`~planner.configurator.PlanResult` of planning in a
+- :func:`robot_models` — :class:`~clomp.planner.robot.RobotModel` variants (width, step, turn angle);
+- :func:`planned_maps` — the :class:`~clomp.planner.configurator.PlanResult` of planning in a
   generated scene (its ``.map`` is the cognitive map; plans the Configurator rejects are
   skipped with ``assume``).
 
-Hand-grown maps that need no planner are in :func:`formal.strategies.cognitive_maps`; the
-invariant checker is :func:`formal.check_map`. Requires ``hypothesis`` (the ``testing``
+Hand-grown maps that need no planner are in :func:`clomp.formal.strategies.cognitive_maps`; the
+invariant checker is :func:`clomp.formal.check_map`. Requires ``hypothesis`` (the ``testing``
 extra: ``pip install 'clomp[testing]'``).
 
 >>> from hypothesis import given, settings
->>> from formal import check_map
+>>> from clomp.formal import check_map
 >>> @settings(max_examples=3, deadline=None)
 ... @given(planned_maps())
 ... def test_every_map_holds_the_invariants(result):
@@ -33,9 +33,9 @@ import numpy as np
 from hypothesis import assume
 from hypothesis import strategies as st
 
-from planner.configurator import Configurator, PlanningError, PlanResult
-from planner.robot import RobotModel
-from planner.scenarios import Scene, Shape, _rect
+from clomp.planner.configurator import Configurator, PlanningError, PlanResult
+from clomp.planner.robot import RobotModel
+from clomp.planner.scenarios import Scene, Shape, _rect
 
 __all__ = ["goals", "planned_maps", "robot_models", "scans", "scenes"]
 

@@ -3,8 +3,8 @@
 The public names below are imported lazily (on first use), so that ``import runtime``
 and the command line stay light and free of import cycles.
 
->>> from runtime import SimRobot, Supervisor
->>> from planner import load_scenario
+>>> from clomp.runtime import SimRobot, Supervisor
+>>> from clomp.planner import load_scenario
 >>> scene = load_scenario("open")
 >>> Supervisor(SimRobot(scene, seed=0), scene.goal_in_robot_frame()).run().state.value
 'GOAL_REACHED'
@@ -12,40 +12,43 @@ and the command line stay light and free of import cycles.
 
 from __future__ import annotations
 
+if __name__ != "clomp.runtime":  # the repository keeps runtime/ at the top; it is installed only as clomp.runtime
+    raise ImportError(f"{__name__} is part of clomp: import clomp.runtime, not {__name__}")
+
 import importlib
 from typing import Any
 
 _LAZY = {
-    "Robot": "runtime.robot",
-    "RobotFault": "runtime.robot",
-    "ScanFrame": "runtime.devices.frame",
-    "Supervisor": "runtime.supervision.supervisor",
-    "SupervisorReport": "runtime.supervision.supervisor",
-    "SupervisorState": "runtime.supervision.machine",
-    "Event": "runtime.supervision.machine",
-    "TRANSITIONS": "runtime.supervision.machine",
-    "Clock": "runtime.clock",
-    "WallClock": "runtime.clock",
-    "ManualClock": "runtime.clock",
-    "ScaledClock": "runtime.clock",
-    "state_machine_dot": "runtime.supervision.machine",
-    "state_machine_prism": "runtime.supervision.machine",
-    "SimRobot": "runtime.robots.sim",
-    "NoiseConfig": "runtime.robots.sim",
-    "scenario_scan_source": "runtime.robots.sim",
-    "ReactiveController": "runtime.experiment.reactive",
-    "ReactiveReport": "runtime.experiment.reactive",
-    "run_once": "runtime.experiment.runner",
-    "run_experiment": "runtime.experiment.runner",
-    "RunResult": "runtime.experiment.runner",
-    "FaultyRobot": "runtime.robots.faults",
-    "HardwareRobot": "runtime.robots.hardware",
-    "HardwareConfig": "runtime.robots.hardware",
-    "EmulatedWorld": "runtime.robots.emulated",
-    "RunLog": "runtime.records.runlog",
-    "read_log": "runtime.records.runlog",
-    "plot_run": "runtime.experiment.plots",
-    "plot_runs": "runtime.experiment.plots",
+    "Robot": "clomp.runtime.robot",
+    "RobotFault": "clomp.runtime.robot",
+    "ScanFrame": "clomp.runtime.devices.frame",
+    "Supervisor": "clomp.runtime.supervision.supervisor",
+    "SupervisorReport": "clomp.runtime.supervision.supervisor",
+    "SupervisorState": "clomp.runtime.supervision.machine",
+    "Event": "clomp.runtime.supervision.machine",
+    "TRANSITIONS": "clomp.runtime.supervision.machine",
+    "Clock": "clomp.runtime.clock",
+    "WallClock": "clomp.runtime.clock",
+    "ManualClock": "clomp.runtime.clock",
+    "ScaledClock": "clomp.runtime.clock",
+    "state_machine_dot": "clomp.runtime.supervision.machine",
+    "state_machine_prism": "clomp.runtime.supervision.machine",
+    "SimRobot": "clomp.runtime.robots.sim",
+    "NoiseConfig": "clomp.runtime.robots.sim",
+    "scenario_scan_source": "clomp.runtime.robots.sim",
+    "ReactiveController": "clomp.runtime.experiment.reactive",
+    "ReactiveReport": "clomp.runtime.experiment.reactive",
+    "run_once": "clomp.runtime.experiment.runner",
+    "run_experiment": "clomp.runtime.experiment.runner",
+    "RunResult": "clomp.runtime.experiment.runner",
+    "FaultyRobot": "clomp.runtime.robots.faults",
+    "HardwareRobot": "clomp.runtime.robots.hardware",
+    "HardwareConfig": "clomp.runtime.robots.hardware",
+    "EmulatedWorld": "clomp.runtime.robots.emulated",
+    "RunLog": "clomp.runtime.records.runlog",
+    "read_log": "clomp.runtime.records.runlog",
+    "plot_run": "clomp.runtime.experiment.plots",
+    "plot_runs": "clomp.runtime.experiment.plots",
 }
 
 __all__ = sorted(_LAZY)

@@ -1,7 +1,7 @@
 """Compiled inner loops (numba), with the machine code cached between processes.
 
-The scan matcher's Gauss–Newton loop (:mod:`runtime.estimation._icp_core`) and the plan
-check's contact tests (:mod:`runtime.supervision._contacts_core`) run every revolution;
+The scan matcher's Gauss–Newton loop (:mod:`clomp.runtime.estimation._icp_core`) and the plan
+check's contact tests (:mod:`clomp.runtime.supervision._contacts_core`) run every revolution;
 written with numpy they were dozens of small array calls each, mostly call overhead.
 :func:`compiled` compiles such a function once per machine (numba's cache beside the
 module, or in the user's cache directory) and, where numba finds no writable place for
@@ -43,7 +43,7 @@ def interruptible(fn: Callable[..., Any], *args: Any) -> Any:
     ``KeyboardInterrupt``.
 
     A compiled call runs a few Python helpers of numba's (``_numba_unpickle``); a Python-level
-    SIGINT handler, as long commands install (:mod:`runtime.cli._signals`), can run inside
+    SIGINT handler, as long commands install (:mod:`clomp.runtime.cli._signals`), can run inside
     one, and its ``KeyboardInterrupt`` then surfaces as ``SystemError: … returned a result
     with an exception set`` (1 in about 2,000 interrupts of matching; in ``clomp experiment``
     a run recorded HALTED and the experiment ran on). The interrupt is found in the error's

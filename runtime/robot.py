@@ -13,8 +13,8 @@ import math
 from typing import Protocol, runtime_checkable
 
 
-from formal.model import Pose
-from runtime.devices.frame import ScanFrame
+from clomp.formal.model import Pose
+from clomp.runtime.devices.frame import ScanFrame
 
 __all__ = ["ScanFrame", "Robot", "RobotFault", "TurnSensing", "finite_goal"]
 
@@ -34,8 +34,8 @@ class RobotFault(RuntimeError):
 class Robot(Protocol):
     """What a robot backend offers the supervisor.
 
-    >>> from planner import load_scenario
-    >>> from runtime.robots.sim import SimRobot
+    >>> from clomp.planner import load_scenario
+    >>> from clomp.runtime.robots.sim import SimRobot
     >>> robot = SimRobot(load_scenario("open"), seed=0)
     >>> isinstance(robot, Robot)
     True
@@ -71,8 +71,8 @@ class TurnSensing(Protocol):
     by its camera's optic flow). Optional: the supervisor's estimator takes the heading from
     it when a backend has it, and from the wheels otherwise.
 
-    >>> from planner import load_scenario
-    >>> from runtime.robots import make_world_robot
+    >>> from clomp.planner import load_scenario
+    >>> from clomp.runtime.robots import make_world_robot
     >>> isinstance(make_world_robot(load_scenario("open"), "paper", seed=0), TurnSensing)
     True
     """

@@ -12,6 +12,9 @@ execution world in runtime, sampled rollouts in planner) takes the same numbers.
 
 from __future__ import annotations
 
+if __name__ != "clomp.specs":  # the repository keeps specs/ at the top; it is installed only as clomp.specs
+    raise ImportError(f"{__name__} is part of clomp: import clomp.specs, not {__name__}")
+
 import json
 import math
 from pathlib import Path

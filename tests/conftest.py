@@ -30,7 +30,7 @@ def scenario_map():
     """``scenario_map(name)``: the cognitive map of a built-in scenario (built once per session)."""
     from functools import lru_cache
 
-    from planner import Configurator, load_scenario
+    from clomp.planner import Configurator, load_scenario
 
     @lru_cache(maxsize=None)
     def build(name: str):
@@ -44,7 +44,7 @@ def scenario_map():
 @pytest.fixture(scope="session")
 def scan_maps():
     """``scan_maps()``: (file name, cognitive map) for the first 20 recorded scans, goal 1 m ahead."""
-    from planner import Configurator
+    from clomp.planner import Configurator
 
     cache: list = []
 

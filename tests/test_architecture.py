@@ -51,8 +51,8 @@ def _modules(*roots: str) -> list[Path]:
     return sorted(p for r in roots for p in (REPO / r).rglob("*.py"))
 
 
-def _imports(path: Path) -> set[str]:
-    """Every module ``path`` imports (absolute names; relative imports resolved)."""
+def _raw_imports(path: Path) -> set[str]:
+    """Every module ``path`` imports, as written (absolute names; relative imports resolved)."""
     tree = ast.parse(path.read_text(encoding="utf-8"), filename=str(path))
     package = ".".join(path.relative_to(REPO).with_suffix("").parts[:-1])
     found: set[str] = set()
@@ -68,6 +68,28 @@ def _imports(path: Path) -> set[str]:
             found.add(mod)
             found.update(f"{mod}.{a.name}" for a in node.names)
     return found
+
+
+def _imports(path: Path) -> set[str]:
+    """Every module ``path`` imports, named by its folder in the repository (``clomp.planner.x`` → ``planner.x``)."""
+    return {n.removeprefix("clomp.") for n in _raw_imports(path)}
+
+
+def test_every_import_goes_through_clomp() -> None:
+    """The packages are installed only as ``clomp.planner`` …: a bare ``import planner`` would load a second copy."""
+    paths = [p for p in _modules(*PACKAGES, "specs", "tests", "bench") if p.name != "test_architecture.py"]
+    assert len(paths) > 150
+    bare = [f"{p.relative_to(REPO)} imports {n}" for p in paths for n in sorted(_raw_imports(p))
+            if n.split(".")[0] in (*PACKAGES, "specs")]
+    assert bare == []
+
+
+def test_the_clomp_package_is_the_repository_s_folders() -> None:
+    """``clomp/`` holds the namespace and links to the design card's top-level folders, nothing else."""
+    links = {p.name: p for p in (REPO / "clomp").iterdir() if p.name != "__pycache__"}
+    for name in (*PACKAGES, "specs"):
+        assert links[name].is_symlink() and links[name].resolve() == REPO / name
+    assert not {n for n, p in links.items() if p.suffix == ".py"} - {"__init__.py", "__main__.py"}
 
 
 def _violations(paths: list[Path], forbidden: tuple[str, ...]) -> list[str]:
@@ -264,7 +286,7 @@ def test_every_public_name_resolves(package: str) -> None:
     # runtime's names are lazy: a name whose module moved or dropped it fails only on use
     import importlib
 
-    mod = importlib.import_module(package)
+    mod = importlib.import_module(f"clomp.{package}")
     missing = [n for n in mod.__all__ if not hasattr(mod, n)]
     assert missing == []
 
@@ -275,7 +297,7 @@ def test_every_public_class_and_function_has_an_example(package: str) -> None:
     import importlib
     import inspect
 
-    mod = importlib.import_module(package)
+    mod = importlib.import_module(f"clomp.{package}")
     missing = []
     for name in mod.__all__:
         obj = getattr(mod, name)

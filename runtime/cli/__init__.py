@@ -22,7 +22,7 @@ import warnings
 from collections.abc import Sequence
 from typing import TextIO
 
-from planner.perception import ScanWarning
+from clomp.planner.perception import ScanWarning
 
 __all__ = [
     "EXIT_DEVICE_FAULT",
@@ -83,16 +83,16 @@ def _plain(text: str | None) -> str | None:
 
 # subcommand modules, in the order they appear in --help
 _COMMAND_MODULES: list[str] = [
-    "runtime.cli.demo",
-    "runtime.cli.plan",
-    "runtime.cli.replay",
-    "runtime.cli.simulate",
-    "runtime.cli.experiment",
-    "runtime.cli.export",
-    "runtime.cli.convert",
-    "runtime.cli.check",
-    "runtime.cli.emulate",
-    "runtime.cli.run",
+    "clomp.runtime.cli.demo",
+    "clomp.runtime.cli.plan",
+    "clomp.runtime.cli.replay",
+    "clomp.runtime.cli.simulate",
+    "clomp.runtime.cli.experiment",
+    "clomp.runtime.cli.export",
+    "clomp.runtime.cli.convert",
+    "clomp.runtime.cli.check",
+    "clomp.runtime.cli.emulate",
+    "clomp.runtime.cli.run",
 ]
 
 

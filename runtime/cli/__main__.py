@@ -1,7 +1,7 @@
-"""``python -m runtime.cli``: the ``clomp`` command line."""
+"""``python -m clomp.runtime.cli``: the ``clomp`` command line."""
 
 import sys
 
-from runtime.cli import main
+from clomp.runtime.cli import main
 
 sys.exit(main())

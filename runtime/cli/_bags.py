@@ -7,8 +7,8 @@ import argparse
 from collections.abc import Iterator
 from pathlib import Path
 
-from runtime.cli import CliError
-from runtime.records.bags import BagError, LaserScan, LaserScanTopic, is_bag, parse_offset
+from clomp.runtime.cli import CliError
+from clomp.runtime.records.bags import BagError, LaserScan, LaserScanTopic, is_bag, parse_offset
 
 __all__ = ["add_bag_options", "is_bag", "open_topic", "lidar_offset", "labelled_scans", "scan_label"]
 

@@ -6,7 +6,7 @@ many-scan run never stops at one scan; :func:`many_summary` counts the outcomes.
 commands differ only in the lines they print.
 
 >>> import numpy as np
->>> from planner import Configurator
+>>> from clomp.planner import Configurator
 >>> conf = Configurator()
 >>> [scan_outcomes(conf, s, g)[1]["outcome"] for s, g in
 ...  [(np.zeros((0, 2)), (1.0, 0.0)), (np.zeros((0, 2)), (0.0, 0.0)), (np.full((1, 2), np.nan), (1.0, 0.0))]]
@@ -23,8 +23,8 @@ from typing import Any
 
 import numpy as np
 
-from planner import Configurator, PlanningError, PlanResult, ScanError
-from runtime.cli import plural
+from clomp.planner import Configurator, PlanningError, PlanResult, ScanError
+from clomp.runtime.cli import plural
 
 __all__ = ["many_summary", "scan_outcomes", "summary_line"]
 

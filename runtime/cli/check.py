@@ -14,7 +14,7 @@ import math
 from pathlib import Path
 from typing import Any
 
-from formal.checking import (
+from clomp.formal.checking import (
     CheckResult,
     PropertyFile,
     PropertySpec,
@@ -27,14 +27,14 @@ from formal.checking import (
     load_storm_model,
     read_properties,
 )
-from formal.crosscheck import values_agree
-from formal.export import ExportError
-from formal.robust import SAFE_GOAL
-from formal.prism import PrismError, PrismMissing, check_with_prism, run_prism
-from formal.lts import CognitiveMap, MapError
-from runtime.cli.export import add_source_options, map_from_args
-from runtime.cli.plan import add_planner_options
-from runtime.cli import CliError
+from clomp.formal.crosscheck import values_agree
+from clomp.formal.export import ExportError
+from clomp.formal.robust import SAFE_GOAL
+from clomp.formal.prism import PrismError, PrismMissing, check_with_prism, run_prism
+from clomp.formal.lts import CognitiveMap, MapError
+from clomp.runtime.cli.export import add_source_options, map_from_args
+from clomp.runtime.cli.plan import add_planner_options
+from clomp.runtime.cli import CliError
 
 __all__ = ["register"]
 
@@ -157,7 +157,7 @@ def _prism_file(path: Path, files: list[PropertyFile]) -> list[CheckResult]:
 
 
 def _check(sm: Any, pf: PropertyFile) -> list[CheckResult]:
-    from formal.checking import check_properties
+    from clomp.formal.checking import check_properties
 
     return check_properties(sm, pf)
 

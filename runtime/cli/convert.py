@@ -9,10 +9,10 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
-from runtime.cli import EXIT_OK, CliError
-from runtime.cli._progress import progress
-from runtime.records.mcap_writer import A1_BINS, ConvertError, write_mcap
-from runtime.records.runlog import LogError, read_log
+from clomp.runtime.cli import EXIT_OK, CliError
+from clomp.runtime.cli._progress import progress
+from clomp.runtime.records.mcap_writer import A1_BINS, ConvertError, write_mcap
+from clomp.runtime.records.runlog import LogError, read_log
 
 __all__ = ["register", "run"]
 

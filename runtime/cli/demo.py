@@ -9,11 +9,11 @@ import os
 from pathlib import Path
 from typing import Any
 
-from planner.scenarios import ScenarioError, load_scenario
-from runtime.cli import EXIT_NOT_REACHED, EXIT_OK, CliError
-from runtime.experiment.runner import run_once
-from runtime.experiment.plots import plot_run
-from runtime.supervision.machine import state_machine_dot, state_machine_prism
+from clomp.planner.scenarios import ScenarioError, load_scenario
+from clomp.runtime.cli import EXIT_NOT_REACHED, EXIT_OK, CliError
+from clomp.runtime.experiment.runner import run_once
+from clomp.runtime.experiment.plots import plot_run
+from clomp.runtime.supervision.machine import state_machine_dot, state_machine_prism
 
 __all__ = ["register", "run", "write_map"]
 
@@ -24,7 +24,7 @@ def register(sub: Any) -> None:
     p.add_argument("--scenario", default="overtaking", help="built-in scenario name or JSON file (default overtaking)")
     p.add_argument("--seed", type=int, default=None, help="noise seed (default: the scenario's 'seed', else 0)")
     p.add_argument("--out", default="clomp-demo-out", help="output folder (default ./clomp-demo-out)")
-    from runtime.cli.simulate import add_world_options
+    from clomp.runtime.cli.simulate import add_world_options
 
     add_world_options(p)
     p.set_defaults(func=run)
@@ -38,9 +38,9 @@ def write_map(cmap: Any, folder: Path, stem: str = "cognitive_map") -> list[str]
     cmap.write_json(json_path)
     notes.append(str(json_path))
     try:
-        from formal.export import render_svg, write_dot
+        from clomp.formal.export import render_svg, write_dot
     except ImportError:
-        notes.append("(DOT/SVG skipped: formal.export is not available)")
+        notes.append("(DOT/SVG skipped: clomp.formal.export is not available)")
         return notes
     dot_path = folder / f"{stem}.dot"
     write_dot(cmap, dot_path)
@@ -56,7 +56,7 @@ def write_map(cmap: Any, folder: Path, stem: str = "cognitive_map") -> list[str]
 
 def run(args: argparse.Namespace) -> int:
     """Plan, execute on the simulated robot, summarise, write the pictures and models."""
-    from runtime.cli.simulate import check_world_options, print_summary, world_noise
+    from clomp.runtime.cli.simulate import check_world_options, print_summary, world_noise
 
     out = Path(args.out)
     try:

@@ -11,8 +11,8 @@ import sys
 import time
 from typing import Any
 
-from runtime.cli import CliError
-from runtime.cli._signals import interrupts_raise
+from clomp.runtime.cli import CliError
+from clomp.runtime.cli._signals import interrupts_raise
 
 __all__ = ["register"]
 
@@ -56,7 +56,7 @@ def register(subparsers: Any) -> None:
     maestro.set_defaults(func=_run_maestro)
 
     # both devices over one simulated world: the whole stack without hardware
-    from runtime.cli.run import add_emulate_world
+    from clomp.runtime.cli.run import add_emulate_world
 
     add_emulate_world(devices)
 
@@ -64,16 +64,16 @@ def register(subparsers: Any) -> None:
 def _scan_source(args: argparse.Namespace) -> Any:
     if args.scenario is not None:
         try:
-            from runtime.robots.sim import scenario_scan_source
+            from clomp.runtime.robots.sim import scenario_scan_source
         except ImportError as exc:
-            raise CliError(f"scenario-driven emulation needs the simulation module (runtime.robots.sim): {exc}") from exc
+            raise CliError(f"scenario-driven emulation needs the simulation module (clomp.runtime.robots.sim): {exc}") from exc
         try:
             return scenario_scan_source(args.scenario, seed=args.seed)
         except (OSError, KeyError, ValueError) as exc:
             raise CliError(f"cannot load scenario {args.scenario!r}: {exc}") from exc
     if args.scans is None:
         raise CliError("emulate lidar needs a scan source: --scans DIR (recorded mapNNNN.dat files) or --scenario NAME")
-    from runtime.devices.rplidar_emulator import recorded_scan_source
+    from clomp.runtime.devices.rplidar_emulator import recorded_scan_source
 
     try:
         return recorded_scan_source(args.scans)
@@ -107,7 +107,7 @@ def _serve(emulator: Any, what: str, label: str, next_step: str) -> int:
 
 
 def _run_lidar(args: argparse.Namespace) -> int:
-    from runtime.devices.rplidar_emulator import LidarEmulator
+    from clomp.runtime.devices.rplidar_emulator import LidarEmulator
 
     status = {"good": 0, "warning": 1, "error": 2}[args.health]
     if not 0 <= args.error_code <= 0xFFFF:
@@ -130,7 +130,7 @@ def _run_lidar(args: argparse.Namespace) -> int:
 
 
 def _run_maestro(args: argparse.Namespace) -> int:
-    from runtime.devices.maestro_emulator import MaestroEmulator
+    from clomp.runtime.devices.maestro_emulator import MaestroEmulator
 
     if not 0 <= args.device_number <= 127:
         raise CliError("--device-number must be in 0..127")

@@ -18,9 +18,9 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from planner.scenarios import ScenarioError
-from runtime.cli import CliError
-from runtime.experiment.layouts import FAMILIES
+from clomp.planner.scenarios import ScenarioError
+from clomp.runtime.cli import CliError
+from clomp.runtime.experiment.layouts import FAMILIES
 
 __all__ = ["parse_scales", "register", "run"]
 
@@ -79,7 +79,7 @@ def parse_scales(text: str) -> list[float]:
 
 
 def _write_outputs(records: list[dict[str, Any]], out: Path, plots: bool) -> dict[str, Any]:
-    from runtime.experiment.results import summarise, write_csv, write_parquet, write_schema
+    from clomp.runtime.experiment.results import summarise, write_csv, write_parquet, write_schema
 
     files: dict[str, Any] = {"jsonl": str(out / "runs.jsonl"), "csv": str(write_csv(records, out / "runs.csv")),
                              "schema": str(write_schema(out / "runs_schema.md"))}
@@ -87,7 +87,7 @@ def _write_outputs(records: list[dict[str, Any]], out: Path, plots: bool) -> dic
         files["parquet"] = str(write_parquet(records, out / "runs.parquet"))
     summary = summarise(records)
     if plots and records:
-        from runtime.experiment.report import write_plots
+        from clomp.runtime.experiment.report import write_plots
 
         files["png"] = [str(p) for p in write_plots(records, out)]
     summary["files"] = files
@@ -97,7 +97,7 @@ def _write_outputs(records: list[dict[str, Any]], out: Path, plots: bool) -> dic
 
 def run(args: argparse.Namespace) -> int:
     """Execute ``clomp experiment``."""
-    from runtime.experiment.runner import (
+    from clomp.runtime.experiment.runner import (
         CONDITIONS,
         PAPER,
         ExperimentInterrupted,
@@ -119,7 +119,7 @@ def run(args: argparse.Namespace) -> int:
     except OSError as exc:
         raise CliError(f"--out: cannot create {out}: {exc}") from None
     if args.gallery:
-        from runtime.experiment.plots import plot_gallery
+        from clomp.runtime.experiment.plots import plot_gallery
 
         path = out / "gallery.png"
         plot_gallery(path, seed=args.seed)
@@ -128,7 +128,7 @@ def run(args: argparse.Namespace) -> int:
     scales = parse_scales(args.noise_sweep) if args.noise_sweep else [args.noise_scale]
     conditions = tuple(dict.fromkeys(args.condition)) if args.condition else CONDITIONS
     workers = (os.cpu_count() or 1) if args.workers is None else args.workers
-    from runtime.cli._progress import progress
+    from clomp.runtime.cli._progress import progress
 
     def bar(total: int, initial: int) -> Any:
         b: Any = progress(total=total, desc=f"{args.family} · {args.noise}", unit="run")
@@ -136,7 +136,7 @@ def run(args: argparse.Namespace) -> int:
             b.update(initial)
         return b
 
-    from runtime.cli._signals import interrupts_raise
+    from clomp.runtime.cli._signals import interrupts_raise
 
     try:
         # Ctrl-C and SIGTERM stop it even when started with SIGINT ignored (a background job of a script)
@@ -163,11 +163,11 @@ def run(args: argparse.Namespace) -> int:
     if args.json:
         print(json.dumps(summary, allow_nan=False))
     elif args.markdown:
-        from runtime.experiment.results import markdown_rows
+        from clomp.runtime.experiment.results import markdown_rows
 
         print(markdown_rows(summary))
     else:
-        from runtime.experiment.results import table
+        from clomp.runtime.experiment.results import table
 
         paper = PAPER if args.family == "overtaking" else None
         print(table(summary, paper))

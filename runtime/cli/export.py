@@ -9,12 +9,12 @@ from pathlib import Path
 from collections.abc import Iterator
 from typing import Any
 
-from formal.export import FORMATS, ExportError, write
-from formal.lts import CognitiveMap, MapError
-from planner import PlanningError, ScanError, load_scan, scan_files
-from planner.probabilistic import NoiseError, learn_from_scans
-from planner.scenarios import ScenarioError, load_scenario
-from runtime.cli.plan import (
+from clomp.formal.export import FORMATS, ExportError, write
+from clomp.formal.lts import CognitiveMap, MapError
+from clomp.planner import PlanningError, ScanError, load_scan, scan_files
+from clomp.planner.probabilistic import NoiseError, learn_from_scans
+from clomp.planner.scenarios import ScenarioError, load_scenario
+from clomp.runtime.cli.plan import (
     add_planner_options,
     add_sampling_options,
     configurator_from_args,
@@ -22,7 +22,7 @@ from runtime.cli.plan import (
     probabilistic_from_args,
     scenario_goal,
 )
-from runtime.cli import EXIT_OK, CliError, plural
+from clomp.runtime.cli import EXIT_OK, CliError, plural
 
 __all__ = ["register", "add_source_options", "map_from_args"]
 
@@ -89,7 +89,7 @@ def _readable_scans(files: list[Path], used: list[Path]) -> Iterator[Any]:
     terminal); a file that is not a scan is skipped with one warning line naming it, as
     folder runs of ``clomp plan`` do, and the files read are appended to ``used``. No
     readable scan at all is one error."""
-    from runtime.cli._progress import progress
+    from clomp.runtime.cli._progress import progress
 
     bar = progress(files, desc="learn", unit="scan")
     for f in bar:
@@ -112,7 +112,7 @@ def _standing_scans(path: Path) -> tuple[list[Any], tuple[float, float]]:
 
     import numpy as np
 
-    from runtime.records.runlog import LogError, read_log
+    from clomp.runtime.records.runlog import LogError, read_log
 
     groups: list[list[tuple[Any, tuple[float, float]]]] = []
     last: list[float] | None = None

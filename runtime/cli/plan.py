@@ -13,19 +13,19 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from formal.lts import MapError
-from planner import GOAL_LIMIT_M as _PLANNER_GOAL_LIMIT_M
-from planner import Configurator, PlanningError, PlanResult, RobotModel, ScanError, scan_files
-from planner.probabilistic import MAX_SAMPLES, NoiseError, ProbabilisticMap, preset_names
-from planner.scenarios import ScenarioError, load_scenario
-from runtime.cli import EXIT_NOT_REACHED, EXIT_OK, CliError, plural
-from runtime.cli._bags import add_bag_options, is_bag, labelled_scans, lidar_offset, open_topic, scan_label
-from runtime.cli._common import many_summary, scan_outcomes, summary_line
-from runtime.cli._progress import progress
-from runtime.records.bags import BagError, LaserScan
+from clomp.formal.lts import MapError
+from clomp.planner import GOAL_LIMIT_M as _PLANNER_GOAL_LIMIT_M
+from clomp.planner import Configurator, PlanningError, PlanResult, RobotModel, ScanError, scan_files
+from clomp.planner.probabilistic import MAX_SAMPLES, NoiseError, ProbabilisticMap, preset_names
+from clomp.planner.scenarios import ScenarioError, load_scenario
+from clomp.runtime.cli import EXIT_NOT_REACHED, EXIT_OK, CliError, plural
+from clomp.runtime.cli._bags import add_bag_options, is_bag, labelled_scans, lidar_offset, open_topic, scan_label
+from clomp.runtime.cli._common import many_summary, scan_outcomes, summary_line
+from clomp.runtime.cli._progress import progress
+from clomp.runtime.records.bags import BagError, LaserScan
 
 if TYPE_CHECKING:
-    from planner.robust import RobustConfigurator, RobustDecision
+    from clomp.planner.robust import RobustConfigurator, RobustDecision
 
 __all__ = [
     "register",
@@ -65,8 +65,8 @@ def scenario_goal(scene: Any, text: str | None) -> tuple[float, float]:
     """The goal for a scenario: ``--goal`` (robot frame) or the scenario's own, refused
     when it lies inside one of the scenario's true obstacles (the sensor sees only their
     near faces, so the planner alone could not tell)."""
-    from formal.geometry import compose
-    from formal.model import Pose
+    from clomp.formal.geometry import compose
+    from clomp.formal.model import Pose
 
     goal = parse_goal(text) if text else tuple(scene.goal_in_robot_frame())
     world = compose(scene.start, Pose(goal[0], goal[1], 0.0))
@@ -105,7 +105,7 @@ def add_sampling_options(p: argparse.ArgumentParser) -> None:
 
 
 def _check_samples(samples: int) -> None:
-    """CliError naming ``--samples`` unless it is 1 to :data:`planner.probabilistic.MAX_SAMPLES`
+    """CliError naming ``--samples`` unless it is 1 to :data:`clomp.planner.probabilistic.MAX_SAMPLES`
     (the library refuses the same, with a NoiseError the callers here would word as ``--noise``)."""
     if not 1 <= samples <= MAX_SAMPLES:
         raise CliError(f"--samples: expected a whole number from 1 to {MAX_SAMPLES:,}, got {samples:,} "
@@ -116,7 +116,7 @@ def robust_from_args(args: argparse.Namespace, conf: Configurator) -> RobustConf
     """The runtime's robust configurator for the sampling options (``--samples``, default
     30; ``--noise``; ``--seed``) and the planner options of ``conf``: one construction for
     ``plan --robust`` and the maps ``export``/``check --samples`` write, so they agree."""
-    from planner.robust import RobustConfigurator, rollout_noise
+    from clomp.planner.robust import RobustConfigurator, rollout_noise
 
     if args.samples is None:
         args.samples = 30
@@ -132,7 +132,7 @@ def robust_from_args(args: argparse.Namespace, conf: Configurator) -> RobustConf
 def probabilistic_from_args(args: argparse.Namespace, conf: Configurator, scan: Any, goal: tuple[float, float]) -> ProbabilisticMap:
     """The probabilistic map of ``scan`` the sampling options ask for (``--samples`` set):
     the map ``plan --robust`` chooses its first plan on (the supervisor's end tolerance,
-    hazard stops and carried poses; :meth:`planner.robust.RobustConfigurator.probabilistic_map`)."""
+    hazard stops and carried poses; :meth:`clomp.planner.robust.RobustConfigurator.probabilistic_map`)."""
     robust = robust_from_args(args, conf)
     try:
         return robust.probabilistic_map(scan, goal)
@@ -198,8 +198,8 @@ def _print_readable(r: PlanResult, title: str) -> None:
 
 
 def robust_summary(d: "RobustDecision") -> dict[str, Any]:
-    """The ``clomp plan --robust`` JSON of a :class:`planner.robust.RobustDecision`: the
-    plan a supervisor with :class:`planner.robust.RobustConfigurator` would execute
+    """The ``clomp plan --robust`` JSON of a :class:`clomp.planner.robust.RobustDecision`: the
+    plan a supervisor with :class:`clomp.planner.robust.RobustConfigurator` would execute
     (``plan``: Storm's policy where its deviation from the best-first plan is confirmed on
     fresh rollouts, else the best-first plan; ``decision`` says which) and ``policy``
     (the task it starts in every state it can reach). ``probability`` is Storm's
@@ -209,7 +209,7 @@ def robust_summary(d: "RobustDecision") -> dict[str, Any]:
     the best-first plan, ``scheduler_probability`` the value of Storm's policy itself,
     and ``path_probability`` the chance of the printed path (the product of its
     branches; at most ``probability``)."""
-    from formal.robust import path_probability, policy_states
+    from clomp.formal.robust import path_probability, policy_states
 
     c = d.choice
     pm = c.pm
@@ -247,7 +247,7 @@ def robust_summary(d: "RobustDecision") -> dict[str, Any]:
 
 
 def _run_robust(args: argparse.Namespace, conf: Configurator) -> int:
-    from formal.checking import StormMissing
+    from clomp.formal.checking import StormMissing
 
     if args.learn:
         raise CliError("--learn goes with clomp export or check; plan --robust samples the map (--samples)")

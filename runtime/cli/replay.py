@@ -11,14 +11,14 @@ from typing import Any
 
 import numpy as np
 
-from planner import Configurator, ScanError, scan_files
-from runtime.cli._bags import add_bag_options, is_bag, labelled_scans, lidar_offset, open_topic
-from runtime.cli._progress import progress
-from runtime.cli import EXIT_OK, CliError, plural
-from runtime.cli._common import scan_outcomes
-from runtime.cli.plan import add_planner_options, configurator_from_args, parse_goal
-from runtime.records.bags import BagError, LaserScan
-from runtime.records.runlog import LogError, scans_from_log
+from clomp.planner import Configurator, ScanError, scan_files
+from clomp.runtime.cli._bags import add_bag_options, is_bag, labelled_scans, lidar_offset, open_topic
+from clomp.runtime.cli._progress import progress
+from clomp.runtime.cli import EXIT_OK, CliError, plural
+from clomp.runtime.cli._common import scan_outcomes
+from clomp.runtime.cli.plan import add_planner_options, configurator_from_args, parse_goal
+from clomp.runtime.records.bags import BagError, LaserScan
+from clomp.runtime.records.runlog import LogError, scans_from_log
 
 __all__ = ["register"]
 

@@ -28,9 +28,9 @@ import time
 from pathlib import Path
 from typing import Any
 
-from runtime.cli.plan import add_planner_options, configurator_from_args, parse_goal
-from runtime.cli import EXIT_DEVICE_FAULT, EXIT_INTERRUPTED, EXIT_NOT_REACHED, EXIT_OK, CliError
-from runtime.cli._signals import interrupts_raise
+from clomp.runtime.cli.plan import add_planner_options, configurator_from_args, parse_goal
+from clomp.runtime.cli import EXIT_DEVICE_FAULT, EXIT_INTERRUPTED, EXIT_NOT_REACHED, EXIT_OK, CliError
+from clomp.runtime.cli._signals import interrupts_raise
 
 __all__ = ["register", "add_emulate_world", "default_log_path"]
 
@@ -110,8 +110,8 @@ class _SharedLog:
 
 
 def _config(args: argparse.Namespace) -> Any:
-    from runtime.devices.maestro import WheelConfig
-    from runtime.robots.hardware import HardwareConfig
+    from clomp.runtime.devices.maestro import WheelConfig
+    from clomp.runtime.robots.hardware import HardwareConfig
 
     if args.motors is None and not args.dry_run:
         raise CliError("--motors PORT is required (or --dry-run to only read the LiDAR and plan)")
@@ -156,19 +156,19 @@ def _wheels(robot: Any) -> str:
 
 def run(args: argparse.Namespace) -> int:
     """Execute ``clomp run``, its threads favoured by the scheduler where allowed
-    (:mod:`runtime.realtime`: the stream watch and the control loop are real-time)."""
-    from runtime.realtime import favoured
+    (:mod:`clomp.runtime.realtime`: the stream watch and the control loop are real-time)."""
+    from clomp.runtime.realtime import favoured
 
     with favoured() as scheduling:
         return _run(args, scheduling)
 
 
 def _run(args: argparse.Namespace, scheduling: str) -> int:
-    from runtime.robots.hardware import HardwareRobot
-    from runtime.clock import ScaledClock, WallClock
-    from runtime.robot import RobotFault
-    from runtime.records.runlog import RunLog
-    from runtime.supervision import Supervisor, SupervisorState
+    from clomp.runtime.robots.hardware import HardwareRobot
+    from clomp.runtime.clock import ScaledClock, WallClock
+    from clomp.runtime.robot import RobotFault
+    from clomp.runtime.records.runlog import RunLog
+    from clomp.runtime.supervision import Supervisor, SupervisorState
 
     goal = parse_goal(args.goal)
     config = _config(args)
@@ -246,10 +246,10 @@ def _run(args: argparse.Namespace, scheduling: str) -> int:
 def _dry_run(robot: Any, conf: Any, goal: tuple[float, float], clock: Any, log: Any,
              max_time: float | None, path: Path) -> int:
     """Plan on every scan without moving: one ``scan`` and one ``plan`` record per scan."""
-    from formal.model import Pose
-    from planner import PlanningError, ScanError
-    from runtime.records.runlog import plan_fields
-    from runtime.robot import RobotFault
+    from clomp.formal.model import Pose
+    from clomp.planner import PlanningError, ScanError
+    from clomp.runtime.records.runlog import plan_fields
+    from clomp.runtime.robot import RobotFault
 
     t0 = clock.now()
     n = 0
@@ -306,14 +306,14 @@ def add_emulate_world(devices: Any) -> None:
 
 
 def _run_world(args: argparse.Namespace) -> int:
-    from planner.scenarios import ScenarioError
-    from runtime.realtime import favour_this_thread
-    from runtime.robots.emulated import EmulatedWorld
+    from clomp.planner.scenarios import ScenarioError
+    from clomp.runtime.realtime import favour_this_thread
+    from clomp.runtime.robots.emulated import EmulatedWorld
 
     if args.serial_timeout is not None and not (math.isfinite(args.serial_timeout) and args.serial_timeout > 0):
         raise CliError(f"--serial-timeout must be a positive number of seconds, got {args.serial_timeout}")
     try:
-        from runtime.robots.world import WorldNoise
+        from clomp.runtime.robots.world import WorldNoise
 
         noise = None if args.noise is None else WorldNoise.preset(args.noise, args.noise_scale)
         world = EmulatedWorld(args.scenario, seed=args.seed, time_scale=args.time_scale, noise=noise,

@@ -7,20 +7,20 @@ port I/O (``rplidar``, ``maestro``) and an emulator (``rplidar_emulator``,
 May import: numpy, pyserial and itself only — never the robots, the supervisor or the
 planner (a test checks it), so the devices can be used on their own.
 
->>> from runtime.devices import ScanDecoder
+>>> from clomp.runtime.devices import ScanDecoder
 >>> ScanDecoder().feed(b"") == []
 True
 """
 
-from runtime.devices.frame import ScanFrame
-from runtime.devices.maestro_emulator import MaestroEmulator
-from runtime.devices.rplidar_emulator import (
+from clomp.runtime.devices.frame import ScanFrame
+from clomp.runtime.devices.maestro_emulator import MaestroEmulator
+from clomp.runtime.devices.rplidar_emulator import (
     LidarEmulator,
     ScanSource,
     load_scan_file,
     recorded_scan_source,
 )
-from runtime.devices.maestro import (
+from clomp.runtime.devices.maestro import (
     ErrorFlags,
     Maestro,
     MaestroDeviceError,
@@ -29,7 +29,7 @@ from runtime.devices.maestro import (
     MaestroTimeout,
     WheelConfig,
 )
-from runtime.devices.rplidar import (
+from clomp.runtime.devices.rplidar import (
     DeviceInfo,
     HealthStatus,
     LidarError,

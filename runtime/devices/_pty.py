@@ -2,8 +2,8 @@
 
 Each emulator owns the master side of a pseudo-terminal and runs in a background thread;
 its ``.port`` is the slave's path, which the real drivers open like a USB serial device.
-Subclasses implement the device (:mod:`runtime.devices.rplidar_emulator`,
-:mod:`runtime.devices.maestro_emulator`).
+Subclasses implement the device (:mod:`clomp.runtime.devices.rplidar_emulator`,
+:mod:`clomp.runtime.devices.maestro_emulator`).
 """
 
 from __future__ import annotations

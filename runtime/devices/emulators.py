@@ -1,13 +1,13 @@
 """Both device emulators in one import: the RPLIDAR A1 and the Pololu Maestro on pseudo-terminals.
 
-One module per device (:mod:`runtime.devices.rplidar_emulator`,
-:mod:`runtime.devices.maestro_emulator`); this module gathers them for convenience.
+One module per device (:mod:`clomp.runtime.devices.rplidar_emulator`,
+:mod:`clomp.runtime.devices.maestro_emulator`); this module gathers them for convenience.
 
->>> from runtime.devices.emulators import LidarEmulator, MaestroEmulator
+>>> from clomp.runtime.devices.emulators import LidarEmulator, MaestroEmulator
 """
 
-from runtime.devices.maestro_emulator import MaestroEmulator
-from runtime.devices.rplidar_emulator import (
+from clomp.runtime.devices.maestro_emulator import MaestroEmulator
+from clomp.runtime.devices.rplidar_emulator import (
     LidarEmulator,
     ScanSource,
     load_scan_file,

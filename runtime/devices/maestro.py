@@ -1,6 +1,6 @@
 """Pololu Maestro driver over pyserial (port I/O): two continuous-rotation wheel servos.
 
-Built on :mod:`runtime.devices.maestro_codec` (whose names are re-exported here). A
+Built on :mod:`clomp.runtime.devices.maestro_codec` (whose names are re-exported here). A
 software watchdog stops the wheels when no speed command arrived for
 ``watchdog_timeout`` seconds, so a crashed or stalled controller cannot leave the robot
 driving.
@@ -19,10 +19,10 @@ import time
 from collections.abc import Callable
 from typing import Any
 
-from runtime.devices.port import OPEN_ERRORS as _OPEN_ERRORS
-from runtime.devices.port import PORT_ERRORS as _PORT_ERRORS
-from runtime.devices.port import open_serial
-from runtime.devices.maestro_codec import (
+from clomp.runtime.devices.port import OPEN_ERRORS as _OPEN_ERRORS
+from clomp.runtime.devices.port import PORT_ERRORS as _PORT_ERRORS
+from clomp.runtime.devices.port import open_serial
+from clomp.runtime.devices.maestro_codec import (
     decode_errors,
     DEFAULT_DEVICE_NUMBER,
     encode_get_errors,

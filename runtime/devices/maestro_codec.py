@@ -3,8 +3,8 @@
 A wheel speed in [-1, 1] becomes a pulse of ``1500 µs ± 100 µs × speed × gain``
 (1500 µs = stop) on the wheel's channel; the right wheel's sign is inverted by default
 because its servo is mounted mirrored. Commands encode in the compact or the Pololu
-protocol. No port here: the driver (:mod:`runtime.devices.maestro`) and the emulator
-(:mod:`runtime.devices.maestro_emulator`) are built on it.
+protocol. No port here: the driver (:mod:`clomp.runtime.devices.maestro`) and the emulator
+(:mod:`clomp.runtime.devices.maestro_emulator`) are built on it.
 
 >>> encode_set_target(0, speed_to_target(0.0, WheelConfig(0))).hex(" ")
 '84 00 70 2e'

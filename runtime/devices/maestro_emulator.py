@@ -1,6 +1,6 @@
 """An emulated Pololu Maestro servo controller on a pseudo-terminal.
 
-It speaks the compact and Pololu protocols of :mod:`runtime.devices.maestro` byte for
+It speaks the compact and Pololu protocols of :mod:`clomp.runtime.devices.maestro` byte for
 byte, reports errors like the device (incl. its serial-timeout fail-safe) and decodes the
 targets it receives into wheel speeds, so the driver and the hardware robot can be tested
 without hardware.
@@ -16,8 +16,8 @@ import threading
 from collections.abc import Callable
 
 
-from runtime.devices import maestro_codec as _m
-from runtime.devices._pty import PtyEmulator
+from clomp.runtime.devices import maestro_codec as _m
+from clomp.runtime.devices._pty import PtyEmulator
 
 __all__ = ["MaestroEmulator"]
 

@@ -1,7 +1,7 @@
-"""SLAMTEC RPLIDAR A1 driver over pyserial (port I/O), built on :mod:`runtime.devices.rplidar_codec`.
+"""SLAMTEC RPLIDAR A1 driver over pyserial (port I/O), built on :mod:`clomp.runtime.devices.rplidar_codec`.
 
 :class:`RPLidar` talks to a device (a port path, a pyserial URL or an open serial-like
-object) and returns scans as :class:`runtime.devices.frame.ScanFrame` in the robot
+object) and returns scans as :class:`clomp.runtime.devices.frame.ScanFrame` in the robot
 frame. The codec's names are re-exported here for convenience.
 
 >>> lidar = RPLidar("loop://", motor_control="none", timeout=0.2)
@@ -17,11 +17,11 @@ from collections.abc import Callable, Iterator
 from typing import Any, Literal
 
 
-from runtime.devices.port import OPEN_ERRORS as _OPEN_ERRORS
-from runtime.devices.port import PORT_ERRORS as _PORT_ERRORS
-from runtime.devices.port import open_serial
-from runtime.devices.frame import ScanFrame
-from runtime.devices.rplidar_codec import (
+from clomp.runtime.devices.port import OPEN_ERRORS as _OPEN_ERRORS
+from clomp.runtime.devices.port import PORT_ERRORS as _PORT_ERRORS
+from clomp.runtime.devices.port import open_serial
+from clomp.runtime.devices.frame import ScanFrame
+from clomp.runtime.devices.rplidar_codec import (
     Command,
     decode_health,
     decode_info,

@@ -2,8 +2,8 @@
 
 No port, no clock: requests, response descriptors, scan samples, device info and health
 encode and decode here, and :class:`ScanDecoder` turns an arbitrary byte stream into
-full revolutions. The driver (:mod:`runtime.devices.rplidar`) and the emulator
-(:mod:`runtime.devices.rplidar_emulator`) are both built on it, and so are the tests.
+full revolutions. The driver (:mod:`clomp.runtime.devices.rplidar`) and the emulator
+(:mod:`clomp.runtime.devices.rplidar_emulator`) are both built on it, and so are the tests.
 
 >>> encode_request(Command.GET_HEALTH).hex(" ")
 'a5 52'

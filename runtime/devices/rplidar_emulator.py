@@ -1,6 +1,6 @@
 """An emulated RPLIDAR A1 on a pseudo-terminal, and the scan sources that feed it.
 
-It speaks the protocol of :mod:`runtime.devices.rplidar_codec` byte for byte, paces
+It speaks the protocol of :mod:`clomp.runtime.devices.rplidar_codec` byte for byte, paces
 output like the hardware, and injects faults (garbage, bad check bits, silence, the
 device vanishing) so the driver can be tested without hardware.
 
@@ -21,8 +21,8 @@ from pathlib import Path
 
 import numpy as np
 
-from runtime.devices import rplidar_codec as _r
-from runtime.devices._pty import PtyEmulator
+from clomp.runtime.devices import rplidar_codec as _r
+from clomp.runtime.devices._pty import PtyEmulator
 
 __all__ = [
     "SampleStream",
@@ -120,7 +120,7 @@ class LidarEmulator(PtyEmulator):
     mid-scan; then the pty is closed). ``seed`` makes the faults reproducible.
 
     ``sample_stream`` (instead of ``scan_source``): a world that measures each sample at
-    its own time (:meth:`runtime.robots.world.WorldRobot.stream`); each tick sends what it
+    its own time (:meth:`clomp.runtime.robots.world.WorldRobot.stream`); each tick sends what it
     measured since the last, so a sample is on the wire when it is measured, as on the
     device, and the world sets the pace (``sample_rate`` and ``speed`` then only answer
     GET_SAMPLERATE).

@@ -1,12 +1,12 @@
 """Estimation: where the robot is, from what its LiDAR sees.
 
-``runtime.estimation.icp`` matches two scans (point-to-line ICP with a dead-reckoning
-prior, gating and degeneracy detection); ``runtime.estimation.odometry`` fuses those
+``clomp.runtime.estimation.icp`` matches two scans (point-to-line ICP with a dead-reckoning
+prior, gating and degeneracy detection); ``clomp.runtime.estimation.odometry`` fuses those
 matches with dead reckoning into the pose the supervisor's tasks run on.
 """
 
 from __future__ import annotations
 
-from runtime.estimation.icp import ReferenceScan, ScanMatch, match_scans
+from clomp.runtime.estimation.icp import ReferenceScan, ScanMatch, match_scans
 
 __all__ = ["ReferenceScan", "ScanMatch", "match_scans"]

@@ -1,4 +1,4 @@
-"""The compiled inner loop of :func:`runtime.estimation.icp.match_scans` (numba).
+"""The compiled inner loop of :func:`clomp.runtime.estimation.icp.match_scans` (numba).
 
 A match is about ten Gauss–Newton iterations over a hundred or so points, every revolution
 of every run: written with numpy, each iteration was some forty small array calls and a
@@ -7,7 +7,7 @@ largest share of an experiment run's time. Here the whole loop — nearest refer
 through a uniform grid, Huber-weighted normal equations accumulated point by point, the
 eigen-decomposition and the step in the observable subspace — is one compiled call.
 
-The arithmetic is the module :mod:`runtime.estimation.icp` documents; this module holds
+The arithmetic is the module :mod:`clomp.runtime.estimation.icp` documents; this module holds
 no policy (thresholds, gating, what a failure says), only the numbers.
 
 >>> import numpy as np
@@ -25,7 +25,7 @@ from typing import Any
 
 import numpy as np
 
-from runtime.jit import compiled, interruptible
+from clomp.runtime.jit import compiled, interruptible
 
 __all__ = ["grid_index", "cell_keys", "nearest", "icp_iterations", "warm_up"]
 

@@ -76,8 +76,8 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from formal.geometry import wrap_angle
-from formal.model import Pose
+from clomp.formal.geometry import wrap_angle
+from clomp.formal.model import Pose
 
 __all__ = ["OdometryFilter"]
 
@@ -276,7 +276,7 @@ class OdometryFilter:
     def correct_heading(self, offset: float, sd: float) -> tuple[bool, float]:
         """Update with a heading measured directly: ``offset`` (rad, measured minus the
         estimate) with standard deviation ``sd`` (rad), as a compass gives it against faces
-        fixed in this frame (:class:`~runtime.estimation.faces.FaceCompass`). The position
+        fixed in this frame (:class:`~clomp.runtime.estimation.faces.FaceCompass`). The position
         follows through its correlation with the heading, and the calibration learns from
         it (the faces carry no error of the estimate, unlike a map drawn from it). Returns
         (accepted, squared Mahalanobis distance); beyond ``gate``, rejected.

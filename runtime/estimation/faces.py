@@ -22,13 +22,13 @@ The start's faces are found in the still revolutions fused (median range per bea
 then refitted on all their raw points within 3.5 standard deviations of the range noise:
 a narrower band around a first, tilted guess keeps a tilted parallelogram of points and
 the fit stays tilted. The robot stands for ten revolutions before it first moves
-(:class:`~runtime.supervision.supervisor.Supervisor` ``start_scans``): with the three it
+(:class:`~clomp.runtime.supervision.supervisor.Supervisor` ``start_scans``): with the three it
 used to, a 0.2 m face's direction came out 5-18° off in one harsh run in ten, and the
 compass then read that error as the heading for the rest of the run.
 
 :func:`find_faces` finds the faces of a noisy point set (sequential RANSAC, then a total
 least-squares fit per face, deterministic for given points); :class:`FaceCompass` keeps
-the faces and measures the heading. :class:`~runtime.estimation.odometry.ScanOdometry`
+the faces and measures the heading. :class:`~clomp.runtime.estimation.odometry.ScanOdometry`
 fuses each measurement into its filter (which learns the wheels' curvature from them).
 
 >>> import numpy as np
@@ -54,9 +54,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from formal.geometry import wrap_angle
-from formal.model import Pose
-from runtime.estimation.fusion import fuse_revolutions
+from clomp.formal.geometry import wrap_angle
+from clomp.formal.model import Pose
+from clomp.runtime.estimation.fusion import fuse_revolutions
 
 __all__ = ["Face", "FaceCompass", "find_faces", "fit_line", "refine_line"]
 

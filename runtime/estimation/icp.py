@@ -5,7 +5,7 @@ frame (x forward, y left, theta counter-clockwise). Each reference point gets th
 of the line through its neighbours (principal axes of the points within ``normal_radius``;
 points with no clear line are left out); each current point is paired with its nearest
 reference point (a uniform grid, searched by the compiled loop of
-:mod:`runtime.estimation._icp_core`) and the point-to-line distances are minimised by
+:mod:`clomp.runtime.estimation._icp_core`) and the point-to-line distances are minimised by
 Gauss–Newton with Huber weights, starting from the ``prior`` (dead reckoning).
 
 Degeneracy: the information matrix ``H = JᵀWJ`` of the converged match (rotation scaled
@@ -21,7 +21,7 @@ rejected (``ok`` False, with the reason) — a wrong data association under heav
 must not teleport the robot.
 
 >>> import numpy as np
->>> from formal.model import Pose
+>>> from clomp.formal.model import Pose
 >>> ref = np.array([[1.0, y] for y in np.linspace(-0.5, 0.5, 51)] + [[x, 0.5] for x in np.linspace(0.0, 1.0, 51)])
 >>> cur = ref - [0.05, 0.0]          # the robot moved 5 cm forward
 >>> m = match_scans(ref, cur, Pose(0.0, 0.0, 0.0))
@@ -41,9 +41,9 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial import cKDTree
 
-from formal.model import Pose
-from runtime.estimation._icp_core import cell_keys, grid_index, icp_iterations
-from runtime.jit import interruptible
+from clomp.formal.model import Pose
+from clomp.runtime.estimation._icp_core import cell_keys, grid_index, icp_iterations
+from clomp.runtime.jit import interruptible
 
 __all__ = ["ScanMatch", "ReferenceScan", "match_scans"]
 
@@ -61,7 +61,7 @@ class ScanMatch:
     such as ``"0.71x+0.71y"``. ``information_matrix``: ``JᵀWJ`` of the converged match in
     state units (m, rad), summed over the correspondences, with the unobservable
     directions removed — divided by the residual variance, the inverse covariance of the
-    pose (what a filter fuses, :mod:`runtime.estimation.ekf`). ``inlier_fraction``: share
+    pose (what a filter fuses, :mod:`clomp.runtime.estimation.ekf`). ``inlier_fraction``: share
     of the current points paired within the final correspondence distance; ``rmse``:
     their point-to-line RMS (m).
     """

@@ -7,14 +7,14 @@ each new revolution it
 1. looks up the estimate at the revolution's timestamp (a short history is kept, so a
    scan read a tick late is matched where it was taken) and, when the frame says when
    each point was measured, *de-skews* the revolution with the estimated motion;
-2. matches it (:func:`~runtime.estimation.icp.match_scans`, point-to-line ICP) against
+2. matches it (:func:`~clomp.runtime.estimation.icp.match_scans`, point-to-line ICP) against
    the *local map* — the points of the revolutions matched so far, in the supervisor's
    frame on a 1 cm grid, within ``map_radius`` of the robot — with the dead-reckoned pose
    as the prior. A match that disagrees wildly with the prior is rejected (gating), and
    directions the scene leaves unobservable (one straight wall, a single face) keep the
    prior's value;
 3. fuses the match with the prediction in a small Kalman filter
-   (:class:`~runtime.estimation.ekf.OdometryFilter`: the pose and the odometry's
+   (:class:`~clomp.runtime.estimation.ekf.OdometryFilter`: the pose and the odometry's
    systematic errors, learnt from the matches), each direction weighted by how well the
    scene pins it down, and carries the correction through the kept history to now;
 4. adds the matched revolution to the map (a face seen from a new side joins the faces
@@ -24,8 +24,8 @@ each new revolution it
 When nothing matches, the estimate stays dead reckoning; the record says why.
 
 >>> import numpy as np
->>> from formal.model import Pose
->>> from runtime.devices.frame import ScanFrame
+>>> from clomp.formal.model import Pose
+>>> from clomp.runtime.devices.frame import ScanFrame
 >>> room = np.array([[1.0, y] for y in np.linspace(-0.6, 0.6, 61)] + [[x, 0.6] for x in np.linspace(-0.5, 1.0, 76)])
 >>> odo = ScanOdometry(wheel_base=0.15)
 >>> odo.reset(Pose(0.0, 0.0, 0.0), 0.0)
@@ -48,14 +48,14 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial import cKDTree
 
-from formal.geometry import compose, relative, wheel_twist, wrap_angle
-from formal.model import Pose
-from runtime.devices.frame import ScanFrame
-from runtime.estimation.ekf import OdometryFilter
-from runtime.estimation.faces import FaceCompass
-from runtime.estimation.fusion import fuse_revolutions, range_spread
-from runtime.estimation._icp_core import warm_up
-from runtime.estimation.icp import ReferenceScan, match_scans
+from clomp.formal.geometry import compose, relative, wheel_twist, wrap_angle
+from clomp.formal.model import Pose
+from clomp.runtime.devices.frame import ScanFrame
+from clomp.runtime.estimation.ekf import OdometryFilter
+from clomp.runtime.estimation.faces import FaceCompass
+from clomp.runtime.estimation.fusion import fuse_revolutions, range_spread
+from clomp.runtime.estimation._icp_core import warm_up
+from clomp.runtime.estimation.icp import ReferenceScan, match_scans
 
 __all__ = ["ScanOdometry", "FeedbackRecord", "deskew"]
 
@@ -124,7 +124,7 @@ class ScanOdometry:
     the robot has not moved since :meth:`reset`, the seed is the last this many
     revolutions fused (median range per bearing): the start pose fixes the frame, so the
     map's first surfaces are the best known. The same still revolutions measure the LiDAR's
-    range noise (:func:`~runtime.estimation.fusion.range_spread`, :attr:`range_sd`): a match's
+    range noise (:func:`~clomp.runtime.estimation.fusion.range_spread`, :attr:`range_sd`): a match's
     residual is believed no smaller than ``noise_factor`` times it (a scan point and the map
     point it meets each carry that noise). The residual a match reports is measured only
     over the points it paired within a few centimetres and so understates a noisy sensor:
@@ -217,7 +217,7 @@ class ScanOdometry:
         """Dead-reckon to time ``t``: from the backend's ``odometry`` when given (its change
         since the last call), else from the ``wheels`` (m/s) commanded since the last call;
         ``rotation`` (rad): the heading turned since start-up by the backend's gyro
-        (:class:`~runtime.robot.TurnSensing`), which then gives the heading. Once the wheels
+        (:class:`~clomp.runtime.robot.TurnSensing`), which then gives the heading. Once the wheels
         have been commanded still for ``still_after`` s, the gyro's reading measures its
         offset instead (:meth:`OdometryFilter.zero_rate`)."""
         dt = float(t) - self._t
@@ -385,7 +385,7 @@ class ScanOdometry:
         return compose(after, relative(before, at))
 
     def _steer(self, points: np.ndarray, at: Pose, stamp: float, reason: str) -> tuple[Pose, str]:
-        """The compass (:class:`~runtime.estimation.faces.FaceCompass`): the heading measured
+        """The compass (:class:`~clomp.runtime.estimation.faces.FaceCompass`): the heading measured
         on the faces this revolution sees, fused; then the faces it shows for the first time
         may join. Returns the estimate at ``stamp`` after it, and the record's reason."""
         assert self.compass is not None

@@ -10,8 +10,8 @@
 - :mod:`.plots` / :mod:`.report` — pictures of runs, collisions per run, success against noise, a gallery.
 
 May import: everything below it (formal, planner, robots, supervision, records, clock); never
-:mod:`runtime.cli` (the command line passes its progress bar in).
-Import the modules themselves or the lazy names of :mod:`runtime`.
+:mod:`clomp.runtime.cli` (the command line passes its progress bar in).
+Import the modules themselves or the lazy names of :mod:`clomp.runtime`.
 """
 
 __all__: list[str] = []

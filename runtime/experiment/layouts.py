@@ -47,7 +47,7 @@ from typing import Any
 
 import numpy as np
 
-from planner.scenarios import Scene, Shape, parse_scenario
+from clomp.planner.scenarios import Scene, Shape, parse_scenario
 
 __all__ = ["FAMILIES", "GOAL_CLEARANCE", "Layout", "make_layout", "shape_distance"]
 

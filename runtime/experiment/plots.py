@@ -21,8 +21,8 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
-from planner.robot import RobotModel
-from planner.scenarios import Scene
+from clomp.planner.robot import RobotModel
+from clomp.planner.scenarios import Scene
 
 __all__ = ["RunTrace", "plot_collisions", "plot_gallery", "plot_run", "plot_runs", "plot_success_vs_noise"]
 
@@ -158,7 +158,7 @@ def plot_run(trace: RunTrace, path: str | os.PathLike[str], model: RobotModel | 
 
     >>> import tempfile
     >>> from pathlib import Path
-    >>> from planner import load_scenario
+    >>> from clomp.planner import load_scenario
     >>> png = Path(tempfile.mkdtemp()) / "run.png"
     >>> plot_run(RunTrace(load_scenario("open"), "a straight run", [(0.0, 0.0), (0.5, 0.0), (1.0, 0.0)]), png)
     >>> png.read_bytes()[1:4] == b"PNG"
@@ -187,7 +187,7 @@ def plot_runs(traces: Sequence[RunTrace], path: str | os.PathLike[str], title: s
 
     >>> import tempfile
     >>> from pathlib import Path
-    >>> from planner import load_scenario
+    >>> from clomp.planner import load_scenario
     >>> png = Path(tempfile.mkdtemp()) / "runs.png"
     >>> trace = RunTrace(load_scenario("open"), "run", [(0.0, 0.0), (1.0, 0.0)])
     >>> plot_runs([trace, trace], png, "two runs")
@@ -260,7 +260,7 @@ def plot_success_vs_noise(points: dict[str, list[tuple[float, int, int]]], path:
 
     ``points``: condition → [(noise_scale, successes, runs)].
     """
-    from runtime.experiment.stats import wilson
+    from clomp.runtime.experiment.stats import wilson
 
     plt = _pyplot()
     fig, ax = plt.subplots(figsize=(6.4, 4.0))
@@ -288,7 +288,7 @@ def plot_success_vs_noise(points: dict[str, list[tuple[float, int, int]]], path:
 def plot_gallery(path: str | os.PathLike[str], families: Sequence[str] | None = None, seed: int = 0,
                  per_family: int = 4) -> None:
     """Sample layouts (rows: families; columns: runs 0..per_family-1 of ``seed``), axes in metres."""
-    from runtime.experiment.layouts import FAMILIES, make_layout
+    from clomp.runtime.experiment.layouts import FAMILIES, make_layout
 
     fams = list(families or FAMILIES)
     plt = _pyplot()

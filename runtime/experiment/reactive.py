@@ -8,7 +8,7 @@ describes it no further, so this follows the authors' public code for that condi
 ``planning = 0``, as ``target.cpp`` does with its no-planning option from 2024-10-09; the
 loop is ``Configurator::Spawner``'s non-planning branch, ``Configurator::changeTask``'s
 ``else`` branch and ``Task::H``; state of October 2024),
-on the same :class:`~runtime.robot.Robot` interface as the supervisor, with no plan and
+on the same :class:`~clomp.runtime.robot.Robot` interface as the supervisor, with no plan and
 no map. The repository's README names the tasks: "go straight, turn left/right 90
 degrees". One task runs at a time:
 
@@ -68,12 +68,12 @@ Where this departs from the authors' code, and why:
   heading from the robot's gyro when it has one (it then stands ``start_still`` s first, as
   the planning robot stands for its first scans, so that the gyro's offset is measured),
   corrected once a revolution by matching the scan against a local map
-  (:class:`~runtime.estimation.odometry.ScanOdometry`); with ``feedback="none"`` dead
+  (:class:`~clomp.runtime.estimation.odometry.ScanOdometry`); with ``feedback="none"`` dead
   reckoning alone (the authors' reactive dead-reckons). The newest (de-skewed) scan is
   moved into the body frame each tick.
 
->>> from planner import load_scenario
->>> from runtime.robots.sim import SimRobot
+>>> from clomp.planner import load_scenario
+>>> from clomp.runtime.robots.sim import SimRobot
 >>> scene = load_scenario("open")
 >>> ReactiveController(SimRobot(scene, seed=0), scene.goal_in_robot_frame()).run(60).state
 'GOAL_REACHED'
@@ -87,13 +87,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from formal.geometry import compose, dead_reckon, points_from_frame, relative, wrap_angle
-from formal.model import Pose
-from planner.perception import validate_scan
-from planner.robot import RobotModel
-from runtime.clock import Clock, clock_for
-from runtime.estimation.odometry import ScanOdometry
-from runtime.robot import Robot, RobotFault, ScanFrame, TurnSensing, finite_goal
+from clomp.formal.geometry import compose, dead_reckon, points_from_frame, relative, wrap_angle
+from clomp.formal.model import Pose
+from clomp.planner.perception import validate_scan
+from clomp.planner.robot import RobotModel
+from clomp.runtime.clock import Clock, clock_for
+from clomp.runtime.estimation.odometry import ScanOdometry
+from clomp.runtime.robot import Robot, RobotFault, ScanFrame, TurnSensing, finite_goal
 
 __all__ = ["PURSUE_DEAD_BAND", "WINDOW", "ReactiveController", "ReactiveReport"]
 
@@ -112,8 +112,8 @@ class ReactiveReport:
     ``(time_s, task)`` for each task begun (``"straight"``, ``"left"``, ``"right"``, the
     turns suffixed ``"/avoid"`` or ``"/pursue"``).
 
-    >>> from planner import load_scenario
-    >>> from runtime.robots.sim import SimRobot
+    >>> from clomp.planner import load_scenario
+    >>> from clomp.runtime.robots.sim import SimRobot
     >>> scene = load_scenario("open")
     >>> report = ReactiveController(SimRobot(scene, seed=0), scene.goal_in_robot_frame()).run(max_time=60)
     >>> report.state, report.avoid_ticks, report.tasks[0][1]
@@ -137,8 +137,8 @@ class ReactiveReport:
 class ReactiveController:
     """Drive to ``goal`` (robot frame at start) with one closed loop; see the module docstring.
 
-    >>> from planner import load_scenario
-    >>> from runtime.robots.sim import SimRobot
+    >>> from clomp.planner import load_scenario
+    >>> from clomp.runtime.robots.sim import SimRobot
     >>> scene = load_scenario("open")
     >>> ReactiveController(SimRobot(scene, seed=0), scene.goal_in_robot_frame()).run(max_time=60).state
     'GOAL_REACHED'

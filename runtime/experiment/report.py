@@ -11,8 +11,8 @@ import os
 from pathlib import Path
 from typing import Any
 
-from planner.scenarios import Scene, parse_scenario
-from runtime.experiment.plots import (
+from clomp.planner.scenarios import Scene, parse_scenario
+from clomp.runtime.experiment.plots import (
     RunTrace,
     plot_collisions,
     plot_runs,

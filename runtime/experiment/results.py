@@ -1,6 +1,6 @@
 """What an experiment leaves: one CSV row per run (documented schema), a summary, a table.
 
-The records come from :func:`runtime.experiment.runner.run_spec` (one per run and
+The records come from :func:`clomp.runtime.experiment.runner.run_spec` (one per run and
 condition). :func:`summarise` turns them into the JSON summary — per condition: runs,
 ground-truth goal reached, success with its Wilson 95 % interval, collisions and
 brushes (totals and per run with t intervals), median final error; the paired t-test
@@ -27,7 +27,7 @@ from collections.abc import Iterable, Sequence
 from pathlib import Path
 from typing import Any
 
-from runtime.experiment.stats import mcnemar, mean_ci, paired_ttest, wilson
+from clomp.runtime.experiment.stats import mcnemar, mean_ci, paired_ttest, wilson
 
 __all__ = ["COLUMN_TYPES", "CSV_COLUMNS", "MARKDOWN_HEADER", "markdown_rows", "summarise", "table", "write_csv",
            "write_parquet", "write_schema"]

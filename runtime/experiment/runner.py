@@ -1,15 +1,15 @@
 """The paper's experiment: planning vs the reactive loop, one run as a pure function, many on Dask.
 
-:func:`run_once` drives one condition (``"planning"``: the :class:`~runtime.supervision.supervisor.
-Supervisor` with a :class:`~planner.Configurator`; ``"reactive"``: the :class:`~runtime.
+:func:`run_once` drives one condition (``"planning"``: the :class:`~clomp.runtime.supervision.supervisor.
+Supervisor` with a :class:`~clomp.planner.Configurator`; ``"reactive"``: the :class:`~clomp.runtime.
 experiment.reactive.ReactiveController`) on a fresh robot of the execution world
-(:func:`~runtime.experiment.world.make_robot`) and measures it on the world's ground
-truth: contact episodes (:mod:`runtime.experiment.contacts`) and the true final distance
+(:func:`~clomp.runtime.experiment.world.make_robot`) and measures it on the world's ground
+truth: contact episodes (:mod:`clomp.runtime.experiment.contacts`) and the true final distance
 to the goal.
 
 :func:`run_spec` is one run of an experiment as a pure function of its
 :class:`RunSpec` — (family, seed, run index, condition, noise preset, noise scale):
-the layout is :func:`~runtime.experiment.layouts.make_layout` (family, seed, run) and
+the layout is :func:`~clomp.runtime.experiment.layouts.make_layout` (family, seed, run) and
 the world's noise seed depends on (seed, run) only, so the two conditions of a run meet
 the same world and the same noise (paired), and a result does not depend on which
 process computed it or when. :func:`run_experiment` maps it over every run, in this
@@ -37,20 +37,20 @@ from typing import Any
 
 import numpy as np
 
-from formal.geometry import compose, relative
-from formal.model import Pose
-from planner.configurator import Configurator
-from planner.scenarios import Scene, load_scenario
-from runtime.experiment.contacts import Episode, contact_episodes
-from runtime.experiment.layouts import FAMILIES, make_layout, shape_distance
-from runtime.experiment.plots import RunTrace
-from runtime.experiment.provenance import claim_folder
-from runtime.experiment.reactive import ReactiveController
-from runtime.experiment.world import NOISE_PRESETS, make_robot, world_name
-from runtime.records.runlog import RunLog
-from runtime.robots.sim import NoiseConfig
-from runtime.robots.world import WorldNoise, make_world_robot
-from runtime.supervision.supervisor import Supervisor
+from clomp.formal.geometry import compose, relative
+from clomp.formal.model import Pose
+from clomp.planner.configurator import Configurator
+from clomp.planner.scenarios import Scene, load_scenario
+from clomp.runtime.experiment.contacts import Episode, contact_episodes
+from clomp.runtime.experiment.layouts import FAMILIES, make_layout, shape_distance
+from clomp.runtime.experiment.plots import RunTrace
+from clomp.runtime.experiment.provenance import claim_folder
+from clomp.runtime.experiment.reactive import ReactiveController
+from clomp.runtime.experiment.world import NOISE_PRESETS, make_robot, world_name
+from clomp.runtime.records.runlog import RunLog
+from clomp.runtime.robots.sim import NoiseConfig
+from clomp.runtime.robots.world import WorldNoise, make_world_robot
+from clomp.runtime.supervision.supervisor import Supervisor
 
 __all__ = ["CONDITIONS", "PAPER", "SUCCESS_RADIUS", "ExperimentInterrupted", "RunsFailed", "RunResult", "RunSpec",
            "experiment_specs", "load_records", "run_experiment", "run_once", "run_spec",
@@ -73,7 +73,7 @@ PAPER: dict[str, dict[str, Any]] = {
 class RunResult:
     """One run of one condition, measured on the world's ground truth (world frame).
 
-    >>> from planner import load_scenario
+    >>> from clomp.planner import load_scenario
     >>> r = run_once(load_scenario("open"), "planning", 0, noise="ideal")
     >>> r.condition, r.reached_goal, r.collisions, r.final_distance < SUCCESS_RADIUS
     ('planning', True, 0, True)
@@ -221,8 +221,8 @@ def run_once(
     """Run one condition in ``scene`` on a fresh robot; see the module docstring.
 
     ``noise``: a preset name (``ideal``, ``paper``, ``harsh``; the execution world of
-    :func:`~runtime.experiment.world.make_robot`), a :class:`~runtime.robots.sim.NoiseConfig`
-    for the simulated robot, a :class:`~runtime.robots.world.WorldNoise` for the execution
+    :func:`~clomp.runtime.experiment.world.make_robot`), a :class:`~clomp.runtime.robots.sim.NoiseConfig`
+    for the simulated robot, a :class:`~clomp.runtime.robots.world.WorldNoise` for the execution
     world with those terms, or None for the simulated robot with the scene's own noise.
     ``log``: a file for the run log (the supervisor's records, as ``clomp run`` writes
     them, in simulated time, with the ground truth beside each scan and task record).
@@ -230,7 +230,7 @@ def run_once(
     ``"scan"`` (scan matching, the default) or ``"none"`` (dead reckoning alone).
     ``reactive``: keyword arguments for the ReactiveController (``bench/experiment_reactive.py``).
 
-    >>> from planner import load_scenario
+    >>> from clomp.planner import load_scenario
     >>> r = run_once(load_scenario("open"), "reactive", 0, noise="ideal")
     >>> r.reached_goal, r.collisions, r.brushes
     (True, 0, 0)
@@ -247,7 +247,7 @@ def run_once(
     elif isinstance(noise, WorldNoise):
         robot = make_world_robot(scene, noise, seed=seed_, robot=conf.robot)
     else:
-        from runtime.experiment.world import _TracedSimRobot
+        from clomp.runtime.experiment.world import _TracedSimRobot
 
         robot = _TracedSimRobot(scene, conf.robot, noise=noise, seed=seed)
     start = scene.start
@@ -329,7 +329,7 @@ def noise_seed(seed: int, run: int) -> int:
 def scene_for(spec: RunSpec) -> tuple[Scene, str]:
     """The world a run is in and what success means there: ``(scene, expect)``, where
     ``expect`` is ``"reach"`` or ``"unreachable"``. A layout family draws run ``spec.run``
-    of seed ``spec.seed`` (:func:`~runtime.experiment.layouts.make_layout`); any other
+    of seed ``spec.seed`` (:func:`~clomp.runtime.experiment.layouts.make_layout`); any other
     name is a built-in scenario or a scenario file, the same world every run. Benchmarks
     and ablations use it to put a variant in exactly the world :func:`run_spec` would.
 

@@ -3,12 +3,12 @@
 
 May import: formal, planner, numpy; nothing else of the runtime.
 
->>> from runtime.records import RunLog, read_log
+>>> from clomp.runtime.records import RunLog, read_log
 """
 
-from runtime.records.bags import BagError, LaserScan, LaserScanTopic, bag_topics, read_laserscans
-from runtime.records.mcap_writer import ConvertError, write_mcap
-from runtime.records.runlog import LogError, RunLog, RunLogLike, plan_fields, read_log, scans_from_log
+from clomp.runtime.records.bags import BagError, LaserScan, LaserScanTopic, bag_topics, read_laserscans
+from clomp.runtime.records.mcap_writer import ConvertError, write_mcap
+from clomp.runtime.records.runlog import LogError, RunLog, RunLogLike, plan_fields, read_log, scans_from_log
 
 __all__ = [
     "BagError", "ConvertError", "LaserScan", "LaserScanTopic", "LogError", "RunLog", "RunLogLike",

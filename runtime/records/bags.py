@@ -255,7 +255,7 @@ def bag_topics(path: str | os.PathLike[str]) -> dict[str, str]:
 
     >>> bag_topics("missing.bag")
     Traceback (most recent call last):
-    runtime.records.bags.BagError: missing.bag: no such file or folder
+    clomp.runtime.records.bags.BagError: missing.bag: no such file or folder
     """
     bag = _Bag(Path(path))
     try:
@@ -272,7 +272,7 @@ class LaserScanTopic:
     scans; :meth:`at_index` and :meth:`at_time` pick one.
 
     >>> import tempfile, pathlib
-    >>> from runtime.records.mcap_writer import write_mcap
+    >>> from clomp.runtime.records.mcap_writer import write_mcap
     >>> bag = pathlib.Path(tempfile.mkdtemp()) / "run.mcap"
     >>> _ = write_mcap([{"t": 0.2 * k, "event": "scan", "points": [[1.0, 0.1 * k]]} for k in range(3)], bag)
     >>> with LaserScanTopic(bag, "/scan") as topic:
@@ -280,7 +280,7 @@ class LaserScanTopic:
     (3, 1, [[1.0, 0.2]])
     >>> LaserScanTopic(bag, "/nosuch")
     Traceback (most recent call last):
-    runtime.records.bags.BagError: ...: no topic /nosuch; topics in the bag: /scan (sensor_msgs/msg/LaserScan)
+    clomp.runtime.records.bags.BagError: ...: no topic /nosuch; topics in the bag: /scan (sensor_msgs/msg/LaserScan)
     """
 
     def __init__(self, path: str | os.PathLike[str], topic: str | None = None) -> None:

@@ -35,7 +35,7 @@ from typing import Any
 
 import numpy as np
 
-from runtime.records.bags import points_to_ranges
+from clomp.runtime.records.bags import points_to_ranges
 
 __all__ = ["ConvertError", "McapSummary", "write_mcap", "TOPICS", "A1_BINS"]
 
@@ -178,7 +178,7 @@ def write_mcap(
     range_max: float = 12.0,
     origin_ns: int | None = None,
 ) -> McapSummary:
-    """Write the run-log ``records`` (see :func:`runtime.records.runlog.read_log`) to
+    """Write the run-log ``records`` (see :func:`clomp.runtime.records.runlog.read_log`) to
     ``dest`` as MCAP; see the module docstring for the topics.
 
     ``origin_ns``: the time of ``t = 0`` (default: the ``run`` record's ``wall`` time,

@@ -56,18 +56,18 @@ class RunLogLike(Protocol):
 
 
 def plan_fields(result: Any, origin: Any) -> dict[str, Any]:
-    """The keys of a ``plan`` record for a :class:`planner.PlanResult` planned from the
-    odometry pose ``origin`` (a :class:`formal.model.Pose`): the outcome, and where the
+    """The keys of a ``plan`` record for a :class:`clomp.planner.PlanResult` planned from the
+    odometry pose ``origin`` (a :class:`clomp.formal.model.Pose`): the outcome, and where the
     plan goes and what it avoids in the odometry frame (what a viewer draws).
 
     >>> import numpy as np
-    >>> from formal.model import Pose
-    >>> from planner import Configurator
+    >>> from clomp.formal.model import Pose
+    >>> from clomp.planner import Configurator
     >>> f = plan_fields(Configurator().plan(np.zeros((0, 2)), (0.5, 0.0)), Pose(1.0, 0.0, 0.0))
     >>> f["tasks"], f["path"][-1], f["obstacles"].shape
     (['STRAIGHT'], [1.5, 0.0, 0.0], (0, 4, 2))
     """
-    from formal.geometry import compose, points_from_frame
+    from clomp.formal.geometry import compose, points_from_frame
 
     boxes = np.asarray(result.obstacles.boxes, dtype=float).reshape(-1, 2)
     return {

@@ -1,4 +1,4 @@
-"""The hardware robot: a :class:`~runtime.robot.Robot` backend over an RPLIDAR A1 and a
+"""The hardware robot: a :class:`~clomp.runtime.robot.Robot` backend over an RPLIDAR A1 and a
 Pololu Maestro driving two continuous-rotation wheel servos.
 
 Wheel speeds in m/s become the Maestro's normalised speeds in [-1, 1] by dividing by the
@@ -11,7 +11,7 @@ the serial line and the device layer watches the stream on its own: a port failu
 no byte for ``byte_timeout`` s, or a stream that is mostly undecodable (more than
 ``garbage_fraction`` of the bytes of the last ``garbage_window`` s) *trips* the robot —
 the wheels are stopped from that thread at once, and every later :meth:`read_scan` /
-:meth:`set_wheel_speeds` raises :class:`~runtime.robot.RobotFault` with the reason. A
+:meth:`set_wheel_speeds` raises :class:`~clomp.runtime.robot.RobotFault` with the reason. A
 little garbage is resynchronised by the decoder and tolerated.
 
 Every device error (LidarError, MaestroError, serial and OS errors) surfaces as a
@@ -19,7 +19,7 @@ RobotFault naming the device and port; :meth:`stop` always tries to stop the whe
 In ``dry_run`` mode the LiDAR is read as usual but the wheels are held stopped (neutral
 is sent instead of every command); the dead-reckoned pose still follows the commands,
 i.e. it is where the robot *would* be. ``clomp run --dry-run`` does not execute plans at
-all: it plans on every scan with the robot standing still (see ``runtime.cli.run``).
+all: it plans on every scan with the robot standing still (see ``clomp.runtime.cli.run``).
 """
 
 from __future__ import annotations
@@ -32,15 +32,15 @@ from collections.abc import Callable
 from dataclasses import asdict, dataclass, field
 from typing import Any, Literal
 
-from formal.geometry import dead_reckon
-from formal.model import Pose
-from planner.robot import RobotModel
-from runtime.devices.port import OPEN_ERRORS, PORT_ERRORS, open_serial
-from runtime.devices.maestro import Maestro, MaestroError, WheelConfig
-from runtime.devices.rplidar import DEFAULT_BAUDRATE, LidarError, LidarTimeout, RPLidar
-from runtime.clock import Clock, WallClock
-from runtime.robot import RobotFault, ScanFrame
-from runtime.records.runlog import RunLogLike
+from clomp.formal.geometry import dead_reckon
+from clomp.formal.model import Pose
+from clomp.planner.robot import RobotModel
+from clomp.runtime.devices.port import OPEN_ERRORS, PORT_ERRORS, open_serial
+from clomp.runtime.devices.maestro import Maestro, MaestroError, WheelConfig
+from clomp.runtime.devices.rplidar import DEFAULT_BAUDRATE, LidarError, LidarTimeout, RPLidar
+from clomp.runtime.clock import Clock, WallClock
+from clomp.runtime.robot import RobotFault, ScanFrame
+from clomp.runtime.records.runlog import RunLogLike
 
 __all__ = ["HardwareConfig", "HardwareRobot", "open_lidar_port"]
 
@@ -144,13 +144,13 @@ class HardwareRobot:
     ``lidar_port`` and ``motor_port`` are device paths, pyserial URLs or open serial-like
     objects (objects are not closed by :meth:`close`). ``motor_port`` may be None only
     in dry-run mode. ``log`` receives ``device``, ``motor`` and ``fault`` records (see
-    :mod:`runtime.records.runlog`); ``clock`` times the dead reckoning (wall time by default); ``device_clock`` the
+    :mod:`clomp.runtime.records.runlog`); ``clock`` times the dead reckoning (wall time by default); ``device_clock`` the
     stream watch's windows and the LiDAR driver's deadlines (``time.monotonic`` unless a test
     drives simulated devices on its own time).
     Opening checks the LiDAR's health, stops the wheels and starts the scan; a device
     that cannot be opened or does not answer raises :class:`RobotFault`.
 
-    >>> from runtime.robots.emulated import EmulatedWorld
+    >>> from clomp.runtime.robots.emulated import EmulatedWorld
     >>> with EmulatedWorld("open", time_scale=2.0) as world:
     ...     with HardwareRobot(world.lidar_port, world.motor_port, HardwareConfig(motor_control="none")) as robot:
     ...         frame = robot.read_scan(timeout=5.0)

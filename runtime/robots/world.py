@@ -1,6 +1,6 @@
 """The execution world: a ground-truth robot independent of the planner's model.
 
-A scenario (:class:`planner.scenarios.Scene`, only its obstacle list, start and goal) is
+A scenario (:class:`clomp.planner.scenarios.Scene`, only its obstacle list, start and goal) is
 rebuilt as static pymunk shapes, and the robot is a *dynamic* pymunk body with mass and
 inertia driven the way wheels drive a body: a kinematic control body moves at the speed
 the wheels give, and a pivot and a gear joint with limited force (traction, ``mu·m·g``)
@@ -25,7 +25,7 @@ a resolution under 0.5 mm at these ranges). ``resolution=0.01`` rounds to 1 cm, 
 ``rounding="grid"`` rounds each point's x and y instead, as the paper's recorded scans
 are (the authors' software rounded them, not the sensor). A coarse rounding fixed to
 the robot's frame biases scan matching either way; README, *The world's LiDAR*. Each
-revolution is a :class:`~runtime.robot.ScanFrame`.
+revolution is a :class:`~clomp.runtime.robot.ScanFrame`.
 
 Ground truth for experiments: :meth:`WorldRobot.ground_truth_pose` (world frame) and
 :meth:`WorldRobot.contact_trace` — one ``(time_s, penetration_m)`` sample per physics
@@ -34,7 +34,7 @@ penetration of that step. Time is simulated (:meth:`now`, :meth:`sleep`), so a s
 that uses the robot as its clock runs much faster than real time, bit for bit the same
 for one seed.
 
->>> from planner.scenarios import load_scenario
+>>> from clomp.planner.scenarios import load_scenario
 >>> w = make_world_robot(load_scenario("open"), noise="ideal", seed=0)
 >>> w.set_wheel_speeds(0.1, 0.1); w.sleep(2.0)
 >>> round(w.ground_truth_pose().x, 2)   # 0.2 m less what the 1 m/s² ramp-up costs
@@ -51,13 +51,13 @@ from typing import Any
 import numpy as np
 import pymunk
 
-from formal.geometry import wrap_angle
-from formal.model import Pose
-from planner.scenarios import Scene, ScenarioError
-from runtime.devices.frame import ScanFrame
-from runtime.robots._gyro import RateGyro
-from runtime.robots._raycast import first_hits as _first_hits
-from runtime.robots._simulated import SimulatedBackend
+from clomp.formal.geometry import wrap_angle
+from clomp.formal.model import Pose
+from clomp.planner.scenarios import Scene, ScenarioError
+from clomp.runtime.devices.frame import ScanFrame
+from clomp.runtime.robots._gyro import RateGyro
+from clomp.runtime.robots._raycast import first_hits as _first_hits
+from clomp.runtime.robots._simulated import SimulatedBackend
 
 __all__ = ["BodySpec", "WorldNoise", "WorldRobot", "WorldContact", "make_world_robot", "NOISE_PRESETS"]
 
@@ -104,7 +104,7 @@ class WorldNoise:
     @classmethod
     def preset(cls, name: str, scale: float = 1.0) -> "WorldNoise":
         """A named preset (``ideal``, ``paper``, ``harsh``) with every term × ``scale``."""
-        from specs import noise_preset
+        from clomp.specs import noise_preset
 
         return cls(**noise_preset(name, scale))
 
@@ -180,7 +180,7 @@ class WorldContact:
 class WorldRobot(SimulatedBackend):
     """A differential-drive robot with an RPLIDAR A1 in a scenario's world (see the module).
 
-    Implements :class:`runtime.robot.Robot` and a simulated clock. It has no wheel
+    Implements :class:`clomp.runtime.robot.Robot` and a simulated clock. It has no wheel
     encoders (:meth:`odometry` is None), like the paper's robot; it has a rate gyro
     (:meth:`rotation`; ``gyro=False`` takes it off).
     """
@@ -340,7 +340,7 @@ class WorldRobot(SimulatedBackend):
 
     def rotation(self) -> float | None:
         """The heading turned since start-up as the rate gyro integrates it (rad; see
-        :class:`~runtime.robots._gyro.RateGyro`), or None when built with ``gyro=False``."""
+        :class:`~clomp.runtime.robots._gyro.RateGyro`), or None when built with ``gyro=False``."""
         return None if self._gyro is None else self._gyro.angle
 
     # -- ground truth ----------------------------------------------------------------------------
@@ -401,7 +401,7 @@ class WorldRobot(SimulatedBackend):
         first call starts the recording (its rays are cast step by step from then on,
         with the same draws and the same result as a whole revolution cast at once).
 
-        >>> from planner.scenarios import load_scenario
+        >>> from clomp.planner.scenarios import load_scenario
         >>> w = make_world_robot(load_scenario("open"), "ideal", seed=0, sweep=-1)
         >>> w.stream(); w.sleep(0.1)
         []
@@ -582,7 +582,7 @@ def make_world_robot(
     ``robot`` (e.g. a planner ``RobotModel``) gives the body its dimensions and top speed;
     ``options`` go to :class:`WorldRobot` (``rays``, ``scan_rate``, ``dt``, ``start`` …).
 
-    >>> from planner.scenarios import load_scenario
+    >>> from clomp.planner.scenarios import load_scenario
     >>> w = make_world_robot(load_scenario("overtaking"), "harsh", seed=3)
     >>> w.noise.latency, w.read_scan().points.shape[1]
     (0.1, 2)

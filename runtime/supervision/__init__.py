@@ -1,14 +1,14 @@
 """Supervision: the state machine (:mod:`.machine`) and the supervisor that runs it (:mod:`.supervisor`).
 
-May import: formal, planner, :mod:`runtime.robot`, :mod:`runtime.clock`, :mod:`runtime.records`.
+May import: formal, planner, :mod:`clomp.runtime.robot`, :mod:`clomp.runtime.clock`, :mod:`clomp.runtime.records`.
 Devices, robots and the command line's lower layers do not import this room.
 
->>> from runtime.supervision import SupervisorState
+>>> from clomp.runtime.supervision import SupervisorState
 >>> SupervisorState.HALTED.value
 'HALTED'
 """
 
-from runtime.supervision.machine import (
+from clomp.runtime.supervision.machine import (
     MOTOR_STATES,
     TERMINAL,
     TRANSITIONS,
@@ -18,7 +18,7 @@ from runtime.supervision.machine import (
     state_machine_dot,
     state_machine_prism,
 )
-from runtime.supervision.supervisor import (
+from clomp.runtime.supervision.supervisor import (
     GuardViolation,
     PlanRecord,
     Supervisor,

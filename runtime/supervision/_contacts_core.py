@@ -1,6 +1,6 @@
-"""The plan check's contact tests, compiled (:func:`runtime.jit.compiled`).
+"""The plan check's contact tests, compiled (:func:`clomp.runtime.jit.compiled`).
 
-:mod:`runtime.supervision.checkgeometry` states the rules (the planner's: the inflated
+:mod:`clomp.runtime.supervision.checkgeometry` states the rules (the planner's: the inflated
 footprint translated along a straight or turned through every tick heading of a turn,
 with the start-touching rule); these loops apply them point by point with the same
 floating-point operations, in the same order, as the array expressions they replace —
@@ -22,7 +22,7 @@ import math
 
 import numpy as np
 
-from runtime.jit import compiled, interruptible
+from clomp.runtime.jit import compiled, interruptible
 
 __all__ = ["straight_gaps", "turn_first_ticks", "warm_up"]
 

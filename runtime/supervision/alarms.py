@@ -46,11 +46,11 @@ from collections.abc import Callable
 
 import numpy as np
 
-from formal.model import Pose, State, TaskKind
-from planner.noise import ALARM_DEVIATIONS
-from planner.robot import RobotModel
-from runtime.supervision.plancheck import CheckResult, check_plan
-from runtime.supervision.records import hits, sweep
+from clomp.formal.model import Pose, State, TaskKind
+from clomp.planner.noise import ALARM_DEVIATIONS
+from clomp.planner.robot import RobotModel
+from clomp.runtime.supervision.plancheck import CheckResult, check_plan
+from clomp.runtime.supervision.records import hits, sweep
 
 __all__ = ["Alarms", "hazard_hits", "range_noise"]
 

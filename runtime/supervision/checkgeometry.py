@@ -1,12 +1,12 @@
-"""The plan check's closed-form geometry (:func:`runtime.supervision.plancheck.check_plan`):
+"""The plan check's closed-form geometry (:func:`clomp.runtime.supervision.plancheck.check_plan`):
 the remaining tasks as legs chained from the robot's pose, the scan's points as complex
 numbers, and where each leg's body first meets a point.
 
-The planner's rule (:mod:`planner.physics`): the footprint inflated by the robot's
+The planner's rule (:mod:`clomp.planner.physics`): the footprint inflated by the robot's
 ``clearance``, translated along a straight or spun through every tick heading of a turn,
 with the start-touching rule (a point already inside the inflated body at a task's start
 is held to the real body). Each contact function tests all its legs on the raw points
-in one compiled loop (:mod:`runtime.supervision._contacts_core`); the tests hold them
+in one compiled loop (:mod:`clomp.runtime.supervision._contacts_core`); the tests hold them
 bit-equal to the reference check (``tests/runtime/_checkref.py``).
 """
 
@@ -17,12 +17,12 @@ from typing import NamedTuple
 
 import numpy as np
 
-from formal.geometry import wrap_angle
-from formal.model import Pose, State, TaskKind
-from planner.perception import Obstacles
-from planner.robot import RobotModel
-from runtime.jit import interruptible
-from runtime.supervision._contacts_core import straight_gaps, turn_first_ticks
+from clomp.formal.geometry import wrap_angle
+from clomp.formal.model import Pose, State, TaskKind
+from clomp.planner.perception import Obstacles
+from clomp.planner.robot import RobotModel
+from clomp.runtime.jit import interruptible
+from clomp.runtime.supervision._contacts_core import straight_gaps, turn_first_ticks
 
 _STRAIGHT, _LEFT = TaskKind.STRAIGHT, TaskKind.LEFT  # looked up once: a member lookup is a descriptor call
 
@@ -95,11 +95,11 @@ _SUM, _MIN, _MAX = np.add.reduce, np.minimum.reduce, np.maximum.reduce
 
 def _straight_contacts(z: np.ndarray, legs: list[_Leg], robot: RobotModel, allowance: float) -> list[float]:
     """Per straight leg: how far the body drives before it meets a point (inf: never), to
-    the last control tick before the contact (the planner's rule, :mod:`planner.physics`:
+    the last control tick before the contact (the planner's rule, :mod:`clomp.planner.physics`:
     the inflated footprint translated along the leg; a point already inside it at the
     start is held to the real body). ``allowance`` (m) shrinks the body a point must
     enter to count (sensor noise). The points are tested by a compiled loop
-    (:func:`~runtime.supervision._contacts_core.straight_gaps`)."""
+    (:func:`~clomp.runtime.supervision._contacts_core.straight_gaps`)."""
     c = robot.clearance
     rear, front, half = robot.rear_offset + c, robot.front_offset + c, robot.width / 2 + c - allowance
     out = np.empty(len(legs))
@@ -115,7 +115,7 @@ def _straight_contacts(z: np.ndarray, legs: list[_Leg], robot: RobotModel, allow
 def _turn_contacts(z: np.ndarray, legs: list[_Leg], robot: RobotModel, allowance: float) -> list[float]:
     """Per turn leg: how far (rad) the inflated body turns in place before it meets a point
     (inf: never), tested at every tick heading as the planner's rollout does (a compiled
-    loop, :func:`~runtime.supervision._contacts_core.turn_first_ticks`); a point within the
+    loop, :func:`~clomp.runtime.supervision._contacts_core.turn_first_ticks`); a point within the
     margin at the start is held to the real body, between ticks too (:func:`_waived_turn`)."""
     per_tick = robot.turn_rate * robot.tick
     ticks = [math.ceil(g.amount / per_tick - 1e-9) for g in legs]

@@ -3,13 +3,13 @@
 :func:`check_plan` tests the tasks a plan still has to run against the newest scan, from
 the estimated pose: each task must still be free of the scan's points and end where the
 map predicted (within ``tolerance``). The test is the planner's own geometry in closed
-form (:mod:`planner.physics`: the footprint inflated by the robot's ``clearance``
+form (:mod:`clomp.planner.physics`: the footprint inflated by the robot's ``clearance``
 translated along a straight, spun through every tick heading of a turn, the
-start-touching rule; :mod:`runtime.supervision.checkgeometry`), done for all remaining
+start-touching rule; :mod:`clomp.runtime.supervision.checkgeometry`), done for all remaining
 tasks at once on the raw points: no perception (clustering into boxes) and no rollout
 objects, so a check costs a few array operations, however many tasks remain. The supervisor runs it once a revolution; a
 failed check sends it to REPLANNING. :func:`resimulate_plan` is the same verdict from the
-planner's :func:`planner.physics.simulate` on perceived obstacles (kept as the reference
+planner's :func:`clomp.planner.physics.simulate` on perceived obstacles (kept as the reference
 the tests compare against).
 
 :func:`recall` is what REPLANNING tries first: match the current situation to a state of
@@ -34,15 +34,15 @@ from typing import Any
 
 import numpy as np
 
-from formal.geometry import compose, relative, wrap_angle
-from formal.model import Disturbance, Pose, State, TaskKind
-from formal.robust import map_policy, policy_path
-from formal.supervisory import Plan, guard
-from planner.configurator import PlanResult
-from planner.perception import Obstacles, perceive
-from planner.physics import simulate
-from planner.robot import RobotModel
-from runtime.supervision.checkgeometry import _ends_off, _Leg, _legs, _points, _straight_contacts, _turn_contacts
+from clomp.formal.geometry import compose, relative, wrap_angle
+from clomp.formal.model import Disturbance, Pose, State, TaskKind
+from clomp.formal.robust import map_policy, policy_path
+from clomp.formal.supervisory import Plan, guard
+from clomp.planner.configurator import PlanResult
+from clomp.planner.perception import Obstacles, perceive
+from clomp.planner.physics import simulate
+from clomp.planner.robot import RobotModel
+from clomp.runtime.supervision.checkgeometry import _ends_off, _Leg, _legs, _points, _straight_contacts, _turn_contacts
 
 _STRAIGHT = TaskKind.STRAIGHT  # looked up once: a member lookup is a descriptor call
 
@@ -126,7 +126,7 @@ def check_plan(
     would end farther than ``tolerance`` from the map's prediction. ``allowance`` (m): a
     point must lie that much inside the inflated body to count (the sensor's noise).
 
-    >>> from formal.model import Disturbance
+    >>> from clomp.formal.model import Disturbance
     >>> g = Disturbance.goal(1.0, 0.0)
     >>> step = State(1, TaskKind.STRAIGHT, g, None, Pose(0.0, 0.0), Pose(0.5, 0.0), distance=0.5)
     >>> o = Pose(0.0, 0.0, 0.0)
@@ -207,7 +207,7 @@ def resimulate_plan(
     running: bool = False,
 ) -> CheckResult:
     """:func:`check_plan`'s verdict by re-simulating each task with the planner's
-    :func:`planner.physics.simulate` among perceived ``obstacles`` (the reference; slower).
+    :func:`clomp.planner.physics.simulate` among perceived ``obstacles`` (the reference; slower).
 
     Each task starts where the previous one's rollout ended; a straight's rollout is the
     planner's (cut into steps, at the rim of the sensed disc), so it sees no further.
@@ -267,8 +267,8 @@ class RecallIndex:
     continuation from each state of ρ is the rest of ρ, known at once. ``build_s``: the
     seconds building the index took.
 
-    >>> from formal.lts import CognitiveMap
-    >>> from formal.model import Disturbance
+    >>> from clomp.formal.lts import CognitiveMap
+    >>> from clomp.formal.model import Disturbance
     >>> g = Disturbance.goal(1.0, 0.0)
     >>> m = CognitiveMap.from_parts(
     ...     [State(0, TaskKind.STRAIGHT, g, None, Pose(0, 0), Pose(0, 0), cost=1.0),
@@ -382,7 +382,7 @@ def _best_from(result: PlanResult, source: int) -> list[int] | None:
 
 
 def _guard(result: PlanResult, plan: Plan) -> dict[Any, int]:
-    """Ψ of ``plan`` on ``result``'s map: :func:`formal.supervisory.guard`, derived from the
+    """Ψ of ``plan`` on ``result``'s map: :func:`clomp.formal.supervisory.guard`, derived from the
     guard the result already holds over the same transitions (the keys' hashes are reused,
     only the plan's steps are set; the map's own guard when the result's does not cover it)."""
     if len(result.psi) != result.map.n_transitions:

@@ -1,17 +1,17 @@
 """The supervisor's watch over its plan: the hazard test, the plan check and recall.
 
-:class:`PlanWatch` is the part of :class:`runtime.supervision.supervisor.Supervisor` that
+:class:`PlanWatch` is the part of :class:`clomp.runtime.supervision.supervisor.Supervisor` that
 asks whether the plan still holds on what the LiDAR now shows, and what of the map the
 robot can reuse when it does not:
 
 - every control tick, :meth:`PlanWatch.hazard`: scan points in the body's remaining path
-  (:meth:`runtime.supervision.alarms.Alarms.hazard`);
+  (:meth:`clomp.runtime.supervision.alarms.Alarms.hazard`);
 - every revolution while executing, :meth:`PlanWatch.check`: the running task and the
   queued ones tested against the newest revolution
-  (:meth:`runtime.supervision.alarms.Alarms.check`, i.e.
-  :func:`runtime.supervision.plancheck.check_plan` with the noise allowance);
+  (:meth:`clomp.runtime.supervision.alarms.Alarms.check`, i.e.
+  :func:`clomp.runtime.supervision.plancheck.check_plan` with the noise allowance);
 - first in REPLANNING, :meth:`PlanWatch.recall`: a plan continued from a state of the map
-  the robot already has (:func:`runtime.supervision.plancheck.recall`), at most
+  the robot already has (:func:`clomp.runtime.supervision.plancheck.recall`), at most
   ``max_recalls`` in a row before the supervisor explores anew;
 - a fresh plan, :func:`plan_deepening`: when the search spends its budget, the same scan
   is searched again with a larger one (a spent budget's plan ends at argmin φ, which can
@@ -27,7 +27,7 @@ It keeps the records of every check and recall (with wall and thread CPU times) 
 map's recall index, built when a fresh plan is made (:meth:`PlanWatch.planned`). The
 supervisor keeps the state machine, the task queue and the wheels.
 
->>> from planner.robot import RobotModel
+>>> from clomp.planner.robot import RobotModel
 >>> watch = PlanWatch(RobotModel())
 >>> watch.checks, watch.recalls, watch.index is None
 ([], [], True)
@@ -43,16 +43,16 @@ from typing import Any, Protocol
 
 import numpy as np
 
-from formal.geometry import wrap_angle
-from formal.model import Pose, State
-from planner.configurator import Configurator, PlanResult
-from planner.robot import RobotModel
-from planner.tasks import Task
-from runtime.estimation.fusion import fuse_revolutions
-from runtime.supervision.alarms import Alarms
-from runtime.supervision._contacts_core import warm_up as contacts_warm_up
-from runtime.supervision.plancheck import Recall, RecallIndex, recall
-from runtime.supervision.records import PlanRecord, TimedRecord, scan_to_frame
+from clomp.formal.geometry import wrap_angle
+from clomp.formal.model import Pose, State
+from clomp.planner.configurator import Configurator, PlanResult
+from clomp.planner.robot import RobotModel
+from clomp.planner.tasks import Task
+from clomp.runtime.estimation.fusion import fuse_revolutions
+from clomp.runtime.supervision.alarms import Alarms
+from clomp.runtime.supervision._contacts_core import warm_up as contacts_warm_up
+from clomp.runtime.supervision.plancheck import Recall, RecallIndex, recall
+from clomp.runtime.supervision.records import PlanRecord, TimedRecord, scan_to_frame
 
 __all__ = ["LogFn", "PlanWatch", "plan_deepening"]
 
@@ -82,7 +82,7 @@ def plan_deepening(configurator: Configurator, scan: Any, goal: tuple[float, flo
     at the frontier, returns unchanged.
 
     >>> import numpy as np
-    >>> from planner.configurator import Configurator
+    >>> from clomp.planner.configurator import Configurator
     >>> plan_deepening(Configurator(), np.zeros((0, 2)), (1.0, 0.0)).stop_reason
     'goal'
     """

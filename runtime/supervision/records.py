@@ -1,7 +1,7 @@
 """The supervisor's records: plans, tasks, checks/recalls/fresh plans and the report, and
 the hazard geometry (which scan points the body's remaining motion sweeps).
 
-Kept apart from :mod:`runtime.supervision.supervisor`, which re-exports the records.
+Kept apart from :mod:`clomp.runtime.supervision.supervisor`, which re-exports the records.
 """
 
 from __future__ import annotations
@@ -12,12 +12,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from formal.geometry import compose, points_from_frame, points_to_frame, relative
-from formal.model import Pose, State, TaskKind
-from planner.configurator import PlanResult
-from planner.robot import RobotModel
-from runtime.estimation.odometry import FeedbackRecord
-from runtime.supervision.machine import SupervisorState, TransitionRecord
+from clomp.formal.geometry import compose, points_from_frame, points_to_frame, relative
+from clomp.formal.model import Pose, State, TaskKind
+from clomp.planner.configurator import PlanResult
+from clomp.planner.robot import RobotModel
+from clomp.runtime.estimation.odometry import FeedbackRecord
+from clomp.runtime.supervision.machine import SupervisorState, TransitionRecord
 
 __all__ = ["PlanRecord", "SupervisorReport", "TaskRecord", "TimedRecord", "hits", "scan_to_frame", "sweep"]
 

@@ -1,26 +1,26 @@
 """The supervisor: executes the Configurator's plans closed-loop on a robot and replans.
 
-It follows the state machine of :mod:`runtime.supervision.machine` (IDLE → PLANNING →
+It follows the state machine of :mod:`clomp.runtime.supervision.machine` (IDLE → PLANNING →
 EXECUTING ⇄ REPLANNING → GOAL_REACHED / UNREACHABLE, any → HALTED on a fault or abort).
 
 Each control tick (:meth:`Supervisor.step`) reads the newest scan, updates the pose
 estimate and acts on the state. The estimate (``feedback="scan"``, the default) is
 dead reckoning from the commanded wheel speeds (or the backend's odometry) corrected once
 a revolution by matching the scan against a local map
-(:class:`runtime.estimation.odometry.ScanOdometry`); ``feedback="none"`` is dead
+(:class:`clomp.runtime.estimation.odometry.ScanOdometry`); ``feedback="none"`` is dead
 reckoning alone. The goal, the remaining plan and every task's error signal come from it.
 
 - PLANNING: wheels stopped, plan from the newest scan to the goal seen from the estimate
   (the planner's frame: the robot then), queue the plan's tasks and start the first. At
   the start, with scan feedback, only after ``start_scans`` revolutions: the estimator's
   map, its face compass and the LiDAR's noise are measured on them (the start fixes the
-  frame, so what is seen there is the best known; see :mod:`runtime.estimation.faces`).
-- EXECUTING: run the current task as a closed loop (:class:`planner.tasks.Task`): it ends
+  frame, so what is seen there is the best known; see :mod:`clomp.runtime.estimation.faces`).
+- EXECUTING: run the current task as a closed loop (:class:`clomp.planner.tasks.Task`): it ends
   by its own end criterion; a task may start only over a transition of the map that the
   guard Ψ enables. Every tick, a point of the newest scan in the body's path (an obstacle
   in the way, or a collision imminent within ``lookahead`` s) interrupts the task. Every
   revolution, the running task and the queued ones are *checked*: tested against the new
-  scan's points from the estimate (:func:`runtime.supervision.plancheck.check_plan`); one that
+  scan's points from the estimate (:func:`clomp.runtime.supervision.plancheck.check_plan`); one that
   now meets an obstacle or would end off the map's prediction sends the supervisor to
   REPLANNING, and so does a task that ended far from the prediction or a plan that ended
   short of the goal. A plan that ends at the goal by the estimate taken while driving
@@ -30,12 +30,12 @@ reckoning alone. The goal, the remaining plan and every task's error signal come
 - REPLANNING: after the wheels settled, from ``fuse_scans`` revolutions fused into one
   (median range per bearing), first *recall*: match the situation to a state of the map
   it already has and continue the map's plan from there if the new scan agrees
-  (:func:`runtime.supervision.plancheck.recall`); only when that fails, explore anew
+  (:func:`clomp.runtime.supervision.plancheck.recall`); only when that fails, explore anew
   (at most ``max_recalls`` recalls in a row). A search that spends the configurator's
   budget is run again with ``deepen`` (4) times the budget
-  (:func:`runtime.supervision.planwatch.plan_deepening`): the plan of a spent budget can end
+  (:func:`clomp.runtime.supervision.planwatch.plan_deepening`): the plan of a spent budget can end
   inside a U-trap. The hazard test, the check and recall are
-  :class:`runtime.supervision.planwatch.PlanWatch`'s.
+  :class:`clomp.runtime.supervision.planwatch.PlanWatch`'s.
 - any exception (a device fault, a silent sensor, a scan with NaN, a planner crash) →
   HALTED, wheels stopped in the same tick. The wheels turn only in EXECUTING, and
   :meth:`Supervisor.run` stops them on every exit path (also Ctrl-C).
@@ -58,21 +58,21 @@ from typing import Any
 
 import numpy as np
 
-from formal.model import Disturbance, Pose, State, TaskKind
-from planner.configurator import Configurator, PlanningError
-from planner.perception import validate_scan
-from planner.physics import make_task
-from planner.robot import RobotModel
-from formal.geometry import compose, dead_reckon, relative, wrap_angle
-from planner.tasks import Task
-from runtime.clock import Clock, clock_for
-from runtime.estimation.fusion import fuse_revolutions
-from runtime.estimation.odometry import ScanOdometry
-from runtime.supervision.planwatch import PlanWatch, plan_deepening
-from runtime.supervision.records import PlanRecord, SupervisorReport, TaskRecord, TimedRecord
-from runtime.records.runlog import RunLogLike, plan_fields
-from runtime.robot import Robot, RobotFault, ScanFrame, TurnSensing, finite_goal
-from runtime.supervision.machine import MOTOR_STATES, TERMINAL, TRANSITIONS, Event, SupervisorState, TransitionRecord
+from clomp.formal.model import Disturbance, Pose, State, TaskKind
+from clomp.planner.configurator import Configurator, PlanningError
+from clomp.planner.perception import validate_scan
+from clomp.planner.physics import make_task
+from clomp.planner.robot import RobotModel
+from clomp.formal.geometry import compose, dead_reckon, relative, wrap_angle
+from clomp.planner.tasks import Task
+from clomp.runtime.clock import Clock, clock_for
+from clomp.runtime.estimation.fusion import fuse_revolutions
+from clomp.runtime.estimation.odometry import ScanOdometry
+from clomp.runtime.supervision.planwatch import PlanWatch, plan_deepening
+from clomp.runtime.supervision.records import PlanRecord, SupervisorReport, TaskRecord, TimedRecord
+from clomp.runtime.records.runlog import RunLogLike, plan_fields
+from clomp.runtime.robot import Robot, RobotFault, ScanFrame, TurnSensing, finite_goal
+from clomp.runtime.supervision.machine import MOTOR_STATES, TERMINAL, TRANSITIONS, Event, SupervisorState, TransitionRecord
 
 __all__ = ["FEEDBACK", "GuardViolation", "PlanRecord", "Supervisor", "SupervisorReport", "TaskRecord", "TimedRecord"]
 
@@ -87,13 +87,13 @@ class GuardViolation(RuntimeError):
 
 # -- the supervisor -------------------------------------------------------------------------
 class Supervisor:
-    """Runs plans of a :class:`~planner.Configurator` closed-loop on a :class:`~runtime.robot.Robot`.
+    """Runs plans of a :class:`~clomp.planner.Configurator` closed-loop on a :class:`~clomp.runtime.robot.Robot`.
 
     ``goal`` is (x, y) in the robot's frame at start (x forward, y left). ``clock``
     defaults to the robot itself when it keeps (simulated) time, else the wall clock.
 
-    >>> from planner import load_scenario
-    >>> from runtime.robots.sim import SimRobot
+    >>> from clomp.planner import load_scenario
+    >>> from clomp.runtime.robots.sim import SimRobot
     >>> scene = load_scenario("open")
     >>> report = Supervisor(SimRobot(scene, seed=0), scene.goal_in_robot_frame()).run(max_time=60)
     >>> report.state.value, report.replans
@@ -184,7 +184,7 @@ class Supervisor:
         self._recalled: dict[tuple[int, int], tuple[float, int]] = {}  # (map, state) -> distance, tasks done
         self.fresh_plans: list[TimedRecord] = []
         self._check_due = False
-        self.watch = PlanWatch(self.model, self._log)  # hazard test, plan check, recall (runtime.supervision.planwatch)
+        self.watch = PlanWatch(self.model, self._log)  # hazard test, plan check, recall (clomp.runtime.supervision.planwatch)
         self.alarms = self.watch.alarms
         self.checks, self.recalls = self.watch.checks, self.watch.recalls
 
@@ -288,7 +288,7 @@ class Supervisor:
         if target is None:
             raise RuntimeError(f"no transition from {self.state.value} on {event.value}")
         source = self.state
-        if source in MOTOR_STATES and target not in MOTOR_STATES:  # formal.machine: where wheels may turn
+        if source in MOTOR_STATES and target not in MOTOR_STATES:  # clomp.formal.machine: where wheels may turn
             self._stop_wheels()
             self._scans_since_stop = 0
             self._still.clear()

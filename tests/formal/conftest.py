@@ -6,7 +6,7 @@ from fractions import Fraction
 
 import pytest
 
-from formal import CognitiveMap, Disturbance, DisturbanceKind, Pose, State, TaskKind
+from clomp.formal import CognitiveMap, Disturbance, DisturbanceKind, Pose, State, TaskKind
 
 
 @pytest.fixture

@@ -12,10 +12,10 @@ from pathlib import Path
 
 import pytest
 
-from formal import State
-from formal.checking import default_property_files, read_properties
-from formal.export import FORMATS, LABEL_HOLDER, export_model, write_drn, write_prism, write_prism_explicit
-from formal.prism import PrismError, check_with_prism, find_prism
+from clomp.formal import State
+from clomp.formal.checking import default_property_files, read_properties
+from clomp.formal.export import FORMATS, LABEL_HOLDER, export_model, write_drn, write_prism, write_prism_explicit
+from clomp.formal.prism import PrismError, check_with_prism, find_prism
 
 stormpy = pytest.importorskip("stormpy", reason="stormpy not installed: pip install -e '.[verify]'")
 needs_prism = pytest.mark.skipif(find_prism() is None, reason="PRISM not found: set CLOMP_PRISM or keep shared/tools/prism-*/ beside the repo")
@@ -127,7 +127,7 @@ def test_prism_evaluates_named_rewards_from_the_explicit_files(scenario_map, kin
 def _to_goal(cmap, attr: str, kind: str) -> float:
     import heapq
 
-    from formal.invariants import map_plan
+    from clomp.formal.invariants import map_plan
 
     if kind == "dtmc":
         return sum(getattr(cmap[i], attr) for i in map_plan(cmap).states[1:])
@@ -206,7 +206,7 @@ def test_prism_language_probabilities_read_back_as_the_maps(scenario_map, branch
 def test_storm_builds_the_printed_probabilities_of_the_prism_language(tmp_path, branching_map):
     cmap = branching_map
     write_prism(cmap, tmp_path / "b.nm")
-    from formal.checking import load_storm_model
+    from clomp.formal.checking import load_storm_model
 
     sm = load_storm_model(tmp_path / "b.nm")
     model, idents = sm.model, sm.idents

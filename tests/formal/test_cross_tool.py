@@ -10,9 +10,9 @@ from __future__ import annotations
 
 import pytest
 
-from formal.crosscheck import cross_check
-from formal.prism import find_prism
-from planner.scenarios import builtin_scenarios
+from clomp.formal.crosscheck import cross_check
+from clomp.formal.prism import find_prism
+from clomp.planner.scenarios import builtin_scenarios
 
 pytest.importorskip("stormpy", reason="stormpy not installed: pip install -e '.[verify]'")
 pytestmark = pytest.mark.skipif(
@@ -53,8 +53,8 @@ def test_four_loads_agree_on_ten_recorded_scans(scan_maps):
 
 
 def test_four_loads_agree_on_a_sampled_probabilistic_map():
-    from planner import load_scenario
-    from planner.probabilistic import sample_map
+    from clomp.planner import load_scenario
+    from clomp.planner.probabilistic import sample_map
 
     scene = load_scenario("doorway")
     pm = sample_map(scene.scan(max_range=1.1), tuple(scene.goal_in_robot_frame()), samples=30, seed=0)
@@ -64,7 +64,7 @@ def test_four_loads_agree_on_a_sampled_probabilistic_map():
 
 @pytest.mark.slow
 def test_four_loads_agree_on_a_map_learned_from_recorded_scans(scans_dir):
-    from planner.probabilistic import learn_from_scans
+    from clomp.planner.probabilistic import learn_from_scans
 
     learned = learn_from_scans(sorted(scans_dir.glob("*.dat"))[:10], (1.0, 0.0))
     assert any(0 < t.probability < 1 for t in learned.transitions())

@@ -10,8 +10,8 @@ from pathlib import Path
 
 import pytest
 
-from formal import CognitiveMap
-from formal.checking import (
+from clomp.formal import CognitiveMap
+from clomp.formal.checking import (
     PropertySpec,
     Requirement,
     SpecError,
@@ -26,7 +26,7 @@ from formal.checking import (
     read_properties,
     require_stormpy,
 )
-from planner.scenarios import builtin_scenarios
+from clomp.planner.scenarios import builtin_scenarios
 
 SCANS = Path(__file__).resolve().parents[2].parent / "shared" / "data" / "scans" / "corridor-2023-10-25"
 needs_storm = pytest.mark.skipif(
@@ -151,10 +151,10 @@ def test_without_stormpy_the_message_says_how_to_install(monkeypatch):
 # -- the command line ---------------------------------------------------------------------------------
 @pytest.fixture
 def clomp(monkeypatch, capsys):
-    import runtime.cli as cli
+    import clomp.runtime.cli as cli
 
     mods = list(cli._COMMAND_MODULES)
-    for m in ("runtime.cli.export", "runtime.cli.check"):
+    for m in ("clomp.runtime.cli.export", "clomp.runtime.cli.check"):
         if m not in mods:
             mods.append(m)
     monkeypatch.setattr(cli, "_COMMAND_MODULES", mods)
@@ -178,7 +178,7 @@ def test_cli_check_scenario_prints_a_table_and_passes(clomp):
     # the figures are the map's own (the overtaking plan's length), not one planner version's
     import re
 
-    from planner import Configurator, load_scenario
+    from clomp.planner import Configurator, load_scenario
 
     scene = load_scenario("overtaking")
     r = Configurator().plan(scene.scan(max_range=1.1), tuple(scene.goal_in_robot_frame()))
@@ -267,7 +267,7 @@ def test_cli_check_without_stormpy_says_how_to_install(clomp, monkeypatch):
 
 # -- clomp check --tool ------------------------------------------------------------------------------
 needs_prism = pytest.mark.skipif(
-    __import__("formal.prism", fromlist=["find_prism"]).find_prism() is None,
+    __import__("clomp.formal.prism", fromlist=["find_prism"]).find_prism() is None,
     reason="PRISM not found: set CLOMP_PRISM or keep shared/tools/prism-*/ beside the repo",
 )
 
@@ -312,8 +312,8 @@ def test_cli_check_without_prism_says_how_to_get_it(clomp, monkeypatch, tmp_path
 @needs_storm
 def test_cli_check_both_fails_when_the_tools_disagree(clomp, monkeypatch):
     """The comparison itself: PRISM's answer is replaced by one that differs by 1e-6."""
-    import runtime.cli.check as check
-    from formal.prism import PrismResult
+    import clomp.runtime.cli.check as check
+    from clomp.formal.prism import PrismResult
 
     def off_by_a_little(cmap, formulas, kind):
         values = [0.0 + 1e-6 if "collision" in f and "=?" in f else (True if "=?" not in f else 1.0) for f in formulas]
@@ -357,13 +357,13 @@ def test_cli_plan_robust_json_has_both_probabilities(clomp):
 @needs_storm
 def test_cli_plan_robust_is_the_runtimes_robust_configurator(clomp, tmp_path):
     """One code path: ``clomp plan --robust`` gives the decision and figures of
-    :class:`planner.robust.RobustConfigurator` (the supervisor's robust planner) on the
+    :class:`clomp.planner.robust.RobustConfigurator` (the supervisor's robust planner) on the
     same scan: its rollouts stopped by the hazard rule (stops in the map, retried in the
     objective), poses carried, the closed loop's noise terms, the plan's target."""
     import json
 
-    from planner import load_scenario
-    from planner.robust import RobustConfigurator, closed_loop_noise
+    from clomp.planner import load_scenario
+    from clomp.planner.robust import RobustConfigurator, closed_loop_noise
 
     path = tmp_path / "m.json"
     code, out, _ = clomp("plan", "--scenario", "doorway", "--robust", "--noise", "harsh", "--samples", "8", "--seed", "3",
@@ -481,7 +481,7 @@ def test_cli_export_learn_from_a_run_log_uses_the_scans_taken_at_one_pose(clomp,
 
     import numpy as np
 
-    from planner import load_scenario
+    from clomp.planner import load_scenario
 
     scene = load_scenario("overtaking")
     pts = scene.scan(max_range=1.1)

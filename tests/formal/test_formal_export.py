@@ -13,8 +13,8 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from formal import CognitiveMap, Disturbance, Pose, State, TaskKind
-from formal.export import (
+from clomp.formal import CognitiveMap, Disturbance, Pose, State, TaskKind
+from clomp.formal.export import (
     FORMATS,
     STAY,
     ExportError,
@@ -27,11 +27,11 @@ from formal.export import (
     write_prism,
     write_prism_explicit,
 )
-from planner.scenarios import builtin_scenarios
+from clomp.planner.scenarios import builtin_scenarios
 
 stormpy = pytest.importorskip("stormpy", reason="stormpy not installed: pip install -e '.[verify]'")
 
-from formal.checking import build_storm_model, load_storm_model  # noqa: E402
+from clomp.formal.checking import build_storm_model, load_storm_model  # noqa: E402
 
 SCANS = Path(__file__).resolve().parents[2].parent / "shared" / "data" / "scans" / "corridor-2023-10-25"
 
@@ -238,7 +238,7 @@ def test_printed_probabilities_are_checked_after_printing():
     """A branch too small to survive printing is refused, not written as probability 0."""
     from fractions import Fraction
 
-    from formal.export import ExportError, _printed
+    from clomp.formal.export import ExportError, _printed
 
     tiny = Fraction(1, 3 * 10**40)  # not a finite decimal: printed to a fixed number of places
     assert _printed([Fraction(1, 3), Fraction(2, 3)], exact_rationals=True) == ["1/3", "2/3"]

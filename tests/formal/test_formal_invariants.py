@@ -9,18 +9,18 @@ import pytest
 from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
-from formal import CognitiveMap, Disturbance, Plan, Pose, State, TaskKind, Transition
-from formal.invariants import Invariant, InvariantError, assert_map_valid, check_map
-from formal.supervisory import Guard, Reset, ResetUndefined, extract_plan, guard
-from planner import Configurator, PlanningError
-from formal.strategies import GOAL, OBSTACLE, cognitive_maps
-from planner.scenarios import builtin_scenarios, load_scenario
-from planner.strategies import goals, robot_models, scans
+from clomp.formal import CognitiveMap, Disturbance, Plan, Pose, State, TaskKind, Transition
+from clomp.formal.invariants import Invariant, InvariantError, assert_map_valid, check_map
+from clomp.formal.supervisory import Guard, Reset, ResetUndefined, extract_plan, guard
+from clomp.planner import Configurator, PlanningError
+from clomp.formal.strategies import GOAL, OBSTACLE, cognitive_maps
+from clomp.planner.scenarios import builtin_scenarios, load_scenario
+from clomp.planner.strategies import goals, robot_models, scans
 
 SETTINGS = settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 
 
-# -- strategies: the public ones (planner.strategies, formal.strategies) ------------------
+# -- strategies: the public ones (clomp.planner.strategies, clomp.formal.strategies) ------------------
 scenes = lambda: st.tuples(scans(), goals())  # noqa: E731 - a scan and a goal in range
 robots = robot_models()
 grown_maps = cognitive_maps
@@ -219,7 +219,7 @@ def test_guard_object_matches_the_table_and_rejects_outsiders():
     assert sum(psi(t) for t in psi.domain) == len(r.plan) - 1
     for s in r.plan.states[:-1]:
         assert len(psi.enabled(s)) == 1
-    from formal import MapError
+    from clomp.formal import MapError
 
     with pytest.raises(MapError):
         psi((0, 0))

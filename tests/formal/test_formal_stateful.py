@@ -11,12 +11,12 @@ from hypothesis import HealthCheck, settings
 from hypothesis import strategies as st
 from hypothesis.stateful import RuleBasedStateMachine, initialize, invariant, precondition, rule
 
-from formal import CognitiveMap, Disturbance, DisturbanceKind, Guard, Pose, Reset, ResetUndefined, State, TaskKind
-from formal.export import export_model
-from formal.invariants import check_map
-from formal.supervisory import extract_plan
-from planner import Configurator
-from planner.scenarios import builtin_scenarios, load_scenario
+from clomp.formal import CognitiveMap, Disturbance, DisturbanceKind, Guard, Pose, Reset, ResetUndefined, State, TaskKind
+from clomp.formal.export import export_model
+from clomp.formal.invariants import check_map
+from clomp.formal.supervisory import extract_plan
+from clomp.planner import Configurator
+from clomp.planner.scenarios import builtin_scenarios, load_scenario
 
 GOAL = Disturbance.goal(1.0, 0.0)
 HIT = Disturbance(DisturbanceKind.OBSTACLE, 0.5, 0.0, (), 0)

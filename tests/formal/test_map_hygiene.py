@@ -5,9 +5,9 @@ from __future__ import annotations
 
 import pytest
 
-from formal import CognitiveMap, MapError, check_map
-from formal.lts import FORMAT_VERSION
-from formal.model import Disturbance, Pose, State, TaskKind
+from clomp.formal import CognitiveMap, MapError, check_map
+from clomp.formal.lts import FORMAT_VERSION
+from clomp.formal.model import Disturbance, Pose, State, TaskKind
 
 G = Disturbance.goal(1.0, 0.0)
 

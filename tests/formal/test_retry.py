@@ -1,4 +1,4 @@
-"""A stop modelled as the supervisor's retry (formal.retry): the exported model with the
+"""A stop modelled as the supervisor's retry (clomp.formal.retry): the exported model with the
 retry is read alike by PRISM and Storm, and retrying never lowers the value of a safe
 arrival (it raises it where stops are false alarms)."""
 
@@ -8,10 +8,10 @@ from fractions import Fraction
 
 import pytest
 
-from formal import CognitiveMap, Disturbance, DisturbanceKind, Pose, State, TaskKind
-from formal.export_model import ExportError, export_model
-from formal.retry import RETRY, STOP_LABEL, map_stops, retry_model
-from formal.supervisory import Plan
+from clomp.formal import CognitiveMap, Disturbance, DisturbanceKind, Pose, State, TaskKind
+from clomp.formal.export_model import ExportError, export_model
+from clomp.formal.retry import RETRY, STOP_LABEL, map_stops, retry_model
+from clomp.formal.supervisory import Plan
 
 G = Disturbance.goal(1.0, 0.0)
 BOX = Disturbance(DisturbanceKind.OBSTACLE, 0.5, 0.0)
@@ -60,7 +60,7 @@ stormpy = pytest.importorskip("stormpy", reason="stormpy not installed: pip inst
 
 @pytest.mark.parametrize("retries", [0, 1, 3])
 def test_storm_values_a_retried_coin_as_a_geometric_series(retries):
-    from formal.robust import plan_probability, robust_plan
+    from clomp.formal.robust import plan_probability, robust_plan
 
     m = _coin_map()
     want = 1 - 0.5 ** (retries + 1)  # the goal on the first try or one of the retries
@@ -71,7 +71,7 @@ def test_storm_values_a_retried_coin_as_a_geometric_series(retries):
 def test_a_policys_value_counts_its_retries_whatever_plan_the_map_records():
     """policy_probability keeps the map's stops, not its recorded plan: a policy that
     starts nothing has value 0 (the plan q0 -> q1 it does not take is no error)."""
-    from formal.robust import policy_probability
+    from clomp.formal.robust import policy_probability
 
     m = _coin_map()
     assert policy_probability(m, {}, retries=1) == 0
@@ -80,9 +80,9 @@ def test_a_policys_value_counts_its_retries_whatever_plan_the_map_records():
 
 
 def _sampled_corridor():
-    from planner import load_scenario
-    from planner.probabilistic import SUPERVISOR_TOLERANCE, sample_map
-    from planner.robust import SUPERVISOR_HAZARD
+    from clomp.planner import load_scenario
+    from clomp.planner.probabilistic import SUPERVISOR_TOLERANCE, sample_map
+    from clomp.planner.robust import SUPERVISOR_HAZARD
 
     scene = load_scenario("corridor")
     pm = sample_map(scene.scan(max_range=1.1), tuple(scene.goal_in_robot_frame()), samples=10, noise="harsh", seed=0,
@@ -97,8 +97,8 @@ def test_sampled_stops_are_hazard_stops_that_reenter_their_task_start():
     for stop, source in stops.items():
         assert cmap[stop].interrupted
         assert any(t.target == stop and t.label is cmap[stop].task for t in cmap.out_transitions(source))
-    from planner import load_scenario
-    from planner.probabilistic import sample_map
+    from clomp.planner import load_scenario
+    from clomp.planner.probabilistic import sample_map
 
     scene = load_scenario("corridor")
     plain = sample_map(scene.scan(max_range=1.1), tuple(scene.goal_in_robot_frame()), samples=10, noise="harsh", seed=0)
@@ -106,7 +106,7 @@ def test_sampled_stops_are_hazard_stops_that_reenter_their_task_start():
 
 
 def test_a_retried_stop_raises_the_value_of_the_sampled_map():
-    from formal.robust import plan_probability, robust_plan
+    from clomp.formal.robust import plan_probability, robust_plan
 
     cmap = _sampled_corridor()
     values = [robust_plan(cmap, retries=k).probability for k in (0, 1, 2)]
@@ -119,12 +119,12 @@ def test_a_retried_stop_raises_the_value_of_the_sampled_map():
 _SAFE = {"mdp": 'Pmax=? [!"collision" U "goal"]', "dtmc": 'P=? [!"collision" U "goal"]'}
 
 
-@pytest.mark.skipif(__import__("formal.prism", fromlist=["find_prism"]).find_prism() is None,
+@pytest.mark.skipif(__import__("clomp.formal.prism", fromlist=["find_prism"]).find_prism() is None,
                     reason="PRISM not found: set CLOMP_PRISM or keep shared/tools/prism-*/ beside the repo")
 @pytest.mark.parametrize("kind", ["mdp", "dtmc"])
 def test_four_loads_agree_on_the_model_with_the_retry(kind, tmp_path):
-    from formal.checking import default_property_files, read_properties
-    from formal.crosscheck import cross_check
+    from clomp.formal.checking import default_property_files, read_properties
+    from clomp.formal.crosscheck import cross_check
 
     extra = tmp_path / f"safe_{kind}.pctl"
     extra.write_text(f'// @model {kind}\n"safe_goal": {_SAFE[kind]}\n', encoding="utf-8")

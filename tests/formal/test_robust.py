@@ -4,11 +4,11 @@ from __future__ import annotations
 
 import pytest
 
-from formal.invariants import map_plan
+from clomp.formal.invariants import map_plan
 
 pytest.importorskip("stormpy", reason="stormpy not installed: pip install -e '.[verify]'")
 
-from formal.robust import follow_tasks, plan_probability, robust_plan  # noqa: E402
+from clomp.formal.robust import follow_tasks, plan_probability, robust_plan  # noqa: E402
 
 
 def test_the_scheduler_takes_the_sure_detour_the_greedy_plan_does_not(risky_map):
@@ -23,8 +23,8 @@ def test_the_scheduler_takes_the_sure_detour_the_greedy_plan_does_not(risky_map)
 
 
 def test_a_plan_that_is_not_a_path_of_the_map_is_refused(risky_map):
-    from formal.lts import MapError
-    from formal.supervisory import Plan
+    from clomp.formal.lts import MapError
+    from clomp.formal.supervisory import Plan
 
     with pytest.raises(MapError, match="q0 ↪ q6"):
         plan_probability(risky_map, Plan((0, 6)))
@@ -32,8 +32,8 @@ def test_a_plan_that_is_not_a_path_of_the_map_is_refused(risky_map):
 
 @pytest.mark.parametrize("name", ["doorway", "overtaking", "slalom"])
 def test_robust_is_never_below_greedy_on_sampled_maps(name):
-    from planner import load_scenario
-    from planner.probabilistic import RolloutNoise, sample_map
+    from clomp.planner import load_scenario
+    from clomp.planner.probabilistic import RolloutNoise, sample_map
 
     scene = load_scenario(name)
     harsh = RolloutNoise(range_sd=0.02, dropout=0.1, wheel_sd=0.08, wheel_bias=0.03, drift=0.02)
@@ -47,9 +47,9 @@ def test_robust_is_never_below_greedy_on_sampled_maps(name):
 
 
 def test_the_robust_configurator_hands_a_supervisor_storms_plan():
-    from formal import check_map
-    from planner import load_scenario
-    from planner.robust import RobustConfigurator
+    from clomp.formal import check_map
+    from clomp.planner import load_scenario
+    from clomp.planner.robust import RobustConfigurator
 
     scene = load_scenario("overtaking")
     conf = RobustConfigurator(samples=10, noise="paper")
@@ -63,8 +63,8 @@ def test_the_robust_configurator_hands_a_supervisor_storms_plan():
 def test_a_nominal_plan_is_carried_onto_a_map_where_its_outcome_never_happened(risky_map):
     """q0's STRAIGHT nominally ended at q1; on a map where it always hits, the same task
     still leads somewhere: the carried plan follows it to its most likely outcome."""
-    from formal import CognitiveMap
-    from formal.model import TaskKind
+    from clomp.formal import CognitiveMap
+    from clomp.formal.model import TaskKind
 
     m = CognitiveMap.from_dict(risky_map.to_dict())
     m2 = CognitiveMap.from_parts([s for s in m.states() if s.ident != 1], [t for t in m.transitions() if t.target != 1 and t.source != 0] , goal=m.goal)
@@ -81,8 +81,8 @@ def _two_outcome_map(risky_map):
     least-cost descendant of q7 is a RIGHT that gets nowhere (q9)."""
     from fractions import Fraction
 
-    from formal import CognitiveMap
-    from formal.model import Pose, State, TaskKind
+    from clomp.formal import CognitiveMap
+    from clomp.formal.model import Pose, State, TaskKind
 
     m = CognitiveMap.from_dict(risky_map.to_dict())
     g = m.goal
@@ -104,7 +104,7 @@ def _two_outcome_map(risky_map):
 
 def test_the_printed_path_has_its_own_probability_beside_the_policys_value(risky_map):
     """The scheduler's value counts every outcome; its most likely path is one of them."""
-    from formal.robust import path_probability, policy_states
+    from clomp.formal.robust import path_probability, policy_states
 
     m = _two_outcome_map(risky_map)
     r = robust_plan(m)
@@ -122,8 +122,8 @@ def test_a_recall_on_a_robust_map_follows_the_scheduler_where_the_robot_landed(r
     in (q7), the recall continues with the scheduler's task, not the map's least-cost path."""
     from types import SimpleNamespace
 
-    from formal.robust import attach_policy, map_policy
-    from runtime.supervision.plancheck import _best_from
+    from clomp.formal.robust import attach_policy, map_policy
+    from clomp.runtime.supervision.plancheck import _best_from
 
     m = _two_outcome_map(risky_map)
     assert _best_from(SimpleNamespace(map=m), 7) == [7, 9]  # least-φ descendant: a dead end
@@ -134,7 +134,7 @@ def test_a_recall_on_a_robust_map_follows_the_scheduler_where_the_robot_landed(r
     assert _best_from(SimpleNamespace(map=m), 8) is None  # at the goal: nothing to continue
     # a continuation that ends no closer than where the robot is (q5: φ 0.55 ≥ q3's 0.5) is
     # no recall, as with the least-cost path: it would loop recalls that make no progress
-    from formal.model import TaskKind
+    from clomp.formal.model import TaskKind
 
     attach_policy(m, {3: TaskKind.STRAIGHT, 4: TaskKind.RIGHT})
     assert _best_from(SimpleNamespace(map=m), 3) is None
@@ -144,8 +144,8 @@ def test_a_detour_is_taken_only_where_it_is_safer_by_more_than_the_margin(risky_
     """Storm's choice among near-equal options is arbitrary and k/N is an estimate: with
     the best-first plan preferred, the scheduler leaves it only for a gain above margin,
     and the probability reported is the value of the policy returned."""
-    from formal.model import TaskKind
-    from formal.robust import policy_probability
+    from clomp.formal.model import TaskKind
+    from clomp.formal.robust import policy_probability
 
     prefer = {0: TaskKind.STRAIGHT}
     kept = robust_plan(risky_map, prefer=prefer, margin=0.25)  # the detour gains 0.2 < 0.25
@@ -171,7 +171,7 @@ def test_a_search_for_more_routes_extends_algorithm_1s_map_with_alternatives(nam
     """routes=1 is Algorithm 1 (the first goal state ends the search); more routes go on
     from the same queue, so the best-first map is a prefix of the larger one and the
     larger one holds more ends (goal states or frontiers) for Storm to choose among."""
-    from planner import Configurator, load_scenario
+    from clomp.planner import Configurator, load_scenario
 
     scene = load_scenario(name)
     scan, goal = scene.scan(max_range=1.1), tuple(scene.goal_in_robot_frame())
@@ -193,10 +193,10 @@ def test_where_the_scheduler_keeps_the_best_first_tasks_the_plan_is_the_best_fir
     """Not the path of most likely outcomes (at harsh noise on these scenes another outcome
     group is the likelier one): the supervisor then drives the nominal states' predicted
     ends, exactly as with the plain Configurator."""
-    from planner import Configurator, load_scenario
-    from planner.robust import RobustConfigurator
+    from clomp.planner import Configurator, load_scenario
+    from clomp.planner.robust import RobustConfigurator
 
-    from planner.probabilistic import RolloutNoise
+    from clomp.planner.probabilistic import RolloutNoise
 
     scene = load_scenario(name)
     scan, goal = scene.scan(max_range=1.1), tuple(scene.goal_in_robot_frame())
@@ -215,12 +215,12 @@ def _stubbed_choice(risky_map):
     value 0.8), the scheduler's the sure detour (value 1.0)."""
     import numpy as np
 
-    from formal.supervisory import Plan
-    from planner import Configurator
-    from planner.configurator import PlanResult
-    from planner.perception import perceive
-    from planner.probabilistic import ProbabilisticMap, RolloutNoise
-    from planner.robust import RobustChoice
+    from clomp.formal.supervisory import Plan
+    from clomp.planner import Configurator
+    from clomp.planner.configurator import PlanResult
+    from clomp.planner.perception import perceive
+    from clomp.planner.probabilistic import ProbabilisticMap, RolloutNoise
+    from clomp.planner.robust import RobustChoice
 
     robot = Configurator().robot
     greedy = PlanResult(risky_map, Plan((0, 1)), risky_map.goal, perceive(np.zeros((0, 2)), robot.sensor_range),
@@ -241,7 +241,7 @@ def test_a_deviation_from_the_best_first_plan_is_taken_only_when_fresh_rollouts_
     margin; otherwise the plan is the plain Configurator's result, unchanged."""
     import numpy as np
 
-    from planner.robust import RobustConfigurator
+    from clomp.planner.robust import RobustConfigurator
 
     seeds: list[int] = []
 
@@ -276,8 +276,8 @@ def test_the_second_look_values_plans_on_rollouts_of_its_own():
     best-first plan measured against itself is a tie."""
     from dataclasses import replace
 
-    from planner import load_scenario
-    from planner.robust import RobustConfigurator
+    from clomp.planner import load_scenario
+    from clomp.planner.robust import RobustConfigurator
 
     scene = load_scenario("corridor")
     scan, goal = scene.scan(max_range=1.1), tuple(scene.goal_in_robot_frame())

@@ -7,11 +7,11 @@ import json
 import numpy as np
 import pytest
 
-from formal.model import TaskKind
-from formal.supervisory import guard
-from planner import Configurator, PlanningError, RobotModel, load_scan, load_scenario, plan, simulate
-from planner.configurator import chi, default_cost, gamma
-from planner.physics import World
+from clomp.formal.model import TaskKind
+from clomp.formal.supervisory import guard
+from clomp.planner import Configurator, PlanningError, RobotModel, load_scan, load_scenario, plan, simulate
+from clomp.planner.configurator import chi, default_cost, gamma
+from clomp.planner.physics import World
 
 
 def _plan_scenario(name: str, **kw):
@@ -97,7 +97,7 @@ def test_cost_is_a_parameter():
 
 def test_cost_definition():
     r = _plan_scenario("overtaking")
-    from planner.configurator import CostContext
+    from clomp.planner.configurator import CostContext
 
     ctx = CostContext(r.goal, r.map.initial.start, r.robot)
     for s in r.map.states():
@@ -116,7 +116,7 @@ def test_same_input_gives_an_identical_map():
 
 
 def test_json_round_trip(tmp_path):
-    from formal.lts import CognitiveMap
+    from clomp.formal.lts import CognitiveMap
 
     r = _plan_scenario("overtaking")
     p = tmp_path / "map.json"
@@ -140,7 +140,7 @@ def test_ill_posed_goals(goal, message):
 
 
 def test_a_goal_given_as_a_disturbance_is_bounded_too():
-    from planner import Disturbance
+    from clomp.planner import Disturbance
 
     with pytest.raises(PlanningError, match="beyond"):
         Configurator().plan(load_scenario("overtaking").scan(), Disturbance.goal(1e200, 0.0))
@@ -191,7 +191,7 @@ def test_robot_model_is_configurable_and_validated():
 
 
 def test_map_equality_and_json_keep_every_transition(tmp_path):
-    from formal.lts import CognitiveMap
+    from clomp.formal.lts import CognitiveMap
 
     r = _plan_scenario("overtaking")
     p = tmp_path / "m.json"
@@ -206,7 +206,7 @@ def test_map_equality_and_json_keep_every_transition(tmp_path):
 
 # -- γ in the search (Algorithm 1: interrupted frontier states enter the queue) -------------------
 def _plan_scenario(name, **options):
-    from planner import Configurator, load_scenario
+    from clomp.planner import Configurator, load_scenario
 
     conf = Configurator(**options)
     scene = load_scenario(name)
@@ -218,7 +218,7 @@ def test_interrupted_frontier_states_end_the_search_when_they_are_least_phi():
     state, an interrupted one (no obstacle-free transition), not by an empty queue.
     With the authors' quarter turns: free turns may turn round towards the corridor's
     open end behind the robot and explore it until the budget is spent."""
-    from planner.configurator import CostContext, default_cost
+    from clomp.planner.configurator import CostContext, default_cost
 
     r = _plan_scenario("cul-de-sac", robot=RobotModel(free_turns=False))
     assert r.stop_reason == "exhausted"
@@ -236,7 +236,7 @@ def test_interrupted_frontier_states_end_the_search_when_they_are_least_phi():
 def test_dropping_gamma_ends_the_search_at_a_collision(name):
     """φ = χ alone: a hit close to the goal is cheaper than a free detour, so the search
     stops at it and the goal is never reached (γ made no difference before the change)."""
-    from planner.configurator import chi
+    from clomp.planner.configurator import chi
 
     full = _plan_scenario(name)
     # slalom's goal lies beyond the sensor range: an honest plan ends at the frontier
@@ -246,7 +246,7 @@ def test_dropping_gamma_ends_the_search_at_a_collision(name):
 
 
 def test_flipping_the_sign_of_gamma_ends_the_search_at_a_collision():
-    from planner.configurator import chi, gamma
+    from clomp.planner.configurator import chi, gamma
 
     r = _plan_scenario("overtaking", cost=lambda s, c: chi(s, c) - gamma(s, c))
     assert not r.reached_goal and r.map[r.map.metadata["stopped_at"]].interrupted
@@ -255,7 +255,7 @@ def test_flipping_the_sign_of_gamma_ends_the_search_at_a_collision():
 def test_the_sense_of_gamma_decides_which_hit_ends_the_search():
     """γ = 2 − d/r: the sooner the hit, the dearer. Reversed (1 + d/r), a different hit
     of the cul-de-sac is the least-φ state that ends the search."""
-    from planner.configurator import chi, gamma
+    from clomp.planner.configurator import chi, gamma
 
     def reversed_gamma(s, ctx):
         return chi(s, ctx) + (0.0 if s.d_n is None else 3.0 - gamma(s, ctx))

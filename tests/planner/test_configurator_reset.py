@@ -1,13 +1,13 @@
-"""The Configurator injects D_I through formal's one reset R (formal.supervisory.reset_from)."""
+"""The Configurator injects D_I through formal's one reset R (clomp.formal.supervisory.reset_from)."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-import planner.configurator as configurator
-from formal.supervisory import Reset, ResetUndefined
-from planner import Configurator, load_scenario
+import clomp.planner.configurator as configurator
+from clomp.formal.supervisory import Reset, ResetUndefined
+from clomp.planner import Configurator, load_scenario
 
 
 def test_every_child_state_gets_its_d_i_from_formal_reset(monkeypatch: pytest.MonkeyPatch) -> None:

@@ -1,4 +1,4 @@
-"""The scene's remembered answers (planner.contact) are the answers of a pass over all points.
+"""The scene's remembered answers (clomp.planner.contact) are the answers of a pass over all points.
 
 A plan asks the same questions many times: the straight after a turn asks what the turn's
 choice of angle already computed, the left and the right turn from one pose are answered by
@@ -13,9 +13,9 @@ import math
 import numpy as np
 import pytest
 
-from formal.model import Pose, TaskKind
-from planner import RobotModel, Task, perceive
-from planner.contact import Scene
+from clomp.formal.model import Pose, TaskKind
+from clomp.planner import RobotModel, Task, perceive
+from clomp.planner.contact import Scene
 
 ROBOT = RobotModel()
 

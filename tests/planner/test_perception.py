@@ -10,8 +10,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from planner import perception
-from planner.perception import Obstacles, ScanError, load_scan, perceive, validate_scan
+from clomp.planner import perception
+from clomp.planner.perception import Obstacles, ScanError, load_scan, perceive, validate_scan
 
 
 def test_text_scan_with_tabs_spaces_and_comments(tmp_path):

@@ -9,12 +9,12 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from formal.model import Disturbance, Pose, TaskKind
-from planner import RobotModel, Task, perceive, simulate
-from planner.perception import Obstacles
-from planner.engine import World, _rollout
-from planner.contact import unobstructed
-from planner.physics import in_the_way, straight_limit
+from clomp.formal.model import Disturbance, Pose, TaskKind
+from clomp.planner import RobotModel, Task, perceive, simulate
+from clomp.planner.perception import Obstacles
+from clomp.planner.engine import World, _rollout
+from clomp.planner.contact import unobstructed
+from clomp.planner.physics import in_the_way, straight_limit
 
 ROBOT = RobotModel()
 GOAL = Disturbance.goal(1.0, 0.0)

@@ -11,15 +11,15 @@ import numpy as np
 from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
-from planner import Configurator, PlanningError, RobotModel
-from planner.scenarios import Scene
-from planner.strategies import robot_models, scenes
+from clomp.planner import Configurator, PlanningError, RobotModel
+from clomp.planner.scenarios import Scene
+from clomp.planner.strategies import robot_models, scenes
 
 sys.path.insert(0, str(Path(__file__).parent))
 from sweepcheck import check_states  # noqa: E402
 
 
-# the public strategies (planner.strategies) are what users property-test with, too
+# the public strategies (clomp.planner.strategies) are what users property-test with, too
 robots = robot_models()
 
 

@@ -13,8 +13,8 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from planner import Configurator, RobotModel, load_scan, load_scenario
-from planner.scenarios import parse_scenario
+from clomp.planner import Configurator, RobotModel, load_scan, load_scenario
+from clomp.planner.scenarios import parse_scenario
 
 sys.path.insert(0, str(Path(__file__).parent))
 from sweepcheck import check_states  # noqa: E402
@@ -185,9 +185,9 @@ def test_a_turn_towards_the_goal_stops_at_a_quarter_turn() -> None:
     the robot, with the goal ahead-right beyond it, a right turn (towards the goal) finds
     no clear way by π/2 and ends facing the goal; a left turn (away) goes on to the open
     side behind."""
-    from formal.model import Disturbance, Pose, TaskKind
-    from planner.perception import perceive
-    from planner.physics import turn_angle
+    from clomp.formal.model import Disturbance, Pose, TaskKind
+    from clomp.planner.perception import perceive
+    from clomp.planner.physics import turn_angle
 
     ahead = np.c_[np.full(45, 0.25), np.linspace(-0.22, 0.22, 45)]
     sides = [np.c_[np.linspace(-0.3, 0.25, 56), np.full(56, y)] for y in (-0.22, 0.22)]
@@ -203,9 +203,9 @@ def test_a_step_towards_a_wall_ends_where_the_body_can_still_spin() -> None:
     """A wall 0.40 m ahead: a full 0.27 m step would leave the front 3 cm from it, too
     close to turn in place (the rear corners sweep 0.215 m round the centre). The step
     ends where a quarter turn is still free; the authors' fixed steps do not."""
-    from formal.model import Disturbance, Pose, TaskKind
-    from planner.perception import perceive
-    from planner.physics import simulate
+    from clomp.formal.model import Disturbance, Pose, TaskKind
+    from clomp.planner.perception import perceive
+    from clomp.planner.physics import simulate
 
     wall = np.c_[np.full(81, 0.40), np.linspace(-0.4, 0.4, 81)]
     obs = perceive(wall)
@@ -248,9 +248,9 @@ def test_a_step_towards_the_rim_ends_where_the_body_can_still_spin_when_the_goal
     it ends where a full spin in place stays inside (the search can turn there); with
     the goal beyond the disc, or the authors' fixed steps, it runs to the rim and ends
     there as a frontier state."""
-    from formal.model import Disturbance, Pose, TaskKind
-    from planner.perception import perceive
-    from planner.physics import _turn_leaves_disc, simulate
+    from clomp.formal.model import Disturbance, Pose, TaskKind
+    from clomp.planner.perception import perceive
+    from clomp.planner.physics import _turn_leaves_disc, simulate
 
     empty = perceive(np.zeros((0, 2)))
     start = Pose(0.75, 0.0, 0.0)

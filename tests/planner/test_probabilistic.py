@@ -9,10 +9,10 @@ from fractions import Fraction
 import numpy as np
 import pytest
 
-from formal import check_map
-from formal.model import TaskKind
-from planner import Configurator, load_scenario
-from planner.probabilistic import NoiseError, RolloutNoise, learn_from_scans, preset_names, sample_map
+from clomp.formal import check_map
+from clomp.formal.model import TaskKind
+from clomp.planner import Configurator, load_scenario
+from clomp.planner.probabilistic import NoiseError, RolloutNoise, learn_from_scans, preset_names, sample_map
 
 
 def _scene(name):
@@ -83,7 +83,7 @@ def test_noise_presets_come_from_the_file_when_it_exists(tmp_path):
 
 
 def test_the_paper_preset_is_the_simulated_robots_default_noise():
-    from runtime.robots.sim import NoiseConfig
+    from clomp.runtime.robots.sim import NoiseConfig
 
     paper = RolloutNoise.preset("paper")
     assert paper == RolloutNoise()  # the defaults are the file's paper preset
@@ -133,7 +133,7 @@ def _corridor_wall(y: float) -> np.ndarray:
 
 
 def _straight_collision_chance(scan, hazard, seed=0):
-    from planner.probabilistic import SUPERVISOR_TOLERANCE
+    from clomp.planner.probabilistic import SUPERVISOR_TOLERANCE
 
     pm = sample_map(scan, (0.8, 0.0), samples=20, noise="harsh", seed=seed, tolerance=SUPERVISOR_TOLERANCE, hazard=hazard)
     ts = [t for t in pm.map.out_transitions(0) if t.label is TaskKind.STRAIGHT]
@@ -145,7 +145,7 @@ def test_the_hazard_rule_interrupts_rollouts_that_pass_close_to_a_wall_under_ran
     its way; at harsh noise (2.5 cm range noise, the wheels drifting sideways) a wall 6 cm
     from the body does that often, one 31 cm away never. Contacts alone (no hazard
     rule) never interrupt this straight."""
-    from planner.probabilistic import HazardRule
+    from clomp.planner.probabilistic import HazardRule
 
     close, far = _corridor_wall(0.09 + 0.06), _corridor_wall(0.09 + 0.31)
     assert _straight_collision_chance(close, None) == 0
@@ -160,10 +160,10 @@ def test_the_supervisors_noise_allowance_spares_a_grazed_wall_not_a_wall_in_the_
     range noise stops fewer rollouts than with any 2 points inside the body, and a
     stop there is a hazard stop, named in the map's stops; at paper noise the allowance
     is 3 x 5 mm less the 1 cm clearance."""
-    from formal.retry import map_stops
-    from planner.probabilistic import HazardRule, RolloutNoise
+    from clomp.formal.retry import map_stops
+    from clomp.planner.probabilistic import HazardRule, RolloutNoise
 
-    from planner.probabilistic import SUPERVISOR_TOLERANCE
+    from clomp.planner.probabilistic import SUPERVISOR_TOLERANCE
     from dataclasses import replace
 
     # harsh range noise with small wheel errors (the closed loop's sideways drift, no length
@@ -190,7 +190,7 @@ def test_the_supervisors_noise_allowance_spares_a_grazed_wall_not_a_wall_in_the_
 def test_outcomes_within_the_supervisors_end_tolerance_are_one_state():
     """The supervisor continues a plan whose task ended within 0.08 m / 0.3 rad of the
     prediction: grouped so, a choice has fewer, larger outcome groups than at 3 cm."""
-    from planner.probabilistic import SUPERVISOR_TOLERANCE
+    from clomp.planner.probabilistic import SUPERVISOR_TOLERANCE
 
     scan, goal = _scene("doorway")
     fine = sample_map(scan, goal, samples=20, noise="harsh", seed=2)
@@ -202,7 +202,7 @@ def test_outcomes_within_the_supervisors_end_tolerance_are_one_state():
 
 
 def test_a_plans_target_is_the_goal_or_else_the_progress_of_the_best_first_plan():
-    from planner.robust import plan_target
+    from clomp.planner.robust import plan_target
 
     scan, goal = _scene("doorway")
     pm = sample_map(scan, goal, samples=10, noise="paper", seed=0)
@@ -226,7 +226,7 @@ def test_carried_poses_make_a_turns_error_reach_the_straight_after_it(name):
     with ``carry`` it starts where the turn truly ended, heading off, and misses."""
     from dataclasses import replace
 
-    from planner.probabilistic import SUPERVISOR_TOLERANCE
+    from clomp.planner.probabilistic import SUPERVISOR_TOLERANCE
 
     scene = load_scenario(name)
     scan, goal = scene.scan(max_range=1.1), tuple(scene.goal_in_robot_frame())
@@ -248,8 +248,8 @@ def test_carried_poses_make_a_turns_error_reach_the_straight_after_it(name):
 
 def test_a_carried_task_gets_the_supervisors_limit_from_where_the_robot_stands():
     """A turn turns to the planned heading, a straight drives the planned length."""
-    from formal.model import Disturbance, Pose, State
-    from planner.probabilistic import _aimed_limit
+    from clomp.formal.model import Disturbance, Pose, State
+    from clomp.planner.probabilistic import _aimed_limit
 
     g = Disturbance.goal(1.0, 0.0)
     left = State(1, TaskKind.LEFT, g, None, Pose(0, 0, 0), Pose(0, 0, 1.0))
@@ -268,11 +268,11 @@ def test_the_closed_loops_mean_errors_bias_turns_and_straights():
     presets leave them at 0, and a mean beyond ±0.5 is refused."""
     from dataclasses import replace
 
-    from formal.model import Disturbance, Pose
-    from planner.perception import perceive
-    from planner.physics import simulate
-    from planner.probabilistic import _rollout, _World
-    from planner.robot import RobotModel
+    from clomp.formal.model import Disturbance, Pose
+    from clomp.planner.perception import perceive
+    from clomp.planner.physics import simulate
+    from clomp.planner.probabilistic import _rollout, _World
+    from clomp.planner.robot import RobotModel
 
     robot = RobotModel()
     empty = perceive(np.zeros((0, 2)), robot.sensor_range, robot.cluster_distance)

@@ -13,11 +13,11 @@ import math
 import numpy as np
 import pytest
 
-from formal.model import Disturbance, Pose, TaskKind
-from planner import Configurator
-from planner.perception import perceive
-from planner.physics import turn_angle
-from planner.robot import RobotModel
+from clomp.formal.model import Disturbance, Pose, TaskKind
+from clomp.planner import Configurator
+from clomp.planner.perception import perceive
+from clomp.planner.physics import turn_angle
+from clomp.planner.robot import RobotModel
 
 WEDGED = Pose(0.577, 0.295, 0.373)  # world frame: where run 0/1 halted on main at e43ba57
 PI_8 = pytest.approx(math.pi / 8, abs=1e-9)

@@ -23,8 +23,8 @@ import pytest
 from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
-from planner import plan, scanfile
-from planner.perception import (
+from clomp.planner import plan, scanfile
+from clomp.planner.perception import (
     MAX_SCAN_BYTES,
     MAX_SCAN_POINTS,
     ScanError,

@@ -7,9 +7,9 @@ import math
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from formal.model import Disturbance, Pose, TaskKind
-from planner.robot import RobotModel
-from planner.tasks import Task
+from clomp.formal.model import Disturbance, Pose, TaskKind
+from clomp.planner.robot import RobotModel
+from clomp.planner.tasks import Task
 
 coord = st.floats(-2.0, 2.0, allow_nan=False)
 

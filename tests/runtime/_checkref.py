@@ -1,12 +1,12 @@
 """The reference plan check: :func:`check_plan_reference`, the plain array form of
-:func:`runtime.supervision.plancheck.check_plan`'s geometry.
+:func:`clomp.runtime.supervision.plancheck.check_plan`'s geometry.
 
 It is the check as first written (the legs × points arrays of every remaining task at
 once, on the scan's points near the plan's bounding box), kept unchanged so the tests can
-hold the fast path of :mod:`runtime.supervision.plancheck` to it: both must give the same
+hold the fast path of :mod:`clomp.runtime.supervision.plancheck` to it: both must give the same
 verdict, reason and task on any scan (a Hypothesis test). The supervisor never calls it.
 
->>> from formal.model import Disturbance, State, TaskKind
+>>> from clomp.formal.model import Disturbance, State, TaskKind
 >>> g = Disturbance.goal(1.0, 0.0)
 >>> step = State(1, TaskKind.STRAIGHT, g, None, Pose(0.0, 0.0), Pose(0.5, 0.0), distance=0.5)
 >>> o = Pose(0.0, 0.0, 0.0)
@@ -23,12 +23,12 @@ import time
 
 import numpy as np
 
-from formal.geometry import relative
-from formal.model import Pose, State, TaskKind
-from planner.perception import Obstacles
-from planner.robot import RobotModel
-from runtime.supervision.checkgeometry import _ends_off, _Leg, _legs, _waived_turn
-from runtime.supervision.plancheck import CheckResult, _verdict
+from clomp.formal.geometry import relative
+from clomp.formal.model import Pose, State, TaskKind
+from clomp.planner.perception import Obstacles
+from clomp.planner.robot import RobotModel
+from clomp.runtime.supervision.checkgeometry import _ends_off, _Leg, _legs, _waived_turn
+from clomp.runtime.supervision.plancheck import CheckResult, _verdict
 
 __all__ = ["check_plan_reference"]
 
@@ -36,7 +36,7 @@ __all__ = ["check_plan_reference"]
 def check_plan_reference(states: list[State], origin: Pose, pose: Pose, seen: Obstacles | np.ndarray,
                          robot: RobotModel, *, tolerance: tuple[float, float] = (0.08, 0.3), running: bool = False,
                          allowance: float = 0.0) -> CheckResult:
-    """:func:`runtime.supervision.plancheck.check_plan`'s verdict, computed the plain way."""
+    """:func:`clomp.runtime.supervision.plancheck.check_plan`'s verdict, computed the plain way."""
     t0 = time.perf_counter()
     if not states:
         return CheckResult(True, "nothing left to check", 0, time.perf_counter() - t0)
@@ -93,7 +93,7 @@ def _near(z: np.ndarray, legs: list[_Leg], robot: RobotModel) -> np.ndarray:
 def _straight_contacts(z: np.ndarray, legs: list[_Leg], robot: RobotModel, allowance: float) -> list[float]:
     """Per straight leg: how far the body drives before it meets a point (inf: never), to
     the last control tick before the contact, all legs in one array operation (the
-    planner's rule, :mod:`planner.physics`: the inflated footprint translated along the
+    planner's rule, :mod:`clomp.planner.physics`: the inflated footprint translated along the
     leg; a point already inside it at the start is held to the real body). ``allowance``
     (m) shrinks the body a point must enter to count (sensor noise)."""
     if not z.size:

@@ -21,8 +21,8 @@ import threading
 import time
 from collections.abc import Callable
 
-from runtime.clock import ManualClock
-from runtime.devices._pty import PtyEmulator
+from clomp.runtime.clock import ManualClock
+from clomp.runtime.devices._pty import PtyEmulator
 
 __all__ = ["LockstepClock", "SimLine"]
 

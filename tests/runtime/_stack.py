@@ -16,11 +16,11 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
-from planner import Configurator
-from runtime.devices.maestro_emulator import MaestroEmulator
-from runtime.robots.emulated import EmulatedWorld
-from runtime.robots.hardware import HardwareConfig, HardwareRobot
-from runtime.supervision import Supervisor, SupervisorReport
+from clomp.planner import Configurator
+from clomp.runtime.devices.maestro_emulator import MaestroEmulator
+from clomp.runtime.robots.emulated import EmulatedWorld
+from clomp.runtime.robots.hardware import HardwareConfig, HardwareRobot
+from clomp.runtime.supervision import Supervisor, SupervisorReport
 from tests.runtime._simline import LockstepClock, SimLine
 
 __all__ = ["NEUTRAL", "StackRun", "run_stack", "wheels_stopped_at"]

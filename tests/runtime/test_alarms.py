@@ -1,14 +1,14 @@
 """The supervisor's alarms under sensor noise: a measured allowance, deep alarms at once,
-shallow ones when they persist (runtime.supervision.alarms)."""
+shallow ones when they persist (clomp.runtime.supervision.alarms)."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from formal.model import Pose, TaskKind
-from planner.robot import RobotModel
-from runtime.supervision.alarms import Alarms, hazard_hits, range_noise
+from clomp.formal.model import Pose, TaskKind
+from clomp.planner.robot import RobotModel
+from clomp.runtime.supervision.alarms import Alarms, hazard_hits, range_noise
 
 M = RobotModel()
 
@@ -140,7 +140,7 @@ def test_a_shallow_alarm_that_the_recent_revolutions_fused_do_not_raise_is_the_n
     (overtaking 0/5, 0/12, 0/16 at harsh on the true pose). The same revolutions fused
     (median range per bearing) place the wall outside the body: the alarm is the noise's.
     A wall 1 cm inside the body stays an alarm."""
-    from runtime.estimation.fusion import fuse_revolutions
+    from clomp.runtime.estimation.fusion import fuse_revolutions
 
     rng = np.random.default_rng(3)
     plain, fused = Alarms(), Alarms()
@@ -168,9 +168,9 @@ def test_the_watch_fuses_each_revolution_where_it_was_taken(gap: float, alarm: b
     that ends 1.5 cm clear of its body raises no alarm; fused as if taken where it stands
     now, the older revolutions (taken nearer) would put that wall inside it, in every
     revolution. A wall 1 cm inside the body stays an alarm."""
-    from formal.model import Disturbance
-    from planner.tasks import Task
-    from runtime.supervision.planwatch import PlanWatch
+    from clomp.formal.model import Disturbance
+    from clomp.planner.tasks import Task
+    from clomp.runtime.supervision.planwatch import PlanWatch
 
     rng = np.random.default_rng(5)
     watch = PlanWatch(M, lambda *a, **k: None)
@@ -192,8 +192,8 @@ def test_a_shallow_check_failure_the_fused_revolutions_do_not_show_is_dismissed(
     alone acted on them (62 % of its alarms in harsh overtaking runs were false). The last
     revolutions fused place the wall where it is, clear of the path, and the failure is
     the noise's. A box truly at the path's edge is in the fused revolutions too: it stands."""
-    from formal.model import Disturbance, State
-    from runtime.estimation.fusion import fuse_revolutions
+    from clomp.formal.model import Disturbance, State
+    from clomp.runtime.estimation.fusion import fuse_revolutions
 
     step = State(1, TaskKind.STRAIGHT, Disturbance.goal(1.0, 0.0), None, Pose(0.0, 0.0), Pose(0.5, 0.0), distance=0.5)
     o, goal = Pose(0.0, 0.0, 0.0), Pose(1.0, 0.0)
@@ -228,8 +228,8 @@ def test_the_supervisors_plan_check_hands_the_fused_revolutions_to_the_alarms() 
     shallow failure asks: the noisy wall of the test above does not stop the plan."""
     from types import SimpleNamespace
 
-    from formal.model import Disturbance, State
-    from runtime.supervision.planwatch import PlanWatch
+    from clomp.formal.model import Disturbance, State
+    from clomp.runtime.supervision.planwatch import PlanWatch
 
     step = State(1, TaskKind.STRAIGHT, Disturbance.goal(1.0, 0.0), None, Pose(0.0, 0.0), Pose(0.5, 0.0), distance=0.5)
     o = Pose(0.0, 0.0, 0.0)

@@ -20,7 +20,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from runtime.records.bags import BagError, LaserScanTopic, bag_topics, laserscan_points, points_to_ranges
+from clomp.runtime.records.bags import BagError, LaserScanTopic, bag_topics, laserscan_points, points_to_ranges
 
 INC = 2 * math.pi / (360 * 64)  # the A1's 1/64° steps
 COUNT = 360 * 64
@@ -31,13 +31,13 @@ KINDS = ("ros2-sqlite3", "ros2-mcap", "ros1")
 
 def clomp(*args: str) -> subprocess.CompletedProcess[str]:
     script = Path(sys.executable).with_name("clomp")
-    cmd = [str(script)] if script.exists() else [sys.executable, "-m", "runtime.cli"]
+    cmd = [str(script)] if script.exists() else [sys.executable, "-m", "clomp.runtime.cli"]
     return subprocess.run([*cmd, *args], capture_output=True, text=True, timeout=600)
 
 
 def cli(capsys, *args: str) -> subprocess.CompletedProcess[str]:
     """clomp in this process (faster than a subprocess for the one-line error cases)."""
-    from runtime.cli import main
+    from clomp.runtime.cli import main
 
     capsys.readouterr()
     rc = main(list(args))

@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from runtime.cli import EXIT_STATUS, main
+from clomp.runtime.cli import EXIT_STATUS, main
 
 
 @pytest.mark.parametrize("argv", [["--goal", "-0.8,0"], ["--goal=-0.8,0"], ["--goal", "-.5,-0.2"]])
@@ -85,7 +85,7 @@ def test_a_folder_run_never_stops_at_one_scan(tmp_path: Path, scans_dir: Path, c
 
 def test_replaying_a_successful_run_log_counts_arrival_as_an_outcome(tmp_path: Path, scans_dir: Path,
                                                                      capsys: pytest.CaptureFixture[str]) -> None:
-    from runtime.records.runlog import RunLog
+    from clomp.runtime.records.runlog import RunLog
 
     pts = np.loadtxt(scans_dir / "map0100.dat").reshape(-1, 2)
     log = tmp_path / "run.jsonl"
@@ -131,8 +131,8 @@ def test_export_says_what_it_wrote(tmp_path: Path, capsys: pytest.CaptureFixture
 
 
 def test_run_start_up_device_fault_is_3_and_a_missing_port_is_2(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    from runtime.devices.maestro_emulator import MaestroEmulator
-    from runtime.devices.rplidar_emulator import LidarEmulator
+    from clomp.runtime.devices.maestro_emulator import MaestroEmulator
+    from clomp.runtime.devices.rplidar_emulator import LidarEmulator
 
     log = str(tmp_path / "run.jsonl")
     with LidarEmulator(health_status=2, health_error_code=0x8001) as sick, MaestroEmulator() as maestro:
@@ -185,11 +185,11 @@ def test_counts_are_spelled_for_one_and_many(tmp_path: Path, capsys: pytest.Capt
 
 
 def test_the_library_refuses_a_time_limit_that_never_ends() -> None:
-    from planner import load_scenario
-    from runtime.experiment.reactive import ReactiveController
-    from runtime.experiment.runner import run_once
-    from runtime.robots.sim import SimRobot
-    from runtime.supervision.supervisor import Supervisor
+    from clomp.planner import load_scenario
+    from clomp.runtime.experiment.reactive import ReactiveController
+    from clomp.runtime.experiment.runner import run_once
+    from clomp.runtime.robots.sim import SimRobot
+    from clomp.runtime.supervision.supervisor import Supervisor
 
     scene = load_scenario("open")
     with pytest.raises(ValueError, match="max_time"):

@@ -14,7 +14,7 @@ import pytest
 def clomp(*args: str, cwd=None) -> subprocess.CompletedProcess[str]:
     """Run the installed console script (as a user does), or the module when not installed."""
     script = Path(sys.executable).with_name("clomp")
-    cmd = [str(script)] if script.exists() else [sys.executable, "-m", "runtime.cli"]
+    cmd = [str(script)] if script.exists() else [sys.executable, "-m", "clomp.runtime.cli"]
     return subprocess.run([*cmd, *args], capture_output=True, text=True, timeout=120, cwd=cwd)
 
 
@@ -80,7 +80,7 @@ def test_bad_input_is_one_line_and_exit_2(args, needle):
 def test_a_goal_inside_an_obstacle_is_planned_towards_and_reported(tmp_path):
     # a recorded scan: only what the sensor saw is known (a scenario's goal is checked
     # against its true obstacles and refused instead; see test_cli_conventions)
-    from planner import load_scenario
+    from clomp.planner import load_scenario
 
     scan = tmp_path / "overtaking.dat"
     np.savetxt(scan, load_scenario("overtaking").scan(max_range=1.1))

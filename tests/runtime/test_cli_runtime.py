@@ -6,14 +6,14 @@ import json
 
 import pytest
 
-import runtime.cli as cli
+import clomp.runtime.cli as cli
 
-MINE = ("runtime.cli.demo", "runtime.cli.simulate", "runtime.cli.experiment")
+MINE = ("clomp.runtime.cli.demo", "clomp.runtime.cli.simulate", "clomp.runtime.cli.experiment")
 
 
 @pytest.fixture(autouse=True)
 def commands(monkeypatch):
-    """Register the runtime commands (also before they are listed in runtime.cli)."""
+    """Register the runtime commands (also before they are listed in clomp.runtime.cli)."""
     mods = list(cli._COMMAND_MODULES)
     for m in MINE:
         if m not in mods:

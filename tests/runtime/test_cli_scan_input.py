@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from runtime.cli import main
+from clomp.runtime.cli import main
 
 _CASE_TIMEOUT = 5.0
 
@@ -93,7 +93,7 @@ def test_a_scan_in_millimetres_warns_and_still_answers(scans_dir, tmp_path, caps
 
 def test_a_real_console_run_prints_no_traceback(corpus):
     # the installed entry point, as a user runs it (warnings, tokenizer errors and all)
-    code = "import sys; from runtime.cli import main; sys.exit(main())"
+    code = "import sys; from clomp.runtime.cli import main; sys.exit(main())"
     p = subprocess.run(
         [sys.executable, "-c", code, "plan", "--scan", str(corpus / "unterminated-header.npy")],
         capture_output=True, text=True, timeout=120,

@@ -6,7 +6,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from runtime.experiment.contacts import BRUSH_DEPTH_M, contact_episodes, count_contacts
+from clomp.runtime.experiment.contacts import BRUSH_DEPTH_M, contact_episodes, count_contacts
 
 TICK = 0.02
 

@@ -8,12 +8,12 @@ import numpy as np
 
 import pytest
 
-from formal.geometry import drive, wrap_angle
-from formal.model import Pose
-from planner.scenarios import parse_scenario
-from runtime.estimation import match_scans
-from runtime.estimation.ekf import OdometryFilter
-from runtime.robots import make_world_robot
+from clomp.formal.geometry import drive, wrap_angle
+from clomp.formal.model import Pose
+from clomp.planner.scenarios import parse_scenario
+from clomp.runtime.estimation import match_scans
+from clomp.runtime.estimation.ekf import OdometryFilter
+from clomp.runtime.robots import make_world_robot
 
 
 def _drive_truth(pose: Pose, v: float, w: float, dt: float, curve: float) -> Pose:

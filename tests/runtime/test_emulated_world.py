@@ -9,11 +9,11 @@ import time
 import numpy as np
 import pytest
 
-from runtime.clock import ManualClock
-from runtime.devices.rplidar import RPLidar
-from runtime.realtime import NICENESS
-from runtime.robots.emulated import EmulatedWorld, EmulatedWorldProcess
-from runtime.robots.sim import NoiseConfig
+from clomp.runtime.clock import ManualClock
+from clomp.runtime.devices.rplidar import RPLidar
+from clomp.runtime.realtime import NICENESS
+from clomp.runtime.robots.emulated import EmulatedWorld, EmulatedWorldProcess
+from clomp.runtime.robots.sim import NoiseConfig
 from tests.runtime._simline import SimLine
 
 

@@ -13,16 +13,16 @@ import numpy as np
 import pytest
 import serial
 
-from runtime.clock import ManualClock
-from runtime.devices.emulators import (
+from clomp.runtime.clock import ManualClock
+from clomp.runtime.devices.emulators import (
     LidarEmulator,
     MaestroEmulator,
     load_scan_file,
     recorded_scan_source,
     scan_to_samples,
 )
-from runtime.devices.maestro import encode_set_target
-from runtime.devices.rplidar import (
+from clomp.runtime.devices.maestro import encode_set_target
+from clomp.runtime.devices.rplidar import (
     Command,
     LidarHealthError,
     LidarPortError,
@@ -273,8 +273,8 @@ def test_maestro_emulator_records_timed_events() -> None:
 _HARNESS = textwrap.dedent(
     """
     import argparse, sys
-    from runtime.cli import emulate as _cli_emulate
-    from runtime.cli import CliError
+    from clomp.runtime.cli import emulate as _cli_emulate
+    from clomp.runtime.cli import CliError
     parser = argparse.ArgumentParser(prog="clomp")
     _cli_emulate.register(parser.add_subparsers())
     args = parser.parse_args(sys.argv[1:])

@@ -11,9 +11,9 @@ from types import ModuleType
 
 import pytest
 
-from planner.scenarios import load_scenario
-from runtime.estimation.ekf import OdometryFilter
-from runtime.robots.world import WorldNoise, make_world_robot
+from clomp.planner.scenarios import load_scenario
+from clomp.runtime.estimation.ekf import OdometryFilter
+from clomp.runtime.robots.world import WorldNoise, make_world_robot
 
 BENCH = Path(__file__).resolve().parents[2] / "bench" / "estimate_ceiling.py"
 
@@ -84,10 +84,10 @@ def test_the_true_pose_is_fed_in_the_supervisors_frame() -> None:
     """A corridor layout starts turned in the world (here -0.145 rad): the truth ablation
     must hand the supervisor the world's pose seen from the start, as its estimate is, or
     the goal turns with the start heading and the "ceiling" misses corridors it should not."""
-    from formal.geometry import relative
-    from planner import Configurator
-    from runtime.experiment.runner import RunSpec, scene_for
-    from runtime.experiment.world import make_robot
+    from clomp.formal.geometry import relative
+    from clomp.planner import Configurator
+    from clomp.runtime.experiment.runner import RunSpec, scene_for
+    from clomp.runtime.experiment.world import make_robot
 
     scene, _ = scene_for(RunSpec("corridor", 0, 0, "planning", "harsh"))
     assert abs(scene.start.theta) > 0.1  # the case this test is about

@@ -10,14 +10,14 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from formal.geometry import compose, relative
-from formal.model import Pose
-from planner.scenarios import parse_scenario
-from runtime.devices.frame import ScanFrame
-from runtime.estimation import match_scans
-from runtime.estimation.fusion import fuse_revolutions
-from runtime.estimation.odometry import ScanOdometry, deskew
-from runtime.robots import make_world_robot
+from clomp.formal.geometry import compose, relative
+from clomp.formal.model import Pose
+from clomp.planner.scenarios import parse_scenario
+from clomp.runtime.devices.frame import ScanFrame
+from clomp.runtime.estimation import match_scans
+from clomp.runtime.estimation.fusion import fuse_revolutions
+from clomp.runtime.estimation.odometry import ScanOdometry, deskew
+from clomp.runtime.robots import make_world_robot
 
 # a corridor with a doorway gap, a post and an end wall: like the recorded scans
 ROOM = {
@@ -155,7 +155,7 @@ def test_fusing_revolutions_shrinks_range_noise_and_drops_lone_outliers():
 def test_the_supervisor_runs_its_tasks_on_the_scan_matched_estimate():
     """In a structured room under harsh noise the estimate the tasks run on tracks the truth,
     better than dead reckoning alone does on the same worlds."""
-    from runtime.supervision import Supervisor
+    from clomp.runtime.supervision import Supervisor
 
     scene = parse_scenario(ROOM, "room")
 
@@ -212,7 +212,7 @@ def _past_posts(seed: int, feedback: bool, noise_factor: float = math.sqrt(2.0))
     """Stand 1 s, then drive 1.6 m straight past three posts on good wheels with a noisy
     LiDAR (2.5 cm of range noise, every other term at ``paper``); the estimate's true
     error (m) at the end, and the range noise the estimator measured."""
-    from runtime.robots.world import WorldNoise
+    from clomp.runtime.robots.world import WorldNoise
 
     noise = WorldNoise(**{**WorldNoise.preset("paper").to_dict(), "range_sd": 0.025})
     world = make_world_robot(parse_scenario(POSTS, "posts"), noise, seed=seed)
@@ -240,7 +240,7 @@ def test_a_noisy_lidar_is_trusted_only_as_far_as_its_measured_noise() -> None:
 
 
 def test_range_spread_reads_the_noise_and_ignores_edges() -> None:
-    from runtime.estimation.fusion import range_spread
+    from clomp.runtime.estimation.fusion import range_spread
 
     rng = np.random.default_rng(1)
     ang = np.radians(np.arange(-60, 60, 1.0))
@@ -269,7 +269,7 @@ def test_the_grid_search_finds_what_a_kd_tree_finds(ref, near, bound, cell):
     nearest (ties may pick another point at the same distance); beyond it, none."""
     from scipy.spatial import cKDTree
 
-    from runtime.estimation._icp_core import cell_keys, grid_index, nearest
+    from clomp.runtime.estimation._icp_core import cell_keys, grid_index, nearest
 
     pts = np.array(ref, dtype=float)
     queries = [(pts[i % len(pts), 0] + dx, pts[i % len(pts), 1] + dy) for i, dx, dy in near]  # near a point, or not
@@ -302,7 +302,7 @@ def test_the_matcher_compiles_without_a_writable_cache(monkeypatch):
 
     import numba.core.caching
 
-    from runtime.estimation import _icp_core
+    from clomp.runtime.estimation import _icp_core
 
     def nowhere(self: Any, py_func: Any) -> None:
         raise RuntimeError(f"cannot cache function {py_func!r}: no locator available for file '/ro'")
@@ -325,14 +325,14 @@ def test_the_matcher_is_compiled_before_the_robot_moves():
     import subprocess
     import sys
 
-    code = ("from runtime.estimation import _icp_core as c\n"
-            "from runtime.estimation.odometry import ScanOdometry\n"
+    code = ("from clomp.runtime.estimation import _icp_core as c\n"
+            "from clomp.runtime.estimation.odometry import ScanOdometry\n"
             "assert not c.icp_iterations.signatures\n"
             "ScanOdometry(0.2)\n"
             "n = len(c.icp_iterations.signatures)\n"
             "import numpy as np\n"
-            "from formal.model import Pose\n"
-            "from runtime.estimation import match_scans\n"
+            "from clomp.formal.model import Pose\n"
+            "from clomp.runtime.estimation import match_scans\n"
             "ref = np.array([[1.0, y] for y in np.linspace(-0.5, 0.5, 51)] + [[x, 0.5] for x in np.linspace(0.0, 1.0, 51)])\n"
             "assert match_scans(ref, ref, Pose(0, 0, 0)).ok\n"
             "print(n, len(c.icp_iterations.signatures))\n")
@@ -360,8 +360,8 @@ def test_ctrl_c_during_matching_is_a_keyboard_interrupt():
     code = """
 import os, signal, time
 import numpy as np
-from formal.model import Pose
-from runtime.estimation import ReferenceScan, match_scans
+from clomp.formal.model import Pose
+from clomp.runtime.estimation import ReferenceScan, match_scans
 ref = np.array([[1.0, y] for y in np.linspace(-0.5, 0.5, 151)] + [[x, 0.5] for x in np.linspace(0.0, 1.0, 151)])
 cur, r = ref - [0.05, 0.0], ReferenceScan(ref)
 match_scans(r, cur, Pose(0.0, 0.0, 0.0))
@@ -396,7 +396,7 @@ def _interrupted_in_numba(*_args):
 
 
 def test_interruptible_raises_the_interrupt_a_compiled_call_masked():
-    from runtime.jit import interruptible
+    from clomp.runtime.jit import interruptible
 
     with pytest.raises(KeyboardInterrupt, match="SIGINT"):
         interruptible(_interrupted_in_numba)
@@ -409,11 +409,11 @@ def test_interruptible_raises_the_interrupt_a_compiled_call_masked():
 
 
 def test_ctrl_c_masked_inside_the_matcher_or_the_plan_check_is_a_keyboard_interrupt(monkeypatch):
-    """Both hot compiled calls go through :func:`runtime.jit.interruptible`: a run must never
+    """Both hot compiled calls go through :func:`clomp.runtime.jit.interruptible`: a run must never
     record a Ctrl-C as a failure (HALTED) and go on (1 in 30 interrupted experiments did)."""
-    import runtime.estimation.icp as icp
-    import runtime.supervision.checkgeometry as geometry
-    from planner.robot import RobotModel
+    import clomp.runtime.estimation.icp as icp
+    import clomp.runtime.supervision.checkgeometry as geometry
+    from clomp.planner.robot import RobotModel
 
     ref = np.array([[1.0, y] for y in np.linspace(-0.5, 0.5, 51)])
     monkeypatch.setattr(icp, "icp_iterations", _interrupted_in_numba)

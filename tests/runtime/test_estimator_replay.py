@@ -24,9 +24,9 @@ def test_a_recording_keeps_the_drive_and_the_replay_compares_the_learnt_calibrat
     path = replay._record_one(("overtaking", 0, 0, "harsh", str(tmp_path)))
     kept = np.load(path)["calibration"]
     # the same terms a world built from the same (family, seed, run, noise) drives with
-    from planner import Configurator
-    from runtime.experiment.runner import RunSpec, scene_for, noise_seed
-    from runtime.experiment.world import make_robot
+    from clomp.planner import Configurator
+    from clomp.runtime.experiment.runner import RunSpec, scene_for, noise_seed
+    from clomp.runtime.experiment.world import make_robot
 
     scene, _ = scene_for(RunSpec("overtaking", 0, 0, "planning", "harsh"))
     model = Configurator().robot

@@ -9,17 +9,17 @@ import math
 import pytest
 from scipy.stats import binomtest, ttest_rel
 
-from planner import load_scenario
-from runtime.experiment import runner
-from runtime.experiment.results import (
+from clomp.planner import load_scenario
+from clomp.runtime.experiment import runner
+from clomp.runtime.experiment.results import (
     CSV_COLUMNS,
     markdown_rows,
     summarise,
     table,
     write_csv,
 )
-from runtime.experiment.layouts import make_layout
-from runtime.experiment.runner import (
+from clomp.runtime.experiment.layouts import make_layout
+from clomp.runtime.experiment.runner import (
     SUCCESS_RADIUS,
     ExperimentInterrupted,
     RunSpec,
@@ -29,7 +29,7 @@ from runtime.experiment.runner import (
     run_once,
     run_spec,
 )
-from runtime.experiment.stats import mcnemar, mean_ci, paired_ttest, wilson
+from clomp.runtime.experiment.stats import mcnemar, mean_ci, paired_ttest, wilson
 
 
 def test_wilson_interval_known_values():
@@ -71,7 +71,7 @@ def test_run_once_measures_on_ground_truth():
 
 def test_belief_and_ground_truth_are_reported_apart():
     """A robot whose dead reckoning is wrong believes it arrived; the truth says where it is."""
-    from runtime.robots.sim import NoiseConfig
+    from clomp.runtime.robots.sim import NoiseConfig
 
     scene = load_scenario("open")
     skewed = NoiseConfig(range_sd=0.0, dropout=0.0, wheel_sd=0.0, wheel_bias=0.25, drift=0.0)
@@ -131,7 +131,7 @@ def test_specs_are_validated():
         experiment_specs("overtaking", 2, noise="loud")
     with pytest.raises(ValueError, match="runs"):
         experiment_specs("overtaking", 0)
-    from planner.scenarios import ScenarioError
+    from clomp.planner.scenarios import ScenarioError
 
     with pytest.raises(ScenarioError):
         experiment_specs("no-such-family-or-file", 1)
@@ -188,7 +188,7 @@ def test_dask_workers_give_the_same_records_as_this_process():
 
 
 def test_summary_csv_table_and_plots(tmp_path):
-    from runtime.experiment.report import write_plots
+    from clomp.runtime.experiment.report import write_plots
 
     recs = _small()
     s = summarise(recs)
@@ -216,7 +216,7 @@ def test_parquet_holds_the_csvs_rows_typed_with_units(tmp_path):
     """Read back by pyarrow (a real Parquet reader): the CSV's rows and columns, in order, with
     numbers as numbers, empty cells as nulls, and each column's unit and meaning in its field."""
     pq = pytest.importorskip("pyarrow.parquet")
-    from runtime.experiment.results import COLUMN_TYPES, write_parquet
+    from clomp.runtime.experiment.results import COLUMN_TYPES, write_parquet
 
     recs = _small()
     recs[0] = {**recs[0], "time_to_goal_s": None, "reason": "a, \"quoted\" reason"}
@@ -243,7 +243,7 @@ def test_parquet_holds_the_csvs_rows_typed_with_units(tmp_path):
 
 
 def test_noise_sweep_summary_and_plot(tmp_path):
-    from runtime.experiment.report import write_plots
+    from clomp.runtime.experiment.report import write_plots
 
     recs = run_experiment("overtaking", runs=1, seed=0, noise="paper", noise_scales=(0.0, 2.0), max_time=40)
     s = summarise(recs)
@@ -253,7 +253,7 @@ def test_noise_sweep_summary_and_plot(tmp_path):
 
 
 def test_cli_json_keeps_the_table_shape(tmp_path, capsys):
-    from runtime.cli import main
+    from clomp.runtime.cli import main
 
     rc = main(["experiment", "overtaking", "--runs", "2", "--seed", "5", "--workers", "0", "--max-time", "40",
                "--out", str(tmp_path), "--json", "--no-plots"])
@@ -311,7 +311,7 @@ def test_a_killed_worker_loses_no_run(tmp_path):
 
 
 def test_a_run_that_raises_does_not_cost_the_others(tmp_path, monkeypatch):
-    from runtime.experiment.runner import RunsFailed
+    from clomp.runtime.experiment.runner import RunsFailed
 
     real = runner.run_spec
 
@@ -331,10 +331,10 @@ def test_a_run_that_raises_does_not_cost_the_others(tmp_path, monkeypatch):
 
 def test_both_conditions_take_the_same_estimate():
     # --feedback applies to the reactive baseline too: the same robot with the same sensing
-    from formal.geometry import compose
-    from formal.model import Pose
-    from runtime.experiment.layouts import make_layout
-    from runtime.robots.world import WorldNoise
+    from clomp.formal.geometry import compose
+    from clomp.formal.model import Pose
+    from clomp.runtime.experiment.layouts import make_layout
+    from clomp.runtime.robots.world import WorldNoise
 
     scene = make_layout("corridor", 0, 0).scene
     errors = {}

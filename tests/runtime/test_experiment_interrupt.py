@@ -21,7 +21,7 @@ RUNS = 5  # layouts, each in both conditions: far more work than the moment betw
 
 
 def _command(out: Path, *extra: str) -> list[str]:
-    return [sys.executable, "-m", "runtime.cli", "experiment", "overtaking", "--runs", str(RUNS), "--seed", "3",
+    return [sys.executable, "-m", "clomp.runtime.cli", "experiment", "overtaking", "--runs", str(RUNS), "--seed", "3",
             "--noise", "paper", "--max-time", "60", "--workers", "2", "--out", str(out), "--no-plots", *extra]
 
 

@@ -6,9 +6,9 @@ import json
 
 import pytest
 
-from runtime.experiment import runner
-from runtime.experiment.provenance import PROVENANCE_FILE, ResumeMismatch, code_version
-from runtime.experiment.runner import run_experiment
+from clomp.runtime.experiment import runner
+from clomp.runtime.experiment.provenance import PROVENANCE_FILE, ResumeMismatch, code_version
+from clomp.runtime.experiment.runner import run_experiment
 
 
 @pytest.fixture
@@ -56,7 +56,7 @@ def test_a_corrupt_provenance_file_is_refused_and_a_missing_one_keeps_the_runs(t
 
 
 def test_the_cli_says_so_in_one_line(tmp_path, fake_runs, capsys):
-    from runtime.cli import main
+    from clomp.runtime.cli import main
 
     args = ["experiment", "overtaking", "--runs", "2", "--seed", "3", "--workers", "0", "--out", str(tmp_path),
             "--no-plots", "--json"]

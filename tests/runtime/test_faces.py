@@ -9,9 +9,9 @@ import pytest
 from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
-from formal.model import Pose
-from runtime.estimation.ekf import OdometryFilter
-from runtime.estimation.faces import FaceCompass, find_faces
+from clomp.formal.model import Pose
+from clomp.runtime.estimation.ekf import OdometryFilter
+from clomp.runtime.estimation.faces import FaceCompass, find_faces
 
 
 def _rotate(points: np.ndarray, angle: float) -> np.ndarray:

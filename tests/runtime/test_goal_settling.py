@@ -2,9 +2,9 @@
 
 from __future__ import annotations
 
-from planner import load_scenario
-from runtime.robots import make_world_robot
-from runtime.supervision import Supervisor, SupervisorState
+from clomp.planner import load_scenario
+from clomp.runtime.robots import make_world_robot
+from clomp.runtime.supervision import Supervisor, SupervisorState
 
 S = SupervisorState
 

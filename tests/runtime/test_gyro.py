@@ -8,14 +8,14 @@ import math
 import numpy as np
 import pytest
 
-from formal.geometry import relative, wrap_angle
-from formal.model import Pose
-from planner.scenarios import load_scenario
-from runtime.estimation.ekf import OdometryFilter
-from runtime.estimation.odometry import ScanOdometry
-from runtime.robot import TurnSensing
-from runtime.robots import make_world_robot
-from runtime.robots.world import WorldNoise
+from clomp.formal.geometry import relative, wrap_angle
+from clomp.formal.model import Pose
+from clomp.planner.scenarios import load_scenario
+from clomp.runtime.estimation.ekf import OdometryFilter
+from clomp.runtime.estimation.odometry import ScanOdometry
+from clomp.runtime.robot import TurnSensing
+from clomp.runtime.robots import make_world_robot
+from clomp.runtime.robots.world import WorldNoise
 
 # a spin on the spot and back, then a long curve: what a gyro and a wheel model see differently
 COMMANDS = [(0.0, 0.0)] * 15 + [(-0.04, 0.04)] * 20 + [(0.1, 0.1)] * 40 + [(0.04, -0.04)] * 10 + [(0.1, 0.08)] * 40
@@ -114,7 +114,7 @@ def test_the_supervisor_feeds_the_gyro_to_its_estimate() -> None:
     """A whole harsh overtaking run: the supervisor's filter learnt the gyro's offset the world
     drew (measured in the still revolutions at the start and at every stop), and without the
     gyro it learns none."""
-    from runtime.supervision import Supervisor
+    from clomp.runtime.supervision import Supervisor
 
     scene = load_scenario("overtaking")
     learnt = {}
@@ -146,8 +146,8 @@ def test_a_revolution_is_deskewed_along_the_gyros_heading_not_the_commands() -> 
     misplaces it."""
     from scipy.spatial import cKDTree
 
-    from planner.scenarios import parse_scenario
-    from runtime.estimation.odometry import deskew
+    from clomp.planner.scenarios import parse_scenario
+    from clomp.runtime.estimation.odometry import deskew
 
     world = make_world_robot(parse_scenario(ROOM, "room"), WorldNoise(latency=0.1), seed=0)
     odo = ScanOdometry(0.15, compass=False)
@@ -177,9 +177,9 @@ def test_a_revolution_is_deskewed_along_the_gyros_heading_not_the_commands() -> 
 def _straight_on_the_estimate(hold: bool, seed: int) -> float:
     """A 1 m STRAIGHT on wheels that curve, run on the gyro-fed estimate; the true heading
     turned by its end (rad)."""
-    from formal.geometry import wrap_angle as wrap
-    from planner.robot import RobotModel
-    from planner.tasks import Task
+    from clomp.formal.geometry import wrap_angle as wrap
+    from clomp.planner.robot import RobotModel
+    from clomp.planner.tasks import Task
 
     world = make_world_robot(load_scenario("open"), WorldNoise(wheel_bias=0.05, rate_sd=0.0025, rate_bias=0.05),
                              seed=seed)
@@ -212,7 +212,7 @@ def test_the_reactive_baseline_measures_the_gyro_standing_then_drives() -> None:
     """The same sensing for both conditions: the reactive loop takes its heading from the
     gyro too, after standing its first second to measure the offset (without a gyro it
     drives at once, as before)."""
-    from runtime.experiment.reactive import ReactiveController
+    from clomp.runtime.experiment.reactive import ReactiveController
 
     scene = load_scenario("open")
     for gyro in (True, False):

@@ -10,13 +10,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from formal.geometry import dead_reckon
-from formal.model import Pose
-from runtime.devices.emulators import LidarEmulator, MaestroEmulator
-from runtime.robots.hardware import HardwareConfig, HardwareRobot
-from runtime.robot import Robot, RobotFault
-from runtime.clock import ManualClock
-from runtime.records.runlog import RunLog
+from clomp.formal.geometry import dead_reckon
+from clomp.formal.model import Pose
+from clomp.runtime.devices.emulators import LidarEmulator, MaestroEmulator
+from clomp.runtime.robots.hardware import HardwareConfig, HardwareRobot
+from clomp.runtime.robot import Robot, RobotFault
+from clomp.runtime.clock import ManualClock
+from clomp.runtime.records.runlog import RunLog
 
 NEUTRAL = 6000  # 1500 µs in quarter-µs
 WALL = np.array([[0.6, y] for y in np.linspace(-0.3, 0.3, 13)])
@@ -120,7 +120,7 @@ def test_a_watchdog_stop_stops_the_dead_reckoning_too(devices, tmp_path: Path) -
 
 def test_dead_reckoning_is_the_shared_geometry_step_bit_for_bit(devices) -> None:
     """The hardware robot believes what the supervisor's dead reckoning would compute from the
-    same commands (formal.geometry.dead_reckon), through turns past ±180° included."""
+    same commands (clomp.formal.geometry.dead_reckon), through turns past ±180° included."""
     lidar, maestro = devices
     clock = ManualClock()
     rng = np.random.default_rng(3)  # 200 commands, mostly turning: the heading winds round many times
@@ -269,7 +269,7 @@ def test_non_finite_speeds_stop_the_wheels(devices) -> None:
 
 
 def test_config_rejects_nonsense() -> None:
-    from runtime.devices.maestro import WheelConfig
+    from clomp.runtime.devices.maestro import WheelConfig
 
     with pytest.raises(ValueError, match="different Maestro channels"):
         HardwareConfig(left=WheelConfig(2), right=WheelConfig(2, -1))

@@ -15,10 +15,10 @@ import time
 import numpy as np
 import pytest
 
-from runtime.clock import ManualClock
-from runtime.devices.emulators import LidarEmulator, MaestroEmulator
-from runtime.robot import RobotFault
-from runtime.robots.hardware import HardwareConfig, HardwareRobot
+from clomp.runtime.clock import ManualClock
+from clomp.runtime.devices.emulators import LidarEmulator, MaestroEmulator
+from clomp.runtime.robot import RobotFault
+from clomp.runtime.robots.hardware import HardwareConfig, HardwareRobot
 from tests.runtime._simline import SimLine
 
 NEUTRAL = 6000  # 1500 µs in quarter-µs

@@ -8,13 +8,13 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from runtime.experiment.layouts import (
+from clomp.runtime.experiment.layouts import (
     FAMILIES,
     GOAL_CLEARANCE,
     make_layout,
     shape_distance,
 )
-from runtime.robots.sim import SimRobot
+from clomp.runtime.robots.sim import SimRobot
 
 seeds = st.integers(0, 2**20)
 index = st.integers(0, 500)
@@ -96,7 +96,7 @@ def test_bad_family_and_seed_are_refused():
 
 
 def test_gallery_png(tmp_path):
-    from runtime.experiment.plots import plot_gallery
+    from clomp.runtime.experiment.plots import plot_gallery
 
     p = tmp_path / "gallery.png"
     plot_gallery(p, per_family=2)

@@ -11,9 +11,9 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from runtime.clock import ManualClock
-from runtime.devices.emulators import MaestroEmulator
-from runtime.devices.maestro import (
+from clomp.runtime.clock import ManualClock
+from clomp.runtime.devices.emulators import MaestroEmulator
+from clomp.runtime.devices.maestro import (
     ErrorFlags,
     Maestro,
     MaestroDeviceError,

@@ -13,14 +13,14 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from runtime.records.bags import LaserScanTopic, bag_topics
-from runtime.records.mcap_writer import A1_BINS, write_mcap
-from runtime.records.runlog import read_log
+from clomp.runtime.records.bags import LaserScanTopic, bag_topics
+from clomp.runtime.records.mcap_writer import A1_BINS, write_mcap
+from clomp.runtime.records.runlog import read_log
 
 
 def clomp(*args: str) -> subprocess.CompletedProcess[str]:
     script = Path(sys.executable).with_name("clomp")
-    cmd = [str(script)] if script.exists() else [sys.executable, "-m", "runtime.cli"]
+    cmd = [str(script)] if script.exists() else [sys.executable, "-m", "clomp.runtime.cli"]
     return subprocess.run([*cmd, *args], capture_output=True, text=True, timeout=600)
 
 

@@ -10,13 +10,13 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from formal.geometry import compose, relative
-from formal.model import Pose, TaskKind
-from planner import Configurator, load_scenario
-from runtime.devices.frame import ScanFrame
-from runtime.robots import make_world_robot
-from runtime.supervision import Supervisor, SupervisorState
-from runtime.supervision.plancheck import check_plan, perceive_scan, recall
+from clomp.formal.geometry import compose, relative
+from clomp.formal.model import Pose, TaskKind
+from clomp.planner import Configurator, load_scenario
+from clomp.runtime.devices.frame import ScanFrame
+from clomp.runtime.robots import make_world_robot
+from clomp.runtime.supervision import Supervisor, SupervisorState
+from clomp.runtime.supervision.plancheck import check_plan, perceive_scan, recall
 
 S = SupervisorState
 ORIGIN = Pose(0.0, 0.0, 0.0)
@@ -235,8 +235,8 @@ def test_a_check_that_passes_leaves_no_point_in_the_bodys_path(name, layout, dx,
     """Whatever the layout, the pose error, an extra wall anywhere and the sensor noise: when
     :func:`check_plan` passes a plan's remaining tasks, the real body, moved along them from
     the estimated pose, covers no point of the scan (up to the tolerance before each end)."""
-    from runtime.experiment.layouts import make_layout
-    from runtime.supervision.checkgeometry import _legs
+    from clomp.runtime.experiment.layouts import make_layout
+    from clomp.runtime.supervision.checkgeometry import _legs
 
     scene = make_layout(name, 0, layout).scene
     world = make_world_robot(scene, noise, seed=layout)
@@ -269,7 +269,7 @@ def test_a_check_that_passes_leaves_no_point_in_the_bodys_path(name, layout, dx,
 
 
 def test_the_check_agrees_with_re_simulating_the_plan_on_a_blocked_and_a_free_scan():
-    from runtime.supervision.plancheck import resimulate_plan
+    from clomp.runtime.supervision.plancheck import resimulate_plan
 
     result, scan, goal = _plan()
     robot = result.robot
@@ -284,7 +284,7 @@ def test_the_check_agrees_with_re_simulating_the_plan_on_a_blocked_and_a_free_sc
 
 
 def test_a_recalled_plans_guard_is_the_maps_guard_of_that_plan():
-    from formal.supervisory import guard
+    from clomp.formal.supervisory import guard
 
     result, scan, goal = _plan()
     here = result.map[result.plan.states[2]].end

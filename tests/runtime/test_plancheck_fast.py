@@ -10,15 +10,15 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from formal.geometry import relative
-from formal.model import Pose
-from formal.supervisory import guard
-from planner import Configurator
-from runtime.experiment.layouts import make_layout
-from runtime.robots import make_world_robot
+from clomp.formal.geometry import relative
+from clomp.formal.model import Pose
+from clomp.formal.supervisory import guard
+from clomp.planner import Configurator
+from clomp.runtime.experiment.layouts import make_layout
+from clomp.runtime.robots import make_world_robot
 from tests.runtime._checkref import check_plan_reference
-from runtime.supervision.checkgeometry import _legs
-from runtime.supervision.plancheck import RecallIndex, check_plan, perceive_scan, recall
+from clomp.runtime.supervision.checkgeometry import _legs
+from clomp.runtime.supervision.plancheck import RecallIndex, check_plan, perceive_scan, recall
 
 ORIGIN = Pose(0.0, 0.0, 0.0)
 
@@ -103,7 +103,7 @@ def test_the_reference_agrees_on_every_branch_at_least_once():
 
 def test_a_recall_with_the_maps_guard_template_gives_the_maps_guard():
     """The recall index's guard template (made with the index) gives Ψ of the recalled plan
-    exactly as :func:`formal.supervisory.guard`, also when the index was made without it."""
+    exactly as :func:`clomp.formal.supervisory.guard`, also when the index was made without it."""
     result, scan, goal = _planned("overtaking", 0, "ideal")
     for psi in (result.psi, None):
         index = RecallIndex(result.map, plan=result.plan, psi=psi)
@@ -122,8 +122,8 @@ def test_a_recall_with_the_maps_guard_template_gives_the_maps_guard():
 def _legs_and_points(rng: np.random.Generator, m: Any, n_legs: int, n_pts: int) -> tuple[list[Any], np.ndarray]:
     """Random tasks of one kind family and points about their starts: uniform in the
     swept disc and within 3 cm of the real body's outline (inside it, in the clearance, out)."""
-    from formal.model import TaskKind
-    from runtime.supervision.checkgeometry import _Leg
+    from clomp.formal.model import TaskKind
+    from clomp.runtime.supervision.checkgeometry import _Leg
 
     legs, pts = [], []
     for k in range(n_legs):
@@ -153,8 +153,8 @@ def test_the_fast_contacts_are_the_reference_contacts(seed, n_legs, n_pts, allow
     """Task by task, the fast straight and turn contacts are bit-equal to the reference's,
     whichever other tasks are tested with them (no task's answer depends on another's); a
     turn's also with far points added (which the reach filter of a large array drops)."""
-    from formal.model import TaskKind
-    from runtime.supervision import checkgeometry
+    from clomp.formal.model import TaskKind
+    from clomp.runtime.supervision import checkgeometry
     from tests.runtime import _checkref as checkref
 
     m = Configurator().robot
@@ -177,13 +177,13 @@ def test_the_compiled_check_is_ready_before_the_robot_moves():
     import sys
 
     code = """
-from runtime.supervision import _contacts_core as c
-from runtime.supervision.planwatch import PlanWatch
-from runtime.experiment.layouts import make_layout
-from runtime.robots import make_world_robot
-from planner import Configurator
-from formal.model import Pose
-from runtime.supervision.plancheck import check_plan
+from clomp.runtime.supervision import _contacts_core as c
+from clomp.runtime.supervision.planwatch import PlanWatch
+from clomp.runtime.experiment.layouts import make_layout
+from clomp.runtime.robots import make_world_robot
+from clomp.planner import Configurator
+from clomp.formal.model import Pose
+from clomp.runtime.supervision.plancheck import check_plan
 assert not c.straight_gaps.signatures and not c.turn_first_ticks.signatures
 conf = Configurator()
 PlanWatch(conf.robot)

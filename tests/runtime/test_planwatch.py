@@ -1,13 +1,13 @@
-"""The supervisor's watch over its plan (runtime.supervision.planwatch): a robot that is
+"""The supervisor's watch over its plan (clomp.runtime.supervision.planwatch): a robot that is
 interrupted again and again before it moves comes to a defined end."""
 
 from __future__ import annotations
 
 from typing import Any
 
-from planner import load_scenario
-from runtime.robots import make_world_robot
-from runtime.supervision import Supervisor, SupervisorState
+from clomp.planner import load_scenario
+from clomp.runtime.robots import make_world_robot
+from clomp.runtime.supervision import Supervisor, SupervisorState
 
 S = SupervisorState
 
@@ -41,7 +41,7 @@ def test_a_robot_interrupted_each_time_before_it_moves_gives_up_with_the_reason(
 def _u_trap() -> tuple[Any, Any, dict[str, Any]]:
     """A U open toward the robot with the goal behind it (layout family ``u-trap``, seed 0, run 1):
     from the start, the paper's budget of 50 states runs out with the plan's end inside the U."""
-    from runtime.experiment.layouts import make_layout
+    from clomp.runtime.experiment.layouts import make_layout
 
     layout = make_layout("u-trap", 0, 1)
     scene = layout.scene
@@ -56,8 +56,8 @@ def test_a_spent_budget_is_searched_again_deeper_and_gets_round_the_u() -> None:
     """The plan of a spent budget ends at argmin φ, inside the U; ``plan_deepening`` searches
     the same scan with four times the budget and its plan ends behind the U. A search that
     did not spend its budget comes back as it was; ``deepen=1`` never searches again."""
-    from planner.configurator import Configurator
-    from runtime.supervision.planwatch import plan_deepening
+    from clomp.planner.configurator import Configurator
+    from clomp.runtime.supervision.planwatch import plan_deepening
 
     scene, scan, p = _u_trap()
     goal = scene.goal_in_robot_frame()
@@ -77,7 +77,7 @@ def test_the_supervisor_deepens_a_spent_search_unless_told_not_to() -> None:
     none is; 0 is refused."""
     import pytest
 
-    from planner.configurator import Configurator
+    from clomp.planner.configurator import Configurator
 
     class Recording(Configurator):
         budgets: list[tuple[int, str]] = []  # (budget, stop reason) of each search, shared by the copies

@@ -12,12 +12,12 @@ from pathlib import Path
 
 import pytest
 
-from runtime.cli._progress import Progress, echo, enabled_for, progress
+from clomp.runtime.cli._progress import Progress, echo, enabled_for, progress
 
 
 def clomp_cmd() -> list[str]:
     script = Path(sys.executable).with_name("clomp")
-    return [str(script)] if script.exists() else [sys.executable, "-m", "runtime.cli"]
+    return [str(script)] if script.exists() else [sys.executable, "-m", "clomp.runtime.cli"]
 
 
 def run_with_tty_stderr(args: list[str], timeout: float = 600) -> tuple[int, str, str]:

@@ -7,11 +7,11 @@ import math
 import numpy as np
 import pytest
 
-from planner import load_scenario
-from planner.robot import RobotModel
-from runtime.experiment.reactive import ReactiveController
-from runtime.robot import ScanFrame
-from runtime.robots.sim import SimRobot
+from clomp.planner import load_scenario
+from clomp.planner.robot import RobotModel
+from clomp.runtime.experiment.reactive import ReactiveController
+from clomp.runtime.robot import ScanFrame
+from clomp.runtime.robots.sim import SimRobot
 
 
 def test_reaches_a_goal_in_free_space_without_collision():
@@ -49,7 +49,7 @@ class _Still:
         pass
 
     def odometry(self):
-        from formal.model import Pose
+        from clomp.formal.model import Pose
 
         return Pose(0.0, 0.0, 0.0)
 
@@ -212,18 +212,18 @@ def test_times_out_with_wheels_stopped():
 def test_reactive_rejects_a_non_finite_goal():
     import math as _math
 
-    from planner import load_scenario
-    from runtime.experiment.reactive import ReactiveController
-    from runtime.robots.sim import SimRobot
+    from clomp.planner import load_scenario
+    from clomp.runtime.experiment.reactive import ReactiveController
+    from clomp.runtime.robots.sim import SimRobot
 
     with pytest.raises(ValueError, match="finite"):
         ReactiveController(SimRobot(load_scenario("open"), seed=0), (_math.nan, 0.0))
 
 
 def _estimate_error(feedback: str) -> tuple[str, float]:
-    from formal.geometry import compose
-    from runtime.experiment.layouts import make_layout
-    from runtime.robots.world import WorldNoise, make_world_robot
+    from clomp.formal.geometry import compose
+    from clomp.runtime.experiment.layouts import make_layout
+    from clomp.runtime.robots.world import WorldNoise, make_world_robot
 
     scene = make_layout("corridor", 0, 0).scene  # walls either side: scan matching has surfaces to hold
     robot = make_world_robot(scene, WorldNoise(wheel_bias=0.05, wheel_sd=0.01), seed=0)

@@ -8,7 +8,7 @@ import threading
 
 import pytest
 
-from runtime.realtime import NICENESS, favour_this_thread, favoured
+from clomp.runtime.realtime import NICENESS, favour_this_thread, favoured
 
 linux_root = pytest.mark.skipif(not sys.platform.startswith("linux") or os.geteuid() != 0,
                                 reason="raising a thread's priority needs Linux and the right to (root here)")

@@ -11,12 +11,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from runtime.records.runlog import LogError, RunLog, read_log, scans_from_log
+from clomp.runtime.records.runlog import LogError, RunLog, read_log, scans_from_log
 
 
 def clomp(*args: str) -> subprocess.CompletedProcess[str]:
     script = Path(sys.executable).with_name("clomp")
-    cmd = [str(script)] if script.exists() else [sys.executable, "-m", "runtime.cli"]
+    cmd = [str(script)] if script.exists() else [sys.executable, "-m", "clomp.runtime.cli"]
     return subprocess.run([*cmd, *args], capture_output=True, text=True, timeout=300)
 
 

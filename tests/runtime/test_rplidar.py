@@ -12,8 +12,8 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from runtime.clock import ManualClock
-from runtime.devices.rplidar import (
+from clomp.runtime.clock import ManualClock
+from clomp.runtime.devices.rplidar import (
     HEALTH_DESCRIPTOR,
     INFO_DESCRIPTOR,
     SCAN_DESCRIPTOR,
@@ -576,7 +576,7 @@ def test_each_point_carries_when_it_was_measured_once_a_revolution_was_timed() -
     driver times the revolution from the ends of the revolutions before it and each point
     from its angle, so the last point is the newest and the first a period older. The first
     revolution, with no period yet, carries no times rather than guessed ones."""
-    from runtime.devices.rplidar_emulator import LidarEmulator
+    from clomp.runtime.devices.rplidar_emulator import LidarEmulator
     from tests.runtime._simline import SimLine
 
     ring = np.c_[0.6 * np.cos(np.radians(np.arange(0, 360, 3))), 0.6 * np.sin(np.radians(np.arange(0, 360, 3)))]

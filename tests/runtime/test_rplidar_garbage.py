@@ -10,7 +10,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from runtime.devices.rplidar_codec import ScanDecoder, encode_sample
+from clomp.runtime.devices.rplidar_codec import ScanDecoder, encode_sample
 
 _BASE_Q2 = 4000
 

@@ -1,5 +1,5 @@
 """``clomp run`` end to end over pseudo-terminals: the device emulators in front of a simulated
-world (runtime.robots.emulated, in a process of its own, as real devices would be), the real
+world (clomp.runtime.robots.emulated, in a process of its own, as real devices would be), the real
 drivers, the hardware robot and the supervisor in a subprocess. Fault tests measure, on the Maestro emulator's side, how long after the fault
 the wheels were commanded to stop."""
 
@@ -16,15 +16,15 @@ from typing import Any
 
 import pytest
 
-import runtime.cli as cli
-from runtime.devices.emulators import MaestroEmulator
-from runtime.robots.emulated import EmulatedWorldProcess
-from runtime.records.runlog import read_log
+import clomp.runtime.cli as cli
+from clomp.runtime.devices.emulators import MaestroEmulator
+from clomp.runtime.robots.emulated import EmulatedWorldProcess
+from clomp.runtime.records.runlog import read_log
 from tests.runtime._stack import wheels_stopped_at
 
 NEUTRAL = 6000
-_RUN_MODULE = "runtime.cli.run"
-_UNREGISTERED = f"import runtime.cli as c; c._COMMAND_MODULES.append({_RUN_MODULE!r}); raise SystemExit(c.main())"
+_RUN_MODULE = "clomp.runtime.cli.run"
+_UNREGISTERED = f"import clomp.runtime.cli as c; c._COMMAND_MODULES.append({_RUN_MODULE!r}); raise SystemExit(c.main())"
 
 
 def clomp(*args: str) -> list[str]:
@@ -32,7 +32,7 @@ def clomp(*args: str) -> list[str]:
     if _RUN_MODULE not in cli._COMMAND_MODULES:
         return [sys.executable, "-c", _UNREGISTERED, *args]
     script = Path(sys.executable).with_name("clomp")
-    return [str(script), *args] if script.exists() else [sys.executable, "-m", "runtime.cli", *args]
+    return [str(script), *args] if script.exists() else [sys.executable, "-m", "clomp.runtime.cli", *args]
 
 
 @pytest.fixture
@@ -171,7 +171,7 @@ def test_dry_run_plans_on_real_scans_but_never_moves_the_wheels(tmp_path: Path) 
     assert "scans planned" in run.stdout
     assert not any(r["event"] == "motor" and r.get("sent") not in (None, [0.0, 0.0]) for r in recs)
     # the hardware run's log converts like a simulated one: a LaserScan per scan, a Path per plan
-    from runtime.records.mcap_writer import write_mcap
+    from clomp.runtime.records.mcap_writer import write_mcap
 
     counts = write_mcap(recs, tmp_path / "run.mcap").counts
     assert counts["/scan"] == len(scans) and counts["/plan"] == len(plans) == counts["/obstacles"]
@@ -244,7 +244,7 @@ def test_the_motor_controller_vanishing_is_detected_within_a_tick(tmp_path: Path
 def test_an_exception_inside_planning_halts_with_the_wheels_stopped(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str], run_registered: None
 ) -> None:
-    from planner.configurator import Configurator
+    from clomp.planner.configurator import Configurator
 
     raised: list[float] = []
 
@@ -295,7 +295,7 @@ def test_a_signal_landing_inside_a_supervisor_step_keeps_its_name(
     (inside Supervisor.step, which aborts first); the log must still say SIGINT."""
     import os
 
-    from planner.configurator import Configurator
+    from clomp.planner.configurator import Configurator
 
     real_plan = Configurator.plan
 
@@ -343,12 +343,12 @@ def test_start_up_errors_are_one_line_and_still_logged(
 
 
 def test_emulate_world_serves_a_whole_stack_a_user_can_run(tmp_path: Path) -> None:
-    import runtime.cli.emulate as emulate
+    import clomp.runtime.cli.emulate as emulate
 
     if "add_emulate_world" in inspect.getsource(emulate):
         argv = clomp("emulate", "world", "--scenario", "open", "--time-scale", "2")
     else:  # not wired into `clomp emulate` yet: the same parser, stand-alone
-        code = ("import argparse, sys; from runtime.cli.run import add_emulate_world; "
+        code = ("import argparse, sys; from clomp.runtime.cli.run import add_emulate_world; "
                 "p = argparse.ArgumentParser(); add_emulate_world(p.add_subparsers(required=True)); "
                 "a = p.parse_args(sys.argv[1:]); raise SystemExit(a.func(a))")
         argv = [sys.executable, "-c", code, "world", "--scenario", "open", "--time-scale", "2"]
@@ -382,9 +382,9 @@ def test_a_second_ctrl_c_while_the_emulated_world_stops_still_gives_its_summary(
     signals are real and sent by the process to itself at those two moments (no timing)."""
     import os
 
-    import runtime.realtime
-    import runtime.robots.emulated
-    from formal.model import Pose
+    import clomp.runtime.realtime as realtime
+    import clomp.runtime.robots.emulated as emulated
+    from clomp.formal.model import Pose
 
     class World:
         scene, pose, goal_distance, collisions, error = None, Pose(0.1, 0.0, 0.0), 0.9, 0, None
@@ -405,9 +405,9 @@ def test_a_second_ctrl_c_while_the_emulated_world_stops_still_gives_its_summary(
         time.sleep(5.0)  # interrupted at once by the first
         raise AssertionError("the first Ctrl-C did not interrupt serving")
 
-    monkeypatch.setattr(runtime.robots.emulated, "EmulatedWorld", World)
-    monkeypatch.setattr(runtime.realtime, "favour_this_thread", lambda **kw: None)
-    monkeypatch.setattr("runtime.cli.run._serve_world", serve)
+    monkeypatch.setattr(emulated, "EmulatedWorld", World)
+    monkeypatch.setattr(realtime, "favour_this_thread", lambda **kw: None)
+    monkeypatch.setattr("clomp.runtime.cli.run._serve_world", serve)
     assert cli.main(["emulate", "world", "--scenario", "open"]) == 0
     out = capsys.readouterr().out
     assert World.stopped == 1 and "robot at (0.100, 0.000, 0°), 0.900 m from the goal, 0 collision(s)" in out

@@ -16,7 +16,7 @@ from interrupting import interrupt_after_first_record, records  # noqa: E402
 
 def test_clomp_experiment_started_with_sigint_ignored_still_stops_on_ctrl_c(tmp_path: Path) -> None:
     out = tmp_path / "exp"
-    argv = [sys.executable, "-m", "runtime.cli", "experiment", "overtaking", "--runs", "4", "--seed", "3",
+    argv = [sys.executable, "-m", "clomp.runtime.cli", "experiment", "overtaking", "--runs", "4", "--seed", "3",
             "--noise", "paper", "--max-time", "40", "--workers", "0", "--out", str(out), "--no-plots"]
     proc = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True,
                             preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_IGN))

@@ -9,11 +9,11 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from formal.model import Pose
-from planner import load_scenario
-from planner.scenarios import ScenarioError, parse_scenario
-from runtime.robot import Robot, RobotFault
-from runtime.robots.sim import NoiseConfig, SimRobot, scenario_noise, scenario_scan_source, scenario_seed
+from clomp.formal.model import Pose
+from clomp.planner import load_scenario
+from clomp.planner.scenarios import ScenarioError, parse_scenario
+from clomp.runtime.robot import Robot, RobotFault
+from clomp.runtime.robots.sim import NoiseConfig, SimRobot, scenario_noise, scenario_scan_source, scenario_seed
 
 IDEAL = NoiseConfig.ideal()
 
@@ -169,7 +169,7 @@ def test_bad_noise_or_seed_names_the_field(noise, seed, field):
 
 
 def test_every_shipped_scenario_builds_a_simulator():
-    from planner import builtin_scenarios
+    from clomp.planner import builtin_scenarios
 
     names = builtin_scenarios()
     assert {"overtaking", "corridor", "doorway", "slalom", "cul-de-sac"} <= set(names)
@@ -194,8 +194,8 @@ def test_one_seed_gives_one_ground_truth_whatever_the_wall_clock(monkeypatch: py
     with planning made slower in wall time, drives the same trajectory to the last bit."""
     import time as _time
 
-    from planner.configurator import Configurator
-    from runtime.experiment.runner import run_once
+    from clomp.planner.configurator import Configurator
+    from clomp.runtime.experiment.runner import run_once
 
     scene = load_scenario("overtaking")
     noise = NoiseConfig(range_sd=0.01, dropout=0.05, wheel_sd=0.05, wheel_bias=0.01, drift=0.005)

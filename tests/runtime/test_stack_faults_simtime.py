@@ -15,9 +15,9 @@ from typing import Any
 
 import pytest
 
-from planner import Configurator
-from runtime.supervision import SupervisorState
-from runtime.supervision.machine import Event
+from clomp.planner import Configurator
+from clomp.runtime.supervision import SupervisorState
+from clomp.runtime.supervision.machine import Event
 from tests.runtime._simline import LockstepClock
 from tests.runtime._stack import NEUTRAL, StackRun, run_stack, wheels_stopped_at
 

@@ -10,15 +10,15 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from formal.model import Pose
-from planner import Configurator, load_scenario
-from runtime.robot import ScanFrame
-from runtime.robots.faults import FaultyRobot
-from runtime.robots import make_world_robot
-from runtime.robots.sim import SimRobot
-from runtime.robots.world import WorldNoise
-from formal.geometry import compose, relative
-from runtime.supervision import (
+from clomp.formal.model import Pose
+from clomp.planner import Configurator, load_scenario
+from clomp.runtime.robot import ScanFrame
+from clomp.runtime.robots.faults import FaultyRobot
+from clomp.runtime.robots import make_world_robot
+from clomp.runtime.robots.sim import SimRobot
+from clomp.runtime.robots.world import WorldNoise
+from clomp.formal.geometry import compose, relative
+from clomp.runtime.supervision import (
     MOTOR_STATES,
     TERMINAL,
     TRANSITIONS,
@@ -66,8 +66,8 @@ def test_a_harsh_slalom_is_not_given_up_while_its_first_plans_go_sideways():
     Given the default patience it keeps planning. (With the face compass in the estimator
     this run no longer reaches the goal: it ends on "no safe task", confirmed on three
     scans; what this test holds is the patience, not that one run's end.)"""
-    from runtime.experiment.layouts import make_layout
-    from runtime.experiment.runner import noise_seed, run_once
+    from clomp.runtime.experiment.layouts import make_layout
+    from clomp.runtime.experiment.runner import noise_seed, run_once
 
     r = run_once(make_layout("slalom", 0, 9).scene, "planning", noise_seed(0, 9), run=9, noise="harsh")
     assert "brought it no closer" not in r.reason
@@ -270,7 +270,7 @@ def test_prism_export_checks_in_storm(tmp_path):
 
 
 def test_the_runtime_table_is_the_formal_machine():
-    from formal.machine import SUPERVISOR
+    from clomp.formal.machine import SUPERVISOR
 
     assert {(s.value, e.value): t.value for (s, e), t in TRANSITIONS.items()} == {
         (t.source, t.event): t.target for t in SUPERVISOR.transitions if t.source not in SUPERVISOR.terminal

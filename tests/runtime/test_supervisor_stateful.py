@@ -18,10 +18,10 @@ from hypothesis import example, given, settings
 from hypothesis import strategies as st
 from hypothesis.stateful import RuleBasedStateMachine, initialize, invariant, precondition, rule
 
-from planner import Configurator, load_scenario
-from runtime.robots.faults import FaultyRobot
-from runtime.robots.sim import SimRobot
-from runtime.supervision import TRANSITIONS, Event, Supervisor, SupervisorState
+from clomp.planner import Configurator, load_scenario
+from clomp.runtime.robots.faults import FaultyRobot
+from clomp.runtime.robots.sim import SimRobot
+from clomp.runtime.supervision import TRANSITIONS, Event, Supervisor, SupervisorState
 
 S = SupervisorState
 FAULTS = ("silent", "nan", "device", "motor", "planner")
