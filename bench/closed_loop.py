@@ -43,7 +43,7 @@ from clomp.planner import Configurator, load_scenario  # noqa: E402
 from clomp.planner.scenarios import parse_scenario  # noqa: E402
 from clomp.runtime.estimation import match_scans  # noqa: E402
 from clomp.runtime.experiment.layouts import make_layout  # noqa: E402
-from clomp.runtime.robots import make_world_robot  # noqa: E402
+from clomp.runtime.backends import make_world_robot  # noqa: E402
 from clomp.runtime.supervision.records import scan_to_frame  # noqa: E402
 from clomp.runtime.supervision import plancheck as pc  # noqa: E402
 from clomp.runtime.supervision.plancheck import RecallIndex, check_plan, perceive_near, perceive_scan, recall, resimulate_plan  # noqa: E402
@@ -82,7 +82,7 @@ def bench_check_and_recall(quick: bool) -> None:
     planner's closed-form geometry on the points) and a fresh plan perceives the scan and
     explores: each is timed for everything it needs. Perception alone, exploration alone
     and the former check (perceive the points near the plan, re-simulate each task with
-    ``clomp.planner.physics.simulate``) are printed beside them.
+    ``clomp.planner.rollout.simulate``) are printed beside them.
     """
     conf = Configurator()
     robot = conf.robot
@@ -396,7 +396,7 @@ def bench_false_alarms(runs: int, noise: str = "harsh", family: str = "overtakin
     """
     from clomp.runtime.experiment.layouts import make_layout
     from clomp.runtime.experiment.runner import SUCCESS_RADIUS, noise_seed
-    from clomp.runtime.experiment.world import make_robot
+    from clomp.runtime.experiment.groundtruth import make_robot
     from clomp.runtime.supervision import Supervisor
     from clomp.runtime.supervision.alarms import hazard_hits
 

@@ -17,16 +17,16 @@ seeds, and prints each family's reach beside the issue's target:
   gain;
 - ``calibration``: another ablation — the scan-matched estimate as shipped, but its
   filter starts knowing the drive's systematic terms this run drew (each wheel's bias, the
-  heading drift, the mean slip: :meth:`~clomp.runtime.robots.world.WorldRobot.drive_truth`, as
+  heading drift, the mean slip: :meth:`~clomp.runtime.backends.world.WorldRobot.drive_truth`, as
   the filter's speed and turn scales, curvature and drift; with the gyro, its scale and
-  offset, :meth:`~clomp.runtime.robots.world.WorldRobot.gyro_truth`) to within 1e-4. What it gains
+  offset, :meth:`~clomp.runtime.backends.world.WorldRobot.gyro_truth`) to within 1e-4. What it gains
   over ``scan`` is what learning the wheels' calibration within the run could gain.
 
 Each line gives the runs reached (ground truth within 0.1 m of the goal), the median
 final error, how the misses ended (``believed``: the robot stopped believing it was at the
 goal; ``unreachable``: it gave up; ``other``) and the runs' thread CPU time. ``--term
 NAME`` runs every mode at ``paper`` noise with that one term raised to its ``harsh`` value
-(``clomp.runtime.robots.world.WorldNoise``'s fields): which of harsh's terms costs what.
+(``clomp.runtime.backends.world.WorldNoise``'s fields): which of harsh's terms costs what.
 """
 
 from __future__ import annotations
@@ -127,7 +127,7 @@ class _CalibrationFed(Supervisor):
 def _one(args: tuple[str, int, int, str, str, str | None]) -> tuple[bool, float, str, float]:
     family, seed, run, preset, mode, term = args
     import clomp.runtime.experiment.runner as runner
-    from clomp.runtime.robots.world import WorldNoise
+    from clomp.runtime.backends.world import WorldNoise
 
     noise: str | WorldNoise = preset
     if term is not None:
@@ -162,7 +162,7 @@ def main() -> None:
     ap.add_argument("--modes", nargs="+", default=["scan", "none", "truth"], choices=["scan", "none", "truth", "calibration"])
     ap.add_argument("--term", default=None, help="paper noise with this one term at its harsh value")
     a = ap.parse_args()
-    from clomp.runtime.robots.world import WorldNoise
+    from clomp.runtime.backends.world import WorldNoise
 
     if a.term is not None and a.term not in WorldNoise.preset("paper").to_dict():
         ap.error(f"--term: one of {', '.join(WorldNoise.preset('paper').to_dict())}")

@@ -84,7 +84,7 @@ def _record_one(args: tuple[str, int, int, str, str]) -> str:
     family, seed, run, noise, folder = args
     import clomp.runtime.supervision.supervisor as sup_module
     from clomp.runtime.experiment.runner import RunSpec, _ground_truth_path, scene_for, noise_seed
-    from clomp.runtime.experiment.world import make_robot
+    from clomp.runtime.experiment.groundtruth import make_robot
     from clomp.planner import Configurator
 
     scene, _ = scene_for(RunSpec(family, seed, run, "planning", noise))
@@ -121,7 +121,7 @@ def _record_one(args: tuple[str, int, int, str, str]) -> str:
 
 
 def _variant(spec: dict[str, Any]) -> ScanOdometry:
-    from clomp.planner.robot import RobotModel
+    from clomp.planner.robot_model import RobotModel
 
     odo = ScanOdometry(RobotModel().wheel_base, **spec.get("odometry", {}))
     if spec.get("filter"):

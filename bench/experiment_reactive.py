@@ -39,7 +39,7 @@ from typing import Any
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from clomp.planner.robot import RobotModel  # noqa: E402
+from clomp.planner.robot_model import RobotModel  # noqa: E402
 from clomp.runtime.experiment.layouts import make_layout  # noqa: E402
 from clomp.runtime.experiment.runner import noise_seed, run_once  # noqa: E402
 

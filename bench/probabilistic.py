@@ -15,7 +15,7 @@ import argparse
 import statistics
 import time
 
-from clomp.formal.robust import robust_plan
+from clomp.formal.scheduler import robust_plan
 from clomp.planner import load_scenario
 from clomp.planner.robust import RobustConfigurator
 

@@ -37,7 +37,7 @@ from clomp.planner.robust import SUPERVISOR_HAZARD, RobustConfigurator
 from clomp.runtime.experiment.layouts import make_layout
 from clomp.runtime.experiment.runner import run_once
 from clomp.runtime.experiment.stats import mcnemar, wilson
-from clomp.runtime.supervision.machine import Event, SupervisorState
+from clomp.runtime.supervision.states import Event, SupervisorState
 
 NAMES = ("greedy", "robust")
 

@@ -29,10 +29,10 @@ from clomp.formal.geometry import wrap_angle
 from clomp.formal.model import Disturbance, Pose, TaskKind
 from clomp.planner import Configurator
 from clomp.planner.perception import perceive
-from clomp.planner.physics import simulate
+from clomp.planner.rollout import simulate
 from clomp.planner.probabilistic import RolloutNoise, _rollout, _World
 from clomp.planner.robust import closed_loop_noise
-from clomp.planner.robot import RobotModel
+from clomp.planner.robot_model import RobotModel
 from clomp.runtime.experiment.layouts import make_layout
 from clomp.runtime.experiment.runner import run_once
 

@@ -19,7 +19,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from clomp.planner import load_scenario  # noqa: E402
 from clomp.runtime.experiment.runner import run_once  # noqa: E402
-from clomp.runtime.robots.sim import SimRobot  # noqa: E402
+from clomp.runtime.backends.sim import SimRobot  # noqa: E402
 
 
 def bare(seconds: float = 60.0) -> float:

@@ -24,8 +24,8 @@ from clomp.planner.configurator import (
     plan,
 )
 from clomp.planner.perception import Obstacles, ScanError, ScanWarning, load_scan, perceive, scan_files, validate_scan
-from clomp.planner.physics import simulate
-from clomp.planner.robot import RobotModel
+from clomp.planner.rollout import simulate
+from clomp.planner.robot_model import RobotModel
 from clomp.planner.scenarios import Scene, ScenarioError, builtin_scenarios, load_scenario
 from clomp.planner.tasks import Task
 

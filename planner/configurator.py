@@ -44,8 +44,8 @@ from clomp.formal.lts import CognitiveMap
 from clomp.formal.model import Disturbance, Pose, State, TaskKind, new_state
 from clomp.formal.supervisory import Plan, extract_plan, guard, reset_from
 from clomp.planner.perception import Obstacles, load_scan, perceive
-from clomp.planner.physics import Outcome, simulate
-from clomp.planner.robot import RobotModel
+from clomp.planner.rollout import Outcome, simulate
+from clomp.planner.robot_model import RobotModel
 
 __all__ = [
     "CostContext",

@@ -1,4 +1,4 @@
-"""Where the body meets the sensed points: the closed forms of :mod:`clomp.planner.physics`.
+"""Where the body meets the sensed points: the closed forms of :mod:`clomp.planner.rollout`.
 
 A planning run shares one :class:`Scene`: the sensed points perception kept (in surface
 order) as flat arrays, and the body's extents, built once; a rollout allocates nothing
@@ -21,7 +21,7 @@ from clomp.formal.geometry import wrap_angle
 from clomp.formal.model import Pose, TaskKind, new_pose
 from clomp.planner.engine import Outcome, _obstacle_disturbance
 from clomp.planner.perception import Obstacles
-from clomp.planner.robot import RobotModel
+from clomp.planner.robot_model import RobotModel
 from clomp.planner.tasks import Task
 
 __all__ = ["Scene", "cut_straight", "unobstructed", "SPIN_SLACK"]
@@ -70,7 +70,7 @@ class Scene:
         self.local2 = max(self.reach[0], math.hypot(front + far, half)) ** 2
         self.local_gap = far  # a gap up to this is found among the local points
         self.local: dict[tuple[float, float], tuple[np.ndarray, np.ndarray, bool]] = {}
-        # per pose, kind and goal: the angle a turn ends at (:func:`clomp.planner.physics.turn_angle`)
+        # per pose, kind and goal: the angle a turn ends at (:func:`clomp.planner.rollout.turn_angle`)
         self.turns: dict[tuple[Any, ...], float] = {}
         # per pose, kind and angle: the outcome of a turn answered with another one
         self.turned: dict[tuple[Any, ...], Outcome] = {}

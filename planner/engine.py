@@ -1,6 +1,6 @@
 """The reference engine: a pymunk world of obstacle boxes in which a task is stepped tick by tick.
 
-The planner's rollouts (:mod:`clomp.planner.physics`) are closed forms over the sensed points;
+The planner's rollouts (:mod:`clomp.planner.rollout`) are closed forms over the sensed points;
 this module is the physics engine they are tested against, and a world a user can
 query: boxes as static polygons, the robot as a kinematic body driven each control tick
 by its wheel speeds. :meth:`World.sweep_hits` asks, by one shape query of a reusable
@@ -20,7 +20,7 @@ import pymunk
 from clomp.formal.geometry import arc_step, wheel_twist, wrap_angle
 from clomp.formal.model import Disturbance, DisturbanceKind, Pose, TaskKind
 from clomp.planner.perception import Obstacles
-from clomp.planner.robot import RobotModel
+from clomp.planner.robot_model import RobotModel
 from clomp.planner.tasks import Task
 
 __all__ = ["Outcome", "World"]
@@ -215,7 +215,7 @@ class World:
 
 def _rollout(task: Task, world: World | None) -> Outcome:
     """The tick loop: the engine moves the body, and after every step the footprint is
-    tested against the sensed points (the rule of :mod:`clomp.planner.physics`: the inflated
+    tested against the sensed points (the rule of :mod:`clomp.planner.rollout`: the inflated
     footprint; the real body for points already within the margin at the start; points
     inside the real body at the start are exempt)."""
     r = task.robot

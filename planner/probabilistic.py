@@ -54,8 +54,8 @@ from clomp.formal.supervisory import extract_plan
 from clomp.planner.configurator import Configurator, CostContext, PlanResult
 from clomp.planner.noise import ALARM_DEVIATIONS, NoiseError, RolloutNoise, preset_names
 from clomp.planner.perception import Obstacles, load_scan, perceive
-from clomp.planner.physics import Outcome, World, frontier_distance, in_the_way, make_task
-from clomp.planner.robot import RobotModel
+from clomp.planner.rollout import Outcome, World, frontier_distance, in_the_way, make_task
+from clomp.planner.robot_model import RobotModel
 from clomp.formal.geometry import wrap_angle
 from clomp.planner.tasks import Task
 
@@ -503,7 +503,7 @@ def _reachable_part(cmap: CognitiveMap) -> CognitiveMap:
 
 def _complete_turns(b: _Builder, nominal: PlanResult, conf: Configurator) -> None:
     """A new uninterrupted turn gets its nominal STRAIGHT (Algorithm 1's frontier rule)."""
-    from clomp.planner.physics import simulate
+    from clomp.planner.rollout import simulate
 
     for ident in list(b.new):
         s = b.map[ident]

@@ -16,7 +16,7 @@ import numpy as np
 
 from clomp.formal.lts import CognitiveMap
 from clomp.formal.model import Disturbance, Pose, TaskKind
-from clomp.formal.robust import RobustPlan
+from clomp.formal.scheduler import RobustPlan
 from clomp.formal.supervisory import Plan
 from clomp.planner.configurator import Configurator, PlanResult
 from clomp.planner.perception import load_scan
@@ -28,7 +28,7 @@ from clomp.planner.probabilistic import (
     RolloutNoise,
     sample_map,
 )
-from clomp.planner.robot import RobotModel
+from clomp.planner.robot_model import RobotModel
 
 __all__ = ["plan_target", "RobustChoice", "RobustDecision", "RobustConfigurator", "SUPERVISOR_HAZARD", "CLOSED_LOOP_TERMS",
            "closed_loop_noise", "rollout_noise"]
@@ -154,7 +154,7 @@ class RobustConfigurator(Configurator):
     the (robust, best-first) values of every second look.
 
     A robust plan is executed as a policy: the scheduler is kept on the map
-    (:func:`clomp.formal.robust.attach_policy`), and the supervisor's recall after a task
+    (:func:`clomp.formal.scheduler.attach_policy`), and the supervisor's recall after a task
     ended in another outcome continues with the scheduler's choice in the state it
     finds the robot in.
 
@@ -237,7 +237,7 @@ class RobustConfigurator(Configurator):
     def sample(self, scan: Any, goal: Disturbance | tuple[float, float]) -> RobustChoice:
         """The probabilistic map of ``scan``, the best-first plan and Storm's policy on it
         (one call to :meth:`plan` without the choice; seeds advance per call)."""
-        from clomp.formal.robust import follow_tasks, plan_probability, robust_plan
+        from clomp.formal.scheduler import follow_tasks, plan_probability, robust_plan
 
         points = load_scan(scan)
         plain = self._plain()
@@ -261,14 +261,14 @@ class RobustConfigurator(Configurator):
                           seed: int) -> tuple[float, float]:
         """The values of the robust plan and of the best-first plan on an independent
         probabilistic map (the same rollouts' size and noise, seed ``seed``): each plan's
-        tasks are carried onto it (:func:`clomp.formal.robust.follow_tasks`) and followed along
+        tasks are carried onto it (:func:`clomp.formal.scheduler.follow_tasks`) and followed along
         its path, Storm's optimal choice elsewhere (the recall), so the two differ only
         in the choices that make them differ. Returns (robust, best-first).
 
         Why: the scheduler maximises over many k/N estimates, and the maximum of noisy
         estimates is biased upwards (the optimiser's curse); values measured on samples
         that did not choose the plan are not."""
-        from clomp.formal.robust import follow_tasks, policy_probability, robust_plan
+        from clomp.formal.scheduler import follow_tasks, policy_probability, robust_plan
 
         base = c.pm.nominal
         g = c.greedy_result
@@ -312,7 +312,7 @@ class RobustConfigurator(Configurator):
 
     def plan(self, scan: Any, goal: Disturbance | tuple[float, float]) -> PlanResult:
         """The robust plan on the probabilistic map of ``scan`` (see the class docstring)."""
-        from clomp.formal.robust import attach_policy
+        from clomp.formal.scheduler import attach_policy
         from clomp.formal.supervisory import guard
 
         t0 = time.perf_counter()

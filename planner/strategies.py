@@ -6,7 +6,7 @@ generated worlds; the project's own property tests use the same strategies.
 - :func:`scans` — a LiDAR scan (N×2 points, robot frame) of a few short walls;
 - :func:`scenes` — a :class:`~clomp.planner.scenarios.Scene` of a few boxes around the robot;
 - :func:`goals` — a goal (x, y) in the robot frame within a distance band;
-- :func:`robot_models` — :class:`~clomp.planner.robot.RobotModel` variants (width, step, turn angle);
+- :func:`robot_models` — :class:`~clomp.planner.robot_model.RobotModel` variants (width, step, turn angle);
 - :func:`planned_maps` — the :class:`~clomp.planner.configurator.PlanResult` of planning in a
   generated scene (its ``.map`` is the cognitive map; plans the Configurator rejects are
   skipped with ``assume``).
@@ -34,7 +34,7 @@ from hypothesis import assume
 from hypothesis import strategies as st
 
 from clomp.planner.configurator import Configurator, PlanningError, PlanResult
-from clomp.planner.robot import RobotModel
+from clomp.planner.robot_model import RobotModel
 from clomp.planner.scenarios import Scene, Shape, _rect
 
 __all__ = ["goals", "planned_maps", "robot_models", "scans", "scenes"]

@@ -22,7 +22,7 @@ from dataclasses import dataclass
 
 from clomp.formal.geometry import wrap_angle
 from clomp.formal.model import Disturbance, Pose, TaskKind
-from clomp.planner.robot import RobotModel
+from clomp.planner.robot_model import RobotModel
 
 __all__ = ["HOLD_GAIN", "HOLD_LIMIT", "Task", "wrap_angle"]
 
@@ -40,7 +40,7 @@ class Task:
     ``limit`` is the length (m) of a STRAIGHT or the angle (rad) of a turn.
     ``goal`` is D_I. Create with :meth:`straight` / :meth:`turn` or :meth:`create`.
 
-    >>> from clomp.planner.robot import RobotModel
+    >>> from clomp.planner.robot_model import RobotModel
     >>> t = Task.straight(RobotModel(), Pose(0.0, 0.0), None, 0.27)
     >>> e = t.error_at(0.0, 0.0, 0.0)
     >>> round(e, 2), t.done(e), t.wheel_speeds(e)[0] == t.wheel_speeds(e)[1]

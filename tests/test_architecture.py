@@ -5,8 +5,8 @@ Rules (each test names one; the README's layout table states them for people):
 - the one-way rule: formal imports neither planner nor runtime nor pymunk; planner does
   not import runtime;
 - the device layer stands alone: ``runtime/devices/`` imports nothing of clomp outside it;
-- the robot backends (``runtime/robots/``) and the devices never import the supervision room;
-- supervision, records, ``runtime/robot.py`` and ``runtime/clock.py`` import none of the rooms
+- the robot backends (``runtime/backends/``) and the devices never import the supervision room;
+- supervision, records, ``runtime/interface.py`` and ``runtime/clock.py`` import none of the rooms
   above them (robots, experiment, cli; supervision not the devices either);
 - the experiment room (``runtime/experiment/``) runs on simulated robots only: it imports
   neither the cli, nor the devices, nor the hardware backends (hardware, emulated), nor pyserial;
@@ -112,28 +112,28 @@ def test_planner_does_not_import_runtime_or_serial_ports() -> None:
 def test_devices_stand_alone() -> None:
     devices = _modules("runtime/devices")
     assert devices, "no device modules found"
-    assert _violations(devices, ("planner", "formal", "runtime.robots", "runtime.supervision",
-                                 "runtime.experiment", "runtime.cli", "runtime.robot", "runtime.clock")) == []
+    assert _violations(devices, ("planner", "formal", "runtime.backends", "runtime.supervision",
+                                 "runtime.experiment", "runtime.cli", "runtime.interface", "runtime.clock")) == []
 
 
 def test_backends_and_devices_do_not_import_the_supervisor() -> None:
-    paths = _modules("runtime/robots", "runtime/devices")
+    paths = _modules("runtime/backends", "runtime/devices")
     assert len(paths) >= 8
     assert _violations(paths, ("runtime.supervision",)) == []
 
 
 def test_supervision_and_records_stay_below_robots_experiment_and_cli() -> None:
-    assert _violations(_modules("runtime/supervision"), ("runtime.robots", "runtime.experiment", "runtime.cli", "runtime.devices")) == []
-    assert _violations(_modules("runtime/records"), ("runtime.robots", "runtime.supervision", "runtime.experiment", "runtime.cli")) == []
-    assert _violations([REPO / "runtime" / "robot.py", REPO / "runtime" / "clock.py"], ("runtime.robots", "runtime.supervision",
+    assert _violations(_modules("runtime/supervision"), ("runtime.backends", "runtime.experiment", "runtime.cli", "runtime.devices")) == []
+    assert _violations(_modules("runtime/records"), ("runtime.backends", "runtime.supervision", "runtime.experiment", "runtime.cli")) == []
+    assert _violations([REPO / "runtime" / "interface.py", REPO / "runtime" / "clock.py"], ("runtime.backends", "runtime.supervision",
                                                                                      "runtime.experiment", "runtime.cli")) == []
 
 
 def test_experiment_runs_on_simulated_robots_only() -> None:
     experiment = _modules("runtime/experiment")
     assert len(experiment) >= 5, "no experiment modules found"
-    assert _violations(experiment, ("runtime.cli", "runtime.devices", "runtime.robots.hardware",
-                                    "runtime.robots.emulated", "serial")) == []
+    assert _violations(experiment, ("runtime.cli", "runtime.devices", "runtime.backends.hardware",
+                                    "runtime.backends.emulated", "serial")) == []
 
 
 def test_only_the_cli_imports_the_cli() -> None:
@@ -144,7 +144,7 @@ def test_only_the_cli_imports_the_cli() -> None:
 
 
 def test_estimation_stays_below_its_users() -> None:
-    assert _violations(_modules("runtime/estimation"), ("runtime.supervision", "runtime.robots",
+    assert _violations(_modules("runtime/estimation"), ("runtime.supervision", "runtime.backends",
                                                         "runtime.experiment", "runtime.cli")) == []
 
 
@@ -170,11 +170,11 @@ def test_private_modules_stay_in_their_room() -> None:
 
 def test_the_private_module_rule_catches_a_crossing() -> None:
     # the robots room reaching into the cli's private plumbing, and the cli into robots' own
-    assert _private_crossings(Path("runtime/robots/hardware.py"), {"runtime.cli._signals", "runtime.cli._signals.x"}) == [
-        "runtime/robots/hardware.py imports runtime.cli._signals",
-        "runtime/robots/hardware.py imports runtime.cli._signals.x",
+    assert _private_crossings(Path("runtime/backends/hardware.py"), {"runtime.cli._signals", "runtime.cli._signals.x"}) == [
+        "runtime/backends/hardware.py imports runtime.cli._signals",
+        "runtime/backends/hardware.py imports runtime.cli._signals.x",
     ]
-    assert _private_crossings(Path("runtime/cli/run.py"), {"runtime.robots._simulated"}) != []
+    assert _private_crossings(Path("runtime/cli/run.py"), {"runtime.backends._simulated"}) != []
     # inside the room, and a private *name* of a public module, are fine
     assert _private_crossings(Path("runtime/cli/run.py"), {"runtime.cli._signals", "runtime.experiment.world._TracedSimRobot"}) == []
 

@@ -29,7 +29,7 @@ from clomp.formal.checking import (
 )
 from clomp.formal.crosscheck import values_agree
 from clomp.formal.export import ExportError
-from clomp.formal.robust import SAFE_GOAL
+from clomp.formal.scheduler import SAFE_GOAL
 from clomp.formal.prism import PrismError, PrismMissing, check_with_prism, run_prism
 from clomp.formal.lts import CognitiveMap, MapError
 from clomp.runtime.cli.export import add_source_options, map_from_args

@@ -64,9 +64,9 @@ def register(subparsers: Any) -> None:
 def _scan_source(args: argparse.Namespace) -> Any:
     if args.scenario is not None:
         try:
-            from clomp.runtime.robots.sim import scenario_scan_source
+            from clomp.runtime.backends.sim import scenario_scan_source
         except ImportError as exc:
-            raise CliError(f"scenario-driven emulation needs the simulation module (clomp.runtime.robots.sim): {exc}") from exc
+            raise CliError(f"scenario-driven emulation needs the simulation module (clomp.runtime.backends.sim): {exc}") from exc
         try:
             return scenario_scan_source(args.scenario, seed=args.seed)
         except (OSError, KeyError, ValueError) as exc:

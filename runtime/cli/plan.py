@@ -209,7 +209,7 @@ def robust_summary(d: "RobustDecision") -> dict[str, Any]:
     the best-first plan, ``scheduler_probability`` the value of Storm's policy itself,
     and ``path_probability`` the chance of the printed path (the product of its
     branches; at most ``probability``)."""
-    from clomp.formal.robust import path_probability, policy_states
+    from clomp.formal.scheduler import path_probability, policy_states
 
     c = d.choice
     pm = c.pm

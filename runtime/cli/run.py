@@ -111,7 +111,7 @@ class _SharedLog:
 
 def _config(args: argparse.Namespace) -> Any:
     from clomp.runtime.devices.maestro import WheelConfig
-    from clomp.runtime.robots.hardware import HardwareConfig
+    from clomp.runtime.backends.hardware import HardwareConfig
 
     if args.motors is None and not args.dry_run:
         raise CliError("--motors PORT is required (or --dry-run to only read the LiDAR and plan)")
@@ -164,9 +164,9 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _run(args: argparse.Namespace, scheduling: str) -> int:
-    from clomp.runtime.robots.hardware import HardwareRobot
+    from clomp.runtime.backends.hardware import HardwareRobot
     from clomp.runtime.clock import ScaledClock, WallClock
-    from clomp.runtime.robot import RobotFault
+    from clomp.runtime.interface import RobotFault
     from clomp.runtime.records.runlog import RunLog
     from clomp.runtime.supervision import Supervisor, SupervisorState
 
@@ -249,7 +249,7 @@ def _dry_run(robot: Any, conf: Any, goal: tuple[float, float], clock: Any, log: 
     from clomp.formal.model import Pose
     from clomp.planner import PlanningError, ScanError
     from clomp.runtime.records.runlog import plan_fields
-    from clomp.runtime.robot import RobotFault
+    from clomp.runtime.interface import RobotFault
 
     t0 = clock.now()
     n = 0
@@ -308,12 +308,12 @@ def add_emulate_world(devices: Any) -> None:
 def _run_world(args: argparse.Namespace) -> int:
     from clomp.planner.scenarios import ScenarioError
     from clomp.runtime.realtime import favour_this_thread
-    from clomp.runtime.robots.emulated import EmulatedWorld
+    from clomp.runtime.backends.emulated import EmulatedWorld
 
     if args.serial_timeout is not None and not (math.isfinite(args.serial_timeout) and args.serial_timeout > 0):
         raise CliError(f"--serial-timeout must be a positive number of seconds, got {args.serial_timeout}")
     try:
-        from clomp.runtime.robots.world import WorldNoise
+        from clomp.runtime.backends.world import WorldNoise
 
         noise = None if args.noise is None else WorldNoise.preset(args.noise, args.noise_scale)
         world = EmulatedWorld(args.scenario, seed=args.seed, time_scale=args.time_scale, noise=noise,

@@ -12,7 +12,7 @@ from clomp.planner.scenarios import ScenarioError, load_scenario
 from clomp.runtime.cli import EXIT_NOT_REACHED, EXIT_OK, CliError
 from clomp.runtime.experiment.runner import SUCCESS_RADIUS, RunResult, run_once
 from clomp.runtime.experiment.plots import plot_run
-from clomp.runtime.robots.world import WorldNoise
+from clomp.runtime.backends.world import WorldNoise
 
 __all__ = ["add_world_options", "check_world_options", "world_noise", "register", "run", "print_summary"]
 

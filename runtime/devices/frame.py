@@ -1,7 +1,7 @@
 """The unit a LiDAR delivers: one revolution of points with its timestamp.
 
 It lives with the devices so that a device driver stands alone (it needs nothing of the
-robots or the supervisor); :mod:`clomp.runtime.robot` re-exports it for backends.
+robots or the supervisor); :mod:`clomp.runtime.interface` re-exports it for backends.
 
 >>> import numpy as np
 >>> f = ScanFrame(np.zeros((3, 2)), timestamp=1.5)

@@ -120,7 +120,7 @@ class LidarEmulator(PtyEmulator):
     mid-scan; then the pty is closed). ``seed`` makes the faults reproducible.
 
     ``sample_stream`` (instead of ``scan_source``): a world that measures each sample at
-    its own time (:meth:`clomp.runtime.robots.world.WorldRobot.stream`); each tick sends what it
+    its own time (:meth:`clomp.runtime.backends.world.WorldRobot.stream`); each tick sends what it
     measured since the last, so a sample is on the wire when it is measured, as on the
     device, and the world sets the pace (``sample_rate`` and ``speed`` then only answer
     GET_SAMPLERATE).

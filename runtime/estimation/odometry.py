@@ -217,7 +217,7 @@ class ScanOdometry:
         """Dead-reckon to time ``t``: from the backend's ``odometry`` when given (its change
         since the last call), else from the ``wheels`` (m/s) commanded since the last call;
         ``rotation`` (rad): the heading turned since start-up by the backend's gyro
-        (:class:`~clomp.runtime.robot.TurnSensing`), which then gives the heading. Once the wheels
+        (:class:`~clomp.runtime.interface.TurnSensing`), which then gives the heading. Once the wheels
         have been commanded still for ``still_after`` s, the gyro's reading measures its
         offset instead (:meth:`OdometryFilter.zero_rate`)."""
         dt = float(t) - self._t

@@ -21,7 +21,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
-from clomp.planner.robot import RobotModel
+from clomp.planner.robot_model import RobotModel
 from clomp.planner.scenarios import Scene
 
 __all__ = ["RunTrace", "plot_collisions", "plot_gallery", "plot_run", "plot_runs", "plot_success_vs_noise"]

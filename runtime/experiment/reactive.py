@@ -8,7 +8,7 @@ describes it no further, so this follows the authors' public code for that condi
 ``planning = 0``, as ``target.cpp`` does with its no-planning option from 2024-10-09; the
 loop is ``Configurator::Spawner``'s non-planning branch, ``Configurator::changeTask``'s
 ``else`` branch and ``Task::H``; state of October 2024),
-on the same :class:`~clomp.runtime.robot.Robot` interface as the supervisor, with no plan and
+on the same :class:`~clomp.runtime.interface.Robot` interface as the supervisor, with no plan and
 no map. The repository's README names the tasks: "go straight, turn left/right 90
 degrees". One task runs at a time:
 
@@ -73,7 +73,7 @@ Where this departs from the authors' code, and why:
   moved into the body frame each tick.
 
 >>> from clomp.planner import load_scenario
->>> from clomp.runtime.robots.sim import SimRobot
+>>> from clomp.runtime.backends.sim import SimRobot
 >>> scene = load_scenario("open")
 >>> ReactiveController(SimRobot(scene, seed=0), scene.goal_in_robot_frame()).run(60).state
 'GOAL_REACHED'
@@ -90,10 +90,10 @@ import numpy as np
 from clomp.formal.geometry import compose, dead_reckon, points_from_frame, relative, wrap_angle
 from clomp.formal.model import Pose
 from clomp.planner.perception import validate_scan
-from clomp.planner.robot import RobotModel
+from clomp.planner.robot_model import RobotModel
 from clomp.runtime.clock import Clock, clock_for
 from clomp.runtime.estimation.odometry import ScanOdometry
-from clomp.runtime.robot import Robot, RobotFault, ScanFrame, TurnSensing, finite_goal
+from clomp.runtime.interface import Robot, RobotFault, ScanFrame, TurnSensing, finite_goal
 
 __all__ = ["PURSUE_DEAD_BAND", "WINDOW", "ReactiveController", "ReactiveReport"]
 
@@ -113,7 +113,7 @@ class ReactiveReport:
     turns suffixed ``"/avoid"`` or ``"/pursue"``).
 
     >>> from clomp.planner import load_scenario
-    >>> from clomp.runtime.robots.sim import SimRobot
+    >>> from clomp.runtime.backends.sim import SimRobot
     >>> scene = load_scenario("open")
     >>> report = ReactiveController(SimRobot(scene, seed=0), scene.goal_in_robot_frame()).run(max_time=60)
     >>> report.state, report.avoid_ticks, report.tasks[0][1]
@@ -138,7 +138,7 @@ class ReactiveController:
     """Drive to ``goal`` (robot frame at start) with one closed loop; see the module docstring.
 
     >>> from clomp.planner import load_scenario
-    >>> from clomp.runtime.robots.sim import SimRobot
+    >>> from clomp.runtime.backends.sim import SimRobot
     >>> scene = load_scenario("open")
     >>> ReactiveController(SimRobot(scene, seed=0), scene.goal_in_robot_frame()).run(max_time=60).state
     'GOAL_REACHED'

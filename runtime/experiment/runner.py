@@ -3,7 +3,7 @@
 :func:`run_once` drives one condition (``"planning"``: the :class:`~clomp.runtime.supervision.supervisor.
 Supervisor` with a :class:`~clomp.planner.Configurator`; ``"reactive"``: the :class:`~clomp.runtime.
 experiment.reactive.ReactiveController`) on a fresh robot of the execution world
-(:func:`~clomp.runtime.experiment.world.make_robot`) and measures it on the world's ground
+(:func:`~clomp.runtime.experiment.groundtruth.make_robot`) and measures it on the world's ground
 truth: contact episodes (:mod:`clomp.runtime.experiment.contacts`) and the true final distance
 to the goal.
 
@@ -46,10 +46,10 @@ from clomp.runtime.experiment.layouts import FAMILIES, make_layout, shape_distan
 from clomp.runtime.experiment.plots import RunTrace
 from clomp.runtime.experiment.provenance import claim_folder
 from clomp.runtime.experiment.reactive import ReactiveController
-from clomp.runtime.experiment.world import NOISE_PRESETS, make_robot, world_name
+from clomp.runtime.experiment.groundtruth import NOISE_PRESETS, make_robot, world_name
 from clomp.runtime.records.runlog import RunLog
-from clomp.runtime.robots.sim import NoiseConfig
-from clomp.runtime.robots.world import WorldNoise, make_world_robot
+from clomp.runtime.backends.sim import NoiseConfig
+from clomp.runtime.backends.world import WorldNoise, make_world_robot
 from clomp.runtime.supervision.supervisor import Supervisor
 
 __all__ = ["CONDITIONS", "PAPER", "SUCCESS_RADIUS", "ExperimentInterrupted", "RunsFailed", "RunResult", "RunSpec",
@@ -221,8 +221,8 @@ def run_once(
     """Run one condition in ``scene`` on a fresh robot; see the module docstring.
 
     ``noise``: a preset name (``ideal``, ``paper``, ``harsh``; the execution world of
-    :func:`~clomp.runtime.experiment.world.make_robot`), a :class:`~clomp.runtime.robots.sim.NoiseConfig`
-    for the simulated robot, a :class:`~clomp.runtime.robots.world.WorldNoise` for the execution
+    :func:`~clomp.runtime.experiment.groundtruth.make_robot`), a :class:`~clomp.runtime.backends.sim.NoiseConfig`
+    for the simulated robot, a :class:`~clomp.runtime.backends.world.WorldNoise` for the execution
     world with those terms, or None for the simulated robot with the scene's own noise.
     ``log``: a file for the run log (the supervisor's records, as ``clomp run`` writes
     them, in simulated time, with the ground truth beside each scan and task record).
@@ -247,7 +247,7 @@ def run_once(
     elif isinstance(noise, WorldNoise):
         robot = make_world_robot(scene, noise, seed=seed_, robot=conf.robot)
     else:
-        from clomp.runtime.experiment.world import _TracedSimRobot
+        from clomp.runtime.experiment.groundtruth import _TracedSimRobot
 
         robot = _TracedSimRobot(scene, conf.robot, noise=noise, seed=seed)
     start = scene.start

@@ -1,6 +1,6 @@
 """Supervision: the state machine (:mod:`.machine`) and the supervisor that runs it (:mod:`.supervisor`).
 
-May import: formal, planner, :mod:`clomp.runtime.robot`, :mod:`clomp.runtime.clock`, :mod:`clomp.runtime.records`.
+May import: formal, planner, :mod:`clomp.runtime.interface`, :mod:`clomp.runtime.clock`, :mod:`clomp.runtime.records`.
 Devices, robots and the command line's lower layers do not import this room.
 
 >>> from clomp.runtime.supervision import SupervisorState
@@ -8,7 +8,7 @@ Devices, robots and the command line's lower layers do not import this room.
 'HALTED'
 """
 
-from clomp.runtime.supervision.machine import (
+from clomp.runtime.supervision.states import (
     MOTOR_STATES,
     TERMINAL,
     TRANSITIONS,

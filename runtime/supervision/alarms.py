@@ -48,7 +48,7 @@ import numpy as np
 
 from clomp.formal.model import Pose, State, TaskKind
 from clomp.planner.noise import ALARM_DEVIATIONS
-from clomp.planner.robot import RobotModel
+from clomp.planner.robot_model import RobotModel
 from clomp.runtime.supervision.plancheck import CheckResult, check_plan
 from clomp.runtime.supervision.records import hits, sweep
 

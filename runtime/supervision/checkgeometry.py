@@ -2,7 +2,7 @@
 the remaining tasks as legs chained from the robot's pose, the scan's points as complex
 numbers, and where each leg's body first meets a point.
 
-The planner's rule (:mod:`clomp.planner.physics`): the footprint inflated by the robot's
+The planner's rule (:mod:`clomp.planner.rollout`): the footprint inflated by the robot's
 ``clearance``, translated along a straight or spun through every tick heading of a turn,
 with the start-touching rule (a point already inside the inflated body at a task's start
 is held to the real body). Each contact function tests all its legs on the raw points
@@ -20,7 +20,7 @@ import numpy as np
 from clomp.formal.geometry import wrap_angle
 from clomp.formal.model import Pose, State, TaskKind
 from clomp.planner.perception import Obstacles
-from clomp.planner.robot import RobotModel
+from clomp.planner.robot_model import RobotModel
 from clomp.runtime.jit import interruptible
 from clomp.runtime.supervision._contacts_core import straight_gaps, turn_first_ticks
 
@@ -95,7 +95,7 @@ _SUM, _MIN, _MAX = np.add.reduce, np.minimum.reduce, np.maximum.reduce
 
 def _straight_contacts(z: np.ndarray, legs: list[_Leg], robot: RobotModel, allowance: float) -> list[float]:
     """Per straight leg: how far the body drives before it meets a point (inf: never), to
-    the last control tick before the contact (the planner's rule, :mod:`clomp.planner.physics`:
+    the last control tick before the contact (the planner's rule, :mod:`clomp.planner.rollout`:
     the inflated footprint translated along the leg; a point already inside it at the
     start is held to the real body). ``allowance`` (m) shrinks the body a point must
     enter to count (sensor noise). The points are tested by a compiled loop

@@ -3,13 +3,13 @@
 :func:`check_plan` tests the tasks a plan still has to run against the newest scan, from
 the estimated pose: each task must still be free of the scan's points and end where the
 map predicted (within ``tolerance``). The test is the planner's own geometry in closed
-form (:mod:`clomp.planner.physics`: the footprint inflated by the robot's ``clearance``
+form (:mod:`clomp.planner.rollout`: the footprint inflated by the robot's ``clearance``
 translated along a straight, spun through every tick heading of a turn, the
 start-touching rule; :mod:`clomp.runtime.supervision.checkgeometry`), done for all remaining
 tasks at once on the raw points: no perception (clustering into boxes) and no rollout
 objects, so a check costs a few array operations, however many tasks remain. The supervisor runs it once a revolution; a
 failed check sends it to REPLANNING. :func:`resimulate_plan` is the same verdict from the
-planner's :func:`clomp.planner.physics.simulate` on perceived obstacles (kept as the reference
+planner's :func:`clomp.planner.rollout.simulate` on perceived obstacles (kept as the reference
 the tests compare against).
 
 :func:`recall` is what REPLANNING tries first: match the current situation to a state of
@@ -36,12 +36,12 @@ import numpy as np
 
 from clomp.formal.geometry import compose, relative, wrap_angle
 from clomp.formal.model import Disturbance, Pose, State, TaskKind
-from clomp.formal.robust import map_policy, policy_path
+from clomp.formal.scheduler import map_policy, policy_path
 from clomp.formal.supervisory import Plan, guard
 from clomp.planner.configurator import PlanResult
 from clomp.planner.perception import Obstacles, perceive
-from clomp.planner.physics import simulate
-from clomp.planner.robot import RobotModel
+from clomp.planner.rollout import simulate
+from clomp.planner.robot_model import RobotModel
 from clomp.runtime.supervision.checkgeometry import _ends_off, _Leg, _legs, _points, _straight_contacts, _turn_contacts
 
 _STRAIGHT = TaskKind.STRAIGHT  # looked up once: a member lookup is a descriptor call
@@ -207,7 +207,7 @@ def resimulate_plan(
     running: bool = False,
 ) -> CheckResult:
     """:func:`check_plan`'s verdict by re-simulating each task with the planner's
-    :func:`clomp.planner.physics.simulate` among perceived ``obstacles`` (the reference; slower).
+    :func:`clomp.planner.rollout.simulate` among perceived ``obstacles`` (the reference; slower).
 
     Each task starts where the previous one's rollout ended; a straight's rollout is the
     planner's (cut into steps, at the rim of the sensed disc), so it sees no further.

@@ -27,7 +27,7 @@ It keeps the records of every check and recall (with wall and thread CPU times) 
 map's recall index, built when a fresh plan is made (:meth:`PlanWatch.planned`). The
 supervisor keeps the state machine, the task queue and the wheels.
 
->>> from clomp.planner.robot import RobotModel
+>>> from clomp.planner.robot_model import RobotModel
 >>> watch = PlanWatch(RobotModel())
 >>> watch.checks, watch.recalls, watch.index is None
 ([], [], True)
@@ -46,7 +46,7 @@ import numpy as np
 from clomp.formal.geometry import wrap_angle
 from clomp.formal.model import Pose, State
 from clomp.planner.configurator import Configurator, PlanResult
-from clomp.planner.robot import RobotModel
+from clomp.planner.robot_model import RobotModel
 from clomp.planner.tasks import Task
 from clomp.runtime.estimation.fusion import fuse_revolutions
 from clomp.runtime.supervision.alarms import Alarms

@@ -15,9 +15,9 @@ import numpy as np
 from clomp.formal.geometry import compose, points_from_frame, points_to_frame, relative
 from clomp.formal.model import Pose, State, TaskKind
 from clomp.planner.configurator import PlanResult
-from clomp.planner.robot import RobotModel
+from clomp.planner.robot_model import RobotModel
 from clomp.runtime.estimation.odometry import FeedbackRecord
-from clomp.runtime.supervision.machine import SupervisorState, TransitionRecord
+from clomp.runtime.supervision.states import SupervisorState, TransitionRecord
 
 __all__ = ["PlanRecord", "SupervisorReport", "TaskRecord", "TimedRecord", "hits", "scan_to_frame", "sweep"]
 

@@ -1,6 +1,6 @@
 """The supervisor: executes the Configurator's plans closed-loop on a robot and replans.
 
-It follows the state machine of :mod:`clomp.runtime.supervision.machine` (IDLE → PLANNING →
+It follows the state machine of :mod:`clomp.runtime.supervision.states` (IDLE → PLANNING →
 EXECUTING ⇄ REPLANNING → GOAL_REACHED / UNREACHABLE, any → HALTED on a fault or abort).
 
 Each control tick (:meth:`Supervisor.step`) reads the newest scan, updates the pose
@@ -61,8 +61,8 @@ import numpy as np
 from clomp.formal.model import Disturbance, Pose, State, TaskKind
 from clomp.planner.configurator import Configurator, PlanningError
 from clomp.planner.perception import validate_scan
-from clomp.planner.physics import make_task
-from clomp.planner.robot import RobotModel
+from clomp.planner.rollout import make_task
+from clomp.planner.robot_model import RobotModel
 from clomp.formal.geometry import compose, dead_reckon, relative, wrap_angle
 from clomp.planner.tasks import Task
 from clomp.runtime.clock import Clock, clock_for
@@ -71,8 +71,8 @@ from clomp.runtime.estimation.odometry import ScanOdometry
 from clomp.runtime.supervision.planwatch import PlanWatch, plan_deepening
 from clomp.runtime.supervision.records import PlanRecord, SupervisorReport, TaskRecord, TimedRecord
 from clomp.runtime.records.runlog import RunLogLike, plan_fields
-from clomp.runtime.robot import Robot, RobotFault, ScanFrame, TurnSensing, finite_goal
-from clomp.runtime.supervision.machine import MOTOR_STATES, TERMINAL, TRANSITIONS, Event, SupervisorState, TransitionRecord
+from clomp.runtime.interface import Robot, RobotFault, ScanFrame, TurnSensing, finite_goal
+from clomp.runtime.supervision.states import MOTOR_STATES, TERMINAL, TRANSITIONS, Event, SupervisorState, TransitionRecord
 
 __all__ = ["FEEDBACK", "GuardViolation", "PlanRecord", "Supervisor", "SupervisorReport", "TaskRecord", "TimedRecord"]
 
@@ -87,13 +87,13 @@ class GuardViolation(RuntimeError):
 
 # -- the supervisor -------------------------------------------------------------------------
 class Supervisor:
-    """Runs plans of a :class:`~clomp.planner.Configurator` closed-loop on a :class:`~clomp.runtime.robot.Robot`.
+    """Runs plans of a :class:`~clomp.planner.Configurator` closed-loop on a :class:`~clomp.runtime.interface.Robot`.
 
     ``goal`` is (x, y) in the robot's frame at start (x forward, y left). ``clock``
     defaults to the robot itself when it keeps (simulated) time, else the wall clock.
 
     >>> from clomp.planner import load_scenario
-    >>> from clomp.runtime.robots.sim import SimRobot
+    >>> from clomp.runtime.backends.sim import SimRobot
     >>> scene = load_scenario("open")
     >>> report = Supervisor(SimRobot(scene, seed=0), scene.goal_in_robot_frame()).run(max_time=60)
     >>> report.state.value, report.replans
@@ -288,7 +288,7 @@ class Supervisor:
         if target is None:
             raise RuntimeError(f"no transition from {self.state.value} on {event.value}")
         source = self.state
-        if source in MOTOR_STATES and target not in MOTOR_STATES:  # clomp.formal.machine: where wheels may turn
+        if source in MOTOR_STATES and target not in MOTOR_STATES:  # clomp.formal.control: where wheels may turn
             self._stop_wheels()
             self._scans_since_stop = 0
             self._still.clear()

@@ -60,7 +60,7 @@ stormpy = pytest.importorskip("stormpy", reason="stormpy not installed: pip inst
 
 @pytest.mark.parametrize("retries", [0, 1, 3])
 def test_storm_values_a_retried_coin_as_a_geometric_series(retries):
-    from clomp.formal.robust import plan_probability, robust_plan
+    from clomp.formal.scheduler import plan_probability, robust_plan
 
     m = _coin_map()
     want = 1 - 0.5 ** (retries + 1)  # the goal on the first try or one of the retries
@@ -71,7 +71,7 @@ def test_storm_values_a_retried_coin_as_a_geometric_series(retries):
 def test_a_policys_value_counts_its_retries_whatever_plan_the_map_records():
     """policy_probability keeps the map's stops, not its recorded plan: a policy that
     starts nothing has value 0 (the plan q0 -> q1 it does not take is no error)."""
-    from clomp.formal.robust import policy_probability
+    from clomp.formal.scheduler import policy_probability
 
     m = _coin_map()
     assert policy_probability(m, {}, retries=1) == 0
@@ -106,7 +106,7 @@ def test_sampled_stops_are_hazard_stops_that_reenter_their_task_start():
 
 
 def test_a_retried_stop_raises_the_value_of_the_sampled_map():
-    from clomp.formal.robust import plan_probability, robust_plan
+    from clomp.formal.scheduler import plan_probability, robust_plan
 
     cmap = _sampled_corridor()
     values = [robust_plan(cmap, retries=k).probability for k in (0, 1, 2)]

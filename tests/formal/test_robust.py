@@ -8,7 +8,7 @@ from clomp.formal.invariants import map_plan
 
 pytest.importorskip("stormpy", reason="stormpy not installed: pip install -e '.[verify]'")
 
-from clomp.formal.robust import follow_tasks, plan_probability, robust_plan  # noqa: E402
+from clomp.formal.scheduler import follow_tasks, plan_probability, robust_plan  # noqa: E402
 
 
 def test_the_scheduler_takes_the_sure_detour_the_greedy_plan_does_not(risky_map):
@@ -104,7 +104,7 @@ def _two_outcome_map(risky_map):
 
 def test_the_printed_path_has_its_own_probability_beside_the_policys_value(risky_map):
     """The scheduler's value counts every outcome; its most likely path is one of them."""
-    from clomp.formal.robust import path_probability, policy_states
+    from clomp.formal.scheduler import path_probability, policy_states
 
     m = _two_outcome_map(risky_map)
     r = robust_plan(m)
@@ -122,7 +122,7 @@ def test_a_recall_on_a_robust_map_follows_the_scheduler_where_the_robot_landed(r
     in (q7), the recall continues with the scheduler's task, not the map's least-cost path."""
     from types import SimpleNamespace
 
-    from clomp.formal.robust import attach_policy, map_policy
+    from clomp.formal.scheduler import attach_policy, map_policy
     from clomp.runtime.supervision.plancheck import _best_from
 
     m = _two_outcome_map(risky_map)
@@ -145,7 +145,7 @@ def test_a_detour_is_taken_only_where_it_is_safer_by_more_than_the_margin(risky_
     the best-first plan preferred, the scheduler leaves it only for a gain above margin,
     and the probability reported is the value of the policy returned."""
     from clomp.formal.model import TaskKind
-    from clomp.formal.robust import policy_probability
+    from clomp.formal.scheduler import policy_probability
 
     prefer = {0: TaskKind.STRAIGHT}
     kept = robust_plan(risky_map, prefer=prefer, margin=0.25)  # the detour gains 0.2 < 0.25

@@ -11,7 +11,7 @@ from clomp.formal.model import TaskKind
 from clomp.formal.supervisory import guard
 from clomp.planner import Configurator, PlanningError, RobotModel, load_scan, load_scenario, plan, simulate
 from clomp.planner.configurator import chi, default_cost, gamma
-from clomp.planner.physics import World
+from clomp.planner.rollout import World
 
 
 def _plan_scenario(name: str, **kw):

@@ -187,7 +187,7 @@ def test_a_turn_towards_the_goal_stops_at_a_quarter_turn() -> None:
     side behind."""
     from clomp.formal.model import Disturbance, Pose, TaskKind
     from clomp.planner.perception import perceive
-    from clomp.planner.physics import turn_angle
+    from clomp.planner.rollout import turn_angle
 
     ahead = np.c_[np.full(45, 0.25), np.linspace(-0.22, 0.22, 45)]
     sides = [np.c_[np.linspace(-0.3, 0.25, 56), np.full(56, y)] for y in (-0.22, 0.22)]
@@ -205,7 +205,7 @@ def test_a_step_towards_a_wall_ends_where_the_body_can_still_spin() -> None:
     ends where a quarter turn is still free; the authors' fixed steps do not."""
     from clomp.formal.model import Disturbance, Pose, TaskKind
     from clomp.planner.perception import perceive
-    from clomp.planner.physics import simulate
+    from clomp.planner.rollout import simulate
 
     wall = np.c_[np.full(81, 0.40), np.linspace(-0.4, 0.4, 81)]
     obs = perceive(wall)
@@ -250,7 +250,7 @@ def test_a_step_towards_the_rim_ends_where_the_body_can_still_spin_when_the_goal
     there as a frontier state."""
     from clomp.formal.model import Disturbance, Pose, TaskKind
     from clomp.planner.perception import perceive
-    from clomp.planner.physics import _turn_leaves_disc, simulate
+    from clomp.planner.rollout import _turn_leaves_disc, simulate
 
     empty = perceive(np.zeros((0, 2)))
     start = Pose(0.75, 0.0, 0.0)

@@ -83,7 +83,7 @@ def test_noise_presets_come_from_the_file_when_it_exists(tmp_path):
 
 
 def test_the_paper_preset_is_the_simulated_robots_default_noise():
-    from clomp.runtime.robots.sim import NoiseConfig
+    from clomp.runtime.backends.sim import NoiseConfig
 
     paper = RolloutNoise.preset("paper")
     assert paper == RolloutNoise()  # the defaults are the file's paper preset
@@ -270,9 +270,9 @@ def test_the_closed_loops_mean_errors_bias_turns_and_straights():
 
     from clomp.formal.model import Disturbance, Pose
     from clomp.planner.perception import perceive
-    from clomp.planner.physics import simulate
+    from clomp.planner.rollout import simulate
     from clomp.planner.probabilistic import _rollout, _World
-    from clomp.planner.robot import RobotModel
+    from clomp.planner.robot_model import RobotModel
 
     robot = RobotModel()
     empty = perceive(np.zeros((0, 2)), robot.sensor_range, robot.cluster_distance)

@@ -16,8 +16,8 @@ import pytest
 from clomp.formal.model import Disturbance, Pose, TaskKind
 from clomp.planner import Configurator
 from clomp.planner.perception import perceive
-from clomp.planner.physics import turn_angle
-from clomp.planner.robot import RobotModel
+from clomp.planner.rollout import turn_angle
+from clomp.planner.robot_model import RobotModel
 
 WEDGED = Pose(0.577, 0.295, 0.373)  # world frame: where run 0/1 halted on main at e43ba57
 PI_8 = pytest.approx(math.pi / 8, abs=1e-9)

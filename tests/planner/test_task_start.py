@@ -8,7 +8,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from clomp.formal.model import Disturbance, Pose, TaskKind
-from clomp.planner.robot import RobotModel
+from clomp.planner.robot_model import RobotModel
 from clomp.planner.tasks import Task
 
 coord = st.floats(-2.0, 2.0, allow_nan=False)

@@ -26,7 +26,7 @@ import numpy as np
 from clomp.formal.geometry import relative
 from clomp.formal.model import Pose, State, TaskKind
 from clomp.planner.perception import Obstacles
-from clomp.planner.robot import RobotModel
+from clomp.planner.robot_model import RobotModel
 from clomp.runtime.supervision.checkgeometry import _ends_off, _Leg, _legs, _waived_turn
 from clomp.runtime.supervision.plancheck import CheckResult, _verdict
 
@@ -93,7 +93,7 @@ def _near(z: np.ndarray, legs: list[_Leg], robot: RobotModel) -> np.ndarray:
 def _straight_contacts(z: np.ndarray, legs: list[_Leg], robot: RobotModel, allowance: float) -> list[float]:
     """Per straight leg: how far the body drives before it meets a point (inf: never), to
     the last control tick before the contact, all legs in one array operation (the
-    planner's rule, :mod:`clomp.planner.physics`: the inflated footprint translated along the
+    planner's rule, :mod:`clomp.planner.rollout`: the inflated footprint translated along the
     leg; a point already inside it at the start is held to the real body). ``allowance``
     (m) shrinks the body a point must enter to count (sensor noise)."""
     if not z.size:

@@ -18,8 +18,8 @@ from typing import Any
 
 from clomp.planner import Configurator
 from clomp.runtime.devices.maestro_emulator import MaestroEmulator
-from clomp.runtime.robots.emulated import EmulatedWorld
-from clomp.runtime.robots.hardware import HardwareConfig, HardwareRobot
+from clomp.runtime.backends.emulated import EmulatedWorld
+from clomp.runtime.backends.hardware import HardwareConfig, HardwareRobot
 from clomp.runtime.supervision import Supervisor, SupervisorReport
 from tests.runtime._simline import LockstepClock, SimLine
 

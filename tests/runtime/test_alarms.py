@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from clomp.formal.model import Pose, TaskKind
-from clomp.planner.robot import RobotModel
+from clomp.planner.robot_model import RobotModel
 from clomp.runtime.supervision.alarms import Alarms, hazard_hits, range_noise
 
 M = RobotModel()

@@ -188,7 +188,7 @@ def test_the_library_refuses_a_time_limit_that_never_ends() -> None:
     from clomp.planner import load_scenario
     from clomp.runtime.experiment.reactive import ReactiveController
     from clomp.runtime.experiment.runner import run_once
-    from clomp.runtime.robots.sim import SimRobot
+    from clomp.runtime.backends.sim import SimRobot
     from clomp.runtime.supervision.supervisor import Supervisor
 
     scene = load_scenario("open")

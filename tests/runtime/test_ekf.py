@@ -13,7 +13,7 @@ from clomp.formal.model import Pose
 from clomp.planner.scenarios import parse_scenario
 from clomp.runtime.estimation import match_scans
 from clomp.runtime.estimation.ekf import OdometryFilter
-from clomp.runtime.robots import make_world_robot
+from clomp.runtime.backends import make_world_robot
 
 
 def _drive_truth(pose: Pose, v: float, w: float, dt: float, curve: float) -> Pose:

@@ -12,8 +12,8 @@ import pytest
 from clomp.runtime.clock import ManualClock
 from clomp.runtime.devices.rplidar import RPLidar
 from clomp.runtime.realtime import NICENESS
-from clomp.runtime.robots.emulated import EmulatedWorld, EmulatedWorldProcess
-from clomp.runtime.robots.sim import NoiseConfig
+from clomp.runtime.backends.emulated import EmulatedWorld, EmulatedWorldProcess
+from clomp.runtime.backends.sim import NoiseConfig
 from tests.runtime._simline import SimLine
 
 

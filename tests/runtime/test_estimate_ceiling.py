@@ -13,7 +13,7 @@ import pytest
 
 from clomp.planner.scenarios import load_scenario
 from clomp.runtime.estimation.ekf import OdometryFilter
-from clomp.runtime.robots.world import WorldNoise, make_world_robot
+from clomp.runtime.backends.world import WorldNoise, make_world_robot
 
 BENCH = Path(__file__).resolve().parents[2] / "bench" / "estimate_ceiling.py"
 
@@ -87,7 +87,7 @@ def test_the_true_pose_is_fed_in_the_supervisors_frame() -> None:
     from clomp.formal.geometry import relative
     from clomp.planner import Configurator
     from clomp.runtime.experiment.runner import RunSpec, scene_for
-    from clomp.runtime.experiment.world import make_robot
+    from clomp.runtime.experiment.groundtruth import make_robot
 
     scene, _ = scene_for(RunSpec("corridor", 0, 0, "planning", "harsh"))
     assert abs(scene.start.theta) > 0.1  # the case this test is about

@@ -17,7 +17,7 @@ from clomp.runtime.devices.frame import ScanFrame
 from clomp.runtime.estimation import match_scans
 from clomp.runtime.estimation.fusion import fuse_revolutions
 from clomp.runtime.estimation.odometry import ScanOdometry, deskew
-from clomp.runtime.robots import make_world_robot
+from clomp.runtime.backends import make_world_robot
 
 # a corridor with a doorway gap, a post and an end wall: like the recorded scans
 ROOM = {
@@ -212,7 +212,7 @@ def _past_posts(seed: int, feedback: bool, noise_factor: float = math.sqrt(2.0))
     """Stand 1 s, then drive 1.6 m straight past three posts on good wheels with a noisy
     LiDAR (2.5 cm of range noise, every other term at ``paper``); the estimate's true
     error (m) at the end, and the range noise the estimator measured."""
-    from clomp.runtime.robots.world import WorldNoise
+    from clomp.runtime.backends.world import WorldNoise
 
     noise = WorldNoise(**{**WorldNoise.preset("paper").to_dict(), "range_sd": 0.025})
     world = make_world_robot(parse_scenario(POSTS, "posts"), noise, seed=seed)
@@ -413,7 +413,7 @@ def test_ctrl_c_masked_inside_the_matcher_or_the_plan_check_is_a_keyboard_interr
     record a Ctrl-C as a failure (HALTED) and go on (1 in 30 interrupted experiments did)."""
     import clomp.runtime.estimation.icp as icp
     import clomp.runtime.supervision.checkgeometry as geometry
-    from clomp.planner.robot import RobotModel
+    from clomp.planner.robot_model import RobotModel
 
     ref = np.array([[1.0, y] for y in np.linspace(-0.5, 0.5, 51)])
     monkeypatch.setattr(icp, "icp_iterations", _interrupted_in_numba)

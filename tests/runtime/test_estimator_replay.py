@@ -26,7 +26,7 @@ def test_a_recording_keeps_the_drive_and_the_replay_compares_the_learnt_calibrat
     # the same terms a world built from the same (family, seed, run, noise) drives with
     from clomp.planner import Configurator
     from clomp.runtime.experiment.runner import RunSpec, scene_for, noise_seed
-    from clomp.runtime.experiment.world import make_robot
+    from clomp.runtime.experiment.groundtruth import make_robot
 
     scene, _ = scene_for(RunSpec("overtaking", 0, 0, "planning", "harsh"))
     model = Configurator().robot

@@ -71,7 +71,7 @@ def test_run_once_measures_on_ground_truth():
 
 def test_belief_and_ground_truth_are_reported_apart():
     """A robot whose dead reckoning is wrong believes it arrived; the truth says where it is."""
-    from clomp.runtime.robots.sim import NoiseConfig
+    from clomp.runtime.backends.sim import NoiseConfig
 
     scene = load_scenario("open")
     skewed = NoiseConfig(range_sd=0.0, dropout=0.0, wheel_sd=0.0, wheel_bias=0.25, drift=0.0)
@@ -334,7 +334,7 @@ def test_both_conditions_take_the_same_estimate():
     from clomp.formal.geometry import compose
     from clomp.formal.model import Pose
     from clomp.runtime.experiment.layouts import make_layout
-    from clomp.runtime.robots.world import WorldNoise
+    from clomp.runtime.backends.world import WorldNoise
 
     scene = make_layout("corridor", 0, 0).scene
     errors = {}

@@ -13,9 +13,9 @@ from clomp.formal.model import Pose
 from clomp.planner.scenarios import load_scenario
 from clomp.runtime.estimation.ekf import OdometryFilter
 from clomp.runtime.estimation.odometry import ScanOdometry
-from clomp.runtime.robot import TurnSensing
-from clomp.runtime.robots import make_world_robot
-from clomp.runtime.robots.world import WorldNoise
+from clomp.runtime.interface import TurnSensing
+from clomp.runtime.backends import make_world_robot
+from clomp.runtime.backends.world import WorldNoise
 
 # a spin on the spot and back, then a long curve: what a gyro and a wheel model see differently
 COMMANDS = [(0.0, 0.0)] * 15 + [(-0.04, 0.04)] * 20 + [(0.1, 0.1)] * 40 + [(0.04, -0.04)] * 10 + [(0.1, 0.08)] * 40
@@ -178,7 +178,7 @@ def _straight_on_the_estimate(hold: bool, seed: int) -> float:
     """A 1 m STRAIGHT on wheels that curve, run on the gyro-fed estimate; the true heading
     turned by its end (rad)."""
     from clomp.formal.geometry import wrap_angle as wrap
-    from clomp.planner.robot import RobotModel
+    from clomp.planner.robot_model import RobotModel
     from clomp.planner.tasks import Task
 
     world = make_world_robot(load_scenario("open"), WorldNoise(wheel_bias=0.05, rate_sd=0.0025, rate_bias=0.05),

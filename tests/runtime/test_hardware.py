@@ -13,8 +13,8 @@ import pytest
 from clomp.formal.geometry import dead_reckon
 from clomp.formal.model import Pose
 from clomp.runtime.devices.emulators import LidarEmulator, MaestroEmulator
-from clomp.runtime.robots.hardware import HardwareConfig, HardwareRobot
-from clomp.runtime.robot import Robot, RobotFault
+from clomp.runtime.backends.hardware import HardwareConfig, HardwareRobot
+from clomp.runtime.interface import Robot, RobotFault
 from clomp.runtime.clock import ManualClock
 from clomp.runtime.records.runlog import RunLog
 

@@ -17,8 +17,8 @@ import pytest
 
 from clomp.runtime.clock import ManualClock
 from clomp.runtime.devices.emulators import LidarEmulator, MaestroEmulator
-from clomp.runtime.robot import RobotFault
-from clomp.runtime.robots.hardware import HardwareConfig, HardwareRobot
+from clomp.runtime.interface import RobotFault
+from clomp.runtime.backends.hardware import HardwareConfig, HardwareRobot
 from tests.runtime._simline import SimLine
 
 NEUTRAL = 6000  # 1500 µs in quarter-µs

@@ -14,7 +14,7 @@ from clomp.runtime.experiment.layouts import (
     make_layout,
     shape_distance,
 )
-from clomp.runtime.robots.sim import SimRobot
+from clomp.runtime.backends.sim import SimRobot
 
 seeds = st.integers(0, 2**20)
 index = st.integers(0, 500)

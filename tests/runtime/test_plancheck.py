@@ -14,7 +14,7 @@ from clomp.formal.geometry import compose, relative
 from clomp.formal.model import Pose, TaskKind
 from clomp.planner import Configurator, load_scenario
 from clomp.runtime.devices.frame import ScanFrame
-from clomp.runtime.robots import make_world_robot
+from clomp.runtime.backends import make_world_robot
 from clomp.runtime.supervision import Supervisor, SupervisorState
 from clomp.runtime.supervision.plancheck import check_plan, perceive_scan, recall
 

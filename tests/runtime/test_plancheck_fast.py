@@ -15,7 +15,7 @@ from clomp.formal.model import Pose
 from clomp.formal.supervisory import guard
 from clomp.planner import Configurator
 from clomp.runtime.experiment.layouts import make_layout
-from clomp.runtime.robots import make_world_robot
+from clomp.runtime.backends import make_world_robot
 from tests.runtime._checkref import check_plan_reference
 from clomp.runtime.supervision.checkgeometry import _legs
 from clomp.runtime.supervision.plancheck import RecallIndex, check_plan, perceive_scan, recall
@@ -180,7 +180,7 @@ def test_the_compiled_check_is_ready_before_the_robot_moves():
 from clomp.runtime.supervision import _contacts_core as c
 from clomp.runtime.supervision.planwatch import PlanWatch
 from clomp.runtime.experiment.layouts import make_layout
-from clomp.runtime.robots import make_world_robot
+from clomp.runtime.backends import make_world_robot
 from clomp.planner import Configurator
 from clomp.formal.model import Pose
 from clomp.runtime.supervision.plancheck import check_plan

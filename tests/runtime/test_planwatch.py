@@ -6,7 +6,7 @@ from __future__ import annotations
 from typing import Any
 
 from clomp.planner import load_scenario
-from clomp.runtime.robots import make_world_robot
+from clomp.runtime.backends import make_world_robot
 from clomp.runtime.supervision import Supervisor, SupervisorState
 
 S = SupervisorState

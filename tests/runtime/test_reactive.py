@@ -8,10 +8,10 @@ import numpy as np
 import pytest
 
 from clomp.planner import load_scenario
-from clomp.planner.robot import RobotModel
+from clomp.planner.robot_model import RobotModel
 from clomp.runtime.experiment.reactive import ReactiveController
-from clomp.runtime.robot import ScanFrame
-from clomp.runtime.robots.sim import SimRobot
+from clomp.runtime.interface import ScanFrame
+from clomp.runtime.backends.sim import SimRobot
 
 
 def test_reaches_a_goal_in_free_space_without_collision():
@@ -214,7 +214,7 @@ def test_reactive_rejects_a_non_finite_goal():
 
     from clomp.planner import load_scenario
     from clomp.runtime.experiment.reactive import ReactiveController
-    from clomp.runtime.robots.sim import SimRobot
+    from clomp.runtime.backends.sim import SimRobot
 
     with pytest.raises(ValueError, match="finite"):
         ReactiveController(SimRobot(load_scenario("open"), seed=0), (_math.nan, 0.0))
@@ -223,7 +223,7 @@ def test_reactive_rejects_a_non_finite_goal():
 def _estimate_error(feedback: str) -> tuple[str, float]:
     from clomp.formal.geometry import compose
     from clomp.runtime.experiment.layouts import make_layout
-    from clomp.runtime.robots.world import WorldNoise, make_world_robot
+    from clomp.runtime.backends.world import WorldNoise, make_world_robot
 
     scene = make_layout("corridor", 0, 0).scene  # walls either side: scan matching has surfaces to hold
     robot = make_world_robot(scene, WorldNoise(wheel_bias=0.05, wheel_sd=0.01), seed=0)

@@ -1,5 +1,5 @@
 """``clomp run`` end to end over pseudo-terminals: the device emulators in front of a simulated
-world (clomp.runtime.robots.emulated, in a process of its own, as real devices would be), the real
+world (clomp.runtime.backends.emulated, in a process of its own, as real devices would be), the real
 drivers, the hardware robot and the supervisor in a subprocess. Fault tests measure, on the Maestro emulator's side, how long after the fault
 the wheels were commanded to stop."""
 
@@ -18,7 +18,7 @@ import pytest
 
 import clomp.runtime.cli as cli
 from clomp.runtime.devices.emulators import MaestroEmulator
-from clomp.runtime.robots.emulated import EmulatedWorldProcess
+from clomp.runtime.backends.emulated import EmulatedWorldProcess
 from clomp.runtime.records.runlog import read_log
 from tests.runtime._stack import wheels_stopped_at
 
@@ -383,7 +383,7 @@ def test_a_second_ctrl_c_while_the_emulated_world_stops_still_gives_its_summary(
     import os
 
     import clomp.runtime.realtime as realtime
-    import clomp.runtime.robots.emulated as emulated
+    import clomp.runtime.backends.emulated as emulated
     from clomp.formal.model import Pose
 
     class World:

@@ -12,8 +12,8 @@ from hypothesis import strategies as st
 from clomp.formal.model import Pose
 from clomp.planner import load_scenario
 from clomp.planner.scenarios import ScenarioError, parse_scenario
-from clomp.runtime.robot import Robot, RobotFault
-from clomp.runtime.robots.sim import NoiseConfig, SimRobot, scenario_noise, scenario_scan_source, scenario_seed
+from clomp.runtime.interface import Robot, RobotFault
+from clomp.runtime.backends.sim import NoiseConfig, SimRobot, scenario_noise, scenario_scan_source, scenario_seed
 
 IDEAL = NoiseConfig.ideal()
 

@@ -17,7 +17,7 @@ import pytest
 
 from clomp.planner import Configurator
 from clomp.runtime.supervision import SupervisorState
-from clomp.runtime.supervision.machine import Event
+from clomp.runtime.supervision.states import Event
 from tests.runtime._simline import LockstepClock
 from tests.runtime._stack import NEUTRAL, StackRun, run_stack, wheels_stopped_at
 

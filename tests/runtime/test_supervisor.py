@@ -12,11 +12,11 @@ from hypothesis import strategies as st
 
 from clomp.formal.model import Pose
 from clomp.planner import Configurator, load_scenario
-from clomp.runtime.robot import ScanFrame
-from clomp.runtime.robots.faults import FaultyRobot
-from clomp.runtime.robots import make_world_robot
-from clomp.runtime.robots.sim import SimRobot
-from clomp.runtime.robots.world import WorldNoise
+from clomp.runtime.interface import ScanFrame
+from clomp.runtime.backends.faults import FaultyRobot
+from clomp.runtime.backends import make_world_robot
+from clomp.runtime.backends.sim import SimRobot
+from clomp.runtime.backends.world import WorldNoise
 from clomp.formal.geometry import compose, relative
 from clomp.runtime.supervision import (
     MOTOR_STATES,
@@ -270,7 +270,7 @@ def test_prism_export_checks_in_storm(tmp_path):
 
 
 def test_the_runtime_table_is_the_formal_machine():
-    from clomp.formal.machine import SUPERVISOR
+    from clomp.formal.control import SUPERVISOR
 
     assert {(s.value, e.value): t.value for (s, e), t in TRANSITIONS.items()} == {
         (t.source, t.event): t.target for t in SUPERVISOR.transitions if t.source not in SUPERVISOR.terminal

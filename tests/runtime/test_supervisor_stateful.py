@@ -19,8 +19,8 @@ from hypothesis import strategies as st
 from hypothesis.stateful import RuleBasedStateMachine, initialize, invariant, precondition, rule
 
 from clomp.planner import Configurator, load_scenario
-from clomp.runtime.robots.faults import FaultyRobot
-from clomp.runtime.robots.sim import SimRobot
+from clomp.runtime.backends.faults import FaultyRobot
+from clomp.runtime.backends.sim import SimRobot
 from clomp.runtime.supervision import TRANSITIONS, Event, Supervisor, SupervisorState
 
 S = SupervisorState

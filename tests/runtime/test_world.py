@@ -12,9 +12,9 @@ import pytest
 from clomp import specs
 from clomp.formal.model import Pose
 from clomp.planner.scenarios import ScenarioError, load_scenario, parse_scenario
-from clomp.runtime.robot import Robot, RobotFault
-from clomp.runtime.robots import make_world_robot
-from clomp.runtime.robots.world import BodySpec, WorldNoise, WorldRobot
+from clomp.runtime.interface import Robot, RobotFault
+from clomp.runtime.backends import make_world_robot
+from clomp.runtime.backends.world import BodySpec, WorldNoise, WorldRobot
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -32,7 +32,7 @@ def test_is_a_robot_backend_without_encoders():
 def test_the_world_imports_nothing_of_the_planners_model():
     """Only the scenario description is shared: no planner physics, tasks, kinematics, configurator."""
     allowed_planner = {"clomp.planner.scenarios"}
-    tree = ast.parse((ROOT / "runtime/robots/world.py").read_text(encoding="utf-8"))
+    tree = ast.parse((ROOT / "runtime/backends/world.py").read_text(encoding="utf-8"))
     names = set()
     for node in ast.walk(tree):
         if isinstance(node, ast.Import):
@@ -42,11 +42,11 @@ def test_the_world_imports_nothing_of_the_planners_model():
     planner = {n for n in names if n == "planner" or n.startswith("planner.")}
     assert planner <= allowed_planner, f"the world imports {sorted(planner - allowed_planner)}"
     runtime = {n for n in names if n.startswith("runtime")}
-    allowed_runtime = {"clomp.runtime.robot", "clomp.runtime.devices.frame", "clomp.runtime.robots._simulated",
-                       "clomp.runtime.robots._gyro", "clomp.runtime.robots._raycast"}
+    allowed_runtime = {"clomp.runtime.interface", "clomp.runtime.devices.frame", "clomp.runtime.backends._simulated",
+                       "clomp.runtime.backends._gyro", "clomp.runtime.backends._raycast"}
     assert runtime <= allowed_runtime, f"the world imports {sorted(runtime - allowed_runtime)}"
-    for module in ("runtime/robot.py", "runtime/devices/frame.py", "runtime/robots/_simulated.py",
-                   "runtime/robots/_gyro.py", "runtime/robots/_raycast.py"):
+    for module in ("runtime/interface.py", "runtime/devices/frame.py", "runtime/backends/_simulated.py",
+                   "runtime/backends/_gyro.py", "runtime/backends/_raycast.py"):
         for node in ast.walk(ast.parse((ROOT / module).read_text(encoding="utf-8"))):
             if isinstance(node, ast.ImportFrom) and node.module:
                 assert not node.module.startswith(("planner", "clomp.runtime.supervision")), (module, node.module)
@@ -198,7 +198,7 @@ def test_a_start_inside_an_obstacle_is_refused():
 
 
 def test_presets_paper_is_todays_defaults_harsh_five_times_plus_latency():
-    from clomp.runtime.robots.sim import NoiseConfig
+    from clomp.runtime.backends.sim import NoiseConfig
 
     presets = specs.noise_presets()
     paper, harsh, ideal = presets["paper"], presets["harsh"], presets["ideal"]
@@ -220,7 +220,7 @@ def test_the_lidars_rays_hit_what_pymunks_segment_queries_hit(family):
     import pymunk
 
     from clomp.runtime.experiment.layouts import make_layout
-    from clomp.runtime.robots._raycast import first_hits as _first_hits
+    from clomp.runtime.backends._raycast import first_hits as _first_hits
 
     rng = np.random.default_rng(7)
     for index in range(4):

@@ -1,7 +1,7 @@
-"""The simulated robot: a :class:`~clomp.runtime.robot.Robot` backend over a ground-truth world.
+"""The simulated robot: a :class:`~clomp.runtime.interface.Robot` backend over a ground-truth world.
 
 The world is a scenario (:class:`clomp.planner.scenarios.Scene`) rebuilt as static pymunk
-shapes. The robot is the :class:`~clomp.planner.robot.RobotModel`'s body (not inflated) on a
+shapes. The robot is the :class:`~clomp.planner.robot_model.RobotModel`'s body (not inflated) on a
 differential drive: each physics substep integrates the *actual* wheel speeds — the
 commanded ones with a per-run bias and per-tick noise, plus a heading drift — and
 resolves contact with the obstacles by pushing the body out along the contact normal
@@ -12,7 +12,7 @@ The LiDAR turns at ``scan_rate`` revolutions per second with ``rays`` rays per t
 ray is cast at its own time from the robot's pose then (a moving robot's scan is
 distorted like a real one), with Gaussian range noise, dropouts, the crop at
 ``max_range`` and coordinates rounded to ``resolution``. A revolution becomes one
-:class:`~clomp.runtime.robot.ScanFrame`.
+:class:`~clomp.runtime.interface.ScanFrame`.
 
 Time is simulated: the backend owns a clock that only :meth:`SimRobot.sleep` (and a
 blocking :meth:`SimRobot.read_scan`) advance, so a supervisor using the robot as its
@@ -37,10 +37,10 @@ import pymunk
 
 from clomp.formal.geometry import arc_step, wrap_angle
 from clomp.formal.model import Pose
-from clomp.planner.robot import RobotModel
+from clomp.planner.robot_model import RobotModel
 from clomp.planner.scenarios import Scene, ScenarioError, load_scenario
-from clomp.runtime.robot import RobotFault, ScanFrame
-from clomp.runtime.robots._simulated import SimulatedBackend
+from clomp.runtime.interface import RobotFault, ScanFrame
+from clomp.runtime.backends._simulated import SimulatedBackend
 
 __all__ = ["NoiseConfig", "SimRobot", "Contact", "scenario_noise", "scenario_seed", "scenario_scan_source"]
 
@@ -133,7 +133,7 @@ class Contact:
 class SimRobot(SimulatedBackend):
     """A simulated differential-drive robot with a LiDAR in a scenario's world.
 
-    Implements :class:`clomp.runtime.robot.Robot` plus a simulated clock (:meth:`now`,
+    Implements :class:`clomp.runtime.interface.Robot` plus a simulated clock (:meth:`now`,
     :meth:`sleep`). Odometry frames: the robot's start pose is the origin; ground truth
     (:attr:`pose`, :attr:`trajectory`, :attr:`contacts`) is in the scene's world frame.
     ``odometry=True`` gives wheel-encoder odometry (integrated actual wheel speeds,

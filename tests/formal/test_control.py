@@ -5,11 +5,11 @@ from __future__ import annotations
 
 import pytest
 
-from clomp.formal.machine import PLANT, SUPERVISOR, Machine, controllability, machine_model, nonblocking
+from clomp.formal.control import PLANT, SUPERVISOR, Machine, controllability, machine_model, nonblocking
 
 stormpy = pytest.importorskip("stormpy", reason="stormpy not installed: pip install -e '.[verify]'")
 
-from clomp.formal.machine import check_machine  # noqa: E402
+from clomp.formal.control import check_machine  # noqa: E402
 
 
 def _verdicts(machine: Machine) -> dict[str, tuple[bool | None, list[str]]]:
@@ -65,7 +65,7 @@ def test_nonblocking_holds_and_names_a_state_that_can_never_end():
 
 
 def test_a_table_with_two_transitions_on_one_event_is_refused():
-    from clomp.formal.machine import MachineTransition
+    from clomp.formal.control import MachineTransition
 
     with pytest.raises(ValueError, match="two transitions from IDLE on start"):
         Machine("m", ("IDLE", "A"), "IDLE", frozenset({"A"}), frozenset(), SUPERVISOR.events,
@@ -75,7 +75,7 @@ def test_a_table_with_two_transitions_on_one_event_is_refused():
 def test_the_machine_renders_through_the_exporters_and_both_tools_agree():
     from clomp.formal.checking import read_properties
     from clomp.formal.crosscheck import cross_check
-    from clomp.formal.machine import machine_property_file
+    from clomp.formal.control import machine_property_file
     from clomp.formal.prism import find_prism
 
     m = machine_model()

@@ -5,7 +5,7 @@ its events (each *controllable* — the supervisor decides it: starting a task, 
 the wheels — or *uncontrollable* — the world does: a scan, a collision, a fault, a task
 ending), the transitions with their guards (named conditions, described in
 :attr:`Machine.guards`), and in which states the wheels may turn. The runtime's
-supervisor executes this table (``clomp.runtime.supervision.machine`` reads it), and the
+supervisor executes this table (``clomp.runtime.supervision.states`` reads it), and the
 renderers draw it through :func:`machine_model`, an :class:`~clomp.formal.export.ExportModel`
 like a cognitive map's, so PRISM, DRN, explicit files and DOT all come from one place.
 

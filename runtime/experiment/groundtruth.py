@@ -1,17 +1,17 @@
 """The execution world the experiment runs in, and the ground truth it measures.
 
-:func:`make_robot` gives a robot for one run: it implements :class:`~clomp.runtime.robot.Robot`,
+:func:`make_robot` gives a robot for one run: it implements :class:`~clomp.runtime.interface.Robot`,
 keeps simulated time (``now``/``sleep``) and exposes the ground truth the experiment
 measures — ``ground_truth_pose()`` (world frame) and ``contact_trace()``, one
 ``(time_s, penetration_m)`` sample per simulation tick in which the body touches an
 obstacle. It uses the independent execution world's factory
-(``clomp.runtime.robots.make_world_robot``, issue #8) when it is there — it is on main — and
-otherwise the older simulated robot :class:`~clomp.runtime.robots.sim.SimRobot`, wrapped to report the same trace (its
+(``clomp.runtime.backends.make_world_robot``, issue #8) when it is there — it is on main — and
+otherwise the older simulated robot :class:`~clomp.runtime.backends.sim.SimRobot`, wrapped to report the same trace (its
 penetration is how far the commanded motion of a tick would have pushed the body into
 the obstacle before it was pushed back out).
 
 Noise presets (``ideal``, ``paper``, ``harsh``) come from ``specs/noise_presets.json``
-when the world reads them; for the fallback world ``paper`` is :class:`~clomp.runtime.robots.sim.
+when the world reads them; for the fallback world ``paper`` is :class:`~clomp.runtime.backends.sim.
 NoiseConfig`'s defaults (the scenario README's table), ``harsh`` every term ×5 and
 ``ideal`` none; ``noise_scale`` multiplies every term.
 
@@ -29,10 +29,10 @@ from dataclasses import fields
 from typing import Any, Protocol
 
 from clomp.formal.model import Pose
-from clomp.planner.robot import RobotModel
+from clomp.planner.robot_model import RobotModel
 from clomp.planner.scenarios import Scene
-from clomp.runtime.robot import Robot
-from clomp.runtime.robots.sim import NoiseConfig, SimRobot
+from clomp.runtime.interface import Robot
+from clomp.runtime.backends.sim import NoiseConfig, SimRobot
 
 __all__ = ["NOISE_PRESETS", "WorldRobot", "make_robot", "sim_noise", "world_name"]
 
@@ -103,7 +103,7 @@ class _TracedSimRobot(SimRobot):
 
 def _factory() -> Any:
     try:
-        mod = importlib.import_module("clomp.runtime.robots")
+        mod = importlib.import_module("clomp.runtime.backends")
     except ImportError:
         return None
     return getattr(mod, "make_world_robot", None)

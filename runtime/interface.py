@@ -35,7 +35,7 @@ class Robot(Protocol):
     """What a robot backend offers the supervisor.
 
     >>> from clomp.planner import load_scenario
-    >>> from clomp.runtime.robots.sim import SimRobot
+    >>> from clomp.runtime.backends.sim import SimRobot
     >>> robot = SimRobot(load_scenario("open"), seed=0)
     >>> isinstance(robot, Robot)
     True
@@ -72,7 +72,7 @@ class TurnSensing(Protocol):
     it when a backend has it, and from the wheels otherwise.
 
     >>> from clomp.planner import load_scenario
-    >>> from clomp.runtime.robots import make_world_robot
+    >>> from clomp.runtime.backends import make_world_robot
     >>> isinstance(make_world_robot(load_scenario("open"), "paper", seed=0), TurnSensing)
     True
     """

@@ -1,12 +1,12 @@
 """Fault injection: a robot wrapper that makes a working backend misbehave on demand.
 
-For testing a supervisor (or any controller on the :class:`~clomp.runtime.robot.Robot`
+For testing a supervisor (or any controller on the :class:`~clomp.runtime.interface.Robot`
 interface) against the faults a real robot has: wrap a backend, then set ``fault`` (now,
 or from the backend's time ``at`` on). The wrapped backend must keep its own clock
-(``now()``/``sleep()``, as :class:`clomp.runtime.robots.sim.SimRobot` does) for ``at`` to apply.
+(``now()``/``sleep()``, as :class:`clomp.runtime.backends.sim.SimRobot` does) for ``at`` to apply.
 
 >>> from clomp.planner import load_scenario
->>> from clomp.runtime.robots.sim import SimRobot
+>>> from clomp.runtime.backends.sim import SimRobot
 >>> robot = FaultyRobot(SimRobot(load_scenario("open"), seed=0), "silent", at=2.0)
 >>> robot.read_scan() is not None   # before 2 s of simulated time: a normal scan
 True
@@ -17,7 +17,7 @@ from __future__ import annotations
 import numpy as np
 
 from clomp.formal.model import Pose
-from clomp.runtime.robot import Robot, RobotFault, ScanFrame
+from clomp.runtime.interface import Robot, RobotFault, ScanFrame
 
 __all__ = ["FAULTS", "FaultyRobot"]
 
@@ -37,7 +37,7 @@ class FaultyRobot:
     """Wraps a :class:`Robot`; from time ``at`` on (or at once), misbehaves as ``fault``.
 
     >>> from clomp.planner import load_scenario
-    >>> from clomp.runtime.robots.sim import SimRobot
+    >>> from clomp.runtime.backends.sim import SimRobot
     >>> robot = FaultyRobot(SimRobot(load_scenario("open"), seed=0), "device")
     >>> try:
     ...     robot.read_scan()

@@ -1,13 +1,13 @@
 """An emulated world for the hardware stack: the device emulators wired to a simulated robot.
 
-:class:`EmulatedWorld` runs a :class:`~clomp.runtime.robots.sim.SimRobot` (the ground truth of a
+:class:`EmulatedWorld` runs a :class:`~clomp.runtime.backends.sim.SimRobot` (the ground truth of a
 scenario) in real time — a thread advances it every ``tick`` seconds of wall time — and
 puts the two device emulators on pseudo-terminals in front of it: the Maestro
 emulator's decoded wheel speeds drive the simulated robot's wheels, and each LiDAR
 revolution is a scan of the simulated robot's current pose in the world. With the
 execution world (a ``noise`` preset), the world's LiDAR turns clockwise as an A1 does and
 the emulated A1 sends each sample in the emulator tick after the world measured it
-(:meth:`~clomp.runtime.robots.world.WorldRobot.stream`), so a revolution reaches the driver
+(:meth:`~clomp.runtime.backends.world.WorldRobot.stream`), so a revolution reaches the driver
 when it ends, skewed by the motion during it, as from the device. ``clomp run``
 pointed at the two ptys then runs the whole hardware stack (drivers, the hardware
 robot, the supervisor) without hardware, and the world tells whether it reached the goal
@@ -32,14 +32,14 @@ from typing import Any, Self
 import numpy as np
 
 from clomp.formal.model import Pose
-from clomp.planner.robot import RobotModel
+from clomp.planner.robot_model import RobotModel
 from clomp.planner.scenarios import Scene, load_scenario
 from clomp.runtime.devices.maestro_emulator import MaestroEmulator
 from clomp.runtime.devices.rplidar_emulator import LidarEmulator
 from clomp.runtime.devices.maestro import WheelConfig
-from clomp.runtime.robots.sim import NoiseConfig, SimRobot
+from clomp.runtime.backends.sim import NoiseConfig, SimRobot
 from clomp.runtime.realtime import favour_this_thread
-from clomp.runtime.robots.world import WorldNoise, WorldRobot, make_world_robot
+from clomp.runtime.backends.world import WorldNoise, WorldRobot, make_world_robot
 
 __all__ = ["EmulatedWorld", "EmulatedWorldProcess"]
 
@@ -49,8 +49,8 @@ class EmulatedWorld:
 
     ``scenario`` is a built-in scenario name, a scenario file or a :class:`Scene`.
     ``noise`` and ``seed`` go to the simulated robot (default: the scenario's); a preset
-    name (``ideal``, ``paper``, ``harsh``) or a :class:`~clomp.runtime.robots.world.WorldNoise`
-    runs the execution world (:mod:`clomp.runtime.robots.world`: acceleration limits, latency,
+    name (``ideal``, ``paper``, ``harsh``) or a :class:`~clomp.runtime.backends.world.WorldNoise`
+    runs the execution world (:mod:`clomp.runtime.backends.world`: acceleration limits, latency,
     slip, a noisy LiDAR whose revolutions the emulated A1 then streams). The
     wheel mapping (``left``, ``right``, ``neutral_us``, ``span_us``) must match the
     driver's. ``lidar_options`` are passed to :class:`LidarEmulator` (fault injection);

@@ -57,7 +57,7 @@ from clomp.formal.model import Disturbance, Pose, TaskKind
 from clomp.planner.contact import SPIN_SLACK, Scene, cut_straight, unobstructed
 from clomp.planner.engine import Outcome, World
 from clomp.planner.perception import Obstacles
-from clomp.planner.robot import RobotModel
+from clomp.planner.robot_model import RobotModel
 from clomp.planner.tasks import Task
 
 __all__ = ["Outcome", "World", "in_the_way", "straight_limit", "simulate", "make_task", "frontier_distance", "turn_angle"]

@@ -25,7 +25,7 @@ a resolution under 0.5 mm at these ranges). ``resolution=0.01`` rounds to 1 cm, 
 ``rounding="grid"`` rounds each point's x and y instead, as the paper's recorded scans
 are (the authors' software rounded them, not the sensor). A coarse rounding fixed to
 the robot's frame biases scan matching either way; README, *The world's LiDAR*. Each
-revolution is a :class:`~clomp.runtime.robot.ScanFrame`.
+revolution is a :class:`~clomp.runtime.interface.ScanFrame`.
 
 Ground truth for experiments: :meth:`WorldRobot.ground_truth_pose` (world frame) and
 :meth:`WorldRobot.contact_trace` — one ``(time_s, penetration_m)`` sample per physics
@@ -55,9 +55,9 @@ from clomp.formal.geometry import wrap_angle
 from clomp.formal.model import Pose
 from clomp.planner.scenarios import Scene, ScenarioError
 from clomp.runtime.devices.frame import ScanFrame
-from clomp.runtime.robots._gyro import RateGyro
-from clomp.runtime.robots._raycast import first_hits as _first_hits
-from clomp.runtime.robots._simulated import SimulatedBackend
+from clomp.runtime.backends._gyro import RateGyro
+from clomp.runtime.backends._raycast import first_hits as _first_hits
+from clomp.runtime.backends._simulated import SimulatedBackend
 
 __all__ = ["BodySpec", "WorldNoise", "WorldRobot", "WorldContact", "make_world_robot", "NOISE_PRESETS"]
 
@@ -180,7 +180,7 @@ class WorldContact:
 class WorldRobot(SimulatedBackend):
     """A differential-drive robot with an RPLIDAR A1 in a scenario's world (see the module).
 
-    Implements :class:`clomp.runtime.robot.Robot` and a simulated clock. It has no wheel
+    Implements :class:`clomp.runtime.interface.Robot` and a simulated clock. It has no wheel
     encoders (:meth:`odometry` is None), like the paper's robot; it has a rate gyro
     (:meth:`rotation`; ``gyro=False`` takes it off).
     """
@@ -340,7 +340,7 @@ class WorldRobot(SimulatedBackend):
 
     def rotation(self) -> float | None:
         """The heading turned since start-up as the rate gyro integrates it (rad; see
-        :class:`~clomp.runtime.robots._gyro.RateGyro`), or None when built with ``gyro=False``."""
+        :class:`~clomp.runtime.backends._gyro.RateGyro`), or None when built with ``gyro=False``."""
         return None if self._gyro is None else self._gyro.angle
 
     # -- ground truth ----------------------------------------------------------------------------

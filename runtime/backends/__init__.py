@@ -1,4 +1,4 @@
-"""Robot backends behind the :class:`clomp.runtime.robot.Robot` interface.
+"""Robot backends behind the :class:`clomp.runtime.interface.Robot` interface.
 
 - :mod:`.world` — the execution world: the ground truth simulated runs execute in,
   independent of the planner's model (:func:`make_world_robot`);
@@ -7,9 +7,9 @@
 - :mod:`.emulated` — the device emulators wired to a simulated robot (hardware stack, no hardware);
 - :mod:`.faults` — a wrapper that injects faults into any backend.
 
-May import: formal, planner, :mod:`clomp.runtime.robot`, :mod:`clomp.runtime.clock`, :mod:`clomp.runtime.devices`,
+May import: formal, planner, :mod:`clomp.runtime.interface`, :mod:`clomp.runtime.clock`, :mod:`clomp.runtime.devices`,
 :mod:`clomp.runtime.records`; never :mod:`clomp.runtime.supervision` (a test checks it).
-Import the modules themselves (``from clomp.runtime.robots.sim import SimRobot``) or the
+Import the modules themselves (``from clomp.runtime.backends.sim import SimRobot``) or the
 lazy names of :mod:`clomp.runtime`.
 """
 
@@ -21,7 +21,7 @@ __all__ = ["make_world_robot"]
 
 
 def make_world_robot(*args: Any, **kwargs: Any) -> Any:
-    """The execution world for a scene; see :func:`clomp.runtime.robots.world.make_world_robot`."""
-    from clomp.runtime.robots.world import make_world_robot as make
+    """The execution world for a scene; see :func:`clomp.runtime.backends.world.make_world_robot`."""
+    from clomp.runtime.backends.world import make_world_robot as make
 
     return make(*args, **kwargs)

@@ -11,13 +11,13 @@ from __future__ import annotations
 from abc import ABC, abstractmethod
 
 from clomp.runtime.devices.frame import ScanFrame
-from clomp.runtime.robot import RobotFault
+from clomp.runtime.interface import RobotFault
 
-__all__: list[str] = []  # private plumbing of clomp.runtime.robots
+__all__: list[str] = []  # private plumbing of clomp.runtime.backends
 
 
 class SimulatedBackend(ABC):
-    """Base of :class:`~clomp.runtime.robots.sim.SimRobot` and :class:`~clomp.runtime.robots.world.WorldRobot`."""
+    """Base of :class:`~clomp.runtime.backends.sim.SimRobot` and :class:`~clomp.runtime.backends.world.WorldRobot`."""
 
     _t: float
     _closed: bool
@@ -56,7 +56,7 @@ class SimulatedBackend(ABC):
         return self._latest
 
     def close(self) -> None:
-        """Stop; further commands raise :class:`~clomp.runtime.robot.RobotFault`."""
+        """Stop; further commands raise :class:`~clomp.runtime.interface.RobotFault`."""
         self.stop()
         self._closed = True
 

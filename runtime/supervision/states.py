@@ -8,14 +8,14 @@
                  REPLANNING ─planned / at_goal / no_plan→ (as from PLANNING)
     any non-terminal state ─fault / abort→ HALTED
 
-The machine is described once, as data, in :data:`clomp.formal.machine.SUPERVISOR` (states,
+The machine is described once, as data, in :data:`clomp.formal.control.SUPERVISOR` (states,
 events with their controllability, guards, where the wheels may turn); this module
 reads it: :data:`TRANSITIONS` (what :class:`~clomp.runtime.supervision.Supervisor` fires),
 :data:`MOTOR_STATES` (where it may command the wheels) and :data:`TERMINAL`. A terminal
 state ignores every further event (the formal table writes that as self-loops on the
 uncontrollable events; the runtime simply fires nothing there). The wheels may turn only
 in :data:`MOTOR_STATES`. :func:`state_machine_dot` and :func:`state_machine_prism` render
-the machine through :mod:`clomp.formal.export` (:func:`clomp.formal.machine.machine_model`).
+the machine through :mod:`clomp.formal.export` (:func:`clomp.formal.control.machine_model`).
 
 >>> TRANSITIONS[(SupervisorState.IDLE, Event.START)].value
 'PLANNING'
@@ -30,7 +30,7 @@ import io
 from dataclasses import dataclass
 
 from clomp.formal.export import write_dot, write_prism
-from clomp.formal.machine import SUPERVISOR, machine_model
+from clomp.formal.control import SUPERVISOR, machine_model
 
 __all__ = [
     "Event",
@@ -80,13 +80,13 @@ class Event(str, enum.Enum):
 
 S, E = SupervisorState, Event
 if {s.value for s in SupervisorState} != set(SUPERVISOR.states) or {e.value for e in Event} != {e.name for e in SUPERVISOR.events}:
-    raise ImportError("clomp.runtime.supervision.machine: the state and event names differ from clomp.formal.machine.SUPERVISOR")
+    raise ImportError("clomp.runtime.supervision.states: the state and event names differ from clomp.formal.control.SUPERVISOR")
 TERMINAL: frozenset[SupervisorState] = frozenset(S(s) for s in SUPERVISOR.terminal)
 MOTOR_STATES: frozenset[SupervisorState] = frozenset(S(s) for s in SUPERVISOR.wheels)
 TRANSITIONS: dict[tuple[SupervisorState, Event], SupervisorState] = {
     (S(t.source), E(t.event)): S(t.target) for t in SUPERVISOR.transitions if t.source not in SUPERVISOR.terminal
 }
-"""(state, event) → state, from :data:`clomp.formal.machine.SUPERVISOR` (terminal states fire nothing)."""
+"""(state, event) → state, from :data:`clomp.formal.control.SUPERVISOR` (terminal states fire nothing)."""
 
 
 @dataclass(frozen=True)
@@ -102,7 +102,7 @@ class TransitionRecord:
 
 def state_machine_dot() -> str:
     """The supervisor's state machine as Graphviz DOT, drawn by :func:`clomp.formal.export.write_dot`
-    from :func:`clomp.formal.machine.machine_model` (states where the wheels may turn are
+    from :func:`clomp.formal.control.machine_model` (states where the wheels may turn are
     filled, terminal states have a double border).
 
     >>> state_machine_dot().splitlines()[0]
@@ -118,7 +118,7 @@ def state_machine_prism() -> str:
     choices), written by :func:`clomp.formal.export.write_prism`: ``q`` is the state, labels
     ``motors`` (the wheels may turn), ``terminal`` and one per state in lower case, e.g.
     ``Pmax=? [F ("motors" & !"executing")]`` = 0 (the wheels turn only in EXECUTING).
-    The closed loop with the robot is :func:`clomp.formal.machine.machine_model` (checked by
+    The closed loop with the robot is :func:`clomp.formal.control.machine_model` (checked by
     ``specs/properties/supervisor/machine.pctl``).
 
     >>> text = state_machine_prism()

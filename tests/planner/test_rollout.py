@@ -14,7 +14,7 @@ from clomp.planner import RobotModel, Task, perceive, simulate
 from clomp.planner.perception import Obstacles
 from clomp.planner.engine import World, _rollout
 from clomp.planner.contact import unobstructed
-from clomp.planner.physics import in_the_way, straight_limit
+from clomp.planner.rollout import in_the_way, straight_limit
 
 ROBOT = RobotModel()
 GOAL = Disturbance.goal(1.0, 0.0)

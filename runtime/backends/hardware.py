@@ -1,4 +1,4 @@
-"""The hardware robot: a :class:`~clomp.runtime.robot.Robot` backend over an RPLIDAR A1 and a
+"""The hardware robot: a :class:`~clomp.runtime.interface.Robot` backend over an RPLIDAR A1 and a
 Pololu Maestro driving two continuous-rotation wheel servos.
 
 Wheel speeds in m/s become the Maestro's normalised speeds in [-1, 1] by dividing by the
@@ -11,7 +11,7 @@ the serial line and the device layer watches the stream on its own: a port failu
 no byte for ``byte_timeout`` s, or a stream that is mostly undecodable (more than
 ``garbage_fraction`` of the bytes of the last ``garbage_window`` s) *trips* the robot —
 the wheels are stopped from that thread at once, and every later :meth:`read_scan` /
-:meth:`set_wheel_speeds` raises :class:`~clomp.runtime.robot.RobotFault` with the reason. A
+:meth:`set_wheel_speeds` raises :class:`~clomp.runtime.interface.RobotFault` with the reason. A
 little garbage is resynchronised by the decoder and tolerated.
 
 Every device error (LidarError, MaestroError, serial and OS errors) surfaces as a
@@ -34,12 +34,12 @@ from typing import Any, Literal
 
 from clomp.formal.geometry import dead_reckon
 from clomp.formal.model import Pose
-from clomp.planner.robot import RobotModel
+from clomp.planner.robot_model import RobotModel
 from clomp.runtime.devices.port import OPEN_ERRORS, PORT_ERRORS, open_serial
 from clomp.runtime.devices.maestro import Maestro, MaestroError, WheelConfig
 from clomp.runtime.devices.rplidar import DEFAULT_BAUDRATE, LidarError, LidarTimeout, RPLidar
 from clomp.runtime.clock import Clock, WallClock
-from clomp.runtime.robot import RobotFault, ScanFrame
+from clomp.runtime.interface import RobotFault, ScanFrame
 from clomp.runtime.records.runlog import RunLogLike
 
 __all__ = ["HardwareConfig", "HardwareRobot", "open_lidar_port"]
@@ -150,7 +150,7 @@ class HardwareRobot:
     Opening checks the LiDAR's health, stops the wheels and starts the scan; a device
     that cannot be opened or does not answer raises :class:`RobotFault`.
 
-    >>> from clomp.runtime.robots.emulated import EmulatedWorld
+    >>> from clomp.runtime.backends.emulated import EmulatedWorld
     >>> with EmulatedWorld("open", time_scale=2.0) as world:
     ...     with HardwareRobot(world.lidar_port, world.motor_port, HardwareConfig(motor_control="none")) as robot:
     ...         frame = robot.read_scan(timeout=5.0)

@@ -19,7 +19,7 @@ class RobotModel:
     front edge. Defaults are the paper's robot (DESIGN.md). ``clearance`` is the margin
     the planner keeps between the body and a sensed point. With ``free_turns`` a turn
     ends where its error is zero (facing the goal, or where the way ahead is clear, see
-    :func:`clomp.planner.physics.turn_angle`) and a step ends early where the body could no
+    :func:`clomp.planner.rollout.turn_angle`) and a step ends early where the body could no
     longer spin in place; without, every turn turns ``turn_angle`` and every step is
     ``step_length`` long (the authors' planner).
 
