@@ -45,7 +45,7 @@ from __future__ import annotations
 
 import math
 from collections import deque
-from dataclasses import asdict, dataclass, fields, replace
+from dataclasses import dataclass, fields, replace
 from typing import Any
 
 import numpy as np
@@ -53,6 +53,7 @@ import pymunk
 
 from clomp.formal.geometry import wrap_angle
 from clomp.formal.model import Pose
+from clomp.planner.noise import NoiseTerms as WorldNoise
 from clomp.planner.scenarios import Scene, ScenarioError
 from clomp.runtime.devices.frame import ScanFrame
 from clomp.runtime.backends._gyro import RateGyro
@@ -69,69 +70,6 @@ _set_angular_velocity = pymunk.Body.angular_velocity.fset  # type: ignore[attr-d
 _set_position = pymunk.Body.position.fset  # type: ignore[attr-defined]
 _CONTACT_GAP = 0.5  # a contact beginning this long after the previous ended is a new collision
 _OBSTACLE, _ROBOT = 1, 2
-
-
-@dataclass(frozen=True)
-class WorldNoise:
-    """The world's noise terms (SI units); see ``specs/noise_presets.json`` for each field.
-
-    >>> WorldNoise.preset("harsh").latency
-    0.1
-    >>> WorldNoise.preset("paper", scale=0.0) == WorldNoise.preset("ideal")
-    True
-    """
-
-    range_sd: float = 0.0
-    angle_sd: float = 0.0
-    dropout: float = 0.0
-    wheel_sd: float = 0.0
-    wheel_bias: float = 0.0
-    drift: float = 0.0
-    slip: float = 0.0
-    latency: float = 0.0
-    rate_sd: float = 0.0
-    rate_bias: float = 0.0
-    rate_scale: float = 0.0
-
-    def __post_init__(self) -> None:
-        for f in fields(self):
-            v = getattr(self, f.name)
-            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v < 0:
-                raise ValueError(f"noise.{f.name}: expected a finite number >= 0, got {v!r}")
-        if self.dropout >= 1:
-            raise ValueError(f"noise.dropout: must be below 1, got {self.dropout!r}")
-
-    @classmethod
-    def preset(cls, name: str, scale: float = 1.0) -> "WorldNoise":
-        """A named preset (``ideal``, ``paper``, ``harsh``) with every term × ``scale``."""
-        from clomp.specs import noise_preset
-
-        return cls(**noise_preset(name, scale))
-
-    def to_dict(self) -> dict[str, float]:
-        """JSON-ready form."""
-        return asdict(self)
-
-    @classmethod
-    def for_scene(cls, scene: Scene, preset: str = "paper", scale: float = 1.0) -> "WorldNoise":
-        """A preset with the scene file's ``noise`` object laid over it (each key replaces
-        that term); ScenarioError naming the field when a value is bad or unknown."""
-        base = cls.preset(preset, scale).to_dict()
-        raw = scene.raw.get("noise")
-        if raw is None:
-            return cls(**base)
-        where = f"{scene.name}.noise"
-        if not isinstance(raw, dict):
-            raise ScenarioError(f"{where}: expected an object, got {raw!r}")
-        for key, value in raw.items():
-            if key not in base:
-                raise ScenarioError(f"{where}.{key}: unknown noise setting (known: {', '.join(sorted(base))})")
-            base[key] = value
-        try:
-            return cls(**base)
-        except (TypeError, ValueError) as exc:
-            name, _, why = str(exc).partition(":")
-            raise ScenarioError(f"{where}.{name.removeprefix('noise.')}:{why}") from None
 
 
 @dataclass(frozen=True)

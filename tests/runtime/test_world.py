@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from clomp import specs
+from clomp.planner import noise as noise_module
 from clomp.formal.model import Pose
 from clomp.planner.scenarios import ScenarioError, load_scenario, parse_scenario
 from clomp.runtime.interface import Robot, RobotFault
@@ -156,7 +156,7 @@ def test_the_sensor_never_sees_beyond_range_and_rejects_bad_settings():
         make_world_robot(load_scenario("open"), scan_rate=20.0)
     with pytest.raises(ValueError, match="unknown noise preset"):
         make_world_robot(load_scenario("open"), "wild")
-    with pytest.raises(ValueError, match="noise scale"):
+    with pytest.raises(ValueError, match="noise.scale"):
         make_world_robot(load_scenario("open"), "paper", noise_scale=-1)
 
 
@@ -200,11 +200,11 @@ def test_a_start_inside_an_obstacle_is_refused():
 def test_presets_paper_is_todays_defaults_harsh_five_times_plus_latency():
     from clomp.runtime.backends.sim import NoiseConfig
 
-    presets = specs.noise_presets()
+    presets = noise_module.noise_presets()
     paper, harsh, ideal = presets["paper"], presets["harsh"], presets["ideal"]
     for k, v in NoiseConfig().to_dict().items():
         assert paper[k] == v, k
-    for k in specs.NOISE_FIELDS:
+    for k in noise_module.NOISE_FIELDS:
         assert ideal[k] == 0.0
         if k != "latency":
             assert harsh[k] == pytest.approx(5 * paper[k]), k
