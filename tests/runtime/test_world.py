@@ -220,7 +220,6 @@ def test_the_lidars_rays_hit_what_pymunks_segment_queries_hit(family):
     import pymunk
 
     from clomp.runtime.experiment.layouts import make_layout
-    from clomp.runtime.backends._raycast import first_hits as _first_hits
 
     rng = np.random.default_rng(7)
     for index in range(4):
@@ -235,7 +234,7 @@ def test_the_lidars_rays_hit_what_pymunks_segment_queries_hit(family):
             if any(s.contains(x, y) for s in w.scene.shapes):
                 continue
             angles = rng.uniform(-math.pi, math.pi, 90)
-            got = _first_hits(x, y, angles, w._edges, w._circles, reach)
+            got = w._lidar.cast(x, y, angles)  # reach: max_range * 1.2
             want = []
             for a in angles:
                 hit = space.segment_query_first((x, y), (x + reach * math.cos(a), y + reach * math.sin(a)), 0.0,
