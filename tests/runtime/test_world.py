@@ -29,27 +29,37 @@ def test_is_a_robot_backend_without_encoders():
     assert w.odometry() is None
 
 
-def test_the_world_imports_nothing_of_the_planners_model():
-    """Only the scenario description is shared: no planner physics, tasks, kinematics, configurator."""
-    allowed_planner = {"clomp.planner.scenarios"}
-    tree = ast.parse((ROOT / "runtime/backends/world.py").read_text(encoding="utf-8"))
-    names = set()
-    for node in ast.walk(tree):
+WORLD_MODULES = ("world.py", "_world_body.py", "_dynamics.py", "_lidar.py", "_gyro.py", "_raycast.py", "_simulated.py")
+
+
+def _imported_names(path: Path) -> set[tuple[str, str]]:
+    """(module, name) for each ``from module import name``, (module, "") for ``import module``."""
+    found: set[tuple[str, str]] = set()
+    for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
         if isinstance(node, ast.Import):
-            names |= {a.name for a in node.names}
+            found |= {(a.name, "") for a in node.names}
         elif isinstance(node, ast.ImportFrom) and node.module:
-            names.add(node.module)
-    planner = {n for n in names if n == "planner" or n.startswith("planner.")}
-    assert planner <= allowed_planner, f"the world imports {sorted(planner - allowed_planner)}"
-    runtime = {n for n in names if n.startswith("runtime")}
-    allowed_runtime = {"clomp.runtime.interface", "clomp.runtime.devices.frame", "clomp.runtime.backends._simulated",
-                       "clomp.runtime.backends._gyro", "clomp.runtime.backends._raycast"}
-    assert runtime <= allowed_runtime, f"the world imports {sorted(runtime - allowed_runtime)}"
-    for module in ("runtime/interface.py", "runtime/devices/frame.py", "runtime/backends/_simulated.py",
-                   "runtime/backends/_gyro.py", "runtime/backends/_raycast.py"):
-        for node in ast.walk(ast.parse((ROOT / module).read_text(encoding="utf-8"))):
-            if isinstance(node, ast.ImportFrom) and node.module:
-                assert not node.module.startswith(("planner", "clomp.runtime.supervision")), (module, node.module)
+            found |= {(node.module, a.name) for a in node.names}
+    return found
+
+
+def test_the_world_imports_nothing_of_the_planners_model():
+    """Only the scenario description, the body's dimensions (the one Body type) and the noise
+    terms are shared: no planner physics, tasks, kinematics, configurator, nor the RobotModel."""
+    allowed_planner = {("clomp.planner.scenarios", "Scene"), ("clomp.planner.scenarios", "ScenarioError"),
+                       ("clomp.planner.scenarios", "load_scenario"), ("clomp.planner.robot_model", "Body"),
+                       ("clomp.planner.noise", "NoiseTerms")}
+    allowed_runtime = {"clomp.runtime.interface", "clomp.runtime.devices.frame"} | {
+        f"clomp.runtime.backends.{m.removesuffix('.py')}" for m in WORLD_MODULES if m != "world.py"}
+    for module in WORLD_MODULES:
+        names = _imported_names(ROOT / "runtime" / "backends" / module)
+        planner = {(m, n) for m, n in names if m.startswith("clomp.planner") or m == "clomp"}
+        assert planner <= allowed_planner, f"{module} imports {sorted(planner - allowed_planner)}"
+        runtime = {m for m, _ in names if m.startswith("clomp.runtime")}
+        assert runtime <= allowed_runtime, f"{module} imports {sorted(runtime - allowed_runtime)}"
+    for module in ("runtime/interface.py", "runtime/devices/frame.py"):
+        for m, _ in _imported_names(ROOT / module):
+            assert not m.startswith(("clomp.planner", "clomp.runtime.supervision")), (module, m)
 
 
 def test_each_wheel_accelerates_at_its_limit():
