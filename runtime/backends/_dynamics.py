@@ -1,12 +1,7 @@
-"""The world robot's dynamics: how wheel commands become the body's motion, and its contacts.
-
-The drive, per wheel: the command waits ``latency`` s (actuation latency), is multiplied
-by a per-run bias and a per-tick error, and the wheel's speed follows it at most
-``wheel_accel`` m/s² (a per-wheel acceleration limit); each wheel then loses a random
-fraction ``slip`` of its speed on the ground, and a heading drift is added while the
-wheels turn. Contacts: one ``(time_s, penetration_m)`` sample per physics step in which
-the body touches an obstacle, and a counted collision for each contact that begins
-``_CONTACT_GAP`` s or more after the previous one ended.
+"""The world robot's dynamics: the wheel drive (latency, bias, per-tick error, acceleration
+limit, slip, drift) and the body's contacts, as :mod:`clomp.runtime.backends.world` describes
+them. A contact that begins ``_CONTACT_GAP`` s or more after the previous one ended is a new
+collision.
 
 >>> import numpy as np
 >>> from clomp.planner.noise import NoiseTerms

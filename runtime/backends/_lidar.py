@@ -1,12 +1,7 @@
-"""The world robot's LiDAR: an RPLIDAR A1 turning in the scene.
-
-``scan_rate`` revolutions a second (5.5–10 Hz), ``rays`` samples a revolution (360–720),
-each ray cast at its own time from the body's pose then (a revolution taken while moving
-is skewed as on the real sensor), along a beam jittered by ``angle_sd`` around the angle
-reported, with Gaussian range noise, dropouts, the crop at ``max_range`` and each range
-rounded along its beam to ``resolution`` (``rounding="range"``, as an A1 reports it) or
-each point's x and y (``rounding="grid"``, as the paper's recorded scans are). Each
-revolution is a :class:`~clomp.runtime.devices.frame.ScanFrame`.
+"""The world robot's LiDAR, an RPLIDAR A1 turning in the scene, as :mod:`clomp.runtime.backends.world`
+describes it: each ray cast at its own time from the body's pose then, a jittered beam, range
+noise, dropouts, the crop at ``max_range`` and the rounding to ``resolution``. Each revolution
+is a :class:`~clomp.runtime.devices.frame.ScanFrame`.
 
 >>> import numpy as np
 >>> from clomp.planner.noise import NoiseTerms

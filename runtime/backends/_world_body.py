@@ -1,10 +1,7 @@
 """The world robot's body: its dimensions (the one :class:`~clomp.planner.robot_model.Body`
-type) with its drive's physics, and the pymunk world it moves in.
-
-The body is a *dynamic* pymunk body with mass and inertia; a kinematic control body moves
-at the speed the wheels give, and a pivot and a gear joint with limited force (traction,
-``mu·m·g``) pull the body along. Against an obstacle the joints slip: contacts stop the
-body or deflect it along the surface, as on a real floor.
+type) with its drive's physics, and the pymunk world it moves in (a dynamic body pulled by
+a kinematic control body through force-limited joints, as :mod:`clomp.runtime.backends.world`
+describes it).
 
 >>> BodySpec().wheel_accel, BodySpec(length=0.3).rear_offset
 (1.0, 0.21)

@@ -67,9 +67,8 @@ from clomp.runtime.backends._lidar import Lidar
 from clomp.runtime.backends._simulated import SimulatedBackend
 from clomp.runtime.backends._world_body import BodySpec, build_physics
 
-__all__ = ["BodySpec", "WorldNoise", "WorldRobot", "WorldContact", "make_world_robot", "NOISE_PRESETS"]
+__all__ = ["BodySpec", "WorldNoise", "WorldRobot", "WorldContact", "make_world_robot"]
 
-NOISE_PRESETS = ("ideal", "paper", "harsh")
 WorldNoise = NoiseTerms
 """The world's noise: every term of a preset (:class:`clomp.planner.noise.NoiseTerms`)."""
 # pymunk routes attribute writes through a typing mixin's __setattr__; the physics step calls
@@ -322,12 +321,7 @@ def make_world_robot(
     >>> w.noise.latency, w.read_scan().points.shape[1]
     (0.1, 2)
     """
-    if isinstance(noise, str):
-        if noise not in NOISE_PRESETS:
-            raise ValueError(f"unknown noise preset {noise!r} (known: {', '.join(NOISE_PRESETS)})")
-        wn = WorldNoise.preset(noise, noise_scale)
-    else:
-        wn = noise
+    wn = WorldNoise.preset(noise, noise_scale) if isinstance(noise, str) else noise
     body = options.pop("body", None)
     if body is None and robot is not None:
         body = BodySpec.like(robot)
