@@ -151,13 +151,28 @@ NOISE_FIELDS: tuple[str, ...] = tuple(f.name for f in fields(NoiseTerms))
 """The terms every preset gives, in the file's order."""
 
 
+def _load(path: Path) -> dict[str, dict[str, Any]]:
+    """A presets file's presets, name → {field: value} as written (unchecked); NoiseError
+    when it is missing or not an object of objects (``{"presets": …}`` or the presets alone)."""
+    if not path.is_file():
+        raise NoiseError(f"{path}: no such noise preset file")
+    try:
+        data = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, json.JSONDecodeError) as exc:
+        raise NoiseError(f"{path}: cannot read noise presets: {exc}") from None
+    if isinstance(data, dict) and isinstance(data.get("presets"), dict):
+        data = data["presets"]
+    if not isinstance(data, dict) or not all(isinstance(v, dict) for v in data.values()):
+        raise NoiseError(f"{path}: expected an object of presets, each an object of numbers")
+    return {str(k): dict(v) for k, v in data.items()}
+
+
 @functools.lru_cache(maxsize=1)
 def _presets() -> dict[str, NoiseTerms]:
-    """The presets of ``specs/noise_presets.json``, read and checked once."""
-    data = json.loads(_PRESETS_FILE.read_text(encoding="utf-8"))
+    """The presets of ``specs/noise_presets.json``, read and checked once (every term given)."""
     out: dict[str, NoiseTerms] = {}
-    for name, preset in data["presets"].items():
-        values = {f: preset.get(f) for f in NOISE_FIELDS}
+    for name, preset in _load(_PRESETS_FILE).items():
+        values: dict[str, Any] = {f: preset.get(f) for f in NOISE_FIELDS}
         check_noise(values, f"noise_presets.json: {name}")
         out[name] = NoiseTerms(**{k: float(v) for k, v in values.items()})
     return out
@@ -236,9 +251,9 @@ class RolloutNoise:
 
     @classmethod
     def preset(cls, name: str, path: str | Path | None = None) -> "RolloutNoise":
-        """The preset ``name`` from ``specs/noise_presets.json`` (or ``path``); without
-        the file, ``paper`` and ``ideal`` are known. Keys the sampler does not use are
-        ignored (a preset may describe more than rollouts need, e.g. ``latency``)."""
+        """The preset ``name`` from ``specs/noise_presets.json`` (or the file ``path``; a
+        term it leaves out keeps its default). Keys the sampler does not use are ignored (a
+        preset may describe more than rollouts need, e.g. ``latency``)."""
         presets = _read_presets(path)
         if name not in presets:
             where = str(path or _PRESETS_FILE)
@@ -256,25 +271,13 @@ class RolloutNoise:
 
 
 def _read_presets(path: str | Path | None = None) -> dict[str, dict[str, Any]]:
-    if path is None:
-        try:
-            return noise_presets()
-        except (OSError, KeyError, ValueError, json.JSONDecodeError) as exc:
-            raise NoiseError(f"{_PRESETS_FILE}: cannot read noise presets: {exc}") from None
-    p = Path(path)
-    if not p.is_file():
-        raise NoiseError(f"{p}: no such noise preset file")
-    try:
-        data = json.loads(p.read_text(encoding="utf-8"))
-    except (OSError, json.JSONDecodeError) as exc:
-        raise NoiseError(f"{p}: cannot read noise presets: {exc}") from None
-    if isinstance(data, dict) and isinstance(data.get("presets"), dict):
-        data = data["presets"]
-    if not isinstance(data, dict) or not all(isinstance(v, dict) for v in data.values()):
-        raise NoiseError(f"{p}: expected an object of presets, each an object of numbers")
-    return {str(k): dict(v) for k, v in data.items()}
+    return noise_presets() if path is None else _load(Path(path))
 
 
 def preset_names() -> list[str]:
-    """The noise presets known (from the file, or the built-in ones)."""
+    """The noise presets of ``specs/noise_presets.json``.
+
+    >>> preset_names()
+    ['harsh', 'ideal', 'paper']
+    """
     return sorted(_read_presets())
