@@ -1,4 +1,6 @@
-"""Supervision: the state machine (:mod:`.machine`) and the supervisor that runs it (:mod:`.supervisor`).
+"""Supervision: the state machine (:mod:`.states`) and the supervisor that runs it (:mod:`.supervisor`),
+with its settings (:mod:`.config`), its pose estimate and revolutions (:mod:`.sensing`) and its
+judgement of progress (:mod:`.progress`).
 
 May import: formal, planner, :mod:`clomp.runtime.interface`, :mod:`clomp.runtime.clock`, :mod:`clomp.runtime.records`.
 Devices, robots and the command line's lower layers do not import this room.
@@ -8,6 +10,7 @@ Devices, robots and the command line's lower layers do not import this room.
 'HALTED'
 """
 
+from clomp.runtime.supervision.config import SupervisorConfig
 from clomp.runtime.supervision.states import (
     MOTOR_STATES,
     TERMINAL,
@@ -32,6 +35,7 @@ __all__ = [
     "MOTOR_STATES",
     "PlanRecord",
     "Supervisor",
+    "SupervisorConfig",
     "SupervisorReport",
     "SupervisorState",
     "TERMINAL",

@@ -155,13 +155,13 @@ def test_fusing_revolutions_shrinks_range_noise_and_drops_lone_outliers():
 def test_the_supervisor_runs_its_tasks_on_the_scan_matched_estimate():
     """In a structured room under harsh noise the estimate the tasks run on tracks the truth,
     better than dead reckoning alone does on the same worlds."""
-    from clomp.runtime.supervision import Supervisor
+    from clomp.runtime.supervision import Supervisor, SupervisorConfig
 
     scene = parse_scenario(ROOM, "room")
 
     def final_error(feedback: str, seed: int) -> tuple[float, Any]:
         world = make_world_robot(scene, "harsh", seed=seed)
-        sup = Supervisor(world, scene.goal_in_robot_frame(), feedback=feedback)
+        sup = Supervisor(world, scene.goal_in_robot_frame(), config=SupervisorConfig(feedback=feedback))
         rep = sup.run(max_time=150)
         truth = relative(world.start_pose, world.ground_truth_pose())
         return math.hypot(sup.pose.x - truth.x, sup.pose.y - truth.y), rep
@@ -173,7 +173,7 @@ def test_the_supervisor_runs_its_tasks_on_the_scan_matched_estimate():
     assert rep.feedback and all(r.ok for r in rep.feedback[1:])
     assert not blind or all(not r.feedback for r in [final_error("none", 0)[1]])
     with pytest.raises(ValueError, match="feedback"):
-        Supervisor(make_world_robot(scene, "ideal"), (1.0, 0.0), feedback="lidar")
+        SupervisorConfig(feedback="lidar")
 
 
 def test_still_revolutions_at_the_start_are_fused_into_the_map_seed() -> None:
