@@ -320,6 +320,25 @@ def test_confirm_is_validated():
         SupervisorConfig(confirm=0)
 
 
+@pytest.mark.parametrize("name, value", [
+    ("feedback", "lidar"), ("max_plans", 0), ("patience", 1.5), ("deepen", True), ("max_recalls", -1),
+    ("settle_scans", -1), ("scan_timeout", 0.0), ("goal_radius", math.nan), ("min_progress", -0.01),
+    ("lookahead", math.inf), ("end_tolerance", (0.08,)), ("end_tolerance", (0.08, -0.3)),
+])
+def test_a_bad_setting_is_refused_when_the_config_is_made(name: str, value: Any) -> None:
+    with pytest.raises(ValueError, match=name):
+        SupervisorConfig(**{name: value})
+
+
+def test_the_config_is_one_frozen_object_the_supervisor_keeps() -> None:
+    cfg = SupervisorConfig(patience=4)
+    with pytest.raises(AttributeError):
+        cfg.patience = 5  # type: ignore[misc]
+    sup = Supervisor(SimRobot(load_scenario("open"), seed=0), (1.0, 0.0), config=cfg)
+    assert sup.config is cfg and sup.progress.config is cfg and sup.sensing.config is cfg
+    assert sup.goal_radius == sup.model.goal_tolerance  # None: the planner's own tolerance
+
+
 @pytest.mark.parametrize("feedback, start", [("scan", 10), ("scan", 4), ("none", 10)])
 def test_with_scan_feedback_the_robot_looks_before_it_moves(feedback: str, start: int) -> None:
     """With scan feedback the wheels stay still for the first ``start_scans`` revolutions:
