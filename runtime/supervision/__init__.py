@@ -2,7 +2,8 @@
 with its settings (:mod:`.config`), its pose estimate and revolutions (:mod:`.sensing`) and its
 judgement of progress (:mod:`.progress`).
 
-May import: formal, planner, :mod:`clomp.runtime.interface`, :mod:`clomp.runtime.clock`, :mod:`clomp.runtime.records`.
+May import: formal, planner, :mod:`clomp.runtime.interface`, :mod:`clomp.runtime.clock`, :mod:`clomp.runtime.records`,
+:mod:`clomp.runtime.estimation`.
 Devices, robots and the command line's lower layers do not import this room.
 
 >>> from clomp.runtime.supervision import SupervisorState
