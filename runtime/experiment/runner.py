@@ -50,7 +50,7 @@ from clomp.runtime.experiment.groundtruth import NOISE_PRESETS, make_robot, worl
 from clomp.runtime.records.runlog import RunLog
 from clomp.runtime.backends.sim import NoiseConfig
 from clomp.runtime.backends.world import WorldNoise, make_world_robot
-from clomp.runtime.supervision.supervisor import Supervisor
+from clomp.runtime.supervision.supervisor import Supervisor, SupervisorConfig
 
 __all__ = ["CONDITIONS", "PAPER", "SUCCESS_RADIUS", "ExperimentInterrupted", "RunsFailed", "RunResult", "RunSpec",
            "experiment_specs", "load_records", "run_experiment", "run_once", "run_spec",
@@ -260,7 +260,7 @@ def run_once(
     if condition == "planning":
         runlog = _open_log(log, robot, scene, condition, seed_, noise, goal) if log is not None else None
         try:
-            sup = Supervisor(robot, goal, conf, feedback=feedback,  # type: ignore[arg-type]
+            sup = Supervisor(robot, goal, conf, config=SupervisorConfig(feedback=feedback),  # type: ignore[arg-type]
                              log=None if runlog is None else _TruthLog(runlog, robot, start))
             report = sup.run(max_time=max_time)
         finally:

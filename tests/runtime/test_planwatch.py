@@ -7,7 +7,7 @@ from typing import Any
 
 from clomp.planner import load_scenario
 from clomp.runtime.backends import make_world_robot
-from clomp.runtime.supervision import Supervisor, SupervisorState
+from clomp.runtime.supervision import Supervisor, SupervisorConfig, SupervisorState
 
 S = SupervisorState
 
@@ -19,7 +19,7 @@ def test_a_robot_interrupted_each_time_before_it_moves_gives_up_with_the_reason(
     UNREACHABLE, saying why, the wheels stopped and the robot where it started."""
     scene = load_scenario("open")
     world = make_world_robot(scene, "paper", seed=0)
-    sup = Supervisor(world, scene.goal_in_robot_frame(), max_stuck=6)
+    sup = Supervisor(world, scene.goal_in_robot_frame(), config=SupervisorConfig(max_stuck=6))
 
     def always(*args: Any, **kwargs: Any) -> str:
         return "collision imminent: injected"
@@ -91,10 +91,10 @@ def test_the_supervisor_deepens_a_spent_search_unless_told_not_to() -> None:
     for deepen, expect in ((4, True), (1, False)):
         budgets = Recording.budgets = []
         world = make_world_robot(scene, "ideal", seed=0)
-        Supervisor(world, scene.goal_in_robot_frame(), Recording(), deepen=deepen).run(max_time=4.0)
+        Supervisor(world, scene.goal_in_robot_frame(), Recording(), config=SupervisorConfig(deepen=deepen)).run(max_time=4.0)
         world.close()
         assert budgets and budgets[0] == (50, "budget")
         assert (len(budgets) > 1 and budgets[1][0] == 200) is expect, budgets
         assert all(m == 50 for m, _ in budgets) is not expect
     with pytest.raises(ValueError, match="deepen must be a positive integer"):
-        Supervisor(make_world_robot(scene, "ideal", seed=0), scene.goal_in_robot_frame(), deepen=0)
+        SupervisorConfig(deepen=0)
