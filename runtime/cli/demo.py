@@ -11,7 +11,7 @@ from typing import Any
 
 from clomp.planner.scenarios import ScenarioError, load_scenario
 from clomp.runtime.cli import EXIT_NOT_REACHED, EXIT_OK, CliError
-from clomp.runtime.experiment.runner import run_once
+from clomp.runtime.experiment.onerun import run_once
 from clomp.runtime.experiment.plots import plot_run
 from clomp.runtime.supervision.states import state_machine_dot, state_machine_prism
 

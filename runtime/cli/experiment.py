@@ -97,13 +97,9 @@ def _write_outputs(records: list[dict[str, Any]], out: Path, plots: bool) -> dic
 
 def run(args: argparse.Namespace) -> int:
     """Execute ``clomp experiment``."""
-    from clomp.runtime.experiment.runner import (
-        CONDITIONS,
-        PAPER,
-        ExperimentInterrupted,
-        RunsFailed,
-        run_experiment,
-    )
+    from clomp.runtime.experiment.driver import ExperimentInterrupted, RunsFailed, run_experiment
+    from clomp.runtime.experiment.results import PAPER
+    from clomp.runtime.experiment.runspec import CONDITIONS
 
     if args.runs < 1:
         raise CliError("--runs: must be at least 1")

@@ -10,7 +10,7 @@ from typing import Any
 
 from clomp.planner.scenarios import ScenarioError, load_scenario
 from clomp.runtime.cli import EXIT_NOT_REACHED, EXIT_OK, CliError
-from clomp.runtime.experiment.runner import SUCCESS_RADIUS, RunResult, run_once
+from clomp.runtime.experiment.onerun import SUCCESS_RADIUS, RunResult, run_once
 from clomp.runtime.experiment.plots import plot_run
 from clomp.runtime.backends.world import WorldNoise
 
