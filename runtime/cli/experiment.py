@@ -27,12 +27,8 @@ __all__ = ["parse_scales", "register", "run"]
 
 def register(sub: Any) -> None:
     """Add ``experiment`` to the command line."""
-    p = sub.add_parser(
-        "experiment",
-        help="planning vs reactive on a layout family (the paper's table), locally or on Dask",
-        description=__doc__,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
-    )
+    p = sub.add_parser("experiment", help="planning vs reactive on a layout family (the paper's table), locally or on Dask",
+                       description=__doc__)
     p.add_argument("family", nargs="?", default="overtaking",
                    help=f"layout family ({', '.join(FAMILIES)}) or a scenario name/JSON file for one fixed layout "
                         "(default overtaking)")

@@ -13,7 +13,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from clomp.formal.lts import MapError
+from clomp.formal.lts import CognitiveMap, MapError
 from clomp.planner import GOAL_LIMIT_M as _PLANNER_GOAL_LIMIT_M
 from clomp.planner import Configurator, PlanningError, PlanResult, RobotModel, ScanError, scan_files
 from clomp.planner.probabilistic import MAX_SAMPLES, NoiseError, ProbabilisticMap, preset_names
@@ -279,17 +279,11 @@ def _run_robust(args: argparse.Namespace, conf: Configurator) -> int:
     robust = robust_from_args(args, conf)
     try:
         decision = robust.choose(scan, goal)
-    except (ScanError, PlanningError) as exc:
-        raise CliError(str(exc)) from None
-    except StormMissing as exc:
+    except (ScanError, PlanningError, StormMissing) as exc:
         raise CliError(str(exc)) from None
     pm = decision.choice.pm
     summary = robust_summary(decision)
-    if args.map:
-        try:
-            pm.map.write_json(args.map)
-        except (OSError, MapError) as exc:
-            raise CliError(f"--map: cannot write {args.map}: {exc}") from None
+    _write_map(pm.map, args)
     status = EXIT_OK if summary["reached_goal"] else EXIT_NOT_REACHED
     if args.json:
         print(json.dumps(summary))
@@ -347,12 +341,17 @@ def run(args: argparse.Namespace) -> int:
     return EXIT_OK if r.reached_goal else EXIT_NOT_REACHED
 
 
-def _emit(r: PlanResult, args: argparse.Namespace, title: str) -> None:
+def _write_map(cmap: CognitiveMap, args: argparse.Namespace) -> None:
+    """``--map FILE``: the cognitive map as JSON (a one-line error when it cannot be written)."""
     if args.map:
         try:
-            r.map.write_json(args.map)
+            cmap.write_json(args.map)
         except (OSError, MapError) as exc:
             raise CliError(f"--map: cannot write {args.map}: {exc}") from None
+
+
+def _emit(r: PlanResult, args: argparse.Namespace, title: str) -> None:
+    _write_map(r.map, args)
     if args.json:
         print(json.dumps(r.to_dict()))
     else:

@@ -42,12 +42,8 @@ def _missing_path(spec: str | None) -> bool:
 
 def register(sub: Any) -> None:
     """Add ``run`` to the command line."""
-    p = sub.add_parser(
-        "run",
-        help="run the planner and supervisor on the robot (LiDAR + Maestro serial ports)",
-        description=__doc__,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
-    )
+    p = sub.add_parser("run", help="run the planner and supervisor on the robot (LiDAR + Maestro serial ports)",
+                       description=__doc__)
     p.add_argument("--lidar", required=True, metavar="PORT", help="RPLIDAR A1 serial port (path or pyserial URL)")
     p.add_argument("--motors", metavar="PORT", help="Pololu Maestro serial port (optional with --dry-run)")
     p.add_argument("--goal", required=True, help="goal X,Y in metres in the robot's frame at start (x forward, y left)")
