@@ -136,7 +136,7 @@ class _CalibrationFed(Supervisor):
 
 def _one(args: tuple[str, int, int, str, str, str | None]) -> tuple[bool, float, str, float]:
     family, seed, run, preset, mode, term = args
-    import clomp.runtime.experiment.runner as runner
+    import clomp.runtime.experiment.onerun as onerun  # where run_once looks the Supervisor up
     from clomp.runtime.backends.world import WorldNoise
 
     noise: str | WorldNoise = preset
@@ -145,18 +145,18 @@ def _one(args: tuple[str, int, int, str, str, str | None]) -> tuple[bool, float,
 
     spec = RunSpec(family, seed, run, "planning", preset)
     scene, expect = scene_for(spec)
-    saved = runner.Supervisor
+    saved = onerun.Supervisor
     if mode == "truth":
-        runner.Supervisor = _TruthFed  # type: ignore[misc]
+        onerun.Supervisor = _TruthFed  # type: ignore[misc]
     elif mode == "calibration":
-        runner.Supervisor = _CalibrationFed  # type: ignore[misc]
+        onerun.Supervisor = _CalibrationFed  # type: ignore[misc]
     try:
         c0 = time.thread_time()
         r = run_once(scene, "planning", noise_seed(seed, run), run=run, noise=noise, expect=expect,
                      feedback="none" if mode == "none" else "scan")
         cpu = time.thread_time() - c0
     finally:
-        runner.Supervisor = saved  # type: ignore[misc]
+        onerun.Supervisor = saved  # type: ignore[misc]
     how = "reached" if r.reached_goal else ("believed" if r.believed_goal else
                                            "unreachable" if r.end_state == "UNREACHABLE" else "other")
     return r.reached_goal, r.final_distance, how, cpu

@@ -83,7 +83,8 @@ class _Recorder(ScanOdometry):
 def _record_one(args: tuple[str, int, int, str, str]) -> str:
     family, seed, run, noise, folder = args
     import clomp.runtime.supervision.supervisor as sup_module
-    from clomp.runtime.experiment.runner import RunSpec, _ground_truth_path, scene_for, noise_seed
+    from clomp.runtime.experiment.onerun import _ground_truth_path
+    from clomp.runtime.experiment.runner import RunSpec, scene_for, noise_seed
     from clomp.runtime.experiment.groundtruth import make_robot
     from clomp.planner import Configurator
 

@@ -8,9 +8,10 @@ import math
 from pathlib import Path
 from typing import Any
 
-from clomp.planner.scenarios import ScenarioError, load_scenario
+from clomp.planner.scenarios import ScenarioError
 from clomp.runtime.cli import EXIT_NOT_REACHED, EXIT_OK, CliError
-from clomp.runtime.experiment.runner import SUCCESS_RADIUS, RunResult, run_once
+from clomp.runtime.cli._common import load_scene
+from clomp.runtime.experiment.onerun import SUCCESS_RADIUS, RunResult, run_once
 from clomp.runtime.experiment.plots import plot_run
 from clomp.runtime.backends.world import WorldNoise
 
@@ -101,8 +102,8 @@ def _summary_dict(r: RunResult, png: Path) -> dict[str, Any]:
 
 def run(args: argparse.Namespace) -> int:
     """Execute ``clomp simulate``."""
+    scene = load_scene(args.scenario)
     try:
-        scene = load_scenario(args.scenario)
         check_world_options(args)
         noise = WorldNoise.preset("ideal") if args.no_noise else world_noise(args, scene)
         seed = args.seed if args.seed is not None else scene.raw.get("seed", 0)

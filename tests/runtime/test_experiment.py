@@ -10,7 +10,7 @@ import pytest
 from scipy.stats import binomtest, ttest_rel
 
 from clomp.planner import load_scenario
-from clomp.runtime.experiment import runner
+from clomp.runtime.experiment import driver, runner
 from clomp.runtime.experiment.results import (
     CSV_COLUMNS,
     markdown_rows,
@@ -168,12 +168,12 @@ def test_ctrl_c_keeps_what_finished(tmp_path, monkeypatch):
             raise KeyboardInterrupt
         return real(spec)
 
-    monkeypatch.setattr(runner, "run_spec", interrupted_at_third)
+    monkeypatch.setattr(driver, "run_spec", interrupted_at_third)
     with pytest.raises(ExperimentInterrupted) as exc:
         _small(out=tmp_path)
     assert len(exc.value.records) == 2 and exc.value.total == 4
     assert len(load_records(tmp_path / "runs.jsonl")) == 2
-    monkeypatch.setattr(runner, "run_spec", real)
+    monkeypatch.setattr(driver, "run_spec", real)
     assert len(_small(out=tmp_path, resume=True)) == 4
 
 
@@ -320,12 +320,12 @@ def test_a_run_that_raises_does_not_cost_the_others(tmp_path, monkeypatch):
             raise ZeroDivisionError("a bug")
         return real(spec)
 
-    monkeypatch.setattr(runner, "run_spec", broken_second_layout)
+    monkeypatch.setattr(driver, "run_spec", broken_second_layout)
     with pytest.raises(RunsFailed, match="1 run.*failed.*overtaking/5/1/reactive.*ZeroDivisionError: a bug") as exc:
         _small(out=tmp_path)
     assert len(exc.value.records) == 3 and len(load_records(tmp_path / "runs.jsonl")) == 3
     assert json.loads((tmp_path / "errors.jsonl").read_text())["error"] == "ZeroDivisionError: a bug"
-    monkeypatch.setattr(runner, "run_spec", real)
+    monkeypatch.setattr(driver, "run_spec", real)
     assert len(_small(out=tmp_path, resume=True)) == 4 and not (tmp_path / "errors.jsonl").exists()
 
 
