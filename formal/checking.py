@@ -26,11 +26,12 @@ import math
 import os
 import re
 import tempfile
-from collections import deque
-from collections.abc import Iterable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
+
+import networkx as nx
 
 from clomp.formal.export import ExportModel, ModelKind, export_model, write_drn, write_prism
 from clomp.formal.invariants import map_plan
@@ -239,6 +240,7 @@ class StormModel:
     idents: list[int]
     program: Any = None
     source: str = ""
+    _graph: nx.DiGraph | None = field(default=None, init=False, repr=False, compare=False)
 
     @property
     def n_states(self) -> int:
@@ -250,17 +252,22 @@ class StormModel:
         """Number of transitions (matrix entries) Storm built."""
         return int(self.model.nr_transitions)
 
+    def graph(self) -> nx.DiGraph:
+        """Storm's states and transitions as a :class:`networkx.DiGraph` (each state's
+        successors in matrix order), built once."""
+        if self._graph is None:
+            g = nx.DiGraph()
+            for s in range(self.n_states):
+                g.add_node(s)
+                g.add_edges_from((s, t) for t in self.successors(s))
+            self._graph = g
+        return self._graph
+
     def reachable(self) -> list[int]:
         """Storm states reachable from the initial states, sorted (a DRN file's
         :data:`~clomp.formal.export.LABEL_HOLDER` state is not among them)."""
-        seen = {int(s) for s in self.model.initial_states}
-        stack = list(seen)
-        while stack:
-            for t in self.successors(stack.pop()):
-                if t not in seen:
-                    seen.add(t)
-                    stack.append(t)
-        return sorted(seen)
+        starts = [int(s) for s in self.model.initial_states]
+        return sorted(s for layer in nx.bfs_layers(self.graph(), starts) for s in layer)
 
     def reachable_size(self) -> tuple[int, int]:
         """(states, transitions) reachable from the initial states: what PRISM, which
@@ -424,40 +431,32 @@ def _target_witness(sm: StormModel, spec: PropertySpec) -> list[str]:
         return []
     if not result.is_qualitative():
         return []
-    start = int(sm.model.initial_states[0])
-    parent: dict[int, int | None] = {start: None}
-    queue = deque([start])
-    while queue:
-        s = queue.popleft()
-        if bool(result[s]):
-            path = [s]
-            while parent[path[-1]] is not None:
-                path.append(parent[path[-1]])  # type: ignore[arg-type]
-            return [sm.describe(x) for x in reversed(path)]
-        for t in sm.successors(s):
-            if t not in parent:
-                parent[t] = s
-                queue.append(t)
-    return []
+    path = _shortest_path_to(sm.graph(), int(sm.model.initial_states[0]), lambda s: bool(result[s]))
+    return [] if path is None else [sm.describe(x) for x in path]
 
 
 def _witness(sm: StormModel, result: Any, req: Requirement) -> list[str]:
+    """A shortest path to an absorbing state whose own value violates ``req``."""
+    g = sm.graph()
     start = int(sm.model.initial_states[0])
-    parent: dict[int, int | None] = {start: None}
-    queue = deque([start])
-    while queue:
-        s = queue.popleft()
-        succ = sm.successors(s)
-        if succ == [s] and not req.holds(_value(result, s)):
-            path = [s]
-            while parent[path[-1]] is not None:
-                path.append(parent[path[-1]])  # type: ignore[arg-type]
-            return [sm.describe(x) for x in reversed(path)]
-        for t in succ:
-            if t not in parent:
-                parent[t] = s
-                queue.append(t)
-    return [sm.describe(start)]
+    path = _shortest_path_to(g, start, lambda s: list(g.successors(s)) == [s] and not req.holds(_value(result, s)))
+    return [sm.describe(x) for x in path or [start]]
+
+
+def _shortest_path_to(g: nx.DiGraph, start: int, accept: Callable[[int], bool]) -> list[int] | None:
+    """A shortest path from ``start`` to the first state, breadth-first, that ``accept``s;
+    None when no reachable state does."""
+    if accept(start):
+        return [start]
+    parent: dict[int, int] = {}
+    for u, v in nx.bfs_edges(g, start):
+        parent[v] = u
+        if accept(v):
+            path = [v]
+            while path[-1] != start:
+                path.append(parent[path[-1]])
+            return path[::-1]
+    return None
 
 
 def check_map_properties(

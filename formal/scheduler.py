@@ -32,6 +32,8 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
+import networkx as nx
+
 from clomp.formal.checking import require_stormpy
 from clomp.formal.export import ExportModel, ModelKind, export_model, write_drn
 from clomp.formal.invariants import map_plan
@@ -272,18 +274,10 @@ def policy_states(cmap: CognitiveMap, scheduler: dict[int, TaskKind]) -> list[in
     [0, 1]
     """
     q0 = cmap.initial.ident
-    seen = {q0}
-    todo = [q0]
-    while todo:
-        q = todo.pop()
-        s = cmap[q]
-        if (q != q0 and s.reached_goal) or s.interrupted or q not in scheduler:
-            continue
-        for t in cmap.out_transitions(q):
-            if t.label is scheduler[q] and t.target not in seen:
-                seen.add(t.target)
-                todo.append(t.target)
-    return sorted(seen)
+    acts = {q: task.value for q, task in scheduler.items()
+            if q in cmap and not cmap[q].interrupted and (q == q0 or not cmap[q].reached_goal)}
+    followed = nx.subgraph_view(cmap.to_networkx(), filter_edge=lambda u, v, k: acts.get(u) == k)
+    return sorted(nx.descendants(followed, q0) | {q0})
 
 
 def attach_policy(cmap: CognitiveMap, scheduler: dict[int, TaskKind]) -> None:
