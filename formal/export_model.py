@@ -98,13 +98,6 @@ class ExportModel:
         """Number of (choice, target) entries: the map's transitions plus the self-loops."""
         return sum(len(ch.branches) for cs in self.choices for ch in cs)
 
-    def index_of(self, ident: int) -> int:
-        """The index of the state q_ident."""
-        for k, s in enumerate(self.states):
-            if s.ident == ident:
-                return k
-        raise ExportError(f"q{ident} is not a state of the exported model")
-
     def state_labels(self, index: int) -> list[str]:
         """The labels of the state at ``index``, sorted."""
         return sorted(name for name, members in self.labels.items() if index in members)
