@@ -155,63 +155,85 @@ _NAME = re.compile(r'^"([A-Za-z_][A-Za-z0-9_]*)"\s*:\s*(.*)$')
 _QUERY = re.compile(r"^(!?\s*\"[A-Za-z_][A-Za-z0-9_]*\"\s*[|&]\s*)*!?\s*\(?\s*[PRS](\{\"[A-Za-z_][A-Za-z0-9_]*\"\})?(min|max)?\s*(=\?|[<>]=?\s*[0-9.eE+-]+)\s*\[")
 
 
-def parse_properties(text: str, source: str = "<string>") -> PropertyFile:
-    """Parse the property-file format (see the module docstring); raises :class:`SpecError`."""
+@dataclass
+class _Parse:
+    """What :func:`parse_properties` has read so far."""
+
+    source: str
     model: str | None = None
-    props: list[PropertySpec] = []
-    comments: list[str] = []
+    props: list[PropertySpec] = field(default_factory=list)
+    comments: list[str] = field(default_factory=list)
     required: Requirement | None = None
-    req_line = 0
-    names: set[str] = set()
-    for n, raw in enumerate(text.splitlines(), 1):
-        line = raw.strip()
-        where = f"{source}:{n}"
-        if not line:
-            comments = []
-            continue
-        if line.startswith("//"):
-            body = line[2:].strip()
-            if body.startswith("@"):
-                key, _, arg = body[1:].partition(" ")
-                if key == "model":
-                    if model is not None or props:
-                        raise SpecError(f"{where}: @model must appear once, before the first property")
-                    if arg.strip() not in ("mdp", "dtmc"):
-                        raise SpecError(f"{where}: @model must be 'mdp' or 'dtmc', got {arg.strip()!r}")
-                    model = arg.strip()
-                elif key == "required":
-                    if required is not None:
-                        raise SpecError(f"{where}: two @required lines for one property")
-                    try:
-                        required = Requirement.parse(arg)
-                    except ValueError:
-                        raise SpecError(f"{where}: @required expects true, false or [op] number, got {arg.strip()!r}") from None
-                    req_line = n
-                else:
-                    raise SpecError(f"{where}: unknown directive @{key} (expected @model or @required)")
-            else:
-                comments.append(body)
-            continue
+    req_line: int = 0
+    names: set[str] = field(default_factory=set)
+
+    def directive(self, body: str, n: int, where: str) -> None:
+        """A ``// @key arg`` line."""
+        key, _, arg = body[1:].partition(" ")
+        if key == "model":
+            if self.model is not None or self.props:
+                raise SpecError(f"{where}: @model must appear once, before the first property")
+            if arg.strip() not in ("mdp", "dtmc"):
+                raise SpecError(f"{where}: @model must be 'mdp' or 'dtmc', got {arg.strip()!r}")
+            self.model = arg.strip()
+        elif key == "required":
+            if self.required is not None:
+                raise SpecError(f"{where}: two @required lines for one property")
+            try:
+                self.required = Requirement.parse(arg)
+            except ValueError:
+                raise SpecError(f"{where}: @required expects true, false or [op] number, got {arg.strip()!r}") from None
+            self.req_line = n
+        else:
+            raise SpecError(f"{where}: unknown directive @{key} (expected @model or @required)")
+
+    def property(self, line: str, n: int, where: str) -> None:
+        """A property line, with the comments and requirement above it."""
         m = _NAME.match(line)
         name, formula = (m.group(1), m.group(2).strip()) if m else (None, line)
         formula = formula.rstrip(";").strip()
         if not _QUERY.match(formula) or formula.count("[") != formula.count("]") or formula.count("(") != formula.count(")"):
             raise SpecError(f"{where}: not a PCTL property (expected e.g. P=? [F \"goal\"]): {line!r}")
-        if model is None:
+        if self.model is None:
             raise SpecError(f"{where}: a property before '// @model mdp|dtmc'")
         name = name or formula
-        if name in names:
+        if name in self.names:
             raise SpecError(f"{where}: duplicate property name {name!r}")
-        names.add(name)
-        props.append(PropertySpec(formula, name, " ".join(comments), required, n))
-        comments, required = [], None
-    if required is not None:
-        raise SpecError(f"{source}:{req_line}: @required is not followed by a property")
-    if model is None:
-        raise SpecError(f"{source}: no '// @model mdp|dtmc' line")
-    if not props:
-        raise SpecError(f"{source}: no properties")
-    return PropertyFile(model, tuple(props), source)  # type: ignore[arg-type]
+        self.names.add(name)
+        self.props.append(PropertySpec(formula, name, " ".join(self.comments), self.required, n))
+        self.comments, self.required = [], None
+
+    def done(self) -> PropertyFile:
+        """The parsed file, once every line is read."""
+        if self.required is not None:
+            raise SpecError(f"{self.source}:{self.req_line}: @required is not followed by a property")
+        if self.model is None:
+            raise SpecError(f"{self.source}: no '// @model mdp|dtmc' line")
+        if not self.props:
+            raise SpecError(f"{self.source}: no properties")
+        return PropertyFile(self.model, tuple(self.props), self.source)  # type: ignore[arg-type]
+
+
+def parse_properties(text: str, source: str = "<string>") -> PropertyFile:
+    """Parse the property-file format (see the module docstring); raises :class:`SpecError`.
+
+    >>> pf = parse_properties('// @model dtmc\n// Never a collision.\n// @required = 0\n"safe": P=? [F "collision"]')
+    >>> pf.model, pf.properties[0].name, pf.properties[0].description, str(pf.properties[0].required)
+    ('dtmc', 'safe', 'Never a collision.', '= 0')
+    """
+    state = _Parse(source)
+    for n, raw in enumerate(text.splitlines(), 1):
+        line = raw.strip()
+        where = f"{source}:{n}"
+        if not line:
+            state.comments = []
+        elif not line.startswith("//"):
+            state.property(line, n, where)
+        elif line[2:].strip().startswith("@"):
+            state.directive(line[2:].strip(), n, where)
+        else:
+            state.comments.append(line[2:].strip())
+    return state.done()
 
 
 def read_properties(path: str | os.PathLike[str]) -> PropertyFile:
