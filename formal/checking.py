@@ -217,7 +217,7 @@ class _Parse:
 def parse_properties(text: str, source: str = "<string>") -> PropertyFile:
     """Parse the property-file format (see the module docstring); raises :class:`SpecError`.
 
-    >>> pf = parse_properties('// @model dtmc\n// Never a collision.\n// @required = 0\n"safe": P=? [F "collision"]')
+    >>> pf = parse_properties('// @model dtmc\\n// Never a collision.\\n// @required = 0\\n"safe": P=? [F "collision"]')
     >>> pf.model, pf.properties[0].name, pf.properties[0].description, str(pf.properties[0].required)
     ('dtmc', 'safe', 'Never a collision.', '= 0')
     """
