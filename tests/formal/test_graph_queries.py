@@ -102,17 +102,6 @@ def test_the_graph_view_is_kept_until_the_map_changes():
     assert list(m.to_networkx().edges(keys=True)) == [(0, 1, "STRAIGHT"), (1, 2, "STRAIGHT")]
 
 
-def test_a_copied_map_does_not_share_its_graph_view():
-    import copy
-
-    m = _map(2, [(0, 1)])
-    m.to_networkx()
-    c = copy.deepcopy(m)
-    c.add_state(State(2, TaskKind.STRAIGHT, GOAL, None, Pose(0, 0), Pose(0, 0)))
-    c.add_transition(1, 2)
-    assert c.reachable() == {0, 1, 2} and m.reachable() == {0, 1}
-
-
 # -- generated maps -----------------------------------------------------------------------------
 @st.composite
 def _maps_with_extra_transitions(draw: st.DrawFn) -> CognitiveMap:
