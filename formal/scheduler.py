@@ -40,7 +40,7 @@ from clomp.formal.invariants import map_plan
 from clomp.formal.lts import CognitiveMap, MapError
 from clomp.formal.model import TaskKind
 from clomp.formal.retry import STOPS_KEY, map_stops, retry_model
-from clomp.formal.supervisory import Plan
+from clomp.formal.supervisory import Guard, Plan
 
 __all__ = [
     "SAFE_GOAL",
@@ -337,9 +337,7 @@ def plan_probability(cmap: CognitiveMap, plan: Plan | None = None, target: Itera
     supervised system that follows ``plan`` (default: the map's own plan, the
     Configurator's best-first one); ``retries`` as in :func:`robust_plan`."""
     rho = map_plan(cmap) if plan is None else plan
-    for s, t in rho.steps():
-        if not cmap.has_transition(s, t):
-            raise MapError(f"plan step q{s} ↪ q{t} is not a transition of the map")
+    Guard(cmap, rho)  # Ψ of the plan: MapError when a step is not a transition of the map
     goal_set = None if target is None else frozenset(target)
     stormpy, m, model = _build(cmap, "dtmc", rho, target=goal_set, retries=retries)
     prop = stormpy.parse_properties(f"P=? [{_formula(goal_set)}]")[0]
