@@ -42,7 +42,7 @@ import numpy as np
 
 from clomp.formal.lts import CognitiveMap
 from clomp.formal.model import Disturbance, Pose, State, TaskKind, new_state
-from clomp.formal.supervisory import Plan, extract_plan, guard, reset_from
+from clomp.formal.supervisory import Guard, Plan, Reset, extract_plan
 from clomp.planner.perception import Obstacles, load_scan, perceive
 from clomp.planner.rollout import Outcome, simulate
 from clomp.planner.robot_model import RobotModel
@@ -297,6 +297,7 @@ class Configurator:
         goal_seen = d0 <= r_range  # inside the sensed disc: a way to it may lie inside too
         horizon = max(self.horizon, abs(gx) + robot.length, abs(gy) + robot.length)
         cmap = CognitiveMap(goal=g)
+        reset = Reset(cmap)  # R, the one reset of formal
         q0 = State(0, TaskKind.STRAIGHT, g, None, origin, origin)
         q0 = State(0, TaskKind.STRAIGHT, g, None, origin, origin, cost=cost(q0, ctx))
         cmap.add_state(q0)
@@ -319,7 +320,7 @@ class Configurator:
                     return None, False
                 cmap.add_transition(parent.ident, known, kind)
                 return cmap[known], False
-            d_i = reset_from(parent, g)  # R(q1, q2) = D_G, undefined (raises) when q1 was interrupted
+            d_i = reset.after(parent)  # R(q1, q2) = D_G, undefined (raises) when q1 was interrupted
             out = simulate(kind, p, d_i, obstacles, robot, worlds)
             if out.frontier and kind is not _STRAIGHT:
                 index[k] = -1
@@ -404,7 +405,7 @@ class Configurator:
         end = cmap[p.end]
         if not end.reached_goal and p.end in frontier_ids:
             stop = "frontier"
-        psi = guard(cmap, p)
+        psi = Guard(cmap, p).table()
         cmap.metadata.update(
             {
                 "robot": robot.to_dict(),

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from clomp.formal.model import TaskKind
-from clomp.formal.supervisory import guard
+from clomp.formal.supervisory import Guard
 from clomp.planner import Configurator, PlanningError, RobotModel, load_scan, load_scenario, plan, simulate
 from clomp.planner.configurator import chi, default_cost, gamma
 from clomp.planner.rollout import World
@@ -71,7 +71,7 @@ def test_blocked_gives_the_best_partial_plan():
 def test_guard_is_one_exactly_on_the_plan():
     r = _plan_scenario("overtaking")
     steps = set(r.plan.steps())
-    psi = guard(r.map, r.plan)
+    psi = Guard(r.map, r.plan).table()
     assert sum(psi.values()) == len(steps)
     assert all(v == ((t.source, t.target) in steps) for t, v in psi.items())
     assert r.psi == psi
