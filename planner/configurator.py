@@ -31,12 +31,13 @@ map is a graph, and expansion never repeats a simulation.
 
 from __future__ import annotations
 
+import functools
 import heapq
 import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Protocol
 
 import numpy as np
 
@@ -50,6 +51,7 @@ from clomp.planner.robot_model import RobotModel
 __all__ = [
     "CostContext",
     "CostFunction",
+    "Rollout",
     "default_cost",
     "gamma",
     "chi",
@@ -89,16 +91,39 @@ class CostContext:
     origin: Pose
     robot: RobotModel
 
-    @property
+    @functools.cached_property
     def start_distance(self) -> float:
-        """d0 = ‖D_G − start‖, the normaliser of χ."""
+        """d0 = ‖D_G − start‖, the normaliser of χ (computed once per context)."""
         return self.origin.distance_to(self.goal.x, self.goal.y)
 
 
 CostFunction = Callable[[State, CostContext], float]
 
 
-def gamma(state: State, ctx: CostContext) -> float:
+class Rollout(Protocol):
+    """What γ and χ read of a state: where its task started and ended, and what
+    interrupted it. A :class:`State` is one; so is the rollout a state is about to be
+    built from (:class:`clomp.planner.engine.Outcome`), which lets the Configurator price
+    a rollout with the very functions below before it builds the state.
+
+    >>> from clomp.planner.engine import Outcome
+    >>> ctx = CostContext(Disturbance.goal(1.0, 0.0), Pose(0.0, 0.0), RobotModel())
+    >>> out = Outcome(TaskKind.STRAIGHT, Pose(0.0, 0.0), Pose(0.5, 0.0), 0.5, 2.5, 25, None, False)
+    >>> default_cost(out, ctx) == default_cost(State(1, TaskKind.STRAIGHT, ctx.goal, None, out.start, out.end), ctx)
+    True
+    """
+
+    @property
+    def start(self) -> Pose: ...
+
+    @property
+    def end(self) -> Pose: ...
+
+    @property
+    def d_n(self) -> Disturbance | None: ...
+
+
+def gamma(state: Rollout, ctx: CostContext) -> float:
     """γ(q), the past cost: 0 when the task was not interrupted; otherwise
     ``2 − min(d_N, r)/r`` ∈ [1, 2], with d_N the distance from the start of the task to
     the point where D_N interrupted it and r the sensor range (the paper's "normalised
@@ -119,7 +144,7 @@ def gamma(state: State, ctx: CostContext) -> float:
     return 2.0 - min(d, r) / r
 
 
-def chi(state: State, ctx: CostContext) -> float:
+def chi(state: Rollout, ctx: CostContext) -> float:
     """χ(q), the heuristic future cost: ``d / (d + d0)`` ∈ [0, 1), with d the distance
     from the end of the task to D_G and d0 that from the start of planning: 0 at the
     goal, 1/2 where planning began, approaching 1 far away (normalised so that any
@@ -136,7 +161,7 @@ def chi(state: State, ctx: CostContext) -> float:
     return d / (d + d0) if d + d0 > 0 else 0.0
 
 
-def default_cost(state: State, ctx: CostContext) -> float:
+def default_cost(state: Rollout, ctx: CostContext) -> float:
     """φ(q) = γ(q) + χ(q) (Hart, Nilsson & Raphael 1968, in the paper's §2.2).
 
     >>> ctx = CostContext(Disturbance.goal(1.0, 0.0), Pose(0.0, 0.0), RobotModel())
@@ -290,11 +315,9 @@ class Configurator:
         origin = Pose(0.0, 0.0, 0.0)
         ctx = CostContext(g, origin, robot)
         cost = self.cost
-        fast_cost = cost is default_cost
+        priced = next((f for f in _ROLLOUT_COSTS if f is cost), None)  # the cost as one that reads a Rollout
         gx, gy = g.x, g.y
-        d0 = math.hypot(gx, gy)
-        r_range = robot.sensor_range
-        goal_seen = d0 <= r_range  # inside the sensed disc: a way to it may lie inside too
+        goal_seen = ctx.start_distance <= robot.sensor_range  # inside the sensed disc: a way to it may lie inside too
         horizon = max(self.horizon, abs(gx) + robot.length, abs(gy) + robot.length)
         cmap = CognitiveMap(goal=g)
         q0 = State(0, TaskKind.STRAIGHT, g, None, origin, origin)
@@ -325,17 +348,9 @@ class Configurator:
                 index[k] = -1
                 return None, False
             ident = len(cmap)
-            if fast_cost:
-                e = out.end
-                d = math.hypot(gx - e.x, gy - e.y)
-                phi = d / (d + d0) if d + d0 > 0 else 0.0
-                if out.d_n is not None:
-                    hit = math.hypot(out.d_n.x - out.start.x, out.d_n.y - out.start.y)
-                    phi += 2.0 - min(hit, r_range) / r_range
-                s = _state(ident, out, d_i, phi)
-            else:
-                s = _state(ident, out, d_i, 0.0)
-                s = _state(ident, out, d_i, cost(s, ctx))
+            # φ of the rollout itself when the cost reads no more than a Rollout (no state built twice)
+            phi = priced(out, ctx) if priced is not None else cost(_state(ident, out, d_i, 0.0), ctx)
+            s = _state(ident, out, d_i, phi)
             cmap.add_state(s)
             cmap.add_transition(parent.ident, ident, kind)
             index[k] = ident
@@ -441,6 +456,8 @@ class Configurator:
 
 
 _FRONTIER = (("frontier", 1.0),)
+#: the cost functions that read only what a :class:`Rollout` has (priced before the state is built)
+_ROLLOUT_COSTS: tuple[Callable[[Rollout, CostContext], float], ...] = (default_cost, gamma, chi)
 _STRAIGHT = TaskKind.STRAIGHT
 _KINDS = (TaskKind.STRAIGHT, TaskKind.LEFT, TaskKind.RIGHT)
 
