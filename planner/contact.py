@@ -75,17 +75,6 @@ class Scene:
         # per pose, kind and angle: the outcome of a turn answered with another one
         self.turned: dict[tuple[Any, ...], Outcome] = {}
 
-    def outcome(self, task: Task) -> Outcome:
-        """The outcome of ``task`` among the sensed points (closed form; see the module docstring)."""
-        if not len(self.x):
-            return unobstructed(task)
-        if task.kind is TaskKind.STRAIGHT:
-            d, k = self.straight_gap(task.start)
-            if k < 0:
-                return unobstructed(task)
-            return cut_straight(task, d, self.obstacles, int(self.owner[k]), float(self.x[k]), float(self.y[k]))
-        return self.turn(task)
-
     def near(self, x: float, y: float) -> tuple[np.ndarray, np.ndarray, bool]:
         """The points within reach of a step and its turns from (x, y): their indices
         (ascending), their offsets from (x, y) as complex numbers, and whether any lies
@@ -184,19 +173,16 @@ class Scene:
                 gap = np.where(met, u - rfront, gap)
         return gap, gap.argmin(axis=1)
 
-    def first_clear(self, s: Pose, headings: list[float], lengths: list[float], fallback: int = -1) -> int:
-        """The index of the first heading (each in (−π, π]) from which the body, turned in
-        place at ``s``, can drive ``lengths[i]`` without meeting a point; -1 when none can
-        (the turn then ends at heading ``fallback``). See :meth:`first_clear_each`."""
-        return self.first_clear_each(s, [(headings, lengths, fallback)])[0]
-
     def first_clear_each(
         self, s: Pose, groups: list[tuple[list[float], list[float], int]], straight: float | None = None
     ) -> list[int]:
-        """:meth:`first_clear` for several turns from ``s`` at once (a left and a right turn:
-        one array operation for both), and with ``straight`` (metres) the way ahead of ``s``
-        itself too (the straight from ``s``, asked just before its turns), remembered as
-        :meth:`straight_gap` would find it.
+        """Per turn from ``s`` (``groups``: its headings, each in (−π, π], the length of way
+        each needs clear, and a fallback heading index), the index of the first heading from
+        which the body, turned in place at ``s``, can drive its length without meeting a
+        point; -1 when none can (the turn then ends at its fallback). Several turns at once
+        (a left and a right turn: one array operation for both), and with ``straight``
+        (metres) the way ahead of ``s`` itself too (the straight from ``s``, asked just
+        before its turns), remembered as :meth:`straight_gap` would find it.
 
         Over the points within reach of the longest drive only (a nearer contact is among
         them; none nearer means clear). The reach is widened by what a step needs beyond

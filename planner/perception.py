@@ -18,7 +18,6 @@ from typing import Any
 
 import numpy as np
 
-from clomp.formal.model import Disturbance, DisturbanceKind
 from clomp.planner.scanfile import MAX_SCAN_BYTES, MAX_SCAN_POINTS, SCAN_SUFFIXES, ScanError, load_scan, scan_files, validate_scan
 
 __all__ = [
@@ -104,8 +103,6 @@ class Obstacles:
     sensed points the boxes cover (N×2) and box ``i`` covers
     ``points[starts[i]:starts[i + 1]]``. ``exempt`` counts the returns perception
     dropped because they lay inside the robot's body at the planning origin.
-    ``disturbances[i]`` is the :class:`Disturbance` of box ``i`` (its ident is ``i``),
-    built on first use (a plan usually needs none of them).
 
     >>> obs = Obstacles.from_boxes([[(0.5, -0.1), (0.6, -0.1), (0.6, 0.1), (0.5, 0.1)]])
     >>> len(obs), obs.contains_point(0.55, 0.0), obs.contains_point(0.0, 0.0)
@@ -155,14 +152,6 @@ class Obstacles:
         if known is None:
             known = self._outlines[i] = tuple(map(tuple, self.boxes[i].tolist()))
         return known
-
-    @functools.cached_property
-    def disturbances(self) -> tuple[Disturbance, ...]:
-        """One obstacle :class:`Disturbance` per box (centre and outline)."""
-        return tuple(
-            Disturbance(DisturbanceKind.OBSTACLE, float(c[0]), float(c[1]), tuple((float(x), float(y)) for x, y in b), i)
-            for i, (b, c) in enumerate(zip(self.boxes.tolist(), self.centres.tolist()))
-        )
 
     def box_points(self, i: int) -> np.ndarray:
         """The sensed points box ``i`` covers (its outline sampled every 5 mm for a box not made from a scan)."""

@@ -314,7 +314,7 @@ def _turn_pair(
     sx, sy, th = start.x, start.y, start.theta
     # the rim is no nearer than this whatever the heading: most turns need no rim test
     sure = robot.sensor_range - math.hypot(sx, sy) - robot.body_radius
-    wrapped = None if goal is None else wrap_angle(math.atan2(goal.y - sy, goal.x - sx) - th)  # _goal_bearing
+    wrapped = None if goal is None else _goal_bearing(start, goal)
     # :func:`_inside_for` at this position: the centre's path within the rim less the body radius
     inner = robot.sensor_range - robot.body_radius
     q = sx * sx + sy * sy - inner * inner
@@ -340,10 +340,8 @@ def _turn_pair(
     return result[0]
 
 
-def _goal_bearing(start: Pose, goal: Disturbance | None) -> float | None:
-    """The goal's bearing from ``start``, relative to its heading, in (−π, π]; None without a goal."""
-    if goal is None:
-        return None
+def _goal_bearing(start: Pose, goal: Disturbance) -> float:
+    """The goal's bearing from ``start``, relative to its heading, in (−π, π]."""
     return wrap_angle(math.atan2(goal.y - start.y, goal.x - start.x) - start.theta)
 
 
@@ -358,7 +356,7 @@ def _turn_options(
     towards: float | None = None
     if goal is not None:
         if wrapped is None:
-            wrapped = wrap_angle(math.atan2(goal.y - start.y, goal.x - start.x) - start.theta)  # _goal_bearing
+            wrapped = _goal_bearing(start, goal)
         bearing = sign * wrapped
         if bearing < -math.pi + 1e-9:
             bearing += 2 * math.pi  # the goal straight behind: either turn faces it
