@@ -48,6 +48,7 @@ import numpy as np
 from clomp.formal.lts import CognitiveMap
 from clomp.formal.model import Disturbance, Pose, State, TaskKind, new_state
 from clomp.formal.supervisory import Plan, extract_plan, guard, reset_from
+from clomp.planner import footprint
 from clomp.planner.perception import Obstacles, load_scan, perceive
 from clomp.planner.rollout import Outcome, simulate
 from clomp.planner.robot_model import RobotModel
@@ -453,7 +454,7 @@ class Configurator:
         t0 = time.perf_counter()
         pts = load_scan(scan)
         r = self.robot
-        obstacles = perceive(pts, r.sensor_range, r.cluster_distance, body=(r.rear_offset, r.front_offset, r.width / 2))
+        obstacles = perceive(pts, r.sensor_range, r.cluster_distance, body=footprint.body_box(r))
         result = self.build(obstacles, goal)
         result.planning_time_s = time.perf_counter() - t0
         return result

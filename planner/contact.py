@@ -20,6 +20,7 @@ import numpy as np
 from clomp.formal.geometry import wrap_angle
 from clomp.formal.model import Pose, TaskKind, new_pose
 from clomp.planner.engine import Outcome, _obstacle_disturbance
+from clomp.planner.footprint import body_box, inside
 from clomp.planner.perception import Obstacles
 from clomp.planner.robot_model import RobotModel
 from clomp.planner.tasks import Task
@@ -52,8 +53,8 @@ class Scene:
         self.y = self.z.imag
         self.owner = obstacles.owner
         c = robot.clearance
-        self.real = (robot.rear_offset, robot.front_offset, robot.width / 2)
-        self.infl = (robot.rear_offset + c, robot.front_offset + c, robot.width / 2 + c)
+        self.real = body_box(robot)
+        self.infl = body_box(robot, c)
         self.radius2 = robot.swept_radius ** 2
         rear, front, half = self.infl
         self.reach = (math.hypot(rear, half), front, half)
@@ -258,7 +259,6 @@ class Scene:
     def _waived_turn(self, dx: np.ndarray, dy: np.ndarray, theta: float, sign: float, per_tick: float, e0: float, ticks: int) -> int:
         """The first tick at or after which the real body meets one of these points
         (strictly outside it at the start), sampled at eight headings per tick."""
-        rrear, rfront, rhalf = self.real
         fine = np.minimum(np.arange(1, 8 * ticks + 1) * (per_tick / 8), e0)
         th = theta + sign * fine
         c, sn = np.cos(th)[:, None], np.sin(th)[:, None]
@@ -266,8 +266,8 @@ class Scene:
         v = np.abs(dy * c - dx * sn)
         u0 = dx * math.cos(theta) + dy * math.sin(theta)
         v0 = np.abs(dy * math.cos(theta) - dx * math.sin(theta))
-        live = ~((u0 > -rrear) & (u0 < rfront) & (v0 < rhalf))
-        hit = np.logical_or.reduce((u >= -rrear) & (u <= rfront) & (v <= rhalf) & live, axis=1).nonzero()[0]
+        live = ~inside(u0, v0, self.real, strict=True)
+        hit = np.logical_or.reduce(inside(u, v, self.real) & live, axis=1).nonzero()[0]
         return int(hit[0]) // 8 + 1 if len(hit) else ticks + 1
 
     def turn(self, task: Task) -> Outcome:
@@ -315,17 +315,14 @@ class Scene:
         c, sn = np.cos(th)[:, None], np.sin(th)[:, None]
         u = dx * c + dy * sn
         v = np.abs(dy * c - dx * sn)
-        rear, front, half = self.infl
-        inside = (u >= -rear) & (u <= front) & (v <= half)
-        waived = inside[0]  # every block's first row is the start heading
+        met = inside(u, v, self.infl)
+        waived = met[0]  # every block's first row is the start heading
         any_waived = bool(np.count_nonzero(waived))
         if any_waived:
-            rrear, rfront, rhalf = self.real
-            real = (u >= -rrear) & (u <= rfront) & (v <= rhalf)
-            inside = np.where(waived, real, inside)
+            met = np.where(waived, inside(u, v, self.real), met)
             # exempt: strictly inside the real body at the start (a point on its edge is not)
-            inside[:, (u[0] > -rrear) & (u[0] < rfront) & (v[0] < rhalf)] = False
-        hit_rows = np.logical_or.reduce(inside, axis=1)
+            met[:, inside(u[0], v[0], self.real, strict=True)] = False
+        hit_rows = np.logical_or.reduce(met, axis=1)
         outs = []
         for t, (sign, e0, ticks, first) in zip(tasks, blocks):
             if not ticks:
@@ -340,7 +337,7 @@ class Scene:
             if k > ticks:
                 outs.append(unobstructed(t))
                 continue
-            at = inside[first + k]
+            at = met[first + k]
             j = int(near[int(np.argmax(at))]) if np.count_nonzero(at) else int(near[np.flatnonzero(waived)[0]])
             done = k - 1
             end = new_pose(s.x, s.y, wrap_angle(float(th[first + done]))) if done else s

@@ -17,8 +17,9 @@ from typing import Any
 import numpy as np
 import pymunk
 
-from clomp.formal.geometry import arc_step, wheel_twist, wrap_angle
+from clomp.formal.geometry import arc_step, points_to_frame, wheel_twist, wrap_angle
 from clomp.formal.model import Disturbance, DisturbanceKind, Pose, TaskKind
+from clomp.planner.footprint import body_box, inside, inside_at
 from clomp.planner.perception import Obstacles
 from clomp.planner.robot_model import RobotModel
 from clomp.planner.tasks import Task
@@ -131,13 +132,11 @@ class World:
         # the sensed points of the world's boxes, which decide contact
         owner = obstacles.owner
         mask = slice(None) if indices is None else np.isin(owner, np.asarray(list(idx), dtype=np.intp))
-        self.px = np.ascontiguousarray(obstacles.points[mask, 0]) if len(obstacles.points) else np.zeros(0)
-        self.py = np.ascontiguousarray(obstacles.points[mask, 1]) if len(obstacles.points) else np.zeros(0)
+        self.points = np.ascontiguousarray(obstacles.points[mask]) if len(obstacles.points) else np.zeros((0, 2))
         self.owner = owner[mask] if len(owner) else np.zeros(0, dtype=np.intp)
         # the body in its own frame: real and inflated extents, swept radius
-        c = robot.clearance
-        self.real = (robot.rear_offset, robot.front_offset, robot.width / 2)
-        self.infl = (robot.rear_offset + c, robot.front_offset + c, robot.width / 2 + c)
+        self.real = body_box(robot)
+        self.infl = body_box(robot, robot.clearance)
         self._radius = robot.swept_radius
 
     def place(self, pose: Pose) -> None:
@@ -263,39 +262,28 @@ class _PointCheck:
     """The sensed points a task from one start pose can meet, with its start-touching sets."""
 
     def __init__(self, world: World, start: Pose, reach: float) -> None:
-        dx, dy = world.px - start.x, world.py - start.y
+        pts = world.points
+        dx, dy = pts[:, 0] - start.x, pts[:, 1] - start.y
         near = np.flatnonzero(dx * dx + dy * dy <= reach * reach)
         self.world = world
         self.idx = near
-        self.x, self.y = world.px[near], world.py[near]
-        rear, front, half = world.infl
-        rrear, rfront, rhalf = world.real
-        u, v = _body_frame(self.x, self.y, start.x, start.y, start.theta)
-        self.waived = (u >= -rear) & (u <= front) & (v <= half)
-        self.exempt = (u > -rrear) & (u < rfront) & (v < rhalf)
+        self.points = pts[near]
+        self.waived = inside_at(self.points, start, world.infl)
+        self.exempt = inside_at(self.points, start, world.real, strict=True)
 
     def hit(self, x: float, y: float, th: float) -> Disturbance | None:
         """D_N for the first point the footprint at (x, y, th) touches, or None."""
-        if not len(self.x):
+        if not len(self.points):
             return None
         w = self.world
-        rear, front, half = w.infl
-        rrear, rfront, rhalf = w.real
-        u, v = _body_frame(self.x, self.y, x, y, th)
-        inside = np.where(
-            self.waived, (u >= -rrear) & (u <= rfront) & (v <= rhalf), (u >= -rear) & (u <= front) & (v <= half)
-        ) & ~self.exempt
-        if not inside.any():
+        local = points_to_frame(self.points, (x, y, th))
+        u, v = local[:, 0], np.abs(local[:, 1])
+        met = np.where(self.waived, inside(u, v, w.real), inside(u, v, w.infl)) & ~self.exempt
+        if not met.any():
             return None
-        j = int(np.argmax(inside))
+        j = int(np.argmax(met))
         k = int(self.idx[j])
-        return _obstacle_disturbance(w.obstacles, (int(w.owner[k]), float(self.x[j]), float(self.y[j])))
-
-
-def _body_frame(px: np.ndarray, py: np.ndarray, x: float, y: float, th: float) -> tuple[np.ndarray, np.ndarray]:
-    c, s = math.cos(th), math.sin(th)
-    dx, dy = px - x, py - y
-    return dx * c + dy * s, np.abs(dy * c - dx * s)
+        return _obstacle_disturbance(w.obstacles, (int(w.owner[k]), float(self.points[j, 0]), float(self.points[j, 1])))
 
 
 def _obstacle_disturbance(obstacles: Obstacles, hit: tuple[int, float, float]) -> Disturbance:

@@ -18,6 +18,7 @@ from typing import Any
 
 import numpy as np
 
+from clomp.planner.footprint import inside
 from clomp.planner.scanfile import MAX_SCAN_BYTES, MAX_SCAN_POINTS, SCAN_SUFFIXES, ScanError, load_scan, scan_files, validate_scan
 
 __all__ = [
@@ -255,11 +256,10 @@ def perceive(
     r2 = sq[:, 0] + sq[:, 1]
     keep = (r2 <= sensor_range * sensor_range) & (r2 > 1e-6)
     if body is not None:
-        rear, front, half = body
+        rear, _, half = body
         near = (keep & (r2 < rear * rear + half * half)).nonzero()[0]
         if len(near):
-            nx, ny = x[near], y[near]
-            own = near[(nx > -rear) & (nx < front) & (np.abs(ny) < half)]
+            own = near[inside(x[near], np.abs(y[near]), body, strict=True)]
             exempt = len(own)
             keep[own] = False
     kept = int(np.count_nonzero(keep))
