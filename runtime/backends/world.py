@@ -51,7 +51,7 @@ from typing import Any
 import numpy as np
 import pymunk
 
-from clomp.formal.geometry import wrap_angle
+from clomp.formal.geometry import polar_to_xy, wrap_angle
 from clomp.formal.model import Pose
 from clomp.planner.scenarios import Scene, ScenarioError
 from clomp.runtime.devices.frame import ScanFrame
@@ -420,8 +420,7 @@ class WorldRobot(SimulatedBackend):
         r = self._cast(x, y, th + self._ray_angles)
         ok = np.isfinite(r)
         a = self._ray_angles[ok]
-        pts: np.ndarray = np.c_[r[ok] * np.cos(a), r[ok] * np.sin(a)]
-        return pts
+        return polar_to_xy(r[ok], a)
 
     # -- the physics step ---------------------------------------------------------------------------
     def _advance(self, dt: float) -> None:
@@ -562,7 +561,7 @@ class WorldRobot(SimulatedBackend):
         grid = self.resolution > 0 and self.rounding == "grid"
         if self.resolution > 0 and not grid:  # the range as an A1 reports it, along the beam it names
             dist = np.round(dist / self.resolution) * self.resolution
-        pts = np.stack([dist * np.cos(a), dist * np.sin(a)], axis=1)
+        pts = polar_to_xy(dist, a)
         return (np.round(pts / self.resolution) * self.resolution if grid else pts), t[keep]
 
 
