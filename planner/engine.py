@@ -2,8 +2,10 @@
 
 The planner's rollouts (:mod:`clomp.planner.rollout`) are closed forms over the sensed points;
 this module is the physics engine they are tested against, and a world a user can
-query: boxes as static polygons, the robot as a kinematic body driven each control tick
-by its wheel speeds. :meth:`World.sweep_hits` asks, by one shape query of a reusable
+query: boxes as static polygons, the robot as a kinematic body. A task is stepped tick by
+tick with the exact unicycle motion of its wheel speeds
+(:func:`clomp.formal.geometry.arc_step`, the one pose integration) and tested against the
+sensed points after each tick. :meth:`World.sweep_hits` asks, by one shape query of a reusable
 polygon (nothing allocated per query), which boxes a whole task could touch.
 """
 
@@ -59,14 +61,10 @@ class Outcome:
 
 
 _ROBOT_FILTER = pymunk.ShapeFilter(group=1)
-# pymunk routes attribute writes through a typing mixin's __setattr__; the rollout's hot
-# path calls the property setters directly (same effect, a third of the cost)
-_set_velocity = pymunk.Body.velocity.fset  # type: ignore[attr-defined]
-_set_angular_velocity = pymunk.Body.angular_velocity.fset  # type: ignore[attr-defined]
+# pymunk routes attribute writes through a typing mixin's __setattr__; placing the body
+# calls the property setters directly (same effect, a third of the cost)
 _set_position = pymunk.Body.position.fset  # type: ignore[attr-defined]
 _set_angle = pymunk.Body.angle.fset  # type: ignore[attr-defined]
-# how much deeper (m) the reference tick loop lets a task push into a box it touched at its start
-_DEEPER = 1e-4
 
 
 @functools.lru_cache(maxsize=64)
@@ -213,10 +211,12 @@ class World:
 
 
 def _rollout(task: Task, world: World | None) -> Outcome:
-    """The tick loop: the engine moves the body, and after every step the footprint is
-    tested against the sensed points (the rule of :mod:`clomp.planner.rollout`: the inflated
-    footprint; the real body for points already within the margin at the start; points
-    inside the real body at the start are exempt)."""
+    """The tick loop: each control tick moves the body by the exact unicycle step of its
+    wheel speeds (:func:`clomp.formal.geometry.arc_step`, the one pose integration), and in
+    a ``world`` the footprint is then tested against the sensed points (the rule of
+    :mod:`clomp.planner.rollout`: the inflated footprint; the real body for points already
+    within the margin at the start; points inside the real body at the start are exempt)
+    and the engine's body placed where the task stopped."""
     r = task.robot
     dt = r.tick
     b = r.wheel_base
@@ -225,36 +225,23 @@ def _rollout(task: Task, world: World | None) -> Outcome:
     ticks = 0
     distance = 0.0
     d_n: Disturbance | None = None
-    body = None
-    check: _PointCheck | None = None
-    if world is not None:
-        world.place(task.start)
-        body = world.body
-        check = world.point_check(task.start)
+    check = None if world is None else world.point_check(task.start)
     limit = task.max_ticks()
     while d_n is None and ticks < limit:
         e = task.error_at(x, y, th)
         if task.done(e):
             break
-        vl, vr = task.wheel_speeds(e)
-        v, w = wheel_twist(vl, vr, b)
-        vx, vy = v * math.cos(th), v * math.sin(th)
-        if world is not None and body is not None and check is not None:
-            _set_velocity(body, (vx, vy))
-            _set_angular_velocity(body, w)
-            world.space.step(dt)
-            pos = body.position
-            nx, ny, nth = pos.x, pos.y, body.angle
-            d_n = check.hit(nx, ny, nth)
-            if d_n is not None:
-                break
-        else:
-            nx, ny, nth = arc_step(x, y, th, v, w, dt)
+        v, w = wheel_twist(*task.wheel_speeds(e), b)
+        nx, ny, nth = arc_step(x, y, th, v, w, dt)
+        if check is not None and (d_n := check.hit(nx, ny, nth)) is not None:
+            break
         distance += abs(v) * dt
         x, y, th = nx, ny, nth
         ticks += 1
     if ticks:
         pose = Pose(x, y, wrap_angle(th))
+    if world is not None:
+        world.place(pose)
     return Outcome(task.kind, task.start, pose, distance, ticks * dt, ticks, d_n, False)
 
 
