@@ -15,6 +15,7 @@ rules show that each scan recognises the real thing and a copy of it.
 from __future__ import annotations
 
 import ast
+from collections.abc import Callable
 from pathlib import Path
 
 import pytest
@@ -175,65 +176,36 @@ def test_each_exception_is_still_a_copy() -> None:
         assert footprint_tests(REPO / path), f"{path} has no footprint test left: drop its exception"
 
 
-@pytest.mark.parametrize(
-    "source",
-    [
-        "pts = np.c_[r * np.cos(a), r * np.sin(a)]\n",
-        "pts = np.column_stack((r[ok] * np.cos(a[ok]), r[ok] * np.sin(a[ok])))\n",
-        "pts = np.stack([np.cos(a) * d, np.sin(a) * d], axis=1)\n",
-        "x, y = np.round(r * np.cos(a) / q) * q, np.round(r * np.sin(a) / q) * q\n",
-        "y, x = -r * np.sin(a), r * np.cos(a)\n",
-    ],
-)
-def test_the_polar_scan_catches_a_copy(tmp_path: Path, source: str) -> None:
-    f = tmp_path / "copy.py"
+_COPIES = [
+    (polar_conversions, "pts = np.c_[r * np.cos(a), r * np.sin(a)]\n"),
+    (polar_conversions, "pts = np.column_stack((r[ok] * np.cos(a[ok]), r[ok] * np.sin(a[ok])))\n"),
+    (polar_conversions, "pts = np.stack([np.cos(a) * d, np.sin(a) * d], axis=1)\n"),
+    (polar_conversions, "x, y = np.round(r * np.cos(a) / q) * q, np.round(r * np.sin(a) / q) * q\n"),
+    (polar_conversions, "y, x = -r * np.sin(a), r * np.cos(a)\n"),
+    (footprint_tests, "m = (u >= -rear) & (u <= front) & (v <= half)\n"),
+    (footprint_tests, "m = (u > -rrear) & (u < rfront) & (np.abs(v) < rhalf)\n"),
+    (footprint_tests, "m = (v <= half) & (front >= u) & (-rear <= u)\n"),
+    (footprint_tests, "m = -rear <= u <= front\n"),
+    (footprint_tests, "ok = v <= half and u >= -rear and u <= front\n"),
+    (footprint_tests, "m = ((x - x0) * c >= -rear) & ((x - x0) * c <= front) & live\n"),
+]
+_OTHERS = [
+    (polar_conversions, "import math\ndef f(r, a):\n    return r * math.cos(a), r * math.sin(a)\n"),  # scalar
+    (polar_conversions, "d = np.c_[np.cos(a), np.sin(a)]\n"),  # unit vectors, no ranges
+    (polar_conversions, "c, s = np.cos(th)[:, None], np.sin(th)[:, None]\n"),
+    (polar_conversions, "px, py = r * np.sin(th), r * (1 - np.cos(th))\n"),  # an arc, not a reading
+    (polar_conversions, "p = (r * np.cos(a), r * np.sin(b))\n"),  # two bearings
+    (footprint_tests, "m = (u.max(axis=1) >= lo) & (u.min(axis=1) <= hi) & (v.max(axis=1) >= -h) & (v.min(axis=1) <= h)\n"),
+    (footprint_tests, "m = (u >= -rear) & ahead\n"),
+    (footprint_tests, "m = (v < rhalf) & (u <= front) & (u >= rfront)\n"),  # a band ahead, no negated bound
+    (footprint_tests, "m = (x >= -1.0) & (x <= 1.0)\n"),  # a constant interval
+]
+
+
+@pytest.mark.parametrize("scan, source", _COPIES + _OTHERS)
+def test_each_scan_catches_a_copy_and_leaves_the_rest_alone(
+    tmp_path: Path, scan: Callable[[Path], list[str]], source: str
+) -> None:
+    f = tmp_path / "code.py"
     f.write_text("import numpy as np\n" + source, encoding="utf-8")
-    assert polar_conversions(f)
-
-
-@pytest.mark.parametrize(
-    "source",
-    [
-        "import math\ndef f(r, a):\n    return r * math.cos(a), r * math.sin(a)\n",  # scalar trigonometry
-        "d = np.c_[np.cos(a), np.sin(a)]\n",  # unit vectors, no ranges
-        "c, s = np.cos(th)[:, None], np.sin(th)[:, None]\n",
-        "px, py = r * np.sin(th), r * (1 - np.cos(th))\n",  # an arc, not a reading
-        "p = (r * np.cos(a), r * np.sin(b))\n",  # two bearings
-    ],
-)
-def test_the_polar_scan_leaves_other_trigonometry_alone(tmp_path: Path, source: str) -> None:
-    f = tmp_path / "ok.py"
-    f.write_text("import numpy as np\n" + source, encoding="utf-8")
-    assert polar_conversions(f) == []
-
-
-@pytest.mark.parametrize(
-    "source",
-    [
-        "m = (u >= -rear) & (u <= front) & (v <= half)\n",
-        "m = (u > -rrear) & (u < rfront) & (np.abs(v) < rhalf)\n",
-        "m = (v <= half) & (front >= u) & (-rear <= u)\n",
-        "m = -rear <= u <= front\n",
-        "ok = v <= half and u >= -rear and u <= front\n",
-        "m = ((x - x0) * c >= -rear) & ((x - x0) * c <= front) & live\n",
-    ],
-)
-def test_the_footprint_scan_catches_a_copy(tmp_path: Path, source: str) -> None:
-    f = tmp_path / "copy.py"
-    f.write_text("import numpy as np\n" + source, encoding="utf-8")
-    assert footprint_tests(f)
-
-
-@pytest.mark.parametrize(
-    "source",
-    [
-        "m = (u.max(axis=1) >= lo) & (u.min(axis=1) <= hi) & (v.max(axis=1) >= -half) & (v.min(axis=1) <= half)\n",
-        "m = (u >= -rear) & ahead\n",
-        "m = (v < rhalf) & (u <= front) & (u >= rfront)\n",  # a band ahead, no negated bound
-        "m = (x >= -1.0) & (x <= 1.0)\n",  # a constant interval
-    ],
-)
-def test_the_footprint_scan_leaves_other_intervals_alone(tmp_path: Path, source: str) -> None:
-    f = tmp_path / "ok.py"
-    f.write_text("import numpy as np\n" + source, encoding="utf-8")
-    assert footprint_tests(f) == []
+    assert bool(scan(f)) is ((scan, source) in _COPIES)

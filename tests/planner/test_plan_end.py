@@ -16,7 +16,7 @@ from hypothesis import strategies as st
 from clomp.formal.lts import CognitiveMap
 from clomp.formal.model import Disturbance, Pose, State, TaskKind
 from clomp.formal.supervisory import extract_plan, plan_end
-from clomp.planner import Configurator, builtin_scenarios, load_scenario
+from clomp.planner import Configurator, PlanResult, builtin_scenarios, load_scenario
 
 _G = Disturbance.goal(1.0, 0.0)
 
@@ -50,7 +50,7 @@ def test_among_equal_costs_the_lowest_ident_ends_the_plan(cost: float, n: int) -
     assert plan_end(m).ident == 1
 
 
-def _useless_final_turn(result) -> bool:  # type: ignore[no-untyped-def]
+def _useless_final_turn(result: PlanResult) -> bool:
     """The plan's last task is a turn whose end is as far from the goal as its parent's."""
     states = result.plan.states
     if len(states) < 2:
