@@ -9,6 +9,7 @@ the source for it).
 - :func:`compose` / :func:`relative` — a pose from a robot's frame into the world's and back;
   :func:`points_from_frame` / :func:`points_to_frame` — the same for arrays of points;
   :func:`points_from_frames` — each point from a frame of its own (arrays of frames).
+- :func:`polar_to_xy` — range and bearing readings (a LiDAR's) as x, y points.
 - :func:`arc_step` / :func:`drive` — the exact motion of a unicycle at constant linear speed
   ``v`` and turn rate ``w`` over ``dt`` (a circular arc, a straight line when ``w`` = 0);
   :func:`arc_offsets` — the same arc from the origin, at an array of times.
@@ -43,6 +44,7 @@ __all__ = [
     "points_from_frame",
     "points_from_frames",
     "points_to_frame",
+    "polar_to_xy",
     "relative",
     "wheel_twist",
     "wrap_angle",
@@ -137,6 +139,20 @@ def points_to_frame(points: np.ndarray, frame: FrameLike) -> np.ndarray:
     c, s = math.cos(th), math.sin(th)
     rel = np.asarray(points, dtype=float) - np.array([x, y])
     out: np.ndarray = np.stack((rel[:, 0] * c + rel[:, 1] * s, -rel[:, 0] * s + rel[:, 1] * c), axis=1)
+    return out
+
+
+def polar_to_xy(ranges: np.ndarray, angles: np.ndarray) -> np.ndarray:
+    """Readings at ``ranges`` (m) and bearings ``angles`` (rad, counter-clockwise from x)
+    → points ``(r cos a, r sin a)``, stacked on a last axis of 2 (N×2 for N readings).
+
+    The one polar conversion: the scenarios' and simulators' ray casts, recorded bags and
+    the fused revolutions all call it (numpy arithmetic in the inputs' own dtype).
+
+    >>> polar_to_xy(np.array([1.0, 2.0]), np.array([0.0, math.pi / 2])).round(9).tolist()
+    [[1.0, 0.0], [0.0, 2.0]]
+    """
+    out: np.ndarray = np.stack((ranges * np.cos(angles), ranges * np.sin(angles)), axis=-1)
     return out
 
 

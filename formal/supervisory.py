@@ -78,6 +78,14 @@ def plan_end(cmap: CognitiveMap) -> State:
     Only states reachable from q0 count. When every reachable state but q0 is
     interrupted, the plan ends at q0 (the empty plan).
 
+    The tie rule: of states of equal φ the first created (the lowest ident, the first
+    explored) ends the plan. So no plan ends on a turn that changes nothing: a final
+    LEFT or RIGHT turns in place, its end is as far from the goal as its parent's and,
+    uninterrupted, its φ equals the parent's; the parent, created before it, wins the
+    tie and the useless turn is dropped. (Sending ties to the highest ident instead
+    appends such a turn to the plans of the ``blocked`` and ``cul-de-sac`` scenarios;
+    ``tests/planner/test_plan_end.py`` holds the rule.)
+
     >>> from clomp.formal.model import Disturbance, Pose, TaskKind
     >>> g = Disturbance.goal(1.0, 0.0)
     >>> m = CognitiveMap(goal=g)

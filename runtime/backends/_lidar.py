@@ -19,6 +19,7 @@ from typing import Any
 
 import numpy as np
 
+from clomp.formal.geometry import polar_to_xy
 from clomp.planner.noise import NoiseTerms
 from clomp.planner.scenarios import Scene
 from clomp.runtime.backends._raycast import first_hits
@@ -77,8 +78,7 @@ class Lidar:
         r = self.cast(x, y, th + self.angles)
         ok = np.isfinite(r)
         a = self.angles[ok]
-        pts: np.ndarray = np.c_[r[ok] * np.cos(a), r[ok] * np.sin(a)]
-        return pts
+        return polar_to_xy(r[ok], a)
 
     def step(self, t: float, pose: Pose3) -> ScanFrame | None:
         """Measure the rays due by ``t`` from ``pose``; the revolution when this step ends one."""
@@ -148,5 +148,5 @@ class Lidar:
         grid = self.resolution > 0 and self.rounding == "grid"
         if self.resolution > 0 and not grid:  # the range as an A1 reports it, along the beam it names
             dist = np.round(dist / self.resolution) * self.resolution
-        pts = np.stack([dist * np.cos(a), dist * np.sin(a)], axis=1)
+        pts = polar_to_xy(dist, a)
         return (np.round(pts / self.resolution) * self.resolution if grid else pts), t[keep]

@@ -32,6 +32,7 @@ from typing import Any, Self
 
 import numpy as np
 
+from clomp.formal.geometry import polar_to_xy
 from clomp.formal.model import Pose
 from clomp.planner.robot_model import RobotModel
 from clomp.planner.scenarios import Scene, load_scenario
@@ -165,8 +166,8 @@ class EmulatedWorld:
             if res > 0 and self.sim.rounding == "range":  # the range as the world's LiDAR reports it
                 r = np.round(r / res) * res
             elif res > 0:  # the range of the point on the world's grid
-                x, y = np.round(r * np.cos(angle) / res) * res, np.round(r * np.sin(angle) / res) * res
-                r = np.hypot(x, y)
+                xy = np.round(polar_to_xy(r, angle) / res) * res
+                r = np.hypot(xy[..., 0], xy[..., 1])
             dist = np.where(ok, r * 1000.0, 0.0)
             cw = np.degrees(-angle) % 360.0
             out += [(float(a), float(d), first and k == 0) for k, (a, d) in enumerate(zip(cw, dist))]

@@ -35,7 +35,7 @@ from typing import Any
 import numpy as np
 import pymunk
 
-from clomp.formal.geometry import arc_step, wrap_angle
+from clomp.formal.geometry import arc_step, polar_to_xy, wrap_angle
 from clomp.formal.model import Pose
 from clomp.planner.noise import check_noise, noise_from_scene
 from clomp.planner.robot_model import RobotModel
@@ -341,7 +341,7 @@ class SimRobot(SimulatedBackend):
         if n.dropout:
             keep &= self._rng.random(len(ranges)) >= n.dropout
         r, a = ranges[keep], local[keep]
-        pts = np.c_[r * np.cos(a), r * np.sin(a)]
+        pts = polar_to_xy(r, a)
         if self.resolution > 0:
             pts = np.round(pts / self.resolution) * self.resolution
         self._pts.append(pts)

@@ -38,6 +38,7 @@ from clomp.formal.geometry import compose, relative, wrap_angle
 from clomp.formal.model import Disturbance, Pose, State, TaskKind
 from clomp.formal.scheduler import map_policy, policy_path
 from clomp.formal.supervisory import Guard, Plan
+from clomp.planner import footprint
 from clomp.planner.configurator import PlanResult
 from clomp.planner.perception import Obstacles, perceive
 from clomp.planner.rollout import simulate
@@ -79,8 +80,7 @@ class Recall:
 
 def perceive_scan(scan: np.ndarray, robot: RobotModel) -> Obstacles:
     """What the planner perceives in ``scan`` (robot frame), as :meth:`Configurator.plan` does."""
-    return perceive(scan, robot.sensor_range, robot.cluster_distance,
-                    body=(robot.rear_offset, robot.front_offset, robot.width / 2))
+    return perceive(scan, robot.sensor_range, robot.cluster_distance, body=footprint.body_box(robot))
 
 
 def perceive_near(scan: np.ndarray, states: list[State], origin: Pose, pose: Pose, robot: RobotModel) -> Obstacles:
