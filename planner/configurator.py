@@ -214,7 +214,7 @@ class PlanResult:
         return self.plan.tasks(self.map)
 
     @property
-    def states(self) -> int:
+    def n_states(self) -> int:
         """|Q|."""
         return len(self.map)
 
@@ -237,7 +237,7 @@ class PlanResult:
             ],
             "reached_goal": self.reached_goal,
             "collision_free": self.collision_free,
-            "states": self.states,
+            "states": self.n_states,
             "transitions": self.transitions,
             "planning_time_s": self.planning_time_s,
             "goal": [self.goal.x, self.goal.y],

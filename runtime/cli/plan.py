@@ -195,7 +195,7 @@ def _print_readable(r: PlanResult, title: str) -> None:
         verdict += "; it ends at the edge of what the sensor saw"
     print(f"{title}: goal ({r.goal.x:g}, {r.goal.y:g}) — plan {verdict}", file=out)
     print(
-        f"  {plural(r.states, 'state')}, {plural(r.transitions, 'transition')}, "
+        f"  {plural(r.n_states, 'state')}, {plural(r.transitions, 'transition')}, "
         f"{plural(len(r.obstacles), 'obstacle box', 'obstacle boxes')}, "
         f"planned in {r.planning_time_s * 1e3:.2f} ms (stopped: {r.stop_reason})",
         file=out,
@@ -405,7 +405,7 @@ def _plan_many(conf: Configurator, total: int, items: Iterable[tuple[str, Any, s
             bar.write(f"{name}: {what}")
         else:
             bar.write(
-                f"{name}: {rec['outcome'].replace('_', ' ')}  {plural(len(r.steps), 'task')}  {plural(r.states, 'state')}  "
+                f"{name}: {rec['outcome'].replace('_', ' ')}  {plural(len(r.steps), 'task')}  {plural(r.n_states, 'state')}  "
                 f"{r.planning_time_s * 1e3:.2f} ms  [{' '.join(s.task.value[0] for s in r.steps)}]"
             )
         for w in rec.get("warnings", []) if not args.json else []:

@@ -94,7 +94,7 @@ def _replay(conf: Configurator, total: int, items: Iterable[tuple[str, Any, tupl
                 "outcome": rec["outcome"],
                 "reached_goal": r.reached_goal,
                 "collision_free": r.collision_free,
-                "states": r.states,
+                "states": r.n_states,
                 "planning_time_s": r.planning_time_s,
                 "plan": [s.task.value for s in r.steps],
             }
@@ -104,7 +104,7 @@ def _replay(conf: Configurator, total: int, items: Iterable[tuple[str, Any, tupl
         else:
             bar.write(
                 f"{label}: {rec['outcome'].replace('_', ' ')}  "
-                f"{r.states:3d} states  {r.planning_time_s * 1e3:7.2f} ms  [{' '.join(s.task.value[0] for s in r.steps)}]"
+                f"{r.n_states:3d} states  {r.planning_time_s * 1e3:7.2f} ms  [{' '.join(s.task.value[0] for s in r.steps)}]"
             )
             for w in rec.get("warnings", []):
                 bar.write(f"{label}: warning: {w}")

@@ -294,7 +294,7 @@ def _dry_run(robot: Any, conf: Any, goal: tuple[float, float], clock: Any, log: 
         n += 1
         tasks = [s.task.value for s in r.steps]
         log.write("plan", **plan_fields(r, Pose(0.0, 0.0, 0.0)))  # the robot stands still: odometry = start
-        print(f"scan {n}: {'goal' if r.reached_goal else 'partial' if tasks else 'no move'}  {r.states} states  "
+        print(f"scan {n}: {'goal' if r.reached_goal else 'partial' if tasks else 'no move'}  {r.n_states} states  "
               f"{r.planning_time_s * 1e3:.2f} ms  [{' '.join(t[0] for t in tasks)}]", flush=True)
     log.write("stop", reason="dry run: time limit", status="DRY_RUN")
     print(f"dry run: {n} scans planned (log: {path})", flush=True)

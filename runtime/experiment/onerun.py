@@ -69,7 +69,7 @@ class RunResult:
     time_s: float
     time_to_goal_s: float | None
     planning_time_s: float | None
-    states: int | None
+    n_states: int | None
     plans: int
     path: list[tuple[float, float]]
     estimate: list[tuple[float, float]]
@@ -245,7 +245,7 @@ def run_once(
             planned.append([_world(start, rec.to_frame(rec.result.map[i].end)) for i in rec.result.plan.states])
         if report.plans:
             plan_time = report.plans[0].result.planning_time_s
-            states = report.plans[0].result.states
+            states = report.plans[0].result.n_states
         plans = len(report.plans)
         end_state, reason = report.state.value, report.reason
     else:

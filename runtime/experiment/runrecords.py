@@ -56,7 +56,7 @@ def run_spec(spec: RunSpec) -> dict[str, Any]:
         "time_s": _r(r.time_s, 2),
         "time_to_goal_s": _r(r.time_to_goal_s, 2),
         "planning_time_s": _r(r.planning_time_s, 6),
-        "states": r.states,
+        "states": r.n_states,
         "plans": r.plans,
         "checks": r.counters.get("checks"),
         "recalls": r.counters.get("recalls"),

@@ -374,8 +374,8 @@ class Supervisor:
             self._fire(E.NO_PLAN, f"goal unreachable: {exc}")
             return
         took = result.planning_time_s + self.watch.planned(result)  # indexing the map for recall is part of making it
-        self.fresh_plans.append(TimedRecord(now - (self._t0 or 0.0), took, True, f"{result.states} states", time.thread_time() - c0))
-        self._log("fresh_plan", duration_s=took, states=result.states)
+        self.fresh_plans.append(TimedRecord(now - (self._t0 or 0.0), took, True, f"{result.n_states} states", time.thread_time() - c0))
+        self._log("fresh_plan", duration_s=took, states=result.n_states)
         rec = PlanRecord(now - (self._t0 or 0.0), self.pose, result)
         self.plans.append(rec)
         if self.log is not None:
@@ -392,7 +392,7 @@ class Supervisor:
         self._plan = rec
         states = result.plan.states
         self._queue = deque((result.map[t], (s, t)) for s, t in zip(states, states[1:]))
-        self._fire(E.PLANNED, f"plan {len(self.plans)}: {len(result.steps)} tasks, {result.states} states")
+        self._fire(E.PLANNED, f"plan {len(self.plans)}: {len(result.steps)} tasks, {result.n_states} states")
         self.watch.started(self.pose)
         self._execute_tick(now)
 

@@ -63,7 +63,7 @@ def test_run_once_measures_on_ground_truth():
     scene = load_scenario("overtaking")
     r = run_once(scene, "planning", 1, noise="paper")
     assert r.reached_goal and r.final_distance <= SUCCESS_RADIUS and r.collisions == 0
-    assert r.states is not None and r.states > 5 and r.planning_time_s is not None and r.planning_time_s > 0
+    assert r.n_states is not None and r.n_states > 5 and r.planning_time_s is not None and r.planning_time_s > 0
     assert r.planned and r.path[0] == (0.0, 0.0) and r.cpu_s > 0
     with pytest.raises(ValueError):
         run_once(scene, "psychic", 1)

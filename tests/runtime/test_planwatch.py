@@ -63,12 +63,12 @@ def test_a_spent_budget_is_searched_again_deeper_and_gets_round_the_u() -> None:
     goal = scene.goal_in_robot_frame()
     first = Configurator().plan(scan, goal)
     assert first.stop_reason == "budget" and _inside(first.map[first.plan.states[-1]].end, p)
-    assert plan_deepening(Configurator(), scan, goal, deepen=1).states == first.states
+    assert plan_deepening(Configurator(), scan, goal, deepen=1).n_states == first.n_states
     deeper = plan_deepening(Configurator(), scan, goal)
     end = deeper.map[deeper.plan.states[-1]].end
-    assert deeper.states > 50 and end.x > p["back_x"] and not _inside(end, p)
+    assert deeper.n_states > 50 and end.x > p["back_x"] and not _inside(end, p)
     open_field = plan_deepening(Configurator(), scene.scan()[:0], goal)
-    assert open_field.stop_reason == "goal" and open_field.states < 50
+    assert open_field.stop_reason == "goal" and open_field.n_states < 50
 
 
 def test_the_supervisor_deepens_a_spent_search_unless_told_not_to() -> None:
