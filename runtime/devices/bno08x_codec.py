@@ -30,6 +30,10 @@ __all__ = [
     "STANDARD_GRAVITY",
     "RvcReport",
     "RvcDecoder",
+    "ImuError",
+    "ImuPortError",
+    "ImuProtocolError",
+    "ImuTimeout",
     "encode_report",
     "checksum",
     "unwrap",
@@ -45,6 +49,29 @@ DEFAULT_BAUDRATE = 115200
 STANDARD_GRAVITY = 9.80665
 _ANGLE_LIMIT = 18000  # |angle| in 0.01°: anything beyond is not an angle the device reports
 _INT16 = (-32768, 32767)
+
+
+# ---------------------------------------------------------------------------- errors
+
+
+class ImuError(Exception):
+    """Base class of every error raised by the IMU layer (as ``LidarError`` is the
+    LiDAR's: a backend turns either into its robot fault)."""
+
+
+class ImuPortError(ImuError):
+    """The serial port cannot be opened, or it failed (device unplugged, pty closed)."""
+
+
+class ImuProtocolError(ImuError):
+    """Bytes arrive but no valid report among them (wrong baud rate, not in RVC mode, noise)."""
+
+
+class ImuTimeout(ImuError):
+    """No byte at all within the deadline: the device is silent (unpowered, disconnected)."""
+
+
+# ----------------------------------------------------------------------------- codec
 
 
 def checksum(body: bytes) -> int:
@@ -196,10 +223,10 @@ class RvcDecoder:
     The two are told apart by what follows each window: a report is followed by the next
     report's ``AA AA``. When that does not decide (both or neither are followed), a window
     right after the previous report keeps its place, and one after skipped bytes gives way
-    to the later window. A report that could hold such a beginning (``AA`` among its data,
-    one report in a few hundred) is therefore handed on only when the next report's first
-    bytes arrive, 10 ms later; every decision waits for the bytes it needs, so any split of
-    a stream into chunks gives the same reports.
+    to the later window. A report that could hold such a beginning (its checksum or index
+    ``AA``, or ``AA AA`` among its data: about one report in 128) is therefore handed on
+    only when the next report's first bytes arrive, 10 ms later; every decision waits for
+    the bytes it needs, so any split of a stream into chunks gives the same reports.
 
     >>> frames = b"".join(encode_report(RvcReport(i, 100 * i)) for i in (0, 1, 3))
     >>> d = RvcDecoder()
