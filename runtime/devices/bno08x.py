@@ -232,12 +232,12 @@ class Bno08xRvc:
         limit = self.silence_timeout if self._first is not None else self.start_timeout
         if now - last_report <= limit:
             return None
-        since = "since it was opened" if self._first is None else "after the last report"
-        hint = "(is it powered, connected, and its P0 pin strapped for RVC mode?)"
-        if now - last_byte > limit:
-            return ImuTimeout(f"IMU on {self.port_name} fell silent: no byte for {now - last_byte:.2f} s {since} {hint}")
         if not dropped:
-            return ImuTimeout(f"IMU on {self.port_name} fell silent: no full report for {now - last_report:.2f} s {since} {hint}")
+            since = "since it was opened" if self._first is None else "after the last report"
+            what = f"no byte for {now - last_byte:.2f} s" if now - last_byte > limit else (
+                f"no full report for {now - last_report:.2f} s")
+            return ImuTimeout(f"IMU on {self.port_name} fell silent: {what} {since} "
+                              f"(is it powered, connected, and its P0 pin strapped for RVC mode?)")
         d = self.decoder
         return ImuProtocolError(
             f"IMU stream on {self.port_name} is corrupt: no valid report for {now - last_report:.2f} s "

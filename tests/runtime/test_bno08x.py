@@ -149,7 +149,7 @@ def test_dropped_reports_garbage_and_bad_checksums_are_counted_and_survived() ->
 
 @pytest.mark.parametrize(
     ("fault", "error", "said"),
-    [({"silent": True}, ImuTimeout, "fell silent"), ({"garbage_only": True}, ImuProtocolError, "corrupt")],
+    [({"silent": True}, ImuTimeout, "fell silent: no byte"), ({"garbage_only": True}, ImuProtocolError, "corrupt")],
 )
 def test_a_silent_or_garbled_stream_is_a_fault_after_the_deadline_of_device_time(
     fault: dict[str, bool], error: type[ImuError], said: str
