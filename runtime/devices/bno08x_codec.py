@@ -220,10 +220,10 @@ class RvcDecoder:
     chance, so a window is not taken while a valid window begins inside it (at an ``AA AA``
     within it): that is either a truncated report (a byte lost on the line, or garbage
     ending in ``AA AA``) followed by a real one, or a real report whose data holds ``AA AA``.
-    The two are told apart by what follows each window: a report is followed by the next
-    report's ``AA AA``. When that does not decide (both or neither are followed), a window
-    right after the previous report keeps its place, and one after skipped bytes gives way
-    to the later window. A report that could hold such a beginning (its checksum or index
+    The two are told apart by what follows each window (a report is followed by the next
+    report's ``AA AA``), else by the index (the one that follows the last report's), else a
+    window right after the last report keeps its place and one after skipped bytes gives
+    way to the later window. A report that could hold such a beginning (its checksum or index
     ``AA``, or ``AA AA`` among its data: about one report in 128) is therefore handed on
     only when the next report's first bytes arrive, 10 ms later; every decision waits for
     the bytes it needs, so any split of a stream into chunks gives the same reports.
@@ -313,11 +313,23 @@ class RvcDecoder:
                 continue
             if n < j + REPORT_SIZE + 2:
                 return None
-
-            def followed(k: int) -> bool:
-                return buf[k + REPORT_SIZE] == _H and buf[k + REPORT_SIZE + 1] == _H
-
-            fi, fj = followed(i), followed(j)
-            if fj and not fi or fi == fj and self._skipped > 0:
+            if self._prefer_later(buf, i, j):
                 return j
         return i
+
+    def _prefer_later(self, buf: bytearray, i: int, j: int) -> bool:
+        """Whether the valid window at ``j``, which begins inside the valid window at ``i``,
+        is the report: the one followed by a header, else the one whose index follows the
+        last report's, else ``i`` right after the last report and ``j`` after skipped bytes."""
+
+        def followed(k: int) -> bool:
+            return buf[k + REPORT_SIZE] == _H and buf[k + REPORT_SIZE + 1] == _H
+
+        def continues(k: int) -> bool:
+            return self._last_index is not None and buf[k + 2] == (self._last_index + 1) & 0xFF
+
+        for evidence in (followed, continues):
+            ei, ej = evidence(i), evidence(j)
+            if ei != ej:
+                return ej
+        return self._skipped > 0

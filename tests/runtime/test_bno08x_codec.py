@@ -11,6 +11,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from clomp.runtime.devices.bno08x_codec import (
+    HEADER,
     REPORT_SIZE,
     STANDARD_GRAVITY,
     RvcDecoder,
@@ -45,6 +46,44 @@ def reports(draw: st.DrawFn, index: int | None = None, clean: bool = False) -> R
         r = RvcReport(r.index, r.yaw_cdeg, r.pitch_cdeg, r.roll_cdeg, r.accel_mg, r.motion_intent,
                       r.motion_request, (r.reserved + 1) % 256 if r.reserved != 0xA9 else 0xAB)
     return r
+
+
+def _forge(draw: st.DrawFn, nxt: bytes, last_index: int) -> bytes:
+    """Garbage ending in ``AA AA`` + ``L - 2`` bytes that, with the first ``19 - L`` bytes of
+    the report ``nxt`` after it, make a window passing the checksum and the angle ranges (a
+    truncated report that would swallow the next one); b"" when ``nxt``'s bytes leave no
+    such window. Its index is never the one after ``last_index`` (a window right in every
+    respect but its place cannot be told from the report)."""
+    cut = draw(st.integers(3, 18))
+    w = bytearray(HEADER + draw(st.binary(min_size=cut - 2, max_size=cut - 2)) + nxt[: REPORT_SIZE - cut])
+    for k in (3, 5, 7):  # an angle whose bytes are garbage: into range
+        if k + 1 < cut:
+            w[k:k + 2] = (int.from_bytes(w[k:k + 2], "little", signed=True) % 18001).to_bytes(2, "little", signed=True)
+    w[2] = (w[18] - sum(w[3:18])) & 0xFF  # the index byte makes the checksum pass
+    if not _valid(w, 0) or w[2] == (last_index + 1) & 0xFF:
+        return b""
+    return bytes(w[:cut])
+
+
+@st.composite
+def garbled_streams(draw: st.DrawFn) -> tuple[bytes, list[RvcReport], list[bytes]]:
+    """A lead report, then reports with consecutive indices (0xAA skipped: the reports are
+    clean), each after garbage that may end in a forged window overlapping it."""
+    index = draw(u8.filter(lambda v: v != 0xAA))
+    lead = draw(reports(index=index, clean=True))
+    data, sent, garbage = bytearray(encode_report(lead)), [], []
+    for _ in range(draw(st.integers(1, 8))):
+        last, index = index, (index + 1) % 256
+        index += index == 0xAA
+        r = draw(reports(index=index, clean=True))
+        frame = encode_report(r)
+        g = draw(st.binary(max_size=40))
+        if draw(st.booleans()):
+            g += _forge(draw, frame, last)
+        data += g + frame
+        sent.append(r)
+        garbage.append(g)
+    return bytes(data + b"\x00\x00"), sent, garbage
 
 
 def _feed_in_chunks(data: bytes, cuts: list[int]) -> tuple[list[RvcReport], RvcDecoder]:
@@ -157,6 +196,26 @@ def test_garbage_between_reports_never_costs_one_nor_merges_two(
     real = iter(sent)
     want = next(real, None)
     for r in got:
+        if r == want:
+            want = next(real, None)
+        else:
+            assert any(encode_report(r) in g for g in garbage), f"{r} is neither a report sent nor garbage"
+    assert want is None, f"report {want} was lost"
+
+
+@settings(max_examples=300)
+@given(garbled_streams(), st.lists(st.integers(0, 900), max_size=10))
+def test_a_forged_window_overlapping_a_report_never_costs_it(
+    stream: tuple[bytes, list[RvcReport], list[bytes]], cuts: list[int]
+) -> None:
+    """Garbage ending in a window that passes the checksum with the next report's first
+    bytes (a truncated report that would swallow the next one): the report still comes out,
+    once, and the forged window never does."""
+    data, sent, garbage = stream
+    got, _ = _feed_in_chunks(data, cuts)
+    real = iter(sent)
+    want = next(real, None)
+    for r in got[1:]:  # after the lead report
         if r == want:
             want = next(real, None)
         else:
