@@ -86,7 +86,8 @@ class Bno08xRvc:
     What a heading consumer calls: :meth:`rotation` (rad turned since the first report,
     as :class:`clomp.runtime.interface.TurnSensing` asks), :meth:`latest` (the newest
     :class:`ImuSample`), :meth:`recent` (the last samples, to find the heading at a
-    scan's time); each raises the latched :class:`ImuError` once the stream has failed.
+    scan's time); each raises the latched :class:`ImuError` once the stream has failed,
+    and :attr:`on_fault` hears of the fault the moment it is found.
     """
 
     def __init__(
@@ -112,6 +113,11 @@ class Bno08xRvc:
         self.passes = 0
         #: when the fault was found, on :attr:`clock`
         self.fault_time: float | None = None
+        #: called once with the fault, in the reader's thread, as soon as it is latched and
+        #: outside the driver's lock (a backend stops the wheels there, as the LiDAR's
+        #: stream watch does)
+        self.on_fault: Callable[[ImuError], None] | None = None
+        self.callback_error: BaseException | None = None
         self._fault: ImuError | None = None
         self._first: ImuSample | None = None
         self._recent: collections.deque[ImuSample] = collections.deque(maxlen=history)
@@ -246,9 +252,15 @@ class Bno08xRvc:
 
     def _trip(self, fault: ImuError) -> None:
         with self._cond:
-            if self._fault is None:
+            first = self._fault is None
+            if first:
                 self._fault, self.fault_time = fault, self.clock()
             self._cond.notify_all()
+        if first and self.on_fault is not None:
+            try:
+                self.on_fault(fault)
+            except Exception as exc:  # kept for the caller instead of a thread traceback
+                self.callback_error = exc
 
     # -- lifetime
 

@@ -200,12 +200,18 @@ def test_a_device_silent_from_the_start_fails_after_the_start_timeout() -> None:
             imu.rotation()
 
 
-def test_a_vanished_device_on_simulated_time_is_a_port_fault() -> None:
+def test_a_vanished_device_on_simulated_time_is_a_port_fault_told_at_once() -> None:
     clock = ManualClock(0.0)
     emu = Bno08xEmulator(lambda: 0.1, clock=clock.now, vanish_after=30)
-    with _on_simline(emu, clock) as imu:
-        _wait(imu, lambda i: i.fault is not None)
+    told: list[tuple[ImuError, float]] = []
+    line = SimLine(emu, clock, name="sim-imu")
+    line.running.clear()  # time stands still until the callback is in place
+    with Bno08xRvc(line, clock=clock.now) as imu:
+        imu.on_fault = lambda fault: told.append((fault, clock.now()))
+        line.running.set()
+        _wait(imu, lambda i: bool(told))
         assert isinstance(imu.fault, ImuPortError)
+        assert told == [(imu.fault, imu.fault_time)]  # once, from the reader, when found
         assert imu.decoder.reports >= 29  # what it sent before vanishing was read
 
 
