@@ -94,7 +94,6 @@ class Bno08xEmulator(PtyEmulator):
         self._due_base = 0
         self._start_heading = 0.0
         self._turned = 0.0
-        self._last_heading = 0.0
 
     def inject(self, **faults: float | bool) -> float:
         """Switch faults on or off now (``silent``, ``garbage_only``, ``drop_rate``,
@@ -132,9 +131,8 @@ class Bno08xEmulator(PtyEmulator):
         if not math.isfinite(h):
             return self._turned
         if self._t0 is None:
-            self._start_heading = self._last_heading = h
+            self._start_heading = h
         self._turned = _c.unwrap(self._turned, h - self._start_heading)
-        self._last_heading = h
         return self._turned
 
     def _tick(self, now: float) -> None:
