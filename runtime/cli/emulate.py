@@ -1,4 +1,4 @@
-"""``clomp emulate lidar|maestro``: run a device emulator on a pseudo-terminal.
+"""``clomp emulate lidar|maestro|imu``: run a device emulator on a pseudo-terminal.
 
 Prints the pty path on one line, then serves until Ctrl-C, so a driver (or
 ``clomp run`` on hardware settings) can be pointed at it without hardware.
@@ -19,10 +19,10 @@ __all__ = ["register"]
 
 
 def register(subparsers: Any) -> None:
-    """Add the ``emulate`` subcommand (with ``lidar`` and ``maestro``) to the CLI."""
+    """Add the ``emulate`` subcommand (with ``lidar``, ``maestro`` and ``imu``) to the CLI."""
     parser = subparsers.add_parser(
         "emulate",
-        help="emulate the LiDAR, the motor controller, or both over a simulated world, on pseudo-terminals",
+        help="emulate the LiDAR, the motor controller, the IMU, or the first two over a simulated world, on pseudo-terminals",
         description="Start a device emulator on a pseudo-terminal, print its path, run until Ctrl-C.",
     )
     devices = parser.add_subparsers(dest="device", metavar="DEVICE", required=True)
@@ -55,6 +55,24 @@ def register(subparsers: Any) -> None:
     maestro.add_argument("--serial-timeout", type=float, metavar="S", help="send channels home after S s without a byte")
     maestro.add_argument("--show-speeds", action="store_true", help="print the decoded wheel speeds when they change")
     maestro.set_defaults(func=_run_maestro)
+
+    imu = devices.add_parser(
+        "imu",
+        help="a BNO08x IMU in UART-RVC mode streaming a heading",
+        description="Emulate a CEVA BNO080/085/086 strapped for UART-RVC mode: 100 reports/s at 115200 baud "
+        "of a heading that stays put or turns at --turn-rate (the yaw is 0 at the start, as after a reset).",
+    )
+    imu.add_argument("--turn-rate", type=float, default=0.0, metavar="DEG_S", help="true turn rate, °/s counter-clockwise (default 0)")
+    imu.add_argument("--drift", type=float, default=0.0, metavar="DEG_MIN", help="yaw drift, °/min (a still BNO08x: about 0.5)")
+    imu.add_argument("--noise", type=float, default=0.0, metavar="DEG", help="yaw noise, standard deviation in °")
+    imu.add_argument("--scale-error", type=float, default=0.0, metavar="FRACTION", help="yaw scale error (0.01: reads 1 %% more turn)")
+    imu.add_argument("--drop", type=float, default=0.0, metavar="RATE", help="probability per report of losing it")
+    imu.add_argument("--garbage", type=float, default=0.0, metavar="RATE", help="probability per report of a garbage burst before it")
+    imu.add_argument("--bad-checksum", type=float, default=0.0, metavar="RATE", help="probability per report of a wrong checksum")
+    imu.add_argument("--silent-after", type=int, metavar="N", help="go silent after N reports")
+    imu.add_argument("--vanish-after", type=int, metavar="N", help="close the pty after N reports")
+    imu.add_argument("--seed", type=int, help="seed for the noise and the fault injection")
+    imu.set_defaults(func=_run_imu)
 
     # both devices over one simulated world: the whole stack without hardware
     from clomp.runtime.cli.run import add_emulate_world
@@ -149,3 +167,28 @@ def _run_maestro(args: argparse.Namespace) -> int:
         on_speeds=show if args.show_speeds else None,
     )
     return _serve(emulator, "Maestro", "motors", "clomp run --lidar LIDAR_PORT --motors {port} --goal 1.0,0.0")
+
+
+def _run_imu(args: argparse.Namespace) -> int:
+    import math
+
+    from clomp.runtime.devices.bno08x_emulator import Bno08xEmulator
+
+    rate = math.radians(args.turn_rate)
+    try:
+        emulator = Bno08xEmulator(
+            lambda: rate * time.monotonic(),  # the true heading: still, or a steady turn (the emulator's clock)
+            drift=math.radians(args.drift) / 60.0,
+            noise=math.radians(args.noise),
+            scale_error=args.scale_error,
+            drop_rate=args.drop,
+            garbage_rate=args.garbage,
+            bad_checksum_rate=args.bad_checksum,
+            silent_after=args.silent_after,
+            vanish_after=args.vanish_after,
+            seed=args.seed,
+        )
+    except ValueError as exc:
+        raise CliError(str(exc)) from exc
+    return _serve(emulator, "IMU", "imu", "read it with clomp.runtime.devices.bno08x.Bno08xRvc('{port}') "
+                  "(clomp run does not take an IMU yet)")

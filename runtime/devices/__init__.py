@@ -1,9 +1,11 @@
-"""Hardware devices of the runtime: the RPLIDAR A1 and the Pololu Maestro over pyserial,
-and pseudo-terminal emulators of both for tests and demos without hardware.
+"""Hardware devices of the runtime: the RPLIDAR A1, the Pololu Maestro and the BNO08x IMU
+(heading, UART-RVC mode) over pyserial, and pseudo-terminal emulators of them for tests and
+demos without hardware.
 
-Per device: a pure-bytes codec (``rplidar_codec``, ``maestro_codec``), a driver doing the
-port I/O (``rplidar``, ``maestro``) and an emulator (``rplidar_emulator``,
-``maestro_emulator``); :class:`ScanFrame` (``frame``) is what a LiDAR delivers.
+Per device: a pure-bytes codec (``rplidar_codec``, ``maestro_codec``, ``bno08x_codec``), a
+driver doing the port I/O (``rplidar``, ``maestro``, ``bno08x``) and an emulator
+(``rplidar_emulator``, ``maestro_emulator``, ``bno08x_emulator``); :class:`ScanFrame`
+(``frame``) is what a LiDAR delivers.
 May import: numpy, pyserial and itself only — never the robots, the supervisor or the
 planner (a test checks it), so the devices can be used on their own.
 
@@ -20,6 +22,17 @@ quiet after STOP, a test helper's ``wait_for``) are on wall time.
 True
 """
 
+from clomp.runtime.devices.bno08x import (
+    Bno08xRvc,
+    ImuError,
+    ImuPortError,
+    ImuProtocolError,
+    ImuSample,
+    ImuTimeout,
+    RvcDecoder,
+    RvcReport,
+)
+from clomp.runtime.devices.bno08x_emulator import Bno08xEmulator
 from clomp.runtime.devices.frame import ScanFrame
 from clomp.runtime.devices.maestro_emulator import MaestroEmulator
 from clomp.runtime.devices.rplidar_emulator import (
@@ -69,8 +82,17 @@ __all__ = [
     "MaestroPortError",
     "MaestroTimeout",
     "MaestroDeviceError",
+    "Bno08xRvc",
+    "ImuSample",
+    "RvcDecoder",
+    "RvcReport",
+    "ImuError",
+    "ImuPortError",
+    "ImuProtocolError",
+    "ImuTimeout",
     "LidarEmulator",
     "MaestroEmulator",
+    "Bno08xEmulator",
     "ScanSource",
     "load_scan_file",
     "recorded_scan_source",

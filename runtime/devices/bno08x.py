@@ -1,0 +1,287 @@
+"""CEVA/Hillcrest BNO08x IMU (BNO080/085/086) in UART-RVC mode over pyserial: a heading sensor.
+
+:class:`Bno08xRvc` reads the device's 100 Hz report stream on a thread of its own (RVC
+mode takes no commands) and keeps the newest heading with its time, followed through the
+±180° wrap. It watches the stream as the hardware backend watches the LiDAR's: a port
+that fails, no byte for ``silence_timeout`` seconds, or bytes without a valid report for
+as long latch a fault (:class:`ImuPortError`, :class:`ImuTimeout`,
+:class:`ImuProtocolError`, all :class:`ImuError`), which every later call raises. Built
+on :mod:`clomp.runtime.devices.bno08x_codec` (whose names are re-exported here).
+
+>>> with Bno08xRvc("loop://") as imu:
+...     _ = imu.port.write(encode_report(RvcReport.of(0, yaw=0.5)) + bytes(2))
+...     imu.wait_for(lambda i: i.latest() is not None, 5.0), round(imu.rotation(), 3)
+(True, 0.0)
+"""
+
+from __future__ import annotations
+
+import collections
+import threading
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any, Self
+
+from clomp.runtime.devices.bno08x_codec import (
+    DEFAULT_BAUDRATE,
+    REPORT_RATE,
+    ImuError,
+    ImuPortError,
+    ImuProtocolError,
+    ImuTimeout,
+    RvcDecoder,
+    RvcReport,
+    encode_report,
+    unwrap,
+)
+from clomp.runtime.devices.port import OPEN_ERRORS as _OPEN_ERRORS
+from clomp.runtime.devices.port import PORT_ERRORS as _PORT_ERRORS
+from clomp.runtime.devices.port import open_serial
+
+__all__ = [
+    "Bno08xRvc",
+    "ImuSample",
+    "ImuError",
+    "ImuPortError",
+    "ImuProtocolError",
+    "ImuTimeout",
+    "RvcDecoder",
+    "RvcReport",
+    "encode_report",
+    "DEFAULT_BAUDRATE",
+]
+
+# seconds one blocking read may take: bounds how late a deadline can be noticed
+_READ_SLICE = 0.02
+
+
+@dataclass(frozen=True)
+class ImuSample:
+    """One report as the driver received it.
+
+    ``timestamp``: when the device sent it, on the driver's clock (the reading time,
+    less 10 ms per report that came after it in the same read: a reader kept waiting
+    finds a backlog). ``yaw``: the report's yaw (rad, counter-clockwise, 0 at the device's
+    reset) followed through the ±π wrap from the first report on, so it is continuous.
+
+    >>> ImuSample(RvcReport(3, -9000), 1.0, -7.853981633974483).report.yaw_deg
+    -90.0
+    """
+
+    report: RvcReport
+    timestamp: float
+    yaw: float
+
+
+class Bno08xRvc:
+    """A BNO08x in UART-RVC mode on a serial port, read on a background thread.
+
+    ``port`` is a device path (``/dev/ttyUSB0``), a pyserial URL or an open serial-like
+    object (``read``, optionally ``in_waiting``; not closed by :meth:`close`). ``clock`` is
+    the time of the samples and of the deadlines (``time.monotonic`` unless a test passes
+    its own). ``start_timeout`` bounds the wait for the first report, ``silence_timeout``
+    every later gap between reports; ``history`` recent samples are kept.
+
+    What a heading consumer calls: :meth:`rotation` (rad turned since the first report,
+    as :class:`clomp.runtime.interface.TurnSensing` asks), :meth:`latest` (the newest
+    :class:`ImuSample`), :meth:`recent` (the last samples, to find the heading at a
+    scan's time); each raises the latched :class:`ImuError` once the stream has failed,
+    and :attr:`on_fault` hears of the fault the moment it is found.
+    """
+
+    def __init__(
+        self,
+        port: str | Any,
+        *,
+        baudrate: int = DEFAULT_BAUDRATE,
+        silence_timeout: float = 0.2,
+        start_timeout: float = 1.0,
+        history: int = 256,
+        clock: Callable[[], float] | None = None,
+    ) -> None:
+        if not (silence_timeout > 0 and start_timeout > 0):
+            raise ValueError("silence_timeout and start_timeout must be positive")
+        if history < 1:
+            raise ValueError("history must be at least 1")
+        self.baudrate = baudrate
+        self.silence_timeout = silence_timeout
+        self.start_timeout = start_timeout
+        self.clock: Callable[[], float] = clock or time.monotonic
+        self.decoder = RvcDecoder()
+        #: passes of the reader loop so far (a test can wait for the driver to have looked)
+        self.passes = 0
+        #: when the fault was found, on :attr:`clock`
+        self.fault_time: float | None = None
+        #: called once with the fault, in the reader's thread, as soon as it is latched and
+        #: outside the driver's lock (a backend stops the wheels there, as the LiDAR's
+        #: stream watch does)
+        self.on_fault: Callable[[ImuError], None] | None = None
+        self.callback_error: BaseException | None = None
+        self._fault: ImuError | None = None
+        self._first: ImuSample | None = None
+        self._recent: collections.deque[ImuSample] = collections.deque(maxlen=history)
+        self._cond = threading.Condition()
+        self._closing = threading.Event()
+        if isinstance(port, str):
+            self._spec: str | None = port
+            self._owns_port = True
+            try:
+                self.port: Any = open_serial(port, baudrate, _READ_SLICE)
+            except _OPEN_ERRORS as exc:
+                raise ImuPortError(f"cannot open IMU port {port}: {exc}") from exc
+        else:
+            if not hasattr(port, "read"):
+                raise TypeError(f"port must be a path, a URL or a serial-like object, got {port!r}")
+            self._spec, self._owns_port, self.port = None, False, port
+            if getattr(port, "timeout", 0) is None:
+                port.timeout = _READ_SLICE  # a blocking read would hang on a silent device
+        self._thread = threading.Thread(target=self._read_loop, name="imu-reader", daemon=True)
+        self._thread.start()
+
+    # -- what a consumer reads
+
+    @property
+    def port_name(self) -> str:
+        """The path/URL of the port, or the name of the port object."""
+        return self._spec or str(getattr(self.port, "port", None) or self.port)
+
+    @property
+    def fault(self) -> ImuError | None:
+        """Why the stream failed, or None while it is healthy."""
+        return self._fault
+
+    def check(self) -> None:
+        """Raise the latched fault, if any."""
+        if self._fault is not None:
+            raise self._fault
+
+    def latest(self) -> ImuSample | None:
+        """The newest sample, or None before the first; raises the latched :class:`ImuError`."""
+        with self._cond:
+            self.check()
+            return self._recent[-1] if self._recent else None
+
+    def recent(self) -> list[ImuSample]:
+        """The last samples kept (oldest first); raises the latched :class:`ImuError`."""
+        with self._cond:
+            self.check()
+            return list(self._recent)
+
+    def rotation(self) -> float | None:
+        """Heading turned since the first report (rad, counter-clockwise), None before it;
+        raises the latched :class:`ImuError`."""
+        with self._cond:
+            self.check()
+            if not self._recent or self._first is None:
+                return None
+            return self._recent[-1].yaw - self._first.yaw
+
+    def wait_for(self, predicate: Callable[[Self], bool], timeout: float) -> bool:
+        """Wait (wall time, at most ``timeout`` s) until ``predicate(self)`` holds, re-checked
+        after each pass of the reader; False if it still does not then, or the reader ended."""
+        deadline = time.monotonic() + timeout
+        with self._cond:
+            while not predicate(self):
+                left = deadline - time.monotonic()
+                if left <= 0 or not self._thread.is_alive():
+                    return predicate(self)
+                self._cond.wait(min(left, 0.1))
+        return True
+
+    # -- the reader
+
+    def _read_loop(self) -> None:
+        last_report = last_byte = self.clock()
+        dropped_at_report = 0  # the decoder's dropped bytes when the last report came
+        while not self._closing.is_set():
+            try:
+                waiting = int(getattr(self.port, "in_waiting", 0))
+                data = bytes(self.port.read(max(1, waiting)))
+            except _PORT_ERRORS as exc:
+                if not self._closing.is_set():
+                    self._trip(ImuPortError(f"IMU port {self.port_name} failed while reading (device unplugged?): {exc}"))
+                return
+            now = self.clock()
+            if data:
+                last_byte = now
+                if self._take(self.decoder.feed(data), now):
+                    last_report, dropped_at_report = now, self.decoder.dropped_bytes
+            fault = self._deadline_fault(now, last_report, last_byte, self.decoder.dropped_bytes - dropped_at_report)
+            if fault is not None:
+                self._trip(fault)
+                return
+            with self._cond:
+                self.passes += 1
+                self._cond.notify_all()
+
+    def _take(self, reports: list[RvcReport], now: float) -> bool:
+        if not reports:
+            return False
+        newest = reports[-1].index
+        with self._cond:
+            for r in reports:
+                t = now - ((newest - r.index) % 256) / REPORT_RATE
+                prev = self._recent[-1] if self._recent else None
+                if prev is None:
+                    sample = ImuSample(r, t, r.yaw)
+                    self._first = sample
+                else:
+                    sample = ImuSample(r, max(t, prev.timestamp), unwrap(prev.yaw, r.yaw))
+                self._recent.append(sample)
+        return True
+
+    def _deadline_fault(self, now: float, last_report: float, last_byte: float, dropped: int) -> ImuError | None:
+        """The fault when no report came for too long: silence, or bytes that are no report
+        (``dropped`` of them since the last report; the bytes of a report the decoder still
+        holds, waiting for the next one, are not garbage)."""
+        limit = self.silence_timeout if self._first is not None else self.start_timeout
+        if now - last_report <= limit:
+            return None
+        if not dropped:
+            since = "since it was opened" if self._first is None else "after the last report"
+            what = f"no byte for {now - last_byte:.2f} s" if now - last_byte > limit else (
+                f"no full report for {now - last_report:.2f} s")
+            return ImuTimeout(f"IMU on {self.port_name} fell silent: {what} {since} "
+                              f"(is it powered, connected, and its P0 pin strapped for RVC mode?)")
+        d = self.decoder
+        return ImuProtocolError(
+            f"IMU stream on {self.port_name} is corrupt: no valid report for {now - last_report:.2f} s "
+            f"({dropped} bytes dropped since the last one, {d.bad_checksums} bad checksums so far; wrong baud "
+            f"rate, not in RVC mode, or a bad cable?)")
+
+    def _trip(self, fault: ImuError) -> None:
+        with self._cond:
+            first = self._fault is None
+            if first:
+                self._fault, self.fault_time = fault, self.clock()
+            self._cond.notify_all()
+        if first and self.on_fault is not None:
+            try:
+                self.on_fault(fault)
+            except Exception as exc:  # kept for the caller instead of a thread traceback
+                self.callback_error = exc
+
+    # -- lifetime
+
+    def close(self) -> None:
+        """End the reader and close a port this driver opened (idempotent)."""
+        self._closing.set()
+        if self._thread is not threading.current_thread():
+            self._thread.join(timeout=2.0)
+        if self._owns_port:
+            try:
+                self.port.close()
+            except _PORT_ERRORS:
+                pass
+
+    def __enter__(self) -> Self:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    def __repr__(self) -> str:
+        state = "healthy" if self._fault is None else f"fault: {self._fault}"
+        return f"Bno08xRvc({self.port_name!r}, {state})"
+

@@ -1,0 +1,230 @@
+"""The BNO08x RVC driver against its emulator: the world's true heading through a real pty,
+the sensor's errors, and the stream faults (unplugged, silent, garbage only) on device time.
+
+Waits are for events (``wait_for`` re-checks after each pass of the reader) bounded in wall
+time; deadlines are measured on a :class:`SimLine` (simulated time that moves only while the
+driver waits for bytes), as in test_hardware_deadlines.py, so no figure depends on how busy
+the machine is.
+"""
+
+from __future__ import annotations
+
+import math
+import threading
+from collections.abc import Callable
+
+import pytest
+
+from clomp.planner.scenarios import load_scenario
+from clomp.runtime.backends import make_world_robot
+from clomp.runtime.clock import ManualClock
+from clomp.runtime.devices.bno08x import (
+    Bno08xRvc,
+    ImuError,
+    ImuPortError,
+    ImuProtocolError,
+    ImuTimeout,
+)
+from clomp.runtime.devices.bno08x_emulator import Bno08xEmulator
+from tests.runtime._simline import SimLine
+
+WAIT = 30.0  # wall seconds a test may wait for an event before it fails (a hang, not a figure)
+# over a real pty the deadlines are not under test (a loaded machine can delay any thread by
+# more than 0.2 s): they are measured on simulated time below
+PTY_DEADLINE = 30.0
+PERIOD = 0.01
+
+
+def _wrap(a: float) -> float:
+    return math.remainder(a, math.tau)
+
+
+def _on_simline(emu: Bno08xEmulator, clock: ManualClock, *, start_timeout: float = 1.0) -> Bno08xRvc:
+    return Bno08xRvc(SimLine(emu, clock, name="sim-imu"), clock=clock.now, start_timeout=start_timeout)
+
+
+def _on_pty(emu: Bno08xEmulator) -> Bno08xRvc:
+    return Bno08xRvc(emu.port, silence_timeout=PTY_DEADLINE, start_timeout=PTY_DEADLINE)
+
+
+def _made_after(emu: Bno08xEmulator, turned: float) -> Callable[[Bno08xRvc], bool]:
+    """The event: the driver has a report made when the true heading had ``turned``."""
+
+    def event(imu: Bno08xRvc) -> bool:
+        s = imu.latest()
+        return s is not None and abs(emu.truth.get(s.report.index, math.inf) - turned) < 1e-9
+
+    return event
+
+
+def _wait(imu: Bno08xRvc, predicate: Callable[[Bno08xRvc], bool]) -> None:
+    assert imu.wait_for(predicate, WAIT), "the event never came"
+
+
+# ------------------------------------------------------------------- over a real pty
+
+
+def test_the_worlds_true_heading_comes_through_a_pty_within_the_noise() -> None:
+    """A world robot spins two turns and a half; the emulator reports its heading (noise
+    0.3°) and the driver decodes every report within 5 σ of the world's heading when it
+    was made, and follows it through the wrap: its continuous yaw counts the turns."""
+    world = make_world_robot(load_scenario("open"), "ideal", seed=0)
+    lock = threading.Lock()
+
+    def heading() -> float:
+        with lock:
+            return float(world.ground_truth_pose().theta)
+
+    noise = math.radians(0.3)
+    theta0 = heading()
+    world_turned = 0.0
+    with Bno08xEmulator(heading, noise=noise, seed=3) as emu, _on_pty(emu) as imu:
+        _wait(imu, lambda i: i.latest() is not None)  # the device has started: its yaw is 0 here
+        for _ in range(60):
+            with lock:  # the emulator reads the heading between steps only
+                before = world.ground_truth_pose().theta
+                world.set_wheel_speeds(-0.2, 0.2)
+                world.sleep(0.1)
+                world_turned += _wrap(world.ground_truth_pose().theta - before)
+            _wait(imu, _made_after(emu, world_turned))
+        with emu._lock:  # the emulator makes no report meanwhile
+            samples = imu.recent()[-200:]  # the emulator's truth holds the last 256 indices
+            truth = dict(emu.truth)
+        assert len(samples) >= 60 and world_turned > 2 * math.tau
+        for s in samples:
+            assert abs(_wrap(s.report.yaw - truth[s.report.index])) <= 5 * noise + math.radians(0.005)
+        last = samples[-1]
+        assert truth[last.report.index] == pytest.approx(world_turned, abs=1e-9)
+        assert _wrap(world_turned - (world.ground_truth_pose().theta - theta0)) == pytest.approx(0.0, abs=1e-9)
+        assert last.yaw == pytest.approx(world_turned, abs=5 * noise)  # continuous: the turns are counted
+        assert imu.rotation() == pytest.approx(world_turned, abs=10 * noise)  # the first report read ~0
+        assert imu.fault is None and imu.decoder.lost_reports == 0
+
+
+def test_an_unplugged_imu_is_a_port_fault() -> None:
+    with Bno08xEmulator(lambda: 1.0) as emu, _on_pty(emu) as imu:
+        _wait(imu, lambda i: i.latest() is not None)
+        emu.vanish()
+        _wait(imu, lambda i: i.fault is not None)
+        assert isinstance(imu.fault, ImuPortError) and "unplugged" in str(imu.fault)
+        with pytest.raises(ImuPortError):
+            imu.rotation()
+
+
+def test_a_port_that_cannot_be_opened_is_a_port_error() -> None:
+    with pytest.raises(ImuPortError, match="/nonexistent/tty"):
+        Bno08xRvc("/nonexistent/tty")
+
+
+# --------------------------------------------------------------- on simulated time
+
+
+def test_drift_and_scale_error_show_in_the_heading() -> None:
+    clock = ManualClock(10.0)
+    drift, rate, scale = math.radians(0.5) / 60.0, 0.5, 0.02  # the datasheet's 0.5°/min; 0.5 rad/s
+    emu = Bno08xEmulator(lambda: rate * clock.now(), drift=drift, scale_error=scale, clock=clock.now)
+    with _on_simline(emu, clock) as imu:
+        _wait(imu, lambda i: (s := i.latest()) is not None and s.timestamp >= 20.0)
+        s = imu.latest()
+        assert s is not None
+        t = s.timestamp - 10.0  # since the emulator's start (its first tick at t = 10)
+        # 5 rad in 10 s (through the wrap), read 2 % more, plus 0.083° of drift
+        assert s.yaw == pytest.approx((1 + scale) * rate * t + drift * t, abs=math.radians(0.01) + rate * 0.002)
+
+
+def test_dropped_reports_garbage_and_bad_checksums_are_counted_and_survived() -> None:
+    clock, lock = ManualClock(0.0), threading.RLock()
+    emu = Bno08xEmulator(lambda: 0.7, drop_rate=0.05, garbage_rate=0.05, bad_checksum_rate=0.05,
+                         seed=11, clock=clock.now)
+    with Bno08xRvc(SimLine(emu, clock, lock=lock, name="sim-imu"), clock=clock.now) as imu:
+        _wait(imu, lambda i: i.decoder.reports >= 500)
+        with lock:  # the faults end here: every faulty report is followed by a good one
+            emu.inject(drop_rate=0.0, garbage_rate=0.0, bad_checksum_rate=0.0)
+            made, dropped, corrupted = emu.sent, emu.dropped, emu.corrupted
+        _wait(imu, lambda i: i.decoder.reports + i.decoder.lost_reports > made)
+        d = imu.decoder
+        assert imu.fault is None and dropped > 10 and corrupted > 10 and emu.garbage_bytes_sent > 100
+        assert d.lost_reports == dropped + corrupted
+        assert d.bad_checksums >= corrupted
+        assert all(s.yaw == 0.0 for s in imu.recent())  # reported relative to the start
+
+
+@pytest.mark.parametrize(
+    ("fault", "error", "said"),
+    [({"silent": True}, ImuTimeout, "fell silent"), ({"garbage_only": True}, ImuProtocolError, "corrupt")],
+)
+def test_a_silent_or_garbled_stream_is_a_fault_after_the_deadline_of_device_time(
+    fault: dict[str, bool], error: type[ImuError], said: str
+) -> None:
+    clock, lock = ManualClock(100.0), threading.RLock()
+    emu = Bno08xEmulator(lambda: 0.0, seed=1, clock=clock.now)  # not started: no pty, no thread
+    line = SimLine(emu, clock, lock=lock, name="sim-imu")
+    with Bno08xRvc(line, clock=clock.now, silence_timeout=0.2) as imu:
+        _wait(imu, lambda i: i.decoder.reports >= 20)
+        with lock:  # no simulated time passes while the fault goes in
+            t0 = emu.inject(**fault)
+        _wait(imu, lambda i: i.fault is not None)
+        assert isinstance(imu.fault, error) and said in str(imu.fault), imu.fault
+        assert imu.fault_time is not None
+        # never before 0.2 s without a report handed on (the last one sent may be held back by
+        # the decoder, waiting for the next one's first bytes: see RvcDecoder) ...
+        assert imu.fault_time - imu._recent[-1].timestamp > 0.2
+        # ... and noticed at the next read after 0.2 s (at most 10 ms: the line's read timeout)
+        assert imu.fault_time - t0 <= 0.2 + 0.01 + 0.001 + 1e-9
+        with pytest.raises(error):
+            imu.latest()
+
+
+def test_silence_after_a_report_the_decoder_holds_is_silence_not_garbage() -> None:
+    """Report 0xBF of a still device has checksum 0xAA: the decoder holds it for the next
+    report's first bytes, which never come. Its bytes are no garbage: the device fell silent."""
+    clock = ManualClock(0.0)
+    emu = Bno08xEmulator(lambda: 0.0, start_index=0xBF - 5, silent_after=6, clock=clock.now)
+    with _on_simline(emu, clock) as imu:
+        _wait(imu, lambda i: i.fault is not None)
+        assert isinstance(imu.fault, ImuTimeout) and "no full report" in str(imu.fault), imu.fault
+        assert imu.decoder.reports == 5 and imu.decoder.pending_bytes == 19
+
+
+def test_a_device_silent_from_the_start_fails_after_the_start_timeout() -> None:
+    clock = ManualClock(5.0)
+    emu = Bno08xEmulator(clock=clock.now)
+    emu.inject(silent=True)
+    t0 = clock.now()
+    with _on_simline(emu, clock, start_timeout=0.5) as imu:
+        _wait(imu, lambda i: i.fault is not None)
+        assert isinstance(imu.fault, ImuTimeout) and "no byte for 0.5" in str(imu.fault)
+        assert "since it was opened" in str(imu.fault)
+        assert imu.fault_time is not None and 0.5 < imu.fault_time - t0 <= 0.5 + 0.011
+        with pytest.raises(ImuTimeout):
+            imu.rotation()
+
+
+def test_a_vanished_device_on_simulated_time_is_a_port_fault_told_at_once() -> None:
+    clock = ManualClock(0.0)
+    emu = Bno08xEmulator(lambda: 0.1, clock=clock.now, vanish_after=30)
+    told: list[tuple[ImuError, float]] = []
+    line = SimLine(emu, clock, name="sim-imu")
+    line.running.clear()  # time stands still until the callback is in place
+    with Bno08xRvc(line, clock=clock.now) as imu:
+        imu.on_fault = lambda fault: told.append((fault, clock.now()))
+        line.running.set()
+        _wait(imu, lambda i: bool(told))
+        assert isinstance(imu.fault, ImuPortError)
+        assert told == [(imu.fault, imu.fault_time)]  # once, from the reader, when found
+        assert imu.decoder.reports >= 29  # what it sent before vanishing was read
+
+
+def test_reports_read_late_are_timed_by_their_index() -> None:
+    """A reader kept waiting finds a backlog: each report is dated 10 ms before the next."""
+    clock = ManualClock(0.0)
+    # 12 reports, then silence for longer than the driver's history could be overrun in
+    emu = Bno08xEmulator(lambda: 0.0, silent_after=12, clock=clock.now)
+    emu._tick(0.0)  # the device starts at 0 ...
+    clock.advance(0.095)  # ... and has made 9 reports before the driver reads at all
+    with Bno08xRvc(SimLine(emu, clock, name="sim-imu"), clock=clock.now, silence_timeout=1e9) as imu:
+        _wait(imu, lambda i: i.decoder.reports >= 12)
+        times = [s.timestamp for s in imu.recent()]
+        assert len(times) == 12
+        assert times[:9] == pytest.approx([0.095 - (8 - k) * PERIOD for k in range(9)])
+        assert all(b >= a for a, b in zip(times, times[1:]))
