@@ -36,6 +36,7 @@ import networkx as nx
 from clomp.formal.export import ExportModel, ModelKind, export_model, write_drn, write_prism
 from clomp.formal.invariants import map_plan
 from clomp.formal.lts import CognitiveMap, MapError
+from clomp.formal.toolio import captured_fds
 
 __all__ = [
     "SpecError",
@@ -48,6 +49,9 @@ __all__ = [
     "parse_properties",
     "read_properties",
     "default_property_files",
+    "shipped_property_files",
+    "property_labels",
+    "file_labels",
     "require_stormpy",
     "build_storm_model",
     "load_storm_model",
@@ -246,10 +250,41 @@ def read_properties(path: str | os.PathLike[str]) -> PropertyFile:
 
 
 def default_property_files() -> list[Path]:
-    """The property files shipped in ``specs/properties/``."""
+    """The property files shipped in ``specs/properties/`` for cognitive maps."""
     from clomp import specs
     folder = Path(specs.__file__).resolve().parent / "properties"
     return sorted(folder.glob("*.pctl"))
+
+
+def shipped_property_files() -> list[Path]:
+    """Every property file shipped in ``specs/properties/``, the supervisor's
+    (``supervisor/machine.pctl``) included."""
+    from clomp import specs
+    return sorted((Path(specs.__file__).resolve().parent / "properties").rglob("*.pctl"))
+
+
+_LABEL_REF = re.compile(r'(?<!\{)"([A-Za-z_][A-Za-z0-9_]*)"')
+
+
+def property_labels(pf: PropertyFile) -> set[str]:
+    """The labels the formulas of ``pf`` name (reward names ``R{"…"}`` excluded).
+
+    >>> sorted(property_labels(parse_properties('// @model mdp\\n"d": R{"time"}min=? [!"collision" U "goal"]')))
+    ['collision', 'goal']
+    """
+    return {name for p in pf.properties for name in _LABEL_REF.findall(p.formula)}
+
+
+def file_labels(path: str | os.PathLike[str]) -> set[str]:
+    """The labels a written ``.prism`` or ``.drn`` model declares (read from its text)."""
+    text = Path(path).read_text(encoding="utf-8", errors="replace")
+    if Path(path).suffix == ".drn":
+        found = {"init"}
+        for line in text.splitlines():
+            if line.startswith("state "):
+                found.update(line.split("]", 1)[1].split() if "]" in line else line.split()[2:])
+        return found
+    return {"init", *re.findall(r'^\s*label\s+"([A-Za-z_][A-Za-z0-9_]*)"', text, re.M)}
 
 
 # -- building models with Storm ----------------------------------------------------------------------
@@ -341,15 +376,16 @@ def load_storm_model(path: str | os.PathLike[str]) -> StormModel:
     p = Path(path)
     if not p.is_file():
         raise MapError(f"{p}: no such file")
+    if p.suffix not in (".drn", ".prism", ".pm", ".nm"):
+        raise MapError(f"{p}: Storm builds .prism or .drn files (got {p.suffix or 'no suffix'})")
     try:
-        if p.suffix == ".drn":
-            model = stormpy.build_model_from_drn(str(p))
-            program = None
-        elif p.suffix in (".prism", ".pm", ".nm"):
-            program = stormpy.parse_prism_program(str(p))
-            model = stormpy.build_model(program, options=stormpy.BuilderOptions(build_full=True))
-        else:
-            raise MapError(f"{p}: Storm builds .prism or .drn files (got {p.suffix or 'no suffix'})")
+        with captured_fds():  # Storm's C++ log stays off stdout; its exception says what failed
+            if p.suffix == ".drn":
+                model = stormpy.build_model_from_drn(str(p))
+                program = None
+            else:
+                program = stormpy.parse_prism_program(str(p))
+                model = stormpy.build_model(program, options=stormpy.BuilderOptions(build_full=True))
     except RuntimeError as exc:
         raise MapError(f"{p}: Storm cannot build the model: {str(exc).strip()}") from None
     kind: ModelKind = "mdp" if "Mdp" in type(model).__name__ else "dtmc"
@@ -418,10 +454,11 @@ def check_properties(sm: StormModel, props: PropertyFile | Iterable[PropertySpec
     out = []
     for spec in specs:
         try:
-            parsed = stormpy.parse_properties(spec.formula, sm.program) if sm.program is not None else stormpy.parse_properties(spec.formula)
-            if len(parsed) != 1:
-                raise RuntimeError(f"expected one property, got {len(parsed)}")
-            result = stormpy.model_checking(sm.model, parsed[0], only_initial_states=False)
+            with captured_fds():  # Storm's C++ log stays off stdout; its exception says what failed
+                parsed = stormpy.parse_properties(spec.formula, sm.program) if sm.program is not None else stormpy.parse_properties(spec.formula)
+                if len(parsed) != 1:
+                    raise RuntimeError(f"expected one property, got {len(parsed)}")
+                result = stormpy.model_checking(sm.model, parsed[0], only_initial_states=False)
         except RuntimeError as exc:
             raise SpecError(f"{source}:{spec.line}: Storm cannot check {spec.formula!r}: {str(exc).strip()}") from None
         value = _value(result, init)
@@ -447,8 +484,9 @@ def _target_witness(sm: StormModel, spec: PropertySpec) -> list[str]:
         return []
     stormpy = require_stormpy()
     try:
-        parsed = stormpy.parse_properties(m.group(1), sm.program) if sm.program is not None else stormpy.parse_properties(m.group(1))
-        result = stormpy.model_checking(sm.model, parsed[0], only_initial_states=False)
+        with captured_fds():
+            parsed = stormpy.parse_properties(m.group(1), sm.program) if sm.program is not None else stormpy.parse_properties(m.group(1))
+            result = stormpy.model_checking(sm.model, parsed[0], only_initial_states=False)
     except RuntimeError:
         return []
     if not result.is_qualitative():

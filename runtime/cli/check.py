@@ -24,8 +24,11 @@ from clomp.formal.checking import (
     build_storm_model,
     compare_distance,
     default_property_files,
+    file_labels,
     load_storm_model,
+    property_labels,
     read_properties,
+    shipped_property_files,
 )
 from clomp.formal.crosscheck import values_agree
 from clomp.formal.export import ExportError
@@ -64,7 +67,11 @@ def register(sub: Any) -> None:
 
 
 def _spec_files(args: argparse.Namespace) -> list[PropertyFile]:
-    paths = [Path(p) for p in args.specs] if args.specs else default_property_files()
+    """The property files to check: ``--specs``; else, for a model FILE, every shipped file
+    (the supervisor's too: :func:`_matching` keeps those whose labels the file has); else
+    the cognitive maps' files."""
+    model_file = bool(args.file) and Path(args.file).suffix != ".json"
+    paths = [Path(p) for p in args.specs] if args.specs else shipped_property_files() if model_file else default_property_files()
     try:
         files = [read_properties(p) for p in paths]
     except SpecError as exc:
@@ -89,12 +96,13 @@ def run(args: argparse.Namespace) -> int:
     if len(sources) != 1:
         raise CliError("give exactly one of --scenario, --scan, --map or a model FILE")
     files = _spec_files(args)
+    chosen = bool(args.specs)
     use_storm, use_prism = args.tool in ("storm", "both"), args.tool in ("prism", "both")
     try:
         if args.file and Path(args.file).suffix != ".json":
             path, cmap, title = Path(args.file), None, args.file
-            storm = _check_file(path, files) if use_storm else []
-            prism = _prism_file(path, files) if use_prism else []
+            storm = _check_file(path, files, chosen) if use_storm else []
+            prism = _prism_file(path, files, chosen) if use_prism else []
         else:
             if args.file:
                 args.map = args.file
@@ -107,7 +115,7 @@ def run(args: argparse.Namespace) -> int:
                         built[pf.model] = build_storm_model(cmap, pf.model, args.via)
                     storm += _check(built[pf.model], pf)
                 if use_prism:
-                    prism += _prism_results(check_with_prism(cmap, [p.formula for p in pf.properties], pf.model), pf, pf.model)
+                    prism += _prism_results(check_with_prism(cmap, _named(pf), pf.model), pf, pf.model)
     except (StormMissing, PrismMissing) as exc:
         raise CliError(str(exc)) from None
     except (SpecError, ExportError, MapError, PrismError) as exc:
@@ -130,6 +138,23 @@ def run(args: argparse.Namespace) -> int:
     return 1 if failed or disagree else 0
 
 
+def _named(pf: PropertyFile) -> list[str]:
+    """The properties as the file names them (``"name": formula``): PRISM then sees what a
+    user's run of PRISM on the property file sees, e.g. a name that clashes with a label."""
+    return [f'"{p.name}": {p.formula}' if p.name != p.formula else p.formula for p in pf.properties]
+
+
+def _matching(path: Path, kind: str, files: list[PropertyFile], chosen: bool) -> list[PropertyFile]:
+    """The property files about a ``kind`` model; unless the user chose them (``--specs``),
+    only those whose labels the model file declares (a map's files for a map, the
+    supervisor's for the supervisor)."""
+    labels = file_labels(path)
+    matching = [pf for pf in files if pf.model == kind and (chosen or pf.source == "--require-safe" or property_labels(pf) <= labels)]
+    if not any(pf.source != "--require-safe" for pf in matching):
+        raise CliError(f"{path} is a {kind.upper()}, and no property file is about a {kind} with its labels ({', '.join(sorted(labels))}): give one with --specs")
+    return matching
+
+
 def _prism_results(res: Any, pf: PropertyFile, kind: Any) -> list[CheckResult]:
     out = []
     for spec, value in zip(pf.properties, res.values):
@@ -138,7 +163,7 @@ def _prism_results(res: Any, pf: PropertyFile, kind: Any) -> list[CheckResult]:
     return out
 
 
-def _prism_file(path: Path, files: list[PropertyFile]) -> list[CheckResult]:
+def _prism_file(path: Path, files: list[PropertyFile], chosen: bool) -> list[CheckResult]:
     if path.suffix not in (".prism", ".pm", ".nm"):
         raise CliError(f"{path}: PRISM reads the PRISM language (.prism .pm .nm); export one with --format prism, or use --tool storm")
     if not path.is_file():
@@ -147,12 +172,9 @@ def _prism_file(path: Path, files: list[PropertyFile]) -> list[CheckResult]:
     kind = first if first in ("mdp", "dtmc") else None
     if kind is None:
         raise CliError(f"{path}: not a PRISM model of kind mdp or dtmc (first statement {first!r})")
-    matching = [pf for pf in files if pf.model == kind]
-    if not matching:
-        raise CliError(f"{path} is a {kind.upper()}, and no property file is about a {kind}")
     out: list[CheckResult] = []
-    for pf in matching:
-        out += _prism_results(run_prism([str(path)], [p.formula for p in pf.properties]), pf, kind)
+    for pf in _matching(path, kind, files, chosen):
+        out += _prism_results(run_prism([str(path.resolve())], _named(pf)), pf, kind)  # PRISM runs in a temporary folder
     return out
 
 
@@ -162,13 +184,10 @@ def _check(sm: Any, pf: PropertyFile) -> list[CheckResult]:
     return check_properties(sm, pf)
 
 
-def _check_file(path: Path, files: list[PropertyFile]) -> list[CheckResult]:
+def _check_file(path: Path, files: list[PropertyFile], chosen: bool) -> list[CheckResult]:
     sm = load_storm_model(path)
-    matching = [pf for pf in files if pf.model == sm.kind]
-    if not matching:
-        raise CliError(f"{path} is a {sm.kind.upper()}, and no property file is about a {sm.kind}")
     out: list[CheckResult] = []
-    for pf in matching:
+    for pf in _matching(path, sm.kind, files, chosen):
         out += _check(sm, pf)
     return out
 

@@ -503,3 +503,39 @@ def test_cli_export_learn_from_a_run_log_uses_the_scans_taken_at_one_pose(clomp,
     bad.write_text('{"t": 0, "event": "run"}\n')
     code, _, err = clomp("export", "--scan", str(bad), "--learn", "-f", "json", "-o", str(out))
     assert code == 2 and "no scan records" in err
+
+
+# -- the demo's supervisor export and the supervisor's property file ----------------------------------
+@needs_storm
+def test_cli_check_passes_the_demos_supervisor_export_with_its_property_file(clomp, tmp_path):
+    """Before: ``supervisor.prism`` was the machine alone (``driving`` and ``after_fault``
+    constant false): ``--specs machine.pctl`` FAILed wheels_only_on_a_task, and without
+    ``--specs`` the map's files were tried on it (exit 2)."""
+    from clomp.formal.checking import shipped_property_files
+    from clomp.runtime.cli.demo import supervisor_closed_loop_prism
+
+    path = tmp_path / "supervisor.prism"
+    path.write_text(supervisor_closed_loop_prism())
+    machine = next(p for p in shipped_property_files() if p.parent.name == "supervisor")
+    for argv in (("--specs", str(machine)), ()):
+        code, out, _ = clomp("check", str(path), *argv)
+        assert code == 0, out
+        assert "wheels_only_on_a_task" in out and "FAIL" not in out and "no_collision" not in out
+
+
+@needs_storm
+def test_cli_check_keeps_storms_cpp_log_off_stdout(tmp_path, capfd):
+    """Before: Storm's ``ERROR (SparsePropositionalModelChecker.cpp:46)`` line reached
+    stdout (fd 1, under Python's sys.stdout) when a property named an unknown label."""
+    import clomp.runtime.cli as cli
+    from clomp.runtime.cli.demo import supervisor_closed_loop_prism
+
+    path = tmp_path / "supervisor.prism"
+    path.write_text(supervisor_closed_loop_prism())
+    unsupervised = next(p for p in default_property_files() if p.name == "unsupervised.pctl")
+    capfd.readouterr()
+    code = cli.main(["check", str(path), "--specs", str(unsupervised)])
+    fd = capfd.readouterr()
+    assert code == 2
+    assert "unknown label" in fd.err and "Storm" in fd.err
+    assert ".cpp" not in fd.out and ".cpp" not in fd.err
