@@ -251,3 +251,43 @@ def test_prism_reads_every_shipped_property_file(scenario_map):
 def test_prism_errors_are_reported_not_swallowed(scenario_map):
     with pytest.raises(PrismError, match="Syntax error"):
         check_with_prism(scenario_map("open"), ['Pmax>=1 [F "goal"]'], "mdp")
+
+
+# -- property names and labels -------------------------------------------------------------------------
+def _labels_for(pf) -> set[str]:
+    """The labels of the models a shipped property file is for: a map's export of its
+    kind, or (supervisor/) the supervisor composed with the plant."""
+    from clomp.formal.control import PLANT, SUPERVISOR, machine_model
+    from clomp.formal.export import LABELS
+
+    if Path(pf.source).parent.name == "supervisor":
+        return set(machine_model(SUPERVISOR, PLANT).labels)
+    return set(LABELS)
+
+
+def test_no_shipped_property_name_is_a_label_of_its_models():
+    """Before: supervised.pctl named a property "goal"; PRISM 4.10.1 refuses the file on
+    the DTMC: 'Name of property "goal" is already used for a label in the model'. Every
+    label a file names is one its models have, too."""
+    from clomp.formal.checking import property_labels, shipped_property_files
+
+    files = [read_properties(p) for p in shipped_property_files()]
+    assert {Path(pf.source).name for pf in files} >= {"supervised.pctl", "unsupervised.pctl", "machine.pctl"}
+    for pf in files:
+        labels = _labels_for(pf)
+        assert not {p.name for p in pf.properties} & labels, pf.source
+        assert property_labels(pf) <= labels, pf.source
+
+
+@needs_prism
+def test_check_with_both_tools_reports_prisms_refusal(tmp_path, capfd):
+    """``clomp check --tool both`` hands PRISM the named properties, as a user's run of
+    PRISM on the file does: a name that clashes with a label is PRISM's error, named."""
+    import clomp.runtime.cli as cli
+
+    spec = tmp_path / "clash.pctl"
+    spec.write_text('// @model dtmc\n"goal": P=? [F "goal"]\n')
+    code = cli.main(["check", "--scenario", "overtaking", "--tool", "both", "--specs", str(spec)])
+    err = capfd.readouterr().err
+    assert code == 2
+    assert err.startswith("clomp: error: PRISM:") and 'already used for a label' in err

@@ -100,7 +100,7 @@ def test_required_properties_hold_on_recorded_scans(scan_maps):
 @needs_storm
 def test_supervised_overtaking_reaches_the_goal_without_collision(scenario_map):
     results = {r.spec.name: r.value for r in check_map_properties(scenario_map("overtaking"))}
-    assert results["goal"] == pytest.approx(1.0) and results["no_collision"] == pytest.approx(0.0)
+    assert results["p_goal"] == pytest.approx(1.0) and results["no_collision"] == pytest.approx(0.0)
     assert results["distance"] == pytest.approx(plan_distance(scenario_map("overtaking")))
 
 
