@@ -539,3 +539,55 @@ def test_cli_check_keeps_storms_cpp_log_off_stdout(tmp_path, capfd):
     assert code == 2
     assert "unknown label" in fd.err and "Storm" in fd.err
     assert ".cpp" not in fd.out and ".cpp" not in fd.err
+
+
+# -- exports say what they hold ---------------------------------------------------------------------
+def _file_states(path: Path) -> int:
+    """The states a written PRISM-language or DRN file holds, read from the file."""
+    import re
+
+    text = path.read_text()
+    if path.suffix == ".drn":
+        return len(re.findall(r"^state \d+", text, re.M))
+    return len(set(re.findall(r"^\s*\[\w+\] q=(\d+) ->", text, re.M)))
+
+
+@pytest.mark.parametrize("kind", ["mdp", "dtmc"])
+@pytest.mark.parametrize("fmt", ["prism", "drn"])
+def test_cli_export_prints_the_files_state_count(clomp, tmp_path, kind, fmt):
+    """Before: ``--model dtmc`` printed the map's 15 states for a file of 6."""
+    import re
+
+    path = tmp_path / f"ov.{fmt}"
+    code, out, _ = clomp("export", "--scenario", "overtaking", "-f", fmt, "--model", kind, "-o", str(path))
+    assert code == 0
+    m = re.search(r"(\d+) states?( \+ 1 unreachable label_holder state)?\)$", out.strip())
+    assert m, out
+    assert int(m.group(1)) + (1 if m.group(2) else 0) == _file_states(path)
+
+
+@pytest.mark.parametrize("extra", [("--model", "dtmc"), ("--model", "mdp"), ("--policy", "storm")])
+def test_cli_export_json_refuses_model_options(clomp, tmp_path, extra):
+    """Before: ``-f json --model dtmc`` wrote the same bytes as ``--model mdp``, silently."""
+    code, out, err = clomp("export", "--scenario", "open", "-f", "json", *extra, "-o", str(tmp_path / "m.json"))
+    assert code == 2 and out == ""
+    assert err.count("\n") == 1 and err.startswith(f"clomp: error: {extra[0]} does not apply to -f json")
+    assert not (tmp_path / "m.json").exists()
+
+
+@needs_storm
+def test_cli_export_dtmc_fixes_the_plans_or_storms_policy(clomp, tmp_path, risky_map):
+    """``--policy plan`` (default) is the best-first plan's DTMC (the short STRAIGHT,
+    collision 1 in 5); ``--policy storm`` the DTMC of Storm's scheduler (the detour)."""
+    from clomp.formal.checking import load_storm_model
+
+    risky_map.write_json(tmp_path / "risky.json")
+    got = {}
+    for policy in ("plan", "storm"):
+        path = tmp_path / f"{policy}.drn"
+        code, out, _ = clomp("export", "--map", str(tmp_path / "risky.json"), "-f", "drn", "--model", "dtmc", "--policy", policy, "-o", str(path))
+        assert code == 0, out
+        (r,) = check_properties(load_storm_model(path), [PropertySpec('P=? [!"collision" U "goal"]', "safe")])
+        got[policy] = r.value
+    assert got == pytest.approx({"plan": 0.8, "storm": 1.0}, abs=1e-12)
+    assert clomp("export", "--map", str(tmp_path / "risky.json"), "-f", "drn", "--policy", "storm", "-o", str(tmp_path / "x.drn"))[0] == 2
