@@ -37,6 +37,7 @@ from clomp.formal.export import ExportModel, ModelKind, export_model, write_drn,
 from clomp.formal.invariants import map_plan
 from clomp.formal.lts import CognitiveMap, MapError
 from clomp.formal.toolio import captured_fds
+from clomp.formal.witness import drn_actions, witness_trace
 
 __all__ = [
     "SpecError",
@@ -297,6 +298,7 @@ class StormModel:
     idents: list[int]
     program: Any = None
     source: str = ""
+    actions: list[list[str]] | None = None  # a DRN's action names per state (Storm drops them)
     _graph: nx.DiGraph | None = field(default=None, init=False, repr=False, compare=False)
 
     @property
@@ -382,14 +384,16 @@ def load_storm_model(path: str | os.PathLike[str]) -> StormModel:
         with captured_fds():  # Storm's C++ log stays off stdout; its exception says what failed
             if p.suffix == ".drn":
                 model = stormpy.build_model_from_drn(str(p))
-                program = None
+                program, actions = None, drn_actions(p.read_text(encoding="utf-8", errors="replace"))
             else:
-                program = stormpy.parse_prism_program(str(p))
-                model = stormpy.build_model(program, options=stormpy.BuilderOptions(build_full=True))
+                program, actions = stormpy.parse_prism_program(str(p)), None
+                options = stormpy.BuilderOptions(build_full=True)
+                options.set_build_choice_labels(True)  # the commands' actions, for witness paths
+                model = stormpy.build_model(program, options=options)
     except RuntimeError as exc:
         raise MapError(f"{p}: Storm cannot build the model: {str(exc).strip()}") from None
     kind: ModelKind = "mdp" if "Mdp" in type(model).__name__ else "dtmc"
-    return StormModel(model, kind, _idents_from(model), program, str(p))
+    return StormModel(model, kind, _idents_from(model), program, str(p), actions)
 
 
 def build_storm_model(
@@ -420,6 +424,8 @@ class CheckResult:
     value: float | bool
     passed: bool | None  # None: not required
     witness: list[str] = field(default_factory=list)
+    trace: list[dict[str, Any]] = field(default_factory=list)
+    """The witness as records: state, ident, labels, action (:func:`~clomp.formal.witness.witness_trace`)."""
 
     @property
     def verdict(self) -> str:
@@ -463,17 +469,17 @@ def check_properties(sm: StormModel, props: PropertyFile | Iterable[PropertySpec
             raise SpecError(f"{source}:{spec.line}: Storm cannot check {spec.formula!r}: {str(exc).strip()}") from None
         value = _value(result, init)
         passed = None if spec.required is None else spec.required.holds(value)
-        witness: list[str] = []
+        path: list[int] = []
         if passed is False:
-            witness = _target_witness(sm, spec) or _witness(sm, result, spec.required)  # type: ignore[arg-type]
-        out.append(CheckResult(spec, sm.kind, value, passed, witness))
+            path = _target_witness(sm, spec) or _witness(sm, result, spec.required)  # type: ignore[arg-type]
+        out.append(CheckResult(spec, sm.kind, value, passed, [sm.describe(x) for x in path], witness_trace(sm, path)))
     return out
 
 
 _EVENTUALLY = re.compile(r"^P(?:min|max)?\s*=\?\s*\[\s*(?:F|.+?\sU)\s+(.+)\]$")
 
 
-def _target_witness(sm: StormModel, spec: PropertySpec) -> list[str]:
+def _target_witness(sm: StormModel, spec: PropertySpec) -> list[int]:
     """For ``P=? [F ψ]`` / ``[φ U ψ]`` that came out too high: a shortest path to a state
     where ψ holds (the violation itself); [] when the property is not of that shape."""
     req = spec.required
@@ -492,15 +498,15 @@ def _target_witness(sm: StormModel, spec: PropertySpec) -> list[str]:
     if not result.is_qualitative():
         return []
     path = _shortest_path_to(sm.graph(), int(sm.model.initial_states[0]), lambda s: bool(result[s]))
-    return [] if path is None else [sm.describe(x) for x in path]
+    return path or []
 
 
-def _witness(sm: StormModel, result: Any, req: Requirement) -> list[str]:
+def _witness(sm: StormModel, result: Any, req: Requirement) -> list[int]:
     """A shortest path to an absorbing state whose own value violates ``req``."""
     g = sm.graph()
     start = int(sm.model.initial_states[0])
     path = _shortest_path_to(g, start, lambda s: list(g.successors(s)) == [s] and not req.holds(_value(result, s)))
-    return [sm.describe(x) for x in path or [start]]
+    return path or [start]
 
 
 def _shortest_path_to(g: nx.DiGraph, start: int, accept: Callable[[int], bool]) -> list[int] | None:

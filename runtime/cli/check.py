@@ -10,6 +10,7 @@ fails, naming a path of map states that violates it (Storm finds the path), or, 
 from __future__ import annotations
 
 import argparse
+import json
 import math
 from pathlib import Path
 from typing import Any
@@ -62,8 +63,60 @@ def register(sub: Any) -> None:
         default="storm",
         help="model checker: Storm (stormpy), PRISM (the PRISM language; $CLOMP_PRISM or shared/tools) or both side by side (default storm)",
     )
+    p.add_argument("--scheduler", metavar="FILE", help='write Storm\'s optimal scheduler for Pmax=? [!"collision" U "goal"] as JSON '
+                   "(per map state: pose, task, the chosen task); needs a map, not a model file")
+    p.add_argument("--induced", metavar="FILE", help="write the DTMC that scheduler induces: FILE.drn, FILE.prism (or .pm), "
+                   "or PRISM's explicit files for a name without suffix")
+    p.add_argument("--witness", metavar="FILE", help="write the violating path of each failed property as JSON (states, actions, labels)")
     add_planner_options(p)
     p.set_defaults(func=run)
+
+
+def _write_json(path: str, data: Any, option: str) -> None:
+    try:
+        Path(path).write_text(json.dumps(data, indent=1) + "\n", encoding="utf-8")
+    except OSError as exc:
+        raise CliError(f"{option}: cannot write {path}: {exc.strerror or exc}") from None
+
+
+def _write_policy(args: argparse.Namespace, cmap: CognitiveMap | None) -> None:
+    """``--scheduler`` and ``--induced``: Storm's scheduler of the map and its DTMC."""
+    if not (args.scheduler or args.induced):
+        return
+    if cmap is None:
+        raise CliError("--scheduler/--induced need a map (--scenario, --scan, --map or a .json FILE): a model file has no poses or tasks")
+    from clomp.formal.export import write_drn, write_prism, write_prism_explicit
+    from clomp.formal.scheduler import scheduler_record
+    from clomp.runtime.cli.export import storm_policy
+
+    best, induced = storm_policy(cmap)
+    if args.scheduler:
+        _write_json(args.scheduler, scheduler_record(cmap, best), "--scheduler")
+    if args.induced:
+        path = Path(args.induced)
+        writer = {".drn": write_drn, ".prism": write_prism, ".pm": write_prism, "": write_prism_explicit}.get(path.suffix)
+        if writer is None:
+            raise CliError(f"--induced: {path}: give a .drn or .prism file, or a name without suffix for PRISM's explicit files")
+        try:
+            writer(induced, path)
+        except OSError as exc:
+            raise CliError(f"--induced: cannot write {path}: {exc.strerror or exc}") from None
+
+
+def _witness_record(title: str, failed: list[CheckResult], cmap: CognitiveMap | None) -> dict[str, Any]:
+    """The violated properties with their paths (Storm's), actions named from the map's
+    transitions where the model's choices carry no name."""
+    tasks = None if cmap is None else {(t.source, t.target): t.label.value for t in cmap.transitions()}
+    out = []
+    for r in failed:
+        trace = [dict(x) for x in r.trace]
+        for a, b in zip(trace, trace[1:]):
+            if a["action"] is None and tasks is not None:
+                a["action"] = tasks.get((a["ident"], b["ident"]))
+        value: Any = r.value if isinstance(r.value, bool) or math.isfinite(r.value) else str(r.value)
+        out.append({"property": r.spec.name, "formula": r.spec.formula, "model": r.kind, "value": value,
+                    "required": str(r.spec.required), "path": trace})
+    return {"model": title, "tool": "Storm", "violated": out}
 
 
 def _spec_files(args: argparse.Namespace) -> list[PropertyFile]:
@@ -97,6 +150,8 @@ def run(args: argparse.Namespace) -> int:
         raise CliError("give exactly one of --scenario, --scan, --map or a model FILE")
     files = _spec_files(args)
     chosen = bool(args.specs)
+    if args.witness and args.tool == "prism":
+        raise CliError("--witness: Storm finds the violating paths: use --tool storm or both")
     use_storm, use_prism = args.tool in ("storm", "both"), args.tool in ("prism", "both")
     try:
         if args.file and Path(args.file).suffix != ".json":
@@ -107,15 +162,8 @@ def run(args: argparse.Namespace) -> int:
             if args.file:
                 args.map = args.file
             cmap, title = map_from_args(args)
-            storm, prism = [], []
-            built: dict[str, Any] = {}
-            for pf in files:
-                if use_storm:
-                    if pf.model not in built:
-                        built[pf.model] = build_storm_model(cmap, pf.model, args.via)
-                    storm += _check(built[pf.model], pf)
-                if use_prism:
-                    prism += _prism_results(check_with_prism(cmap, _named(pf), pf.model), pf, pf.model)
+            storm, prism = _check_map(cmap, files, args.via, use_storm, use_prism)
+        _write_policy(args, cmap)
     except (StormMissing, PrismMissing) as exc:
         raise CliError(str(exc)) from None
     except (SpecError, ExportError, MapError, PrismError) as exc:
@@ -127,6 +175,29 @@ def run(args: argparse.Namespace) -> int:
     failed = [r for r in results if r.passed is False]
     if storm and prism:
         failed += [q for r, q in zip(storm, prism) if q.passed is False and r.passed is not False]
+    if args.witness:
+        _write_json(args.witness, _witness_record(title, [r for r in storm if r.passed is False], cmap), "--witness")
+    return 1 if _report(failed, storm, prism) else 0
+
+
+def _check_map(cmap: CognitiveMap, files: list[PropertyFile], via: str, use_storm: bool, use_prism: bool) -> tuple[list[CheckResult], list[CheckResult]]:
+    """Storm's and PRISM's results for every property file on the map's export of its kind."""
+    storm: list[CheckResult] = []
+    prism: list[CheckResult] = []
+    built: dict[str, Any] = {}
+    for pf in files:
+        if use_storm:
+            if pf.model not in built:
+                built[pf.model] = build_storm_model(cmap, pf.model, via)
+            storm += _check(built[pf.model], pf)
+        if use_prism:
+            prism += _prism_results(check_with_prism(cmap, _named(pf), pf.model), pf, pf.model)
+    return storm, prism
+
+
+def _report(failed: list[CheckResult], storm: list[CheckResult], prism: list[CheckResult]) -> bool:
+    """Print a FAIL line per failed property and a DISAGREE line per property the tools
+    disagree on; whether there was any."""
     for r in failed:
         path_text = f"violating path: {' -> '.join(r.witness)}" if r.witness else "run with --tool storm for a violating path"
         print(f"FAIL {r.spec.name} ({r.kind}): {r.value_text()}, required {r.spec.required}; {path_text}")
@@ -135,7 +206,7 @@ def run(args: argparse.Namespace) -> int:
         disagree = [(r, q) for r, q in zip(storm, prism) if not values_agree(r.value, q.value)]
         for r, q in disagree:
             print(f"DISAGREE {r.spec.name} ({r.kind}): Storm {r.value!r}, PRISM {q.value!r}")
-    return 1 if failed or disagree else 0
+    return bool(failed or disagree)
 
 
 def _named(pf: PropertyFile) -> list[str]:

@@ -23,7 +23,7 @@ from clomp.runtime.cli.plan import (
 )
 from clomp.runtime.cli import EXIT_OK, CliError, plural
 
-__all__ = ["register", "add_source_options", "map_from_args", "export_for"]
+__all__ = ["register", "add_source_options", "map_from_args", "export_for", "storm_policy"]
 
 
 def add_source_options(p: argparse.ArgumentParser, required: bool = True) -> None:
@@ -174,6 +174,12 @@ def export_for(cmap: CognitiveMap, kind: ModelKind, policy: str | None) -> Expor
     the scheduler starts on)."""
     if policy != "storm":
         return export_model(cmap, kind)
+    return storm_policy(cmap)[1]
+
+
+def storm_policy(cmap: CognitiveMap) -> tuple[Any, ExportModel]:
+    """Storm's optimal scheduler for ``Pmax=? [!"collision" U "goal"]`` on the map's MDP
+    (a :class:`~clomp.formal.scheduler.RobustPlan`) and the DTMC it induces."""
     from clomp.formal.checking import StormMissing
     from clomp.formal.scheduler import robust_plan
 
@@ -182,7 +188,7 @@ def export_for(cmap: CognitiveMap, kind: ModelKind, policy: str | None) -> Expor
     except StormMissing as exc:
         raise CliError(str(exc)) from None
     choose = {ident: task.value for ident, task in best.scheduler.items()}
-    return induced_model(export_model(cmap, "mdp", best.plan), choose, "Storm's scheduler for Pmax [!collision U goal]")
+    return best, induced_model(export_model(cmap, "mdp", best.plan), choose, "Storm's scheduler for Pmax [!collision U goal]")
 
 
 def _states_written(m: ExportModel | None, cmap: CognitiveMap, fmt: str) -> str:

@@ -13,7 +13,7 @@ from pathlib import Path
 import pytest
 
 from clomp.formal import State
-from clomp.formal.checking import read_properties
+from clomp.formal.checking import PropertySpec, read_properties
 from clomp.formal.export import FORMATS, LABEL_HOLDER, export_model, write_drn, write_prism, write_prism_explicit
 from clomp.formal.prism import PrismError, check_with_prism, find_prism
 
@@ -355,6 +355,10 @@ def _walk(folder: Path, prism: bool) -> tuple[list[str], int]:
                           ("prism-explicit", stem), ("dot", stem.with_suffix(".dot"))):
             assert _cli("export", "--scenario", "overtaking", "-f", fmt, "--model", kind, *extra, "-o", str(path)) == 0, (fmt, kind, extra)
         written.append((stem.name, kind, stem.with_suffix(".prism"), stem.with_suffix(".drn"), stem))
+    induced = folder / "induced"  # `clomp check --induced`: Storm's scheduler's DTMC, the format from the name
+    for path in (induced.with_suffix(".prism"), induced.with_suffix(".drn"), induced):
+        assert _cli("check", "--scenario", "overtaking", "--induced", str(path)) == 0, path
+    written.append(("check --induced", "dtmc", induced.with_suffix(".prism"), induced.with_suffix(".drn"), induced))
     sup = folder / "supervisor.prism"  # what `clomp demo` writes beside the map
     sup.write_text(supervisor_closed_loop_prism())
     written.append(("demo supervisor.prism", "mdp", sup, None, None))
@@ -382,7 +386,7 @@ def test_every_written_model_passes_its_property_files_in_both_tools(tmp_path, c
     test that ran PRISM on each map property file with unnamed formulas.)"""
     problems, checked = _walk(tmp_path, prism=find_prism() is not None)
     assert not problems, problems
-    assert checked >= (15 if find_prism() is not None else 8)
+    assert checked >= (19 if find_prism() is not None else 10)
     if find_prism() is None:
         pytest.skip(f"PRISM not found (set CLOMP_PRISM): checked the {checked} Storm loads only")
 
@@ -418,3 +422,42 @@ def test_clomp_demo_writes_a_supervisor_model_that_passes_in_both_tools(tmp_path
     if find_prism() is not None:
         loads["PRISM language in PRISM"] = _prism_values([str(path.resolve())], specs)
     assert not _judge("demo", specs, loads)
+
+
+# -- schedulers and witnesses as files ------------------------------------------------------------------
+def test_check_writes_storms_scheduler_with_tasks_and_valuations(tmp_path, capsys, risky_map):
+    """``--scheduler``: per map state the chosen task, the state's pose and task; on the
+    risky map Storm takes the detour (LEFT) that the best-first plan does not."""
+    import json
+
+    risky_map.write_json(tmp_path / "risky.json")
+    # 1: the best-first plan's DTMC rightly fails the "sure" requirements (a collision 1 in 5)
+    assert _cli("check", "--map", str(tmp_path / "risky.json"), "--scheduler", str(tmp_path / "s.json"), "--induced", str(tmp_path / "i.drn")) == 1
+    record = json.loads((tmp_path / "s.json").read_text())
+    assert record["probability"] == pytest.approx(1.0) and record["plan"][:2] == ["q0", "q3"]
+    by = {s["state"]: s for s in record["states"]}
+    assert by["q0"]["action"] == "LEFT" and by["q3"] == {"state": "q3", "ident": 3, "pose": [0.0, 0.0, 1.57], "task": "LEFT", "action": "STRAIGHT"}
+    tasks = {(t.source, t.label.value) for t in risky_map.transitions()}
+    assert all((s["ident"], s["action"]) in tasks for s in record["states"])
+    assert _storm_values(tmp_path / "i.drn", [PropertySpec('P=? [!"collision" U "goal"]', "safe")]) == [1.0]
+    assert _cli("check", str(tmp_path / "i.drn"), "--scheduler", str(tmp_path / "x.json")) == 2  # a model file has no poses
+
+
+@pytest.mark.parametrize("source", ["map", "prism", "drn"])
+def test_check_writes_the_witness_path_with_states_actions_labels(tmp_path, capsys, source):
+    """Before: a violated property's path was only a printed line."""
+    import json
+
+    spec = tmp_path / "strict.pctl"
+    spec.write_text('// @model mdp\n// @required = 0\n"never": Pmax=? [F "collision"]\n')
+    argv = ["--scenario", "overtaking"]
+    if source != "map":
+        path = tmp_path / f"ov.{source}"
+        assert _cli("export", "--scenario", "overtaking", "-f", source, "-o", str(path)) == 0
+        argv = [str(path)]
+    assert _cli("check", *argv, "--specs", str(spec), "--witness", str(tmp_path / "w.json")) == 1
+    (violated,) = json.loads((tmp_path / "w.json").read_text())["violated"]
+    path = violated["path"]
+    assert violated["property"] == "never" and path[0]["state"] == "q0" and "init" in path[0]["labels"]
+    assert "collision" in path[-1]["labels"] and path[-1]["action"] is None
+    assert all(step["action"] in ("STRAIGHT", "LEFT", "RIGHT") for step in path[:-1]), path
