@@ -355,6 +355,11 @@ def _walk(folder: Path, prism: bool) -> tuple[list[str], int]:
                           ("prism-explicit", stem), ("dot", stem.with_suffix(".dot"))):
             assert _cli("export", "--scenario", "overtaking", "-f", fmt, "--model", kind, *extra, "-o", str(path)) == 0, (fmt, kind, extra)
         written.append((stem.name, kind, stem.with_suffix(".prism"), stem.with_suffix(".drn"), stem))
+        # DOT is a picture, not a model checker's input: it must draw the model's states
+        nodes = re.findall(r"^\s*\d+ \[label=", stem.with_suffix(".dot").read_text(), re.M)
+        states = set(re.findall(r"^\s*\[\w+\] q=(\d+) ->", stem.with_suffix(".prism").read_text(), re.M))
+        if len(nodes) != len(states):
+            problems.append(f"{stem.name}.dot draws {len(nodes)} states, the model has {len(states)}")
     induced = folder / "induced"  # `clomp check --induced`: Storm's scheduler's DTMC, the format from the name
     for path in (induced.with_suffix(".prism"), induced.with_suffix(".drn"), induced):
         assert _cli("check", "--scenario", "overtaking", "--induced", str(path)) == 0, path
