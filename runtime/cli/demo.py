@@ -14,9 +14,9 @@ from clomp.runtime.cli import EXIT_NOT_REACHED, EXIT_OK, CliError
 from clomp.runtime.cli._common import load_scene
 from clomp.runtime.experiment.onerun import run_once
 from clomp.runtime.experiment.plots import plot_run
-from clomp.runtime.supervision.states import state_machine_dot, state_machine_prism
+from clomp.runtime.supervision.states import state_machine_dot
 
-__all__ = ["register", "run", "write_map"]
+__all__ = ["register", "run", "write_map", "supervisor_closed_loop_prism"]
 
 
 def register(sub: Any) -> None:
@@ -55,6 +55,26 @@ def write_map(cmap: Any, folder: Path, stem: str = "cognitive_map") -> list[str]
     return notes
 
 
+def supervisor_closed_loop_prism() -> str:
+    """The supervisor composed with the plant (the robot), as a PRISM MDP: the model
+    ``specs/properties/supervisor/machine.pctl`` is written for (the machine alone has no
+    plant, so its ``driving`` and ``after_fault`` would be constant false and the
+    property file would fail on it). ``supervisor.dot`` draws the machine alone.
+
+    >>> supervisor_closed_loop_prism().splitlines()[0]
+    '// check with specs/properties/supervisor/machine.pctl (clomp check picks it for this file)'
+    """
+    import io
+
+    from clomp.formal.control import PLANT, SUPERVISOR, machine_model
+    from clomp.formal.export import write_prism
+
+    buf = io.StringIO()
+    buf.write("// check with specs/properties/supervisor/machine.pctl (clomp check picks it for this file)\n")
+    write_prism(machine_model(SUPERVISOR, PLANT), buf)
+    return buf.getvalue()
+
+
 def run(args: argparse.Namespace) -> int:
     """Plan, execute on the simulated robot, summarise, write the pictures and models."""
     from clomp.runtime.cli.simulate import check_world_options, print_summary, world_noise
@@ -79,7 +99,7 @@ def run(args: argparse.Namespace) -> int:
     rep = r.report
     if rep.plans:
         written += write_map(rep.plans[0].result.map, out)
-    for name, text in (("supervisor.dot", state_machine_dot()), ("supervisor.prism", state_machine_prism())):
+    for name, text in (("supervisor.dot", state_machine_dot()), ("supervisor.prism", supervisor_closed_loop_prism())):
         (out / name).write_text(text, encoding="utf-8")
         written.append(str(out / name))
     print(f"wrote to {out}{os.sep}: " + ", ".join(Path(w).name if not w.startswith("(") else w for w in written))
