@@ -26,13 +26,14 @@ import sys
 import threading
 import time
 from pathlib import Path
+from collections.abc import Callable
 from typing import Any
 
 from clomp.runtime.cli.plan import add_planner_options, configurator_from_args, parse_goal
 from clomp.runtime.cli import EXIT_DEVICE_FAULT, EXIT_INTERRUPTED, EXIT_NOT_REACHED, EXIT_OK, CliError
 from clomp.runtime.cli._signals import interrupts_raise
 
-__all__ = ["register", "add_emulate_world", "default_log_path"]
+__all__ = ["register", "add_emulate_world", "default_log_path", "operate", "open_runlog"]
 
 def _missing_path(spec: str | None) -> bool:
     """True for a port named by a path that does not exist (a typo, not a device fault)."""
@@ -166,76 +167,115 @@ def run(args: argparse.Namespace) -> int:
 def _run(args: argparse.Namespace, scheduling: str) -> int:
     from clomp.runtime.backends.hardware import HardwareRobot
     from clomp.runtime.clock import ScaledClock, WallClock
-    from clomp.runtime.interface import RobotFault
-    from clomp.runtime.records.runlog import RunLog
-    from clomp.runtime.supervision import Supervisor, SupervisorState
+    from clomp.runtime.supervision import Supervisor
 
     goal = parse_goal(args.goal)
     config = _config(args)
     conf = configurator_from_args(args)
-    path = Path(args.log) if args.log else default_log_path()
-    try:
-        runlog = RunLog(path)
-    except OSError as exc:
-        raise CliError(f"cannot write the run log {path}: {exc}") from None
-    print(f"log: {path}", flush=True)
+    runlog, path = open_runlog(args.log)
     lock = threading.Lock()
     log = _SharedLog(runlog, lock)
     clock = WallClock() if args.time_scale == 1.0 else ScaledClock(args.time_scale)
     log.write("run", argv=sys.argv[1:], lidar=args.lidar, motors=args.motors, dry_run=args.dry_run,
               goal=list(goal), max_time=args.max_time, time_scale=args.time_scale,
               config=config.to_dict(), monotonic=time.monotonic(), wall=time.time(), scheduling=scheduling)
-    robot = sup = None
+
+    def work(robot: Any, hold: Any) -> Any:
+        if args.dry_run:
+            _say("dry run: planning on every scan, the wheels are held stopped")
+            return _dry_run(robot, conf, goal, clock, log, args.max_time, path)
+        sup = Supervisor(robot, goal, conf, clock=clock, log=_SharedLog(runlog, lock, frozenset({"motor"})))
+        hold(sup)
+        return sup.run(max_time=args.max_time)
+
+    return operate(lambda: HardwareRobot(args.lidar, args.motors, config, model=conf.robot, log=log, clock=clock),
+                 work, runlog, log, path, usage_fault=lambda: _missing_path(args.lidar) or _missing_path(args.motors))
+
+
+def open_runlog(name: str | None) -> tuple[Any, Path]:
+    """The run log at ``name`` (default: a new timestamped file in ./clomp-runs/), its path printed."""
+    from clomp.runtime.records.runlog import RunLog
+
+    path = Path(name) if name else default_log_path()
+    try:
+        runlog = RunLog(path)
+    except OSError as exc:
+        raise CliError(f"cannot write the run log {path}: {exc}") from None
+    print(f"log: {path}", flush=True)
+    return runlog, path
+
+
+def operate(open_robot: Callable[[], Any], work: Callable[[Any, Callable[[Any], None]], Any], runlog: Any, log: Any,
+          path: Path, *, usage_fault: Callable[[], bool] = lambda: False, name: str = "run") -> int:
+    """Open a robot, run ``work(robot, hold)`` on it, and stop and close it on every way out:
+    the exit status of ``clomp run`` (and ``clomp ros node``). ``work`` returns an exit
+    status or a supervisor's report, and hands ``hold`` the supervisor it runs (so that
+    Ctrl-C and an exception halt it); a robot that cannot be opened is a device fault (a
+    usage error when ``usage_fault()`` says the user named something that does not exist)."""
+    from clomp.runtime.interface import RobotFault
+
+    def say(text: str) -> None:
+        print(f"clomp {name}: {text}", file=sys.stderr, flush=True)
+
+    robot = None
+    held: list[Any] = []
     try:
         with interrupts_raise() as signalled:
             try:
                 try:
-                    robot = HardwareRobot(args.lidar, args.motors, config, model=conf.robot, log=log, clock=clock)
+                    robot = open_robot()
                 except RobotFault as exc:
                     log.write("fault", reason=str(exc), source="start")
                     log.write("stop", reason=str(exc), status="NOT_STARTED")
-                    if _missing_path(args.lidar) or _missing_path(args.motors):
+                    if usage_fault():
                         raise CliError(f"{exc} (log: {path})") from None
                     print(f"clomp: error: {exc} (log: {path})", file=sys.stderr, flush=True)
                     return EXIT_DEVICE_FAULT
-                if args.dry_run:
-                    _say("dry run: planning on every scan, the wheels are held stopped")
-                    return _dry_run(robot, conf, goal, clock, log, args.max_time, path)
-                sup = Supervisor(robot, goal, conf, clock=clock, log=_SharedLog(runlog, lock, frozenset({"motor"})))
-                report = sup.run(max_time=args.max_time)
+                report = work(robot, held.append)
+                if isinstance(report, int):
+                    return report
             except KeyboardInterrupt:
                 why = signalled() or "KeyboardInterrupt"
                 reason = f"interrupted by {why}"
+                sup = held[-1] if held else None
                 if sup is not None and not sup.terminal:
                     sup.abort(reason)
                 elif sup is None:
                     log.write("stop", reason=reason, status="NOT_STARTED")
-                _say(f"{reason}: {_wheels(robot)} (log: {path})")
+                say(f"{reason}: {_wheels(robot)} (log: {path})")
                 return EXIT_INTERRUPTED
             except CliError:
                 raise
             except Exception as exc:  # anything unexpected: halt, say why in one line
                 reason = f"{type(exc).__name__}: {exc}"
+                sup = held[-1] if held else None
                 if sup is not None and not sup.terminal:
                     sup.fault(reason)
                 else:
                     log.write("fault", reason=reason, source="run")
                     log.write("stop", reason=reason, status="HALTED")
-                _say(f"halted: {reason}; {_wheels(robot)} (log: {path})")
+                say(f"halted: {reason}; {_wheels(robot)} (log: {path})")
                 return EXIT_DEVICE_FAULT if isinstance(exc, RobotFault) else EXIT_NOT_REACHED
             finally:
                 if robot is not None:
                     robot.close()
     finally:
         runlog.close()
+    return _outcome(report, robot, path, say)
+
+
+def _outcome(report: Any, robot: Any, path: Path, say: Callable[[str], None]) -> int:
+    """Print how a supervised run ended; its exit status."""
+    from clomp.runtime.supervision import SupervisorState
+
     state = report.state
     summary = f"{len(report.plans)} plans, {len(report.tasks)} tasks, {report.time_s:.1f} s"
     if state is SupervisorState.GOAL_REACHED:
         print(f"goal reached: {report.reason} ({summary})", flush=True)
     elif state is SupervisorState.UNREACHABLE:
-        _say(f"goal unreachable: {report.reason}; {_wheels(robot)} ({summary}; log: {path})")
+        say(f"goal unreachable: {report.reason}; {_wheels(robot)} ({summary}; log: {path})")
     else:
-        _say(f"halted: {report.reason}; {_wheels(robot)} ({summary}; log: {path})")
+        say(f"halted: {report.reason}; {_wheels(robot)} ({summary}; log: {path})")
     if state is SupervisorState.GOAL_REACHED:
         return EXIT_OK
     if robot is not None and robot.fault is not None:
