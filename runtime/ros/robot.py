@@ -111,6 +111,7 @@ class RosRobot:
         self._yaw: float | None = None
         self._rejected: dict[str, str] = {}  # topic -> why its last message was dropped
         self.rejects: dict[str, int] = {"scan": 0, "odom": 0, "imu": 0}
+        self._told: set[str] = set()
         self.nan_readings = 0
         self.scans = 0
         self.commands = 0
@@ -136,11 +137,13 @@ class RosRobot:
                 self._log_sink = None
 
     def _reject(self, topic: str, why: str) -> None:
-        """Log a message that cannot be used (throttled to the first and every 50th)."""
+        """Log a message that cannot be used (each reason once, and every 50th drop)."""
         self.rejects[topic] += 1
         self._rejected[topic] = why
         n = self.rejects[topic]
-        if n == 1 or n % 50 == 0:
+        first = why not in self._told and len(self._told) < 100
+        self._told.add(why)
+        if first or n % 50 == 0:
             self.node.get_logger().error(f"dropped a message on {topic} ({n} so far): {why}")
             self._write("ros", topic=topic, rejected=n, error=why)
 
@@ -174,7 +177,9 @@ class RosRobot:
         if nans:
             self.nan_readings += nans
             if self.nan_readings == nans:
-                self.node.get_logger().warning(f"LaserScan with {nans} NaN readings: taken as no return")
+                why = f"LaserScan with {nans} NaN readings: taken as no return (REP 117)"
+                self.node.get_logger().warning(why)
+                self._write("ros", topic="scan", warning=why)
         stamp = self._monotonic(msg.header.stamp)
         end = stamp + (0.0 if times is None else float(len(msg.ranges) - 1) * float(msg.time_increment))
         frame = ScanFrame(points, timestamp=min(end, received), point_times=times)

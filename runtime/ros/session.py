@@ -74,13 +74,16 @@ class RosSession:
 
     def _spin(self) -> None:
         c0 = time.thread_time()
-        try:
-            while not self._stop.is_set() and self.context.ok():
+        while not self._stop.is_set() and self.context.ok():
+            try:
                 self.executor.spin_once(timeout_sec=0.05)
-                self.spin_cpu = time.thread_time() - c0
-        except Exception as exc:  # keep it for the caller instead of a thread traceback
-            if not self._stop.is_set():
-                self.error = exc
+            except Exception as exc:  # a callback that failed: say so, keep spinning (the watchdog must run)
+                if self._stop.is_set() or not self.context.ok():
+                    break
+                if self.error is None:
+                    self.error = exc
+                    self.node.get_logger().error(f"callback failed: {type(exc).__name__}: {exc}")
+            self.spin_cpu = time.thread_time() - c0
 
     def flush(self, publisher: Any, timeout: float = 0.5) -> None:
         """Wait (at most ``timeout`` s) until the reliable subscribers acknowledged what

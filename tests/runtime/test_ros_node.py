@@ -72,7 +72,7 @@ class Base:
         node = self.session.node
         self.pose, self.twist = start, (0.0, 0.0)
         self.cmds: list[tuple[float, float, float]] = []  # (monotonic, v, w)
-        self.scanning, self.odometry = True, odom
+        self.scanning, self.odometry, self.nan_odometry = True, odom, False
         self.scan = self.open_scan
         self.lock = threading.Lock()
         self.scan_pub = node.create_publisher(LaserScan, "/scan", qos_profile_sensor_data)
@@ -104,7 +104,10 @@ class Base:
             self._t = now
         stamp = self.session.node.get_clock().now().to_msg()
         if self.odometry:
-            self.odom_pub.publish(make_odometry(self.pose, stamp, "odom", "base_link"))
+            odom = make_odometry(self.pose, stamp, "odom", "base_link")
+            if self.nan_odometry:
+                odom.pose.pose.position.x = math.nan
+            self.odom_pub.publish(odom)
         if self.scanning:
             msg = LaserScan()
             msg.header.stamp, msg.header.frame_id = stamp, "laser"
@@ -178,7 +181,7 @@ def test_a_silent_scan_stops_the_robot(base: Base, tmp_path: Path) -> None:
 def test_a_nan_odometry_pose_is_a_sensor_fault(base: Base, tmp_path: Path) -> None:
     node = NodeThread("--goal", "2,0", "--max-time", "60", "--log", str(tmp_path / "run.jsonl"))
     wait_for(base.moving, 30, "the node to drive")
-    base.pose = Pose(math.nan, 0.0, 0.0)
+    base.nan_odometry = True
     assert node.join(15) == 3
     assert base.last_cmd() == (0.0, 0.0)
     faults = [r["reason"] for r in records(tmp_path / "run.jsonl") if r["event"] == "fault"]
@@ -258,11 +261,15 @@ def test_a_240_degree_681_beam_scan_is_planned_on(base: Base, tmp_path: Path, re
     plans = [r for r in log if r["event"] == "plan"]
     assert scans and len(plans) == len(scans)
     pts = scans[-1]
-    assert len(pts) > 50 and np.allclose(pts[:, 0], 0.5, atol=1e-5)  # the wall, where it is
-    assert pts[:, 1].min() == pytest.approx(-0.2, abs=0.01) and pts[:, 1].max() == pytest.approx(0.3, abs=0.01)
-    expected = Configurator().plan(pts, (1.0, 0.0))
+    a = np.linspace(-math.radians(120), math.radians(120), 681)
+    y = 0.5 * np.tan(a)
+    seen = (np.cos(a) > 0) & (y >= -0.2) & (y <= 0.3)
+    wall = np.c_[np.full(seen.sum(), 0.5), y[seen]]  # where each beam meets the wall, by geometry
+    order = np.argsort(pts[:, 1])
+    assert pts.shape == wall.shape and np.allclose(pts[order], wall, atol=1e-5)
+    expected = Configurator().plan(wall, (1.0, 0.0))
     assert plans[-1]["tasks"] == [s.task.value for s in expected.steps]
-    assert plans[-1]["tasks"][0] != "STRAIGHT"  # the wall is in the way
+    assert plans[-1]["reached_goal"] == expected.reached_goal
     assert base.cmds == []  # a dry run commands nothing
 
 
@@ -286,7 +293,7 @@ def test_malformed_input_is_logged_and_dropped_not_a_crash(base: Base, tmp_path:
     odom = make_odometry(base.pose, stamp, "map", "base_link")
     base.odom_pub.publish(odom)
     assert node.join(60) == 0  # and it still reaches the goal
-    errors = [r["error"] for r in records(tmp_path / "run.jsonl") if r["event"] == "ros"]
+    errors = [r.get("error") or r["warning"] for r in records(tmp_path / "run.jsonl") if r["event"] == "ros"]
     text = "\n".join(errors)
     assert "angle_increment is 0" in text
     assert "has 100 ranges but its angles" in text and "make 360" in text
@@ -315,7 +322,9 @@ def test_the_recorded_bag_played_into_a_dry_run(tmp_path: Path) -> None:
         with LaserScanTopic(BAG) as topic:
             scans = list(topic)[:40]
         node = NodeThread("--goal", "1,0", "--dry-run", "--log", str(tmp_path / "run.jsonl"))
-        for k, s in enumerate(scans):
+        wait_for(lambda: base.scan_pub.get_subscription_count() > 0 and base.session.node.count_publishers("/plan") > 0,
+                 30, "the node to subscribe to /scan and offer /plan")
+        def laserscan(s: Any) -> Any:
             msg = LaserScan()
             msg.header.stamp = base.session.node.get_clock().now().to_msg()
             msg.header.frame_id = s.frame_id
@@ -323,11 +332,22 @@ def test_the_recorded_bag_played_into_a_dry_run(tmp_path: Path) -> None:
             msg.angle_max = s.angle_min + s.angle_increment * (len(s.ranges) - 1)
             msg.range_min, msg.range_max = s.range_min, s.range_max
             msg.ranges = s.ranges.astype(float).tolist()
-            base.scan_pub.publish(msg)
-            wait_for(lambda: len(plans) > k, 20, f"the plan of scan {k}")
+            return msg
+
+        # the first scan until the node has it (a best-effort message sent while DDS still
+        # matches the two ends is lost), then every scan after the plan of the one before
+        end = time.monotonic() + 30
+        while not plans and time.monotonic() < end:
+            base.scan_pub.publish(laserscan(scans[0]))
+            time.sleep(0.3)
+        for k, s in enumerate(scans[1:]):
+            seen = len(plans)
+            base.scan_pub.publish(laserscan(s))
+            wait_for(lambda: len(plans) > seen, 20, f"the plan of scan {k + 1}")
         assert node.join(20) == 3  # the scans stopped with the bag: a silent sensor
         log = records(tmp_path / "run.jsonl")
-        assert sum(r["event"] == "plan" for r in log) == len(scans) == len(plans)
+        n_scans = sum(r["event"] == "scan" for r in log)
+        assert sum(r["event"] == "plan" for r in log) == n_scans == len(plans) >= len(scans)
         assert not any(r["event"] == "plan" and "error" in r for r in log)
         assert base.cmds == []
     finally:
