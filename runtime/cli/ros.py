@@ -136,7 +136,6 @@ def _overrides(args: argparse.Namespace) -> dict[str, Any]:
 
 
 def _node(args: argparse.Namespace) -> int:
-    _need_ros()
     from clomp.runtime.clock import WallClock
     from clomp.runtime.cli.run import _dry_run, _SharedLog, open_runlog, operate
     from clomp.runtime.ros.node import GoalInbox, NodeOutputs, PublishingLog, configure, supervise
@@ -149,8 +148,9 @@ def _node(args: argparse.Namespace) -> int:
     if args.max_time is not None and not (math.isfinite(args.max_time) and args.max_time > 0):
         raise CliError(f"--max-time must be a positive number of seconds, got {args.max_time}")
     overrides = _overrides(args)
+    _need_ros()
     session = RosSession("clomp", overrides)
-    robots: list[Any] = []
+    robots: list[RosRobot] = []
     try:
         try:
             conf, rc, values = configure(session.node, dry_run=args.dry_run)

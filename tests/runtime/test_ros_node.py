@@ -60,7 +60,7 @@ class Base:
     """A kinematic robot base on ROS topics (its own context): /scan from ``ranges()`` at
     ``rate`` Hz, /odom from the /cmd_vel it integrates, every /cmd_vel recorded."""
 
-    def __init__(self, start: Pose = Pose(0.0, 0.0, 0.0), rate: float = 10.0, odom: bool = True) -> None:
+    def __init__(self, start: Pose | None = None, rate: float = 10.0, odom: bool = True) -> None:
         from geometry_msgs.msg import Twist
         from nav_msgs.msg import Odometry
         from rclpy.qos import qos_profile_sensor_data
@@ -70,7 +70,7 @@ class Base:
 
         self.session = RosSession("test_base")
         node = self.session.node
-        self.pose, self.twist = start, (0.0, 0.0)
+        self.pose, self.twist = start or Pose(0.0, 0.0, 0.0), (0.0, 0.0)
         self.cmds: list[tuple[float, float, float]] = []  # (monotonic, v, w)
         self.scanning, self.odometry, self.nan_odometry = True, odom, False
         self.scan = self.open_scan
@@ -343,7 +343,7 @@ def test_the_recorded_bag_played_into_a_dry_run(tmp_path: Path) -> None:
         for k, s in enumerate(scans[1:]):
             seen = len(plans)
             base.scan_pub.publish(laserscan(s))
-            wait_for(lambda: len(plans) > seen, 20, f"the plan of scan {k + 1}")
+            wait_for(lambda seen=seen: len(plans) > seen, 20, f"the plan of scan {k + 1}")
         assert node.join(20) == 3  # the scans stopped with the bag: a silent sensor
         log = records(tmp_path / "run.jsonl")
         n_scans = sum(r["event"] == "scan" for r in log)
