@@ -33,7 +33,7 @@ from clomp.runtime.cli import EXIT_NOT_REACHED, CliError
 from clomp.runtime.cli._signals import interrupts_raise
 from clomp.runtime.cli.plan import add_planner_options, parse_goal
 
-__all__ = ["register", "parse_parameter", "run_loop"]
+__all__ = ["register", "make_supervisor", "parse_parameter", "run_loop"]
 
 
 def register(sub: Any) -> None:
@@ -173,7 +173,7 @@ def _node(args: argparse.Namespace) -> int:
                 assert goal is not None
                 robot.wait_ready()
                 return _dry_run(robot, conf, goal, WallClock(), PublishingLog(log, outputs), args.max_time, path)
-            report = supervise(robot, lambda g: _supervisor(robot, g, conf, log), goal, outputs, inbox, hold, args.max_time)
+            report = supervise(robot, lambda g: make_supervisor(robot, g, conf, log), goal, outputs, inbox, hold, args.max_time)
             if report is None:
                 log.write("stop", reason="no goal came on /goal_pose", status="NOT_STARTED")
                 print(f"clomp ros node: no goal came on /goal_pose in {args.max_time:g} s (log: {path})", file=sys.stderr)
@@ -187,8 +187,14 @@ def _node(args: argparse.Namespace) -> int:
         session.close()
 
 
-def _supervisor(robot: Any, goal: tuple[float, float], conf: Any, log: Any) -> Any:
-    """The supervisor of ``clomp run`` for the node (the one place the node builds one)."""
+def make_supervisor(robot: Any, goal: tuple[float, float], conf: Any, log: Any = None) -> Any:
+    """The supervisor of ``clomp run`` for the node (the one place the node builds one).
+
+    >>> from clomp.planner import Configurator, load_scenario
+    >>> from clomp.runtime.backends.sim import SimRobot
+    >>> make_supervisor(SimRobot(load_scenario("open"), seed=0), (1.0, 0.0), Configurator()).state.value
+    'IDLE'
+    """
     from clomp.runtime.supervision import Supervisor
 
     return Supervisor(robot, goal, conf, log=log)

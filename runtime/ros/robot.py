@@ -120,6 +120,10 @@ class RosRobot:
         self._closed = False
         self.wheels_stopped = True
         self.last_scan_received: float | None = None
+        #: (when a scan arrived, when the first command after the step that read it went out), monotonic s
+        self.latencies: list[tuple[float, float]] = []
+        self._frame_received = 0.0
+        self._caused_by: float | None = None
         self._cmd_pub = node.create_publisher(Twist, c.cmd_topic, QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE))
         self._subs = [node.create_subscription(LaserScan, c.scan_topic, self._on_scan, qos_profile_sensor_data)]
         if c.use_odom:
@@ -185,7 +189,7 @@ class RosRobot:
         frame = ScanFrame(points, timestamp=min(end, received), point_times=times)
         with self._cond:
             self._frame, self._fresh = frame, True
-            self._scan_at = self.last_scan_received = received
+            self._scan_at = self.last_scan_received = self._frame_received = received
             self.scans += 1
             self._rejected.pop("scan", None)
             self._cond.notify_all()
@@ -295,6 +299,7 @@ class RosRobot:
             if not self._fresh:
                 return None
             self._fresh = False
+            self._caused_by = self._frame_received
             return self._frame
 
     def _publish(self, left: float, right: float) -> None:
@@ -303,6 +308,9 @@ class RosRobot:
         v, w = twist_from_wheels(left, right, self.wheel_base)
         self._cmd_pub.publish(make_twist(v, w))
         self.commands += 1
+        if self._caused_by is not None:
+            self.latencies.append((self._caused_by, time.monotonic()))
+            self._caused_by = None
         self.wheels_stopped = v == 0.0 and w == 0.0
 
     def set_wheel_speeds(self, left: float, right: float) -> None:
