@@ -10,7 +10,7 @@ estimate on ``/clomp/estimate`` (``nav_msgs/Odometry``) and the supervisor's sta
 (nav2's convention); a new goal preempts the one being driven to.
 
 :func:`supervise` ticks the supervisor every ``tick`` s and also as soon as a scan
-arrives (not sooner than a quarter tick after the last step): the command a scan causes
+arrives (not sooner than a tenth of a tick after the last step): the command a scan causes
 goes out without waiting for the next tick.
 """
 
@@ -248,7 +248,7 @@ def _loop(sup: Any, robot: RosRobot, outputs: NodeOutputs, inbox: GoalInbox, t_e
         outputs.publish(sup)
         if sup.terminal:
             break
-        time.sleep(max(0.0, t + tick / 4 - time.monotonic()))
+        time.sleep(max(0.0, t + tick / 10 - time.monotonic()))
         robot.wait_scan(t + tick)
     outputs.publish(sup)
     return None

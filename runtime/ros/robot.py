@@ -28,6 +28,8 @@ import time
 from dataclasses import asdict, dataclass
 from typing import Any
 
+import numpy as np
+
 from clomp.formal.model import Pose
 from clomp.runtime.interface import RobotFault, ScanFrame
 from clomp.runtime.records.runlog import RunLogLike
@@ -120,17 +122,20 @@ class RosRobot:
         self._closed = False
         self.wheels_stopped = True
         self.last_scan_received: float | None = None
-        #: (when a scan arrived, when the first command after the step that read it went out), monotonic s
-        self.latencies: list[tuple[float, float]] = []
-        self._frame_received = 0.0
-        self._caused_by: float | None = None
+        #: per scan a control step read: (its header stamp in ns, when it arrived, when the first
+        #: command of that step went out; monotonic s), for benchmarks
+        self.latencies: list[tuple[int, float, float]] = []
+        self._frame_received: tuple[int, float] = (0, 0.0)
+        self._caused_by: tuple[int, float] | None = None
         self._cmd_pub = node.create_publisher(Twist, c.cmd_topic, QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE))
         self._subs = [node.create_subscription(LaserScan, c.scan_topic, self._on_scan, qos_profile_sensor_data)]
         if c.use_odom:
             self._subs.append(node.create_subscription(Odometry, c.odom_topic, self._on_odom, qos_profile_sensor_data))
         if c.use_imu:
             self._subs.append(node.create_subscription(Imu, c.imu_topic, self._on_imu, qos_profile_sensor_data))
-        self._timer = node.create_timer(min(0.05, c.sensor_timeout / 4), self._watch)
+        self._period = min(0.05, c.sensor_timeout / 4)
+        self._watched = time.monotonic()
+        self._timer = node.create_timer(self._period, self._watch)
 
     # -- the executor's side ---------------------------------------------------------------
     def _write(self, event: str, **fields: Any) -> None:
@@ -177,7 +182,7 @@ class RosRobot:
         except (MessageError, ValueError) as exc:
             self._reject("scan", str(exc))
             return
-        nans = sum(1 for r in msg.ranges if math.isnan(r))
+        nans = int(np.isnan(np.asarray(msg.ranges, dtype=np.float32)).sum())
         if nans:
             self.nan_readings += nans
             if self.nan_readings == nans:
@@ -189,7 +194,8 @@ class RosRobot:
         frame = ScanFrame(points, timestamp=min(end, received), point_times=times)
         with self._cond:
             self._frame, self._fresh = frame, True
-            self._scan_at = self.last_scan_received = self._frame_received = received
+            self._scan_at = self.last_scan_received = received
+            self._frame_received = (int(msg.header.stamp.sec) * 10**9 + int(msg.header.stamp.nanosec), received)
             self.scans += 1
             self._rejected.pop("scan", None)
             self._cond.notify_all()
@@ -222,10 +228,14 @@ class RosRobot:
                 self._yaw = unwrap(self._yaw, yaw)
 
     def _watch(self) -> None:
-        """The watchdog (executor thread): trip on a sensor that fell silent."""
-        if not self._armed or self._fault is not None:
-            return
+        """The watchdog (executor thread): trip on a sensor that fell silent. Not in a round
+        that comes late: then this thread itself was held up, and the messages that came
+        meanwhile wait in its queue (a false trip otherwise)."""
         now, limit = time.monotonic(), self.config.sensor_timeout
+        starved = now - self._watched > 2 * self._period  # this thread was held up (the GIL, the machine)
+        self._watched = now
+        if not self._armed or self._fault is not None or starved:
+            return  # a starved executor has messages queued: judge after it took them
         for topic, at in (("scan", self._scan_at), ("odom", self._odom_at if self.config.use_odom else now)):
             if at is not None and now - at > limit:
                 why = self._rejected.get(topic)
@@ -309,7 +319,7 @@ class RosRobot:
         self._cmd_pub.publish(make_twist(v, w))
         self.commands += 1
         if self._caused_by is not None:
-            self.latencies.append((self._caused_by, time.monotonic()))
+            self.latencies.append((*self._caused_by, time.monotonic()))
             self._caused_by = None
         self.wheels_stopped = v == 0.0 and w == 0.0
 

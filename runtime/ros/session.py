@@ -12,6 +12,7 @@ from __future__ import annotations
 import os
 import threading
 import time
+from collections.abc import MutableMapping
 from typing import Any
 
 __all__ = ["RosSession", "localhost_only", "ros_missing"]
@@ -35,18 +36,20 @@ def ros_missing() -> str | None:
     return None
 
 
-def localhost_only(domain_id: int) -> None:
+def localhost_only(domain_id: int, env: MutableMapping[str, str] | None = None) -> None:
     """Keep ROS 2 traffic on this host: discovery on localhost, data over shared memory,
-    a private domain id (0-101). Call it before any rclpy context exists.
+    a private domain id (0-101), set in ``env`` (default: this process's environment;
+    call it before any rclpy context exists).
 
-    >>> localhost_only(55); os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"], os.environ["FASTDDS_BUILTIN_TRANSPORTS"]
-    ('LOCALHOST', 'SHM')
+    >>> env = {}; localhost_only(55, env); sorted(env.items())
+    [('FASTDDS_BUILTIN_TRANSPORTS', 'SHM'), ('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST'), ('ROS_DOMAIN_ID', '55')]
     """
     if not 0 <= domain_id <= 101:
         raise ValueError(f"domain id must be 0..101, got {domain_id}")
-    os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
-    os.environ["FASTDDS_BUILTIN_TRANSPORTS"] = "SHM"
-    os.environ["ROS_DOMAIN_ID"] = str(domain_id)
+    target = os.environ if env is None else env
+    target["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
+    target["FASTDDS_BUILTIN_TRANSPORTS"] = "SHM"
+    target["ROS_DOMAIN_ID"] = str(domain_id)
 
 
 class RosSession:

@@ -352,3 +352,31 @@ def test_the_recorded_bag_played_into_a_dry_run(tmp_path: Path) -> None:
         assert base.cmds == []
     finally:
         base.close()
+
+
+def test_the_watchdog_does_not_trip_in_a_round_that_came_late() -> None:
+    """A watchdog round held up (the control thread had the GIL, the machine was busy) finds
+    the last scan old while newer ones wait in the executor's queue: it must not trip then,
+    only when it runs on time and the scan is still old."""
+    import rclpy
+    from rclpy.node import Node
+    from rclpy.signals import SignalHandlerOptions
+
+    from clomp.runtime.ros.robot import RosRobot, RosRobotConfig
+
+    context = rclpy.Context()
+    rclpy.init(context=context, signal_handler_options=SignalHandlerOptions.NO)
+    try:
+        node = Node("watchdog_test", context=context)  # not spun: the test calls the watchdog itself
+        robot = RosRobot(node, 0.15, RosRobotConfig(use_odom=False))
+        robot._armed = True
+        now = time.monotonic()
+        robot._scan_at = now - 1.0
+        robot._watched = now - 1.0  # the last round was a second ago: this one is late
+        robot._watch()
+        assert robot.fault is None
+        robot._watch()  # on time now, and still no scan
+        assert robot.fault is not None and "scan silent" in robot.fault
+        node.destroy_node()
+    finally:
+        rclpy.shutdown(context=context)
