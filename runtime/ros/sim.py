@@ -116,7 +116,7 @@ class SimNode:
         frame = w.newest_revolution()
         if frame is not None and frame is not self._sent:
             self._sent = frame
-            self._scan_pub.publish(self._scan(frame.points, stamp))
+            self._scan_pub.publish(self._scan(frame.points, stamp, w.now() - frame.timestamp))
             self.scans += 1
             self.scan_sent_at.append(time.monotonic())
 
@@ -131,7 +131,8 @@ class SimNode:
         msg.linear_acceleration.z = 9.81
         return msg
 
-    def _scan(self, points: Any, stamp: Any) -> Any:
+    def _scan(self, points: Any, stamp: Any, age: float) -> Any:
+        """A revolution that ended ``age`` s before ``stamp`` as a LaserScan stamped at its first beam."""
         from rclpy.duration import Duration
         from sensor_msgs.msg import LaserScan
 
@@ -139,7 +140,8 @@ class SimNode:
         a0, a1, inc, ranges = points_to_laserscan(points, w.rays, w.max_range)
         msg = LaserScan()
         period = 1.0 / w.scan_rate
-        msg.header.stamp = (stamp - Duration(nanoseconds=int(period * 1e9))).to_msg()
+        first = max(0.0, age) + period * (w.rays - 1) / w.rays
+        msg.header.stamp = (stamp - Duration(nanoseconds=int(first * 1e9))).to_msg()
         msg.header.frame_id = self.laser_frame
         msg.angle_min, msg.angle_max, msg.angle_increment = a0, a1, inc
         msg.time_increment = period / w.rays

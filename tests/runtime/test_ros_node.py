@@ -164,6 +164,11 @@ def test_node_and_sim_reach_the_goal(tmp_path: Path) -> None:
     assert r["collisions"] == 0
     log = records(tmp_path / "run.jsonl")
     assert log[-1]["event"] == "stop" and log[-1]["status"] == "GOAL_REACHED"
+    from clomp.runtime.cli import main
+
+    assert main(["replay", str(tmp_path / "run.jsonl")]) == 0  # the run log is clomp run's
+    pytest.importorskip("mcap")
+    assert main(["convert", str(tmp_path / "run.jsonl"), "-o", str(tmp_path / "run.mcap")]) == 0
 
 
 # -- fail-safe -------------------------------------------------------------------------------------
