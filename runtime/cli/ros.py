@@ -172,7 +172,8 @@ def _node(args: argparse.Namespace) -> int:
             if args.dry_run:
                 assert goal is not None
                 robot.wait_ready()
-                return _dry_run(robot, conf, goal, WallClock(), PublishingLog(log, outputs), args.max_time, path)
+                return _dry_run(robot, conf, goal, WallClock(), PublishingLog(log, outputs), args.max_time, path,
+                                say=lambda text: print(f"clomp ros node: {text}", file=sys.stderr, flush=True))
             report = supervise(robot, lambda g: make_supervisor(robot, g, conf, log), goal, outputs, inbox, hold, args.max_time)
             if report is None:
                 log.write("stop", reason="no goal came on /goal_pose", status="NOT_STARTED")

@@ -284,7 +284,7 @@ def _outcome(report: Any, robot: Any, path: Path, say: Callable[[str], None]) ->
 
 
 def _dry_run(robot: Any, conf: Any, goal: tuple[float, float], clock: Any, log: Any,
-             max_time: float | None, path: Path) -> int:
+             max_time: float | None, path: Path, say: Callable[[str], None] = _say) -> int:
     """Plan on every scan without moving: one ``scan`` and one ``plan`` record per scan."""
     from clomp.formal.model import Pose
     from clomp.planner import PlanningError, ScanError
@@ -300,7 +300,7 @@ def _dry_run(robot: Any, conf: Any, goal: tuple[float, float], clock: Any, log: 
         except RobotFault as exc:
             log.write("fault", reason=str(exc), source="dry-run")
             log.write("stop", reason=str(exc), status="HALTED")
-            _say(f"halted: {exc}; {_wheels(robot)} (log: {path})")
+            say(f"halted: {exc}; {_wheels(robot)} (log: {path})")
             return EXIT_DEVICE_FAULT
         if frame is None:
             continue
