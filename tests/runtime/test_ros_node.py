@@ -223,6 +223,14 @@ def test_a_goal_on_goal_pose_in_the_odom_frame(tmp_path: Path) -> None:
         node_.create_subscription(String, "/clomp/state", lambda m: states.append(m.data),
                                   QoSProfile(depth=10, durability=DurabilityPolicy.TRANSIENT_LOCAL))
         goal_pub = node_.create_publisher(PoseStamped, "/goal_pose", 10)
+        from nav_msgs.msg import Odometry
+        from visualization_msgs.msg import Marker, MarkerArray
+
+        maps: list[Any] = []
+        estimates: list[Any] = []
+        node_.create_subscription(MarkerArray, "/cognitive_map", maps.append,
+                                  QoSProfile(depth=10, durability=DurabilityPolicy.TRANSIENT_LOCAL))
+        node_.create_subscription(Odometry, "/clomp/estimate", estimates.append, 10)
         node = NodeThread("--max-time", "60", "--log", str(tmp_path / "run.jsonl"))
         wait_for(lambda: "WAITING_FOR_GOAL" in states, 30, "the node to wait for a goal")
         goal = PoseStamped()
@@ -234,6 +242,16 @@ def test_a_goal_on_goal_pose_in_the_odom_frame(tmp_path: Path) -> None:
         assert math.hypot(base.pose.x - 0.9, base.pose.y - 0.1) < 0.1, base.pose
         assert base.last_cmd() == (0.0, 0.0)
         assert "EXECUTING" in states and states[-1] == "GOAL_REACHED"
+        wait_for(lambda: bool(maps), 10, "a cognitive map")
+        markers = maps[-1].markers
+        assert markers[0].action == Marker.DELETEALL
+        plan = [m for m in markers if m.ns == "plan"]
+        labels = [m.text for m in markers if m.ns == "labels"]
+        assert len(plan) == 1 and plan[0].type == Marker.LINE_STRIP and len(plan[0].points) >= 2
+        assert labels and all(t.startswith("q") for t in labels) and any("(goal)" in t for t in labels)
+        assert plan[0].header.frame_id == "odom" and estimates and estimates[-1].header.frame_id == "odom"
+        end = estimates[-1].pose.pose.position
+        assert math.hypot(end.x - base.pose.x, end.y - base.pose.y) < 0.05  # the estimate, in the odom frame
     finally:
         base.close()
 
@@ -385,3 +403,49 @@ def test_the_watchdog_does_not_trip_in_a_round_that_came_late() -> None:
         node.destroy_node()
     finally:
         rclpy.shutdown(context=context)
+
+
+@pytest.fixture
+def idle_node() -> Any:
+    """A node that is not spun: the test calls its callbacks itself."""
+    import rclpy
+    from rclpy.node import Node
+    from rclpy.signals import SignalHandlerOptions
+
+    context = rclpy.Context()
+    rclpy.init(context=context, signal_handler_options=SignalHandlerOptions.NO)
+    node = Node("idle_test", context=context)
+    yield node
+    node.destroy_node()
+    rclpy.shutdown(context=context)
+
+
+def test_odometry_time_going_backwards_is_a_sensor_fault(idle_node: Any) -> None:
+    from builtin_interfaces.msg import Time
+
+    from clomp.runtime.ros.robot import RosRobot, RosRobotConfig
+
+    robot = RosRobot(idle_node, 0.15, RosRobotConfig())
+    robot._on_odom(make_odometry(Pose(0.0, 0.0, 0.0), Time(sec=100, nanosec=0), "odom", "base_link"))
+    assert robot.fault is None and robot.odometry() == Pose(0.0, 0.0, 0.0)
+    robot._on_odom(make_odometry(Pose(0.01, 0.0, 0.0), Time(sec=99, nanosec=0), "odom", "base_link"))
+    assert robot.fault is not None and "odom time went backwards" in robot.fault
+
+
+def test_the_sim_stops_the_wheels_when_commands_go_stale(idle_node: Any) -> None:
+    from geometry_msgs.msg import Twist
+
+    from clomp.planner import load_scenario
+    from clomp.runtime.backends.world import make_world_robot
+    from clomp.runtime.ros.sim import SimNode
+
+    world = make_world_robot(load_scenario("open"), "ideal", seed=0)
+    sim = SimNode(idle_node, world, 0.15, cmd_timeout=0.5)
+    cmd = Twist()
+    cmd.linear.x = 0.1
+    sim._on_cmd(cmd)
+    sim._step()
+    assert world.commanded == (0.1, 0.1) and sim.stale_stops == 0
+    sim._last_cmd = time.monotonic() - 0.6  # the last command is older than cmd_timeout
+    sim._step()
+    assert world.commanded == (0.0, 0.0) and sim.stale_stops == 1
