@@ -57,6 +57,9 @@ EXIT_STATUS: dict[str, dict[int, str]] = {
     "emulate": {0: "stopped by Ctrl-C or SIGTERM (how an emulator ends)"},
     "run": {0: "goal reached (--dry-run: time limit)", 1: "halted safely: goal unreachable, --max-time, an error",
             3: "a device fault (LiDAR silent or corrupt, a port vanished, a device that does not answer)"},
+    "ros": {0: "node: goal reached (--dry-run: time limit); sim: stopped (--max-time, Ctrl-C)",
+            1: "node: halted safely: goal unreachable, --max-time, no goal, an error",
+            3: "node: a sensor fault (/scan or /odom silent or garbage)"},
 }
 _COMMON_STATUS = {2: "bad input or usage", 130: "interrupted (Ctrl-C, SIGTERM)"}
 
@@ -72,7 +75,7 @@ def plural(n: int, word: str, many: str | None = None) -> str:
 
 def _exit_epilog(command: str) -> str:
     table = {**EXIT_STATUS.get(command, {0: "done"}), **_COMMON_STATUS}
-    if command in ("run", "emulate"):
+    if command in ("run", "emulate", "ros"):
         table.setdefault(EXIT_DEVICE_FAULT, "a device fault")
     return "exit status:\n" + "\n".join(f"  {code:<4} {what}" for code, what in sorted(table.items()))
 
@@ -93,6 +96,7 @@ _COMMAND_MODULES: list[str] = [
     "clomp.runtime.cli.check",
     "clomp.runtime.cli.emulate",
     "clomp.runtime.cli.run",
+    "clomp.runtime.cli.ros",
 ]
 
 

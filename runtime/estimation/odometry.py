@@ -219,31 +219,34 @@ class ScanOdometry:
         since the last call), else from the ``wheels`` (m/s) commanded since the last call;
         ``rotation`` (rad): the heading turned since start-up by the backend's gyro
         (:class:`~clomp.runtime.interface.TurnSensing`), which then gives the heading. Once the wheels
-        have been commanded still for ``still_after`` s, the gyro's reading measures its
-        offset instead (:meth:`OdometryFilter.zero_rate`)."""
+        have been commanded still for ``still_after`` s (and the odometry, when given, does
+        not move), the gyro's reading measures its offset instead (:meth:`OdometryFilter.zero_rate`)."""
         dt = float(t) - self._t
         turned = None
         if rotation is not None:
             if self._rot is not None and math.isfinite(rotation):
                 turned = float(rotation) - self._rot
             self._rot = float(rotation) if math.isfinite(rotation) else None
+        v, w = wheel_twist(wheels[0], wheels[1], self.wheel_base)
+        if v != 0.0 or w != 0.0:
+            self._still_since = None
+        elif self._still_since is None:
+            self._still_since = self._t
+        still = dt > 0 and turned is not None and self._still_since is not None \
+            and self._t - self._still_since >= self.still_after
         if odometry is not None:
-            if self._odo is not None and dt > 0:
-                step = relative(self._odo, odometry)
+            step = relative(self._odo, odometry) if self._odo is not None else None
+            if still and (step is None or math.hypot(step.x, step.y) + abs(step.theta) < 1e-9):
+                self.filter.zero_rate(turned, dt)  # type: ignore[arg-type]  # standing: the gyro reads its offset
+            elif step is not None and dt > 0:
                 self.filter.predict(step.x / dt, step.theta / dt, dt, turned)
                 self._moved_since += math.hypot(step.x, step.y) + abs(step.theta) * self.wheel_base
             self._odo = odometry
-            self._twist = wheel_twist(wheels[0], wheels[1], self.wheel_base)
-        else:
-            v, w = wheel_twist(wheels[0], wheels[1], self.wheel_base)
             self._twist = (v, w)
-            if v != 0.0 or w != 0.0:
-                self._still_since = None
-            elif self._still_since is None:
-                self._still_since = self._t
-            if dt > 0 and turned is not None and self._still_since is not None \
-                    and self._t - self._still_since >= self.still_after:
-                self.filter.zero_rate(turned, dt)
+        else:
+            self._twist = (v, w)
+            if still:
+                self.filter.zero_rate(turned, dt)  # type: ignore[arg-type]
             elif dt > 0 and (v != 0.0 or w != 0.0 or turned is not None):
                 self.filter.predict(v, w, dt, turned)
                 self._moved_since += (abs(v) + abs(w) * self.wheel_base) * dt
