@@ -18,20 +18,24 @@ commands differ only in the lines they print.
 
 from __future__ import annotations
 
+import itertools
 import math
+import os
+import stat
 import warnings
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Iterator
 from pathlib import Path
 from typing import Any, TypeVar
 
 import numpy as np
 
 from clomp.planner import Configurator, PlanningError, PlanResult, ScanError
+from clomp.planner.inputs import InputError, check_output
 from clomp.planner.scenarios import Scene, ScenarioError, load_scenario
 from clomp.runtime.cli import CliError, plural
 from clomp.runtime.records.runlog import LogError
 
-__all__ = ["load_scene", "log_records", "many_summary", "scan_outcomes", "summary_line"]
+__all__ = ["load_scene", "log_records", "many_summary", "output_folder", "output_path", "path_kind", "scan_outcomes", "summary_line"]
 
 T = TypeVar("T")
 
@@ -52,16 +56,61 @@ def load_scene(scenario: str) -> Scene:
         raise CliError(str(exc)) from None
 
 
-def log_records(read: Callable[[Path], Iterable[T]], path: Path, what: str) -> list[T]:
-    """Every record ``read`` finds in the run log at ``path``; a log that cannot be read,
-    or holds none (``what`` names them), is one CliError line."""
+def log_records(read: Callable[[Path], Iterable[T]], path: Path, what: str) -> Iterator[T]:
+    """The records ``read`` finds in the run log at ``path``, streamed (one line in memory
+    at a time); a log that cannot be read, or holds none (``what`` names them), is one
+    CliError line — an empty log before anything is yielded, a bad line when it is reached."""
+    it = iter(_cli_errors(read, path))
+    first = next(it, None)
+    if first is None:
+        raise CliError(f"{path}: the log holds no {what}")
+    return itertools.chain([first], it)
+
+
+def _cli_errors(read: Callable[[Path], Iterable[T]], path: Path) -> Iterator[T]:
     try:
-        records = list(read(path))
+        yield from read(path)
     except LogError as exc:
         raise CliError(str(exc)) from None
-    if not records:
-        raise CliError(f"{path}: the log holds no {what}")
-    return records
+
+
+def path_kind(path: Path, what: str) -> str:
+    """``"file"``, ``"folder"``, ``"other"`` (a FIFO, device, socket) or ``"missing"`` for
+    ``path``; a path that cannot be reached (an unreadable folder on the way, a NUL byte)
+    is one CliError line naming ``what`` (the option)."""
+    try:
+        info = os.stat(path)
+    except (FileNotFoundError, NotADirectoryError):
+        return "missing"
+    except PermissionError:
+        raise CliError(f"{what}: {path}: cannot reach: permission denied") from None
+    except (OSError, ValueError) as exc:
+        raise CliError(f"{what}: {path}: cannot reach: {getattr(exc, 'strerror', None) or exc}") from None
+    return "folder" if stat.S_ISDIR(info.st_mode) else "file" if stat.S_ISREG(info.st_mode) else "other"
+
+
+def output_folder(path: str | os.PathLike[str], what: str = "--out") -> Path:
+    """The folder ``path``, created if missing, checked writable before any work; else one
+    CliError line naming ``what``."""
+    p = Path(path)
+    if "\x00" in str(p):
+        raise CliError(f"{what}: the path holds a NUL byte")
+    try:
+        p.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise CliError(f"{what}: cannot create {p}: {exc.strerror or exc}") from None
+    if not os.access(p, os.W_OK | os.X_OK):
+        raise CliError(f"{what}: {p} is not writable")
+    return p
+
+
+def output_path(path: str | os.PathLike[str], what: str) -> Path:
+    """``path`` checked before any work: a file can be written there (no device, FIFO or
+    folder, not read-only, its folder exists); else one CliError line naming ``what``."""
+    try:
+        return check_output(path, what)
+    except InputError as exc:
+        raise CliError(str(exc)) from None
 
 
 def scan_outcomes(conf: Configurator, scan: Any, goal: tuple[float, float]) -> tuple[PlanResult | None, dict[str, Any]]:

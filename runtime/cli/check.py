@@ -25,7 +25,7 @@ from clomp.formal.checking import (
     compare_distance,
     default_property_files,
     load_storm_model,
-    read_properties,
+    parse_properties,
 )
 from clomp.formal.crosscheck import values_agree
 from clomp.formal.export import ExportError
@@ -35,6 +35,8 @@ from clomp.formal.lts import CognitiveMap, MapError
 from clomp.runtime.cli.export import add_source_options, map_from_args
 from clomp.runtime.cli.plan import add_planner_options
 from clomp.runtime.cli import CliError
+from clomp.runtime.cli._common import path_kind
+from clomp.planner.inputs import read_text
 
 __all__ = ["register"]
 
@@ -66,7 +68,8 @@ def register(sub: Any) -> None:
 def _spec_files(args: argparse.Namespace) -> list[PropertyFile]:
     paths = [Path(p) for p in args.specs] if args.specs else default_property_files()
     try:
-        files = [read_properties(p) for p in paths]
+        # the input layer: a FIFO, device or oversized file is refused before it is read
+        files = [parse_properties(read_text(p, "property file", MAX_SPEC_BYTES, SpecError), str(p)) for p in paths]
     except SpecError as exc:
         raise CliError(str(exc)) from None
     p = args.require_safe
@@ -83,11 +86,22 @@ def _spec_files(args: argparse.Namespace) -> list[PropertyFile]:
     return files
 
 
-def run(args: argparse.Namespace) -> int:
-    """Execute ``clomp check``."""
+def _check_sources(args: argparse.Namespace) -> None:
+    """Exactly one source, and a model FILE that is a file (a FIFO would block its reader)."""
     sources = [x for x in (args.scenario, args.scan, args.map, args.file) if x]
     if len(sources) != 1:
         raise CliError("give exactly one of --scenario, --scan, --map or a model FILE")
+    if args.file and Path(args.file).suffix != ".json" and path_kind(Path(args.file), "FILE") == "other":
+        raise CliError(f"{args.file}: not a regular file (a FIFO, device or socket)")
+
+
+#: a property file holds at most this many bytes
+MAX_SPEC_BYTES = 1024 * 1024
+
+
+def run(args: argparse.Namespace) -> int:
+    """Execute ``clomp check``."""
+    _check_sources(args)
     files = _spec_files(args)
     use_storm, use_prism = args.tool in ("storm", "both"), args.tool in ("prism", "both")
     try:

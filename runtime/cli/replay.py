@@ -15,7 +15,7 @@ from clomp.planner import Configurator, ScanError, scan_files
 from clomp.runtime.cli._bags import add_bag_options, bag_points, is_bag, labelled_scans, lidar_offset, open_topic
 from clomp.runtime.cli._progress import progress
 from clomp.runtime.cli import EXIT_OK, CliError, plural
-from clomp.runtime.cli._common import log_records, scan_outcomes
+from clomp.runtime.cli._common import log_records, path_kind, scan_outcomes
 from clomp.runtime.cli.plan import add_planner_options, configurator_from_args, parse_goal
 from clomp.runtime.records.bags import LaserScan
 from clomp.runtime.records.runlog import scans_from_log
@@ -35,22 +35,22 @@ def register(sub: Any) -> None:
 
 def _sources(
     path: Path, goal: tuple[float, float] | None
-) -> tuple[int, Iterator[tuple[str, Path | np.ndarray, tuple[float, float]]]]:
-    if path.is_dir():
+) -> tuple[int | None, Iterator[tuple[str, Any, tuple[float, float]]]]:
+    if path_kind(path, "replay") == "folder":
         try:
             files = scan_files(path)
         except ScanError as exc:
             raise CliError(str(exc)) from None
         return len(files), ((f.name, f, goal or (1.0, 0.0)) for f in files)
-    records = log_records(scans_from_log, path, "scan records")
-    return len(records), ((label, pts, goal or g or (1.0, 0.0)) for label, pts, g in records)
+    records = log_records(scans_from_log, path, "scan records")  # streamed: bounded memory
+    return None, ((label, pts, goal or g or (1.0, 0.0)) for label, pts, g in records)
 
 
 def run(args: argparse.Namespace) -> int:
     """Execute ``clomp replay``."""
     conf = configurator_from_args(args)
     path = Path(args.source)
-    if not path.exists():
+    if path_kind(path, "replay") == "missing":
         raise CliError(f"{path}: no such file or folder")
     goal = parse_goal(args.goal) if args.goal else None
     bag = bool(args.topic) or is_bag(path)
@@ -63,7 +63,7 @@ def run(args: argparse.Namespace) -> int:
     return _replay(conf, total, items, offset, args)
 
 
-def _replay(conf: Configurator, total: int, items: Iterable[tuple[str, Any, tuple[float, float]]],
+def _replay(conf: Configurator, total: int | None, items: Iterable[tuple[str, Any, tuple[float, float]]],
             offset: tuple[float, float, float], args: argparse.Namespace) -> int:
     """One line per scan (an ``error`` for a scan that cannot be planned, ``at_goal`` for
     one taken at the goal), then a summary; exit 0 once every scan was processed."""

@@ -28,6 +28,7 @@ import time
 from pathlib import Path
 from typing import Any
 
+from clomp.runtime.cli._args import seed_arg
 from clomp.runtime.cli.plan import add_planner_options, configurator_from_args, parse_goal
 from clomp.runtime.cli import EXIT_DEVICE_FAULT, EXIT_INTERRUPTED, EXIT_NOT_REACHED, EXIT_OK, CliError
 from clomp.runtime.cli._common import load_scene
@@ -312,7 +313,7 @@ def add_emulate_world(devices: Any) -> None:
         "Ctrl-C, then prints where the robot ended and whether it touched anything.",
     )
     w.add_argument("--scenario", default="overtaking", help="scenario name or file (default overtaking)")
-    w.add_argument("--seed", type=int, help="seed of the simulated robot's noise")
+    w.add_argument("--seed", type=seed_arg, help="seed of the simulated robot's noise")
     w.add_argument("--noise", choices=("ideal", "paper", "harsh"), default=None,
                    help="run the execution world with this noise preset (default: the older simulated robot "
                         "with the scenario's noise)")
