@@ -29,13 +29,13 @@ from typing import Any, TypeVar
 
 import numpy as np
 
-from clomp.planner import Configurator, PlanningError, PlanResult, ScanError
+from clomp.planner import Configurator, PlanningError, PlanResult, ScanError, load_scan, scan_files
 from clomp.planner.inputs import InputError, check_output
 from clomp.planner.scenarios import Scene, ScenarioError, load_scenario
 from clomp.runtime.cli import CliError, plural
 from clomp.runtime.records.runlog import LogError
 
-__all__ = ["load_scene", "log_records", "many_summary", "output_folder", "output_path", "path_kind", "scan_outcomes", "summary_line"]
+__all__ = ["Notes", "folder_scans", "load_scene", "log_records", "many_summary", "output_folder", "output_path", "path_kind", "scan_outcomes", "summary_line"]
 
 T = TypeVar("T")
 
@@ -128,7 +128,9 @@ def scan_outcomes(conf: Configurator, scan: Any, goal: tuple[float, float]) -> t
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         try:
-            scan = scan() if callable(scan) else scan
+            scan = load_scan(scan() if callable(scan) else scan)
+            if len(scan) and not scan.any():
+                raise ScanError(f"a placeholder scan: all {plural(len(scan), 'point')} at the origin (0, 0); not planned")
             r = conf.plan(scan, goal)
         except (ScanError, PlanningError) as exc:
             r = None
@@ -138,6 +140,61 @@ def scan_outcomes(conf: Configurator, scan: Any, goal: tuple[float, float]) -> t
     if r is not None:
         rec["outcome"] = "goal" if r.reached_goal else "partial" if r.steps else "no_move"
     return r, rec
+
+
+class Notes:
+    """What a many-scan run says once, after its summary, instead of once per scan: the
+    scans with returns beyond the sensor range, placeholder scans, duplicate recordings.
+
+    >>> n = Notes(["2 _smooth copies passed over"])
+    >>> n.add("map0001.dat", {"warnings": ["3 of 9 points lie beyond the 1.1 m sensor range and are ignored"]})
+    >>> n.add("map0002.dat", {"outcome": "error", "error": "a placeholder scan: all 4 points at the origin (0, 0); not planned"})
+    >>> for line in n.lines(): print(line)
+    warning: 2 _smooth copies passed over
+    warning: 1 scan has returns beyond the sensor range, ignored (first map0001.dat: 3 of 9 points lie beyond the 1.1 m sensor range and are ignored)
+    warning: 1 placeholder scan (every point at the origin), not planned (first map0002.dat)
+    """
+
+    def __init__(self, notes: list[str] | None = None) -> None:
+        self.notes = list(notes or [])
+        self.far: list[tuple[str, str]] = []
+        self.placeholders: list[str] = []
+
+    def add(self, label: str, rec: dict[str, Any]) -> None:
+        """Note what the outcome record ``rec`` of the scan ``label`` has to say."""
+        if rec.get("warnings"):
+            self.far.append((label, rec["warnings"][0]))
+        if rec.get("outcome") == "error" and str(rec.get("error", "")).startswith("a placeholder scan"):
+            self.placeholders.append(label)
+
+    def lines(self) -> list[str]:
+        """One ``warning:`` line per kind of suspicious data."""
+        out = [f"warning: {n}" for n in self.notes]
+        if self.far:
+            label, first = self.far[0]
+            out.append(f"warning: {plural(len(self.far), 'scan has', 'scans have')} returns beyond the sensor range, "
+                       f"ignored (first {label}: {first})")
+        if self.placeholders:
+            out.append(f"warning: {plural(len(self.placeholders), 'placeholder scan')} (every point at the origin), "
+                       f"not planned (first {self.placeholders[0]})")
+        return out
+
+
+def folder_scans(folder: Path) -> tuple[list[Path], list[str]]:
+    """The scan files of ``folder`` for a many-scan run, and what to say about them once:
+    ``NAME_smooth.dat`` beside ``NAME.dat`` is a smoothed copy of the same recording, passed
+    over (not counted as a scan of its own); a folder that cannot be listed is a CliError."""
+    try:
+        files = scan_files(folder)
+    except ScanError as exc:
+        raise CliError(str(exc)) from None
+    names = {f.name for f in files}
+    copies = [f for f in files if f.stem.endswith("_smooth") and f.stem[: -len("_smooth")] + f.suffix in names]
+    if not copies:
+        return files, []
+    note = (f"{plural(len(copies), '_smooth copy', '_smooth copies')} of other scans passed over "
+            f"(first {copies[0].name}; give one with --scan to plan on it)")
+    return [f for f in files if f not in copies], [note]
 
 
 def many_summary(outcomes: list[str], times: list[float]) -> dict[str, Any]:

@@ -15,12 +15,12 @@ import numpy as np
 
 from clomp.formal.lts import CognitiveMap, MapError
 from clomp.planner import GOAL_LIMIT_M as _PLANNER_GOAL_LIMIT_M
-from clomp.planner import Configurator, PlanningError, PlanResult, RobotModel, ScanError, scan_files
+from clomp.planner import Configurator, PlanningError, PlanResult, RobotModel, ScanError
 from clomp.planner.probabilistic import MAX_SAMPLES, NoiseError, ProbabilisticMap, preset_names
 from clomp.runtime.cli import EXIT_NOT_REACHED, EXIT_OK, CliError, plural
 from clomp.runtime.cli._args import length_arg, seed_arg
 from clomp.runtime.cli._bags import add_bag_options, bag_points, is_bag, labelled_scans, lidar_offset, open_topic, scan_label
-from clomp.runtime.cli._common import load_scene, many_summary, output_path, path_kind, scan_outcomes, summary_line
+from clomp.runtime.cli._common import Notes, folder_scans, load_scene, many_summary, output_path, path_kind, scan_outcomes, summary_line
 from clomp.runtime.cli._progress import progress
 from clomp.runtime.records.bags import BagError
 
@@ -379,22 +379,22 @@ def _plan_bag(conf: Configurator, path: Path, goal: tuple[float, float], args: a
 
 
 def _plan_folder(conf: Configurator, folder: Path, goal: tuple[float, float], args: argparse.Namespace) -> int:
-    try:
-        files = scan_files(folder)
-    except ScanError as exc:
-        raise CliError(str(exc)) from None
-    return _plan_many(conf, len(files), ((f.name, f, str(f)) for f in files), goal, args)
+    files, notes = folder_scans(folder)
+    return _plan_many(conf, len(files), ((f.name, f, str(f)) for f in files), goal, args, notes)
 
 
 def _plan_many(conf: Configurator, total: int, items: Iterable[tuple[str, Any, str]], goal: tuple[float, float],
-               args: argparse.Namespace) -> int:
-    """Plan on every (name, scan, JSON name) of ``items``: one line each, then a summary.
+               args: argparse.Namespace, listing: list[str] | None = None) -> int:
+    """Plan on every (name, scan, JSON name) of ``items``: one line each, then a summary
+    (in text, what is suspicious — returns beyond the range, placeholders, copies — is
+    said once, before the summary: :class:`~clomp.runtime.cli._common.Notes`).
 
     A scan that cannot be planned gets its own line with an error and the run goes on;
     the exit status is 0 once every scan was processed.
     """
     times: list[float] = []
     outcomes: list[str] = []
+    notes = Notes(listing)
     bar = progress(items, total=total, desc="plan", unit="scan")
     for name, scan, json_name in bar:
         r, rec = scan_outcomes(conf, scan, goal)
@@ -411,8 +411,9 @@ def _plan_many(conf: Configurator, total: int, items: Iterable[tuple[str, Any, s
                 f"{name}: {rec['outcome'].replace('_', ' ')}  {plural(len(r.steps), 'task')}  {plural(r.states, 'state')}  "
                 f"{r.planning_time_s * 1e3:.2f} ms  [{' '.join(s.task.value[0] for s in r.steps)}]"
             )
-        for w in rec.get("warnings", []) if not args.json else []:
-            bar.write(f"{name}: warning: {w}")
+        notes.add(name, rec)
     summary = many_summary(outcomes, times)
+    for note in [] if args.json else notes.lines():
+        print(note)
     print(json.dumps({"summary": summary}) if args.json else summary_line(summary))
     return EXIT_OK
