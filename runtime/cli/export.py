@@ -170,7 +170,7 @@ def run(args: argparse.Namespace) -> int:
     started = time.time()
     try:
         write(cmap, dest, args.format, args.model)
-    except ExportError as exc:
+    except (ExportError, MapError) as exc:  # MapError: a map file whose metadata is inconsistent
         raise CliError(str(exc)) from None
     except OSError as exc:
         raise CliError(f"cannot write {args.output}: {exc.strerror or exc}") from None
