@@ -31,7 +31,7 @@ from typing import Any
 from clomp.runtime.cli._args import seed_arg
 from clomp.runtime.cli.plan import add_planner_options, configurator_from_args, parse_goal
 from clomp.runtime.cli import EXIT_DEVICE_FAULT, EXIT_INTERRUPTED, EXIT_NOT_REACHED, EXIT_OK, CliError
-from clomp.runtime.cli._common import load_scene
+from clomp.runtime.cli._common import load_scene, output_path, path_kind
 from clomp.runtime.cli._signals import interrupts_raise
 
 __all__ = ["register", "add_emulate_world", "default_log_path"]
@@ -172,6 +172,8 @@ def _run(args: argparse.Namespace, scheduling: str) -> int:
     config = _config(args)
     conf = configurator_from_args(args)
     path = Path(args.log) if args.log else default_log_path()
+    if path_kind(path, "--log") != "missing":
+        output_path(path, "--log")  # no FIFO (its open would block), device or read-only file
     try:
         runlog = RunLog(path)
     except OSError as exc:
