@@ -193,7 +193,10 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 
 def _dispatch(args: argparse.Namespace) -> int:
+    from clomp.runtime.cli._args import check_args
+
     try:
+        check_args(args)  # numbers refused where they entered: one line, exit 2
         return int(args.func(args) or 0)
     except CliError as exc:
         print(f"clomp: error: {exc}", file=sys.stderr)

@@ -27,8 +27,8 @@ from clomp.formal.checking import (
     default_property_files,
     file_labels,
     load_storm_model,
+    parse_properties,
     property_labels,
-    read_properties,
     shipped_property_files,
 )
 from clomp.formal.crosscheck import values_agree
@@ -39,6 +39,8 @@ from clomp.formal.lts import CognitiveMap, MapError
 from clomp.runtime.cli.export import add_source_options, map_from_args
 from clomp.runtime.cli.plan import add_planner_options
 from clomp.runtime.cli import CliError
+from clomp.runtime.cli._common import path_kind
+from clomp.planner.inputs import read_text
 
 __all__ = ["register"]
 
@@ -126,7 +128,8 @@ def _spec_files(args: argparse.Namespace) -> list[PropertyFile]:
     model_file = bool(args.file) and Path(args.file).suffix != ".json"
     paths = [Path(p) for p in args.specs] if args.specs else shipped_property_files() if model_file else default_property_files()
     try:
-        files = [read_properties(p) for p in paths]
+        # the input layer: a FIFO, device or oversized file is refused before it is read
+        files = [parse_properties(read_text(p, "property file", MAX_SPEC_BYTES, SpecError), str(p)) for p in paths]
     except SpecError as exc:
         raise CliError(str(exc)) from None
     p = args.require_safe
@@ -143,11 +146,22 @@ def _spec_files(args: argparse.Namespace) -> list[PropertyFile]:
     return files
 
 
-def run(args: argparse.Namespace) -> int:
-    """Execute ``clomp check``."""
+def _check_sources(args: argparse.Namespace) -> None:
+    """Exactly one source, and a model FILE that is a file (a FIFO would block its reader)."""
     sources = [x for x in (args.scenario, args.scan, args.map, args.file) if x]
     if len(sources) != 1:
         raise CliError("give exactly one of --scenario, --scan, --map or a model FILE")
+    if args.file and Path(args.file).suffix != ".json" and path_kind(Path(args.file), "FILE") == "other":
+        raise CliError(f"{args.file}: not a regular file (a FIFO, device or socket)")
+
+
+#: a property file holds at most this many bytes
+MAX_SPEC_BYTES = 1024 * 1024
+
+
+def run(args: argparse.Namespace) -> int:
+    """Execute ``clomp check``."""
+    _check_sources(args)
     files = _spec_files(args)
     chosen = bool(args.specs)
     if args.witness and args.tool == "prism":

@@ -10,8 +10,9 @@ from pathlib import Path
 from typing import Any
 
 from clomp.planner.scenarios import ScenarioError
+from clomp.runtime.cli._args import seed_arg
 from clomp.runtime.cli import EXIT_NOT_REACHED, EXIT_OK, CliError
-from clomp.runtime.cli._common import load_scene
+from clomp.runtime.cli._common import load_scene, output_folder
 from clomp.runtime.experiment.onerun import run_once
 from clomp.runtime.experiment.plots import plot_run
 from clomp.runtime.supervision.states import state_machine_dot
@@ -23,7 +24,7 @@ def register(sub: Any) -> None:
     """Add ``demo`` to the command line."""
     p = sub.add_parser("demo", help="plan and execute the overtaking scenario on the simulated robot", description=__doc__)
     p.add_argument("--scenario", default="overtaking", help="built-in scenario name or JSON file (default overtaking)")
-    p.add_argument("--seed", type=int, default=None, help="noise seed (default: the scenario's 'seed', else 0)")
+    p.add_argument("--seed", type=seed_arg, default=None, help="noise seed (default: the scenario's 'seed', else 0)")
     p.add_argument("--out", default="clomp-demo-out", help="output folder (default ./clomp-demo-out)")
     from clomp.runtime.cli.simulate import add_world_options
 
@@ -83,7 +84,7 @@ def run(args: argparse.Namespace) -> int:
     scene = load_scene(args.scenario)
     try:
         check_world_options(args)
-        out.mkdir(parents=True, exist_ok=True)
+        output_folder(out)
     except OSError as exc:
         raise CliError(f"--out: cannot create {out}: {exc}") from None
     seed = args.seed if args.seed is not None else scene.raw.get("seed", 0)

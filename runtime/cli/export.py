@@ -10,8 +10,9 @@ from collections.abc import Iterator
 from typing import Any
 
 from clomp.formal.export import FORMATS, LABEL_HOLDER, ExportError, ExportModel, ModelKind, drn_adds_holder, export_model, induced_model, write
-from clomp.formal.lts import CognitiveMap, MapError
+from clomp.formal.lts import MAX_MAP_BYTES, CognitiveMap, MapError
 from clomp.planner import PlanningError, ScanError, load_scan, scan_files
+from clomp.planner.inputs import InputError, load_json, read_text
 from clomp.planner.probabilistic import NoiseError, learn_from_scans
 from clomp.runtime.cli.plan import (
     add_planner_options,
@@ -22,6 +23,7 @@ from clomp.runtime.cli.plan import (
     scenario_scan,
 )
 from clomp.runtime.cli import EXIT_OK, CliError, plural
+from clomp.runtime.cli._common import output_path, path_kind
 
 __all__ = ["register", "add_source_options", "map_from_args", "export_for", "storm_policy"]
 
@@ -39,10 +41,11 @@ def add_source_options(p: argparse.ArgumentParser, required: bool = True) -> Non
 def map_from_args(args: argparse.Namespace) -> tuple[CognitiveMap, str]:
     """Plan (or read) the cognitive map the source options name; returns (map, title)."""
     if getattr(args, "map", None):
-        try:
-            return CognitiveMap.read_json(args.map), str(args.map)
-        except OSError as exc:
-            raise CliError(f"--map: cannot read {args.map}: {exc.strerror or exc}") from None
+        try:  # the input layer: no FIFO, device or oversized file; JSON depth and numbers limited
+            data = load_json(read_text(args.map, "map file", MAX_MAP_BYTES), str(args.map))
+            return CognitiveMap.from_dict(data), str(args.map)
+        except InputError as exc:
+            raise CliError(f"--map: {exc}") from None
         except MapError as exc:
             raise CliError(f"--map: {args.map}: {exc}") from None
     conf = configurator_from_args(args)
@@ -60,19 +63,20 @@ def map_from_args(args: argparse.Namespace) -> tuple[CognitiveMap, str]:
             return conf.plan(scan, goal).map, title
         path = Path(args.scan)
         goal = parse_goal(args.goal) if args.goal else (1.0, 0.0)
-        if learn and path.is_file():
+        kind = path_kind(path, "--scan")
+        if learn and kind == "file":
             standing, log_goal = _standing_scans(path)
             g = parse_goal(args.goal) if args.goal else log_goal
             return learn_from_scans(standing, g, conf), f"{path} ({len(standing)} scans taken at one pose)"
         if learn:
-            if not path.exists() or path.is_file():
+            if kind != "folder":
                 raise CliError(f"--scan: {path}: --learn needs a folder of scans or a run log (.jsonl)")
             files = scan_files(path)  # the shared folder reader: suffixes, hidden files, unreadable folders
             used: list[Path] = []
             cmap = learn_from_scans(_readable_scans(files, used), goal, conf)
             skipped = len(files) - len(used)
             return cmap, f"{path} ({plural(len(used), 'scan')}{f', {skipped} skipped' if skipped else ''})"
-        if not path.is_file():
+        if kind == "missing":
             raise CliError(f"--scan: {path}: no such file")
         if samples is not None:
             return probabilistic_from_args(args, conf, path, goal).map, str(path)
@@ -204,16 +208,18 @@ def _states_written(m: ExportModel | None, cmap: CognitiveMap, fmt: str) -> str:
 def run(args: argparse.Namespace) -> int:
     """Execute ``clomp export``."""
     _check_model_options(args)
-    cmap, _ = map_from_args(args)
-    kind: ModelKind = args.model or "mdp"
     if args.output == "-":
         if args.format == "prism-explicit":
             raise CliError("prism-explicit writes several files: give a path stem with -o")
         dest: Any = sys.stdout
     else:
         dest = Path(args.output)
-        if dest.parent and not dest.parent.exists():
+        if args.format != "prism-explicit":
+            output_path(dest, "-o")  # before any work: no device, FIFO or read-only file
+        elif not dest.parent.is_dir():
             raise CliError(f"-o: folder {dest.parent} does not exist")
+    cmap, _ = map_from_args(args)
+    kind: ModelKind = args.model or "mdp"
     started = time.time()
     m = None
     try:
@@ -222,7 +228,7 @@ def run(args: argparse.Namespace) -> int:
         else:
             m = export_for(cmap, kind, args.policy)
             FORMATS[args.format](m, dest, kind)
-    except ExportError as exc:
+    except (ExportError, MapError) as exc:  # MapError: a map file whose metadata is inconsistent
         raise CliError(str(exc)) from None
     except OSError as exc:
         raise CliError(f"cannot write {args.output}: {exc.strerror or exc}") from None

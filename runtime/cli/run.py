@@ -29,9 +29,10 @@ from pathlib import Path
 from collections.abc import Callable
 from typing import Any
 
+from clomp.runtime.cli._args import seed_arg
 from clomp.runtime.cli.plan import add_planner_options, configurator_from_args, parse_goal
 from clomp.runtime.cli import EXIT_DEVICE_FAULT, EXIT_INTERRUPTED, EXIT_NOT_REACHED, EXIT_OK, CliError
-from clomp.runtime.cli._common import load_scene
+from clomp.runtime.cli._common import load_scene, output_path, path_kind
 from clomp.runtime.cli._signals import interrupts_raise
 
 __all__ = ["register", "add_emulate_world", "default_log_path", "operate", "open_runlog"]
@@ -194,6 +195,8 @@ def open_runlog(name: str | None) -> tuple[Any, Path]:
     from clomp.runtime.records.runlog import RunLog
 
     path = Path(name) if name else default_log_path()
+    if path_kind(path, "--log") != "missing":
+        output_path(path, "--log")  # no FIFO (its open would block), device or read-only file
     try:
         runlog = RunLog(path)
     except OSError as exc:
@@ -344,7 +347,7 @@ def add_emulate_world(devices: Any) -> None:
         "Ctrl-C, then prints where the robot ended and whether it touched anything.",
     )
     w.add_argument("--scenario", default="overtaking", help="scenario name or file (default overtaking)")
-    w.add_argument("--seed", type=int, help="seed of the simulated robot's noise")
+    w.add_argument("--seed", type=seed_arg, help="seed of the simulated robot's noise")
     w.add_argument("--noise", choices=("ideal", "paper", "harsh"), default=None,
                    help="run the execution world with this noise preset (default: the older simulated robot "
                         "with the scenario's noise)")

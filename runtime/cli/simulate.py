@@ -8,9 +8,11 @@ import math
 from pathlib import Path
 from typing import Any
 
+from clomp.planner.inputs import safe_name
 from clomp.planner.scenarios import ScenarioError
+from clomp.runtime.cli._args import seed_arg
 from clomp.runtime.cli import EXIT_NOT_REACHED, EXIT_OK, CliError
-from clomp.runtime.cli._common import load_scene
+from clomp.runtime.cli._common import load_scene, output_folder, output_path
 from clomp.runtime.experiment.onerun import SUCCESS_RADIUS, RunResult, run_once
 from clomp.runtime.experiment.plots import plot_run
 from clomp.runtime.backends.world import WorldNoise
@@ -51,7 +53,7 @@ def register(sub: Any) -> None:
     p = sub.add_parser("simulate", help="run one scenario on the simulated robot and draw the trajectory", description=__doc__)
     p.add_argument("--scenario", default="overtaking", help="built-in scenario name or JSON file (default overtaking)")
     p.add_argument("--reactive", action="store_true", help="run the reactive baseline instead of the planner")
-    p.add_argument("--seed", type=int, default=None, help="noise seed (default: the scenario's 'seed', else 0)")
+    p.add_argument("--seed", type=seed_arg, default=None, help="noise seed (default: the scenario's 'seed', else 0)")
     add_world_options(p)
     p.add_argument("--no-noise", action="store_true", help="same as --noise ideal")
     p.add_argument("--max-time", type=float, default=120.0, help="simulated seconds allowed (default 120)")
@@ -107,8 +109,7 @@ def run(args: argparse.Namespace) -> int:
         check_world_options(args)
         noise = WorldNoise.preset("ideal") if args.no_noise else world_noise(args, scene)
         seed = args.seed if args.seed is not None else scene.raw.get("seed", 0)
-        out = Path(args.out)
-        out.mkdir(parents=True, exist_ok=True)
+        out = output_folder(args.out)
         cond = "reactive" if args.reactive else "planning"
     except ScenarioError as exc:
         raise CliError(str(exc)) from None
@@ -119,6 +120,7 @@ def run(args: argparse.Namespace) -> int:
             raise CliError("--log: the reactive baseline has no supervisor and keeps no run log")
         try:
             Path(args.log).parent.mkdir(parents=True, exist_ok=True)
+            output_path(args.log, "--log")  # no FIFO (an open would block), device or read-only file
             open(args.log, "w", encoding="utf-8").close()  # a fresh log, not appended to an old one
         except OSError as exc:
             raise CliError(f"--log: cannot write {args.log}: {exc.strerror or exc}") from None
@@ -129,7 +131,7 @@ def run(args: argparse.Namespace) -> int:
         raise CliError(str(exc)) from None
     except OSError as exc:
         raise CliError(f"--log: cannot write {args.log}: {exc.strerror or exc}") from None
-    png = out / f"{scene.name}_{cond}.png"
+    png = out / f"{safe_name(scene.name)}_{cond}.png"  # a name from a file: never a path
     plot_run(r.trace(), png, title=f"{scene.name} — {cond}")
     if args.json:
         print(json.dumps(_summary_dict(r, png)))
