@@ -253,7 +253,9 @@ def _finished(report: Any, robot: Any, path: Path) -> int:
     if state is SupervisorState.GOAL_REACHED:
         print(f"goal reached: {report.reason} ({summary})", flush=True)
         return EXIT_OK
-    if state is SupervisorState.UNREACHABLE:
+    if state is SupervisorState.GOAL_UNCONFIRMED:  # at the goal by the estimate, which cannot vouch for it
+        _say(f"goal unconfirmed: {report.reason}; {_wheels(robot)} ({summary}; log: {path})")
+    elif state is SupervisorState.UNREACHABLE:
         _say(f"goal unreachable: {report.reason}; {_wheels(robot)} ({summary}; log: {path})")
     else:
         _say(f"halted: {report.reason}; {_wheels(robot)} ({summary}; log: {path})")

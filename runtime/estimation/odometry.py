@@ -64,7 +64,7 @@ from clomp.runtime.estimation.ekf import OdometryFilter
 from clomp.runtime.estimation.faces import FaceCompass
 from clomp.runtime.estimation.fusion import fuse_revolutions, range_spread
 from clomp.runtime.estimation._icp_core import warm_up
-from clomp.runtime.estimation.icp import ReferenceScan, match_scans
+from clomp.runtime.estimation.icp import ReferenceScan, ScanMatch, match_scans
 
 __all__ = ["ScanOdometry", "FeedbackRecord", "deskew"]
 
@@ -156,6 +156,9 @@ class ScanOdometry:
         noise_factor: float = math.sqrt(2.0),
         compass: bool = True,
         still_after: float = 0.5,
+        relocalise_after: int = 2,
+        agree: tuple[float, float] = (0.05, 0.1),
+        nis_weight: float = 0.1,
     ) -> None:
         if not (math.isfinite(wheel_base) and wheel_base > 0):
             raise ValueError(f"wheel_base must be positive, got {wheel_base!r}")
@@ -186,6 +189,9 @@ class ScanOdometry:
         self._rot: float | None = None  # the gyro's reading at the last advance
         self._still_since: float | None = 0.0  # since when the wheels are commanded still
         self.still_after = float(still_after)
+        self.relocalise_after = int(relocalise_after)
+        self.agree = agree
+        self.nis_weight = float(nis_weight)
         self.records: list[FeedbackRecord] = []
         self.last_points = np.zeros((0, 2))
         self._moved_since = 0.0  # m (or wheel-base radians) driven since the last accepted match
@@ -193,6 +199,7 @@ class ScanOdometry:
         self._seed: list[np.ndarray] | None = []
         self._seed_pose = self.pose
         self.compass: FaceCompass | None = FaceCompass() if compass else None
+        self._honesty_reset()
         warm_up()  # the compiled matcher is ready before the robot moves
 
     # -- dead reckoning -------------------------------------------------------------------------
@@ -210,6 +217,7 @@ class ScanOdometry:
         self._last_stamp = None
         self._seed = []
         self._seed_pose = pose
+        self._honesty_reset()
         if self.compass is not None:
             self.compass.reset()
 
@@ -340,7 +348,8 @@ class ScanOdometry:
         f = self.filter
         gate = (min(self.gate[0], 0.03 + 3 * f.sigma_xy), min(self.gate[1], 0.05 + 3 * f.sigma_theta))
         least = self.min_points if frame.point_times is not None else self.min_points_unstamped
-        match = match_scans(self._map, points, at, gate=gate, min_points=least)
+        match = match_scans(self._map, points, at, gate=None, min_points=least)
+        match = self._gated(match, at, gate)
         corrected = at
         reason = match.reason
         ok = match.ok
@@ -359,13 +368,18 @@ class ScanOdometry:
             if ok:
                 corrected = self._carry(before, at, frame.timestamp)
                 self._moved_since = 0.0
+                self.rejected_in_a_row = 0
+                self.nis += self.nis_weight * (d2 - self.nis)
             else:
                 reason = f"{match.reason}, but inconsistent with the prediction (d² {d2:.0f}): rejected"
+                self._disagreed(z, at)
         match = dataclasses.replace(match, ok=ok)
         # the map grows by what a matched revolution saw; a revolution that matched nothing
         # because the map does not cover what it sees re-seeds it (dead-reckoned)
         lost = not match.ok and match.inlier_fraction < self.min_overlap and "too few points" not in match.reason
         added = self._add(points, corrected, reseed=lost) if (match.ok or lost) else False
+        if lost and added:
+            self.reseeds += 1
         if self.compass is not None and self.compass.seeded:
             corrected, reason = self._steer(points, corrected, frame.timestamp, reason)
         d = (corrected.x - at.x, corrected.y - at.y, wrap_angle(corrected.theta - at.theta))
@@ -373,6 +387,63 @@ class ScanOdometry:
                              match.unobservable, added)
         self.records.append(rec)
         return rec
+
+    # -- honesty: what the covariance alone does not say --------------------------------------------
+    def _honesty_reset(self) -> None:
+        self.disagreement: tuple[float, float, float] | None = None  # the last well-matched revolution rejected
+        self.rejected_in_a_row = 0  # well-matched revolutions in a row that disagreed with the prediction
+        self.relocalised = 0  # times the estimate gave way to such a run of matches
+        self.reseeds = 0  # times a revolution matching nothing re-seeded the map
+        self.map_var = 0.0  # m²: the position variance the map's surfaces were drawn with (the largest)
+        self.nis = 1.0  # the normalised innovation of accepted matches, smoothed (1: as the filter expects)
+
+    def _gated(self, match: ScanMatch, prior: Pose, gate: tuple[float, float]) -> ScanMatch:
+        """The matcher's gate, applied here so that a well-matched revolution it rejects is kept
+        (:meth:`_disagreed`): the same test and reason as :func:`match_scans` with ``gate``."""
+        if not match.ok:
+            return match
+        dt = math.hypot(match.pose.x - prior.x, match.pose.y - prior.y)
+        da = abs(wrap_angle(match.pose.theta - prior.theta))
+        if dt <= gate[0] and da <= gate[1]:
+            return match
+        self._disagreed(match.pose, prior)
+        return dataclasses.replace(match, pose=prior, ok=False, information_matrix=((0.0, 0.0, 0.0),) * 3,
+                                   reason=f"disagrees with the prior by {dt * 100:.0f} cm, {math.degrees(da):.0f}°: rejected")
+
+    def _disagreed(self, z: Pose, at: Pose) -> None:
+        """A revolution that matched the map well was rejected as too far from the prediction
+        ``at`` (it says ``z``). Several in a row that agree with one another mean the robot was
+        moved or its model is wrong: the filter's uncertainty is raised by the disagreement,
+        so that the next such match is taken (the estimate believes the evidence), and until
+        then the disagreement counts in :meth:`position_sd`."""
+        d = (z.x - at.x, z.y - at.y, wrap_angle(z.theta - at.theta))
+        prev = self.disagreement
+        same = prev is not None and self.rejected_in_a_row > 0 and math.hypot(d[0] - prev[0], d[1] - prev[1]) \
+            <= self.agree[0] and abs(wrap_angle(d[2] - prev[2])) <= self.agree[1]
+        self.rejected_in_a_row = self.rejected_in_a_row + 1 if same else 1
+        self.disagreement = d
+        if self.relocalise_after and self.rejected_in_a_row >= self.relocalise_after:
+            f = self.filter
+            f.P[:2, :2] += np.outer(d[:2], d[:2]) + np.eye(2) * self.agree[0] ** 2
+            f.P[2, 2] += d[2] ** 2 + self.agree[1] ** 2
+            self.relocalised += 1
+            self.rejected_in_a_row = 0
+
+    def position_sd(self) -> float:
+        """How well the position is known (m, one standard deviation, the larger axis): the
+        filter's own, with what it cannot see of itself — the map's surfaces were drawn from
+        the estimate (:attr:`map_var`), and a well-matched revolution may just have
+        disagreed with the prediction (:attr:`disagreement`) — and scaled up when accepted
+        matches disagree more than the filter expects (:attr:`nis` above 1).
+
+        >>> odo = ScanOdometry(wheel_base=0.15)
+        >>> odo.position_sd() < 1e-4
+        True
+        """
+        var = self.filter.sigma_xy ** 2 * max(1.0, self.nis) + self.map_var
+        if self.rejected_in_a_row > 0 and self.disagreement is not None:
+            var += self.disagreement[0] ** 2 + self.disagreement[1] ** 2
+        return math.sqrt(var)
 
     def _carry(self, before: Pose, at: Pose, stamp: float) -> Pose:
         """The filter moved from ``before``: take its pose, carry the correction through the
@@ -421,4 +492,6 @@ class ScanOdometry:
             return False  # nothing new
         self._map_points, self._map_tree = merged, None
         self._map = ReferenceScan(merged)
+        var = self.filter.sigma_xy ** 2
+        self.map_var = var if reseed else max(self.map_var, var)
         return True

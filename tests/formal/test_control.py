@@ -40,7 +40,7 @@ def test_wheels_on_in_replanning_fails_in_storm():
 
 def test_events_are_split_into_controllable_and_uncontrollable():
     assert SUPERVISOR.controllable == {"start", "planned", "next_task", "abort"}
-    assert SUPERVISOR.uncontrollable == {"no_plan", "at_goal", "plan_short", "disagree", "fault"}
+    assert SUPERVISOR.uncontrollable == {"no_plan", "at_goal", "goal_unconfirmed", "plan_short", "disagree", "fault"}
     assert all(t.guard is None or t.guard in SUPERVISOR.guards for t in SUPERVISOR.transitions)
 
 
