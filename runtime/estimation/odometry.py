@@ -135,6 +135,11 @@ class ScanOdometry:
     10 against 7 of 10 at seed 0, every other noise term at ``paper``). ``still_after`` (s):
     how long after the wheels were commanded to stop the body is taken to stand (the
     latency and the deceleration end within it), so that a gyro's reading is its offset.
+    ``relocalise_after``: well-matched revolutions in a row, rejected as too far from the
+    prediction and agreeing with one another within ``agree`` (m, rad), after which the
+    filter's uncertainty is raised by their disagreement so that the next is taken (0: never;
+    issue #36: a robot pushed aside drove on to a believed goal). How far the estimate may
+    be off, all told, is :meth:`position_sd`.
     """
 
     def __init__(
@@ -158,7 +163,6 @@ class ScanOdometry:
         still_after: float = 0.5,
         relocalise_after: int = 2,
         agree: tuple[float, float] = (0.05, 0.1),
-        nis_weight: float = 0.1,
     ) -> None:
         if not (math.isfinite(wheel_base) and wheel_base > 0):
             raise ValueError(f"wheel_base must be positive, got {wheel_base!r}")
@@ -185,13 +189,13 @@ class ScanOdometry:
         self._map: ReferenceScan | None = None
         self._map_points: np.ndarray | None = None
         self._map_tree: cKDTree | None = None  # of _map_points, built when first asked after a change
+        self._map_sds: np.ndarray | None = None  # per map point: (m, rad) how wrong the estimate drawing it may have been
         self._odo: Pose | None = None
         self._rot: float | None = None  # the gyro's reading at the last advance
         self._still_since: float | None = 0.0  # since when the wheels are commanded still
         self.still_after = float(still_after)
         self.relocalise_after = int(relocalise_after)
         self.agree = agree
-        self.nis_weight = float(nis_weight)
         self.records: list[FeedbackRecord] = []
         self.last_points = np.zeros((0, 2))
         self._moved_since = 0.0  # m (or wheel-base radians) driven since the last accepted match
@@ -209,7 +213,7 @@ class ScanOdometry:
         self.filter.reset(pose)
         self._history = deque([(self._t, pose)])
         self._map = None
-        self._map_points = self._map_tree = None
+        self._map_points = self._map_tree = self._map_sds = None
         self._odo = None
         self._rot = None
         self._still_since = self._t
@@ -363,13 +367,13 @@ class ScanOdometry:
             # the map's own errors do not average out: no match is believed closer than
             # about its residual (1.5 cm and 1.7° under 2 cm of residual, 4 mm under 5 mm)
             fl = self.floor_factor * max(match.rmse, self.match_sd / 2)
+            self.last_map_sd = self._map_sd(points, z)
             ok, d2 = f.correct((z.x - at.x, z.y - at.y, wrap_angle(z.theta - at.theta)), info,
-                               floor=(fl, fl, fl / 0.5), learn=self._moved_since > 0.0)
+                               floor=(fl, fl, fl / 0.5), learn=self._moved_since > 0.0, map_sd=self.last_map_sd)
             if ok:
                 corrected = self._carry(before, at, frame.timestamp)
                 self._moved_since = 0.0
                 self.rejected_in_a_row = 0
-                self.nis += self.nis_weight * (d2 - self.nis)
             else:
                 reason = f"{match.reason}, but inconsistent with the prediction (d² {d2:.0f}): rejected"
                 self._disagreed(z, at)
@@ -377,9 +381,13 @@ class ScanOdometry:
         # the map grows by what a matched revolution saw; a revolution that matched nothing
         # because the map does not cover what it sees re-seeds it (dead-reckoned)
         lost = not match.ok and match.inlier_fraction < self.min_overlap and "too few points" not in match.reason
-        added = self._add(points, corrected, reseed=lost) if (match.ok or lost) else False
-        if lost and added:
+        if lost:
+            # nothing the map holds was seen: the estimate may be off by as much as the
+            # matcher reaches (a push, a slip), and the map it re-seeds carries that
             self.reseeds += 1
+            self.filter.honest[:2, :2] += np.eye(2) * self.gate[0] ** 2
+            self.filter.honest[2, 2] += self.gate[1] ** 2
+        added = self._add(points, corrected, reseed=lost) if (match.ok or lost) else False
         if self.compass is not None and self.compass.seeded:
             corrected, reason = self._steer(points, corrected, frame.timestamp, reason)
         d = (corrected.x - at.x, corrected.y - at.y, wrap_angle(corrected.theta - at.theta))
@@ -394,8 +402,7 @@ class ScanOdometry:
         self.rejected_in_a_row = 0  # well-matched revolutions in a row that disagreed with the prediction
         self.relocalised = 0  # times the estimate gave way to such a run of matches
         self.reseeds = 0  # times a revolution matching nothing re-seeded the map
-        self.map_var = 0.0  # m²: the position variance the map's surfaces were drawn with (the largest)
-        self.nis = 1.0  # the normalised innovation of accepted matches, smoothed (1: as the filter expects)
+        self.last_map_sd = (0.0, 0.0)  # how wrong the surfaces the last match met may be (m, rad)
 
     def _gated(self, match: ScanMatch, prior: Pose, gate: tuple[float, float]) -> ScanMatch:
         """The matcher's gate, applied here so that a well-matched revolution it rejects is kept
@@ -423,24 +430,22 @@ class ScanOdometry:
         self.rejected_in_a_row = self.rejected_in_a_row + 1 if same else 1
         self.disagreement = d
         if self.relocalise_after and self.rejected_in_a_row >= self.relocalise_after:
-            f = self.filter
-            f.P[:2, :2] += np.outer(d[:2], d[:2]) + np.eye(2) * self.agree[0] ** 2
-            f.P[2, 2] += d[2] ** 2 + self.agree[1] ** 2
+            self.filter.inflate(d[:2], math.hypot(d[2], self.agree[1]))
+            self.filter.P[:2, :2] += np.eye(2) * self.agree[0] ** 2
             self.relocalised += 1
             self.rejected_in_a_row = 0
 
     def position_sd(self) -> float:
         """How well the position is known (m, one standard deviation, the larger axis): the
-        filter's own, with what it cannot see of itself — the map's surfaces were drawn from
-        the estimate (:attr:`map_var`), and a well-matched revolution may just have
-        disagreed with the prediction (:attr:`disagreement`) — and scaled up when accepted
-        matches disagree more than the filter expects (:attr:`nis` above 1).
+        filter's :attr:`~clomp.runtime.estimation.ekf.OdometryFilter.honest` covariance, which
+        counts that the map's surfaces were drawn from the estimate, and the disagreement of
+        well-matched revolutions rejected just now (:attr:`disagreement`).
 
         >>> odo = ScanOdometry(wheel_base=0.15)
         >>> odo.position_sd() < 1e-4
         True
         """
-        var = self.filter.sigma_xy ** 2 * max(1.0, self.nis) + self.map_var
+        var = self.filter.honest_sigma_xy ** 2
         if self.rejected_in_a_row > 0 and self.disagreement is not None:
             var += self.disagreement[0] ** 2 + self.disagreement[1] ** 2
         return math.sqrt(var)
@@ -475,23 +480,46 @@ class ScanOdometry:
         if len(points) < self.min_points:
             return False
         world = points_from_frame(points, pose)
-        old = self._map_points if (self._map_points is not None and not reseed) else np.zeros((0, 2))
+        # how wrong each new point may be: the honest position sd and the heading's at its range
+        hon = self.filter.honest
+        pos_var = max(float(np.linalg.eigvalsh(hon[:2, :2])[-1]), 0.0)
+        th_var = max(float(hon[2, 2]), 0.0)
+        rng2 = np.einsum("ij,ij->i", points, points)
+        sds = np.c_[np.sqrt(pos_var + rng2 * th_var), np.full(len(points), math.sqrt(th_var))]
+        keep_old = self._map_points is not None and not reseed
+        old = self._map_points if keep_old else np.zeros((0, 2))
+        old_sds = self._map_sds if keep_old and self._map_sds is not None else np.zeros((0, 2))
         if len(old) and self._map is not None and len(self._map):
             # only surfaces the map does not hold yet: re-adding known ones would smear them
             # along the robot's estimation error and let the estimate drift with them
             if self._map_tree is None:  # one tree per map, not one per revolution (a tenth of them change it)
                 self._map_tree = cKDTree(old)
             d, _ = self._map_tree.query(world, distance_upper_bound=self.new_surface)
-            world = world[~np.isfinite(d)]
+            world, sds = world[~np.isfinite(d)], sds[~np.isfinite(d)]
             if len(world) == 0:
                 return False
-        merged = np.unique(np.round(np.r_[old, world] / self.map_resolution), axis=0) * self.map_resolution
+        cells, first = np.unique(np.round(np.r_[old, world] / self.map_resolution), axis=0, return_index=True)
+        merged = cells * self.map_resolution
+        merged_sds = np.r_[old_sds, sds][first]  # a cell the map held keeps its own
         near = np.hypot(merged[:, 0] - pose.x, merged[:, 1] - pose.y) <= self.map_radius
-        merged = merged[near]
+        merged, merged_sds = merged[near], merged_sds[near]
         if self._map_points is not None and not reseed and len(merged) == len(self._map_points):
             return False  # nothing new
-        self._map_points, self._map_tree = merged, None
+        self._map_points, self._map_tree, self._map_sds = merged, None, merged_sds
         self._map = ReferenceScan(merged)
-        var = self.filter.sigma_xy ** 2
-        self.map_var = var if reseed else max(self.map_var, var)
         return True
+
+    def _map_sd(self, points: np.ndarray, pose: Pose) -> tuple[float, float]:
+        """How wrong the surfaces a revolution seen from ``pose`` meets may be (m, rad): the
+        median over its points of the map points they meet (within 5 cm), each as uncertain
+        as the estimate that drew it (0 for the start's seed)."""
+        if self._map_points is None or self._map_sds is None or not len(self._map_points) or not len(points):
+            return (0.0, 0.0)
+        if self._map_tree is None:
+            self._map_tree = cKDTree(self._map_points)
+        d, idx = self._map_tree.query(points_from_frame(points, pose), distance_upper_bound=0.05)
+        hit = np.isfinite(d)
+        if not hit.any():
+            return (0.0, 0.0)
+        sds = self._map_sds[idx[hit]]
+        return (float(np.median(sds[:, 0])), float(np.median(sds[:, 1])))
