@@ -62,7 +62,7 @@ def test_nothing_in_sight_dead_reckoning_cannot_vouch():
 
 
 def test_consistent_disagreeing_matches_raise_the_uncertainty():
-    odo = ScanOdometry(wheel_base=0.15)
+    odo = ScanOdometry(wheel_base=0.15, relocalise_after=2)
     before = odo.position_sd()
     from clomp.formal.model import Pose
 
