@@ -7,6 +7,8 @@ mid-run ends truly at the goal or unconfirmed, never believing a goal it is not 
 
 from __future__ import annotations
 
+import dataclasses
+import json
 import math
 
 import pytest
@@ -107,3 +109,62 @@ _NOT_YET = pytest.mark.xfail(strict=True, reason="a push beyond the matcher's re
 def test_a_pushed_robot_never_claims_a_goal_it_is_not_at(family, seed, push, gyro):
     state, dist = _pushed_run(family, seed, push, 12.0, gyro)
     assert not (state == "GOAL_REACHED" and dist > 0.1), (state, dist)
+
+
+# -- where a run ends: the exit status and the experiment's columns ---------------------------------
+@pytest.fixture
+def commands(monkeypatch):
+    """Register the runtime commands (also before they are listed in clomp.runtime.cli)."""
+    import clomp.runtime.cli as cli
+
+    mods = list(cli._COMMAND_MODULES)
+    for m in ("clomp.runtime.cli.demo", "clomp.runtime.cli.simulate", "clomp.runtime.cli.experiment"):
+        if m not in mods:
+            mods.append(m)
+    monkeypatch.setattr(cli, "_COMMAND_MODULES", mods)
+    return cli
+
+
+def test_simulate_exits_1_when_unconfirmed_and_says_so_last(commands, tmp_path, capsys):
+    # the open: nothing in sight, the estimate is dead reckoning and cannot vouch for 0.1 m
+    assert commands.main(["simulate", "--scenario", "open", "--out", str(tmp_path)]) == 1
+    last = capsys.readouterr().out.strip().splitlines()[-1]
+    assert last.startswith("goal unconfirmed:") and "95 % bound" in last
+    assert commands.main(["simulate", "--scenario", "open", "--json", "--no-gyro", "--out", str(tmp_path)]) == 1
+    d = json.loads(capsys.readouterr().out)
+    assert d["end_state"] == "GOAL_UNCONFIRMED" and d["goal_unconfirmed"] is True
+
+
+def test_demo_exits_1_when_unconfirmed(commands, tmp_path, capsys, monkeypatch):
+    monkeypatch.delenv("DISPLAY", raising=False)
+    assert commands.main(["demo", "--scenario", "open", "--out", str(tmp_path)]) == 1
+    assert capsys.readouterr().out.strip().splitlines()[-1].startswith("goal unconfirmed:")
+
+
+def test_run_exits_1_when_unconfirmed(tmp_path, capsys):
+    from clomp.runtime.cli.run import _finished
+    from clomp.runtime.supervision.records import SupervisorReport
+
+    why = "at the goal by the estimate (0.020 m), but its 95 % bound 0.300 m cannot vouch for 0.1 m: unconfirmed"
+    rep = SupervisorReport(S.GOAL_UNCONFIRMED, why, 12.0, [], [], [], [], (1.0, 0.0), goal_distance=0.02, goal_bound=0.3)
+    assert _finished(rep, None, tmp_path / "run.jsonl") == 1
+    err = capsys.readouterr().err
+    assert "goal unconfirmed" in err and "0.300 m" in err
+    assert _finished(dataclasses.replace(rep, state=S.GOAL_REACHED), None, tmp_path / "run.jsonl") == 0
+
+
+def test_the_experiment_counts_unconfirmed_ends_and_false_successes():
+    from clomp.runtime.experiment.results import CSV_COLUMNS, summarise
+    from clomp.runtime.experiment.runrecords import run_spec
+    from clomp.runtime.experiment.runspec import RunSpec
+
+    rec = run_spec(RunSpec("open", 0, 0, "planning", "ideal", gyro=False))
+    assert rec["end_state"] == "GOAL_UNCONFIRMED" and rec["goal_unconfirmed"] == 1 and rec["believed_goal"] == 0
+    assert rec["false_success"] == 0 and rec["gyro"] == 0 and rec["key"].endswith("/gyro=off")
+    assert {"gyro", "goal_unconfirmed", "false_success"} <= set(CSV_COLUMNS)
+    base = {"condition": "planning", "run": 0, "noise_scale": 1.0, "collisions": 0, "brushes": 0, "final_error_m": 0.2,
+            "time_s": 1.0, "wall_s": 1.0, "expect": "reach", "success": 0, "reached_goal": 0}
+    claimed = {**base, "believed_goal": 1, "goal_unconfirmed": 0, "false_success": 1}
+    older = {**base, "believed_goal": 1}  # a record from before the columns: believed and not reached
+    s = summarise([claimed, older, rec])["conditions"]["planning"]
+    assert (s["goal_unconfirmed"], s["false_successes"]) == (1, 2)
