@@ -112,32 +112,23 @@ def test_a_pushed_robot_never_claims_a_goal_it_is_not_at(family, seed, push, gyr
 
 
 # -- where a run ends: the exit status and the experiment's columns ---------------------------------
-@pytest.fixture
-def commands(monkeypatch):
-    """Register the runtime commands (also before they are listed in clomp.runtime.cli)."""
-    import clomp.runtime.cli as cli
-
-    mods = list(cli._COMMAND_MODULES)
-    for m in ("clomp.runtime.cli.demo", "clomp.runtime.cli.simulate", "clomp.runtime.cli.experiment"):
-        if m not in mods:
-            mods.append(m)
-    monkeypatch.setattr(cli, "_COMMAND_MODULES", mods)
-    return cli
+import clomp.runtime.cli as cli  # noqa: E402
+from tests.runtime.test_cli_runtime import commands  # noqa: E402,F401  (autouse: registers the runtime commands)
 
 
-def test_simulate_exits_1_when_unconfirmed_and_says_so_last(commands, tmp_path, capsys):
+def test_simulate_exits_1_when_unconfirmed_and_says_so_last(tmp_path, capsys):
     # the open: nothing in sight, the estimate is dead reckoning and cannot vouch for 0.1 m
-    assert commands.main(["simulate", "--scenario", "open", "--out", str(tmp_path)]) == 1
+    assert cli.main(["simulate", "--scenario", "open", "--out", str(tmp_path)]) == 1
     last = capsys.readouterr().out.strip().splitlines()[-1]
     assert last.startswith("goal unconfirmed:") and "95 % bound" in last
-    assert commands.main(["simulate", "--scenario", "open", "--json", "--no-gyro", "--out", str(tmp_path)]) == 1
+    assert cli.main(["simulate", "--scenario", "open", "--json", "--no-gyro", "--out", str(tmp_path)]) == 1
     d = json.loads(capsys.readouterr().out)
     assert d["end_state"] == "GOAL_UNCONFIRMED" and d["goal_unconfirmed"] is True
 
 
-def test_demo_exits_1_when_unconfirmed(commands, tmp_path, capsys, monkeypatch):
+def test_demo_exits_1_when_unconfirmed(tmp_path, capsys, monkeypatch):
     monkeypatch.delenv("DISPLAY", raising=False)
-    assert commands.main(["demo", "--scenario", "open", "--out", str(tmp_path)]) == 1
+    assert cli.main(["demo", "--scenario", "open", "--out", str(tmp_path)]) == 1
     assert capsys.readouterr().out.strip().splitlines()[-1].startswith("goal unconfirmed:")
 
 
