@@ -45,17 +45,20 @@ EXIT_INTERRUPTED = 130
 
 #: what each exit status means, per command (the end of every command's --help)
 EXIT_STATUS: dict[str, dict[int, str]] = {
-    "demo": {0: "the plan reached the goal without a collision", 1: "it did not"},
+    "demo": {0: "the plan reached the goal without a collision",
+             1: "it did not, or the estimate could not vouch for the goal (GOAL_UNCONFIRMED)"},
     "plan": {0: "the plan reaches the goal (for a folder or bag: every scan was processed)",
              1: "a partial plan: the goal is not reached (blocked, unseen, budget)"},
     "replay": {0: "every scan was processed (each has its line; the summary counts the outcomes)"},
-    "simulate": {0: "the robot reached the goal without a collision", 1: "it did not (or it collided)"},
+    "simulate": {0: "the robot reached the goal without a collision",
+                 1: "it did not (or it collided, or the estimate could not vouch for the goal: GOAL_UNCONFIRMED)"},
     "experiment": {0: "every run done"},
     "export": {0: "the file was written"},
     "convert": {0: "the MCAP was written (records it does not know are counted and passed over)"},
     "check": {0: "every required property holds", 1: "a required property fails (or Storm disagrees)"},
     "emulate": {0: "stopped by Ctrl-C or SIGTERM (how an emulator ends)"},
-    "run": {0: "goal reached (--dry-run: time limit)", 1: "halted safely: goal unreachable, --max-time, an error",
+    "run": {0: "goal reached (--dry-run: time limit)",
+            1: "halted safely: goal unreachable or unconfirmed (the estimate cannot vouch for it), --max-time, an error",
             3: "a device fault (LiDAR silent or corrupt, a port vanished, a device that does not answer)"},
     "ros": {0: "node: goal reached (--dry-run: time limit); sim: stopped (--max-time, Ctrl-C)",
             1: "node: halted safely: goal unreachable, --max-time, no goal, an error",

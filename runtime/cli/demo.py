@@ -11,7 +11,7 @@ from typing import Any
 
 from clomp.planner.scenarios import ScenarioError
 from clomp.runtime.cli._args import seed_arg
-from clomp.runtime.cli import EXIT_NOT_REACHED, EXIT_OK, CliError
+from clomp.runtime.cli import CliError
 from clomp.runtime.cli._common import load_scene, output_folder
 from clomp.runtime.experiment.onerun import run_once
 from clomp.runtime.experiment.plots import plot_run
@@ -78,7 +78,7 @@ def supervisor_closed_loop_prism() -> str:
 
 def run(args: argparse.Namespace) -> int:
     """Plan, execute on the simulated robot, summarise, write the pictures and models."""
-    from clomp.runtime.cli.simulate import check_world_options, print_summary, world_noise
+    from clomp.runtime.cli.simulate import check_world_options, exit_status, print_summary, world_noise
 
     out = Path(args.out)
     scene = load_scene(args.scenario)
@@ -89,7 +89,8 @@ def run(args: argparse.Namespace) -> int:
         raise CliError(f"--out: cannot create {out}: {exc}") from None
     seed = args.seed if args.seed is not None else scene.raw.get("seed", 0)
     try:
-        r = run_once(scene, "planning", seed, noise=world_noise(args, scene), keep_report=True, feedback=args.feedback)
+        r = run_once(scene, "planning", seed, noise=world_noise(args, scene), keep_report=True, feedback=args.feedback,
+                     gyro=not args.no_gyro)
     except ScenarioError as exc:
         raise CliError(str(exc)) from None
     print_summary(r)
@@ -104,4 +105,6 @@ def run(args: argparse.Namespace) -> int:
         (out / name).write_text(text, encoding="utf-8")
         written.append(str(out / name))
     print(f"wrote to {out}{os.sep}: " + ", ".join(Path(w).name if not w.startswith("(") else w for w in written))
-    return EXIT_OK if r.reached_goal and r.collisions == 0 else EXIT_NOT_REACHED
+    if r.end_state == "GOAL_UNCONFIRMED":  # the last line says why: the distance and its bound
+        print(f"goal unconfirmed: {r.reason}")
+    return exit_status(r)

@@ -41,6 +41,8 @@ def register(sub: Any) -> None:
     p.add_argument("--noise-scale", type=float, default=1.0, help="factor on every noise term (default 1)")
     p.add_argument("--feedback", choices=("scan", "none"), default="scan",
                    help="both conditions' pose estimate: scan matching (default) or dead reckoning only")
+    p.add_argument("--no-gyro", action="store_true",
+                   help="the robot without its rate gyro, as the paper's robot and clomp run without an IMU")
     p.add_argument("--noise-sweep", metavar="X,Y,...", default=None,
                    help="run every noise scale in the list (e.g. 0,0.5,1,2,4) and plot success against it")
     p.add_argument("--workers", type=int, default=None,
@@ -134,7 +136,7 @@ def run(args: argparse.Namespace) -> int:
             records = run_experiment(args.family, args.runs, args.seed, noise=args.noise, noise_scales=scales,
                                      conditions=conditions, max_time=args.max_time, workers=workers,
                                      scheduler=args.scheduler, out=out, resume=args.resume, progress=bar,
-                                     feedback=args.feedback)
+                                     feedback=args.feedback, gyro=not args.no_gyro)
     except ScenarioError as exc:
         raise CliError(f"{exc} (or a layout family: {', '.join(FAMILIES)})") from None
     except ExperimentInterrupted as exc:

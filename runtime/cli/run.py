@@ -288,7 +288,9 @@ def _finished(report: Any, robot: Any, path: Path, say: Callable[[str], None]) -
     if state is SupervisorState.GOAL_REACHED:
         print(f"goal reached: {report.reason} ({summary})", flush=True)
         return EXIT_OK
-    if state is SupervisorState.UNREACHABLE:
+    if state is SupervisorState.GOAL_UNCONFIRMED:  # at the goal by the estimate, which cannot vouch for it
+        say(f"goal unconfirmed: {report.reason}; {_wheels(robot)} ({summary}; log: {path})")
+    elif state is SupervisorState.UNREACHABLE:
         say(f"goal unreachable: {report.reason}; {_wheels(robot)} ({summary}; log: {path})")
     else:
         say(f"halted: {report.reason}; {_wheels(robot)} ({summary}; log: {path})")
