@@ -133,15 +133,15 @@ def test_demo_exits_1_when_unconfirmed(tmp_path, capsys, monkeypatch):
 
 
 def test_run_exits_1_when_unconfirmed(tmp_path, capsys):
-    from clomp.runtime.cli.run import _finished
+    from clomp.runtime.cli.run import _finished, _say
     from clomp.runtime.supervision.records import SupervisorReport
 
     why = "at the goal by the estimate (0.020 m), but its 95 % bound 0.300 m cannot vouch for 0.1 m: unconfirmed"
     rep = SupervisorReport(S.GOAL_UNCONFIRMED, why, 12.0, [], [], [], [], (1.0, 0.0), goal_distance=0.02, goal_bound=0.3)
-    assert _finished(rep, None, tmp_path / "run.jsonl") == 1
+    assert _finished(rep, None, tmp_path / "run.jsonl", _say) == 1
     err = capsys.readouterr().err
     assert "goal unconfirmed" in err and "0.300 m" in err
-    assert _finished(dataclasses.replace(rep, state=S.GOAL_REACHED), None, tmp_path / "run.jsonl") == 0
+    assert _finished(dataclasses.replace(rep, state=S.GOAL_REACHED), None, tmp_path / "run.jsonl", _say) == 0
 
 
 def test_the_experiment_counts_unconfirmed_ends_and_false_successes():

@@ -158,7 +158,9 @@ def base() -> Any:
 def test_node_and_sim_reach_the_goal(tmp_path: Path) -> None:
     from clomp.runtime.cli.ros import run_loop
 
-    r = run_loop("open", "paper", 0, max_time=90, log=tmp_path / "run.jsonl")
+    # doorway: walls the scans can match, so the estimate can vouch for the goal (in open space
+    # it cannot, and the run honestly ends GOAL_UNCONFIRMED)
+    r = run_loop("doorway", "paper", 0, max_time=90, log=tmp_path / "run.jsonl")
     log = records(tmp_path / "run.jsonl")
     why = [x for x in log if x["event"] in ("fault", "stop", "ros")]  # what the node said, when it fails
     assert r["exit"] == 0, (r, why)
@@ -239,10 +241,11 @@ def test_a_goal_on_goal_pose_in_the_odom_frame(tmp_path: Path) -> None:
         goal.pose.position.x, goal.pose.position.y = 0.9, 0.1
         goal.pose.orientation.z, goal.pose.orientation.w = yaw_quaternion(0.0)[2:]
         goal_pub.publish(goal)
-        assert node.join(60) == 0
+        code = node.join(60)  # the test base shows no surface: the estimate may not vouch for the goal
+        assert code in (0, 1)
         assert math.hypot(base.pose.x - 0.9, base.pose.y - 0.1) < 0.1, base.pose
         assert base.last_cmd() == (0.0, 0.0)
-        assert "EXECUTING" in states and states[-1] == "GOAL_REACHED"
+        assert "EXECUTING" in states and states[-1] == ("GOAL_REACHED" if code == 0 else "GOAL_UNCONFIRMED")
         wait_for(lambda: bool(maps), 10, "a cognitive map")
         markers = maps[-1].markers
         assert markers[0].action == Marker.DELETEALL
@@ -316,7 +319,7 @@ def test_malformed_input_is_logged_and_dropped_not_a_crash(base: Base, tmp_path:
     bad(lambda m: setattr(m, "ranges", [1.0] * 100))
     odom = make_odometry(base.pose, stamp, "map", "base_link")
     base.odom_pub.publish(odom)
-    assert node.join(60) == 0  # and it still reaches the goal
+    assert node.join(60) in (0, 1)  # and it still ends at the goal (vouched for or not: the base shows no surface)
     errors = [r.get("error") or r["warning"] for r in records(tmp_path / "run.jsonl") if r["event"] == "ros"]
     text = "\n".join(errors)
     assert "angle_increment is 0" in text
