@@ -21,7 +21,9 @@ author = "the clomp contributors"
 copyright = "2026, the clomp contributors"
 release = version = "0.1.0"
 
-extensions = ["myst_parser", "sphinx.ext.autodoc", "sphinx.ext.napoleon", "sphinx.ext.viewcode"]
+# the docstrings are plain reStructuredText (no Google/NumPy sections), so no napoleon: it would read
+# "what: why" in a constant's comment as "type: description"
+extensions = ["myst_parser", "sphinx.ext.autodoc", "sphinx.ext.viewcode"]
 source_suffix = {".rst": "restructuredtext", ".md": "markdown"}
 root_doc = "index"
 exclude_patterns = ["_build"]
