@@ -111,6 +111,19 @@ def write_api_pages(out: Path = HERE / "api") -> None:
     (out / "index.rst").write_text("\n".join(toc) + "\n", encoding="utf-8")
 
 
+def write_figures(out: Path = HERE / "_generated") -> None:
+    """The figures the pages show, drawn by the library itself at build time (as ``clomp plan
+    --scenario overtaking --figure`` draws them), so a page never shows a stale picture."""
+    import clomp
+    from clomp.runtime.experiment.tasktree import plot_task_tree
+
+    out.mkdir(exist_ok=True)
+    scene = clomp.load_scenario("overtaking")
+    scan = scene.scan()
+    result = clomp.plan(scan, goal=scene.goal_in_robot_frame())
+    plot_task_tree(result, out / "fig3c_overtaking.png", scan, title="overtaking: explored task tree")
+
+
 def _drop_type_docstring(app: object, what: str, name: str, obj: object, options: object, lines: list[str]) -> None:
     """A constant without a ``#:`` comment: show nothing rather than its type's docstring."""
     if what == "data" and lines and type(obj).__doc__ and "\n".join(lines).strip() == inspect.cleandoc(type(obj).__doc__ or ""):
@@ -121,4 +134,5 @@ def setup(app: object) -> None:
     # the API pages are written when Sphinx starts, before it reads the sources (not on import:
     # pytest imports this file as a module when it collects doctests)
     app.connect("builder-inited", lambda _app: write_api_pages())  # type: ignore[attr-defined]
+    app.connect("builder-inited", lambda _app: write_figures())  # type: ignore[attr-defined]
     app.connect("autodoc-process-docstring", _drop_type_docstring)  # type: ignore[attr-defined]
