@@ -35,7 +35,8 @@ autodoc_typehints = "description"
 autodoc_default_options = {"show-inheritance": True}
 html_theme = "alabaster"
 html_title = "clomp — closed-loop multi-step planning"
-html_theme_options = {"description": "Closed-loop multi-step planning with innate physics knowledge", "fixed_sidebar": True}
+html_theme_options = {"description": "Closed-loop multi-step planning with innate physics knowledge", "fixed_sidebar": True,
+                      "page_width": "1240px"}  # the wide tables (noise presets, experiment) fit
 
 # the public packages whose ``__all__`` the API reference documents, outermost first
 PACKAGES = [
