@@ -1,7 +1,7 @@
-"""The README's experiment table: every layout family at each noise preset, planning vs reactive.
+"""The experiment table (docs/experiment-room.md, moved there from the README): every layout family at each noise preset, planning vs reactive.
 
     python bench/experiment_table.py [--runs 10] [--seed 0] [--workers 2] [--noise paper harsh]
-                                     [--families ...] [--readme README.md] [--out DIR]
+                                     [--families ...] [--readme docs/experiment-room.md] [--out DIR]
 
 Runs ``clomp experiment``'s runner for every (family, noise) pair, prints the Markdown
 table (success with Wilson 95 % intervals, collisions / brushes, paired t-test on

@@ -28,6 +28,7 @@ from clomp.formal.model import Disturbance, State, TaskKind
 
 __all__ = ["Transition", "CognitiveMap", "MapError", "FORMAT_VERSION", "MAX_MAP_BYTES"]
 
+#: the version of the cognitive map's JSON format, written into every map and checked on load
 FORMAT_VERSION = 1
 #: a map file holds at most this many bytes (a 50-state map is about 100 kB)
 MAX_MAP_BYTES = 64 * 1024 * 1024

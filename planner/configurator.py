@@ -102,6 +102,7 @@ class CostContext:
         return self.origin.distance_to(self.goal.x, self.goal.y)
 
 
+#: a cost function of the best-first search: (state, context) -> cost, lower explored first
 CostFunction = Callable[[State, CostContext], float]
 
 
@@ -215,12 +216,12 @@ class PlanResult:
 
     @property
     def n_states(self) -> int:
-        """|Q|."""
+        """The number of states, ``|Q|``."""
         return len(self.map)
 
     @property
     def transitions(self) -> int:
-        """|↪|."""
+        """The number of transitions, ``|↪|``."""
         return self.map.n_transitions
 
     def to_dict(self) -> dict[str, Any]:

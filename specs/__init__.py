@@ -18,4 +18,5 @@ from pathlib import Path
 
 __all__ = ["SPECS_DIR"]
 
+#: the folder of the shipped specifications (scenarios, PCTL properties)
 SPECS_DIR = Path(__file__).resolve().parent

@@ -1,6 +1,6 @@
 """The architecture, checked on the source: which room may import which, and one geometry.
 
-Rules (each test names one; the README's layout table states them for people):
+Rules (each test names one; docs/layout.md's table states them for people):
 
 - the one-way rule: formal imports neither planner nor runtime nor pymunk; planner does
   not import runtime;

@@ -30,7 +30,7 @@ at ``max_range`` and each range rounded along its beam to ``resolution``: by def
 a resolution under 0.5 mm at these ranges). ``resolution=0.01`` rounds to 1 cm, and
 ``rounding="grid"`` rounds each point's x and y instead, as the paper's recorded scans
 are (the authors' software rounded them, not the sensor). A coarse rounding fixed to
-the robot's frame biases scan matching either way; README, *The world's LiDAR*. Each
+the robot's frame biases scan matching either way; docs/closed-loop.md, *The world's LiDAR*. Each
 revolution is a :class:`~clomp.runtime.interface.ScanFrame`.
 
 Ground truth for experiments: :meth:`WorldRobot.ground_truth_pose` (world frame) and

@@ -1,6 +1,6 @@
 """``clomp demo``: the main job — the paper's overtaking scenario planned, executed on the
-simulated robot, summarised on one screen, with the trajectory and the cognitive map
-written to an output folder."""
+simulated robot, summarised on one screen, with the trajectory, the first plan's explored
+task tree (the paper's Fig. 3C) and the cognitive map written to an output folder."""
 
 from __future__ import annotations
 
@@ -15,6 +15,7 @@ from clomp.runtime.cli import CliError
 from clomp.runtime.cli._common import load_scene, output_folder
 from clomp.runtime.experiment.onerun import run_once
 from clomp.runtime.experiment.plots import plot_run
+from clomp.runtime.experiment.tasktree import plot_task_tree
 from clomp.runtime.supervision.states import state_machine_dot
 
 __all__ = ["register", "run", "write_map", "supervisor_closed_loop_prism"]
@@ -100,6 +101,10 @@ def run(args: argparse.Namespace) -> int:
     written.append(str(png))
     rep = r.report
     if rep.plans:
+        # the paper's Fig. 3C: the first plan's explored task tree over what the planner perceived
+        tree = out / "task_tree.png"
+        plot_task_tree(rep.plans[0].result, tree, title=f"{scene.name}: the first plan's explored task tree")
+        written.append(str(tree))
         written += write_map(rep.plans[0].result.map, out)
     for name, text in (("supervisor.dot", state_machine_dot()), ("supervisor.prism", supervisor_closed_loop_prism())):
         (out / name).write_text(text, encoding="utf-8")

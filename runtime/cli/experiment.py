@@ -57,7 +57,7 @@ def register(sub: Any) -> None:
     p.add_argument("--no-plots", action="store_true", help="skip the PNGs")
     p.add_argument("--gallery", action="store_true", help="only draw OUT/gallery.png: sample layouts of every family")
     p.add_argument("--json", action="store_true", help="print the summary as one JSON object instead of the table")
-    p.add_argument("--markdown", action="store_true", help="print the summary as a row of the README's table")
+    p.add_argument("--markdown", action="store_true", help="print the summary as a row of the experiment table (docs/experiment-room.md)")
     p.set_defaults(func=run)
 
 

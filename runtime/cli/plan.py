@@ -165,6 +165,8 @@ def register(sub: Any) -> None:
     p.add_argument("--goal", help="goal X,Y in the robot frame (metres); default: the scenario's, or 1.0,0.0")
     p.add_argument("--json", action="store_true", help="print JSON (one object; one line per scan for a folder)")
     p.add_argument("--map", metavar="FILE", help="also write the cognitive map as JSON to FILE")
+    p.add_argument("--figure", metavar="FILE", help="also draw the explored task tree over the scan and the obstacle boxes "
+                   "(the paper's Fig. 3C; .png, .svg or .pdf) to FILE: one plan (--scenario, a scan file, a bag's --index/--time)")
     add_bag_options(p)
     pick = p.add_mutually_exclusive_group()
     pick.add_argument("--index", type=int, metavar="K", help="plan on the K-th scan of the bag's topic (from 0; default: every scan)")
@@ -317,6 +319,7 @@ def run(args: argparse.Namespace) -> int:
     conf = configurator_from_args(args)
     if args.scenario and (args.topic or args.index is not None or args.time is not None or args.lidar_offset):
         raise CliError("--topic, --index, --time and --lidar-offset read a ROS bag given with --scan")
+    _check_figure(args)
     if args.robust:
         return _run_robust(args, conf)
     if args.samples is not None or args.learn:
@@ -324,7 +327,7 @@ def run(args: argparse.Namespace) -> int:
     if args.scenario:
         title, goal, scan = scenario_scan(args, conf)
         r = _plan_one(conf, scan, goal)
-        _emit(r, args, title)
+        _emit(r, args, title, scan)
         return EXIT_OK if r.reached_goal else EXIT_NOT_REACHED
     path = Path(args.scan)
     goal = parse_goal(args.goal) if args.goal else (1.0, 0.0)
@@ -337,9 +340,10 @@ def run(args: argparse.Namespace) -> int:
         raise CliError("--index and --time pick a scan of a ROS bag; --scan is not a bag")
     lidar_offset(args, bag=False)
     if kind == "folder":
+        _one_plan_only(args, "a folder of scans")
         return _plan_folder(conf, path, goal, args)
     r = _plan_one(conf, path, goal)
-    _emit(r, args, str(path))
+    _emit(r, args, str(path))  # the figure draws the points the boxes cover (the file's, as perceived)
     return EXIT_OK if r.reached_goal else EXIT_NOT_REACHED
 
 
@@ -353,8 +357,39 @@ def _write_map(cmap: CognitiveMap, args: argparse.Namespace) -> None:
             raise CliError(f"--map: cannot write {args.map}: {exc}") from None
 
 
-def _emit(r: PlanResult, args: argparse.Namespace, title: str) -> None:
+_FIGURE_SUFFIXES = (".png", ".svg", ".pdf")
+
+
+def _check_figure(args: argparse.Namespace) -> None:
+    """``--figure FILE``: a format matplotlib writes, a place it can be written, one plan to draw."""
+    if not args.figure:
+        return
+    output_path(args.figure, "--figure")  # a device, FIFO or socket is refused as such, whatever its name
+    if Path(args.figure).suffix.lower() not in _FIGURE_SUFFIXES:
+        raise CliError(f"--figure: {args.figure}: the name must end in {', '.join(_FIGURE_SUFFIXES)}")
+    if args.robust:
+        raise CliError("--figure draws the greedy plan's task tree; it does not go with --robust")
+
+
+def _one_plan_only(args: argparse.Namespace, what: str) -> None:
+    if args.figure:
+        raise CliError(f"--figure draws one plan, not {what}")
+
+
+def _write_figure(r: PlanResult, args: argparse.Namespace, title: str, scan: Any) -> None:
+    """``--figure FILE``: the explored task tree in the scene (a one-line error when it cannot be written)."""
+    if args.figure:
+        from clomp.runtime.experiment.tasktree import plot_task_tree
+
+        try:
+            plot_task_tree(r, args.figure, scan if isinstance(scan, np.ndarray) else None, title=f"{title}: explored task tree")
+        except OSError as exc:
+            raise CliError(f"--figure: cannot write {args.figure}: {exc}") from None
+
+
+def _emit(r: PlanResult, args: argparse.Namespace, title: str, scan: Any = None) -> None:
     _write_map(r.map, args)
+    _write_figure(r, args, title, scan)
     if args.json:
         print(json.dumps(r.to_dict()))
     else:
@@ -365,6 +400,7 @@ def _plan_bag(conf: Configurator, path: Path, goal: tuple[float, float], args: a
     offset = lidar_offset(args)
     with open_topic(path, args) as topic:
         if args.index is None and args.time is None:
+            _one_plan_only(args, "every scan of a bag (pick one with --index or --time)")
             items = ((label, (lambda s=s: bag_points(s, offset)), label) for label, s in labelled_scans(topic))
             return _plan_many(conf, topic.count, items, goal, args)
         try:
@@ -374,7 +410,7 @@ def _plan_bag(conf: Configurator, path: Path, goal: tuple[float, float], args: a
         except BagError as exc:
             raise CliError(str(exc)) from None
         r = _plan_one(conf, points, goal)
-        _emit(r, args, f"{path} {scan_label(topic.topic, scan, t0 or scan.time_ns)}")
+        _emit(r, args, f"{path} {scan_label(topic.topic, scan, t0 or scan.time_ns)}", points)
     return EXIT_OK if r.reached_goal else EXIT_NOT_REACHED
 
 

@@ -52,7 +52,7 @@ def register(sub: Any) -> None:
     n.add_argument("--no-odom", action="store_true", help="no /odom: dead-reckon from the commanded speeds (parameter use_odom)")
     n.add_argument("--no-imu", action="store_true", help="ignore /imu (parameter use_imu)")
     n.add_argument("-p", "--param", action="append", default=[], metavar="NAME:=VALUE",
-                   help="set a node parameter, e.g. -p body_length:=0.3 (repeatable; see the README for the list)")
+                   help="set a node parameter, e.g. -p body_length:=0.3 (repeatable; see docs/run.md for the list)")
     add_planner_options(n)
     n.set_defaults(func=_node)
     s = ros.add_parser("sim", help="the execution world as a ROS 2 robot (/scan, /odom, /imu; drives by /cmd_vel)",

@@ -33,6 +33,7 @@ __all__ = [
     "scan_to_samples",
 ]
 
+#: what the emulated LiDAR scans: a callable returning the current scan (N×2, metres, robot frame)
 ScanSource = Callable[[], np.ndarray]
 SampleStream = Callable[[], "list[tuple[float, float, bool]]"]
 """Samples measured since the last call, in order: (angle_deg clockwise, distance_mm, 0: no

@@ -10,7 +10,7 @@
 - :mod:`.driver` — many runs, in this process or on Dask, streamed to ``runs.jsonl`` and resumed;
 - :mod:`.runner` — the names of those four in one place;
 - :mod:`.stats` — Wilson and t intervals, the paired t-test, McNemar's test;
-- :mod:`.results` — the CSV (documented schema), the JSON summary, the text and README tables;
+- :mod:`.results` — the CSV (documented schema), the JSON summary, the text and Markdown tables;
 - :mod:`.plots` / :mod:`.report` — pictures of runs, collisions per run, success against noise, a gallery.
 
 May import: everything below it (formal, planner, robots, supervision, records, clock); never

@@ -8,7 +8,7 @@ on collisions and McNemar's test on success across conditions. :func:`write_csv`
 writes :data:`CSV_COLUMNS` (units and meanings below, also written beside the CSV as
 ``runs_schema.md``); :func:`write_parquet` the same columns, typed, with each column's unit
 and meaning in the file's own schema (needs pyarrow: ``pip install 'clomp[parquet]'``). :func:`table` is the summary as text, :func:`markdown_rows` as
-Markdown rows for the README's table.
+Markdown rows for the experiment table (docs/experiment-room.md).
 
 >>> recs = [{"condition": "planning", "run": 0, "noise_scale": 1.0, "success": 1, "reached_goal": 1,
 ...          "believed_goal": 1, "collisions": 0, "brushes": 1, "final_error_m": 0.02, "time_s": 12.0,
@@ -323,7 +323,7 @@ MARKDOWN_HEADER = ("| family | noise | runs | planning: success [95 %] | reactiv
 
 
 def markdown_rows(summary: dict[str, Any]) -> str:
-    """One Markdown row of the README's table for one (family, noise) summary."""
+    """One Markdown row of the experiment table for one (family, noise) summary."""
     c = summary["conditions"]
     p, r = c.get("planning"), c.get("reactive")
     if p is None or r is None:

@@ -84,8 +84,11 @@ class Event(str, enum.Enum):
 S, E = SupervisorState, Event
 if {s.value for s in SupervisorState} != set(SUPERVISOR.states) or {e.value for e in Event} != {e.name for e in SUPERVISOR.events}:
     raise ImportError("clomp.runtime.supervision.states: the state and event names differ from clomp.formal.control.SUPERVISOR")
+#: the states the supervisor never leaves (a run ends there)
 TERMINAL: frozenset[SupervisorState] = frozenset(S(s) for s in SUPERVISOR.terminal)
+#: the states in which the wheels may turn (every other state has them stopped)
 MOTOR_STATES: frozenset[SupervisorState] = frozenset(S(s) for s in SUPERVISOR.wheels)
+#: the supervisor's transition function: (state, event) -> next state; a pair not here is refused
 TRANSITIONS: dict[tuple[SupervisorState, Event], SupervisorState] = {
     (S(t.source), E(t.event)): S(t.target) for t in SUPERVISOR.transitions if t.source not in SUPERVISOR.terminal
 }

@@ -257,6 +257,7 @@ _PATH_OPTIONS = {
     "-o (export)": ["export", "--scenario", "open", "-f", "json", "-o", "{p}"],
     "-o (convert)": ["convert", "{log}", "-o", "{p}"],
     "--map (plan, written)": ["plan", "--scenario", "open", "--map", "{p}"],
+    "--figure (plan, written)": ["plan", "--scenario", "open", "--figure", "{p}"],
     "--log (simulate)": ["simulate", "--scenario", "open", "--out", "{tmp}", "--log", "{p}"],
     "--log (run)": ["run", "--lidar", "/dev/null", "--goal", "1,0", "--dry-run", "--log", "{p}"],
 }

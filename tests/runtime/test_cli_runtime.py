@@ -28,7 +28,7 @@ def test_demo_runs_headless_and_writes_its_outputs(tmp_path, capsys, monkeypatch
     text = capsys.readouterr().out
     assert "GOAL REACHED" in text and "collisions 0" in text
     assert len(text.splitlines()) <= 25  # one screen
-    for name in ("trajectory.png", "cognitive_map.json", "supervisor.dot", "supervisor.prism"):
+    for name in ("trajectory.png", "task_tree.png", "cognitive_map.json", "supervisor.dot", "supervisor.prism"):
         assert (out / name).stat().st_size > 100, name
     assert (out / "trajectory.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     json.loads((out / "cognitive_map.json").read_text())

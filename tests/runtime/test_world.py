@@ -331,7 +331,7 @@ def test_the_lidar_rounds_the_range_or_the_grid_as_asked():
     Here at 1 cm. ``"grid"`` rounds each point's x and y in the robot frame instead, as the
     paper's recorded scans are. That grid lines up with the robot's axes, which no real
     sensor's does: without a gyro it let the face compass read about twice as often in
-    harsh overtaking runs (README, *The world's LiDAR*)."""
+    harsh overtaking runs (docs/closed-loop.md, *The world's LiDAR*)."""
     default = WorldRobot(load_scenario("open"))
     assert (default.rounding, default.resolution) == ("range", 0.00025)
     default.close()
