@@ -37,6 +37,12 @@ from clomp.runtime.supervision.config import SupervisorConfig
 
 __all__ = ["Sensing", "turning"]
 
+_FAR = 1.05
+"""Returns beyond the sensor range × this are cropped where a revolution comes in: a LiDAR
+that sees farther than the planning horizon (an A1 sees 12 m) would otherwise have the
+planner's perception warn about them on every plan. Within it they are kept, as before
+(perception drops them quietly: its warning's allowance is the same 5 %)."""
+
 
 def turning(cmd: tuple[float, float]) -> bool:
     """True when the wheel speeds ``cmd`` turn the body (they differ).
@@ -54,7 +60,8 @@ class Sensing:
     ``pose``: the estimate (supervisor frame); ``estimator``: the scan matcher with scan
     feedback, else None; ``scan``: the newest revolution; ``clean_scan`` / ``scan_pose``:
     the newest revolution not smeared by a turn and where it was taken; ``since_stop``:
-    revolutions since the wheels last stopped; ``still``: the last of them taken standing.
+    revolutions since the wheels last stopped; ``still``: the last of them taken standing;
+    ``cropped``: the returns cropped beyond the sensor range (see ``_FAR``).
 
     >>> from clomp.planner import load_scenario
     >>> from clomp.runtime.backends.sim import SimRobot
@@ -79,6 +86,8 @@ class Sensing:
         self.still: deque[np.ndarray] = deque(maxlen=config.fused_revolutions)
         self.last_update = 0.0
         self.last_scan_at = 0.0
+        self.far_limit = model.sensor_range * _FAR
+        self.cropped = 0  # returns cropped beyond far_limit so far
 
     def start(self, now: float) -> Pose:
         """Fix the frame at the robot's present pose (its odometry's, else the origin) at ``now``."""
@@ -104,7 +113,15 @@ class Sensing:
     def take(self, frame: ScanFrame, now: float, cmd: tuple[float, float], still: bool) -> FeedbackRecord | None:
         """Keep a new revolution (read at ``now``); with scan feedback correct the estimate by
         it and return what that did. ``still``: it counts among the still revolutions."""
-        scan = self.scan = validate_scan(frame.points, "scan")
+        scan = validate_scan(frame.points, "scan")
+        far = np.einsum("ij,ij->i", scan, scan) > self.far_limit * self.far_limit
+        if far.any():  # beyond the planning horizon: cropped here, once (see _FAR)
+            self.cropped += int(np.count_nonzero(far))
+            scan = scan[~far]
+            times = None if frame.point_times is None else np.asarray(frame.point_times)[~far]
+            quality = None if frame.quality is None else np.asarray(frame.quality)[~far]
+            frame = dataclasses.replace(frame, point_times=times, quality=quality)
+        self.scan = scan
         rec = self._feedback(dataclasses.replace(frame, points=scan), now) if self.estimator is not None else None
         self.last_scan_at = now
         self.since_stop += 1
