@@ -33,6 +33,12 @@ are (the authors' software rounded them, not the sensor). A coarse rounding fixe
 the robot's frame biases scan matching either way; README, *The world's LiDAR*. Each
 revolution is a :class:`~clomp.runtime.interface.ScanFrame`.
 
+The error sources the estimator does not model (``harsh`` only; README, *What is and is not
+modelled*): a wheel bias that walks and slip events (``_dynamics.py``), the LiDAR at
+``mount`` on the body, returning beyond the horizon (``_lidar.py``; the backend converts its
+points to the robot frame by ``told_mount``, the mount it was told), a gyro scale asymmetry
+(``_gyro.py``) and pushes (:meth:`WorldRobot.push`, at ``push_rate``; :attr:`WorldRobot.pushes`).
+
 Ground truth for experiments: :meth:`WorldRobot.ground_truth_pose` (world frame) and
 :meth:`WorldRobot.contact_trace` — one ``(time_s, penetration_m)`` sample per physics
 step (``dt``, default 0.01 s) during which the body touches an obstacle, with the deepest
@@ -130,7 +136,10 @@ class WorldRobot(SimulatedBackend):
 
     Implements :class:`clomp.runtime.interface.Robot` and a simulated clock. It has no wheel
     encoders (:meth:`odometry` is None), like the paper's robot; it has a rate gyro
-    (:meth:`rotation`; ``gyro=False`` takes it off).
+    (:meth:`rotation`; ``gyro=False`` takes it off). ``mount`` is the LiDAR's pose on the body
+    (x, y, theta; default ``(noise.lidar_x, 0, 0)``), ``told_mount`` the pose the backend
+    converts its points to the robot frame by (default: ``mount``; another models a
+    mis-measured mount).
 
     >>> from clomp.planner.scenarios import load_scenario
     >>> WorldRobot(load_scenario("open"), body=BodySpec(width=0.2)).body.width

@@ -456,3 +456,21 @@ def test_the_unmodelled_terms_leave_the_other_draws_alone():
     base.update(bias_walk=0.01, slip_rate=0.5, slip_duration=0.5, rate_asymmetry=0.05, push_rate=0.001, push_size=0.2)
     other = make_world_robot(load_scenario("doorway"), WorldNoise(**base), seed=2).read_scan()
     assert np.array_equal(plain.points, other.points)
+
+
+def test_the_supervisor_crops_far_returns_without_a_warning():
+    """``far_range``: the runtime gets returns up to 6 m and crops them where a revolution
+    comes in, so perception does not warn about them on every plan (a ScanWarning here is
+    an error) and the run ends at the goal."""
+    import warnings
+
+    from clomp.planner.perception import ScanWarning
+    from clomp.runtime.experiment.onerun import run_once
+
+    scene = load_scenario("corridor")
+    world = make_world_robot(scene, WorldNoise(far_range=4.9), seed=0)
+    assert np.hypot(*world.read_scan().points.T).max() > 1.2  # the world does return far
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", ScanWarning)
+        r = run_once(scene, "planning", 0, noise=WorldNoise(far_range=4.9), max_time=60.0)
+    assert r.end_state == "GOAL_REACHED", r.reason
