@@ -23,9 +23,21 @@ import pymunk
 from clomp.planner.noise import NoiseTerms
 from clomp.runtime.backends._world_body import BodySpec
 
-__all__ = ["Contacts", "Drive", "WorldContact", "WorldPush", "push_speed"]
+__all__ = ["Contacts", "Drive", "WorldContact", "WorldPush", "push_speed", "term_stream"]
 
 _CONTACT_GAP = 0.5  # a contact beginning this long after the previous ended is a new collision
+
+
+def term_stream(seed: int | None, term: str) -> np.random.Generator:
+    """The random generator of one noise term the estimator does not model: seeded from the
+    run's ``seed`` and the term's name, apart from every other draw of the world (fresh
+    entropy when ``seed`` is None).
+
+    >>> float(term_stream(0, "push_rate").random()) == float(term_stream(0, "push_rate").random())
+    True
+    """
+    key = int.from_bytes(term.encode()[:8].ljust(8, b"\0"), "little")
+    return np.random.default_rng(None if seed is None else [int(seed), key])
 
 
 class Drive:
@@ -37,16 +49,18 @@ class Drive:
     the same with and without them), every control tick: the bias's random walk
     (``bias_walk``, relative per √s; the bias stays within 0.5–1.5) and, while the wheels are
     commanded, the start of a slip event (``slip_rate`` a second): for ``slip_duration`` s
-    the wheels spin and the body does not move (recorded in :attr:`slips`).
+    the wheels spin and the body does not move (recorded in :attr:`slips`). Each of the two
+    draws from its own stream (:func:`term_stream` of ``seed``).
     """
 
     def __init__(self, noise: NoiseTerms, body: BodySpec, rng: np.random.Generator, *, control_tick: float,
-                 extra: np.random.Generator | None = None) -> None:
+                 seed: int | None = None) -> None:
         self.noise, self.body, self._rng, self.control_tick = noise, body, rng, control_tick
         bias = 1.0 + noise.wheel_bias * rng.standard_normal(2)
         self.drift = noise.drift * float(rng.standard_normal())
         self.bias = (float(bias[0]), float(bias[1]))
-        self._extra = extra if extra is not None else np.random.default_rng()
+        self._walk = term_stream(seed, "bias_walk")
+        self._slip = term_stream(seed, "slip_rate")
         self.slips: list[tuple[float, float]] = []  # (start, end) s of each slip event
         self.commanded = (0.0, 0.0)
         self.wheels = (0.0, 0.0)
@@ -76,11 +90,11 @@ class Drive:
         """A control tick's draws of the terms the estimator does not model (see the class)."""
         n, tick = self.noise, self.control_tick
         if n.bias_walk:
-            step = n.bias_walk * math.sqrt(tick) * self._extra.standard_normal(2)
+            step = n.bias_walk * math.sqrt(tick) * self._walk.standard_normal(2)
             self.bias = (min(max(self.bias[0] + float(step[0]), 0.5), 1.5),
                          min(max(self.bias[1] + float(step[1]), 0.5), 1.5))
         if n.slip_rate and self._applied != (0.0, 0.0) and not self.slipping(t):
-            if self._extra.random() < -math.expm1(-n.slip_rate * tick):
+            if self._slip.random() < -math.expm1(-n.slip_rate * tick):
                 self.slips.append((t, t + n.slip_duration))
 
     def slipping(self, t: float) -> bool:

@@ -44,7 +44,7 @@ class RateGyro:
         self.gain = 1.0 + float(scale) * float(self._rng.standard_normal())
         self.asymmetry = 0.0  # the counter-clockwise gain less the clockwise one, relative
         if asymmetry:
-            rng = np.random.default_rng(None if seed is None else [int(seed), 0x61737931])
+            rng = np.random.default_rng(None if seed is None else [int(seed), 0x61737931])  # its own stream
             self.asymmetry = float(asymmetry) * float(rng.standard_normal())
         # the gains turning counter-clockwise and clockwise (both ``gain`` without asymmetry)
         self._ccw = self.gain * (1.0 + self.asymmetry / 2) if self.asymmetry else self.gain

@@ -67,7 +67,7 @@ from clomp.planner.noise import NoiseTerms
 from clomp.planner.robot_model import Body
 from clomp.planner.scenarios import Scene
 from clomp.runtime.devices.frame import ScanFrame
-from clomp.runtime.backends._dynamics import Contacts, Drive, WorldContact, WorldPush, push_speed
+from clomp.runtime.backends._dynamics import Contacts, Drive, WorldContact, WorldPush, push_speed, term_stream
 from clomp.runtime.backends._gyro import RateGyro
 from clomp.runtime.backends._lidar import Lidar
 from clomp.runtime.backends._simulated import SimulatedBackend
@@ -82,16 +82,8 @@ WorldNoise = NoiseTerms
 _set_velocity = pymunk.Body.velocity.fset  # type: ignore[attr-defined]
 _set_angular_velocity = pymunk.Body.angular_velocity.fset  # type: ignore[attr-defined]
 _set_position = pymunk.Body.position.fset  # type: ignore[attr-defined]
-# the streams of the terms the estimator does not model: seeded from the run's seed, apart
-# from the drive's, LiDAR's and gyro's draws (which stay the same with and without them)
-_DRIVE_STREAM, _PUSH_STREAM = 0x77686C73, 0x70757368
-
 Mount = tuple[float, float, float]
 """A LiDAR's pose on the body: x ahead of the rotation centre, y to the left (m), theta (rad)."""
-
-
-def _stream(seed: int | None, key: int) -> np.random.Generator:
-    return np.random.default_rng(None if seed is None else [int(seed), key])
 
 
 def _to_robot(points: np.ndarray, mount: Mount) -> np.ndarray:
@@ -180,14 +172,13 @@ class WorldRobot(SimulatedBackend):
         self.rounding = rounding  # "range": the range along its beam, as an A1; "grid": each point's x and y
         self._rng = np.random.default_rng(seed)
         n = self.noise
-        self._drive = Drive(n, self.body, self._rng, control_tick=self.control_tick,
-                            extra=_stream(seed, _DRIVE_STREAM) if n.bias_walk or n.slip_rate else None)
+        self._drive = Drive(n, self.body, self._rng, control_tick=self.control_tick, seed=seed)
         self._gyro = RateGyro(sd=n.rate_sd, bias=n.rate_bias, scale=n.rate_scale, seed=seed,
                               asymmetry=n.rate_asymmetry) if gyro else None
         self.mount: Mount = _mount("mount", mount) if mount is not None else (n.lidar_x, 0.0, 0.0)
         self.told_mount: Mount = self.mount if told_mount is None else _mount("told_mount", told_mount)
         self._pushes: list[WorldPush] = []
-        self._push_rng = _stream(seed, _PUSH_STREAM) if n.push_rate else None
+        self._push_rng = term_stream(seed, "push_rate") if n.push_rate else None
         self._next_push = math.inf if self._push_rng is None else float(self._push_rng.exponential(1 / n.push_rate))
         self._start = scene.start if start is None else start
         self._t, self._closed = 0.0, False
