@@ -233,7 +233,7 @@ class WorldRobot(SimulatedBackend):
 
     def drive_truth(self) -> dict[str, float]:
         """This run's systematic drive terms, ground truth for ablations: each wheel's speed
-        bias (a factor), the heading drift while the wheels turn (rad/s), the mean share of
+        bias (a factor; now, as ``bias_walk`` has walked it), the heading drift while the wheels turn (rad/s), the mean share of
         speed slip takes (``E|N(0, slip)|``); ``{'bias_left': 1.0, ...}`` with no noise."""
         bl, br = self._drive.bias
         return {"bias_left": bl, "bias_right": br, "drift": float(self._drive.drift),
@@ -392,7 +392,8 @@ def make_world_robot(
     or a :data:`WorldNoise`; ``noise_scale`` multiplies every term of a named preset.
     ``robot`` (a :class:`~clomp.planner.robot_model.Body`, e.g. the planner's ``RobotModel``)
     gives the body its dimensions (and a model its top speed), unless ``body`` is given;
-    ``options`` go to :class:`WorldRobot` (``rays``, ``scan_rate``, ``dt``, ``start`` …).
+    ``options`` go to :class:`WorldRobot` (``rays``, ``scan_rate``, ``dt``, ``start``,
+    ``mount``, ``told_mount`` …).
 
     >>> from clomp.planner.scenarios import load_scenario
     >>> w = make_world_robot(load_scenario("overtaking"), "harsh", seed=3)
