@@ -213,7 +213,7 @@ def noise_presets() -> dict[str, dict[str, float]]:
     Raises ValueError naming the preset and field when the file is malformed.
 
     >>> sorted(noise_presets())
-    ['harsh', 'ideal', 'paper']
+    ['harsh', 'ideal', 'paper', 'unmodelled']
     """
     return {name: terms.to_dict() for name, terms in _presets().items()}
 
@@ -307,6 +307,6 @@ def preset_names() -> list[str]:
     """The noise presets of ``specs/noise_presets.json``.
 
     >>> preset_names()
-    ['harsh', 'ideal', 'paper']
+    ['harsh', 'ideal', 'paper', 'unmodelled']
     """
     return sorted(_read_presets())

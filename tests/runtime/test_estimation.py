@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import dataclasses
 import math
 from typing import Any
 
@@ -19,7 +18,6 @@ from clomp.runtime.estimation import match_scans
 from clomp.runtime.estimation.fusion import fuse_revolutions
 from clomp.runtime.estimation.odometry import ScanOdometry, deskew
 from clomp.runtime.backends import make_world_robot
-from clomp.runtime.backends.world import WorldNoise
 
 # a corridor with a doorway gap, a post and an end wall: like the recorded scans
 ROOM = {
@@ -112,8 +110,7 @@ def _run_commands(world: Any, odo: ScanOdometry, commands: list[tuple[float, flo
 
 def _drive(feedback: bool, seed: int) -> float:
     """Drive a biased robot in the room; return the final estimate's true error (m)."""
-    unpushed = dataclasses.replace(WorldNoise.preset("harsh"), push_rate=0.0)
-    world = make_world_robot(parse_scenario(ROOM, "t"), unpushed, seed=seed)
+    world = make_world_robot(parse_scenario(ROOM, "t"), "harsh", seed=seed)
     commands = [(0.0, 0.0) if k < 5 else ((0.08, 0.1) if k < 50 else (0.1, 0.08)) for k in range(90)]
     return _run_commands(world, ScanOdometry(0.15), commands, feedback)
 
@@ -121,9 +118,7 @@ def _drive(feedback: bool, seed: int) -> float:
 def test_scan_odometry_beats_dead_reckoning_in_a_harsh_world():
     """Over six noise draws the scan-matched estimate ends within 5 cm of the truth every
     time and, in the median, within half of dead reckoning's error (measured over seeds
-    0-9: 0.2-3.9 cm, median 2 cm, against 6.2 cm blind; no gyro here). The world is harsh
-    without its pushes (issue #36): a push is not a noise the matcher is meant to absorb
-    (pushed, seeds 0, 1 and 5 end 11-21 cm off; without pushes seeds 0-5 end 0.7-4.7 cm off)."""
+    0-9: 0.2-3.9 cm, median 2 cm, against 6.2 cm blind; no gyro here)."""
     with_scans = [_drive(True, s) for s in range(6)]
     blind = [_drive(False, s) for s in range(6)]
     assert max(with_scans) < 0.05, with_scans
@@ -159,15 +154,13 @@ def test_fusing_revolutions_shrinks_range_noise_and_drops_lone_outliers():
 
 def test_the_supervisor_runs_its_tasks_on_the_scan_matched_estimate():
     """In a structured room under harsh noise the estimate the tasks run on tracks the truth,
-    better than dead reckoning alone does on the same worlds. Harsh without its pushes
-    (issue #36), as above: pushed (seeds 0 and 1) the estimate ends 21-22 cm off, unpushed 1-3 cm."""
+    better than dead reckoning alone does on the same worlds."""
     from clomp.runtime.supervision import Supervisor, SupervisorConfig
 
     scene = parse_scenario(ROOM, "room")
-    unpushed = dataclasses.replace(WorldNoise.preset("harsh"), push_rate=0.0)
 
     def final_error(feedback: str, seed: int) -> tuple[float, Any]:
-        world = make_world_robot(scene, unpushed, seed=seed)
+        world = make_world_robot(scene, "harsh", seed=seed)
         sup = Supervisor(world, scene.goal_in_robot_frame(), config=SupervisorConfig(feedback=feedback))
         rep = sup.run(max_time=150)
         truth = relative(world.start_pose, world.ground_truth_pose())

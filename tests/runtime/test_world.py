@@ -212,14 +212,17 @@ def test_presets_paper_is_todays_defaults_harsh_five_times_plus_latency():
 
     presets = noise_module.noise_presets()
     paper, harsh, ideal = presets["paper"], presets["harsh"], presets["ideal"]
+    unmodelled = presets["unmodelled"]
     for k, v in NoiseConfig().to_dict().items():
         assert paper[k] == v, k
     for k in noise_module.NOISE_FIELDS:
         assert ideal[k] == 0.0
-        if k in noise_module.UNMODELLED_FIELDS:  # what the estimator does not model: harsh only
-            assert paper[k] == 0.0 and harsh[k] > 0.0, k
-        elif k != "latency":
-            assert harsh[k] == pytest.approx(5 * paper[k]), k
+        if k in noise_module.UNMODELLED_FIELDS:  # what the estimator does not model: 'unmodelled' only
+            assert paper[k] == 0.0 and harsh[k] == 0.0 and unmodelled[k] > 0.0, k
+        else:  # 'unmodelled' is 'harsh' plus those
+            assert unmodelled[k] == harsh[k], k
+            if k != "latency":
+                assert harsh[k] == pytest.approx(5 * paper[k]), k
     assert paper["latency"] == 0.0 and harsh["latency"] == 0.1
     assert WorldNoise.preset("paper", 3.0).wheel_sd == pytest.approx(0.06)
     assert make_world_robot(load_scenario("open"), "harsh", noise_scale=0.5).noise.latency == pytest.approx(0.05)
