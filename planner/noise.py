@@ -6,7 +6,8 @@ The presets live in ``specs/noise_presets.json`` and are read once, here
 the field), whichever class holds it:
 
 - :class:`NoiseTerms`: every term of a preset; the execution world drives with these
-  (``clomp.runtime.backends.world.WorldNoise`` is this type);
+  (``clomp.runtime.backends.world.WorldNoise`` is this type), among them the error
+  sources the estimator does not model (:data:`UNMODELLED_FIELDS`, on in ``harsh`` only);
 - :class:`RolloutNoise`: the terms a rollout of :mod:`clomp.planner.probabilistic` applies
   (ranges, beam angles, dropout, wheel error, bias, drift, slip, a turn's angle), not
   ``latency`` nor the gyro's;
@@ -28,7 +29,7 @@ from typing import Any, TypeVar
 
 from clomp.specs import SPECS_DIR
 
-__all__ = ["ALARM_DEVIATIONS", "NOISE_FIELDS", "NoiseError", "NoiseTerms", "RolloutNoise", "check_noise",
+__all__ = ["ALARM_DEVIATIONS", "NOISE_FIELDS", "UNMODELLED_FIELDS", "NoiseError", "NoiseTerms", "RolloutNoise", "check_noise",
            "noise_from_scene", "noise_preset", "noise_presets", "preset_names"]
 
 ALARM_DEVIATIONS = 3.0
@@ -125,6 +126,25 @@ class NoiseTerms:
     rate_sd: float = 0.0
     rate_bias: float = 0.0
     rate_scale: float = 0.0
+    # the terms the estimator does not model (issue #36): 0 in ``ideal`` and ``paper``, on in ``harsh``
+    bias_walk: float = 0.0
+    """Random walk of each wheel's speed bias (relative, per √s; a bias that changes during a
+    run: battery sag, tyre temperature, another floor)."""
+    slip_rate: float = 0.0
+    """Slip events per second of driving (1/s): the wheels spin without moving the body."""
+    slip_duration: float = 0.0
+    """How long a slip event lasts (s): a wheel over a cable, a wet patch, a ridge."""
+    lidar_x: float = 0.0
+    """The LiDAR's mount ahead of the rotation centre (m): its rays start there."""
+    far_range: float = 0.0
+    """How far beyond the planning horizon the LiDAR returns (m): an A1 sees 12 m."""
+    rate_asymmetry: float = 0.0
+    """Relative sd of the gyro's scale difference between turning counter-clockwise and
+    clockwise, drawn once per run (a MEMS gyro's scale asymmetry: one gain fits neither)."""
+    push_rate: float = 0.0
+    """External pushes per second (1/s), at random (seeded) times: a kick, a bump, a person."""
+    push_size: float = 0.0
+    """How far a push slides the body (m): uniform in 0.5–1.5 times this, in a random direction."""
 
     def __post_init__(self) -> None:
         check_noise(asdict(self))
@@ -149,6 +169,15 @@ class NoiseTerms:
 
 NOISE_FIELDS: tuple[str, ...] = tuple(f.name for f in fields(NoiseTerms))
 """The terms every preset gives, in the file's order."""
+
+UNMODELLED_FIELDS: tuple[str, ...] = ("bias_walk", "slip_rate", "slip_duration", "lidar_x", "far_range",
+                                      "rate_asymmetry", "push_rate", "push_size")
+"""The execution world's error sources the estimator does not model (issue #36): 0 in
+``ideal`` and ``paper``, on in ``harsh``.
+
+>>> set(UNMODELLED_FIELDS) <= set(NOISE_FIELDS), NoiseTerms.preset("paper").push_rate
+(True, 0.0)
+"""
 
 
 def _load(path: Path) -> dict[str, dict[str, Any]]:
@@ -184,7 +213,7 @@ def noise_presets() -> dict[str, dict[str, float]]:
     Raises ValueError naming the preset and field when the file is malformed.
 
     >>> sorted(noise_presets())
-    ['harsh', 'ideal', 'paper']
+    ['harsh', 'ideal', 'paper', 'unmodelled']
     """
     return {name: terms.to_dict() for name, terms in _presets().items()}
 
@@ -278,6 +307,6 @@ def preset_names() -> list[str]:
     """The noise presets of ``specs/noise_presets.json``.
 
     >>> preset_names()
-    ['harsh', 'ideal', 'paper']
+    ['harsh', 'ideal', 'paper', 'unmodelled']
     """
     return sorted(_read_presets())

@@ -23,23 +23,45 @@ import pymunk
 from clomp.planner.noise import NoiseTerms
 from clomp.runtime.backends._world_body import BodySpec
 
-__all__ = ["Contacts", "Drive", "WorldContact"]
+__all__ = ["Contacts", "Drive", "WorldContact", "WorldPush", "push_speed", "term_stream"]
 
 _CONTACT_GAP = 0.5  # a contact beginning this long after the previous ended is a new collision
+
+
+def term_stream(seed: int | None, term: str) -> np.random.Generator:
+    """The random generator of one noise term the estimator does not model: seeded from the
+    run's ``seed`` and the term's name, apart from every other draw of the world (fresh
+    entropy when ``seed`` is None).
+
+    >>> float(term_stream(0, "push_rate").random()) == float(term_stream(0, "push_rate").random())
+    True
+    """
+    key = int.from_bytes(term.encode()[:8].ljust(8, b"\0"), "little")
+    return np.random.default_rng(None if seed is None else [int(seed), key])
 
 
 class Drive:
     """The wheels: latency, bias, per-tick error, acceleration limit, slip and drift (see the module).
 
     Draws from ``rng`` when built (each wheel's bias, then the drift) and at every control
-    tick while it drives, in the order the world always drew them.
+    tick while it drives, in the order the world always drew them. The terms the estimator
+    does not model draw from ``extra`` (a generator of their own, so the others' draws are
+    the same with and without them), every control tick: the bias's random walk
+    (``bias_walk``, relative per √s; the bias stays within 0.5–1.5) and, while the wheels are
+    commanded, the start of a slip event (``slip_rate`` a second): for ``slip_duration`` s
+    the wheels spin and the body does not move (recorded in :attr:`slips`). Each of the two
+    draws from its own stream (:func:`term_stream` of ``seed``).
     """
 
-    def __init__(self, noise: NoiseTerms, body: BodySpec, rng: np.random.Generator, *, control_tick: float) -> None:
+    def __init__(self, noise: NoiseTerms, body: BodySpec, rng: np.random.Generator, *, control_tick: float,
+                 seed: int | None = None) -> None:
         self.noise, self.body, self._rng, self.control_tick = noise, body, rng, control_tick
         bias = 1.0 + noise.wheel_bias * rng.standard_normal(2)
         self.drift = noise.drift * float(rng.standard_normal())
         self.bias = (float(bias[0]), float(bias[1]))
+        self._walk = term_stream(seed, "bias_walk")
+        self._slip = term_stream(seed, "slip_rate")
+        self.slips: list[tuple[float, float]] = []  # (start, end) s of each slip event
         self.commanded = (0.0, 0.0)
         self.wheels = (0.0, 0.0)
         self._pending: deque[tuple[float, tuple[float, float]]] = deque()
@@ -61,6 +83,23 @@ class Drive:
         self._tick_err = (float(err[0]), float(err[1]))
         self._tick_slip = (float(slip[0]), float(slip[1]))
         self._next_draw = t + self.control_tick
+        if n.bias_walk or n.slip_rate:
+            self._unmodelled(t)
+
+    def _unmodelled(self, t: float) -> None:
+        """A control tick's draws of the terms the estimator does not model (see the class)."""
+        n, tick = self.noise, self.control_tick
+        if n.bias_walk:
+            step = n.bias_walk * math.sqrt(tick) * self._walk.standard_normal(2)
+            self.bias = (min(max(self.bias[0] + float(step[0]), 0.5), 1.5),
+                         min(max(self.bias[1] + float(step[1]), 0.5), 1.5))
+        if n.slip_rate and self._applied != (0.0, 0.0) and not self.slipping(t):
+            if self._slip.random() < -math.expm1(-n.slip_rate * tick):
+                self.slips.append((t, t + n.slip_duration))
+
+    def slipping(self, t: float) -> bool:
+        """Whether a slip event holds the body at ``t``."""
+        return bool(self.slips) and self.slips[-1][0] <= t < self.slips[-1][1]
 
     def step(self, t: float, dt: float) -> tuple[float, float]:
         """The body's speed (m/s) and turn rate (rad/s) over the step from ``t`` to ``t + dt``."""
@@ -84,6 +123,8 @@ class Drive:
         w = (gr - gl) / self.body.wheel_base
         if wl != 0.0 or wr != 0.0:
             w += self.drift
+        if self.slips and self.slipping(t):
+            return 0.0, 0.0  # the wheels spin on the spot: no grip
         return v, w
 
 
@@ -98,6 +139,30 @@ class WorldContact:
     time: float
     x: float
     y: float
+
+
+@dataclass(frozen=True, slots=True)
+class WorldPush:
+    """One external push: when (simulated s), how far it slides the body (m, on open floor)
+    and which way (rad, world frame).
+
+    >>> WorldPush(3.0, 0.2, 0.0).distance
+    0.2
+    """
+
+    time: float
+    distance: float
+    direction: float
+
+
+def push_speed(distance: float, body: BodySpec) -> float:
+    """The kick (m/s) that slides the body ``distance`` m before its wheels' grip (traction
+    ``mu·g``) stops it.
+
+    >>> round(push_speed(0.2, BodySpec()), 3)
+    1.772
+    """
+    return math.sqrt(2.0 * body.traction * 9.81 * max(0.0, distance))
 
 
 class Contacts:

@@ -7,8 +7,14 @@ relative) and a zero-rate offset (``rate_bias``, rad/s); every physics step it a
 noise of ``rate_sd`` rad/√s (angle random walk). It integrates what it measures, so a
 reader sees the heading turned since start-up, as a gyro driver reports it.
 
+The scale error is the IMU's: a constant gain, which the estimator learns as one of its
+states. ``rate_asymmetry`` is one it does not model: per run the gain turning clockwise
+differs from the gain turning counter-clockwise by ``rate_asymmetry`` × N(0, 1) (a MEMS
+gyro's scale-factor asymmetry), so no one gain fits both directions.
+
 Its draws come from a generator of their own (seeded from the run's seed), so the
-drive's and the LiDAR's draws are the same with and without it.
+drive's and the LiDAR's draws are the same with and without it; the asymmetry is drawn
+from another (so the other terms' draws are the same with and without it).
 
 >>> g = RateGyro(sd=0.0, bias=0.0, scale=0.0, seed=0)
 >>> for _ in range(100):
@@ -31,11 +37,18 @@ _BLOCK = 1024  # white-noise draws taken at once (one draw per physics step)
 class RateGyro:
     """A yaw-rate gyro with a per-run scale error and offset and white noise (see the module)."""
 
-    def __init__(self, *, sd: float, bias: float, scale: float, seed: int | None) -> None:
+    def __init__(self, *, sd: float, bias: float, scale: float, seed: int | None, asymmetry: float = 0.0) -> None:
         self._rng = np.random.default_rng(None if seed is None else [int(seed), 0x6779726F])
         self.sd = float(sd)
         self.offset = float(bias) * float(self._rng.standard_normal())
         self.gain = 1.0 + float(scale) * float(self._rng.standard_normal())
+        self.asymmetry = 0.0  # the counter-clockwise gain less the clockwise one, relative
+        if asymmetry:
+            rng = np.random.default_rng(None if seed is None else [int(seed), 0x61737931])  # its own stream
+            self.asymmetry = float(asymmetry) * float(rng.standard_normal())
+        # the gains turning counter-clockwise and clockwise (both ``gain`` without asymmetry)
+        self._ccw = self.gain * (1.0 + self.asymmetry / 2) if self.asymmetry else self.gain
+        self._cw = self.gain * (1.0 - self.asymmetry / 2) if self.asymmetry else self.gain
         self.angle = 0.0
         self._noise = np.zeros(0)
         self._k = 0
@@ -48,4 +61,4 @@ class RateGyro:
                 self._noise, self._k = self._rng.standard_normal(_BLOCK), 0
             walk = self.sd * math.sqrt(dt) * float(self._noise[self._k])
             self._k += 1
-        self.angle += (self.gain * rate + self.offset) * dt + walk
+        self.angle += ((self._ccw if rate > 0 else self._cw) * rate + self.offset) * dt + walk

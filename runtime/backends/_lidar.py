@@ -1,7 +1,12 @@
 """The world robot's LiDAR, an RPLIDAR A1 turning in the scene, as :mod:`clomp.runtime.backends.world`
 describes it: each ray cast at its own time from the body's pose then, a jittered beam, range
 noise, dropouts, the crop at ``max_range`` and the rounding to ``resolution``. Each revolution
-is a :class:`~clomp.runtime.devices.frame.ScanFrame`.
+is a :class:`~clomp.runtime.devices.frame.ScanFrame` of points in the LiDAR's own frame.
+
+Two terms the estimator does not model: the LiDAR sits at ``mount`` (x, y, theta on the
+body; ``lidar_x`` ahead of the rotation centre in a preset), where its rays start, and it
+returns up to ``far_range`` beyond ``max_range`` (the planning horizon), as an A1 sees
+12 m. Neither draws anything.
 
 >>> import numpy as np
 >>> from clomp.planner.noise import NoiseTerms
@@ -53,9 +58,12 @@ class Lidar:
     """
 
     def __init__(self, scene: Scene, noise: NoiseTerms, rng: np.random.Generator, *, rays: int, scan_rate: float,
-                 max_range: float, resolution: float, rounding: str, sweep: int) -> None:
+                 max_range: float, resolution: float, rounding: str, sweep: int,
+                 mount: Pose3 = (0.0, 0.0, 0.0)) -> None:
         self.noise, self._rng = noise, rng
         self.rays, self.scan_rate, self.max_range = rays, scan_rate, max_range
+        self.reach = max_range + noise.far_range  # the farthest return (m); the horizon without far_range
+        self.mount = mount
         self.resolution, self.rounding = resolution, rounding
         self.edges, self.circles = obstacle_arrays(scene)
         self.angles = sweep * np.arange(rays) * (2 * math.pi / rays)
@@ -71,10 +79,20 @@ class Lidar:
         at once (numpy) instead of one pymunk segment query per ray: the same first hits,
         at a fraction of the cost (the LiDAR was half of a run's time).
         """
-        return first_hits(x, y, angles, self.edges, self.circles, self.max_range * 1.2)
+        return first_hits(x, y, angles, self.edges, self.circles, self.reach * 1.2)
+
+    def origin(self, pose: Pose3) -> Pose3:
+        """Where the rays start and the LiDAR's heading, the body at ``pose`` (world frame)."""
+        mx, my, mth = self.mount
+        if not (mx or my or mth):
+            return pose
+        x, y, th = pose
+        c, s = math.cos(th), math.sin(th)
+        return x + c * mx - s * my, y + s * mx + c * my, th + mth
 
     def scan_now(self, x: float, y: float, th: float) -> np.ndarray:
-        """A complete revolution from (x, y, th), taken instantly, noise-free (robot frame)."""
+        """A complete revolution from the body at (x, y, th), taken instantly, noise-free (LiDAR frame)."""
+        x, y, th = self.origin((x, y, th))
         r = self.cast(x, y, th + self.angles)
         ok = np.isfinite(r)
         a = self.angles[ok]
@@ -96,7 +114,7 @@ class Lidar:
         return ScanFrame(pts, t, point_times=times - t)
 
     def _measure(self, i0: int, i1: int, t: float, pose: Pose3) -> None:
-        """The rays due in this step: their origin (the body's pose now) and noise draws.
+        """The rays due in this step: their origin (the LiDAR's pose now) and noise draws.
 
         Casting waits for the revolution's end (:meth:`_revolution`), where every ray of
         the revolution is cast from its own origin at once, unless the rays are streamed.
@@ -104,7 +122,7 @@ class Lidar:
         n, k = self.noise, i1 - i0
         nominal = self.angles[i0:i1]
         beam = nominal + n.angle_sd * self._rng.standard_normal(k) if n.angle_sd else nominal
-        x, y, th = pose
+        x, y, th = self.origin(pose)
         noise = n.range_sd * self._rng.standard_normal(k) if n.range_sd else None
         kept = self._rng.random(k) >= n.dropout if n.dropout else None
         batch: tuple[Any, ...] = (x, y, th + beam, nominal, noise, kept, t)
@@ -117,8 +135,8 @@ class Lidar:
         self._pending.append(batch)
 
     def _returned(self, dist: np.ndarray, kept: np.ndarray | None) -> np.ndarray:
-        """Which rays gave a return: a range above 0 within ``max_range``, not dropped."""
-        keep: np.ndarray = np.isfinite(dist) & (dist > 0) & (dist <= self.max_range)
+        """Which rays gave a return: a range above 0 within ``reach``, not dropped."""
+        keep: np.ndarray = np.isfinite(dist) & (dist > 0) & (dist <= self.reach)
         return keep if kept is None else keep & kept
 
     def _distances(self) -> np.ndarray:
@@ -135,7 +153,7 @@ class Lidar:
         return dist
 
     def _revolution(self) -> tuple[np.ndarray, np.ndarray]:
-        """Cast the revolution's rays; its points (robot frame at each ray's time) and times."""
+        """Cast the revolution's rays; its points (LiDAR frame at each ray's time) and times."""
         rays = self._pending
         if not rays:
             return np.zeros((0, 2)), np.zeros(0)

@@ -33,6 +33,12 @@ are (the authors' software rounded them, not the sensor). A coarse rounding fixe
 the robot's frame biases scan matching either way; docs/closed-loop.md, *The world's LiDAR*. Each
 revolution is a :class:`~clomp.runtime.interface.ScanFrame`.
 
+The error sources the estimator does not model (``harsh`` only; README, *What is and is not
+modelled*): a wheel bias that walks and slip events (``_dynamics.py``), the LiDAR at
+``mount`` on the body, returning beyond the horizon (``_lidar.py``; the backend converts its
+points to the robot frame by ``told_mount``, the mount it was told), a gyro scale asymmetry
+(``_gyro.py``) and pushes (:meth:`WorldRobot.push`, at ``push_rate``; :attr:`WorldRobot.pushes`).
+
 Ground truth for experiments: :meth:`WorldRobot.ground_truth_pose` (world frame) and
 :meth:`WorldRobot.contact_trace` — one ``(time_s, penetration_m)`` sample per physics
 step (``dt``, default 0.01 s) during which the body touches an obstacle, with the deepest
@@ -61,13 +67,13 @@ from clomp.planner.noise import NoiseTerms
 from clomp.planner.robot_model import Body
 from clomp.planner.scenarios import Scene
 from clomp.runtime.devices.frame import ScanFrame
-from clomp.runtime.backends._dynamics import Contacts, Drive, WorldContact
+from clomp.runtime.backends._dynamics import Contacts, Drive, WorldContact, WorldPush, push_speed, term_stream
 from clomp.runtime.backends._gyro import RateGyro
 from clomp.runtime.backends._lidar import Lidar
 from clomp.runtime.backends._simulated import SimulatedBackend
 from clomp.runtime.backends._world_body import BodySpec, build_physics
 
-__all__ = ["BodySpec", "WorldNoise", "WorldRobot", "WorldContact", "make_world_robot"]
+__all__ = ["BodySpec", "WorldNoise", "WorldRobot", "WorldContact", "WorldPush", "make_world_robot"]
 
 WorldNoise = NoiseTerms
 """The world's noise: every term of a preset (:class:`clomp.planner.noise.NoiseTerms`)."""
@@ -76,6 +82,18 @@ WorldNoise = NoiseTerms
 _set_velocity = pymunk.Body.velocity.fset  # type: ignore[attr-defined]
 _set_angular_velocity = pymunk.Body.angular_velocity.fset  # type: ignore[attr-defined]
 _set_position = pymunk.Body.position.fset  # type: ignore[attr-defined]
+Mount = tuple[float, float, float]
+"""A LiDAR's pose on the body: x ahead of the rotation centre, y to the left (m), theta (rad)."""
+
+
+def _to_robot(points: np.ndarray, mount: Mount) -> np.ndarray:
+    """LiDAR-frame points in the robot frame, the LiDAR at ``mount`` (unchanged at the centre)."""
+    mx, my, mth = mount
+    if not (mx or my or mth) or not len(points):
+        return points
+    c, s = math.cos(mth), math.sin(mth)
+    out: np.ndarray = np.c_[c * points[:, 0] - s * points[:, 1] + mx, s * points[:, 0] + c * points[:, 1] + my]
+    return out
 
 
 def _check_options(rays: Any, scan_rate: float, max_range: float, resolution: float, dt: float, control_tick: float,
@@ -95,12 +113,25 @@ def _check_options(rays: Any, scan_rate: float, max_range: float, resolution: fl
         raise ValueError(f"sweep: 1 (counter-clockwise) or -1 (clockwise, as an A1 turns), got {sweep!r}")
 
 
+def _mount(name: str, mount: Any) -> Mount:
+    try:
+        x, y, th = (float(v) for v in mount)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name}: expected (x, y, theta), got {mount!r}") from None
+    if not all(math.isfinite(v) for v in (x, y, th)):
+        raise ValueError(f"{name}: expected finite numbers, got {mount!r}")
+    return x, y, th
+
+
 class WorldRobot(SimulatedBackend):
     """A differential-drive robot with an RPLIDAR A1 in a scenario's world (see the module).
 
     Implements :class:`clomp.runtime.interface.Robot` and a simulated clock. It has no wheel
     encoders (:meth:`odometry` is None), like the paper's robot; it has a rate gyro
-    (:meth:`rotation`; ``gyro=False`` takes it off).
+    (:meth:`rotation`; ``gyro=False`` takes it off). ``mount`` is the LiDAR's pose on the body
+    (x, y, theta; default ``(noise.lidar_x, 0, 0)``), ``told_mount`` the pose the backend
+    converts its points to the robot frame by (default: ``mount``; another models a
+    mis-measured mount).
 
     >>> from clomp.planner.scenarios import load_scenario
     >>> WorldRobot(load_scenario("open"), body=BodySpec(width=0.2)).body.width
@@ -126,6 +157,8 @@ class WorldRobot(SimulatedBackend):
         sweep: int = 1,
         gyro: bool = True,
         rounding: str = "range",
+        mount: Mount | None = None,
+        told_mount: Mount | None = None,
     ) -> None:
         _check_options(rays, scan_rate, max_range, resolution, dt, control_tick, sweep, rounding)
         self.scene = scene
@@ -139,15 +172,21 @@ class WorldRobot(SimulatedBackend):
         self.rounding = rounding  # "range": the range along its beam, as an A1; "grid": each point's x and y
         self._rng = np.random.default_rng(seed)
         n = self.noise
-        self._drive = Drive(n, self.body, self._rng, control_tick=self.control_tick)
-        self._gyro = RateGyro(sd=n.rate_sd, bias=n.rate_bias, scale=n.rate_scale, seed=seed) if gyro else None
+        self._drive = Drive(n, self.body, self._rng, control_tick=self.control_tick, seed=seed)
+        self._gyro = RateGyro(sd=n.rate_sd, bias=n.rate_bias, scale=n.rate_scale, seed=seed,
+                              asymmetry=n.rate_asymmetry) if gyro else None
+        self.mount: Mount = _mount("mount", mount) if mount is not None else (n.lidar_x, 0.0, 0.0)
+        self.told_mount: Mount = self.mount if told_mount is None else _mount("told_mount", told_mount)
+        self._pushes: list[WorldPush] = []
+        self._push_rng = term_stream(seed, "push_rate") if n.push_rate else None
+        self._next_push = math.inf if self._push_rng is None else float(self._push_rng.exponential(1 / n.push_rate))
         self._start = scene.start if start is None else start
         self._t, self._closed = 0.0, False
         self._contacts = Contacts()
         self._space, self._body, self._shape, self._control = build_physics(scene, self.body, self._start)
         self.trajectory: list[tuple[float, float, float, float]] = [(0.0, *self._xyth())]
         self._lidar = Lidar(scene, n, self._rng, rays=rays, scan_rate=self.scan_rate, max_range=self.max_range,
-                            resolution=self.resolution, rounding=rounding, sweep=sweep)
+                            resolution=self.resolution, rounding=rounding, sweep=sweep, mount=self.mount)
         self._latest: ScanFrame | None = None
         self._delivered = True
 
@@ -194,7 +233,7 @@ class WorldRobot(SimulatedBackend):
 
     def drive_truth(self) -> dict[str, float]:
         """This run's systematic drive terms, ground truth for ablations: each wheel's speed
-        bias (a factor), the heading drift while the wheels turn (rad/s), the mean share of
+        bias (a factor; now, as ``bias_walk`` has walked it), the heading drift while the wheels turn (rad/s), the mean share of
         speed slip takes (``E|N(0, slip)|``); ``{'bias_left': 1.0, ...}`` with no noise."""
         bl, br = self._drive.bias
         return {"bias_left": bl, "bias_right": br, "drift": float(self._drive.drift),
@@ -202,9 +241,34 @@ class WorldRobot(SimulatedBackend):
 
     def gyro_truth(self) -> dict[str, float]:
         """This run's gyro terms, ground truth for ablations: it reads ``gain`` times the
-        body's turn rate plus ``offset`` (rad/s); ``{'gain': 1.0, 'offset': 0.0}`` without one."""
+        body's turn rate plus ``offset`` (rad/s), the gain ``asymmetry`` (relative) higher
+        turning counter-clockwise than clockwise; ``{'gain': 1.0, 'offset': 0.0, 'asymmetry': 0.0}``
+        without one."""
         g = self._gyro
-        return {"gain": 1.0, "offset": 0.0} if g is None else {"gain": g.gain, "offset": g.offset}
+        if g is None:
+            return {"gain": 1.0, "offset": 0.0, "asymmetry": 0.0}
+        return {"gain": g.gain, "offset": g.offset, "asymmetry": g.asymmetry}
+
+    @property
+    def slips(self) -> list[tuple[float, float]]:
+        """The slip events so far, ``(start, end)`` s: the wheels spun, the body stood (``slip_rate``)."""
+        return list(self._drive.slips)
+
+    @property
+    def pushes(self) -> list[WorldPush]:
+        """The external pushes so far (``push_rate``, or :meth:`push`)."""
+        return list(self._pushes)
+
+    def push(self, distance: float, direction: float) -> None:
+        """Push the body now: a kick that slides it ``distance`` m towards ``direction`` (rad,
+        world frame) on open floor before its wheels' grip stops it (an obstacle stops it
+        sooner, a contact as any other). Recorded in :attr:`pushes`."""
+        if not (math.isfinite(distance) and distance >= 0 and math.isfinite(direction)):
+            raise ValueError(f"push: expected a distance >= 0 and a finite direction, got ({distance}, {direction})")
+        v0 = push_speed(distance, self.body)
+        vx, vy = self._body.velocity
+        _set_velocity(self._body, (vx + v0 * math.cos(direction), vy + v0 * math.sin(direction)))
+        self._pushes.append(WorldPush(self._t, float(distance), float(direction)))
 
     @property
     def pose(self) -> Pose:
@@ -253,7 +317,8 @@ class WorldRobot(SimulatedBackend):
 
     def stream(self) -> list[tuple[np.ndarray, np.ndarray, float, bool]]:
         """The LiDAR's rays measured since the last call, as they were measured: per physics
-        step, ``(angle, range, time, first)`` — the nominal angles (rad, robot frame), the
+        step, ``(angle, range, time, first)`` — the nominal angles (rad, in the LiDAR's frame,
+        as an A1 sends them: the robot's when it sits at the centre, ``mount``), the
         ranges (m, with the range noise; ``inf``: no return, a dropout or beyond
         ``max_range``), the step's time and whether the step began a revolution. For a
         device emulator that streams each sample when it is measured, as an A1 does; the
@@ -275,11 +340,14 @@ class WorldRobot(SimulatedBackend):
         return out
 
     def scan_now(self) -> np.ndarray:
-        """A complete revolution from the current pose, taken instantly, noise-free (robot frame)."""
-        return self._lidar.scan_now(*self._xyth())
+        """A complete revolution from the current pose, taken instantly, noise-free (robot
+        frame, by the told mount)."""
+        return _to_robot(self._lidar.scan_now(*self._xyth()), self.told_mount)
 
     # -- the physics step ---------------------------------------------------------------------------
     def _advance(self, dt: float) -> None:
+        if self._t >= self._next_push:
+            self._random_push()
         v, w = self._drive.step(self._t, dt)
         body, control = self._body, self._control
         th = body.angle
@@ -296,7 +364,17 @@ class WorldRobot(SimulatedBackend):
         self.trajectory.append((self._t, *pose))
         frame = self._lidar.step(self._t, pose)
         if frame is not None:
+            if self.told_mount != (0.0, 0.0, 0.0):  # the LiDAR's frame to the robot's, by the mount told
+                frame = ScanFrame(_to_robot(frame.points, self.told_mount), frame.timestamp,
+                                  point_times=frame.point_times)
             self._latest, self._delivered = frame, False
+
+    def _random_push(self) -> None:
+        """A push of ``push_rate`` (its size and direction from the push stream), and the next one's time."""
+        rng, n = self._push_rng, self.noise
+        assert rng is not None
+        self.push(n.push_size * float(rng.uniform(0.5, 1.5)), float(rng.uniform(-math.pi, math.pi)))
+        self._next_push = self._t + float(rng.exponential(1 / n.push_rate))
 
 
 def make_world_robot(
@@ -314,7 +392,8 @@ def make_world_robot(
     or a :data:`WorldNoise`; ``noise_scale`` multiplies every term of a named preset.
     ``robot`` (a :class:`~clomp.planner.robot_model.Body`, e.g. the planner's ``RobotModel``)
     gives the body its dimensions (and a model its top speed), unless ``body`` is given;
-    ``options`` go to :class:`WorldRobot` (``rays``, ``scan_rate``, ``dt``, ``start`` …).
+    ``options`` go to :class:`WorldRobot` (``rays``, ``scan_rate``, ``dt``, ``start``,
+    ``mount``, ``told_mount`` …).
 
     >>> from clomp.planner.scenarios import load_scenario
     >>> w = make_world_robot(load_scenario("overtaking"), "harsh", seed=3)

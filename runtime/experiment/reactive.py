@@ -94,6 +94,7 @@ from clomp.planner.robot_model import RobotModel
 from clomp.runtime.clock import Clock, clock_for
 from clomp.runtime.estimation.odometry import ScanOdometry
 from clomp.runtime.interface import Robot, RobotFault, ScanFrame, TurnSensing, finite_goal
+from clomp.runtime.supervision.sensing import crop_far
 
 __all__ = ["PURSUE_DEAD_BAND", "WINDOW", "ReactiveController", "ReactiveReport"]
 
@@ -320,7 +321,10 @@ class ReactiveController:
     def _take_scan(self, frame: ScanFrame, now: float) -> None:
         """Keep the newest revolution (and, with scan feedback, correct the estimate by it,
         as the supervisor does: a de-skewed revolution is kept at the pose of its timestamp)."""
-        scan = validate_scan(frame.points, "scan")
+        # returns beyond the sensor range are cropped as the supervisor crops them
+        frame, _far = crop_far(dataclasses.replace(frame, points=validate_scan(frame.points, "scan")),
+                               self.model.sensor_range)
+        scan = frame.points
         if self.estimator is None:
             self._scan, self._scan_pose = scan, self.pose
             return

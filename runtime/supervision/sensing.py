@@ -35,7 +35,31 @@ from clomp.runtime.estimation.odometry import FeedbackRecord, ScanOdometry
 from clomp.runtime.interface import Robot, ScanFrame, TurnSensing
 from clomp.runtime.supervision.config import SupervisorConfig
 
-__all__ = ["Sensing", "turning"]
+__all__ = ["Sensing", "crop_far", "turning"]
+
+_FAR = 1.05
+"""Returns beyond the sensor range × this are cropped where a revolution comes in: a LiDAR
+that sees farther than the planning horizon (an A1 sees 12 m) would otherwise have the
+planner's perception warn about them on every plan. Within it they are kept, as before
+(perception drops them quietly: its warning's allowance is the same 5 %)."""
+
+
+def crop_far(frame: ScanFrame, sensor_range: float) -> tuple[ScanFrame, int]:
+    """``frame`` without its returns beyond ``sensor_range`` × 1.05 (see ``_FAR``; their
+    times and qualities with them) and how many there were; ``frame`` itself when none.
+
+    >>> f, n = crop_far(ScanFrame(np.array([[0.5, 0.0], [3.0, 0.0]]), 1.0, point_times=np.array([-0.1, 0.0])), 1.1)
+    >>> f.points.tolist(), f.point_times.tolist(), n
+    ([[0.5, 0.0]], [-0.1], 1)
+    """
+    pts = np.asarray(frame.points, dtype=float)
+    far = np.einsum("ij,ij->i", pts, pts) > (sensor_range * _FAR) ** 2
+    if not far.any():
+        return frame, 0
+    near = ~far
+    times = None if frame.point_times is None else np.asarray(frame.point_times)[near]
+    quality = None if frame.quality is None else np.asarray(frame.quality)[near]
+    return dataclasses.replace(frame, points=pts[near], point_times=times, quality=quality), int(np.count_nonzero(far))
 
 
 def turning(cmd: tuple[float, float]) -> bool:
@@ -54,7 +78,8 @@ class Sensing:
     ``pose``: the estimate (supervisor frame); ``estimator``: the scan matcher with scan
     feedback, else None; ``scan``: the newest revolution; ``clean_scan`` / ``scan_pose``:
     the newest revolution not smeared by a turn and where it was taken; ``since_stop``:
-    revolutions since the wheels last stopped; ``still``: the last of them taken standing.
+    revolutions since the wheels last stopped; ``still``: the last of them taken standing;
+    ``cropped``: the returns cropped beyond the sensor range (see ``_FAR``).
 
     >>> from clomp.planner import load_scenario
     >>> from clomp.runtime.backends.sim import SimRobot
@@ -79,6 +104,8 @@ class Sensing:
         self.still: deque[np.ndarray] = deque(maxlen=config.fused_revolutions)
         self.last_update = 0.0
         self.last_scan_at = 0.0
+        self.sensor_range = model.sensor_range
+        self.cropped = 0  # returns cropped beyond the sensor range so far (crop_far)
 
     def start(self, now: float) -> Pose:
         """Fix the frame at the robot's present pose (its odometry's, else the origin) at ``now``."""
@@ -104,8 +131,10 @@ class Sensing:
     def take(self, frame: ScanFrame, now: float, cmd: tuple[float, float], still: bool) -> FeedbackRecord | None:
         """Keep a new revolution (read at ``now``); with scan feedback correct the estimate by
         it and return what that did. ``still``: it counts among the still revolutions."""
-        scan = self.scan = validate_scan(frame.points, "scan")
-        rec = self._feedback(dataclasses.replace(frame, points=scan), now) if self.estimator is not None else None
+        frame, far = crop_far(dataclasses.replace(frame, points=validate_scan(frame.points, "scan")), self.sensor_range)
+        self.cropped += far  # beyond the planning horizon: cropped here, once (see _FAR)
+        scan = self.scan = frame.points
+        rec = self._feedback(frame, now) if self.estimator is not None else None
         self.last_scan_at = now
         self.since_stop += 1
         if still:

@@ -94,3 +94,23 @@ def test_the_world_takes_its_body_from_the_model_unless_told_otherwise():
     # a world body that differs from the planner's belief (model mismatch): another Body
     other = make_world_robot(load_scenario("open"), "ideal", robot=model, body=BodySpec(width=0.16))
     assert other.body.width == 0.16 and isinstance(other.body, Body)
+
+
+def test_the_unmodelled_terms_are_named_validated_and_on_in_their_own_preset_only():
+    """The execution world's error sources the estimator does not model (issue #36) are
+    preset terms like any other: checked by the one validator, documented in the presets
+    file, 0 in ``ideal``, ``paper`` and (until the estimator copes) ``harsh``, on in
+    ``unmodelled``, scaled with the rest."""
+    import json
+
+    from clomp.specs import SPECS_DIR
+
+    doc = json.loads((SPECS_DIR / "noise_presets.json").read_text())["fields"]
+    for name in noise_module.UNMODELLED_FIELDS:
+        assert name in noise_module.NOISE_FIELDS and doc[name]["unit"] and doc[name]["meaning"]
+        with pytest.raises(NoiseError, match=rf"^noise\.{name}: "):
+            NoiseTerms(**{name: -1.0})
+        assert getattr(NoiseTerms.preset("paper"), name) == 0.0 == getattr(NoiseTerms.preset("ideal"), name)
+        assert getattr(NoiseTerms.preset("harsh"), name) == 0.0
+        assert getattr(NoiseTerms.preset("unmodelled"), name) > 0.0
+        assert getattr(NoiseTerms.preset("unmodelled", 2.0), name) == pytest.approx(2 * getattr(NoiseTerms.preset("unmodelled"), name))

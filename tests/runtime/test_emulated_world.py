@@ -79,7 +79,9 @@ def test_the_emulated_lidar_sends_each_revolution_when_the_world_measured_it() -
         assert truth is not None
         assert 0.0 <= (got.timestamp - 100.0) - truth.timestamp <= 0.02
         assert len(got.points) == len(truth.points) > 10
-        assert np.max(np.hypot(*(got.points - truth.points).T)) <= 0.008  # the nominal angle, the grid's range
+        # the A1 sends its own frame: at harsh 5 cm ahead of the centre, where the world's revolution is
+        mine = truth.points - np.array(world.sim.told_mount[:2])
+        assert np.max(np.hypot(*(got.points - mine).T)) <= 0.008  # the nominal angle, the grid's range
         if k:
             assert got.point_times is not None
             assert np.max(np.abs(got.point_times - truth.point_times)) <= 0.015

@@ -63,6 +63,25 @@ def test_a_noisy_gyro_errs_by_its_offset_scale_and_walk_and_not_more() -> None:
     assert len(set(errors)) == 20  # every run draws its own
 
 
+def test_an_asymmetric_gyro_loses_heading_on_a_spin_and_back() -> None:
+    """``rate_asymmetry`` (an IMU whose scale is wrong in a way one gain cannot fit): a spin
+    counter-clockwise and back ends where it began, the gyro not, by the gains' difference."""
+    spin = [(-0.05, 0.05)] * 30 + [(0.05, -0.05)] * 30 + [(0.0, 0.0)] * 10
+
+    def spin_and_back(noise: WorldNoise) -> tuple[float, float, dict[str, float]]:
+        """The gyro's error at the end less the constant gain's share, the peak turned, the truth."""
+        world = make_world_robot(load_scenario("open"), noise, seed=6)
+        trace = _drive(world, spin)
+        truth = world.gyro_truth()
+        end = trace[-1][0]
+        return trace[-1][1] - end - (truth["gain"] - 1.0) * end, max(t for t, _ in trace), truth
+    error, peak, truth = spin_and_back(WorldNoise(rate_asymmetry=0.05))
+    assert abs(truth["asymmetry"]) > 0.01 and error == pytest.approx(truth["asymmetry"] * peak, rel=0.05)
+    error, _peak, truth = spin_and_back(WorldNoise(rate_scale=0.05))
+    assert truth["asymmetry"] == 0.0 and truth["gain"] != 1.0
+    assert error == pytest.approx(0.0, abs=1e-9)  # a constant gain: out and back cancel
+
+
 def test_the_gyro_draws_change_nothing_else_in_the_world() -> None:
     """Its own random generator: the drive and the LiDAR are the same with and without it."""
     scene = load_scenario("overtaking")
