@@ -77,7 +77,7 @@ def _run_doc(r: Any) -> dict[str, Any]:
     return {"end": r.end_state, "reason": r.reason, "reached": r.reached_goal, "believed": r.believed_goal,
             "final": [repr(v) for v in r.final_pose], "distance": repr(r.final_distance),
             "episodes": [(repr(e.start_s), repr(e.max_penetration_m), e.brush) for e in r.episodes],
-            "plans": r.plans, "states": r.states, "path": [(repr(x), repr(y)) for x, y in r.path],
+            "plans": r.plans, "states": getattr(r, "n_states", getattr(r, "states", None)), "path": [(repr(x), repr(y)) for x, y in r.path],
             "time": repr(r.time_s)}
 
 

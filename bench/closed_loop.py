@@ -412,18 +412,18 @@ def bench_false_alarms(runs: int, noise: str = "harsh", family: str = "overtakin
             rec = super()._check_remaining()
             if rec is not None and not rec.ok and self._plan is not None and self._record is not None:
                 states = [self._record.state] + [q for q, _ in self._queue]
-                ideal = scan_to_frame(self.world.scan_now(), self.pose, self._scan_pose)
-                v = check_plan(states, self._plan.origin, self._scan_pose, self.goal, ideal, self.model,
-                               tolerance=self.end_tolerance, running=True)
+                ideal = scan_to_frame(self.world.scan_now(), self.pose, self.sensing.scan_pose)
+                v = check_plan(states, self._plan.origin, self.sensing.scan_pose, self.goal, ideal, self.model,
+                               tolerance=self.config.end_tolerance, running=True)
                 self.judged.append(("check", v.ok))
             return rec
 
         def _hazard(self, task: Any, error: float) -> str | None:
             why = super()._hazard(task, error)
             if why is not None:
-                soon, ahead = hazard_hits(self.world.scan_now(), task.kind, error, self.model, self.lookahead)
+                soon, ahead = hazard_hits(self.world.scan_now(), task.kind, error, self.model, self.config.lookahead)
                 kind = "imminent" if why.startswith("collision imminent") else "in the way"
-                self.judged.append((kind, max(soon, ahead) < self.hazard_points))
+                self.judged.append((kind, max(soon, ahead) < self.config.hazard_points))
             return why
 
     conf = Configurator()

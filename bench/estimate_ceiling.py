@@ -48,33 +48,43 @@ from clomp.formal.model import Pose  # noqa: E402
 from clomp.runtime.estimation.odometry import ScanOdometry  # noqa: E402
 from clomp.runtime.experiment.runner import RunSpec, noise_seed, run_once, scene_for  # noqa: E402
 from clomp.runtime.supervision import Supervisor  # noqa: E402
+from clomp.runtime.supervision.sensing import Sensing  # noqa: E402
 
 TARGETS = {("overtaking", "harsh"): "18/20", ("slalom", "harsh"): "9/10", ("corridor", "harsh"): "9/10",
            ("doorway", "harsh"): "9/10", ("overtaking", "paper"): "20/20"}
 
 
-class _TruthFed(Supervisor):
-    """The ablation: the pose estimate replaced by the world's ground truth, in the
-    supervisor's frame (the robot's at the start: a corridor layout starts turned up to
-    0.15 rad in the world, and the world's pose taken as is would turn the goal with it)."""
+class _TruthSensing(Sensing):
+    """The supervisor's sensing with the pose estimate replaced by the world's ground truth,
+    in the supervisor's frame (the robot's at the start: a corridor layout starts turned up
+    to 0.15 rad in the world, and the world's pose taken as is would turn the goal with it)."""
 
-    def __init__(self, robot: Any, *args: Any, **kwargs: Any) -> None:
-        super().__init__(robot, *args, **kwargs)
+    def __init__(self, robot: Any, *args: Any) -> None:
+        super().__init__(robot, *args)
         self._origin: Pose = robot.ground_truth_pose()
 
     def true_pose(self) -> Pose:
         """The world's pose of the robot, seen from where it started."""
         return relative(self._origin, self.robot.ground_truth_pose())  # type: ignore[attr-defined]
 
-    def _update_pose(self, now: float) -> None:
-        super()._update_pose(now)
+    def update_pose(self, now: float, cmd: tuple[float, float]) -> None:
+        super().update_pose(now, cmd)
         self.pose = self.true_pose()
 
-    def _scan_feedback(self, frame: Any, now: float) -> None:
-        super()._scan_feedback(frame, now)
+    def _feedback(self, frame: Any, now: float) -> Any:
+        rec = super()._feedback(frame, now)
         self.pose = self.true_pose()
         if frame.point_times is not None:  # the de-skewed revolution, placed at the true pose
-            self._scan_pose = self.pose
+            self.scan_pose = self.pose
+        return rec
+
+
+class _TruthFed(Supervisor):
+    """The ablation: the pose estimate replaced by the world's ground truth (:class:`_TruthSensing`)."""
+
+    def __init__(self, robot: Any, *args: Any, **kwargs: Any) -> None:
+        super().__init__(robot, *args, **kwargs)
+        self.sensing = _TruthSensing(robot, self.model, self.config)
 
 
 class _KnownWheels(ScanOdometry):
@@ -126,7 +136,7 @@ class _CalibrationFed(Supervisor):
 
 def _one(args: tuple[str, int, int, str, str, str | None]) -> tuple[bool, float, str, float]:
     family, seed, run, preset, mode, term = args
-    import clomp.runtime.experiment.runner as runner
+    import clomp.runtime.experiment.onerun as onerun  # where run_once looks the Supervisor up
     from clomp.runtime.backends.world import WorldNoise
 
     noise: str | WorldNoise = preset
@@ -135,18 +145,18 @@ def _one(args: tuple[str, int, int, str, str, str | None]) -> tuple[bool, float,
 
     spec = RunSpec(family, seed, run, "planning", preset)
     scene, expect = scene_for(spec)
-    saved = runner.Supervisor
+    saved = onerun.Supervisor
     if mode == "truth":
-        runner.Supervisor = _TruthFed  # type: ignore[misc]
+        onerun.Supervisor = _TruthFed  # type: ignore[misc]
     elif mode == "calibration":
-        runner.Supervisor = _CalibrationFed  # type: ignore[misc]
+        onerun.Supervisor = _CalibrationFed  # type: ignore[misc]
     try:
         c0 = time.thread_time()
         r = run_once(scene, "planning", noise_seed(seed, run), run=run, noise=noise, expect=expect,
                      feedback="none" if mode == "none" else "scan")
         cpu = time.thread_time() - c0
     finally:
-        runner.Supervisor = saved  # type: ignore[misc]
+        onerun.Supervisor = saved  # type: ignore[misc]
     how = "reached" if r.reached_goal else ("believed" if r.believed_goal else
                                            "unreachable" if r.end_state == "UNREACHABLE" else "other")
     return r.reached_goal, r.final_distance, how, cpu

@@ -83,14 +83,15 @@ class _Recorder(ScanOdometry):
 def _record_one(args: tuple[str, int, int, str, str]) -> str:
     family, seed, run, noise, folder = args
     import clomp.runtime.supervision.supervisor as sup_module
-    from clomp.runtime.experiment.runner import RunSpec, _ground_truth_path, scene_for, noise_seed
+    from clomp.runtime.experiment.onerun import _ground_truth_path
+    from clomp.runtime.experiment.runner import RunSpec, scene_for, noise_seed
     from clomp.runtime.experiment.groundtruth import make_robot
     from clomp.planner import Configurator
 
     scene, _ = scene_for(RunSpec(family, seed, run, "planning", noise))
     conf = Configurator()
     robot = make_robot(scene, noise=noise, seed=noise_seed(seed, run), model=conf.robot)
-    sup = sup_module.Supervisor(robot, tuple(scene.goal_in_robot_frame()), conf, feedback="scan")
+    sup = sup_module.Supervisor(robot, tuple(scene.goal_in_robot_frame()), conf, config=sup_module.SupervisorConfig(feedback="scan"))
     sup.estimator = _Recorder(conf.robot.wheel_base)  # the same estimator, keeping what it is fed
     rep = sup.run(max_time=120.0)
     est = sup.estimator

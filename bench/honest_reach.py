@@ -170,7 +170,7 @@ def main(argv: list[str] | None = None) -> int:
         end = r.map[r.plan.end].end  # type: ignore[attr-defined]
         tasks = "".join(s.task.value[0] for s in r.steps)  # type: ignore[attr-defined]
         line = (
-            f"{f.name:<12} {what:<13} {r.states:>6} {tasks or '-':<14} {end.distance_to(*goal):7.3f}  "  # type: ignore[attr-defined]
+            f"{f.name:<12} {what:<13} {r.n_states:>6} {tasks or '-':<14} {end.distance_to(*goal):7.3f}  "  # type: ignore[attr-defined]
             f"{cpp:<10} {row.get('cpp_plan') or '-':<14}"
         )
         print(line + (f"  {'yes' if reach else 'no'}" if oracle else ""), flush=True)

@@ -157,7 +157,7 @@ def _cpu_bench(folders: list[Path], repeat: int, count: bool = False, callgrind:
                 g = groups[k]
                 g[0].append(c)
                 g[1].append(w)
-                g[2].append(r.states)
+                g[2].append(r.n_states)
                 if ratio is not None:
                     g[3].append(ratio)
                 if work is not None:
@@ -275,7 +275,7 @@ def _perception_and_large(count: bool = False) -> None:
         w0, c0 = time.perf_counter(), time.thread_time()
         try:
             res = conf.plan(pts, (1.0, 0.0))
-            what = f"planned: {res.states} states, reached={res.reached_goal}, stop {res.stop_reason}"
+            what = f"planned: {res.n_states} states, reached={res.reached_goal}, stop {res.stop_reason}"
         except Exception as exc:  # a refusal is an answer too: say which
             what = f"refused: {type(exc).__name__}: {exc}"
         cpu, wall = time.thread_time() - c0, time.perf_counter() - w0
@@ -330,7 +330,7 @@ def main(argv: list[str] | None = None) -> int:
             t0 = time.perf_counter()
             r = conf.plan(scan, goal)
             times.append(time.perf_counter() - t0)
-            states.append(r.states)
+            states.append(r.n_states)
         print(_row(f"scenario {name}", times, states) + f"  reached={r.reached_goal}")
     if args.scans.is_dir():
         files = sorted(args.scans.glob("*.dat"))
@@ -345,7 +345,7 @@ def main(argv: list[str] | None = None) -> int:
                     r = conf.plan(s, (1.0, 0.0))
                     best.append(time.perf_counter() - t0)
                 times.append(min(best))
-                states.append(r.states)
+                states.append(r.n_states)
             print(_row(label, times, states))
         for name in args.single:
             f = args.scans / name
@@ -357,7 +357,7 @@ def main(argv: list[str] | None = None) -> int:
                 t0 = time.perf_counter()
                 r = conf.plan(s, (1.0, 0.0))
                 times.append(time.perf_counter() - t0)
-                states.append(r.states)
+                states.append(r.n_states)
             print(_row(f"scan {name} (repeated)", times, states) + f"  reached={r.reached_goal}")
     else:
         print(f"(recorded scans not found at {args.scans})")

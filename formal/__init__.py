@@ -9,7 +9,7 @@ if __name__ != "clomp.formal":  # the repository keeps formal/ at the top; it is
 from clomp.formal.lts import FORMAT_VERSION, CognitiveMap, MapError, Transition
 from clomp.formal.model import Disturbance, DisturbanceKind, Pose, State, TaskKind
 from clomp.formal.invariants import Invariant, InvariantError, Violation, assert_map_valid, check_map
-from clomp.formal.supervisory import Guard, Plan, Reset, ResetUndefined, extract_plan, guard, plan_end, reset
+from clomp.formal.supervisory import Guard, Plan, Reset, ResetUndefined, extract_plan, plan_end
 
 __all__ = [
     "CognitiveMap",
@@ -31,7 +31,5 @@ __all__ = [
     "assert_map_valid",
     "check_map",
     "extract_plan",
-    "guard",
     "plan_end",
-    "reset",
 ]

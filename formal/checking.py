@@ -26,11 +26,12 @@ import math
 import os
 import re
 import tempfile
-from collections import deque
-from collections.abc import Iterable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
+
+import networkx as nx
 
 from clomp.formal.export import ExportModel, ModelKind, export_model, write_drn, write_prism
 from clomp.formal.invariants import map_plan
@@ -154,63 +155,85 @@ _NAME = re.compile(r'^"([A-Za-z_][A-Za-z0-9_]*)"\s*:\s*(.*)$')
 _QUERY = re.compile(r"^(!?\s*\"[A-Za-z_][A-Za-z0-9_]*\"\s*[|&]\s*)*!?\s*\(?\s*[PRS](\{\"[A-Za-z_][A-Za-z0-9_]*\"\})?(min|max)?\s*(=\?|[<>]=?\s*[0-9.eE+-]+)\s*\[")
 
 
-def parse_properties(text: str, source: str = "<string>") -> PropertyFile:
-    """Parse the property-file format (see the module docstring); raises :class:`SpecError`."""
+@dataclass
+class _Parse:
+    """What :func:`parse_properties` has read so far."""
+
+    source: str
     model: str | None = None
-    props: list[PropertySpec] = []
-    comments: list[str] = []
+    props: list[PropertySpec] = field(default_factory=list)
+    comments: list[str] = field(default_factory=list)
     required: Requirement | None = None
-    req_line = 0
-    names: set[str] = set()
-    for n, raw in enumerate(text.splitlines(), 1):
-        line = raw.strip()
-        where = f"{source}:{n}"
-        if not line:
-            comments = []
-            continue
-        if line.startswith("//"):
-            body = line[2:].strip()
-            if body.startswith("@"):
-                key, _, arg = body[1:].partition(" ")
-                if key == "model":
-                    if model is not None or props:
-                        raise SpecError(f"{where}: @model must appear once, before the first property")
-                    if arg.strip() not in ("mdp", "dtmc"):
-                        raise SpecError(f"{where}: @model must be 'mdp' or 'dtmc', got {arg.strip()!r}")
-                    model = arg.strip()
-                elif key == "required":
-                    if required is not None:
-                        raise SpecError(f"{where}: two @required lines for one property")
-                    try:
-                        required = Requirement.parse(arg)
-                    except ValueError:
-                        raise SpecError(f"{where}: @required expects true, false or [op] number, got {arg.strip()!r}") from None
-                    req_line = n
-                else:
-                    raise SpecError(f"{where}: unknown directive @{key} (expected @model or @required)")
-            else:
-                comments.append(body)
-            continue
+    req_line: int = 0
+    names: set[str] = field(default_factory=set)
+
+    def directive(self, body: str, n: int, where: str) -> None:
+        """A ``// @key arg`` line."""
+        key, _, arg = body[1:].partition(" ")
+        if key == "model":
+            if self.model is not None or self.props:
+                raise SpecError(f"{where}: @model must appear once, before the first property")
+            if arg.strip() not in ("mdp", "dtmc"):
+                raise SpecError(f"{where}: @model must be 'mdp' or 'dtmc', got {arg.strip()!r}")
+            self.model = arg.strip()
+        elif key == "required":
+            if self.required is not None:
+                raise SpecError(f"{where}: two @required lines for one property")
+            try:
+                self.required = Requirement.parse(arg)
+            except ValueError:
+                raise SpecError(f"{where}: @required expects true, false or [op] number, got {arg.strip()!r}") from None
+            self.req_line = n
+        else:
+            raise SpecError(f"{where}: unknown directive @{key} (expected @model or @required)")
+
+    def property(self, line: str, n: int, where: str) -> None:
+        """A property line, with the comments and requirement above it."""
         m = _NAME.match(line)
         name, formula = (m.group(1), m.group(2).strip()) if m else (None, line)
         formula = formula.rstrip(";").strip()
         if not _QUERY.match(formula) or formula.count("[") != formula.count("]") or formula.count("(") != formula.count(")"):
             raise SpecError(f"{where}: not a PCTL property (expected e.g. P=? [F \"goal\"]): {line!r}")
-        if model is None:
+        if self.model is None:
             raise SpecError(f"{where}: a property before '// @model mdp|dtmc'")
         name = name or formula
-        if name in names:
+        if name in self.names:
             raise SpecError(f"{where}: duplicate property name {name!r}")
-        names.add(name)
-        props.append(PropertySpec(formula, name, " ".join(comments), required, n))
-        comments, required = [], None
-    if required is not None:
-        raise SpecError(f"{source}:{req_line}: @required is not followed by a property")
-    if model is None:
-        raise SpecError(f"{source}: no '// @model mdp|dtmc' line")
-    if not props:
-        raise SpecError(f"{source}: no properties")
-    return PropertyFile(model, tuple(props), source)  # type: ignore[arg-type]
+        self.names.add(name)
+        self.props.append(PropertySpec(formula, name, " ".join(self.comments), self.required, n))
+        self.comments, self.required = [], None
+
+    def done(self) -> PropertyFile:
+        """The parsed file, once every line is read."""
+        if self.required is not None:
+            raise SpecError(f"{self.source}:{self.req_line}: @required is not followed by a property")
+        if self.model is None:
+            raise SpecError(f"{self.source}: no '// @model mdp|dtmc' line")
+        if not self.props:
+            raise SpecError(f"{self.source}: no properties")
+        return PropertyFile(self.model, tuple(self.props), self.source)  # type: ignore[arg-type]
+
+
+def parse_properties(text: str, source: str = "<string>") -> PropertyFile:
+    """Parse the property-file format (see the module docstring); raises :class:`SpecError`.
+
+    >>> pf = parse_properties('// @model dtmc\\n// Never a collision.\\n// @required = 0\\n"safe": P=? [F "collision"]')
+    >>> pf.model, pf.properties[0].name, pf.properties[0].description, str(pf.properties[0].required)
+    ('dtmc', 'safe', 'Never a collision.', '= 0')
+    """
+    state = _Parse(source)
+    for n, raw in enumerate(text.splitlines(), 1):
+        line = raw.strip()
+        where = f"{source}:{n}"
+        if not line:
+            state.comments = []
+        elif not line.startswith("//"):
+            state.property(line, n, where)
+        elif line[2:].strip().startswith("@"):
+            state.directive(line[2:].strip(), n, where)
+        else:
+            state.comments.append(line[2:].strip())
+    return state.done()
 
 
 def read_properties(path: str | os.PathLike[str]) -> PropertyFile:
@@ -239,6 +262,7 @@ class StormModel:
     idents: list[int]
     program: Any = None
     source: str = ""
+    _graph: nx.DiGraph | None = field(default=None, init=False, repr=False, compare=False)
 
     @property
     def n_states(self) -> int:
@@ -250,17 +274,22 @@ class StormModel:
         """Number of transitions (matrix entries) Storm built."""
         return int(self.model.nr_transitions)
 
+    def graph(self) -> nx.DiGraph:
+        """Storm's states and transitions as a :class:`networkx.DiGraph` (each state's
+        successors in matrix order), built once."""
+        if self._graph is None:
+            g = nx.DiGraph()
+            for s in range(self.n_states):
+                g.add_node(s)
+                g.add_edges_from((s, t) for t in self.successors(s))
+            self._graph = g
+        return self._graph
+
     def reachable(self) -> list[int]:
         """Storm states reachable from the initial states, sorted (a DRN file's
         :data:`~clomp.formal.export.LABEL_HOLDER` state is not among them)."""
-        seen = {int(s) for s in self.model.initial_states}
-        stack = list(seen)
-        while stack:
-            for t in self.successors(stack.pop()):
-                if t not in seen:
-                    seen.add(t)
-                    stack.append(t)
-        return sorted(seen)
+        starts = [int(s) for s in self.model.initial_states]
+        return sorted(s for layer in nx.bfs_layers(self.graph(), starts) for s in layer)
 
     def reachable_size(self) -> tuple[int, int]:
         """(states, transitions) reachable from the initial states: what PRISM, which
@@ -424,40 +453,32 @@ def _target_witness(sm: StormModel, spec: PropertySpec) -> list[str]:
         return []
     if not result.is_qualitative():
         return []
-    start = int(sm.model.initial_states[0])
-    parent: dict[int, int | None] = {start: None}
-    queue = deque([start])
-    while queue:
-        s = queue.popleft()
-        if bool(result[s]):
-            path = [s]
-            while parent[path[-1]] is not None:
-                path.append(parent[path[-1]])  # type: ignore[arg-type]
-            return [sm.describe(x) for x in reversed(path)]
-        for t in sm.successors(s):
-            if t not in parent:
-                parent[t] = s
-                queue.append(t)
-    return []
+    path = _shortest_path_to(sm.graph(), int(sm.model.initial_states[0]), lambda s: bool(result[s]))
+    return [] if path is None else [sm.describe(x) for x in path]
 
 
 def _witness(sm: StormModel, result: Any, req: Requirement) -> list[str]:
+    """A shortest path to an absorbing state whose own value violates ``req``."""
+    g = sm.graph()
     start = int(sm.model.initial_states[0])
-    parent: dict[int, int | None] = {start: None}
-    queue = deque([start])
-    while queue:
-        s = queue.popleft()
-        succ = sm.successors(s)
-        if succ == [s] and not req.holds(_value(result, s)):
-            path = [s]
-            while parent[path[-1]] is not None:
-                path.append(parent[path[-1]])  # type: ignore[arg-type]
-            return [sm.describe(x) for x in reversed(path)]
-        for t in succ:
-            if t not in parent:
-                parent[t] = s
-                queue.append(t)
-    return [sm.describe(start)]
+    path = _shortest_path_to(g, start, lambda s: list(g.successors(s)) == [s] and not req.holds(_value(result, s)))
+    return [sm.describe(x) for x in path or [start]]
+
+
+def _shortest_path_to(g: nx.DiGraph, start: int, accept: Callable[[int], bool]) -> list[int] | None:
+    """A shortest path from ``start`` to the first state, breadth-first, that ``accept``s;
+    None when no reachable state does."""
+    if accept(start):
+        return [start]
+    parent: dict[int, int] = {}
+    for u, v in nx.bfs_edges(g, start):
+        parent[v] = u
+        if accept(v):
+            path = [v]
+            while path[-1] != start:
+                path.append(parent[path[-1]])
+            return path[::-1]
+    return None
 
 
 def check_map_properties(

@@ -14,7 +14,8 @@ over the same events), the machine is the *supervisor*. :func:`controllability` 
 that in every reachable state of the closed loop the supervisor never disables an
 uncontrollable event the plant can produce; :func:`nonblocking` that from every
 reachable state a terminal (marked) state stays reachable. Both return counterexamples
-(event paths from the start) instead of a bare verdict.
+(event paths from the start) instead of a bare verdict. Both, and the exported model,
+ask networkx about one graph of the closed loop, :func:`closed_loop_graph`.
 
 :func:`machine_model` exports the closed loop (supervisor × plant, with the last event
 in the state) as an MDP whose choices are the events, with labels ``motors`` (the
@@ -30,11 +31,12 @@ states what must hold, e.g. the wheels turn only while a task runs.
 
 from __future__ import annotations
 
-from collections import deque
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field, replace
 from fractions import Fraction
 from typing import Any
+
+import networkx as nx
 
 __all__ = [
     "MachineEvent",
@@ -44,6 +46,7 @@ __all__ = [
     "SUPERVISOR",
     "PLANT",
     "SupervisoryResult",
+    "closed_loop_graph",
     "closed_loop",
     "controllability",
     "nonblocking",
@@ -251,21 +254,55 @@ class SupervisoryResult:
         return "fails: " + "; ".join(lines)
 
 
+def _anything(sup: Machine) -> Machine:
+    """The plant that allows every event of ``sup`` (one unnamed state): ``sup`` alone."""
+    return Machine("", ("",), "", frozenset(), frozenset(), sup.events,
+                   tuple(MachineTransition("", e.name, "") for e in sup.events))
+
+
+def closed_loop_graph(sup: Machine, plant: Machine | None = None, remember_last: bool = False) -> Any:
+    """The synchronous product sup × plant as a :class:`networkx.MultiDiGraph`: an event
+    is taken when both machines enable it. Nodes are ``(supervisor state, plant state,
+    last event)`` for every combination (``last`` is None unless ``remember_last``; the
+    plant state is ``""`` for ``plant=None``, the supervisor alone); edges are keyed by
+    their event and added in the machine's event order, so a breadth-first search meets
+    successors in that order. Attributes: ``start`` (the initial node), ``events`` (the
+    event names in order). Ask networkx what is reachable from ``start``.
+
+    >>> g = closed_loop_graph(SUPERVISOR, PLANT)
+    >>> sorted(g[("IDLE", "OFF", None)][("PLANNING", "STOPPED", None)])
+    ['start']
+    """
+    other = _anything(sup) if plant is None else plant
+    ts, tp = sup.table(), other.table()
+    events = [e.name for e in sup.events]
+    lasts: tuple[str | None, ...] = (None, *events) if remember_last else (None,)
+    g = nx.MultiDiGraph(start=(sup.initial, other.initial, None), events=events)
+    for s in sup.states:
+        for p in other.states:
+            for last in lasts:
+                g.add_node((s, p, last))
+                for e in events:
+                    a, b = ts.get((s, e)), tp.get((p, e))
+                    if a is not None and b is not None:
+                        g.add_edge((s, p, last), (a, b, e if remember_last else None), key=e)
+    return g
+
+
+def _event_paths(g: Any) -> dict[Any, tuple[str, ...]]:
+    """The nodes of ``g`` reachable from its start, in breadth-first order, each with a
+    shortest event path (the first event in the machine's order at each step)."""
+    start = g.graph["start"]
+    paths: dict[Any, tuple[str, ...]] = {start: ()}
+    for u, v in nx.bfs_edges(g, start):
+        paths[v] = paths[u] + (next(iter(g[u][v])),)
+    return paths
+
+
 def closed_loop(sup: Machine, plant: Machine) -> dict[tuple[str, str], tuple[str, ...]]:
     """The reachable states of sup × plant (both must enable an event to take it), each
     with a shortest event path from the start."""
-    start = (sup.initial, plant.initial)
-    ts, tp = sup.table(), plant.table()
-    paths: dict[tuple[str, str], tuple[str, ...]] = {start: ()}
-    queue = deque([start])
-    while queue:
-        s, p = queue.popleft()
-        for e in sup.events:
-            a, b = ts.get((s, e.name)), tp.get((p, e.name))
-            if a is not None and b is not None and (a, b) not in paths:
-                paths[(a, b)] = paths[(s, p)] + (e.name,)
-                queue.append((a, b))
-    return paths
+    return {(s, p): path for (s, p, _), path in _event_paths(closed_loop_graph(sup, plant)).items()}
 
 
 def controllability(sup: Machine, plant: Machine) -> SupervisoryResult:
@@ -283,28 +320,12 @@ def controllability(sup: Machine, plant: Machine) -> SupervisoryResult:
 def nonblocking(sup: Machine, plant: Machine) -> SupervisoryResult:
     """From every reachable state of the closed loop a marked state — terminal for the
     supervisor and for the plant — stays reachable."""
-    reach = closed_loop(sup, plant)
-    ts, tp = sup.table(), plant.table()
-    succ: dict[tuple[str, str], list[tuple[str, str]]] = {x: [] for x in reach}
-    for s, p in reach:
-        for e in sup.events:
-            a, b = ts.get((s, e.name)), tp.get((p, e.name))
-            if a is not None and b is not None:
-                succ[(s, p)].append((a, b))
-    marked = {x for x in reach if x[0] in sup.terminal and x[1] in plant.terminal}
-    # backwards from the marked states
-    pred: dict[tuple[str, str], list[tuple[str, str]]] = {x: [] for x in reach}
-    for x, ys in succ.items():
-        for y in ys:
-            pred[y].append(x)
-    good = set(marked)
-    queue = deque(marked)
-    while queue:
-        for x in pred[queue.popleft()]:
-            if x not in good:
-                good.add(x)
-                queue.append(x)
-    bad = [(reach[x], f"from {x[0]} with the {plant.name} {x[1]} no terminal state can be reached") for x in reach if x not in good]
+    g = closed_loop_graph(sup, plant)
+    reach = _event_paths(g)
+    marked = [x for x in g if x[0] in sup.terminal and x[1] in plant.terminal]
+    good = {x for layer in nx.bfs_layers(g.reverse(copy=False), marked) for x in layer} if marked else set()
+    bad = [(path, f"from {x[0]} with the {plant.name} {x[1]} no terminal state can be reached")
+           for x, path in reach.items() if x not in good]
     return SupervisoryResult(not bad, tuple(sorted(bad)))
 
 
@@ -347,34 +368,16 @@ def machine_model(sup: Machine = SUPERVISOR, plant: Machine | None = PLANT, reme
     from clomp.formal.supervisory import Plan
 
     last_too = plant is not None if remember_last is None else remember_last
-    ts = sup.table()
-    tp = plant.table() if plant is not None else {}
-    start: tuple[str, str, str | None] = (sup.initial, plant.initial if plant is not None else "", None)
-    index: dict[tuple[str, str, str | None], int] = {start: 0}
-    order: list[tuple[str, str, str | None]] = [start]
-    queue: deque[tuple[str, str, str | None]] = deque([start])
-    edges: dict[int, list[tuple[str, int]]] = {}
-    while queue:
-        node = queue.popleft()
-        s, p, _ = node
-        out = []
-        for e in sup.events:
-            a = ts.get((s, e.name))
-            b = tp.get((p, e.name)) if plant is not None else ""
-            if a is None or b is None:
-                continue
-            nxt = (a, b, e.name if last_too else None)
-            if nxt not in index:
-                index[nxt] = len(order)
-                order.append(nxt)
-                queue.append(nxt)
-            out.append((e.name, index[nxt]))
-        edges[index[node]] = out
+    g = closed_loop_graph(sup, plant, last_too)
+    order = list(_event_paths(g))  # breadth-first from the start: state k is the k-th met
+    index = {node: k for k, node in enumerate(order)}
+    rank = {e: i for i, e in enumerate(g.graph["events"])}
     states = tuple(MachineNode(k, s, p, last) for k, (s, p, last) in enumerate(order))
     choices = []
     loops = []
-    for k in range(len(states)):
-        row = tuple(Choice(ev, ((j, Fraction(1)),)) for ev, j in edges[k])
+    for k, node in enumerate(order):
+        out = sorted(g.out_edges(node, keys=True), key=lambda edge: rank[edge[2]])  # the events in order
+        row = tuple(Choice(ev, ((index[v], Fraction(1)),)) for _, v, ev in out)
         if not row:
             row = (Choice(STAY, ((k, Fraction(1)),)),)
             loops.append(k)

@@ -67,17 +67,6 @@ class CrossCheck:
         return out
 
     @property
-    def largest_gap(self) -> float:
-        """The largest finite gap between two loads' values."""
-        gap = 0.0
-        vals = [v for _, _, v in self.loads.values()]
-        for column in zip(*vals):
-            nums = [float(x) for x in column if not isinstance(x, bool) and math.isfinite(x)]
-            if nums:
-                gap = max(gap, max(nums) - min(nums))
-        return gap
-
-    @property
     def agrees(self) -> bool:
         """Sizes and values agree across every load."""
         return self.sizes_agree and not self.disagreements()

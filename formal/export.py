@@ -370,32 +370,44 @@ def write_dot(source: CognitiveMap | ExportModel, dest: Dest, kind: ModelKind = 
     lines.append('  node [shape=box, style="rounded", fontname="Helvetica", fontsize=10];')
     lines.append('  edge [fontname="Helvetica", fontsize=9];')
     for k, s in enumerate(m.states):
-        if not isinstance(s, State):
-            attrs = [f"label={_dot_quote(str(getattr(s, 'name', k)))}"]
-            if "motors" in m.labels and k in m.labels["motors"]:
-                attrs += ['style="rounded,filled"', 'fillcolor="#c6e5c6"']
-            if "terminal" in m.labels and k in m.labels["terminal"]:
-                attrs.append("peripheries=2")
-            if "after_fault" in m.labels and k in m.labels["after_fault"]:
-                attrs.append("color=red")
-            lines.append(f"  {k} [{', '.join(attrs)}];")
-            continue
-        if s.interrupted:
-            outcome = "collision"
-        elif s.reached_goal:
-            outcome = "goal"
-        else:
-            outcome = "ok"
-        attrs = [f"label={_dot_quote(f'q{s.ident} {s.task.value}' + chr(10) + f'{outcome}  φ={s.cost:.3f}')}"]
-        if s.interrupted:
-            attrs += ["shape=octagon", "color=red", "fontcolor=red"]
-        elif s.reached_goal:
-            attrs += ['style="rounded,filled"', "fillcolor=palegreen"]
-        if k == m.initial:
-            attrs += ["peripheries=2", "penwidth=2"]
-        if k in m.labels["plan"]:
-            attrs.append("penwidth=2")
-        lines.append(f"  {k} [{', '.join(dict.fromkeys(attrs))}];")
+        attrs = _dot_state(m, k, s) if isinstance(s, State) else _dot_node(m, k, s)
+        lines.append(f"  {k} [{', '.join(attrs)}];")
+    lines += _dot_edges(m)
+    lines.append("}")
+    with _open(dest) as fh:
+        fh.write("\n".join(lines) + "\n")
+
+
+def _dot_node(m: ExportModel, k: int, s: Any) -> list[str]:
+    """The DOT attributes of a state that is not a map's (the supervisor's machine)."""
+    attrs = [f"label={_dot_quote(str(getattr(s, 'name', k)))}"]
+    if k in m.labels.get("motors", ()):
+        attrs += ['style="rounded,filled"', 'fillcolor="#c6e5c6"']
+    if k in m.labels.get("terminal", ()):
+        attrs.append("peripheries=2")
+    if k in m.labels.get("after_fault", ()):
+        attrs.append("color=red")
+    return attrs
+
+
+def _dot_state(m: ExportModel, k: int, s: State) -> list[str]:
+    """The DOT attributes of a map's state: its label, outcome colours, q0 and the plan."""
+    outcome = "collision" if s.interrupted else "goal" if s.reached_goal else "ok"
+    attrs = [f"label={_dot_quote(f'q{s.ident} {s.task.value}' + chr(10) + f'{outcome}  φ={s.cost:.3f}')}"]
+    if s.interrupted:
+        attrs += ["shape=octagon", "color=red", "fontcolor=red"]
+    elif s.reached_goal:
+        attrs += ['style="rounded,filled"', "fillcolor=palegreen"]
+    if k == m.initial:
+        attrs += ["peripheries=2", "penwidth=2"]
+    if k in m.labels["plan"]:
+        attrs.append("penwidth=2")
+    return list(dict.fromkeys(attrs))
+
+
+def _dot_edges(m: ExportModel) -> list[str]:
+    """One DOT edge per branch: plan steps bold, added self-loops dashed grey."""
+    lines = []
     for k, row in enumerate(m.choices):
         for ch in row:
             for j, p in ch.branches:
@@ -406,9 +418,7 @@ def write_dot(source: CognitiveMap | ExportModel, dest: Dest, kind: ModelKind = 
                 on_plan = ch.guarded and k in m.labels["plan"] and j in m.labels["plan"]
                 style = ", style=bold, penwidth=3" if on_plan else ""
                 lines.append(f"  {k} -> {j} [label={_dot_quote(label)}{style}];")
-    lines.append("}")
-    with _open(dest) as fh:
-        fh.write("\n".join(lines) + "\n")
+    return lines
 
 
 def render_svg(

@@ -34,6 +34,8 @@ from fractions import Fraction
 from collections.abc import Mapping
 from typing import Any, Literal
 
+import networkx as nx
+
 from clomp.formal.lts import CognitiveMap, MapError
 from clomp.formal.model import State, TaskKind
 from clomp.formal.supervisory import Guard, Plan
@@ -96,13 +98,6 @@ class ExportModel:
         """Number of (choice, target) entries: the map's transitions plus the self-loops."""
         return sum(len(ch.branches) for cs in self.choices for ch in cs)
 
-    def index_of(self, ident: int) -> int:
-        """The index of the state q_ident."""
-        for k, s in enumerate(self.states):
-            if s.ident == ident:
-                return k
-        raise ExportError(f"q{ident} is not a state of the exported model")
-
     def state_labels(self, index: int) -> list[str]:
         """The labels of the state at ``index``, sorted."""
         return sorted(name for name, members in self.labels.items() if index in members)
@@ -127,7 +122,7 @@ def export_model(cmap: CognitiveMap, kind: ModelKind = "mdp", plan: Plan | None 
     if cmap.initial_id is None or cmap.initial_id not in cmap:
         raise ExportError("cannot export a map without an initial state")
     rho = map_plan(cmap) if plan is None else plan
-    psi = Guard(cmap, rho)
+    psi = Guard(cmap, rho).table()
     groups = _groups(cmap)
     q0 = cmap.initial_id
     if kind == "mdp":
@@ -136,18 +131,13 @@ def export_model(cmap: CognitiveMap, kind: ModelKind = "mdp", plan: Plan | None 
     else:
         enabled = {}
         for s, by_label in groups.items():
-            on = {lab: ts for lab, ts in by_label.items() if any(psi(t) for t in ts)}
+            on = {lab: ts for lab, ts in by_label.items() if any(psi[t] for t in ts)}
             if len(on) > 1:
                 raise ExportError(f"Ψ enables {len(on)} tasks in q{s}: the supervised system is not a DTMC")
             enabled[s] = on
-        seen, stack = {q0}, [q0]
-        while stack:
-            for ts in enabled[stack.pop()].values():
-                for t in ts:
-                    if t.target not in seen:
-                        seen.add(t.target)
-                        stack.append(t.target)
-        idents = sorted(seen)
+        tasks = {s: {lab.value for lab in on} for s, on in enabled.items()}  # the edge keys Ψ enables
+        supervised = nx.subgraph_view(cmap.to_networkx(), filter_edge=lambda u, v, k: k in tasks[u])
+        idents = sorted(nx.descendants(supervised, q0) | {q0})
     index = {ident: k for k, ident in enumerate(idents)}
     choices: list[tuple[Choice, ...]] = []
     loops: list[int] = []
@@ -167,7 +157,7 @@ def export_model(cmap: CognitiveMap, kind: ModelKind = "mdp", plan: Plan | None 
                     tuple((index[t.target], t.probability) for t in ts),
                     float(sum(t.probability * Fraction(cmap[t.target].distance) for t in ts)),
                     float(sum(t.probability * Fraction(cmap[t.target].duration) for t in ts)),
-                    any(psi(t) for t in ts),
+                    any(psi[t] for t in ts),
                 )
             )
         if not row:

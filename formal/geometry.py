@@ -7,9 +7,15 @@ the source for it).
 
 - :func:`wrap_angle` — an angle in (-pi, pi].
 - :func:`compose` / :func:`relative` — a pose from a robot's frame into the world's and back;
-  :func:`points_from_frame` / :func:`points_to_frame` — the same for arrays of points.
+  :func:`points_from_frame` / :func:`points_to_frame` — the same for arrays of points;
+  :func:`points_from_frames` — each point from a frame of its own (arrays of frames).
+- :func:`polar_to_xy` — range and bearing readings (a LiDAR's) as x, y points.
 - :func:`arc_step` / :func:`drive` — the exact motion of a unicycle at constant linear speed
-  ``v`` and turn rate ``w`` over ``dt`` (a circular arc, a straight line when ``w`` = 0).
+  ``v`` and turn rate ``w`` over ``dt`` (a circular arc, a straight line when ``w`` = 0);
+  :func:`arc_offsets` — the same arc from the origin, at an array of times.
+- :func:`midpoint_step` — the second-order (midpoint) approximation of one step: the
+  heading halfway through it; what the estimator's Kalman filter propagates (its
+  Jacobians are this step's), which moves by a distance and a turn, not by (v, w).
 
 >>> from clomp.formal.model import Pose
 >>> p = compose(Pose(1.0, 0.0, math.pi / 2), Pose(2.0, 0.0))
@@ -29,12 +35,16 @@ import numpy as np
 from clomp.formal.model import Pose
 
 __all__ = [
+    "arc_offsets",
     "arc_step",
     "compose",
     "dead_reckon",
     "drive",
+    "midpoint_step",
     "points_from_frame",
+    "points_from_frames",
     "points_to_frame",
+    "polar_to_xy",
     "relative",
     "wheel_twist",
     "wrap_angle",
@@ -105,6 +115,20 @@ def points_from_frame(points: np.ndarray, frame: FrameLike) -> np.ndarray:
     return out
 
 
+def points_from_frames(points: np.ndarray, x: np.ndarray, y: np.ndarray, theta: np.ndarray) -> np.ndarray:
+    """N×2 ``points``, point i given in the frame of a robot at (``x[i]``, ``y[i]``, ``theta[i]``)
+    → the frame those frames are given in: :func:`points_from_frame` with one frame per point
+    (a revolution taken while the robot moved, each point from where it was taken).
+
+    >>> pts = np.array([[1.0, 0.0], [1.0, 0.0]])
+    >>> points_from_frames(pts, np.array([0.0, 2.0]), np.zeros(2), np.array([0.0, math.pi / 2])).round(9).tolist()
+    [[1.0, 0.0], [2.0, 1.0]]
+    """
+    c, s = np.cos(theta), np.sin(theta)
+    out: np.ndarray = np.stack((x + c * points[:, 0] - s * points[:, 1], y + s * points[:, 0] + c * points[:, 1]), axis=1)
+    return out
+
+
 def points_to_frame(points: np.ndarray, frame: FrameLike) -> np.ndarray:
     """N×2 ``points`` → the frame of a robot at ``frame`` (inverse of :func:`points_from_frame`).
 
@@ -115,6 +139,20 @@ def points_to_frame(points: np.ndarray, frame: FrameLike) -> np.ndarray:
     c, s = math.cos(th), math.sin(th)
     rel = np.asarray(points, dtype=float) - np.array([x, y])
     out: np.ndarray = np.stack((rel[:, 0] * c + rel[:, 1] * s, -rel[:, 0] * s + rel[:, 1] * c), axis=1)
+    return out
+
+
+def polar_to_xy(ranges: np.ndarray, angles: np.ndarray) -> np.ndarray:
+    """Readings at ``ranges`` (m) and bearings ``angles`` (rad, counter-clockwise from x)
+    → points ``(r cos a, r sin a)``, stacked on a last axis of 2 (N×2 for N readings).
+
+    The one polar conversion: the scenarios' and simulators' ray casts, recorded bags and
+    the fused revolutions all call it (numpy arithmetic in the inputs' own dtype).
+
+    >>> polar_to_xy(np.array([1.0, 2.0]), np.array([0.0, math.pi / 2])).round(9).tolist()
+    [[1.0, 0.0], [0.0, 2.0]]
+    """
+    out: np.ndarray = np.stack((ranges * np.cos(angles), ranges * np.sin(angles)), axis=-1)
     return out
 
 
@@ -143,6 +181,43 @@ def arc_step(x: float, y: float, th: float, v: float, w: float, dt: float) -> tu
     th2 = th + w * dt
     r = v / w
     return x + r * (math.sin(th2) - math.sin(th)), y - r * (math.cos(th2) - math.cos(th)), th2
+
+
+def arc_offsets(v: float, w: float, dt: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Where a unicycle that starts at the origin heading along x is after each of the times
+    ``dt`` (an array, s; negative: before) at linear speed ``v`` and turn rate ``w``: the exact
+    arc of :func:`arc_step`, vectorised over the times. Returns the arrays (x, y, heading).
+
+    A turn rate under 1e-9 rad/s is taken as a straight line (the arc's radius ``v / w``
+    would carry no digits of the offset sideways).
+
+    >>> x, y, th = arc_offsets(math.pi / 2, math.pi / 2, np.array([1.0, -1.0]))  # r = 1
+    >>> x.round(9).tolist(), y.round(9).tolist(), th.round(9).tolist()
+    ([1.0, -1.0], [1.0, 1.0], [1.570796327, -1.570796327])
+    >>> [a.tolist() for a in arc_offsets(0.1, 0.0, np.array([-1.0]))]
+    [[-0.1], [0.0], [-0.0]]
+    """
+    th = w * dt
+    if abs(w) < 1e-9:
+        return v * dt, np.zeros_like(dt), th
+    r = v / w
+    return r * np.sin(th), r * (1 - np.cos(th)), th
+
+
+def midpoint_step(x: float, y: float, th: float, distance: float, turned: float) -> tuple[float, float, float]:
+    """The pose (``x``, ``y``, ``th``) after moving ``distance`` (m) while its heading turns by
+    ``turned`` (rad), by the midpoint rule: straight along the heading halfway through the
+    turn. A second-order step (short of the exact arc's :func:`arc_step` by about
+    ``distance * turned**2 / 24``); the estimator's Kalman filter propagates by it because
+    its Jacobians are simple and its distance and turn come from separate sensors (wheels
+    and gyro) with calibrations of their own. The heading is returned wrapped.
+
+    >>> x, y, th = midpoint_step(0.0, 0.0, 0.0, 0.1, 0.2)
+    >>> round(x, 6), round(y, 6), round(th, 9)
+    (0.0995, 0.009983, 0.2)
+    """
+    thm = th + turned / 2
+    return x + distance * math.cos(thm), y + distance * math.sin(thm), wrap_angle(th + turned)
 
 
 def drive(pose: Pose, v: float, w: float, dt: float) -> Pose:

@@ -34,7 +34,7 @@ from fractions import Fraction
 
 from clomp.formal.lts import CognitiveMap, MapError, Transition
 from clomp.formal.model import TaskKind
-from clomp.formal.supervisory import Plan, extract_plan, guard
+from clomp.formal.supervisory import Guard, Plan, extract_plan
 
 __all__ = [
     "Invariant",
@@ -110,7 +110,7 @@ def check_map(
     """Every violated invariant of ``cmap``, in invariant order; [] when the map is good.
 
     ``plan`` defaults to :func:`map_plan`; ``psi`` (a table Transition → {0, 1}) defaults
-    to :func:`~clomp.formal.supervisory.guard` of that plan. Passing the ``psi`` a planner
+    to the table of that plan's :class:`~clomp.formal.supervisory.Guard`. Passing the ``psi`` a planner
     produced checks that table instead of one computed here.
 
     >>> from clomp.formal.model import Disturbance, Pose, State, TaskKind
@@ -183,7 +183,7 @@ def _guard(cmap: CognitiveMap, plan: Plan | None, psi: Mapping[Transition, int] 
     if missing:
         states = tuple(sorted({i for st in missing for i in st}))
         return [Violation(Invariant.GUARD, states, f"plan step(s) {missing} are not transitions of the map")]
-    table = dict(guard(cmap, rho) if psi is None else psi)
+    table = dict(Guard(cmap, rho).table() if psi is None else psi)
     domain = set(cmap.transitions())
     if set(table) != domain:
         extra = sorted({t.source for t in set(table) ^ domain})

@@ -5,6 +5,10 @@ labelled with the task kind of their target (the task the Configurator starts wh
 takes the transition). The map holds the goal D_G it was built for and exactly one
 initial state q0. Iteration is always in a stable order (states by ident, transitions
 by (source, target, label)), so that the same map renders to the same bytes.
+
+Graph questions (what is reachable, from where a set of states can be reached, a
+shortest path) are answered by networkx on the map's one graph view,
+:meth:`CognitiveMap.to_networkx`, which the map builds once and keeps until it changes.
 """
 
 from __future__ import annotations
@@ -17,6 +21,7 @@ from dataclasses import dataclass, fields
 from fractions import Fraction
 from typing import IO, Any
 
+import networkx as nx
 import numpy as np
 
 from clomp.formal.model import Disturbance, State, TaskKind
@@ -136,7 +141,7 @@ class CognitiveMap:
         self._initial: int | None = initial
         self._states: dict[int, State] = {}
         self._out: dict[int, dict[tuple[int, TaskKind], Transition]] = {}
-        self._in: dict[int, dict[tuple[int, TaskKind], Transition]] = {}
+        self._graph: Any = None  # the networkx view, built on demand, dropped on every change
         self.metadata: dict[str, Any] = {}
         """What the builder records beside the map (JSON-ready values, or numpy arrays,
         which :meth:`to_dict` writes as nested lists)."""
@@ -148,7 +153,7 @@ class CognitiveMap:
             raise MapError(f"duplicate state ident {state.ident}")
         self._states[state.ident] = state
         self._out.setdefault(state.ident, {})
-        self._in.setdefault(state.ident, {})
+        self._graph = None
         if self._initial is None:
             self._initial = state.ident
         return state
@@ -158,6 +163,7 @@ class CognitiveMap:
         if state.ident not in self._states:
             raise MapError(f"no state q{state.ident}")
         self._states[state.ident] = state
+        self._graph = None
 
     def add_transition(
         self,
@@ -179,7 +185,7 @@ class CognitiveMap:
         p = _ONE if probability == 1 and type(probability) in (int, Fraction) else Fraction(probability)
         t = _transition(source, target, kind, p)
         self._out[source][(target, t.label)] = t
-        self._in[target][(source, t.label)] = t
+        self._graph = None
         return t
 
     def set_initial(self, ident: int) -> None:
@@ -187,6 +193,7 @@ class CognitiveMap:
         if ident not in self._states:
             raise MapError(f"no state q{ident}")
         self._initial = ident
+        self._graph = None
 
     # -- queries --------------------------------------------------------------------
     @property
@@ -235,17 +242,9 @@ class CognitiveMap:
         """Transitions leaving q_ident, sorted."""
         return sorted(self._out[self[ident].ident].values())
 
-    def in_transitions(self, ident: int) -> list[Transition]:
-        """Transitions entering q_ident, sorted."""
-        return sorted(self._in[self[ident].ident].values())
-
     def successors(self, ident: int) -> list[State]:
         """States reachable from q_ident in one transition, by ident, without repeats."""
         return [self._states[i] for i in sorted({t.target for t in self._out[self[ident].ident].values()})]
-
-    def predecessors(self, ident: int) -> list[State]:
-        """States with a transition into q_ident, by ident, without repeats."""
-        return [self._states[i] for i in sorted({t.source for t in self._in[self[ident].ident].values()})]
 
     def has_transition(self, source: int, target: int) -> bool:
         """True when some transition q_source ↪ q_target exists."""
@@ -260,74 +259,79 @@ class CognitiveMap:
     def reachable(self, source: int | None = None) -> set[int]:
         """Idents reachable from ``source`` (default q0), itself included."""
         start = self.initial.ident if source is None else self[source].ident
-        seen = {start}
-        stack = [start]
-        out = self._out
-        while stack:
-            for target, _ in out[stack.pop()]:  # the keys (target, label)
-                if target not in seen:
-                    seen.add(target)
-                    stack.append(target)
-        return seen
+        out: set[int] = nx.descendants(self.to_networkx(), start)
+        out.add(start)
+        return out
+
+    def coreachable(self, targets: Iterable[int]) -> set[int]:
+        """Idents from which some state of ``targets`` is reachable, ``targets`` included
+        (the states that are not blocking with respect to ``targets``).
+
+        >>> from clomp.formal.model import Pose
+        >>> m = CognitiveMap()
+        >>> for i in range(4):
+        ...     _ = m.add_state(State(i, TaskKind.STRAIGHT, None, None, Pose(0, 0), Pose(i, 0)))
+        >>> _ = m.add_transition(0, 1); _ = m.add_transition(1, 2); _ = m.add_transition(0, 3)
+        >>> sorted(m.coreachable([2]))
+        [0, 1, 2]
+        """
+        ends = sorted({self[i].ident for i in targets})
+        if not ends:
+            return set()
+        back = self.to_networkx().reverse(copy=False)
+        return {i for layer in nx.bfs_layers(back, ends) for i in layer}
 
     def path(self, target: int, source: int | None = None) -> list[int]:
         """A shortest path (fewest transitions) of idents from ``source`` (q0) to ``target``.
 
-        Ties are broken towards lower idents, so the path is deterministic. Raises
+        Ties are broken towards lower idents (a breadth-first search that visits each
+        state's successors in ascending order), so the path is deterministic. Raises
         :class:`MapError` when ``target`` is not reachable.
         """
         start = self.initial.ident if source is None else self[source].ident
         self[target]
-        parent: dict[int, int | None] = {start: None}
-        frontier = [start]
-        out_of = self._out
-        while frontier and target not in parent:
-            nxt: list[int] = []
-            for u in frontier:
-                keys = out_of[u]
-                if not keys:
-                    continue
-                # the keys (target, label) sorted: targets in ascending order, a target
-                # named twice (two labels) met again at once and skipped as already seen
-                for v, _ in sorted(keys):
-                    if v not in parent:
-                        parent[v] = u
-                        nxt.append(v)
-            frontier = nxt
-        if target not in parent:
-            raise MapError(f"q{target} is not reachable from q{start}")
+        parent: dict[int, int] = {}
+        if target != start:
+            for u, v in nx.bfs_edges(self.to_networkx(), start, sort_neighbors=sorted):
+                parent[v] = u
+                if v == target:
+                    break
+            else:
+                raise MapError(f"q{target} is not reachable from q{start}")
         out = [target]
-        while parent[out[-1]] is not None:
-            out.append(parent[out[-1]])  # type: ignore[arg-type]
+        while out[-1] != start:
+            out.append(parent[out[-1]])
         return out[::-1]
-
-    def paths(self, source: int | None = None) -> Iterator[list[int]]:
-        """Every simple path from ``source`` (q0) to a state with no successor, in a stable order."""
-        start = self.initial.ident if source is None else self[source].ident
-
-        def walk(path: list[int]) -> Iterator[list[int]]:
-            succ = [s.ident for s in self.successors(path[-1]) if s.ident not in path]
-            if not succ:
-                yield list(path)
-            for s in succ:
-                path.append(s)
-                yield from walk(path)
-                path.pop()
-
-        yield from walk([start])
 
     # -- conversions ---------------------------------------------------------------
     def to_networkx(self) -> Any:
-        """A :class:`networkx.MultiDiGraph`: nodes are idents with ``state`` attributes,
-        edges carry ``label`` (task name) and ``probability``."""
-        import networkx as nx
+        """The map's one graph view: a frozen :class:`networkx.MultiDiGraph` whose nodes
+        are the idents (attributes ``state``, ``task``, ``interrupted``, ``cost``), added by
+        ident, and whose edges are the transitions, added in the map's stable order (key
+        and ``label``: the task name; ``probability``). Built once and kept until the map
+        changes; frozen because it is shared (``networkx.MultiDiGraph(view)`` makes a
+        copy to change).
 
-        g = nx.MultiDiGraph(initial=self._initial, goal=None if self.goal is None else (self.goal.x, self.goal.y))
+        >>> from clomp.formal.model import Pose
+        >>> m = CognitiveMap()
+        >>> for i in range(2):
+        ...     _ = m.add_state(State(i, TaskKind.STRAIGHT, None, None, Pose(0, 0), Pose(i, 0)))
+        >>> _ = m.add_transition(0, 1)
+        >>> g = m.to_networkx()
+        >>> list(g.edges(keys=True)), g is m.to_networkx()
+        ([(0, 1, 'STRAIGHT')], True)
+        """
+        goal = None if self.goal is None else (self.goal.x, self.goal.y)
+        g = self._graph
+        if g is not None and g.graph["goal"] == goal:
+            return g
+        g = nx.MultiDiGraph(initial=self._initial, goal=goal)
         for s in self.states():
             g.add_node(s.ident, state=s, task=s.task.value, interrupted=s.interrupted, cost=s.cost)
         for t in self.transitions():
             g.add_edge(t.source, t.target, key=t.label.value, label=t.label.value, probability=t.probability)
-        return g
+        self._graph = nx.freeze(g)
+        return self._graph
 
     def to_dict(self) -> dict[str, Any]:
         """The lossless JSON form."""
@@ -391,6 +395,10 @@ class CognitiveMap:
         except json.JSONDecodeError as exc:
             raise MapError(f"not valid JSON: {exc}") from None
         return cls.from_dict(data)
+
+    def __getstate__(self) -> dict[str, Any]:
+        # copies and pickles leave the graph view behind: it is rebuilt on demand
+        return {**self.__dict__, "_graph": None}
 
     # a map is mutable (states and transitions are added to it), so it is not hashable:
     # equal maps must hash alike, and a map's contents may change while it is in a set

@@ -48,6 +48,8 @@ from collections.abc import Mapping
 from dataclasses import replace
 from fractions import Fraction
 
+import networkx as nx
+
 from clomp.formal.export_model import STAY, Choice, ExportError, ExportModel
 
 __all__ = ["RETRY", "STOP_LABEL", "STOPS_KEY", "retry_model", "map_stops"]
@@ -95,28 +97,17 @@ def retry_model(m: ExportModel, stops: Mapping[int, int], retries: int = 1) -> E
     if retries == 0 or not back:
         return replace(m, labels={**m.labels, STOP_LABEL: frozenset(back)})
     span = max(s.ident for s in m.states) + 1
-    n = m.n_states
-    # product states (index in m, layer): layer 0 first, in m's order, then reachable copies
-    order: list[tuple[int, int]] = [(k, 0) for k in range(n)]
+    # product states (index in m, layer): layer 0 first, in m's order, then the copies
+    # reachable from it, breadth-first (the product's root leads to layer 0, in order)
+    order: list[tuple[int, int]] = [key for _, key in nx.bfs_edges(_product(m, back, retries), _ROOT)]
     where = {key: i for i, key in enumerate(order)}
-
-    def at(k: int, r: int) -> int:
-        key = (k, r)
-        if key not in where:
-            where[key] = len(order)
-            order.append(key)
-        return where[key]
-
     choices: list[tuple[Choice, ...]] = []
-    i = 0
-    while i < len(order):
-        k, r = order[i]
+    for k, r in order:
         if k in back and r < retries:
-            row: tuple[Choice, ...] = (Choice(RETRY, ((at(back[k], r + 1), Fraction(1)),), 0.0, 0.0, True),)
+            row: tuple[Choice, ...] = (Choice(RETRY, ((where[(back[k], r + 1)], Fraction(1)),), 0.0, 0.0, True),)
         else:
-            row = tuple(replace(ch, branches=tuple((at(j, r), p) for j, p in ch.branches)) for ch in m.choices[k])
+            row = tuple(replace(ch, branches=tuple((where[(j, r)], p) for j, p in ch.branches)) for ch in m.choices[k])
         choices.append(row)
-        i += 1
     states = tuple(m.states[k] if r == 0 else replace(m.states[k], ident=m.states[k].ident + r * span) for k, r in order)
     labels: dict[str, frozenset[int]] = {}
     for name, members in m.labels.items():
@@ -129,3 +120,23 @@ def retry_model(m: ExportModel, stops: Mapping[int, int], retries: int = 1) -> E
     labels[STOP_LABEL] = frozenset(p for p, (k, _) in enumerate(order) if k in back)
     loops = tuple(p for p, row in enumerate(choices) if len(row) == 1 and row[0].action == STAY)
     return replace(m, states=states, choices=tuple(choices), labels=labels, self_loops=loops)
+
+
+_ROOT = (-1, -1)
+
+
+def _product(m: ExportModel, back: Mapping[int, int], retries: int) -> nx.DiGraph:
+    """The graph of ``m`` × {0 … retries}: node (index in m, retries used); a stop with
+    retries left goes to its re-entry state one layer up, every other state keeps its
+    choices' branches in its layer (added in choice and branch order). A root node
+    :data:`_ROOT` leads to every state of layer 0, in m's order."""
+    g = nx.DiGraph()
+    g.add_edges_from((_ROOT, (k, 0)) for k in range(m.n_states))
+    for r in range(retries + 1):
+        for k in range(m.n_states):
+            g.add_node((k, r))
+            if k in back and r < retries:
+                g.add_edge((k, r), (back[k], r + 1))
+            else:
+                g.add_edges_from(((k, r), (j, r)) for ch in m.choices[k] for j, _ in ch.branches)
+    return g

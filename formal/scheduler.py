@@ -32,13 +32,15 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
+import networkx as nx
+
 from clomp.formal.checking import require_stormpy
 from clomp.formal.export import ExportModel, ModelKind, export_model, write_drn
 from clomp.formal.invariants import map_plan
 from clomp.formal.lts import CognitiveMap, MapError
 from clomp.formal.model import TaskKind
 from clomp.formal.retry import STOPS_KEY, map_stops, retry_model
-from clomp.formal.supervisory import Plan
+from clomp.formal.supervisory import Guard, Plan
 
 __all__ = [
     "SAFE_GOAL",
@@ -272,18 +274,10 @@ def policy_states(cmap: CognitiveMap, scheduler: dict[int, TaskKind]) -> list[in
     [0, 1]
     """
     q0 = cmap.initial.ident
-    seen = {q0}
-    todo = [q0]
-    while todo:
-        q = todo.pop()
-        s = cmap[q]
-        if (q != q0 and s.reached_goal) or s.interrupted or q not in scheduler:
-            continue
-        for t in cmap.out_transitions(q):
-            if t.label is scheduler[q] and t.target not in seen:
-                seen.add(t.target)
-                todo.append(t.target)
-    return sorted(seen)
+    acts = {q: task.value for q, task in scheduler.items()
+            if q in cmap and not cmap[q].interrupted and (q == q0 or not cmap[q].reached_goal)}
+    followed = nx.subgraph_view(cmap.to_networkx(), filter_edge=lambda u, v, k: acts.get(u) == k)
+    return sorted(nx.descendants(followed, q0) | {q0})
 
 
 def attach_policy(cmap: CognitiveMap, scheduler: dict[int, TaskKind]) -> None:
@@ -343,9 +337,7 @@ def plan_probability(cmap: CognitiveMap, plan: Plan | None = None, target: Itera
     supervised system that follows ``plan`` (default: the map's own plan, the
     Configurator's best-first one); ``retries`` as in :func:`robust_plan`."""
     rho = map_plan(cmap) if plan is None else plan
-    for s, t in rho.steps():
-        if not cmap.has_transition(s, t):
-            raise MapError(f"plan step q{s} ↪ q{t} is not a transition of the map")
+    Guard(cmap, rho)  # Ψ of the plan: MapError when a step is not a transition of the map
     goal_set = None if target is None else frozenset(target)
     stormpy, m, model = _build(cmap, "dtmc", rho, target=goal_set, retries=retries)
     prop = stormpy.parse_properties(f"P=? [{_formula(goal_set)}]")[0]

@@ -6,17 +6,23 @@
   control pattern of Ramadge & Wonham: which events the supervisor enables).
 - R: ↪ → **D**, the reset: the disturbance injected as D_I of the target of a
   transition, D_G when the source was not interrupted; undefined otherwise.
+
+Each has one API, an object over a map: :class:`Guard` (Ψ of one plan; its table, the
+``psi`` a plan result carries, comes from :meth:`Guard.table`) and :class:`Reset` (R;
+:meth:`Reset.after` is its one definition, which the Configurator applies while it grows
+a map, before the target state exists).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from collections.abc import Mapping
+from dataclasses import dataclass, replace
 from typing import Any
 
 from clomp.formal.lts import CognitiveMap, MapError, Transition
-from clomp.formal.model import Disturbance, State, TaskKind
+from clomp.formal.model import Disturbance, State
 
-__all__ = ["Plan", "ResetUndefined", "Guard", "Reset", "guard", "reset", "reset_from", "plan_end", "extract_plan", "plan_tasks"]
+__all__ = ["Plan", "ResetUndefined", "Guard", "Reset", "plan_end", "extract_plan"]
 
 
 class ResetUndefined(MapError):
@@ -66,78 +72,21 @@ class Plan:
         return {"states": list(self.states)}
 
 
-def reset_from(source: State, goal: Disturbance | None) -> Disturbance:
-    """R applied to the task that follows ``source``: the D_I to inject, D_G = ``goal``.
-
-    The one definition of R; :func:`reset`, :meth:`Reset.inject` and the Configurator
-    (while it grows a map, before the target state exists) all call it. Raises
-    :class:`ResetUndefined` when ``source`` was interrupted (D_N ≠ ∅) and
-    :class:`MapError` when there is no goal.
-
-    >>> from clomp.formal.model import Pose, TaskKind
-    >>> g = Disturbance.goal(1.0, 0.0)
-    >>> reset_from(State(0, TaskKind.STRAIGHT, g, None, Pose(0, 0), Pose(0, 0)), g) == g
-    True
-    >>> hit = State(1, TaskKind.STRAIGHT, g, Disturbance.goal(0.5, 0.0), Pose(0, 0), Pose(0.4, 0))
-    >>> reset_from(hit, g)
-    Traceback (most recent call last):
-    ...
-    clomp.formal.supervisory.ResetUndefined: R(q1, ·) is undefined: q1 was interrupted (D_N ≠ ∅)
-    """
-    if source.interrupted:
-        raise ResetUndefined(f"R(q{source.ident}, ·) is undefined: q{source.ident} was interrupted (D_N ≠ ∅)")
-    if goal is None:
-        raise MapError("the map has no goal D_G")
-    return goal
-
-
-def reset(cmap: CognitiveMap, source: int, target: int) -> Disturbance:
-    """R(q_source, q_target): the disturbance D'_I injected into the target's task.
-
-    Defined only on transitions of the map leaving an uninterrupted state, where it is
-    the map's goal D_G. Raises :class:`ResetUndefined` when the source was interrupted
-    and :class:`MapError` when there is no such transition or the map has no goal.
-
-    >>> from clomp.formal.model import Pose
-    >>> g = Disturbance.goal(1.0, 0.0)
-    >>> m = CognitiveMap(goal=g)
-    >>> _ = m.add_state(State(0, TaskKind.STRAIGHT, g, None, Pose(0, 0), Pose(0, 0)))
-    >>> _ = m.add_state(State(1, TaskKind.LEFT, g, None, Pose(0, 0), Pose(0, 0, 1.57)))
-    >>> _ = m.add_transition(0, 1, TaskKind.LEFT)
-    >>> reset(m, 0, 1) == g
-    True
-    """
-    if not cmap.has_transition(source, target):
-        raise MapError(f"no transition q{source} ↪ q{target}")
-    return reset_from(cmap[source], cmap.goal)
-
-
-def guard(cmap: CognitiveMap, plan: Plan) -> dict[Transition, int]:
-    """Ψ: every transition of the map mapped to 1 if it is a step of ``plan``, else 0.
-
-    >>> from clomp.formal.model import Disturbance, Pose
-    >>> g = Disturbance.goal(1.0, 0.0)
-    >>> m = CognitiveMap(goal=g)
-    >>> for i in range(3):
-    ...     _ = m.add_state(State(i, TaskKind.STRAIGHT, g, None, Pose(0, 0), Pose(0.1 * i, 0)))
-    >>> _ = m.add_transition(0, 1); _ = m.add_transition(0, 2)
-    >>> sorted((t.target, v) for t, v in guard(m, Plan((0, 2))).items())
-    [(1, 0), (2, 1)]
-    """
-    steps = set(plan.steps())
-    for s, t in steps:
-        if not cmap.has_transition(s, t):
-            raise MapError(f"plan step q{s} ↪ q{t} is not a transition of the map")
-    return {t: int((t.source, t.target) in steps) for t in cmap.transitions()}
-
-
 def plan_end(cmap: CognitiveMap) -> State:
     """argmin φ over the states a plan may end in (not interrupted); ties → lowest ident.
 
     Only states reachable from q0 count. When every reachable state but q0 is
     interrupted, the plan ends at q0 (the empty plan).
 
-    >>> from clomp.formal.model import Disturbance, Pose
+    The tie rule: of states of equal φ the first created (the lowest ident, the first
+    explored) ends the plan. So no plan ends on a turn that changes nothing: a final
+    LEFT or RIGHT turns in place, its end is as far from the goal as its parent's and,
+    uninterrupted, its φ equals the parent's; the parent, created before it, wins the
+    tie and the useless turn is dropped. (Sending ties to the highest ident instead
+    appends such a turn to the plans of the ``blocked`` and ``cul-de-sac`` scenarios;
+    ``tests/planner/test_plan_end.py`` holds the rule.)
+
+    >>> from clomp.formal.model import Disturbance, Pose, TaskKind
     >>> g = Disturbance.goal(1.0, 0.0)
     >>> m = CognitiveMap(goal=g)
     >>> for i, cost in enumerate((0.9, 0.4, 0.2)):
@@ -157,7 +106,7 @@ def plan_end(cmap: CognitiveMap) -> State:
 def extract_plan(cmap: CognitiveMap) -> Plan:
     """ρ: the shortest path from q0 to :func:`plan_end` through uninterrupted states.
 
-    >>> from clomp.formal.model import Disturbance, Pose
+    >>> from clomp.formal.model import Disturbance, Pose, TaskKind
     >>> g = Disturbance.goal(1.0, 0.0)
     >>> m = CognitiveMap(goal=g)
     >>> for i, cost in enumerate((0.9, 0.4, 0.2)):
@@ -168,11 +117,6 @@ def extract_plan(cmap: CognitiveMap) -> Plan:
     """
     end = plan_end(cmap)
     return Plan(tuple(cmap.path(end.ident)))
-
-
-def plan_tasks(cmap: CognitiveMap, plan: Plan) -> list[TaskKind]:
-    """The task kinds the plan starts, in order."""
-    return [cmap[i].task for i in plan.states[1:]]
 
 
 class Guard:
@@ -189,11 +133,13 @@ class Guard:
     ...      State(1, TaskKind.STRAIGHT, g, None, Pose(0, 0), Pose(1, 0), cost=0.0),
     ...      State(2, TaskKind.LEFT, g, None, Pose(0, 0), Pose(0, 0, 1.57), cost=0.5)],
     ...     [(0, 1), (0, 2)], goal=g)
-    >>> psi = Guard.for_map(m)
+    >>> psi = Guard(m, extract_plan(m))
     >>> [psi(t) for t in psi.domain]
     [1, 0]
     >>> [t.target for t in psi.enabled(0)]
     [1]
+    >>> sorted((t.target, v) for t, v in psi.table().items())
+    [(1, 1), (2, 0)]
     """
 
     codomain: frozenset[int] = frozenset({0, 1})
@@ -205,11 +151,6 @@ class Guard:
         for s, t in plan.steps():
             if not cmap.has_transition(s, t):
                 raise MapError(f"plan step q{s} ↪ q{t} is not a transition of the map")
-
-    @classmethod
-    def for_map(cls, cmap: CognitiveMap) -> "Guard":
-        """Ψ for the plan :func:`extract_plan` takes from ``cmap``."""
-        return cls(cmap, extract_plan(cmap))
 
     @property
     def domain(self) -> list[Transition]:
@@ -236,9 +177,34 @@ class Guard:
         """The transitions out of q_ident that Ψ enables (at most one for a plan)."""
         return [t for t in self.cmap.out_transitions(ident) if (t.source, t.target) in self._steps]
 
-    def as_dict(self) -> dict[Transition, int]:
-        """Ψ as a table, the same as :func:`guard`."""
-        return {t: int((t.source, t.target) in self._steps) for t in self.domain}
+    def table(self, like: Mapping[Transition, int] | None = None) -> dict[Transition, int]:
+        """Ψ as a table: every transition of the map (in the map's order) → 0 or 1.
+
+        ``like``: a table of the same map (e.g. the guard of another plan on it) whose
+        keys are reused, in its order, with only the plan's steps set to 1: the keys'
+        hashes are not computed again. A ``like`` that does not cover the map is ignored.
+
+        >>> from clomp.formal.model import Pose, TaskKind
+        >>> g = Disturbance.goal(1.0, 0.0)
+        >>> m = CognitiveMap(goal=g)
+        >>> for i in range(3):
+        ...     _ = m.add_state(State(i, TaskKind.STRAIGHT, g, None, Pose(0, 0), Pose(0.1 * i, 0)))
+        >>> _ = m.add_transition(0, 1); _ = m.add_transition(0, 2)
+        >>> psi = Guard(m, Plan((0, 2))).table()
+        >>> sorted((t.target, v) for t, v in psi.items())
+        [(1, 0), (2, 1)]
+        >>> Guard(m, Plan((0, 1))).table(like=psi) == Guard(m, Plan((0, 1))).table()
+        True
+        """
+        steps = self._steps
+        if like is None or len(like) != self.cmap.n_transitions:
+            return {t: int((t.source, t.target) in steps) for t in self.cmap.transitions()}
+        out = dict.fromkeys(like, 0)
+        for s, target in steps:
+            for t in self.cmap.out_transitions(s):
+                if t.target == target:
+                    out[t] = 1
+        return out
 
     def __repr__(self) -> str:
         return f"Guard(plan={list(self.plan.states)}, |↪|={self.cmap.n_transitions})"
@@ -249,8 +215,10 @@ class Reset:
 
     R(q1, q2) = D_G when q1 was not interrupted (D_N = ∅); R is undefined on transitions
     leaving an interrupted state, because the Configurator never continues after a
-    collision. The codomain is {D_G}. :meth:`inject` applies R to a pair of states that
-    are not (yet) in a map, which is how a map is grown by hand:
+    collision. The codomain is {D_G}. :meth:`after` is the one definition (R of
+    whatever task follows a state, which need not be in the map yet); :meth:`inject`
+    applies it to a pair of states that are not (yet) in a map, which is how a map is
+    grown by hand:
 
     >>> from clomp.formal.model import Disturbance, Pose, State, TaskKind
     >>> g = Disturbance.goal(1.0, 0.0)
@@ -282,18 +250,53 @@ class Reset:
         """The transitions R is undefined on (none in a well-formed map, by invariant 2)."""
         return [t for t in self.cmap.transitions() if not self.is_defined(t)]
 
+    def after(self, source: State) -> Disturbance:
+        """R applied to the task that follows ``source``: the D_I to inject, the map's D_G.
+
+        Raises :class:`ResetUndefined` when ``source`` was interrupted (D_N ≠ ∅) and
+        :class:`MapError` when the map has no goal.
+
+        >>> from clomp.formal.model import Pose, TaskKind
+        >>> g = Disturbance.goal(1.0, 0.0)
+        >>> R = Reset(CognitiveMap(goal=g))
+        >>> R.after(State(0, TaskKind.STRAIGHT, g, None, Pose(0, 0), Pose(0, 0))) == g
+        True
+        >>> R.after(State(1, TaskKind.STRAIGHT, g, Disturbance.goal(0.5, 0.0), Pose(0, 0), Pose(0.4, 0)))
+        Traceback (most recent call last):
+        ...
+        clomp.formal.supervisory.ResetUndefined: R(q1, ·) is undefined: q1 was interrupted (D_N ≠ ∅)
+        """
+        if source.interrupted:
+            raise ResetUndefined(f"R(q{source.ident}, ·) is undefined: q{source.ident} was interrupted (D_N ≠ ∅)")
+        goal = self.cmap.goal
+        if goal is None:
+            raise MapError("the map has no goal D_G")
+        return goal
+
     def __call__(self, transition: Transition | tuple[int, int]) -> Disturbance:
-        """R(t); raises :class:`ResetUndefined` where R is undefined."""
-        if isinstance(transition, Transition):
-            return reset(self.cmap, transition.source, transition.target)
-        return reset(self.cmap, *transition)
+        """R(t) on a transition of the map: D'_I injected into the target's task.
+
+        Raises :class:`ResetUndefined` where R is undefined (the source was interrupted)
+        and :class:`MapError` when there is no such transition or the map has no goal.
+
+        >>> from clomp.formal.model import Pose, TaskKind
+        >>> g = Disturbance.goal(1.0, 0.0)
+        >>> m = CognitiveMap(goal=g)
+        >>> _ = m.add_state(State(0, TaskKind.STRAIGHT, g, None, Pose(0, 0), Pose(0, 0)))
+        >>> _ = m.add_state(State(1, TaskKind.LEFT, g, None, Pose(0, 0), Pose(0, 0, 1.57)))
+        >>> _ = m.add_transition(0, 1, TaskKind.LEFT)
+        >>> Reset(m)((0, 1)) == g
+        True
+        """
+        s, t = (transition.source, transition.target) if isinstance(transition, Transition) else transition
+        if not self.cmap.has_transition(s, t):
+            raise MapError(f"no transition q{s} ↪ q{t}")
+        return self.after(self.cmap[s])
 
     def inject(self, source: State, target: State) -> State:
         """``target`` with D_I set to R(source, target) = D_G; raises :class:`ResetUndefined`
         when ``source`` was interrupted and :class:`MapError` when the map has no goal."""
-        fields = {f: getattr(target, f) for f in State.__dataclass_fields__}
-        fields["d_i"] = reset_from(source, self.cmap.goal)
-        return State(**fields)
+        return replace(target, d_i=self.after(source))
 
     def __repr__(self) -> str:
         return f"Reset(D_G={self.cmap.goal!r})"

@@ -1,5 +1,8 @@
 """clomp.planner — core knowledge (a pymunk world) and the Configurator.
 
+The map's vocabulary (Pose, State, TaskKind, Disturbance) is :mod:`clomp.formal`'s, exported
+there only.
+
 >>> import numpy as np
 >>> from clomp.planner import plan
 >>> result = plan(np.zeros((0, 2)), goal=(1.0, 0.0))
@@ -10,7 +13,6 @@
 if __name__ != "clomp.planner":  # the repository keeps planner/ at the top; it is installed only as clomp.planner
     raise ImportError(f"{__name__} is part of clomp: import clomp.planner, not {__name__}")
 
-from clomp.formal.model import Disturbance, DisturbanceKind, Pose, State, TaskKind
 from clomp.planner.configurator import (
     GOAL_LIMIT_M,
     Configurator,
@@ -18,6 +20,7 @@ from clomp.planner.configurator import (
     CostFunction,
     PlanningError,
     PlanResult,
+    Rollout,
     chi,
     default_cost,
     gamma,
@@ -34,20 +37,16 @@ __all__ = [
     "Configurator",
     "CostContext",
     "CostFunction",
-    "Disturbance",
-    "DisturbanceKind",
     "Obstacles",
     "PlanResult",
     "PlanningError",
-    "Pose",
     "RobotModel",
+    "Rollout",
     "ScanError",
     "ScanWarning",
     "Scene",
     "ScenarioError",
-    "State",
     "Task",
-    "TaskKind",
     "builtin_scenarios",
     "chi",
     "default_cost",

@@ -24,6 +24,10 @@ search that never queued hits (the same on the 7 scenarios and 20 recorded scans
 (``cost=chi``) changes 24 of those 27 maps: a hit near the goal becomes the least-φ
 state and ends the search, and none of the 20 recorded scans reaches the goal.
 
+The plan ends at argmin φ over the uninterrupted states (:func:`clomp.formal.supervisory.plan_end`);
+of states of equal φ the first created wins, so a plan never ends on a turn in place
+that leaves its end as far from the goal as the state before it.
+
 A state is determined by its task and its start pose (rollouts are deterministic), so a
 task reached twice from the same pose is one state with two incoming transitions: the
 map is a graph, and expansion never repeats a simulation.
@@ -31,18 +35,20 @@ map is a graph, and expansion never repeats a simulation.
 
 from __future__ import annotations
 
+import functools
 import heapq
 import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Protocol
 
 import numpy as np
 
 from clomp.formal.lts import CognitiveMap
 from clomp.formal.model import Disturbance, Pose, State, TaskKind, new_state
-from clomp.formal.supervisory import Plan, extract_plan, guard, reset_from
+from clomp.formal.supervisory import Guard, Plan, Reset, extract_plan
+from clomp.planner import footprint
 from clomp.planner.perception import Obstacles, load_scan, perceive
 from clomp.planner.rollout import Outcome, simulate
 from clomp.planner.robot_model import RobotModel
@@ -50,6 +56,7 @@ from clomp.planner.robot_model import RobotModel
 __all__ = [
     "CostContext",
     "CostFunction",
+    "Rollout",
     "default_cost",
     "gamma",
     "chi",
@@ -89,16 +96,39 @@ class CostContext:
     origin: Pose
     robot: RobotModel
 
-    @property
+    @functools.cached_property
     def start_distance(self) -> float:
-        """d0 = ‖D_G − start‖, the normaliser of χ."""
+        """d0 = ‖D_G − start‖, the normaliser of χ (computed once per context)."""
         return self.origin.distance_to(self.goal.x, self.goal.y)
 
 
 CostFunction = Callable[[State, CostContext], float]
 
 
-def gamma(state: State, ctx: CostContext) -> float:
+class Rollout(Protocol):
+    """What γ and χ read of a state: where its task started and ended, and what
+    interrupted it. A :class:`State` is one; so is the rollout a state is about to be
+    built from (:class:`clomp.planner.engine.Outcome`), which lets the Configurator price
+    a rollout with the very functions below before it builds the state.
+
+    >>> from clomp.planner.engine import Outcome
+    >>> ctx = CostContext(Disturbance.goal(1.0, 0.0), Pose(0.0, 0.0), RobotModel())
+    >>> out = Outcome(TaskKind.STRAIGHT, Pose(0.0, 0.0), Pose(0.5, 0.0), 0.5, 2.5, 25, None, False)
+    >>> default_cost(out, ctx) == default_cost(State(1, TaskKind.STRAIGHT, ctx.goal, None, out.start, out.end), ctx)
+    True
+    """
+
+    @property
+    def start(self) -> Pose: ...
+
+    @property
+    def end(self) -> Pose: ...
+
+    @property
+    def d_n(self) -> Disturbance | None: ...
+
+
+def gamma(state: Rollout, ctx: CostContext) -> float:
     """γ(q), the past cost: 0 when the task was not interrupted; otherwise
     ``2 − min(d_N, r)/r`` ∈ [1, 2], with d_N the distance from the start of the task to
     the point where D_N interrupted it and r the sensor range (the paper's "normalised
@@ -119,7 +149,7 @@ def gamma(state: State, ctx: CostContext) -> float:
     return 2.0 - min(d, r) / r
 
 
-def chi(state: State, ctx: CostContext) -> float:
+def chi(state: Rollout, ctx: CostContext) -> float:
     """χ(q), the heuristic future cost: ``d / (d + d0)`` ∈ [0, 1), with d the distance
     from the end of the task to D_G and d0 that from the start of planning: 0 at the
     goal, 1/2 where planning began, approaching 1 far away (normalised so that any
@@ -136,7 +166,7 @@ def chi(state: State, ctx: CostContext) -> float:
     return d / (d + d0) if d + d0 > 0 else 0.0
 
 
-def default_cost(state: State, ctx: CostContext) -> float:
+def default_cost(state: Rollout, ctx: CostContext) -> float:
     """φ(q) = γ(q) + χ(q) (Hart, Nilsson & Raphael 1968, in the paper's §2.2).
 
     >>> ctx = CostContext(Disturbance.goal(1.0, 0.0), Pose(0.0, 0.0), RobotModel())
@@ -184,7 +214,7 @@ class PlanResult:
         return self.plan.tasks(self.map)
 
     @property
-    def states(self) -> int:
+    def n_states(self) -> int:
         """|Q|."""
         return len(self.map)
 
@@ -207,7 +237,7 @@ class PlanResult:
             ],
             "reached_goal": self.reached_goal,
             "collision_free": self.collision_free,
-            "states": self.states,
+            "states": self.n_states,
             "transitions": self.transitions,
             "planning_time_s": self.planning_time_s,
             "goal": [self.goal.x, self.goal.y],
@@ -286,129 +316,17 @@ class Configurator:
         """
         t0 = time.perf_counter()
         g, blocked = self._goal(goal, obstacles)
-        robot = self.robot
-        origin = Pose(0.0, 0.0, 0.0)
-        ctx = CostContext(g, origin, robot)
-        cost = self.cost
-        fast_cost = cost is default_cost
-        gx, gy = g.x, g.y
-        d0 = math.hypot(gx, gy)
-        r_range = robot.sensor_range
-        goal_seen = d0 <= r_range  # inside the sensed disc: a way to it may lie inside too
-        horizon = max(self.horizon, abs(gx) + robot.length, abs(gy) + robot.length)
-        cmap = CognitiveMap(goal=g)
-        q0 = State(0, TaskKind.STRAIGHT, g, None, origin, origin)
-        q0 = State(0, TaskKind.STRAIGHT, g, None, origin, origin, cost=cost(q0, ctx))
-        cmap.add_state(q0)
-        index: dict[tuple[TaskKind, int, int, int], int] = {}
-        frontier_ids: set[int] = set()
-        worlds: dict[Any, Any] = {}
-        pq: list[tuple[float, int]] = [(q0.cost, 0)]
-        reached: int | None = None
-        stop = "exhausted"
-        max_states = self.max_states
-
-        def child(parent: State, kind: TaskKind) -> tuple[State | None, bool]:
-            """The state of ``kind`` started where ``parent`` ended (simulated once);
-            None when the task is not available (a turn that would leave the sensed disc)."""
-            p = parent.end
-            k = (kind, round(p.x * 1e6), round(p.y * 1e6), round(p.theta * 1e6))
-            known = index.get(k)
-            if known is not None:
-                if known < 0:
-                    return None, False
-                cmap.add_transition(parent.ident, known, kind)
-                return cmap[known], False
-            d_i = reset_from(parent, g)  # R(q1, q2) = D_G, undefined (raises) when q1 was interrupted
-            out = simulate(kind, p, d_i, obstacles, robot, worlds)
-            if out.frontier and kind is not _STRAIGHT:
-                index[k] = -1
-                return None, False
-            ident = len(cmap)
-            if fast_cost:
-                e = out.end
-                d = math.hypot(gx - e.x, gy - e.y)
-                phi = d / (d + d0) if d + d0 > 0 else 0.0
-                if out.d_n is not None:
-                    hit = math.hypot(out.d_n.x - out.start.x, out.d_n.y - out.start.y)
-                    phi += 2.0 - min(hit, r_range) / r_range
-                s = _state(ident, out, d_i, phi)
-            else:
-                s = _state(ident, out, d_i, 0.0)
-                s = _state(ident, out, d_i, cost(s, ctx))
-            cmap.add_state(s)
-            cmap.add_transition(parent.ident, ident, kind)
-            index[k] = ident
-            if out.frontier:
-                frontier_ids.add(ident)
-            return s, True
-
-        ends = 0  # popped frontier states, and with goal_ids the routes found (``routes``)
-        goal_ids: set[int] = set()
-        while pq:
-            _, qe_id = heapq.heappop(pq)
-            if qe_id in frontier_ids:
-                # the state lies on the rim of what the scan saw: what is beyond is unknown,
-                # so it is not expanded. With one route and the goal inside the disc it stays
-                # a candidate end of the plan (argmin φ, where the closed loop drives and
-                # replans) while the search goes on for a way to the goal inside the disc;
-                # a goal beyond the disc has none, and the search ends here
-                ends += 1
-                if (self.routes == 1 and goal_seen) or ends + len(goal_ids) < self.routes:
-                    continue
-                stop = "frontier"
-                break
-            qe = cmap[qe_id]
-            if qe.interrupted:
-                # Algorithm 1's end: the least-φ state has no obstacle-free transition
-                # (R is undefined after a hit), so nothing cheaper is left to expand
-                cmap.metadata["stopped_at"] = qe_id
-                break
-            for kind in _KINDS:
-                turn = kind is not _STRAIGHT
-                if len(cmap) + (2 if turn else 1) > max_states:
-                    stop = "budget"
-                    break
-                first, new = child(qe, kind)
-                if first is None:
-                    continue
-                frontier, fresh = first, new
-                if turn and first.d_n is None:
-                    second, fresh = child(first, TaskKind.STRAIGHT)
-                    assert second is not None
-                    frontier = second
-                if frontier.reached_goal:
-                    goal_ids.add(frontier.ident)
-                    if ends + len(goal_ids) >= self.routes:
-                        reached = frontier.ident
-                        break
-                    continue
-                if fresh and frontier.interrupted:
-                    # every frontier state enters PQ with φ = γ + χ, interrupted ones too
-                    heapq.heappush(pq, (frontier.cost, frontier.ident))
-                elif fresh:
-                    e = frontier.end
-                    if abs(e.x) <= horizon and abs(e.y) <= horizon:
-                        heapq.heappush(pq, (frontier.cost, frontier.ident))
-            if stop == "budget":
-                break
-            if reached is not None:
-                stop = "goal"
-                break
-        else:
-            stop = "exhausted"
-        if goal_ids and reached is None:
-            stop = "goal"  # fewer routes than asked for, but a goal state among them
-
+        search = _Search(self, obstacles, g)
+        stop = search.run()
+        cmap = search.cmap
         p = extract_plan(cmap)
-        end = cmap[p.end]
-        if not end.reached_goal and p.end in frontier_ids:
+        if not cmap[p.end].reached_goal and p.end in search.frontier_ids:
             stop = "frontier"
-        psi = guard(cmap, p)
+        psi = Guard(cmap, p).table()
         cmap.metadata.update(
             {
-                "robot": robot.to_dict(),
-                "horizon": horizon,
+                "robot": self.robot.to_dict(),
+                "horizon": search.horizon,
                 "max_states": self.max_states,
                 "stop_reason": stop,
                 "goal_blocked": blocked,
@@ -420,7 +338,7 @@ class Configurator:
             }
         )
         elapsed = time.perf_counter() - t0
-        return PlanResult(cmap, p, g, obstacles, robot, elapsed, stop, psi, blocked)
+        return PlanResult(cmap, p, g, obstacles, self.robot, elapsed, stop, psi, blocked)
 
     def plan(
         self,
@@ -434,13 +352,15 @@ class Configurator:
         t0 = time.perf_counter()
         pts = load_scan(scan)
         r = self.robot
-        obstacles = perceive(pts, r.sensor_range, r.cluster_distance, body=(r.rear_offset, r.front_offset, r.width / 2))
+        obstacles = perceive(pts, r.sensor_range, r.cluster_distance, body=footprint.body_box(r))
         result = self.build(obstacles, goal)
         result.planning_time_s = time.perf_counter() - t0
         return result
 
 
 _FRONTIER = (("frontier", 1.0),)
+#: the cost functions that read only what a :class:`Rollout` has (priced before the state is built)
+_ROLLOUT_COSTS: tuple[Callable[[Rollout, CostContext], float], ...] = (default_cost, gamma, chi)
 _STRAIGHT = TaskKind.STRAIGHT
 _KINDS = (TaskKind.STRAIGHT, TaskKind.LEFT, TaskKind.RIGHT)
 
@@ -459,6 +379,122 @@ def _state(ident: int, out: Outcome, d_i: Disturbance, cost: float) -> State:
         out.reached_goal,
         _FRONTIER if out.frontier else (),
     )
+
+
+class _Search:
+    """One run of Algorithm 1 (:meth:`Configurator.build`): the map as it grows, the
+    states already simulated (by task and start pose), the priority queue on φ and the
+    ends found so far."""
+
+    def __init__(self, conf: Configurator, obstacles: Obstacles, g: Disturbance) -> None:
+        robot = conf.robot
+        origin = Pose(0.0, 0.0, 0.0)
+        self.ctx = ctx = CostContext(g, origin, robot)
+        self.cost = cost = conf.cost
+        # the cost as one that reads a Rollout: a rollout is priced before its state is built
+        self.priced = next((f for f in _ROLLOUT_COSTS if f is cost), None)
+        self.obstacles, self.robot, self.goal = obstacles, robot, g
+        self.routes, self.max_states = conf.routes, conf.max_states
+        self.goal_seen = ctx.start_distance <= robot.sensor_range  # inside the sensed disc: a way to it may lie inside too
+        self.horizon = max(conf.horizon, abs(g.x) + robot.length, abs(g.y) + robot.length)
+        self.cmap = CognitiveMap(goal=g)
+        self.reset = Reset(self.cmap)  # R, the one reset of formal
+        q0 = State(0, TaskKind.STRAIGHT, g, None, origin, origin)
+        q0 = State(0, TaskKind.STRAIGHT, g, None, origin, origin, cost=cost(q0, ctx))
+        self.cmap.add_state(q0)
+        self.index: dict[tuple[TaskKind, int, int, int], int] = {}
+        self.frontier_ids: set[int] = set()
+        self.worlds: dict[Any, Any] = {}
+        self.pq: list[tuple[float, int]] = [(q0.cost, 0)]
+        self.ends = 0  # popped frontier states, and with goal_ids the routes found (``routes``)
+        self.goal_ids: set[int] = set()
+
+    def run(self) -> str:
+        """Pop least-φ states and expand them until the search ends; the stop reason
+        (``goal`` whenever a goal state was found, even with fewer routes than asked for)."""
+        stop = self._loop()
+        return "goal" if self.goal_ids else stop
+
+    def _loop(self) -> str:
+        pq, cmap, frontier_ids = self.pq, self.cmap, self.frontier_ids
+        while pq:
+            _, qe_id = heapq.heappop(pq)
+            if qe_id in frontier_ids:
+                # the state lies on the rim of what the scan saw: what is beyond is unknown,
+                # so it is not expanded. With one route and the goal inside the disc it stays
+                # a candidate end of the plan (argmin φ, where the closed loop drives and
+                # replans) while the search goes on for a way to the goal inside the disc;
+                # a goal beyond the disc has none, and the search ends here
+                self.ends += 1
+                if (self.routes == 1 and self.goal_seen) or self.ends + len(self.goal_ids) < self.routes:
+                    continue
+                return "frontier"
+            qe = cmap[qe_id]
+            if qe.interrupted:
+                # Algorithm 1's end: the least-φ state has no obstacle-free transition
+                # (R is undefined after a hit), so nothing cheaper is left to expand
+                cmap.metadata["stopped_at"] = qe_id
+                return "exhausted"
+            stop = self._expand(qe)
+            if stop is not None:
+                return stop
+        return "exhausted"
+
+    def _expand(self, qe: State) -> str | None:
+        """Simulate every option from ``qe`` (STRAIGHT; LEFT then STRAIGHT; RIGHT then
+        STRAIGHT) and queue the fresh frontier states; ``budget`` or ``goal`` when the
+        search ends here, else None."""
+        cmap = self.cmap
+        for kind in _KINDS:
+            turn = kind is not _STRAIGHT
+            if len(cmap) + (2 if turn else 1) > self.max_states:
+                return "budget"
+            first, fresh = self._child(qe, kind)
+            if first is None:
+                continue
+            end = first
+            if turn and first.d_n is None:
+                second, fresh = self._child(first, _STRAIGHT)
+                assert second is not None
+                end = second
+            if end.reached_goal:
+                self.goal_ids.add(end.ident)
+                if self.ends + len(self.goal_ids) >= self.routes:
+                    return "goal"
+                continue
+            # every frontier state enters PQ with φ = γ + χ, interrupted ones too; a free
+            # one beyond the planning horizon is kept but not queued
+            if fresh and (end.interrupted or (abs(end.end.x) <= self.horizon and abs(end.end.y) <= self.horizon)):
+                heapq.heappush(self.pq, (end.cost, end.ident))
+        return None
+
+    def _child(self, parent: State, kind: TaskKind) -> tuple[State | None, bool]:
+        """The state of ``kind`` started where ``parent`` ended (simulated once), and whether
+        it is new; None when the task is not available (a turn that would leave the sensed disc)."""
+        p = parent.end
+        k = (kind, round(p.x * 1e6), round(p.y * 1e6), round(p.theta * 1e6))
+        cmap = self.cmap
+        known = self.index.get(k)
+        if known is not None:
+            if known < 0:
+                return None, False
+            cmap.add_transition(parent.ident, known, kind)
+            return cmap[known], False
+        d_i = self.reset.after(parent)  # R(q1, q2) = D_G, undefined (raises) when q1 was interrupted
+        out = simulate(kind, p, d_i, self.obstacles, self.robot, self.worlds)
+        if out.frontier and kind is not _STRAIGHT:
+            self.index[k] = -1
+            return None, False
+        ident = len(cmap)
+        priced = self.priced
+        phi = priced(out, self.ctx) if priced is not None else self.cost(_state(ident, out, d_i, 0.0), self.ctx)
+        s = _state(ident, out, d_i, phi)
+        cmap.add_state(s)
+        cmap.add_transition(parent.ident, ident, kind)
+        self.index[k] = ident
+        if out.frontier:
+            self.frontier_ids.add(ident)
+        return s, True
 
 
 def plan(

@@ -20,6 +20,7 @@ import numpy as np
 from clomp.formal.geometry import wrap_angle
 from clomp.formal.model import Pose, TaskKind, new_pose
 from clomp.planner.engine import Outcome, _obstacle_disturbance
+from clomp.planner.footprint import body_box, inside
 from clomp.planner.perception import Obstacles
 from clomp.planner.robot_model import RobotModel
 from clomp.planner.tasks import Task
@@ -52,8 +53,8 @@ class Scene:
         self.y = self.z.imag
         self.owner = obstacles.owner
         c = robot.clearance
-        self.real = (robot.rear_offset, robot.front_offset, robot.width / 2)
-        self.infl = (robot.rear_offset + c, robot.front_offset + c, robot.width / 2 + c)
+        self.real = body_box(robot)
+        self.infl = body_box(robot, c)
         self.radius2 = robot.swept_radius ** 2
         rear, front, half = self.infl
         self.reach = (math.hypot(rear, half), front, half)
@@ -74,17 +75,6 @@ class Scene:
         self.turns: dict[tuple[Any, ...], float] = {}
         # per pose, kind and angle: the outcome of a turn answered with another one
         self.turned: dict[tuple[Any, ...], Outcome] = {}
-
-    def outcome(self, task: Task) -> Outcome:
-        """The outcome of ``task`` among the sensed points (closed form; see the module docstring)."""
-        if not len(self.x):
-            return unobstructed(task)
-        if task.kind is TaskKind.STRAIGHT:
-            d, k = self.straight_gap(task.start)
-            if k < 0:
-                return unobstructed(task)
-            return cut_straight(task, d, self.obstacles, int(self.owner[k]), float(self.x[k]), float(self.y[k]))
-        return self.turn(task)
 
     def near(self, x: float, y: float) -> tuple[np.ndarray, np.ndarray, bool]:
         """The points within reach of a step and its turns from (x, y): their indices
@@ -184,19 +174,16 @@ class Scene:
                 gap = np.where(met, u - rfront, gap)
         return gap, gap.argmin(axis=1)
 
-    def first_clear(self, s: Pose, headings: list[float], lengths: list[float], fallback: int = -1) -> int:
-        """The index of the first heading (each in (−π, π]) from which the body, turned in
-        place at ``s``, can drive ``lengths[i]`` without meeting a point; -1 when none can
-        (the turn then ends at heading ``fallback``). See :meth:`first_clear_each`."""
-        return self.first_clear_each(s, [(headings, lengths, fallback)])[0]
-
     def first_clear_each(
         self, s: Pose, groups: list[tuple[list[float], list[float], int]], straight: float | None = None
     ) -> list[int]:
-        """:meth:`first_clear` for several turns from ``s`` at once (a left and a right turn:
-        one array operation for both), and with ``straight`` (metres) the way ahead of ``s``
-        itself too (the straight from ``s``, asked just before its turns), remembered as
-        :meth:`straight_gap` would find it.
+        """Per turn from ``s`` (``groups``: its headings, each in (−π, π], the length of way
+        each needs clear, and a fallback heading index), the index of the first heading from
+        which the body, turned in place at ``s``, can drive its length without meeting a
+        point; -1 when none can (the turn then ends at its fallback). Several turns at once
+        (a left and a right turn: one array operation for both), and with ``straight``
+        (metres) the way ahead of ``s`` itself too (the straight from ``s``, asked just
+        before its turns), remembered as :meth:`straight_gap` would find it.
 
         Over the points within reach of the longest drive only (a nearer contact is among
         them; none nearer means clear). The reach is widened by what a step needs beyond
@@ -272,7 +259,6 @@ class Scene:
     def _waived_turn(self, dx: np.ndarray, dy: np.ndarray, theta: float, sign: float, per_tick: float, e0: float, ticks: int) -> int:
         """The first tick at or after which the real body meets one of these points
         (strictly outside it at the start), sampled at eight headings per tick."""
-        rrear, rfront, rhalf = self.real
         fine = np.minimum(np.arange(1, 8 * ticks + 1) * (per_tick / 8), e0)
         th = theta + sign * fine
         c, sn = np.cos(th)[:, None], np.sin(th)[:, None]
@@ -280,8 +266,8 @@ class Scene:
         v = np.abs(dy * c - dx * sn)
         u0 = dx * math.cos(theta) + dy * math.sin(theta)
         v0 = np.abs(dy * math.cos(theta) - dx * math.sin(theta))
-        live = ~((u0 > -rrear) & (u0 < rfront) & (v0 < rhalf))
-        hit = np.logical_or.reduce((u >= -rrear) & (u <= rfront) & (v <= rhalf) & live, axis=1).nonzero()[0]
+        live = ~inside(u0, v0, self.real, strict=True)
+        hit = np.logical_or.reduce(inside(u, v, self.real) & live, axis=1).nonzero()[0]
         return int(hit[0]) // 8 + 1 if len(hit) else ticks + 1
 
     def turn(self, task: Task) -> Outcome:
@@ -329,17 +315,14 @@ class Scene:
         c, sn = np.cos(th)[:, None], np.sin(th)[:, None]
         u = dx * c + dy * sn
         v = np.abs(dy * c - dx * sn)
-        rear, front, half = self.infl
-        inside = (u >= -rear) & (u <= front) & (v <= half)
-        waived = inside[0]  # every block's first row is the start heading
+        met = inside(u, v, self.infl)
+        waived = met[0]  # every block's first row is the start heading
         any_waived = bool(np.count_nonzero(waived))
         if any_waived:
-            rrear, rfront, rhalf = self.real
-            real = (u >= -rrear) & (u <= rfront) & (v <= rhalf)
-            inside = np.where(waived, real, inside)
+            met = np.where(waived, inside(u, v, self.real), met)
             # exempt: strictly inside the real body at the start (a point on its edge is not)
-            inside[:, (u[0] > -rrear) & (u[0] < rfront) & (v[0] < rhalf)] = False
-        hit_rows = np.logical_or.reduce(inside, axis=1)
+            met[:, inside(u[0], v[0], self.real, strict=True)] = False
+        hit_rows = np.logical_or.reduce(met, axis=1)
         outs = []
         for t, (sign, e0, ticks, first) in zip(tasks, blocks):
             if not ticks:
@@ -354,7 +337,7 @@ class Scene:
             if k > ticks:
                 outs.append(unobstructed(t))
                 continue
-            at = inside[first + k]
+            at = met[first + k]
             j = int(near[int(np.argmax(at))]) if np.count_nonzero(at) else int(near[np.flatnonzero(waived)[0]])
             done = k - 1
             end = new_pose(s.x, s.y, wrap_angle(float(th[first + done]))) if done else s

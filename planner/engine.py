@@ -2,8 +2,10 @@
 
 The planner's rollouts (:mod:`clomp.planner.rollout`) are closed forms over the sensed points;
 this module is the physics engine they are tested against, and a world a user can
-query: boxes as static polygons, the robot as a kinematic body driven each control tick
-by its wheel speeds. :meth:`World.sweep_hits` asks, by one shape query of a reusable
+query: boxes as static polygons, the robot as a kinematic body. A task is stepped tick by
+tick with the exact unicycle motion of its wheel speeds
+(:func:`clomp.formal.geometry.arc_step`, the one pose integration) and tested against the
+sensed points after each tick. :meth:`World.sweep_hits` asks, by one shape query of a reusable
 polygon (nothing allocated per query), which boxes a whole task could touch.
 """
 
@@ -17,8 +19,9 @@ from typing import Any
 import numpy as np
 import pymunk
 
-from clomp.formal.geometry import arc_step, wheel_twist, wrap_angle
+from clomp.formal.geometry import arc_step, points_to_frame, wheel_twist, wrap_angle
 from clomp.formal.model import Disturbance, DisturbanceKind, Pose, TaskKind
+from clomp.planner.footprint import body_box, inside, inside_at
 from clomp.planner.perception import Obstacles
 from clomp.planner.robot_model import RobotModel
 from clomp.planner.tasks import Task
@@ -58,14 +61,10 @@ class Outcome:
 
 
 _ROBOT_FILTER = pymunk.ShapeFilter(group=1)
-# pymunk routes attribute writes through a typing mixin's __setattr__; the rollout's hot
-# path calls the property setters directly (same effect, a third of the cost)
-_set_velocity = pymunk.Body.velocity.fset  # type: ignore[attr-defined]
-_set_angular_velocity = pymunk.Body.angular_velocity.fset  # type: ignore[attr-defined]
+# pymunk routes attribute writes through a typing mixin's __setattr__; placing the body
+# calls the property setters directly (same effect, a third of the cost)
 _set_position = pymunk.Body.position.fset  # type: ignore[attr-defined]
 _set_angle = pymunk.Body.angle.fset  # type: ignore[attr-defined]
-# how much deeper (m) the reference tick loop lets a task push into a box it touched at its start
-_DEEPER = 1e-4
 
 
 @functools.lru_cache(maxsize=64)
@@ -131,13 +130,11 @@ class World:
         # the sensed points of the world's boxes, which decide contact
         owner = obstacles.owner
         mask = slice(None) if indices is None else np.isin(owner, np.asarray(list(idx), dtype=np.intp))
-        self.px = np.ascontiguousarray(obstacles.points[mask, 0]) if len(obstacles.points) else np.zeros(0)
-        self.py = np.ascontiguousarray(obstacles.points[mask, 1]) if len(obstacles.points) else np.zeros(0)
+        self.points = np.ascontiguousarray(obstacles.points[mask]) if len(obstacles.points) else np.zeros((0, 2))
         self.owner = owner[mask] if len(owner) else np.zeros(0, dtype=np.intp)
         # the body in its own frame: real and inflated extents, swept radius
-        c = robot.clearance
-        self.real = (robot.rear_offset, robot.front_offset, robot.width / 2)
-        self.infl = (robot.rear_offset + c, robot.front_offset + c, robot.width / 2 + c)
+        self.real = body_box(robot)
+        self.infl = body_box(robot, robot.clearance)
         self._radius = robot.swept_radius
 
     def place(self, pose: Pose) -> None:
@@ -214,10 +211,12 @@ class World:
 
 
 def _rollout(task: Task, world: World | None) -> Outcome:
-    """The tick loop: the engine moves the body, and after every step the footprint is
-    tested against the sensed points (the rule of :mod:`clomp.planner.rollout`: the inflated
-    footprint; the real body for points already within the margin at the start; points
-    inside the real body at the start are exempt)."""
+    """The tick loop: each control tick moves the body by the exact unicycle step of its
+    wheel speeds (:func:`clomp.formal.geometry.arc_step`, the one pose integration), and in
+    a ``world`` the footprint is then tested against the sensed points (the rule of
+    :mod:`clomp.planner.rollout`: the inflated footprint; the real body for points already
+    within the margin at the start; points inside the real body at the start are exempt)
+    and the engine's body placed where the task stopped."""
     r = task.robot
     dt = r.tick
     b = r.wheel_base
@@ -226,36 +225,23 @@ def _rollout(task: Task, world: World | None) -> Outcome:
     ticks = 0
     distance = 0.0
     d_n: Disturbance | None = None
-    body = None
-    check: _PointCheck | None = None
-    if world is not None:
-        world.place(task.start)
-        body = world.body
-        check = world.point_check(task.start)
+    check = None if world is None else world.point_check(task.start)
     limit = task.max_ticks()
     while d_n is None and ticks < limit:
         e = task.error_at(x, y, th)
         if task.done(e):
             break
-        vl, vr = task.wheel_speeds(e)
-        v, w = wheel_twist(vl, vr, b)
-        vx, vy = v * math.cos(th), v * math.sin(th)
-        if world is not None and body is not None and check is not None:
-            _set_velocity(body, (vx, vy))
-            _set_angular_velocity(body, w)
-            world.space.step(dt)
-            pos = body.position
-            nx, ny, nth = pos.x, pos.y, body.angle
-            d_n = check.hit(nx, ny, nth)
-            if d_n is not None:
-                break
-        else:
-            nx, ny, nth = arc_step(x, y, th, v, w, dt)
+        v, w = wheel_twist(*task.wheel_speeds(e), b)
+        nx, ny, nth = arc_step(x, y, th, v, w, dt)
+        if check is not None and (d_n := check.hit(nx, ny, nth)) is not None:
+            break
         distance += abs(v) * dt
         x, y, th = nx, ny, nth
         ticks += 1
     if ticks:
         pose = Pose(x, y, wrap_angle(th))
+    if world is not None:
+        world.place(pose)
     return Outcome(task.kind, task.start, pose, distance, ticks * dt, ticks, d_n, False)
 
 
@@ -263,39 +249,28 @@ class _PointCheck:
     """The sensed points a task from one start pose can meet, with its start-touching sets."""
 
     def __init__(self, world: World, start: Pose, reach: float) -> None:
-        dx, dy = world.px - start.x, world.py - start.y
+        pts = world.points
+        dx, dy = pts[:, 0] - start.x, pts[:, 1] - start.y
         near = np.flatnonzero(dx * dx + dy * dy <= reach * reach)
         self.world = world
         self.idx = near
-        self.x, self.y = world.px[near], world.py[near]
-        rear, front, half = world.infl
-        rrear, rfront, rhalf = world.real
-        u, v = _body_frame(self.x, self.y, start.x, start.y, start.theta)
-        self.waived = (u >= -rear) & (u <= front) & (v <= half)
-        self.exempt = (u > -rrear) & (u < rfront) & (v < rhalf)
+        self.points = pts[near]
+        self.waived = inside_at(self.points, start, world.infl)
+        self.exempt = inside_at(self.points, start, world.real, strict=True)
 
     def hit(self, x: float, y: float, th: float) -> Disturbance | None:
         """D_N for the first point the footprint at (x, y, th) touches, or None."""
-        if not len(self.x):
+        if not len(self.points):
             return None
         w = self.world
-        rear, front, half = w.infl
-        rrear, rfront, rhalf = w.real
-        u, v = _body_frame(self.x, self.y, x, y, th)
-        inside = np.where(
-            self.waived, (u >= -rrear) & (u <= rfront) & (v <= rhalf), (u >= -rear) & (u <= front) & (v <= half)
-        ) & ~self.exempt
-        if not inside.any():
+        local = points_to_frame(self.points, (x, y, th))
+        u, v = local[:, 0], np.abs(local[:, 1])
+        met = np.where(self.waived, inside(u, v, w.real), inside(u, v, w.infl)) & ~self.exempt
+        if not met.any():
             return None
-        j = int(np.argmax(inside))
+        j = int(np.argmax(met))
         k = int(self.idx[j])
-        return _obstacle_disturbance(w.obstacles, (int(w.owner[k]), float(self.x[j]), float(self.y[j])))
-
-
-def _body_frame(px: np.ndarray, py: np.ndarray, x: float, y: float, th: float) -> tuple[np.ndarray, np.ndarray]:
-    c, s = math.cos(th), math.sin(th)
-    dx, dy = px - x, py - y
-    return dx * c + dy * s, np.abs(dy * c - dx * s)
+        return _obstacle_disturbance(w.obstacles, (int(w.owner[k]), float(self.points[j, 0]), float(self.points[j, 1])))
 
 
 def _obstacle_disturbance(obstacles: Obstacles, hit: tuple[int, float, float]) -> Disturbance:

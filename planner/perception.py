@@ -18,7 +18,7 @@ from typing import Any
 
 import numpy as np
 
-from clomp.formal.model import Disturbance, DisturbanceKind
+from clomp.planner.footprint import inside
 from clomp.planner.scanfile import MAX_SCAN_BYTES, MAX_SCAN_POINTS, SCAN_SUFFIXES, ScanError, load_scan, scan_files, validate_scan
 
 __all__ = [
@@ -104,8 +104,6 @@ class Obstacles:
     sensed points the boxes cover (N×2) and box ``i`` covers
     ``points[starts[i]:starts[i + 1]]``. ``exempt`` counts the returns perception
     dropped because they lay inside the robot's body at the planning origin.
-    ``disturbances[i]`` is the :class:`Disturbance` of box ``i`` (its ident is ``i``),
-    built on first use (a plan usually needs none of them).
 
     >>> obs = Obstacles.from_boxes([[(0.5, -0.1), (0.6, -0.1), (0.6, 0.1), (0.5, 0.1)]])
     >>> len(obs), obs.contains_point(0.55, 0.0), obs.contains_point(0.0, 0.0)
@@ -155,14 +153,6 @@ class Obstacles:
         if known is None:
             known = self._outlines[i] = tuple(map(tuple, self.boxes[i].tolist()))
         return known
-
-    @functools.cached_property
-    def disturbances(self) -> tuple[Disturbance, ...]:
-        """One obstacle :class:`Disturbance` per box (centre and outline)."""
-        return tuple(
-            Disturbance(DisturbanceKind.OBSTACLE, float(c[0]), float(c[1]), tuple((float(x), float(y)) for x, y in b), i)
-            for i, (b, c) in enumerate(zip(self.boxes.tolist(), self.centres.tolist()))
-        )
 
     def box_points(self, i: int) -> np.ndarray:
         """The sensed points box ``i`` covers (its outline sampled every 5 mm for a box not made from a scan)."""
@@ -250,6 +240,21 @@ def perceive(
     >>> round(float((obs.boxes[:, :, 0].max(axis=1) - obs.boxes[:, :, 0].min(axis=1)).max()), 3)  # 4 mm thin
     0.004
     """
+    kept = _kept(points, sensor_range, body)
+    if isinstance(kept, Obstacles):
+        return kept
+    pts, keep, exempt = kept
+    z, step = _along_surfaces(pts, keep)
+    z, cut = _cut(z, step, cluster_distance)
+    return _boxes(z, cut, pad, exempt)
+
+
+def _kept(
+    points: np.ndarray, sensor_range: float, body: tuple[float, float, float] | None
+) -> tuple[np.ndarray, np.ndarray, int] | Obstacles:
+    """The scan as a float array, which of its points perception keeps (within range, not
+    at the sensor, not the body's own) and how many the body exempted; when none is
+    kept, the (empty) obstacles instead. Warns (:class:`ScanWarning`) of points beyond range."""
     if type(points) is np.ndarray and points.ndim == 2 and points.shape[1] == 2 and points.dtype == np.float64:
         # the common case: a float array (from a driver or a file). Its finiteness is
         # checked below only when some point is not kept (a NaN or inf never is)
@@ -266,11 +271,10 @@ def perceive(
     r2 = sq[:, 0] + sq[:, 1]
     keep = (r2 <= sensor_range * sensor_range) & (r2 > 1e-6)
     if body is not None:
-        rear, front, half = body
+        rear, _, half = body
         near = (keep & (r2 < rear * rear + half * half)).nonzero()[0]
         if len(near):
-            nx, ny = x[near], y[near]
-            own = near[(nx > -rear) & (nx < front) & (np.abs(ny) < half)]
+            own = near[inside(x[near], np.abs(y[near]), body, strict=True)]
             exempt = len(own)
             keep[own] = False
     kept = int(np.count_nonzero(keep))
@@ -280,11 +284,16 @@ def perceive(
         if (r2 > (sensor_range * (1 + _RANGE_SLACK)) ** 2).any():
             warning = range_warning(pts, sensor_range)
             if warning:
-                warnings.warn(ScanWarning(warning), stacklevel=2)
+                warnings.warn(ScanWarning(warning), stacklevel=3)  # at perceive's caller
         if not kept:
             return _NONE if not exempt else Obstacles(_NONE.boxes, _NONE.centres, _NONE.radii, exempt=exempt)
-    # the points as complex numbers x + iy from here on (a piece's frame is then one
-    # product per point)
+    return pts, keep, exempt
+
+
+def _along_surfaces(pts: np.ndarray, keep: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The kept points as complex numbers x + iy (a piece's frame is then one product per
+    point) in the order the sensor swept them (by bearing), repeats dropped; and each
+    one's step from the point before it (the first's from the last)."""
     zall = np.ascontiguousarray(pts).view(np.complex128).ravel()
     if len(pts) > _DEDUPE_FROM:
         # a recorded scan repeats most returns (3 of 4 on the shared scans): a point
@@ -313,7 +322,14 @@ def perceive(
                 uniq[0] = True
             sel = uniq.nonzero()[0]
             z, step = z.take(sel), step.take(sel)
-            n = len(z)
+    return z, step
+
+
+def _cut(z: np.ndarray, step: np.ndarray, cluster_distance: float) -> tuple[np.ndarray, np.ndarray]:
+    """The surfaces (a step longer than ``cluster_distance`` breaks one) cut every
+    ``_PIECE`` metres of path: the points, turned to start at a break, and where each
+    piece starts (n + 1 flags, the last one the end)."""
+    n = len(z)
     brk = step > cluster_distance
     first = int(brk.argmax())
     if brk[first]:
@@ -323,7 +339,6 @@ def perceive(
             z, brk, step = z.take(turn, mode="wrap"), brk.take(turn, mode="wrap"), step.take(turn, mode="wrap")
     else:
         brk[0] = True
-    # pieces: surfaces cut every _PIECE metres of path, then halved while thick
     step[brk] = 0.0  # a surface's path starts at its first point
     path = np.add.accumulate(step)
     path *= 1.0 / _PIECE
@@ -332,6 +347,13 @@ def perceive(
     cut[:n] = brk
     cut[1:n] |= cell[1:] != cell[:-1]
     cut[n] = True
+    return z, cut
+
+
+def _boxes(z: np.ndarray, cut: np.ndarray, pad: float, exempt: int) -> Obstacles:
+    """The pieces (starting where ``cut`` says) halved while thick, each covered by a box
+    along its chord standing ``pad`` off its outermost points."""
+    n = len(z)
     # each point's predecessor (zl[i + 1] = z[i]): a piece's last point is one take
     zl = np.empty(n + 1, dtype=np.complex128)
     zl[1:] = z

@@ -22,7 +22,7 @@ consecutive scans of a recorded run (or the scans of a run log) each give a map;
 are matched across scans by the tasks that lead to them from q0, and each observation
 of a (state, task) adds one count to the outcome group it falls into.
 
-Noise numbers come from ``specs/noise_presets.json`` (``clomp.specs.noise_presets()``), the
+Noise numbers come from ``specs/noise_presets.json`` (``clomp.planner.noise.noise_presets()``), the
 presets the execution world uses; a rollout uses the terms that concern one task
 (ranges, beam angles, dropout, wheel error, bias, drift, slip), not ``latency``.
 

@@ -1,22 +1,84 @@
-"""The robot model: dimensions, speeds and task parameters, defaults from the paper's robot."""
+"""The robot model: its body, speeds and task parameters, defaults from the paper's robot.
+
+:class:`Body` is the one body type: its dimensions are declared here only. The planner's
+:class:`RobotModel` is a body with speeds and task parameters; the execution world's
+``BodySpec`` (:mod:`clomp.runtime.backends.world`) is a body with its drive's physics, built
+from a model's body by default. A world body that differs from the planner's belief is
+another instance of the same type.
+"""
 
 from __future__ import annotations
 
 import functools
 import math
 from dataclasses import dataclass, fields, replace
-from typing import Any
+from typing import Any, ClassVar
 
-__all__ = ["RobotModel"]
+__all__ = ["Body", "RobotModel"]
+
+
+def _check_positive(owner: str, name: str, v: Any) -> None:
+    if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v <= 0:
+        raise ValueError(f"{owner}.{name} must be a positive finite number, got {v!r}")
 
 
 @dataclass(frozen=True)
-class RobotModel:
+class Body:
+    """A differential-drive robot's body (SI units; the paper's robot by default).
+
+    The body is a ``length`` × ``width`` rectangle; the wheel axle, the rotation centre and
+    the LiDAR (the robot frame's origin) sit ``front_offset`` behind the front edge; the
+    wheels are ``wheel_base`` apart. A subclass adds fields; every field must be a
+    positive finite number except those it names in ``_CHECKS_ITSELF``.
+
+    >>> Body().corners[1], round(Body(width=0.2).body_radius, 3)
+    ((0.09, -0.09), 0.206)
+    """
+
+    length: float = 0.27
+    width: float = 0.18
+    front_offset: float = 0.09
+    wheel_base: float = 0.15
+
+    _CHECKS_ITSELF: ClassVar[frozenset[str]] = frozenset()
+
+    def __post_init__(self) -> None:
+        owner = type(self).__name__
+        for f in fields(self):
+            if f.name not in self._CHECKS_ITSELF:
+                _check_positive(owner, f.name, getattr(self, f.name))
+        if self.front_offset >= self.length:
+            raise ValueError(f"{owner}.front_offset must be smaller than the body length")
+
+    @property
+    def body(self) -> "Body":
+        """The body alone (its dimensions, without what a subclass adds)."""
+        return Body(**{f.name: getattr(self, f.name) for f in fields(Body)})
+
+    @property
+    def rear_offset(self) -> float:
+        """Distance from the rotation centre to the rear edge."""
+        return self.length - self.front_offset
+
+    # derived once per body (the dataclass is frozen: a cached value never goes stale)
+    @functools.cached_property
+    def corners(self) -> tuple[tuple[float, float], ...]:
+        """The real body's outline in the robot frame (no clearance), counter-clockwise."""
+        h = self.width / 2
+        return ((-self.rear_offset, -h), (self.front_offset, -h), (self.front_offset, h), (-self.rear_offset, h))
+
+    @functools.cached_property
+    def body_radius(self) -> float:
+        """The distance from the rotation centre to the real body's farthest corner."""
+        return max(math.hypot(a, b) for a, b in self.corners)
+
+
+@dataclass(frozen=True)
+class RobotModel(Body):
     """A differential-drive robot and the parameters of its tasks.
 
-    All units SI. The body is a ``length`` × ``width`` rectangle; the rotation centre
-    (where the LiDAR sits, the origin of the robot frame) is ``front_offset`` behind the
-    front edge. Defaults are the paper's robot (DESIGN.md). ``clearance`` is the margin
+    All units SI. It is a :class:`Body` (``length``, ``width``, ``front_offset``,
+    ``wheel_base``) with its speeds and tasks. Defaults are the paper's robot (DESIGN.md). ``clearance`` is the margin
     the planner keeps between the body and a sensed point. With ``free_turns`` a turn
     ends where its error is zero (facing the goal, or where the way ahead is clear, see
     :func:`clomp.planner.rollout.turn_angle`) and a step ends early where the body could no
@@ -27,10 +89,6 @@ class RobotModel:
     0.0435
     """
 
-    length: float = 0.27
-    width: float = 0.18
-    front_offset: float = 0.09
-    wheel_base: float = 0.15
     max_speed: float = 0.2
     straight_speed: float = 0.1
     turn_rate: float = 0.58
@@ -43,21 +101,16 @@ class RobotModel:
     clearance: float = 0.01
     free_turns: bool = True
 
+    _CHECKS_ITSELF: ClassVar[frozenset[str]] = frozenset({"step_length", "clearance", "free_turns"})
+
     def __post_init__(self) -> None:
-        for f in fields(self):
-            v = getattr(self, f.name)
-            if v is None and f.name == "step_length":
-                continue
-            if f.name == "free_turns":
-                if not isinstance(v, bool):
-                    raise ValueError(f"RobotModel.free_turns must be True or False, got {v!r}")
-                continue
-            if not isinstance(v, (int, float)) or not math.isfinite(v) or v <= 0:
-                if f.name == "clearance" and isinstance(v, (int, float)) and v == 0:
-                    continue
-                raise ValueError(f"RobotModel.{f.name} must be a positive finite number, got {v!r}")
-        if self.front_offset >= self.length:
-            raise ValueError("RobotModel.front_offset must be smaller than the body length")
+        super().__post_init__()
+        if self.step_length is not None:
+            _check_positive("RobotModel", "step_length", self.step_length)
+        if not (isinstance(self.clearance, (int, float)) and self.clearance == 0):
+            _check_positive("RobotModel", "clearance", self.clearance)
+        if not isinstance(self.free_turns, bool):
+            raise ValueError(f"RobotModel.free_turns must be True or False, got {self.free_turns!r}")
         if self.straight_speed > self.max_speed:
             raise ValueError("RobotModel.straight_speed exceeds max_speed")
         if self.turn_wheel_speed > self.max_speed:
@@ -66,16 +119,10 @@ class RobotModel:
             raise ValueError("RobotModel.turn_angle must be at most pi")
 
     @property
-    def rear_offset(self) -> float:
-        """Distance from the rotation centre to the rear edge."""
-        return self.length - self.front_offset
-
-    @property
     def turn_wheel_speed(self) -> float:
         """Wheel speed (m/s) that spins the robot in place at ``turn_rate``."""
         return round(self.turn_rate * self.wheel_base / 2, 12)
 
-    # derived once per model (the dataclass is frozen: a cached value never goes stale)
     @functools.cached_property
     def footprint(self) -> tuple[tuple[float, float], ...]:
         """The body outline in the robot frame, inflated by ``clearance``, counter-clockwise."""
@@ -88,17 +135,6 @@ class RobotModel:
     def swept_radius(self) -> float:
         """Radius of the disc the inflated body sweeps when it spins in place."""
         return max(math.hypot(x, y) for x, y in self.footprint)
-
-    @functools.cached_property
-    def corners(self) -> tuple[tuple[float, float], ...]:
-        """The real body's outline in the robot frame (no clearance), counter-clockwise."""
-        h = self.width / 2
-        return ((-self.rear_offset, -h), (self.front_offset, -h), (self.front_offset, h), (-self.rear_offset, h))
-
-    @functools.cached_property
-    def body_radius(self) -> float:
-        """The distance from the rotation centre to the real body's farthest corner."""
-        return max(math.hypot(a, b) for a, b in self.corners)
 
     def with_(self, **changes: Any) -> "RobotModel":
         """A copy with some parameters changed (validated)."""

@@ -313,7 +313,7 @@ class RobustConfigurator(Configurator):
     def plan(self, scan: Any, goal: Disturbance | tuple[float, float]) -> PlanResult:
         """The robust plan on the probabilistic map of ``scan`` (see the class docstring)."""
         from clomp.formal.scheduler import attach_policy
-        from clomp.formal.supervisory import guard
+        from clomp.formal.supervisory import Guard
 
         t0 = time.perf_counter()
         d = self.choose(scan, goal)
@@ -327,7 +327,7 @@ class RobustConfigurator(Configurator):
         attach_policy(cmap, c.robust.scheduler)  # a recall on this map follows the scheduler
         cmap.metadata["target"] = sorted(c.target)
         plan = c.robust.plan
-        return PlanResult(cmap, plan, g.goal, g.obstacles, g.robot, time.perf_counter() - t0, g.stop_reason, guard(cmap, plan),
+        return PlanResult(cmap, plan, g.goal, g.obstacles, g.robot, time.perf_counter() - t0, g.stop_reason, Guard(cmap, plan).table(),
                           g.goal_blocked)
 
 

@@ -314,7 +314,7 @@ def _turn_pair(
     sx, sy, th = start.x, start.y, start.theta
     # the rim is no nearer than this whatever the heading: most turns need no rim test
     sure = robot.sensor_range - math.hypot(sx, sy) - robot.body_radius
-    wrapped = None if goal is None else wrap_angle(math.atan2(goal.y - sy, goal.x - sx) - th)  # _goal_bearing
+    wrapped = None if goal is None else _goal_bearing(start, goal)
     # :func:`_inside_for` at this position: the centre's path within the rim less the body radius
     inner = robot.sensor_range - robot.body_radius
     q = sx * sx + sy * sy - inner * inner
@@ -340,10 +340,8 @@ def _turn_pair(
     return result[0]
 
 
-def _goal_bearing(start: Pose, goal: Disturbance | None) -> float | None:
-    """The goal's bearing from ``start``, relative to its heading, in (−π, π]; None without a goal."""
-    if goal is None:
-        return None
+def _goal_bearing(start: Pose, goal: Disturbance) -> float:
+    """The goal's bearing from ``start``, relative to its heading, in (−π, π]."""
     return wrap_angle(math.atan2(goal.y - start.y, goal.x - start.x) - start.theta)
 
 
@@ -358,7 +356,7 @@ def _turn_options(
     towards: float | None = None
     if goal is not None:
         if wrapped is None:
-            wrapped = wrap_angle(math.atan2(goal.y - start.y, goal.x - start.x) - start.theta)  # _goal_bearing
+            wrapped = _goal_bearing(start, goal)
         bearing = sign * wrapped
         if bearing < -math.pi + 1e-9:
             bearing += 2 * math.pi  # the goal straight behind: either turn faces it
@@ -435,76 +433,94 @@ def simulate(
     if type(scene) is not Scene or scene.obstacles is not obstacles or scene.robot is not robot:
         scene = _scene(obstacles, robot, worlds) if len(obstacles) else None  # the run's first rollout
     if kind is TaskKind.STRAIGHT:
-        step = robot.step_length if robot.step_length is not None else robot.sensor_range
-        along = _goal_dead_ahead(robot, start, goal)
-        # the rim is no nearer than ``sure`` whatever the heading: when the task cannot
-        # reach that far, the rim does not limit it (and the exact distance is not needed)
-        sure = robot.sensor_range - math.hypot(start.x, start.y) - robot.body_radius
-        far = max(step, along or 0.0)
-        # (nor when the body surely stays inside the disc on this heading: every use of
-        # ``room`` below compares it with at most ``far``, so inf gives the same answers)
-        room = (
-            frontier_distance(robot, start)
-            if far > sure - 1e-6 and not _inside_for(robot, start.x, start.y, start.theta, far + 1e-6)
-            else math.inf
-        )
-        if scene is not None:
-            # what the step's length depends on: a point within a step and room to spin,
-            # or within the run to a goal dead ahead
-            need = max(min(step, room) + scene.spin, min(along, room) if along is not None else 0.0) + 1e-6
-            if robot.free_turns and need <= scene.local_gap and not scene.knows(start, need):
-                # a straight not known from a turn's choice of angle starts where the
-                # search expands a state, and the turns from there are asked next: their
-                # choice of angle and this straight are one array operation
-                tkey = (start.x, start.y, start.theta, TaskKind.LEFT,
-                        None if goal is None else (goal.x, goal.y))
-                if tkey not in scene.turns:
-                    _turn_pair(TaskKind.LEFT, start, goal, robot, scene, tkey, need - scene.spin)
-            d, k = scene.straight_gap(start, need)
-        else:
-            d, k = math.inf, -1
-        if along is not None and d >= min(along, room):
-            limit = min(along, room)  # a clear run to the goal dead ahead: one task
-        else:
-            limit = _free_step(robot, start, goal, d, min(step, room), room)
-        task = Task.straight(robot, start, goal, limit)
-        if k >= 0 and scene is not None:
-            out = cut_straight(task, d, obstacles, int(scene.owner[k]), float(scene.x[k]), float(scene.y[k]))
-        else:
-            out = unobstructed(task)
-        if limit >= room - _EPS and not out.collided and out.distance >= room - 1e-6:
-            out = Outcome(out.task, out.start, out.end, out.distance, out.duration, out.ticks, None, False, True)
+        out = _straight(start, goal, obstacles, robot, scene)
     else:
-        sign = 1.0 if kind is TaskKind.LEFT else -1.0
-        if angle is None and robot.free_turns:
-            if scene is None:
-                angle = turn_angle(kind, start, goal, obstacles, robot, worlds)
-            else:
-                # turn_angle with the run's scene at hand
-                tkey = (start.x, start.y, start.theta, kind, None if goal is None else (goal.x, goal.y))
-                angle = scene.turns.get(tkey)
-                if angle is None:
-                    angle = _turn_pair(kind, start, goal, robot, scene, tkey)
-        task = Task.turn(robot, kind, start, goal, angle)
-        if _turn_leaves_disc(robot, start, sign * task.limit):
+        turned = _turn(kind, start, goal, obstacles, robot, worlds, scene, angle)
+        if turned is None:  # it would leave the sensed disc: not available
             return Outcome(kind, start, start, 0.0, 0.0, 0, None, False, True)
-        if scene is None:
-            out = unobstructed(task)
-        else:
-            key = (start.x, start.y, start.theta)
-            known = scene.turned.pop(key + (kind, task.limit), None)
-            if known is not None:
-                out = known
-            else:
-                # the other turn from this pose is asked next (its angle is known when
-                # turn_angle chose this one's): one array operation answers both
-                tasks = [task]
-                other_kind = TaskKind.RIGHT if kind is TaskKind.LEFT else TaskKind.LEFT
-                other = scene.turns.get(key + (other_kind, None if goal is None else (goal.x, goal.y)))
-                if other is not None and not _turn_leaves_disc(robot, start, -sign * other):
-                    tasks.append(Task.turn(robot, other_kind, start, goal, other))
-                out = scene.turn_each(tasks)[0]
+        out = turned
     if goal is not None and out.d_n is None and out.end.distance_to(goal.x, goal.y) <= robot.goal_tolerance:
         out = Outcome(out.task, out.start, out.end, out.distance, out.duration, out.ticks, None, True, out.frontier)
     return out
+
+
+def _straight(start: Pose, goal: Disturbance | None, obstacles: Obstacles, robot: RobotModel, scene: Scene | None) -> Outcome:
+    """:func:`simulate` for a STRAIGHT: a step (or the run to a goal dead ahead) cut where
+    the body meets a point, or ended at the rim of the sensed disc (``frontier``)."""
+    step = robot.step_length if robot.step_length is not None else robot.sensor_range
+    along = _goal_dead_ahead(robot, start, goal)
+    # the rim is no nearer than ``sure`` whatever the heading: when the task cannot
+    # reach that far, the rim does not limit it (and the exact distance is not needed)
+    sure = robot.sensor_range - math.hypot(start.x, start.y) - robot.body_radius
+    far = max(step, along or 0.0)
+    # (nor when the body surely stays inside the disc on this heading: every use of
+    # ``room`` below compares it with at most ``far``, so inf gives the same answers)
+    room = (
+        frontier_distance(robot, start)
+        if far > sure - 1e-6 and not _inside_for(robot, start.x, start.y, start.theta, far + 1e-6)
+        else math.inf
+    )
+    if scene is not None:
+        # what the step's length depends on: a point within a step and room to spin,
+        # or within the run to a goal dead ahead
+        need = max(min(step, room) + scene.spin, min(along, room) if along is not None else 0.0) + 1e-6
+        if robot.free_turns and need <= scene.local_gap and not scene.knows(start, need):
+            # a straight not known from a turn's choice of angle starts where the
+            # search expands a state, and the turns from there are asked next: their
+            # choice of angle and this straight are one array operation
+            tkey = (start.x, start.y, start.theta, TaskKind.LEFT,
+                    None if goal is None else (goal.x, goal.y))
+            if tkey not in scene.turns:
+                _turn_pair(TaskKind.LEFT, start, goal, robot, scene, tkey, need - scene.spin)
+        d, k = scene.straight_gap(start, need)
+    else:
+        d, k = math.inf, -1
+    if along is not None and d >= min(along, room):
+        limit = min(along, room)  # a clear run to the goal dead ahead: one task
+    else:
+        limit = _free_step(robot, start, goal, d, min(step, room), room)
+    task = Task.straight(robot, start, goal, limit)
+    if k >= 0 and scene is not None:
+        out = cut_straight(task, d, obstacles, int(scene.owner[k]), float(scene.x[k]), float(scene.y[k]))
+    else:
+        out = unobstructed(task)
+    if limit >= room - _EPS and not out.collided and out.distance >= room - 1e-6:
+        out = Outcome(out.task, out.start, out.end, out.distance, out.duration, out.ticks, None, False, True)
+    return out
+
+
+def _turn(
+    kind: TaskKind, start: Pose, goal: Disturbance | None, obstacles: Obstacles, robot: RobotModel,
+    worlds: dict[Any, Any] | None, scene: Scene | None, angle: float | None,
+) -> Outcome | None:
+    """:func:`simulate` for a turn (by ``angle``, else the angle :func:`turn_angle` chooses),
+    cut at the first tick heading where the body meets a point; None when the turn would
+    leave the sensed disc."""
+    sign = 1.0 if kind is TaskKind.LEFT else -1.0
+    if angle is None and robot.free_turns:
+        if scene is None:
+            angle = turn_angle(kind, start, goal, obstacles, robot, worlds)
+        else:
+            # turn_angle with the run's scene at hand
+            tkey = (start.x, start.y, start.theta, kind, None if goal is None else (goal.x, goal.y))
+            angle = scene.turns.get(tkey)
+            if angle is None:
+                angle = _turn_pair(kind, start, goal, robot, scene, tkey)
+    task = Task.turn(robot, kind, start, goal, angle)
+    if _turn_leaves_disc(robot, start, sign * task.limit):
+        return None
+    if scene is None:
+        return unobstructed(task)
+    key = (start.x, start.y, start.theta)
+    known = scene.turned.pop(key + (kind, task.limit), None)
+    if known is not None:
+        return known
+    # the other turn from this pose is asked next (its angle is known when turn_angle
+    # chose this one's): one array operation answers both
+    tasks = [task]
+    other_kind = TaskKind.RIGHT if kind is TaskKind.LEFT else TaskKind.LEFT
+    other = scene.turns.get(key + (other_kind, None if goal is None else (goal.x, goal.y)))
+    if other is not None and not _turn_leaves_disc(robot, start, -sign * other):
+        tasks.append(Task.turn(robot, other_kind, start, goal, other))
+    return scene.turn_each(tasks)[0]
 

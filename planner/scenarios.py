@@ -17,7 +17,7 @@ from typing import Any
 
 import numpy as np
 
-from clomp.formal.geometry import points_to_frame
+from clomp.formal.geometry import points_to_frame, polar_to_xy
 from clomp.formal.model import Pose
 
 __all__ = ["ScenarioError", "Shape", "Scene", "load_scenario", "builtin_scenarios", "scenario_path"]
@@ -91,7 +91,7 @@ class Scene:
         ranges = self.raycast(np.array([p.x, p.y]), angles, max_range)
         ok = np.isfinite(ranges)
         local = angles[ok] - p.theta
-        pts: np.ndarray = np.c_[ranges[ok] * np.cos(local), ranges[ok] * np.sin(local)]
+        pts = polar_to_xy(ranges[ok], local)
         return pts
 
     def raycast(self, origin: np.ndarray, angles: np.ndarray, max_range: float) -> np.ndarray:

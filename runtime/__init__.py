@@ -23,6 +23,7 @@ _LAZY = {
     "RobotFault": "clomp.runtime.interface",
     "ScanFrame": "clomp.runtime.devices.frame",
     "Supervisor": "clomp.runtime.supervision.supervisor",
+    "SupervisorConfig": "clomp.runtime.supervision.config",
     "SupervisorReport": "clomp.runtime.supervision.supervisor",
     "SupervisorState": "clomp.runtime.supervision.states",
     "Event": "clomp.runtime.supervision.states",

@@ -4,7 +4,10 @@ A :class:`Clock` has ``now()`` (seconds, monotonic) and ``sleep(seconds)``. Hard
 on :class:`WallClock`; an emulated world running faster than real time on
 :class:`ScaledClock`; simulated robots keep their own time (they are clocks themselves:
 ``sleep`` advances the simulation), and :class:`ManualClock` is a clock that moves only
-when told, for tests and tools that step time by hand.
+when told, for tests and tools that step time by hand. The supervisor, the robots and the
+emulated world take a :class:`Clock`; a device (:mod:`clomp.runtime.devices`, which imports
+nothing from above) takes only a monotonic source ``() -> float``, the one
+:func:`device_time` gives for a robot's clock — devices read time and never let it pass.
 
 >>> c = ManualClock()
 >>> c.sleep(0.25); c.now()
@@ -17,9 +20,10 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Callable
 from typing import Protocol, runtime_checkable
 
-__all__ = ["Clock", "ManualClock", "ScaledClock", "WallClock", "clock_for"]
+__all__ = ["Clock", "ManualClock", "ScaledClock", "WallClock", "clock_for", "device_time"]
 
 
 @runtime_checkable
@@ -114,3 +118,20 @@ def clock_for(robot: object, clock: Clock | None = None) -> Clock:
     if clock is not None:
         return clock
     return robot if isinstance(robot, Clock) else WallClock()
+
+
+def device_time(clock: Clock) -> Callable[[], float]:
+    """The monotonic source (``() -> float``) the devices of a robot on ``clock`` read.
+
+    Devices take a plain source, not a :class:`Clock` (see :mod:`clomp.runtime.devices`):
+    they read time for deadlines and timestamps and never let it pass. A clock on wall
+    time (:class:`WallClock`, and :class:`ScaledClock`, which scales the world, not a serial
+    line's or a thread's delays) gives ``time.monotonic`` itself; any other clock (a test's
+    simulated time) its own ``now``, so the devices' deadlines run on that time.
+
+    >>> device_time(WallClock()) is time.monotonic, device_time(ScaledClock(2.0)) is time.monotonic
+    (True, True)
+    >>> c = ManualClock(5.0); device_time(c)()
+    5.0
+    """
+    return time.monotonic if isinstance(clock, (WallClock, ScaledClock)) else clock.now

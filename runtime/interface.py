@@ -3,7 +3,10 @@
 Every backend (the simulated robot, the hardware robot over serial ports, a replay)
 implements :class:`Robot`. Wheel speeds are linear speeds of the wheel contact points
 in metres per second (positive drives forward); poses are in the odometry frame the
-backend chose at start-up (x forward, y left, theta counter-clockwise).
+backend chose at start-up (x forward, y left, theta counter-clockwise). Time is the
+backend's :class:`~clomp.runtime.clock.Clock`: a simulated backend keeps simulated time and
+is its own clock (``now``, ``sleep``), which the supervisor then runs on
+(:func:`~clomp.runtime.clock.clock_for`); the hardware robot takes one clock, wall time by default.
 """
 
 from __future__ import annotations

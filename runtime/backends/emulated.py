@@ -15,9 +15,10 @@ and whether it touched anything.
 
 ``time_scale`` > 1 runs the world (and the LiDAR's pace) faster than real time; the
 controller must then use a :class:`clomp.runtime.clock.ScaledClock` of the same scale.
-``clock`` replaces wall time for the world and both emulators (a test's simulated time:
-the world is then advanced whenever the LiDAR starts a revolution or a wheel command
-arrives, and is not started as a thread).
+``clock`` (a :class:`clomp.runtime.clock.Clock`) replaces wall time for the world and both
+emulators when it is not a wall clock itself (a test's simulated time, read through
+:func:`clomp.runtime.clock.device_time`: the world is then advanced whenever the LiDAR starts
+a revolution or a wheel command arrives, and is not started as a thread).
 """
 
 from __future__ import annotations
@@ -31,6 +32,7 @@ from typing import Any, Self
 
 import numpy as np
 
+from clomp.formal.geometry import polar_to_xy
 from clomp.formal.model import Pose
 from clomp.planner.robot_model import RobotModel
 from clomp.planner.scenarios import Scene, load_scenario
@@ -40,6 +42,7 @@ from clomp.runtime.devices.maestro import WheelConfig
 from clomp.runtime.backends.sim import NoiseConfig, SimRobot
 from clomp.runtime.realtime import favour_this_thread
 from clomp.runtime.backends.world import WorldNoise, WorldRobot, make_world_robot
+from clomp.runtime.clock import Clock, device_time
 
 __all__ = ["EmulatedWorld", "EmulatedWorldProcess"]
 
@@ -79,7 +82,7 @@ class EmulatedWorld:
         device_number: int = 12,
         lidar_options: dict[str, Any] | None = None,
         serial_timeout: float | None = None,
-        clock: Callable[[], float] | None = None,
+        clock: Clock | None = None,
     ) -> None:
         if not (math.isfinite(time_scale) and time_scale > 0):
             raise ValueError(f"time_scale must be a positive number, got {time_scale!r}")
@@ -94,7 +97,8 @@ class EmulatedWorld:
             self.sim = SimRobot(self.scene, self.model, noise=noise, seed=seed)
         self.time_scale = float(time_scale)
         self.tick = float(tick)
-        self.clock: Callable[[], float] = clock or time.monotonic
+        now = time.monotonic if clock is None else device_time(clock)
+        self.clock: Callable[[], float] = now  # the devices' time: the world's and both emulators'
         self.error: BaseException | None = None
         self._lock = threading.Lock()
         self._stop = threading.Event()
@@ -103,7 +107,7 @@ class EmulatedWorld:
         options = {"speed": self.time_scale, **(lidar_options or {})}
         if isinstance(self.sim, WorldRobot):  # each sample sent when the world measured it
             options.setdefault("sample_stream", self._samples)
-        self.lidar = LidarEmulator(self._scan, clock=clock, **options)
+        self.lidar = LidarEmulator(self._scan, clock=now, **options)
         self.maestro = MaestroEmulator(
             device_number=device_number,
             left=left,
@@ -112,7 +116,7 @@ class EmulatedWorld:
             span_us=span_us,
             on_speeds=self._on_speeds,
             serial_timeout=serial_timeout,
-            clock=clock,
+            clock=now,
         )
 
     # -- wiring -----------------------------------------------------------------------------
@@ -162,8 +166,8 @@ class EmulatedWorld:
             if res > 0 and self.sim.rounding == "range":  # the range as the world's LiDAR reports it
                 r = np.round(r / res) * res
             elif res > 0:  # the range of the point on the world's grid
-                x, y = np.round(r * np.cos(angle) / res) * res, np.round(r * np.sin(angle) / res) * res
-                r = np.hypot(x, y)
+                xy = np.round(polar_to_xy(r, angle) / res) * res
+                r = np.hypot(xy[..., 0], xy[..., 1])
             dist = np.where(ok, r * 1000.0, 0.0)
             cw = np.degrees(-angle) % 360.0
             out += [(float(a), float(d), first and k == 0) for k, (a, d) in enumerate(zip(cw, dist))]

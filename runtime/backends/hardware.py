@@ -28,7 +28,6 @@ import math
 import threading
 import time
 from collections import deque
-from collections.abc import Callable
 from dataclasses import asdict, dataclass, field
 from typing import Any, Literal
 
@@ -38,7 +37,7 @@ from clomp.planner.robot_model import RobotModel
 from clomp.runtime.devices.port import OPEN_ERRORS, PORT_ERRORS, open_serial
 from clomp.runtime.devices.maestro import Maestro, MaestroError, WheelConfig
 from clomp.runtime.devices.rplidar import DEFAULT_BAUDRATE, LidarError, LidarTimeout, RPLidar
-from clomp.runtime.clock import Clock, WallClock
+from clomp.runtime.clock import Clock, WallClock, device_time
 from clomp.runtime.interface import RobotFault, ScanFrame
 from clomp.runtime.records.runlog import RunLogLike
 
@@ -144,9 +143,11 @@ class HardwareRobot:
     ``lidar_port`` and ``motor_port`` are device paths, pyserial URLs or open serial-like
     objects (objects are not closed by :meth:`close`). ``motor_port`` may be None only
     in dry-run mode. ``log`` receives ``device``, ``motor`` and ``fault`` records (see
-    :mod:`clomp.runtime.records.runlog`); ``clock`` times the dead reckoning (wall time by default); ``device_clock`` the
-    stream watch's windows and the LiDAR driver's deadlines (``time.monotonic`` unless a test
-    drives simulated devices on its own time).
+    :mod:`clomp.runtime.records.runlog`); ``clock`` (a :class:`~clomp.runtime.clock.Clock`, wall time by default)
+    is the robot's one time: the dead reckoning's, and — through :func:`~clomp.runtime.clock.device_time` —
+    the stream watch's windows and the LiDAR and Maestro drivers' deadlines, so a test that
+    drives simulated devices on its own time passes that clock alone. Waiting for a scan in
+    :meth:`read_scan` blocks in wall time.
     Opening checks the LiDAR's health, stops the wheels and starts the scan; a device
     that cannot be opened or does not answer raises :class:`RobotFault`.
 
@@ -168,13 +169,12 @@ class HardwareRobot:
         model: RobotModel | None = None,
         log: RunLogLike | None = None,
         clock: Clock | None = None,
-        device_clock: Callable[[], float] | None = None,
     ) -> None:
         self.config = cfg = config or HardwareConfig()
-        self._device_clock: Callable[[], float] = device_clock or time.monotonic
         self.model = model or RobotModel()
         self.dry_run = cfg.dry_run
         self.clock: Clock = clock or WallClock()
+        self._device_clock = device_time(self.clock)
         self._log_sink = log
         self._log_lock = threading.Lock()
         self._lock = threading.Condition()
@@ -219,6 +219,7 @@ class HardwareRobot:
                 span_us=cfg.span_us,
                 watchdog_timeout=cfg.watchdog_timeout,
                 multiple_targets=cfg.multiple_targets,
+                clock=self._device_clock,
             )
         except (MaestroError, ValueError, TypeError) as exc:
             raise RobotFault(f"motor controller: {exc}") from exc

@@ -28,15 +28,16 @@ from __future__ import annotations
 
 import math
 import os
-from collections.abc import Callable, Mapping
-from dataclasses import asdict, dataclass, fields
+from collections.abc import Callable
+from dataclasses import asdict, dataclass
 from typing import Any
 
 import numpy as np
 import pymunk
 
-from clomp.formal.geometry import arc_step, wrap_angle
+from clomp.formal.geometry import arc_step, polar_to_xy, wrap_angle
 from clomp.formal.model import Pose
+from clomp.planner.noise import check_noise, noise_from_scene
 from clomp.planner.robot_model import RobotModel
 from clomp.planner.scenarios import Scene, ScenarioError, load_scenario
 from clomp.runtime.interface import RobotFault, ScanFrame
@@ -71,12 +72,7 @@ class NoiseConfig:
     drift: float = 0.002
 
     def __post_init__(self) -> None:
-        for f in fields(self):
-            v = getattr(self, f.name)
-            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v < 0:
-                raise ValueError(f"noise.{f.name}: expected a finite number >= 0, got {v!r}")
-        if self.dropout >= 1:
-            raise ValueError(f"noise.dropout: must be below 1, got {self.dropout!r}")
+        check_noise(asdict(self))
 
     @classmethod
     def ideal(cls) -> "NoiseConfig":
@@ -86,17 +82,7 @@ class NoiseConfig:
     @classmethod
     def from_dict(cls, data: Any, where: str = "noise") -> "NoiseConfig":
         """Validate a ``noise`` object of a scenario file; errors name the field."""
-        if not isinstance(data, Mapping):
-            raise ScenarioError(f"{where}: expected an object, got {data!r}")
-        names = {f.name for f in fields(cls)}
-        for key in data:
-            if key not in names:
-                raise ScenarioError(f"{where}.{key}: unknown noise setting (known: {', '.join(sorted(names))})")
-        try:
-            return cls(**{k: data[k] for k in data})
-        except ValueError as exc:
-            field_name = str(exc).split(":", 1)[0].removeprefix("noise.")
-            raise ScenarioError(f"{where}.{field_name}:{str(exc).split(':', 1)[1]}") from None
+        return noise_from_scene(cls, data, where)
 
     def to_dict(self) -> dict[str, float]:
         """JSON-ready form."""
@@ -355,7 +341,7 @@ class SimRobot(SimulatedBackend):
         if n.dropout:
             keep &= self._rng.random(len(ranges)) >= n.dropout
         r, a = ranges[keep], local[keep]
-        pts = np.c_[r * np.cos(a), r * np.sin(a)]
+        pts = polar_to_xy(r, a)
         if self.resolution > 0:
             pts = np.round(pts / self.resolution) * self.resolution
         self._pts.append(pts)

@@ -7,10 +7,13 @@ import argparse
 from collections.abc import Iterator
 from pathlib import Path
 
+import numpy as np
+
+from clomp.planner import ScanError
 from clomp.runtime.cli import CliError
 from clomp.runtime.records.bags import BagError, LaserScan, LaserScanTopic, is_bag, parse_offset
 
-__all__ = ["add_bag_options", "is_bag", "open_topic", "lidar_offset", "labelled_scans", "scan_label"]
+__all__ = ["add_bag_options", "bag_points", "is_bag", "open_topic", "lidar_offset", "labelled_scans", "scan_label"]
 
 
 def add_bag_options(p: argparse.ArgumentParser) -> None:
@@ -43,6 +46,15 @@ def open_topic(path: Path, args: argparse.Namespace) -> LaserScanTopic:
 def scan_label(topic: str, scan: LaserScan, t0_ns: int) -> str:
     """``/scan#7@1.400s``: topic, index on it, bag time since its first scan."""
     return f"{topic}#{scan.index}@{(scan.time_ns - t0_ns) / 1e9:.3f}s"
+
+
+def bag_points(scan: LaserScan, offset: tuple[float, float, float]) -> np.ndarray:
+    """The robot-frame points of one scan of a bag; a scan whose points cannot be read is
+    that scan's :class:`~clomp.planner.ScanError` (a many-scan run records it and goes on)."""
+    try:
+        return scan.points(offset)
+    except BagError as exc:
+        raise ScanError(f"scan {scan.index}: {exc}") from None
 
 
 def labelled_scans(topic: LaserScanTopic) -> Iterator[tuple[str, LaserScan]]:

@@ -1,4 +1,5 @@
-"""Helpers shared by the subcommands: the per-scan outcome of ``clomp plan`` (folders, bags)
+"""Helpers shared by the subcommands: the scene ``--scenario`` names (:func:`load_scene`), a
+log's records (:func:`log_records`), the per-scan outcome of ``clomp plan`` (folders, bags)
 and ``clomp replay``, and the summary of such a run.
 
 :func:`scan_outcomes` plans on one scan and never raises for the scan's own faults, so a
@@ -19,14 +20,48 @@ from __future__ import annotations
 
 import math
 import warnings
-from typing import Any
+from collections.abc import Callable, Iterable
+from pathlib import Path
+from typing import Any, TypeVar
 
 import numpy as np
 
 from clomp.planner import Configurator, PlanningError, PlanResult, ScanError
-from clomp.runtime.cli import plural
+from clomp.planner.scenarios import Scene, ScenarioError, load_scenario
+from clomp.runtime.cli import CliError, plural
+from clomp.runtime.records.runlog import LogError
 
-__all__ = ["many_summary", "scan_outcomes", "summary_line"]
+__all__ = ["load_scene", "log_records", "many_summary", "scan_outcomes", "summary_line"]
+
+T = TypeVar("T")
+
+
+def load_scene(scenario: str) -> Scene:
+    """The scene ``--scenario NAME|FILE`` names (a built-in scenario or a scenario JSON file),
+    for every command that takes one; a scenario that cannot be loaded is one CliError line.
+
+    >>> load_scene("open").name
+    'open'
+    >>> load_scene("atlantis")
+    Traceback (most recent call last):
+    clomp.runtime.cli.CliError: unknown scenario 'atlantis'; built in: ...
+    """
+    try:
+        return load_scenario(scenario)
+    except ScenarioError as exc:
+        raise CliError(str(exc)) from None
+
+
+def log_records(read: Callable[[Path], Iterable[T]], path: Path, what: str) -> list[T]:
+    """Every record ``read`` finds in the run log at ``path``; a log that cannot be read,
+    or holds none (``what`` names them), is one CliError line."""
+    try:
+        records = list(read(path))
+    except LogError as exc:
+        raise CliError(str(exc)) from None
+    if not records:
+        raise CliError(f"{path}: the log holds no {what}")
+    return records
 
 
 def scan_outcomes(conf: Configurator, scan: Any, goal: tuple[float, float]) -> tuple[PlanResult | None, dict[str, Any]]:

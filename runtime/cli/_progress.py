@@ -137,17 +137,8 @@ class Progress(Generic[T]):
         self.close()
 
 
-def progress(
-    iterable: Iterable[T] | None = None,
-    *,
-    total: int | None = None,
-    desc: str | None = None,
-    unit: str = "it",
-    file: IO[str] | None = None,
-    enabled: bool | None = None,
-) -> Progress[T]:
-    """A :class:`Progress` over ``iterable`` (or a counter of ``total`` items)."""
-    return Progress(iterable, total=total, desc=desc, unit=unit, file=file, enabled=enabled)
+progress = Progress
+"""A :class:`Progress` over an iterable (or a counter of ``total`` items): the name the commands call, as tqdm's."""
 
 
 def echo(line: str, file: IO[str] | None = None) -> None:

@@ -5,14 +5,14 @@ from __future__ import annotations
 
 import argparse
 import json
-from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
 from clomp.runtime.cli import EXIT_OK, CliError
+from clomp.runtime.cli._common import log_records
 from clomp.runtime.cli._progress import progress
 from clomp.runtime.records.mcap_writer import A1_BINS, ConvertError, write_mcap
-from clomp.runtime.records.runlog import LogError, read_log
+from clomp.runtime.records.runlog import read_log
 
 __all__ = ["register", "run"]
 
@@ -29,16 +29,6 @@ def register(sub: Any) -> None:
     p.set_defaults(func=run)
 
 
-def _records(path: Path) -> tuple[int, Iterator[dict[str, Any]]]:
-    try:
-        records = list(read_log(path))
-    except LogError as exc:
-        raise CliError(str(exc)) from None
-    if not records:
-        raise CliError(f"{path}: the log holds no records")
-    return len(records), iter(records)
-
-
 def run(args: argparse.Namespace) -> int:
     """Execute ``clomp convert``."""
     src = Path(args.log)
@@ -49,9 +39,9 @@ def run(args: argparse.Namespace) -> int:
         raise CliError(f"-o: {dest} is the log itself")
     if not dest.parent.is_dir():
         raise CliError(f"-o: folder {dest.parent} does not exist")
-    total, records = _records(src)
+    records = log_records(read_log, src, "records")
     try:
-        summary = write_mcap(progress(records, total=total, desc="convert", unit="record"), dest, bins=args.bins)
+        summary = write_mcap(progress(records, total=len(records), desc="convert", unit="record"), dest, bins=args.bins)
     except ConvertError as exc:
         raise CliError(str(exc)) from None
     if args.json:

@@ -9,9 +9,10 @@ import os
 from pathlib import Path
 from typing import Any
 
-from clomp.planner.scenarios import ScenarioError, load_scenario
+from clomp.planner.scenarios import ScenarioError
 from clomp.runtime.cli import EXIT_NOT_REACHED, EXIT_OK, CliError
-from clomp.runtime.experiment.runner import run_once
+from clomp.runtime.cli._common import load_scene
+from clomp.runtime.experiment.onerun import run_once
 from clomp.runtime.experiment.plots import plot_run
 from clomp.runtime.supervision.states import state_machine_dot, state_machine_prism
 
@@ -59,12 +60,10 @@ def run(args: argparse.Namespace) -> int:
     from clomp.runtime.cli.simulate import check_world_options, print_summary, world_noise
 
     out = Path(args.out)
+    scene = load_scene(args.scenario)
     try:
-        scene = load_scenario(args.scenario)
         check_world_options(args)
         out.mkdir(parents=True, exist_ok=True)
-    except ScenarioError as exc:
-        raise CliError(str(exc)) from None
     except OSError as exc:
         raise CliError(f"--out: cannot create {out}: {exc}") from None
     seed = args.seed if args.seed is not None else scene.raw.get("seed", 0)

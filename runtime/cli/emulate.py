@@ -12,6 +12,7 @@ import time
 from typing import Any
 
 from clomp.runtime.cli import CliError
+from clomp.runtime.cli._common import load_scene
 from clomp.runtime.cli._signals import interrupts_raise
 
 __all__ = ["register"]
@@ -85,10 +86,11 @@ def _scan_source(args: argparse.Namespace) -> Any:
             from clomp.runtime.backends.sim import scenario_scan_source
         except ImportError as exc:
             raise CliError(f"scenario-driven emulation needs the simulation module (clomp.runtime.backends.sim): {exc}") from exc
+        scene = load_scene(args.scenario)
         try:
-            return scenario_scan_source(args.scenario, seed=args.seed)
+            return scenario_scan_source(scene, seed=args.seed)
         except (OSError, KeyError, ValueError) as exc:
-            raise CliError(f"cannot load scenario {args.scenario!r}: {exc}") from exc
+            raise CliError(f"cannot simulate scenario {args.scenario!r}: {exc}") from exc
     if args.scans is None:
         raise CliError("emulate lidar needs a scan source: --scans DIR (recorded mapNNNN.dat files) or --scenario NAME")
     from clomp.runtime.devices.rplidar_emulator import recorded_scan_source

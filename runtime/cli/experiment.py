@@ -27,12 +27,8 @@ __all__ = ["parse_scales", "register", "run"]
 
 def register(sub: Any) -> None:
     """Add ``experiment`` to the command line."""
-    p = sub.add_parser(
-        "experiment",
-        help="planning vs reactive on a layout family (the paper's table), locally or on Dask",
-        description=__doc__,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
-    )
+    p = sub.add_parser("experiment", help="planning vs reactive on a layout family (the paper's table), locally or on Dask",
+                       description=__doc__)
     p.add_argument("family", nargs="?", default="overtaking",
                    help=f"layout family ({', '.join(FAMILIES)}) or a scenario name/JSON file for one fixed layout "
                         "(default overtaking)")
@@ -97,13 +93,9 @@ def _write_outputs(records: list[dict[str, Any]], out: Path, plots: bool) -> dic
 
 def run(args: argparse.Namespace) -> int:
     """Execute ``clomp experiment``."""
-    from clomp.runtime.experiment.runner import (
-        CONDITIONS,
-        PAPER,
-        ExperimentInterrupted,
-        RunsFailed,
-        run_experiment,
-    )
+    from clomp.runtime.experiment.driver import ExperimentInterrupted, RunsFailed, run_experiment
+    from clomp.runtime.experiment.results import PAPER
+    from clomp.runtime.experiment.runspec import CONDITIONS
 
     if args.runs < 1:
         raise CliError("--runs: must be at least 1")

@@ -13,14 +13,13 @@ from clomp.formal.export import FORMATS, ExportError, write
 from clomp.formal.lts import CognitiveMap, MapError
 from clomp.planner import PlanningError, ScanError, load_scan, scan_files
 from clomp.planner.probabilistic import NoiseError, learn_from_scans
-from clomp.planner.scenarios import ScenarioError, load_scenario
 from clomp.runtime.cli.plan import (
     add_planner_options,
     add_sampling_options,
     configurator_from_args,
     parse_goal,
     probabilistic_from_args,
-    scenario_goal,
+    scenario_scan,
 )
 from clomp.runtime.cli import EXIT_OK, CliError, plural
 
@@ -55,12 +54,10 @@ def map_from_args(args: argparse.Namespace) -> tuple[CognitiveMap, str]:
         if args.scenario:
             if learn:
                 raise CliError("--learn needs --scan FOLDER (consecutive scans of a recorded run)")
-            scene = load_scenario(args.scenario)
-            goal: tuple[float, float] = scenario_goal(scene, args.goal)
-            scan = scene.scan(max_range=conf.robot.sensor_range)
+            title, goal, scan = scenario_scan(args, conf)
             if samples is not None:
-                return probabilistic_from_args(args, conf, scan, goal).map, scene.name
-            return conf.plan(scan, goal).map, scene.name
+                return probabilistic_from_args(args, conf, scan, goal).map, title
+            return conf.plan(scan, goal).map, title
         path = Path(args.scan)
         goal = parse_goal(args.goal) if args.goal else (1.0, 0.0)
         if learn and path.is_file():
@@ -80,7 +77,7 @@ def map_from_args(args: argparse.Namespace) -> tuple[CognitiveMap, str]:
         if samples is not None:
             return probabilistic_from_args(args, conf, path, goal).map, str(path)
         return conf.plan(path, goal).map, str(path)
-    except (ScenarioError, ScanError, PlanningError, NoiseError) as exc:
+    except (ScanError, PlanningError, NoiseError) as exc:
         raise CliError(str(exc)) from None
 
 

@@ -13,16 +13,15 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from clomp.formal.lts import MapError
+from clomp.formal.lts import CognitiveMap, MapError
 from clomp.planner import GOAL_LIMIT_M as _PLANNER_GOAL_LIMIT_M
 from clomp.planner import Configurator, PlanningError, PlanResult, RobotModel, ScanError, scan_files
 from clomp.planner.probabilistic import MAX_SAMPLES, NoiseError, ProbabilisticMap, preset_names
-from clomp.planner.scenarios import ScenarioError, load_scenario
 from clomp.runtime.cli import EXIT_NOT_REACHED, EXIT_OK, CliError, plural
-from clomp.runtime.cli._bags import add_bag_options, is_bag, labelled_scans, lidar_offset, open_topic, scan_label
-from clomp.runtime.cli._common import many_summary, scan_outcomes, summary_line
+from clomp.runtime.cli._bags import add_bag_options, bag_points, is_bag, labelled_scans, lidar_offset, open_topic, scan_label
+from clomp.runtime.cli._common import load_scene, many_summary, scan_outcomes, summary_line
 from clomp.runtime.cli._progress import progress
-from clomp.runtime.records.bags import BagError, LaserScan
+from clomp.runtime.records.bags import BagError
 
 if TYPE_CHECKING:
     from clomp.planner.robust import RobustConfigurator, RobustDecision
@@ -37,6 +36,7 @@ __all__ = [
     "probabilistic_from_args",
     "robust_summary",
     "scenario_goal",
+    "scenario_scan",
 ]
 
 
@@ -76,6 +76,21 @@ def scenario_goal(scene: Any, text: str | None) -> tuple[float, float]:
             "(its true shape, not only the face the sensor sees)"
         )
     return goal[0], goal[1]
+
+
+def scenario_scan(args: argparse.Namespace, conf: Configurator) -> tuple[str, tuple[float, float], np.ndarray]:
+    """What ``--scenario`` (and ``--goal``) give a command that plans: the scene's name, the
+    goal (:func:`scenario_goal`) and the scan the robot takes at its start (within the
+    sensor range of ``conf``'s robot).
+
+    >>> args = argparse.Namespace(scenario="open", goal="1,0")
+    >>> name, goal, scan = scenario_scan(args, Configurator())
+    >>> name, goal, scan.shape[1]
+    ('open', (1.0, 0.0), 2)
+    """
+    scene = load_scene(args.scenario)
+    goal = scenario_goal(scene, args.goal)
+    return scene.name, goal, scene.scan(max_range=conf.robot.sensor_range)
 
 
 def add_planner_options(p: argparse.ArgumentParser) -> None:
@@ -180,7 +195,7 @@ def _print_readable(r: PlanResult, title: str) -> None:
         verdict += "; it ends at the edge of what the sensor saw"
     print(f"{title}: goal ({r.goal.x:g}, {r.goal.y:g}) — plan {verdict}", file=out)
     print(
-        f"  {plural(r.states, 'state')}, {plural(r.transitions, 'transition')}, "
+        f"  {plural(r.n_states, 'state')}, {plural(r.transitions, 'transition')}, "
         f"{plural(len(r.obstacles), 'obstacle box', 'obstacle boxes')}, "
         f"planned in {r.planning_time_s * 1e3:.2f} ms (stopped: {r.stop_reason})",
         file=out,
@@ -251,14 +266,9 @@ def _run_robust(args: argparse.Namespace, conf: Configurator) -> int:
 
     if args.learn:
         raise CliError("--learn goes with clomp export or check; plan --robust samples the map (--samples)")
+    scan: Any
     if args.scenario:
-        try:
-            scene = load_scenario(args.scenario)
-        except ScenarioError as exc:
-            raise CliError(str(exc)) from None
-        goal = scenario_goal(scene, args.goal)
-        scan: Any = scene.scan(max_range=conf.robot.sensor_range)
-        title = scene.name
+        title, goal, scan = scenario_scan(args, conf)
     else:
         path = Path(args.scan)
         if not path.is_file():
@@ -269,17 +279,11 @@ def _run_robust(args: argparse.Namespace, conf: Configurator) -> int:
     robust = robust_from_args(args, conf)
     try:
         decision = robust.choose(scan, goal)
-    except (ScanError, PlanningError) as exc:
-        raise CliError(str(exc)) from None
-    except StormMissing as exc:
+    except (ScanError, PlanningError, StormMissing) as exc:
         raise CliError(str(exc)) from None
     pm = decision.choice.pm
     summary = robust_summary(decision)
-    if args.map:
-        try:
-            pm.map.write_json(args.map)
-        except (OSError, MapError) as exc:
-            raise CliError(f"--map: cannot write {args.map}: {exc}") from None
+    _write_map(pm.map, args)
     status = EXIT_OK if summary["reached_goal"] else EXIT_NOT_REACHED
     if args.json:
         print(json.dumps(summary))
@@ -317,13 +321,9 @@ def run(args: argparse.Namespace) -> int:
     if args.samples is not None or args.learn:
         raise CliError("--samples/--learn on plan go with --robust (or use clomp export --samples)")
     if args.scenario:
-        try:
-            scene = load_scenario(args.scenario)
-        except ScenarioError as exc:
-            raise CliError(str(exc)) from None
-        goal = scenario_goal(scene, args.goal)
-        r = _plan_one(conf, scene.scan(max_range=conf.robot.sensor_range), goal)
-        _emit(r, args, scene.name)
+        title, goal, scan = scenario_scan(args, conf)
+        r = _plan_one(conf, scan, goal)
+        _emit(r, args, title)
         return EXIT_OK if r.reached_goal else EXIT_NOT_REACHED
     path = Path(args.scan)
     goal = parse_goal(args.goal) if args.goal else (1.0, 0.0)
@@ -341,12 +341,17 @@ def run(args: argparse.Namespace) -> int:
     return EXIT_OK if r.reached_goal else EXIT_NOT_REACHED
 
 
-def _emit(r: PlanResult, args: argparse.Namespace, title: str) -> None:
+def _write_map(cmap: CognitiveMap, args: argparse.Namespace) -> None:
+    """``--map FILE``: the cognitive map as JSON (a one-line error when it cannot be written)."""
     if args.map:
         try:
-            r.map.write_json(args.map)
+            cmap.write_json(args.map)
         except (OSError, MapError) as exc:
             raise CliError(f"--map: cannot write {args.map}: {exc}") from None
+
+
+def _emit(r: PlanResult, args: argparse.Namespace, title: str) -> None:
+    _write_map(r.map, args)
     if args.json:
         print(json.dumps(r.to_dict()))
     else:
@@ -357,7 +362,7 @@ def _plan_bag(conf: Configurator, path: Path, goal: tuple[float, float], args: a
     offset = lidar_offset(args)
     with open_topic(path, args) as topic:
         if args.index is None and args.time is None:
-            items = ((label, (lambda s=s: _bag_points(s, offset)), label) for label, s in labelled_scans(topic))
+            items = ((label, (lambda s=s: bag_points(s, offset)), label) for label, s in labelled_scans(topic))
             return _plan_many(conf, topic.count, items, goal, args)
         try:
             scan = topic.at_index(args.index) if args.index is not None else topic.at_time(args.time)
@@ -368,13 +373,6 @@ def _plan_bag(conf: Configurator, path: Path, goal: tuple[float, float], args: a
         r = _plan_one(conf, points, goal)
         _emit(r, args, f"{path} {scan_label(topic.topic, scan, t0 or scan.time_ns)}")
     return EXIT_OK if r.reached_goal else EXIT_NOT_REACHED
-
-
-def _bag_points(scan: LaserScan, offset: tuple[float, float, float]) -> np.ndarray:
-    try:
-        return scan.points(offset)
-    except BagError as exc:
-        raise ScanError(f"scan {scan.index}: {exc}") from None
 
 
 def _plan_folder(conf: Configurator, folder: Path, goal: tuple[float, float], args: argparse.Namespace) -> int:
@@ -407,7 +405,7 @@ def _plan_many(conf: Configurator, total: int, items: Iterable[tuple[str, Any, s
             bar.write(f"{name}: {what}")
         else:
             bar.write(
-                f"{name}: {rec['outcome'].replace('_', ' ')}  {plural(len(r.steps), 'task')}  {plural(r.states, 'state')}  "
+                f"{name}: {rec['outcome'].replace('_', ' ')}  {plural(len(r.steps), 'task')}  {plural(r.n_states, 'state')}  "
                 f"{r.planning_time_s * 1e3:.2f} ms  [{' '.join(s.task.value[0] for s in r.steps)}]"
             )
         for w in rec.get("warnings", []) if not args.json else []:

@@ -12,13 +12,13 @@ from typing import Any
 import numpy as np
 
 from clomp.planner import Configurator, ScanError, scan_files
-from clomp.runtime.cli._bags import add_bag_options, is_bag, labelled_scans, lidar_offset, open_topic
+from clomp.runtime.cli._bags import add_bag_options, bag_points, is_bag, labelled_scans, lidar_offset, open_topic
 from clomp.runtime.cli._progress import progress
 from clomp.runtime.cli import EXIT_OK, CliError, plural
-from clomp.runtime.cli._common import scan_outcomes
+from clomp.runtime.cli._common import log_records, scan_outcomes
 from clomp.runtime.cli.plan import add_planner_options, configurator_from_args, parse_goal
-from clomp.runtime.records.bags import BagError, LaserScan
-from clomp.runtime.records.runlog import LogError, scans_from_log
+from clomp.runtime.records.bags import LaserScan
+from clomp.runtime.records.runlog import scans_from_log
 
 __all__ = ["register"]
 
@@ -42,12 +42,7 @@ def _sources(
         except ScanError as exc:
             raise CliError(str(exc)) from None
         return len(files), ((f.name, f, goal or (1.0, 0.0)) for f in files)
-    try:
-        records = list(scans_from_log(path))
-    except LogError as exc:
-        raise CliError(str(exc)) from None
-    if not records:
-        raise CliError(f"{path}: the log holds no scan records")
+    records = log_records(scans_from_log, path, "scan records")
     return len(records), ((label, pts, goal or g or (1.0, 0.0)) for label, pts, g in records)
 
 
@@ -77,7 +72,7 @@ def _replay(conf: Configurator, total: int, items: Iterable[tuple[str, Any, tupl
     bar = progress(items, total=total, desc="replay", unit="scan")
     for label, scan, g in bar:
         seen += 1
-        source = (lambda s=scan: _bag_points(s, offset)) if isinstance(scan, LaserScan) else scan
+        source = (lambda s=scan: bag_points(s, offset)) if isinstance(scan, LaserScan) else scan
         r, rec = scan_outcomes(conf, source, g)
         if r is None:
             if rec["outcome"] == "error":
@@ -99,7 +94,7 @@ def _replay(conf: Configurator, total: int, items: Iterable[tuple[str, Any, tupl
                 "outcome": rec["outcome"],
                 "reached_goal": r.reached_goal,
                 "collision_free": r.collision_free,
-                "states": r.states,
+                "states": r.n_states,
                 "planning_time_s": r.planning_time_s,
                 "plan": [s.task.value for s in r.steps],
             }
@@ -109,7 +104,7 @@ def _replay(conf: Configurator, total: int, items: Iterable[tuple[str, Any, tupl
         else:
             bar.write(
                 f"{label}: {rec['outcome'].replace('_', ' ')}  "
-                f"{r.states:3d} states  {r.planning_time_s * 1e3:7.2f} ms  [{' '.join(s.task.value[0] for s in r.steps)}]"
+                f"{r.n_states:3d} states  {r.planning_time_s * 1e3:7.2f} ms  [{' '.join(s.task.value[0] for s in r.steps)}]"
             )
             for w in rec.get("warnings", []):
                 bar.write(f"{label}: warning: {w}")
@@ -135,10 +130,3 @@ def _replay(conf: Configurator, total: int, items: Iterable[tuple[str, Any, tupl
             f"{at_goal} already at the goal, {plural(failed, 'error')}; planning time median {med}, p90 {p90}"
         )
     return EXIT_OK
-
-
-def _bag_points(scan: LaserScan, offset: tuple[float, float, float]) -> np.ndarray:
-    try:
-        return scan.points(offset)
-    except BagError as exc:
-        raise ScanError(f"scan {scan.index}: {exc}") from None

@@ -30,6 +30,7 @@ from typing import Any
 
 from clomp.runtime.cli.plan import add_planner_options, configurator_from_args, parse_goal
 from clomp.runtime.cli import EXIT_DEVICE_FAULT, EXIT_INTERRUPTED, EXIT_NOT_REACHED, EXIT_OK, CliError
+from clomp.runtime.cli._common import load_scene
 from clomp.runtime.cli._signals import interrupts_raise
 
 __all__ = ["register", "add_emulate_world", "default_log_path"]
@@ -41,12 +42,8 @@ def _missing_path(spec: str | None) -> bool:
 
 def register(sub: Any) -> None:
     """Add ``run`` to the command line."""
-    p = sub.add_parser(
-        "run",
-        help="run the planner and supervisor on the robot (LiDAR + Maestro serial ports)",
-        description=__doc__,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
-    )
+    p = sub.add_parser("run", help="run the planner and supervisor on the robot (LiDAR + Maestro serial ports)",
+                       description=__doc__)
     p.add_argument("--lidar", required=True, metavar="PORT", help="RPLIDAR A1 serial port (path or pyserial URL)")
     p.add_argument("--motors", metavar="PORT", help="Pololu Maestro serial port (optional with --dry-run)")
     p.add_argument("--goal", required=True, help="goal X,Y in metres in the robot's frame at start (x forward, y left)")
@@ -168,7 +165,7 @@ def _run(args: argparse.Namespace, scheduling: str) -> int:
     from clomp.runtime.clock import ScaledClock, WallClock
     from clomp.runtime.interface import RobotFault
     from clomp.runtime.records.runlog import RunLog
-    from clomp.runtime.supervision import Supervisor, SupervisorState
+    from clomp.runtime.supervision import Supervisor
 
     goal = parse_goal(args.goal)
     config = _config(args)
@@ -192,52 +189,74 @@ def _run(args: argparse.Namespace, scheduling: str) -> int:
                 try:
                     robot = HardwareRobot(args.lidar, args.motors, config, model=conf.robot, log=log, clock=clock)
                 except RobotFault as exc:
-                    log.write("fault", reason=str(exc), source="start")
-                    log.write("stop", reason=str(exc), status="NOT_STARTED")
-                    if _missing_path(args.lidar) or _missing_path(args.motors):
-                        raise CliError(f"{exc} (log: {path})") from None
-                    print(f"clomp: error: {exc} (log: {path})", file=sys.stderr, flush=True)
-                    return EXIT_DEVICE_FAULT
+                    return _not_started(exc, log, args, path)
                 if args.dry_run:
                     _say("dry run: planning on every scan, the wheels are held stopped")
                     return _dry_run(robot, conf, goal, clock, log, args.max_time, path)
                 sup = Supervisor(robot, goal, conf, clock=clock, log=_SharedLog(runlog, lock, frozenset({"motor"})))
                 report = sup.run(max_time=args.max_time)
             except KeyboardInterrupt:
-                why = signalled() or "KeyboardInterrupt"
-                reason = f"interrupted by {why}"
-                if sup is not None and not sup.terminal:
-                    sup.abort(reason)
-                elif sup is None:
-                    log.write("stop", reason=reason, status="NOT_STARTED")
-                _say(f"{reason}: {_wheels(robot)} (log: {path})")
-                return EXIT_INTERRUPTED
+                return _interrupted(f"interrupted by {signalled() or 'KeyboardInterrupt'}", sup, robot, log, path)
             except CliError:
                 raise
             except Exception as exc:  # anything unexpected: halt, say why in one line
-                reason = f"{type(exc).__name__}: {exc}"
-                if sup is not None and not sup.terminal:
-                    sup.fault(reason)
-                else:
-                    log.write("fault", reason=reason, source="run")
-                    log.write("stop", reason=reason, status="HALTED")
-                _say(f"halted: {reason}; {_wheels(robot)} (log: {path})")
-                return EXIT_DEVICE_FAULT if isinstance(exc, RobotFault) else EXIT_NOT_REACHED
+                return _halted(exc, sup, robot, log, path)
             finally:
                 if robot is not None:
                     robot.close()
     finally:
         runlog.close()
+    return _finished(report, robot, path)
+
+
+def _not_started(exc: Exception, log: Any, args: argparse.Namespace, path: Path) -> int:
+    """The robot could not be started: a port path that does not exist is a usage error
+    (CliError), anything else a device fault."""
+    log.write("fault", reason=str(exc), source="start")
+    log.write("stop", reason=str(exc), status="NOT_STARTED")
+    if _missing_path(args.lidar) or _missing_path(args.motors):
+        raise CliError(f"{exc} (log: {path})") from None
+    print(f"clomp: error: {exc} (log: {path})", file=sys.stderr, flush=True)
+    return EXIT_DEVICE_FAULT
+
+
+def _interrupted(reason: str, sup: Any, robot: Any, log: Any, path: Path) -> int:
+    """Ctrl-C or SIGTERM: the supervisor aborts (or the log says the run never started)."""
+    if sup is not None and not sup.terminal:
+        sup.abort(reason)
+    elif sup is None:
+        log.write("stop", reason=reason, status="NOT_STARTED")
+    _say(f"{reason}: {_wheels(robot)} (log: {path})")
+    return EXIT_INTERRUPTED
+
+
+def _halted(exc: Exception, sup: Any, robot: Any, log: Any, path: Path) -> int:
+    """An unexpected error: halt and say why in one line (a device fault for a RobotFault)."""
+    from clomp.runtime.interface import RobotFault
+
+    reason = f"{type(exc).__name__}: {exc}"
+    if sup is not None and not sup.terminal:
+        sup.fault(reason)
+    else:
+        log.write("fault", reason=reason, source="run")
+        log.write("stop", reason=reason, status="HALTED")
+    _say(f"halted: {reason}; {_wheels(robot)} (log: {path})")
+    return EXIT_DEVICE_FAULT if isinstance(exc, RobotFault) else EXIT_NOT_REACHED
+
+
+def _finished(report: Any, robot: Any, path: Path) -> int:
+    """Say how the supervisor's run ended; its exit status."""
+    from clomp.runtime.supervision import SupervisorState
+
     state = report.state
     summary = f"{len(report.plans)} plans, {len(report.tasks)} tasks, {report.time_s:.1f} s"
     if state is SupervisorState.GOAL_REACHED:
         print(f"goal reached: {report.reason} ({summary})", flush=True)
-    elif state is SupervisorState.UNREACHABLE:
+        return EXIT_OK
+    if state is SupervisorState.UNREACHABLE:
         _say(f"goal unreachable: {report.reason}; {_wheels(robot)} ({summary}; log: {path})")
     else:
         _say(f"halted: {report.reason}; {_wheels(robot)} ({summary}; log: {path})")
-    if state is SupervisorState.GOAL_REACHED:
-        return EXIT_OK
     if robot is not None and robot.fault is not None:
         return EXIT_DEVICE_FAULT  # the devices tripped the robot (the supervisor halted on it)
     return EXIT_NOT_REACHED
@@ -275,7 +294,7 @@ def _dry_run(robot: Any, conf: Any, goal: tuple[float, float], clock: Any, log: 
         n += 1
         tasks = [s.task.value for s in r.steps]
         log.write("plan", **plan_fields(r, Pose(0.0, 0.0, 0.0)))  # the robot stands still: odometry = start
-        print(f"scan {n}: {'goal' if r.reached_goal else 'partial' if tasks else 'no move'}  {r.states} states  "
+        print(f"scan {n}: {'goal' if r.reached_goal else 'partial' if tasks else 'no move'}  {r.n_states} states  "
               f"{r.planning_time_s * 1e3:.2f} ms  [{' '.join(t[0] for t in tasks)}]", flush=True)
     log.write("stop", reason="dry run: time limit", status="DRY_RUN")
     print(f"dry run: {n} scans planned (log: {path})", flush=True)
@@ -312,14 +331,15 @@ def _run_world(args: argparse.Namespace) -> int:
 
     if args.serial_timeout is not None and not (math.isfinite(args.serial_timeout) and args.serial_timeout > 0):
         raise CliError(f"--serial-timeout must be a positive number of seconds, got {args.serial_timeout}")
+    scene = load_scene(args.scenario)
     try:
         from clomp.runtime.backends.world import WorldNoise
 
         noise = None if args.noise is None else WorldNoise.preset(args.noise, args.noise_scale)
-        world = EmulatedWorld(args.scenario, seed=args.seed, time_scale=args.time_scale, noise=noise,
+        world = EmulatedWorld(scene, seed=args.seed, time_scale=args.time_scale, noise=noise,
                               serial_timeout=args.serial_timeout)
     except (OSError, ScenarioError, ValueError) as exc:
-        raise CliError(f"cannot load scenario {args.scenario!r}: {exc}") from None
+        raise CliError(f"cannot simulate scenario {args.scenario!r}: {exc}") from None
     favour_this_thread(realtime=True)  # before the world's threads start: they inherit it
     try:
         world.start()

@@ -8,9 +8,10 @@ import math
 from pathlib import Path
 from typing import Any
 
-from clomp.planner.scenarios import ScenarioError, load_scenario
+from clomp.planner.scenarios import ScenarioError
 from clomp.runtime.cli import EXIT_NOT_REACHED, EXIT_OK, CliError
-from clomp.runtime.experiment.runner import SUCCESS_RADIUS, RunResult, run_once
+from clomp.runtime.cli._common import load_scene
+from clomp.runtime.experiment.onerun import SUCCESS_RADIUS, RunResult, run_once
 from clomp.runtime.experiment.plots import plot_run
 from clomp.runtime.backends.world import WorldNoise
 
@@ -69,13 +70,13 @@ def print_summary(r: RunResult) -> None:
     print(f"  {r.time_s:.1f} s simulated in {r.wall_s:.2f} s ({r.time_s / max(r.wall_s, 1e-9):.0f}× real time); "
           f"collisions {r.collisions}; ends {r.final_distance:.3f} m from the goal (success within {SUCCESS_RADIUS} m)")
     if r.condition == "planning" and rep is not None:
-        print(f"  {len(rep.plans)} plan(s), {len(rep.tasks)} task(s) run; first plan: {r.states} states in "
+        print(f"  {len(rep.plans)} plan(s), {len(rep.tasks)} task(s) run; first plan: {r.n_states} states in "
               f"{(r.planning_time_s or 0) * 1e3:.1f} ms")
         for k, p in enumerate(rep.plans, 1):
             tasks = " ".join(s.task.value[0] for s in p.result.steps) or "(empty)"
             o = p.origin
             print(f"   plan {k} at {p.time:5.1f} s from ({o.x:+.2f}, {o.y:+.2f}, {math.degrees(o.theta):+.0f}°): "
-                  f"{tasks}  [{p.result.states} states, {'reaches' if p.result.reached_goal else 'short of'} the goal]")
+                  f"{tasks}  [{p.result.n_states} states, {'reaches' if p.result.reached_goal else 'short of'} the goal]")
         for t in rep.transitions:
             if t.event.value not in ("next_task", "start"):
                 print(f"   {t.time:5.1f} s  {t.source.value} → {t.target.value}: {t.reason}")
@@ -94,15 +95,15 @@ def _summary_dict(r: RunResult, png: Path) -> dict[str, Any]:
         "wall_s": r.wall_s,
         "plans": r.plans,
         "planning_time_s": r.planning_time_s,
-        "states": r.states,
+        "states": r.n_states,
         "png": str(png),
     }
 
 
 def run(args: argparse.Namespace) -> int:
     """Execute ``clomp simulate``."""
+    scene = load_scene(args.scenario)
     try:
-        scene = load_scenario(args.scenario)
         check_world_options(args)
         noise = WorldNoise.preset("ideal") if args.no_noise else world_noise(args, scene)
         seed = args.seed if args.seed is not None else scene.raw.get("seed", 0)

@@ -9,6 +9,14 @@ driver doing the port I/O (``rplidar``, ``maestro``, ``bno08x``) and an emulator
 May import: numpy, pyserial and itself only — never the robots, the supervisor or the
 planner (a test checks it), so the devices can be used on their own.
 
+Time: every driver and emulator takes ``clock``, a monotonic source (``() -> float``,
+seconds; ``time.monotonic`` by default) that its deadlines, timeouts and timestamps read —
+the ``now`` of a :class:`clomp.runtime.clock.Clock` is one (``clock=robot_clock.now``), so
+a test's manual or simulated time reaches the devices unchanged. A device never lets time
+pass by its clock: its waits block on a port or a thread (which only wall time serves), so
+it needs ``now`` alone, and no import from above. The waits themselves (a line falling
+quiet after STOP, a test helper's ``wait_for``) are on wall time.
+
 >>> from clomp.runtime.devices import ScanDecoder
 >>> ScanDecoder().feed(b"") == []
 True

@@ -110,7 +110,8 @@ class Maestro:
         #: slip in between) after each stop the watchdog made: whoever dead-reckons from
         #: the commands learns that the wheels stopped without being told to
         self.on_watchdog_stop: Callable[[], None] | None = None
-        #: the watchdog's time (seconds); ``time.monotonic`` unless a test passes its own
+        #: the watchdog's and the reply deadline's time (seconds); ``time.monotonic`` unless
+        #: the robot (or a test) passes its clock's ``now``
         self.clock: Callable[[], float] = clock or time.monotonic
         #: passes of the watchdog loop so far (a test can wait for it to have looked)
         self.watchdog_passes = 0
@@ -167,10 +168,10 @@ class Maestro:
             except _PORT_ERRORS as exc:
                 raise MaestroPortError(f"Maestro port {self.port_name} failed: {exc}") from exc
             self._write(request)
-            deadline = time.monotonic() + self.reply_timeout
+            deadline = self.clock() + self.reply_timeout
             buf = bytearray()
             while len(buf) < n:
-                if time.monotonic() >= deadline:
+                if self.clock() >= deadline:
                     raise MaestroTimeout(
                         f"Maestro on {self.port_name} sent {len(buf)} of {n} bytes of "
                         f"the {what} reply within {self.reply_timeout:.2f} s"

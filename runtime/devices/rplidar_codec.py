@@ -440,20 +440,10 @@ class ScanDecoder:
         buf += data
         done: list[Revolution] = []
         i, n = 0, len(buf)
-        angle_at, step_ok = self._angle_at, self._plausible_step
         while n - i >= SAMPLE_SIZE:
-            a = angle_at(buf, i)
-            since = self._since_accept
-            if a >= 0 and since < _RECENT_BYTES and not step_ok(self._last_q6, a, since):
-                a = -1
-            if a >= 0 and self._since_accept > 0:
-                if n - i < 2 * SAMPLE_SIZE:
-                    break  # wait for the next sample to confirm this one
-                b = angle_at(buf, i + SAMPLE_SIZE)
-                if b < 0 or not 0 < (b - a) % FULL_CIRCLE_Q6 < _MAX_STEP_Q6:
-                    # a confirming sample must move on: bytes one off a run of samples
-                    # with equal fields read as samples of one constant angle
-                    a = -1
+            a = self._accepted_angle(buf, i, n)
+            if a is None:
+                break  # wait for the next sample to confirm this one
             if a < 0:
                 i += 1
                 self.dropped_bytes += 1
@@ -464,53 +454,85 @@ class ScanDecoder:
             self._last_q6 = a
             self._since_accept = 0
             self.samples += 1
-            flagged = bool(b0 & 1)
-            if not self._started:
-                if not flagged:
-                    self.discarded_samples += 1
-                    continue
-                self._started = True
-                self._begin(a)
-            elif a < self._max_q6 - _BACK_STEP_Q6 and (flagged or not self._drop_strays_above(a)):
-                # the sweep wrapped past 0° (or broke off): a new revolution
-                rev = self._close_revolution()
-                if rev is not None:
-                    done.append(rev)
-                self._begin(a)
-            elif flagged:
-                if self._max_q6 - self._first_q6 <= _MAX_STEP_Q6 and a < self._max_q6:
-                    # a revolution begins with its flagged sample: what came before were strays
-                    self.discarded_samples += len(self._angle)
-                    stall = self._stall
-                    self._begin(a)
-                    self._stall = stall + 1  # a flagged run at one angle is still a stall
-                else:
-                    self.ignored_start_flags += 1
-            if self._angle:
-                self._stall = self._stall + 1 if a <= self._max_q6 else 0
-            self._max_q6 = max(self._max_q6, a)
-            self._angle.append(a)
-            self._dist.append((b3 | (b4 << 8)) / 4.0)
-            self._qual.append(b0 >> 2)
-            if self._stall >= _MAX_STALL:
-                # a sweep that stopped turning is misaligned bytes read as samples: drop
-                # the run and look for the true alignment from the byte after its last start
-                keep = len(self._angle) - self._stall
-                self.discarded_samples += self._stall
-                del self._angle[keep:], self._dist[keep:], self._qual[keep:]
-                self._max_q6 = max(self._angle, default=a)
-                self._stall = 0
-                self._since_accept = _RECENT_BYTES
-                i -= SAMPLE_SIZE - 1
+            if not self._place(a, bool(b0 & 1), done):
                 continue
-            if len(self._angle) > self.max_samples:
-                # no wrap in far more samples than a revolution has: not a revolution
-                self.rejected_revolutions += 1
-                self.discarded_samples += len(self._angle)
-                self._started = False
-                self._begin(a)
+            self._add(a, (b3 | (b4 << 8)) / 4.0, b0 >> 2)
+            if self._stall >= _MAX_STALL:
+                self._drop_stall(a)
+                i -= SAMPLE_SIZE - 1  # look for the true alignment from the byte after its last start
+            elif len(self._angle) > self.max_samples:
+                self._drop_overgrown(a)
         del buf[:i]
         return done
+
+    def _accepted_angle(self, buf: bytearray, i: int, n: int) -> int | None:
+        """angle_q6 of the sample at ``i`` when it is accepted (see the class docstring),
+        -1 when it is not, None when the sample that must confirm it has not come yet."""
+        a = self._angle_at(buf, i)
+        since = self._since_accept
+        if a >= 0 and since < _RECENT_BYTES and not self._plausible_step(self._last_q6, a, since):
+            a = -1
+        if a >= 0 and since > 0:
+            if n - i < 2 * SAMPLE_SIZE:
+                return None
+            b = self._angle_at(buf, i + SAMPLE_SIZE)
+            if b < 0 or not 0 < (b - a) % FULL_CIRCLE_Q6 < _MAX_STEP_Q6:
+                # a confirming sample must move on: bytes one off a run of samples
+                # with equal fields read as samples of one constant angle
+                a = -1
+        return a
+
+    def _place(self, a: int, flagged: bool, done: list[Revolution]) -> bool:
+        """Where an accepted sample at ``a`` falls: before the first start flag (discarded:
+        False), past the wrap (the revolution closes onto ``done``, a new one begins), or
+        on a start flag that restarts or does not restart the sweep. True: add it."""
+        if not self._started:
+            if not flagged:
+                self.discarded_samples += 1
+                return False
+            self._started = True
+            self._begin(a)
+        elif a < self._max_q6 - _BACK_STEP_Q6 and (flagged or not self._drop_strays_above(a)):
+            # the sweep wrapped past 0° (or broke off): a new revolution
+            rev = self._close_revolution()
+            if rev is not None:
+                done.append(rev)
+            self._begin(a)
+        elif flagged:
+            if self._max_q6 - self._first_q6 <= _MAX_STEP_Q6 and a < self._max_q6:
+                # a revolution begins with its flagged sample: what came before were strays
+                self.discarded_samples += len(self._angle)
+                stall = self._stall
+                self._begin(a)
+                self._stall = stall + 1  # a flagged run at one angle is still a stall
+            else:
+                self.ignored_start_flags += 1
+        return True
+
+    def _add(self, a: int, distance_mm: float, quality: int) -> None:
+        """Append a sample to the revolution, counting it towards a stall unless it turns the sweep further."""
+        if self._angle:
+            self._stall = self._stall + 1 if a <= self._max_q6 else 0
+        self._max_q6 = max(self._max_q6, a)
+        self._angle.append(a)
+        self._dist.append(distance_mm)
+        self._qual.append(quality)
+
+    def _drop_stall(self, a: int) -> None:
+        """A sweep that stopped turning is misaligned bytes read as samples: drop the run."""
+        keep = len(self._angle) - self._stall
+        self.discarded_samples += self._stall
+        del self._angle[keep:], self._dist[keep:], self._qual[keep:]
+        self._max_q6 = max(self._angle, default=a)
+        self._stall = 0
+        self._since_accept = _RECENT_BYTES
+
+    def _drop_overgrown(self, a: int) -> None:
+        """No wrap in far more samples than a revolution has: not a revolution."""
+        self.rejected_revolutions += 1
+        self.discarded_samples += len(self._angle)
+        self._started = False
+        self._begin(a)
 
     def _begin(self, a: int) -> None:
         self._angle, self._dist, self._qual = [], [], []

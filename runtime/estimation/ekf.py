@@ -76,7 +76,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from clomp.formal.geometry import wrap_angle
+from clomp.formal.geometry import midpoint_step, wrap_angle
 from clomp.formal.model import Pose
 
 __all__ = ["OdometryFilter"]
@@ -223,11 +223,9 @@ class OdometryFilter:
         else:
             dth = turned * (1 + k) - b * dt
             dwt = np.array([0.0, 0.0, 0.0, 0.0, turned, 0.0, 0.0, -dt])
-        thm = th + dth / 2
+        self.x[:3] = midpoint_step(x, y, th, vt * dt, dth)  # the one integrator: formal.geometry
+        thm = th + dth / 2  # the step's heading, for its Jacobian
         cs, sn = math.cos(thm), math.sin(thm)
-        self.x[0] = x + vt * dt * cs
-        self.x[1] = y + vt * dt * sn
-        self.x[2] = wrap_angle(th + dth)
         f = np.eye(_N)
         f[0, 2], f[1, 2] = -vt * dt * sn, vt * dt * cs
         f[0, 3], f[1, 3] = v * dt * cs, v * dt * sn

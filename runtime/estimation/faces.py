@@ -54,7 +54,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from clomp.formal.geometry import wrap_angle
+from clomp.formal.geometry import points_from_frame, points_to_frame, wrap_angle
 from clomp.formal.model import Pose
 from clomp.runtime.estimation.fusion import fuse_revolutions
 
@@ -225,12 +225,6 @@ def _crosses(a: Face, b: Face) -> bool:
     return side(p1, p2, p3) * side(p1, p2, p4) < 0 and side(p3, p4, p1) * side(p3, p4, p2) < 0
 
 
-def _to_frame(points: np.ndarray, pose: Pose) -> np.ndarray:
-    c, s = math.cos(pose.theta), math.sin(pose.theta)
-    out: np.ndarray = np.stack((pose.x + c * points[:, 0] - s * points[:, 1], pose.y + s * points[:, 0] + c * points[:, 1]), axis=1)
-    return out
-
-
 class FaceCompass:
     """The heading measured against straight faces fixed in the supervisor frame.
 
@@ -296,10 +290,10 @@ class FaceCompass:
         # 1.25/sqrt(n) of one's, so the faces are found in a thinner cloud
         pts = fuse_revolutions(raw) if len(raw) > 1 else raw[0]
         sd = (range_sd or 0.01) * (1.25 / math.sqrt(len(raw)) if len(raw) > 1 else 1.0)
-        found = find_faces(_to_frame(pts, pose), self._tol(sd), min_length=self.min_length) if len(pts) else []
+        found = find_faces(points_from_frame(pts, pose), self._tol(sd), min_length=self.min_length) if len(pts) else []
         # each face refitted on every raw point along it: n revolutions' points carry more
         # of its direction than their one fused median per bearing
-        every = _to_frame(np.concatenate(raw), pose)
+        every = points_from_frame(np.concatenate(raw), pose)
         # the refit's band holds nearly all of a face's noise (3.5 sd): a band of 2 sd
         # around a tilted first guess keeps a tilted parallelogram of points, whose fit
         # stays tilted (5° on a 0.2 m face under 2.5 cm of noise)
@@ -334,7 +328,7 @@ class FaceCompass:
         if not self.faces or len(pts) < 8:
             return None
         offsets, weights = [], []
-        world = _to_frame(pts, pose)
+        world = points_from_frame(pts, pose)
         sd_r = max(range_sd or 0.01, 0.005)
         tol = max(self.fit_band * sd_r, 0.02)
         spread = min(3.0 * prior_sd, math.radians(25.0))  # how far the heading may be off
@@ -360,8 +354,7 @@ class FaceCompass:
             # a beam meeting the face at a grazing angle moves its point along the face, not
             # across: those points say little about the direction and skew it
             nrm = np.array([-d[1], d[0]])
-            th = pose.theta
-            face_n = np.array([math.cos(th) * nrm[0] + math.sin(th) * nrm[1], -math.sin(th) * nrm[0] + math.cos(th) * nrm[1]])
+            face_n = points_to_frame(nrm[None, :], (0.0, 0.0, pose.theta))[0]  # the normal seen from the robot
             steep = np.abs(ray[cand] @ face_n) >= self.incidence
             if (sel & steep).sum() < 8:
                 continue
@@ -399,7 +392,7 @@ class FaceCompass:
         if not self.seeded or heading_sd > max(self.grow_sd, self.square_sd) or len(pts) < 8:
             self._recent = []
             return 0
-        self._recent.append(_to_frame(pts, pose))
+        self._recent.append(points_from_frame(pts, pose))
         if len(self._recent) < self.grow_revolutions:
             return 0
         world, self._recent = np.concatenate(self._recent), []

@@ -30,6 +30,8 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from clomp.formal.geometry import polar_to_xy
+
 __all__ = ["fuse_revolutions", "range_spread"]
 
 
@@ -90,5 +92,4 @@ def fuse_revolutions(scans: Sequence[np.ndarray], bin_deg: float = 0.5, min_supp
         return np.zeros((0, 2))
     med = np.nanmedian(ranges[:, keep], axis=0)
     ang = np.arctan2(sin_sum[keep], cos_sum[keep])
-    out: np.ndarray = np.c_[med * np.cos(ang), med * np.sin(ang)]
-    return out
+    return polar_to_xy(med, ang)

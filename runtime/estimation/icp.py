@@ -41,6 +41,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial import cKDTree
 
+from clomp.formal.geometry import wrap_angle
 from clomp.formal.model import Pose
 from clomp.runtime.estimation._icp_core import cell_keys, grid_index, icp_iterations
 from clomp.runtime.jit import interruptible
@@ -215,7 +216,7 @@ def match_scans(
         return ScanMatch(prior, False, f"residual {rmse * 100:.1f} cm too large", n_final, frac, rmse, it, unobservable, info)  # type: ignore[arg-type]
     if gate is not None:
         dt = math.hypot(pose.x - prior.x, pose.y - prior.y)
-        da = abs(math.atan2(math.sin(pose.theta - prior.theta), math.cos(pose.theta - prior.theta)))
+        da = abs(wrap_angle(pose.theta - prior.theta))
         if dt > gate[0] or da > gate[1]:
             return ScanMatch(prior, False, f"disagrees with the prior by {dt * 100:.0f} cm, {math.degrees(da):.0f}°: rejected",
                              n_final, frac, rmse, it, unobservable, info)  # type: ignore[arg-type]

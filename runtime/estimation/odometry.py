@@ -48,7 +48,16 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial import cKDTree
 
-from clomp.formal.geometry import compose, relative, wheel_twist, wrap_angle
+from clomp.formal.geometry import (
+    arc_offsets,
+    compose,
+    points_from_frame,
+    points_from_frames,
+    points_to_frame,
+    relative,
+    wheel_twist,
+    wrap_angle,
+)
 from clomp.formal.model import Pose
 from clomp.runtime.devices.frame import ScanFrame
 from clomp.runtime.estimation.ekf import OdometryFilter
@@ -91,16 +100,8 @@ def deskew(points: np.ndarray, point_times: np.ndarray | None, v: float, w: floa
     """
     if point_times is None or len(points) == 0 or (v == 0.0 and w == 0.0):
         return points
-    tau = np.asarray(point_times, dtype=float)
-    th = w * tau
-    if abs(w) < 1e-9:
-        px, py = v * tau, np.zeros_like(tau)
-    else:
-        r = v / w
-        px, py = r * np.sin(th), r * (1 - np.cos(th))
-    c, s = np.cos(th), np.sin(th)
-    out: np.ndarray = np.stack((px + c * points[:, 0] - s * points[:, 1], py + s * points[:, 0] + c * points[:, 1]), axis=1)
-    return out
+    px, py, th = arc_offsets(v, w, np.asarray(point_times, dtype=float))  # where each point was taken
+    return points_from_frames(points, px, py, th)
 
 
 class ScanOdometry:
@@ -280,11 +281,8 @@ class ScanOdometry:
         when = stamp + point_times
         x, y, th = np.interp(when, t, hx), np.interp(when, t, hy), np.interp(when, t, hth)
         x0, y0, th0 = float(np.interp(stamp, t, hx)), float(np.interp(stamp, t, hy)), float(np.interp(stamp, t, hth))
-        c0, s0 = math.cos(th0), math.sin(th0)
-        dx, dy = c0 * (x - x0) + s0 * (y - y0), -s0 * (x - x0) + c0 * (y - y0)  # where each was taken, seen from stamp
-        c, s = np.cos(th - th0), np.sin(th - th0)
-        out: np.ndarray = np.stack((dx + c * points[:, 0] - s * points[:, 1], dy + s * points[:, 0] + c * points[:, 1]), axis=1)
-        return out
+        taken = points_to_frame(np.stack((x, y), axis=1), (x0, y0, th0))  # where each was taken, seen from stamp
+        return points_from_frames(points, taken[:, 0], taken[:, 1], th - th0)
 
     # -- scans ------------------------------------------------------------------------------------
     def update(self, frame: ScanFrame, twist: tuple[float, float] | None = None) -> FeedbackRecord:
@@ -405,8 +403,7 @@ class ScanOdometry:
         """Put a revolution seen from ``pose`` into the map (1 cm grid, within ``map_radius``)."""
         if len(points) < self.min_points:
             return False
-        c, s = math.cos(pose.theta), math.sin(pose.theta)
-        world = np.stack((pose.x + c * points[:, 0] - s * points[:, 1], pose.y + s * points[:, 0] + c * points[:, 1]), axis=1)
+        world = points_from_frame(points, pose)
         old = self._map_points if (self._map_points is not None and not reseed) else np.zeros((0, 2))
         if len(old) and self._map is not None and len(self._map):
             # only surfaces the map does not hold yet: re-adding known ones would smear them

@@ -2,9 +2,13 @@
 
 - :mod:`.layouts` — layout families, each world reproducible from (family, seed, run);
 - :mod:`.reactive` — the paper's reactive baseline (one loop, one straight step of look-ahead);
-- :mod:`.world` — the execution world a run uses and its ground truth (pose, contact trace);
+- :mod:`.groundtruth` — the execution world a run uses and its ground truth (pose, contact trace);
 - :mod:`.contacts` — contact episodes: collisions and brushes, counted as the paper would;
-- :mod:`.runner` — one run as a pure function of its spec; many runs, in this process or on Dask;
+- :mod:`.runspec` — what one run depends on (:class:`~.runspec.RunSpec`) and its seeding;
+- :mod:`.onerun` — one run of one condition, measured on the ground truth;
+- :mod:`.runrecords` — one run as a pure function of its spec, a JSON-ready record; reading them back;
+- :mod:`.driver` — many runs, in this process or on Dask, streamed to ``runs.jsonl`` and resumed;
+- :mod:`.runner` — the names of those four in one place;
 - :mod:`.stats` — Wilson and t intervals, the paired t-test, McNemar's test;
 - :mod:`.results` — the CSV (documented schema), the JSON summary, the text and README tables;
 - :mod:`.plots` / :mod:`.report` — pictures of runs, collisions per run, success against noise, a gallery.

@@ -1,6 +1,6 @@
 """What an experiment leaves: one CSV row per run (documented schema), a summary, a table.
 
-The records come from :func:`clomp.runtime.experiment.runner.run_spec` (one per run and
+The records come from :func:`clomp.runtime.experiment.runrecords.run_spec` (one per run and
 condition). :func:`summarise` turns them into the JSON summary — per condition: runs,
 ground-truth goal reached, success with its Wilson 95 % interval, collisions and
 brushes (totals and per run with t intervals), median final error; the paired t-test
@@ -29,8 +29,16 @@ from typing import Any
 
 from clomp.runtime.experiment.stats import mcnemar, mean_ci, paired_ttest, wilson
 
-__all__ = ["COLUMN_TYPES", "CSV_COLUMNS", "MARKDOWN_HEADER", "markdown_rows", "summarise", "table", "write_csv",
+__all__ = ["COLUMN_TYPES", "CSV_COLUMNS", "MARKDOWN_HEADER", "PAPER", "markdown_rows", "summarise", "table", "write_csv",
            "write_parquet", "write_schema"]
+
+PAPER: dict[str, dict[str, Any]] = {
+    "planning": {"reached_goal": 10, "runs": 10, "collisions": 0, "brushes": 2, "planning_time_s": (0.064, 0.009),
+                 "states": (32.9, 1.758)},
+    "reactive": {"reached_goal": 0, "runs": 10, "collisions": 8},
+    "ttest": {"t": -1.747, "p": 0.111},
+}
+"""The paper's figures (overtaking, real robot, 10 runs per condition): what :func:`table` puts beside a summary."""
 
 CSV_COLUMNS: dict[str, tuple[str, str]] = {
     "family": ("", "layout family (or scenario name/file for a fixed layout)"),

@@ -32,6 +32,8 @@ from typing import Any
 
 import numpy as np
 
+from clomp.formal.geometry import polar_to_xy
+
 __all__ = [
     "BagError",
     "LaserScan",
@@ -93,7 +95,7 @@ def laserscan_points(
     hi = range_max if not math.isnan(range_max) else math.inf
     keep = np.isfinite(r) & (r >= lo) & (r <= hi)
     r, a = r[keep], a[keep] + offset[2]
-    pts = np.column_stack((r * np.cos(a), r * np.sin(a)))
+    pts = polar_to_xy(r, a)
     if offset[0] or offset[1]:
         pts += (offset[0], offset[1])
     return pts

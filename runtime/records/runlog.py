@@ -72,7 +72,7 @@ def plan_fields(result: Any, origin: Any) -> dict[str, Any]:
     boxes = np.asarray(result.obstacles.boxes, dtype=float).reshape(-1, 2)
     return {
         "reached_goal": result.reached_goal,
-        "states": result.states,
+        "states": result.n_states,
         "transitions": result.transitions,
         "planning_time_s": result.planning_time_s,
         "tasks": [q.task.value for q in result.steps],

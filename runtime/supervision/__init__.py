@@ -1,6 +1,9 @@
-"""Supervision: the state machine (:mod:`.machine`) and the supervisor that runs it (:mod:`.supervisor`).
+"""Supervision: the state machine (:mod:`.states`) and the supervisor that runs it (:mod:`.supervisor`),
+with its settings (:mod:`.config`), its pose estimate and revolutions (:mod:`.sensing`) and its
+judgement of progress (:mod:`.progress`).
 
-May import: formal, planner, :mod:`clomp.runtime.interface`, :mod:`clomp.runtime.clock`, :mod:`clomp.runtime.records`.
+May import: formal, planner, :mod:`clomp.runtime.interface`, :mod:`clomp.runtime.clock`, :mod:`clomp.runtime.records`,
+:mod:`clomp.runtime.estimation`.
 Devices, robots and the command line's lower layers do not import this room.
 
 >>> from clomp.runtime.supervision import SupervisorState
@@ -8,6 +11,7 @@ Devices, robots and the command line's lower layers do not import this room.
 'HALTED'
 """
 
+from clomp.runtime.supervision.config import SupervisorConfig
 from clomp.runtime.supervision.states import (
     MOTOR_STATES,
     TERMINAL,
@@ -32,6 +36,7 @@ __all__ = [
     "MOTOR_STATES",
     "PlanRecord",
     "Supervisor",
+    "SupervisorConfig",
     "SupervisorReport",
     "SupervisorState",
     "TERMINAL",

@@ -47,6 +47,7 @@ from collections.abc import Callable
 import numpy as np
 
 from clomp.formal.model import Pose, State, TaskKind
+from clomp.planner.footprint import body_box, inside
 from clomp.planner.noise import ALARM_DEVIATIONS
 from clomp.planner.robot_model import RobotModel
 from clomp.runtime.supervision.plancheck import CheckResult, check_plan
@@ -97,7 +98,7 @@ def hazard_hits(points: np.ndarray, kind: TaskKind, error: float, m: RobotModel,
     pts = np.asarray(points, dtype=float).reshape(-1, 2)
     pts = pts[np.hypot(pts[:, 0], pts[:, 1]) <= m.length + error + 0.05] if len(pts) else pts
     if len(pts):
-        own = (pts[:, 0] > -m.rear_offset) & (pts[:, 0] < m.front_offset) & (np.abs(pts[:, 1]) < m.width / 2)
+        own = inside(pts[:, 0], np.abs(pts[:, 1]), body_box(m), strict=True)
         pts = pts[~own]
     if len(pts) == 0:
         return 0, 0

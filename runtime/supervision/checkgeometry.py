@@ -19,6 +19,7 @@ import numpy as np
 
 from clomp.formal.geometry import wrap_angle
 from clomp.formal.model import Pose, State, TaskKind
+from clomp.planner.footprint import body_box, inside
 from clomp.planner.perception import Obstacles
 from clomp.planner.robot_model import RobotModel
 from clomp.runtime.jit import interruptible
@@ -150,13 +151,11 @@ def _waived_turn(d: np.ndarray, theta: float, sign: float, per_tick: float, e0: 
     """The first tick at or after which the real body meets one of these points (complex,
     relative to the centre; strictly outside the body at the start), eight headings a tick,
     up to ``ticks`` (``ticks + 1``: none)."""
-    rear, front, half = robot.rear_offset - allowance, robot.front_offset - allowance, robot.width / 2 - allowance
     fine = np.minimum(np.arange(1, 8 * ticks + 1) * (per_tick / 8), e0)
     w = d[None, :] * np.exp(-1j * (theta + sign * fine))[:, None]
-    u, v = w.real, np.abs(w.imag)
     w0 = d * complex(math.cos(theta), -math.sin(theta))
-    live = ~((w0.real > -robot.rear_offset) & (w0.real < robot.front_offset) & (np.abs(w0.imag) < robot.width / 2))
-    hit = np.flatnonzero(((u >= -rear) & (u <= front) & (v <= half) & live).any(axis=1))
+    live = ~inside(w0.real, np.abs(w0.imag), body_box(robot), strict=True)
+    hit = np.flatnonzero((inside(w.real, np.abs(w.imag), body_box(robot, -allowance)) & live).any(axis=1))
     return int(hit[0]) // 8 + 1 if len(hit) else ticks + 1
 
 

@@ -37,7 +37,8 @@ import numpy as np
 from clomp.formal.geometry import compose, relative, wrap_angle
 from clomp.formal.model import Disturbance, Pose, State, TaskKind
 from clomp.formal.scheduler import map_policy, policy_path
-from clomp.formal.supervisory import Plan, guard
+from clomp.formal.supervisory import Guard, Plan
+from clomp.planner import footprint
 from clomp.planner.configurator import PlanResult
 from clomp.planner.perception import Obstacles, perceive
 from clomp.planner.rollout import simulate
@@ -79,8 +80,7 @@ class Recall:
 
 def perceive_scan(scan: np.ndarray, robot: RobotModel) -> Obstacles:
     """What the planner perceives in ``scan`` (robot frame), as :meth:`Configurator.plan` does."""
-    return perceive(scan, robot.sensor_range, robot.cluster_distance,
-                    body=(robot.rear_offset, robot.front_offset, robot.width / 2))
+    return perceive(scan, robot.sensor_range, robot.cluster_distance, body=footprint.body_box(robot))
 
 
 def perceive_near(scan: np.ndarray, states: list[State], origin: Pose, pose: Pose, robot: RobotModel) -> Obstacles:
@@ -299,37 +299,14 @@ class RecallIndex:
             for k, ident in enumerate(states[:-1]):
                 self._prefix[ident] = states[:k + 1]
                 self._paths[ident] = states[k:] if best.cost < cmap[ident].cost else None
-        self._psi: dict[Any, int] | None = None  # the guard the template below is made from
-        self._n = 0  # the map's number of transitions (a full guard's size)
-        self._zero: dict[Any, int] = {}
-        self._by_step: dict[tuple[int, int], dict[Any, int]] = {}
-        if psi is not None:
-            self._template(psi)
+        self._psi = psi  # a guard of this map, whose keys the recalled plans' guards reuse
         self.build_s = time.perf_counter() - t0  # how long building it took (s)
 
-    def _template(self, psi: dict[Any, int]) -> None:
-        self._psi, self._n = psi, self.map.n_transitions
-        self._zero = dict.fromkeys(psi, 0)
-        self._by_step = {}
-        for t in psi:  # each step's transitions set to 1, hashed once (an update copies the hashes)
-            self._by_step.setdefault((t.source, t.target), {})[t] = 1
-
     def guard(self, result: PlanResult, plan: Plan) -> dict[Any, int]:
-        """Ψ of ``plan`` on ``result``'s map, as :func:`_guard` derives it from the result's
-        guard: a copy of the map's all-zero guard with the plan's steps set (the template
-        is made once per map: with the index when ``psi`` is given, else at the first call)."""
-        if result.map is not self.map:
-            return _guard(result, plan)
-        if self._psi is None:  # every full guard of this map has the same keys: its transitions
-            self._template(result.psi)
-        if len(result.psi) != self._n:
-            return _guard(result, plan)
-        out = self._zero.copy()
-        for step in plan.steps():
-            ones = self._by_step.get(step)
-            if ones is not None:
-                out.update(ones)
-        return out
+        """Ψ of ``plan`` on ``result``'s map (:meth:`clomp.formal.supervisory.Guard.table`),
+        reusing the keys of the guard given with the index, else of the result's."""
+        like = self._psi if result.map is self.map and self._psi is not None else result.psi
+        return Guard(result.map, plan).table(like=like)
 
     def _key(self, x: float, y: float) -> tuple[int, int]:
         return math.floor(x / self.cell), math.floor(y / self.cell)
@@ -379,20 +356,6 @@ def _best_from(result: PlanResult, source: int) -> list[int] | None:
     if end.cost >= cmap[source].cost:
         return None  # nothing better than where the robot is
     return cmap.path(end.ident, source)
-
-
-def _guard(result: PlanResult, plan: Plan) -> dict[Any, int]:
-    """Ψ of ``plan`` on ``result``'s map: :func:`clomp.formal.supervisory.guard`, derived from the
-    guard the result already holds over the same transitions (the keys' hashes are reused,
-    only the plan's steps are set; the map's own guard when the result's does not cover it)."""
-    if len(result.psi) != result.map.n_transitions:
-        return guard(result.map, plan)
-    steps = set(plan.steps())
-    psi = dict.fromkeys(result.psi, 0)
-    for t in result.psi:
-        if (t.source, t.target) in steps:
-            psi[t] = 1
-    return psi
 
 
 def recall(

@@ -12,9 +12,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from clomp.formal.geometry import compose, points_from_frame, points_to_frame, relative
+from clomp.formal.geometry import compose, points_from_frame, relative
 from clomp.formal.model import Pose, State, TaskKind
 from clomp.planner.configurator import PlanResult
+from clomp.planner.footprint import body_box, inside_at
 from clomp.planner.robot_model import RobotModel
 from clomp.runtime.estimation.odometry import FeedbackRecord
 from clomp.runtime.supervision.states import SupervisorState, TransitionRecord
@@ -128,10 +129,8 @@ def sweep(kind: TaskKind, amount: float) -> np.ndarray:
 def hits(points: np.ndarray, poses: np.ndarray, m: RobotModel, allowance: float = 0.0) -> int:
     """How many points lie inside the (uninflated) body at any of ``poses``, more than
     ``allowance`` (m) inside its outline."""
-    inside = np.zeros(len(points), dtype=bool)
-    rear, front, half = m.rear_offset - allowance, m.front_offset - allowance, m.width / 2 - allowance
+    met = np.zeros(len(points), dtype=bool)
+    box = body_box(m, -allowance)
     for x, y, th in poses:
-        local = points_to_frame(points, (x, y, th))
-        u, v = local[:, 0], local[:, 1]
-        inside |= (u >= -rear) & (u <= front) & (np.abs(v) <= half)
-    return int(inside.sum())
+        met |= inside_at(points, (x, y, th), box)
+    return int(met.sum())

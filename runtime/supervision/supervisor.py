@@ -46,6 +46,16 @@ stopped): ``confirm`` plans in a row, each from revolutions taken afresh, find n
 ``patience`` (6) plans in a row bring the robot no closer (with 3, three of ten harsh slalom
 runs gave up 5-8 s in, the estimate within 1 cm of the truth); ``max_stuck`` plans in a row
 end before it moved at all; or ``max_plans`` fresh plans were made.
+
+The settings named above (``start_scans``, ``patience``, ...) are the fields of one
+object, :class:`~clomp.runtime.supervision.config.SupervisorConfig`. The parts, one noun a module:
+the state machine (:mod:`~clomp.runtime.supervision.states`), the settings
+(:mod:`~clomp.runtime.supervision.config`), the pose estimate and the revolutions kept
+(:mod:`~clomp.runtime.supervision.sensing`), the counts behind UNREACHABLE
+(:mod:`~clomp.runtime.supervision.progress`), one task's start and end
+(:mod:`~clomp.runtime.supervision.execution`), the hazard test, plan check and recall
+(:mod:`~clomp.runtime.supervision.planwatch`) and what is recorded
+(:mod:`~clomp.runtime.supervision.records`); this module drives them tick by tick.
 """
 
 from __future__ import annotations
@@ -58,39 +68,37 @@ from typing import Any
 
 import numpy as np
 
-from clomp.formal.model import Disturbance, Pose, State, TaskKind
+from clomp.formal.model import Pose, State
 from clomp.planner.configurator import Configurator, PlanningError
-from clomp.planner.perception import validate_scan
-from clomp.planner.rollout import make_task
 from clomp.planner.robot_model import RobotModel
-from clomp.formal.geometry import compose, dead_reckon, relative, wrap_angle
+from clomp.formal.geometry import compose, relative, wrap_angle
 from clomp.planner.tasks import Task
 from clomp.runtime.clock import Clock, clock_for
-from clomp.runtime.estimation.fusion import fuse_revolutions
 from clomp.runtime.estimation.odometry import ScanOdometry
+from clomp.runtime.supervision.config import SupervisorConfig
+from clomp.runtime.supervision.execution import GuardViolation, end_error, guard, task_for
 from clomp.runtime.supervision.planwatch import PlanWatch, plan_deepening
+from clomp.runtime.supervision.progress import Progress
 from clomp.runtime.supervision.records import PlanRecord, SupervisorReport, TaskRecord, TimedRecord
 from clomp.runtime.records.runlog import RunLogLike, plan_fields
-from clomp.runtime.interface import Robot, RobotFault, ScanFrame, TurnSensing, finite_goal
+from clomp.runtime.interface import Robot, RobotFault, ScanFrame, finite_goal
+from clomp.runtime.supervision.sensing import Sensing
 from clomp.runtime.supervision.states import MOTOR_STATES, TERMINAL, TRANSITIONS, Event, SupervisorState, TransitionRecord
 
-__all__ = ["FEEDBACK", "GuardViolation", "PlanRecord", "Supervisor", "SupervisorReport", "TaskRecord", "TimedRecord"]
+__all__ = ["GuardViolation", "PlanRecord", "Supervisor", "SupervisorConfig", "SupervisorReport", "TaskRecord", "TimedRecord"]
 
 
 S, E = SupervisorState, Event
-FEEDBACK = ("scan", "none")
-
-
-class GuardViolation(RuntimeError):
-    """A task was about to start over a transition the guard Ψ does not enable."""
 
 
 # -- the supervisor -------------------------------------------------------------------------
 class Supervisor:
     """Runs plans of a :class:`~clomp.planner.Configurator` closed-loop on a :class:`~clomp.runtime.interface.Robot`.
 
-    ``goal`` is (x, y) in the robot's frame at start (x forward, y left). ``clock``
-    defaults to the robot itself when it keeps (simulated) time, else the wall clock.
+    ``goal`` is (x, y) in the robot's frame at start (x forward, y left). ``config``: its
+    settings (:class:`~clomp.runtime.supervision.config.SupervisorConfig`; the defaults when
+    None). ``clock`` defaults to the robot itself when it keeps (simulated) time, else the
+    wall clock. ``log`` receives the run's records (:mod:`clomp.runtime.records.runlog`).
 
     >>> from clomp.planner import load_scenario
     >>> from clomp.runtime.backends.sim import SimRobot
@@ -98,6 +106,8 @@ class Supervisor:
     >>> report = Supervisor(SimRobot(scene, seed=0), scene.goal_in_robot_frame()).run(max_time=60)
     >>> report.state.value, report.replans
     ('GOAL_REACHED', 0)
+    >>> Supervisor(SimRobot(scene, seed=0), (1.0, 0.0), config=SupervisorConfig(feedback="none")).estimator is None
+    True
     """
 
     def __init__(
@@ -106,56 +116,21 @@ class Supervisor:
         goal: tuple[float, float],
         configurator: Configurator | None = None,
         *,
+        config: SupervisorConfig | None = None,
         clock: Clock | None = None,
-        goal_radius: float | None = None,
-        scan_timeout: float = 1.0,
-        max_plans: int = 30,
-        patience: int = 6,
-        max_recalls: int = 5,
-        max_stuck: int = 8,
-        min_progress: float = 0.03,
-        end_tolerance: tuple[float, float] = (0.08, 0.3),
-        lookahead: float = 0.5,
-        hazard_points: int = 2,
-        settle_scans: int = 2,
-        feedback: str = "scan",
-        fuse_scans: int = 3,
-        start_scans: int = 10,
-        confirm: int = 3,
-        deepen: int = 4,
         log: RunLogLike | None = None,
     ) -> None:
         gx, gy = finite_goal(goal)
-        if feedback not in FEEDBACK:
-            raise ValueError(f"feedback must be one of {', '.join(FEEDBACK)}, got {feedback!r}")
+        self.config = cfg = config or SupervisorConfig()
         self.robot = robot
-        self._rotation = robot.rotation if isinstance(robot, TurnSensing) else lambda: None  # a gyro, when it has one
         self.configurator = configurator or Configurator()
         self.model: RobotModel = self.configurator.robot
         self.clock: Clock = clock_for(robot, clock)
-        self.goal_radius = self.model.goal_tolerance if goal_radius is None else float(goal_radius)  # the plan's own
-        self.scan_timeout = scan_timeout
-        self.max_plans = max_plans
-        self.patience = patience
-        self.max_recalls = max_recalls
-        self.max_stuck = max_stuck
-        self.min_progress = min_progress
-        self.end_tolerance = end_tolerance
-        self.lookahead = lookahead
-        self.hazard_points = hazard_points
-        self.settle_scans = settle_scans
+        self.goal_radius = self.model.goal_tolerance if cfg.goal_radius is None else float(cfg.goal_radius)  # the plan's own
         self._goal_robot = (gx, gy)
         self.log = log
-        self.feedback = feedback
-        for name, n in (("fuse_scans", fuse_scans), ("start_scans", start_scans), ("confirm", confirm), ("deepen", deepen)):
-            if not (isinstance(n, int) and not isinstance(n, bool) and n >= 1):
-                raise ValueError(f"{name} must be a positive integer, got {n!r}")
-        self.fuse_scans = fuse_scans if feedback == "scan" else 1
-        self.start_scans = max(start_scans, self.fuse_scans) if feedback == "scan" else self.fuse_scans
-        self.confirm, self.deepen = confirm, deepen
-        self._empty = 0  # plans in a row, each from fresh revolutions at this stop, that found no safe task
-        self._still: deque[np.ndarray] = deque(maxlen=self.fuse_scans)
-        self.estimator: ScanOdometry | None = ScanOdometry(self.model.wheel_base) if feedback == "scan" else None
+        self.sensing = Sensing(robot, self.model, cfg)  # the pose estimate and the revolutions kept
+        self.progress = Progress(cfg)  # the counts behind UNREACHABLE
 
         self.state = S.IDLE
         self.reason = ""
@@ -163,25 +138,13 @@ class Supervisor:
         self.plans: list[PlanRecord] = []
         self.tasks: list[TaskRecord] = []
         self.trajectory: list[tuple[float, float, float, float]] = []
-        self.pose = Pose(0.0, 0.0, 0.0)
         self.goal = Pose(gx, gy)
         self._cmd = (0.0, 0.0)
         self._t0: float | None = None
-        self._last_update = 0.0
-        self._last_scan_at = 0.0
-        self._scan: np.ndarray | None = None
-        self._clean_scan: np.ndarray | None = None
-        self._scan_pose = self.pose
-        self._turned = False
-        self._scans_since_stop = 0
-        self._moved = False
         self._queue: deque[tuple[State, tuple[int, int]]] = deque()
         self._task: Task | None = None
         self._record: TaskRecord | None = None
         self._plan: PlanRecord | None = None
-        self._best = math.inf
-        self._stalled = 0
-        self._recalled: dict[tuple[int, int], tuple[float, int]] = {}  # (map, state) -> distance, tasks done
         self.fresh_plans: list[TimedRecord] = []
         self._check_due = False
         self.watch = PlanWatch(self.model, self._log)  # hazard test, plan check, recall (clomp.runtime.supervision.planwatch)
@@ -193,6 +156,24 @@ class Supervisor:
     def terminal(self) -> bool:
         """True in GOAL_REACHED, UNREACHABLE or HALTED."""
         return self.state in TERMINAL
+
+    @property
+    def pose(self) -> Pose:
+        """The pose estimate (the supervisor's frame: the robot at start)."""
+        return self.sensing.pose
+
+    @pose.setter
+    def pose(self, pose: Pose) -> None:
+        self.sensing.pose = pose
+
+    @property
+    def estimator(self) -> ScanOdometry | None:
+        """The scan matcher correcting the estimate (``feedback="scan"``), else None."""
+        return self.sensing.estimator
+
+    @estimator.setter
+    def estimator(self, estimator: ScanOdometry | None) -> None:
+        self.sensing.estimator = estimator
 
     @property
     def commanded(self) -> tuple[float, float]:
@@ -210,13 +191,7 @@ class Supervisor:
             return
         now = self.clock.now()
         self._t0 = now
-        self._last_update = now
-        self._last_scan_at = now
-        odo = self.robot.odometry()
-        self.pose = odo if odo is not None else Pose(0.0, 0.0, 0.0)
-        if self.estimator is not None:
-            self.estimator.reset(self.pose, now)
-            self.estimator.advance(now, (0.0, 0.0), odo, self._rotation())
+        self.sensing.start(now)
         self.goal = compose(self.pose, Pose(*self._goal_robot))
         self._log("start", goal=[self.goal.x, self.goal.y], robot=self.model.to_dict())
         self._fire(E.START, "started")
@@ -266,7 +241,7 @@ class Supervisor:
 
     def report(self) -> SupervisorReport:
         """What happened so far."""
-        t = 0.0 if self._t0 is None else self._last_update - self._t0
+        t = 0.0 if self._t0 is None else self.sensing.last_update - self._t0
         return SupervisorReport(
             self.state,
             self.reason,
@@ -290,8 +265,7 @@ class Supervisor:
         source = self.state
         if source in MOTOR_STATES and target not in MOTOR_STATES:  # clomp.formal.control: where wheels may turn
             self._stop_wheels()
-            self._scans_since_stop = 0
-            self._still.clear()
+            self.sensing.stopped()
             self._end_task(reason if event is not E.NEXT_TASK else "done")
             self._queue.clear()
         self.state = target
@@ -336,115 +310,89 @@ class Supervisor:
 
     def _tick(self) -> None:
         now = self.clock.now()
-        self._update_pose(now)
+        self.sensing.update_pose(now, self._cmd)
         frame = self.robot.read_scan(timeout=0.0)
         if frame is not None:
-            scan = self._scan = validate_scan(frame.points, "scan")
-            if self.estimator is not None:
-                self._scan_feedback(dataclasses.replace(frame, points=scan), now)
-            if self.log is not None:
-                g = relative(self.pose, self.goal)
-                self._log("scan", points=self._scan, goal=[g.x, g.y], pose=self.pose.as_list())
-            self._last_scan_at = now
-            self._scans_since_stop += 1
-            self._check_due = self.state is S.EXECUTING  # a plan check once a revolution
-            if not self._check_due:
-                self._still.append(self._scan)
-            # a revolution taken while turning is smeared: keep the last clean one, unless
-            # _scan_feedback de-skewed it (it then set the clean scan at its estimated pose)
-            if not self._turned and (self.estimator is None or frame.point_times is None):
-                self._clean_scan, self._scan_pose = self._scan, self.pose
-            self._turned = self._turning()
-            self.alarms.revolution(scan)
-        elif now - self._last_scan_at > self.scan_timeout:
-            raise RobotFault(f"sensor silent: no scan for {now - self._last_scan_at:.2f} s")
+            self._take(frame, now)
+        elif self.sensing.seconds_silent(now) > self.config.scan_timeout:
+            raise RobotFault(f"sensor silent: no scan for {self.sensing.seconds_silent(now):.2f} s")
         if self.state in (S.PLANNING, S.REPLANNING):
             self._plan_tick(now)
         elif self.state is S.EXECUTING:
             self._execute_tick(now)
         self.trajectory.append((now - (self._t0 or 0.0), self.pose.x, self.pose.y, self.pose.theta))
 
-    def _scan_feedback(self, frame: ScanFrame, now: float) -> None:
-        """Correct the pose estimate with this revolution (scan matching against the local map)."""
-        assert self.estimator is not None
-        if not (now - 1.0 <= frame.timestamp <= now + 1e-6):  # another clock: take it as now
-            frame = dataclasses.replace(frame, timestamp=now)
-        rec = self.estimator.update(frame)
-        self.pose = self.estimator.pose
-        if frame.point_times is not None:
-            self._clean_scan, self._scan_pose = self.estimator.last_points, self.estimator.pose_at(frame.timestamp)
+    def _take(self, frame: ScanFrame, now: float) -> None:
+        """A new revolution: the estimate takes it, the log and the alarms see it, and a plan
+        check is due once a revolution while executing."""
+        self._check_due = self.state is S.EXECUTING
+        rec = self.sensing.take(frame, now, self._cmd, still=not self._check_due)
         if self.log is not None:
-            self._log("feedback", ok=rec.ok, source=rec.source, reason=rec.reason, correction=list(rec.correction),
-                      unobservable=list(rec.unobservable), map_updated=rec.map_updated, pose=self.pose.as_list())
-
-    def _update_pose(self, now: float) -> None:
-        dt = now - self._last_update
-        self._last_update = now
-        odo = self.robot.odometry()
-        if self.estimator is not None:
-            self.estimator.advance(now, self._cmd, odo, self._rotation())
-            self.pose = self.estimator.pose
-            return
-        self.pose = odo if odo is not None else dead_reckon(self.pose, *self._cmd, self.model.wheel_base, dt)
+            if rec is not None:
+                self._log("feedback", ok=rec.ok, source=rec.source, reason=rec.reason, correction=list(rec.correction),
+                          unobservable=list(rec.unobservable), map_updated=rec.map_updated, pose=self.pose.as_list())
+            g = relative(self.pose, self.goal)
+            self._log("scan", points=self.sensing.scan, goal=[g.x, g.y], pose=self.pose.as_list())
+        assert self.sensing.scan is not None
+        self.alarms.revolution(self.sensing.scan)
 
     # -- planning ---------------------------------------------------------------------------------
     def _plan_tick(self, now: float) -> None:
-        need = self.settle_scans + self.fuse_scans - 1 if self._moved else self.start_scans
-        if self._scan is None or self._scans_since_stop < need:
+        if not self.sensing.ready():
             return  # let driving settle, then take ``fuse_scans`` revolutions (at the start, ``start_scans``: the map's seed)
         g = relative(self.pose, self.goal)
         dist = math.hypot(g.x, g.y)
-        if dist <= self.goal_radius:
-            self._fire(E.AT_GOAL, f"at the goal ({dist:.3f} m)")
+        if self._ends_before_planning(dist):
             return
-        if len(self.fresh_plans) >= self.max_plans:
-            self._fire(E.NO_PLAN, f"gave up after {len(self.fresh_plans)} plans")
-            return
-        stuck = self.watch.stalled(self.pose, self.min_progress) if self.state is S.REPLANNING else 0
-        if stuck >= self.max_stuck:  # standing by an obstacle, interrupted again and again: a defined end
-            self._fire(E.NO_PLAN, f"goal unreachable: no progress, {stuck} plans in a row ended before the robot moved "
-                                  f"{self.min_progress:g} m (last: {self.reason})")
-            return
-        scan = fuse_revolutions(list(self._still)) if self._moved and self.fuse_scans > 1 and len(self._still) > 1 else self._scan
+        scan = self.sensing.planning_scan()
         if self.state is S.REPLANNING and self._recall(scan, now):
             return
+        self._fresh_plan(scan, (g.x, g.y), dist, now)
+
+    def _ends_before_planning(self, dist: float) -> bool:
+        """At the goal, out of plans, or stuck: fire the end and say so."""
+        cfg = self.config
+        if dist <= self.goal_radius:
+            self._fire(E.AT_GOAL, f"at the goal ({dist:.3f} m)")
+            return True
+        if len(self.fresh_plans) >= cfg.max_plans:
+            self._fire(E.NO_PLAN, f"gave up after {len(self.fresh_plans)} plans")
+            return True
+        stuck = self.watch.stalled(self.pose, cfg.min_progress) if self.state is S.REPLANNING else 0
+        if stuck >= cfg.max_stuck:  # standing by an obstacle, interrupted again and again: a defined end
+            self._fire(E.NO_PLAN, f"goal unreachable: no progress, {stuck} plans in a row ended before the robot moved "
+                                  f"{cfg.min_progress:g} m (last: {self.reason})")
+            return True
+        return False
+
+    def _fresh_plan(self, scan: np.ndarray, goal: tuple[float, float], dist: float, now: float) -> None:
+        """Explore anew from ``scan`` to ``goal`` (robot frame, ``dist`` m away) and run the plan."""
         c0 = time.thread_time()
         try:
-            result = plan_deepening(self.configurator, scan, (g.x, g.y), self.deepen)
+            result = plan_deepening(self.configurator, scan, goal, self.config.deepen)
         except PlanningError as exc:
             self._fire(E.NO_PLAN, f"goal unreachable: {exc}")
             return
         took = result.planning_time_s + self.watch.planned(result)  # indexing the map for recall is part of making it
-        self.fresh_plans.append(TimedRecord(now - (self._t0 or 0.0), took, True, f"{result.states} states", time.thread_time() - c0))
-        self._log("fresh_plan", duration_s=took, states=result.states)
+        self.fresh_plans.append(TimedRecord(now - (self._t0 or 0.0), took, True, f"{result.n_states} states", time.thread_time() - c0))
+        self._log("fresh_plan", duration_s=took, states=result.n_states)
         rec = PlanRecord(now - (self._t0 or 0.0), self.pose, result)
         self.plans.append(rec)
         if self.log is not None:
             self._log("plan", **plan_fields(result, rec.origin))
-        if not result.steps:
-            self._empty += 1
-            if self._empty < self.confirm:
-                # a verdict from one fused scan: range noise puts points of a surface beside
-                # the body into the way. Stand, take fresh revolutions and plan again.
-                self._scans_since_stop, self._still = 0, deque(maxlen=self.fuse_scans)
-                return
-            self._fire(E.NO_PLAN, "goal unreachable: no safe task leads closer to the goal"
-                       + (f" (on {self._empty} scans in a row)" if self._empty > 1 else ""))
+        why = self.progress.no_safe_task() if not result.steps else self.progress.planned(result.reached_goal, dist)
+        if why is not None:
+            self._fire(E.NO_PLAN, why)
             return
-        self._empty = 0
-        # progress is what the robot achieved, not what a plan to the disc's rim promised
-        if result.reached_goal or dist < self._best - self.min_progress:
-            self._stalled = 0
-        else:
-            self._stalled += 1
-            if self._stalled >= self.patience:
-                self._fire(E.NO_PLAN, f"goal unreachable: {self._stalled} plans in a row brought it no closer")
-                return
-        self._best = min(self._best, dist)
+        if not result.steps:
+            # a verdict from one fused scan: range noise puts points of a surface beside
+            # the body into the way. Stand, take fresh revolutions and plan again.
+            self.sensing.stopped()
+            return
         self._plan = rec
         states = result.plan.states
         self._queue = deque((result.map[t], (s, t)) for s, t in zip(states, states[1:]))
-        self._fire(E.PLANNED, f"plan {len(self.plans)}: {len(result.steps)} tasks, {result.states} states")
+        self._fire(E.PLANNED, f"plan {len(self.plans)}: {len(result.steps)} tasks, {result.n_states} states")
         self.watch.started(self.pose)
         self._execute_tick(now)
 
@@ -454,23 +402,9 @@ class Supervisor:
             return False
         assert self._plan is not None
         q, step = self._queue.popleft()
-        result = self._plan.result
-        psi = max((v for t, v in result.psi.items() if (t.source, t.target) == step), default=0)
-        if psi != 1:
-            raise GuardViolation(f"Ψ(q{step[0]} ↪ q{step[1]}) = {psi}: the plan does not enable this task")
-        goal_d = Disturbance.goal(self.goal.x, self.goal.y)
+        psi = guard(self._plan.result, step)
         predicted_end = self._plan.to_frame(q.end)
-        if q.task is TaskKind.STRAIGHT:
-            # drive what the map planned: a straight cut at the rim of the sensed disc (a
-            # frontier) must not run on into unseen space
-            limit = q.distance if q.distance > 0 else make_task(q.task, result.obstacles, self.model, q.start, result.goal).limit
-            task = Task.straight(self.model, self.pose, goal_d, limit)
-        else:
-            turn = wrap_angle(predicted_end.theta - self.pose.theta)
-            angle = turn if q.task is TaskKind.LEFT else -turn
-            if angle < -math.pi / 2:  # wrapped: a turn of nearly pi
-                angle += 2 * math.pi
-            task = Task.turn(self.model, q.task, self.pose, goal_d, min(max(angle, 0.0), math.pi))
+        task = task_for(q, self._plan.result, predicted_end, self.model, self.pose, self.goal)
         self._task = task
         self._task_ticks = 0
         self._record = TaskRecord(len(self.plans) - 1, q, step, psi, now - (self._t0 or 0.0), self.pose, predicted_end)
@@ -496,7 +430,7 @@ class Supervisor:
         assert task is not None and self._record is not None
         e = task.error(self.pose)
         if task.done(e):
-            off = self._end_error(self._record.predicted_end)
+            off = end_error(self.pose, self._record.predicted_end, self.config.end_tolerance)
             if off is not None:
                 self._fire(E.DISAGREE, f"task ended far from the map's prediction ({off})")
                 return
@@ -529,13 +463,7 @@ class Supervisor:
         if self.log is not None and (vl, vr) != self._cmd:
             self._log("motor", left=vl, right=vr)
         self._cmd = (vl, vr)
-        self._turned = self._turned or self._turning()
-        if vl != 0 or vr != 0:
-            self._moved = True
-
-    def _turning(self) -> bool:
-        vl, vr = self._cmd
-        return abs(vr - vl) > 1e-9
+        self.sensing.drove(self._cmd)
 
     def _plan_ended(self) -> None:
         g = relative(self.pose, self.goal)
@@ -549,29 +477,24 @@ class Supervisor:
         else:
             self._fire(E.PLAN_SHORT, f"plan done {dist:.3f} m short of the goal")
 
-    def _end_error(self, predicted: Pose) -> str | None:
-        d = self.pose.distance_to(predicted.x, predicted.y)
-        a = abs(wrap_angle(self.pose.theta - predicted.theta))
-        if d > self.end_tolerance[0] or a > self.end_tolerance[1]:
-            return f"{d:.3f} m, {math.degrees(a):.0f}° off"
-        return None
-
     def _hazard(self, task: Task, error: float) -> str | None:
         """A reason to interrupt: the newest scan has points in the body's remaining path."""
-        return self.watch.hazard(self._clean_scan, self._scan_pose, self.pose, task, error, self.lookahead, self.hazard_points)
+        s, cfg = self.sensing, self.config
+        return self.watch.hazard(s.clean_scan, s.scan_pose, self.pose, task, error, cfg.lookahead, cfg.hazard_points)
 
     def _check_remaining(self) -> TimedRecord | None:
         """Test the running task and the queued ones against the newest revolution."""
-        if self._plan is None or self._record is None or self._clean_scan is None:
+        s = self.sensing
+        if self._plan is None or self._record is None or s.clean_scan is None:
             return None
         states = [self._record.state] + [q for q, _ in self._queue]
-        return self.watch.check(states, self._plan, self._scan_pose, self.goal, self._clean_scan, self.end_tolerance,
+        return self.watch.check(states, self._plan, s.scan_pose, self.goal, s.clean_scan, self.config.end_tolerance,
                                 self._now())
 
     def _recall(self, scan: np.ndarray, now: float) -> bool:
         """REPLANNING's first try: continue a plan from a state of the map the robot has."""
         last = self._plan
-        found = self.watch.recall(last, self.pose, self.goal, scan, self.end_tolerance, self.max_recalls,
+        found = self.watch.recall(last, self.pose, self.goal, scan, self.config.end_tolerance, self.config.max_recalls,
                                   now - (self._t0 or 0.0))
         if found is None or last is None:
             return False
@@ -581,18 +504,16 @@ class Supervisor:
         g = relative(self.pose, self.goal)
         dist, key = math.hypot(g.x, g.y), (id(found.result.map), found.state)
         done = sum(1 for t in self.tasks if t.outcome == "done")
-        before = self._recalled.get(key)
-        if before is not None and done > before[1] and dist >= before[0] - self.min_progress:
+        if self.progress.loops(key, dist, done):
             self.watch.recalls[-1] = dataclasses.replace(self.watch.recalls[-1], ok=False, reason="refused: a loop")
             self.watch.recalls_in_a_row -= 1
             return False
-        self._recalled[key] = (dist, done)
         rec = self._plan = PlanRecord(now - (self._t0 or 0.0), last.origin, found.result, recalled=True)
         self.plans.append(rec)
         states = rec.result.plan.states
         k = states.index(found.state)
         self._queue = deque((rec.result.map[t], (s, t)) for s, t in zip(states[k:], states[k + 1:]))
-        self._empty = 0  # a plan runs: an earlier empty one no longer counts towards ``confirm``
+        self.progress.recalled()
         self._fire(E.PLANNED, f"plan {len(self.plans)} recalled from q{found.state} of the map: {len(self._queue)} tasks")
         self.watch.started(self.pose)
         self._execute_tick(now)

@@ -11,7 +11,7 @@ from hypothesis import strategies as st
 
 from clomp.formal import CognitiveMap, Disturbance, Plan, Pose, State, TaskKind, Transition
 from clomp.formal.invariants import Invariant, InvariantError, assert_map_valid, check_map
-from clomp.formal.supervisory import Guard, Reset, ResetUndefined, extract_plan, guard
+from clomp.formal.supervisory import Guard, Reset, ResetUndefined, extract_plan
 from clomp.planner import Configurator, PlanningError
 from clomp.formal.strategies import GOAL, OBSTACLE, cognitive_maps
 from clomp.planner.scenarios import builtin_scenarios, load_scenario
@@ -184,7 +184,7 @@ def broken_maps(draw):
         s = m[t.target]
         m = _rebuild(m, states=[q if q.ident != s.ident else _state(s.ident, s.task, s.interrupted, s.cost, d_i=OBSTACLE) for q in m.states()])
     elif inv is Invariant.GUARD:
-        psi = guard(m, plan)
+        psi = Guard(m, plan).table()
         if any(v == 0 for v in psi.values()) and draw(st.booleans()):
             psi[draw(st.sampled_from(sorted(t for t, v in psi.items() if v == 0)))] = 1
         elif len(plan) > 1:
@@ -214,7 +214,8 @@ def test_checker_finds_every_kind_of_breakage(case):
 def test_guard_object_matches_the_table_and_rejects_outsiders():
     r = _configurator_map()
     psi = Guard(r.map, r.plan)
-    assert psi.as_dict() == r.psi
+    assert psi.table() == r.psi
+    assert psi.table(like=r.psi) == r.psi  # reusing the keys of a table of the same map
     assert psi.codomain == {0, 1}
     assert sum(psi(t) for t in psi.domain) == len(r.plan) - 1
     for s in r.plan.states[:-1]:

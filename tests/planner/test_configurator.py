@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from clomp.formal.model import TaskKind
-from clomp.formal.supervisory import guard
+from clomp.formal.supervisory import Guard
 from clomp.planner import Configurator, PlanningError, RobotModel, load_scan, load_scenario, plan, simulate
 from clomp.planner.configurator import chi, default_cost, gamma
 from clomp.planner.rollout import World
@@ -22,7 +22,7 @@ def _plan_scenario(name: str, **kw):
 def test_overtaking_turns_around_the_obstacle_and_reaches_the_goal():
     r = _plan_scenario("overtaking")
     assert r.reached_goal and r.collision_free
-    assert 10 <= r.states <= 200
+    assert 10 <= r.n_states <= 200
     kinds = [s.task for s in r.steps]
     assert TaskKind.LEFT in kinds or TaskKind.RIGHT in kinds
     # the plan passes beside the obstacle, not through it
@@ -71,7 +71,7 @@ def test_blocked_gives_the_best_partial_plan():
 def test_guard_is_one_exactly_on_the_plan():
     r = _plan_scenario("overtaking")
     steps = set(r.plan.steps())
-    psi = guard(r.map, r.plan)
+    psi = Guard(r.map, r.plan).table()
     assert sum(psi.values()) == len(steps)
     assert all(v == ((t.source, t.target) in steps) for t, v in psi.items())
     assert r.psi == psi
@@ -79,7 +79,7 @@ def test_guard_is_one_exactly_on_the_plan():
 
 def test_budget_is_respected_and_stops_with_a_reason():
     r = _plan_scenario("overtaking", max_states=12)
-    assert r.states <= 12
+    assert r.n_states <= 12
     assert r.stop_reason == "budget"
     assert r.collision_free
 
@@ -92,7 +92,7 @@ def test_cost_is_a_parameter():
         return default_cost(state, ctx)
 
     r = _plan_scenario("overtaking", cost=cost)
-    assert r.reached_goal and len(calls) == r.states
+    assert r.reached_goal and len(calls) == r.n_states
 
 
 def test_cost_definition():
@@ -140,7 +140,7 @@ def test_ill_posed_goals(goal, message):
 
 
 def test_a_goal_given_as_a_disturbance_is_bounded_too():
-    from clomp.planner import Disturbance
+    from clomp.formal import Disturbance
 
     with pytest.raises(PlanningError, match="beyond"):
         Configurator().plan(load_scenario("overtaking").scan(), Disturbance.goal(1e200, 0.0))
@@ -176,7 +176,7 @@ def test_every_recorded_scan_plans(scans_dir):
     for f in files:
         r = conf.plan(f, (1.0, 0.0))
         assert r.collision_free
-        assert 1 <= r.states <= conf.max_states
+        assert 1 <= r.n_states <= conf.max_states
         reached += r.reached_goal
     empty = [f for f in files if load_scan(f).size == 0]
     assert len(empty) >= 40 and reached >= len(empty)

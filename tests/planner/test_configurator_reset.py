@@ -1,24 +1,23 @@
-"""The Configurator injects D_I through formal's one reset R (clomp.formal.supervisory.reset_from)."""
+"""The Configurator injects D_I through formal's one reset R (clomp.formal.supervisory.Reset.after)."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-import clomp.planner.configurator as configurator
 from clomp.formal.supervisory import Reset, ResetUndefined
 from clomp.planner import Configurator, load_scenario
 
 
 def test_every_child_state_gets_its_d_i_from_formal_reset(monkeypatch: pytest.MonkeyPatch) -> None:
     calls: list[int] = []
-    real = configurator.reset_from
+    real = Reset.after
 
-    def spy(source, goal):  # type: ignore[no-untyped-def]
+    def spy(self, source):  # type: ignore[no-untyped-def]
         calls.append(source.ident)
-        return real(source, goal)
+        return real(self, source)
 
-    monkeypatch.setattr(configurator, "reset_from", spy)
+    monkeypatch.setattr(Reset, "after", spy)
     scene = load_scenario("overtaking")
     result = Configurator().plan(scene.scan(), scene.goal_in_robot_frame())
     assert len(calls) == len(result.map) - 1  # once per state grown, none for q0
@@ -29,9 +28,9 @@ def test_every_child_state_gets_its_d_i_from_formal_reset(monkeypatch: pytest.Mo
 
 def test_the_configurator_stops_when_r_is_undefined(monkeypatch: pytest.MonkeyPatch) -> None:
     # R refusing is an error the Configurator does not paper over (and no assert does R's job)
-    def refuse(source, goal):  # type: ignore[no-untyped-def]
+    def refuse(self, source):  # type: ignore[no-untyped-def]
         raise ResetUndefined(f"R(q{source.ident}, ·) is undefined")
 
-    monkeypatch.setattr(configurator, "reset_from", refuse)
+    monkeypatch.setattr(Reset, "after", refuse)
     with pytest.raises(ResetUndefined):
         Configurator().plan(np.zeros((0, 2)), (1.0, 0.0))

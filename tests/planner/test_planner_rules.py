@@ -136,8 +136,8 @@ def test_the_papers_overtaking_plan_still_goes_round_the_box():
         tasks = [s.task.value for s in r.steps]
         assert "LEFT" in tasks and "RIGHT" in tasks  # round the box, not through it
         assert any(s.interrupted for s in r.map.states())  # the map keeps the hits it explored
-    assert 25 <= quarter.states <= 40  # the paper: 32.9 ± 1.8 states
-    assert 10 <= free.states < quarter.states
+    assert 25 <= quarter.n_states <= 40  # the paper: 32.9 ± 1.8 states
+    assert 10 <= free.n_states < quarter.n_states
     assert len(free.steps) < len(quarter.steps)
 
 
@@ -240,7 +240,7 @@ def test_a_goal_beyond_the_disc_ends_the_search_at_the_first_rim_state() -> None
     the search (an open scan, goal 3 m ahead: one straight to the rim, as before)."""
     r = Configurator().plan(np.zeros((0, 2)), (3.0, 0.0))
     assert r.stop_reason == "frontier" and not r.reached_goal
-    assert r.states <= 6 and [s.task.value for s in r.steps] == ["STRAIGHT"]
+    assert r.n_states <= 6 and [s.task.value for s in r.steps] == ["STRAIGHT"]
 
 
 def test_a_step_towards_the_rim_ends_where_the_body_can_still_spin_when_the_goal_is_inside() -> None:

@@ -62,18 +62,17 @@ def run_stack(scenario: str, *, max_time: float = 80.0, seed: int = 0, conf: Con
     ``run`` raises (a KeyboardInterrupt a hook raised, say) is kept in ``raised``, with
     ``report`` left None, as clomp run would catch it."""
     clock, lock = clock or LockstepClock(100.0), threading.RLock()
-    world = EmulatedWorld(scenario, clock=clock.now, seed=seed, **world_options)  # not started: no pty, no thread
+    world = EmulatedWorld(scenario, clock=clock, seed=seed, **world_options)  # not started: no pty, no thread
     run = StackRun(world, clock)
     lidar_line = SimLine(world.lidar, clock, lock=lock, name="sim-lidar", lockstep=True)
     motor_line = SimLine(world.maestro, clock, lock=lock, name="sim-maestro")
-    # the Maestro driver's watchdog keeps wall time: off, as in test_hardware_deadlines.py
+    # the Maestro driver's watchdog: off, as in test_hardware_deadlines.py
     config = HardwareConfig(watchdog_timeout=None)
     conf = conf or Configurator()
     t0 = clock.now()
     sup_clock: Any = clock if hook is None else _HookedClock(clock, lambda t: hook(t, run))
     try:
-        with HardwareRobot(lidar_line, motor_line, config, model=conf.robot, clock=clock,
-                           device_clock=clock.now) as robot:
+        with HardwareRobot(lidar_line, motor_line, config, model=conf.robot, clock=clock) as robot:
             run.robot = robot
             clock.free_when = lambda: robot.fault is not None  # a tripped robot's reader reads no more
             run.supervisor = Supervisor(robot, world.scene.goal_in_robot_frame(), conf, clock=sup_clock)

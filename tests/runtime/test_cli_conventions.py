@@ -108,6 +108,28 @@ def test_simulate_exit_status(tmp_path: Path, capsys: pytest.CaptureFixture[str]
     assert d["reached_goal"] is (status == 0)
 
 
+_SCENARIO_COMMANDS = [
+    ["plan"], ["plan", "--robust"], ["export", "-f", "json", "-o", "-"], ["check"], ["simulate"], ["demo"],
+    ["emulate", "lidar"], ["emulate", "world"],
+]
+
+
+@pytest.mark.parametrize("command", _SCENARIO_COMMANDS, ids=" ".join)
+@pytest.mark.parametrize("source", ["atlantis", "broken.json", "missing.json"])
+def test_every_command_reads_scenario_the_same_way(tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+                                                   capsys: pytest.CaptureFixture[str], command: list[str],
+                                                   source: str) -> None:
+    """``--scenario NAME|FILE`` that cannot be loaded: the library's own message, as one line, exit 2, whichever command."""
+    from clomp.planner.scenarios import ScenarioError, load_scenario
+
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "broken.json").write_text("{not json", encoding="utf-8")
+    with pytest.raises(ScenarioError) as want:
+        load_scenario(source)
+    rc, _, err = _rc(capsys, *command, "--scenario", source)
+    assert (rc, err) == (2, f"clomp: error: {want.value}\n")
+
+
 @pytest.mark.parametrize("command", ["simulate", "experiment"])
 @pytest.mark.parametrize("value", ["nan", "inf", "-5", "0"])
 def test_a_time_limit_that_never_ends_or_never_starts_is_refused(tmp_path: Path, capsys: pytest.CaptureFixture[str],

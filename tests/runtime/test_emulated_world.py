@@ -64,7 +64,7 @@ def test_the_emulated_lidar_sends_each_revolution_when_the_world_measured_it() -
     once the driver has timed a revolution, with each point's time from its place in the
     sweep — so a revolution taken while turning is de-skewed on the hardware stack too."""
     clock = ManualClock(100.0)
-    world = EmulatedWorld("overtaking", noise="harsh", seed=1, clock=clock.now)
+    world = EmulatedWorld("overtaking", noise="harsh", seed=1, clock=clock)
     world._on_speeds(0.2, 0.6)  # from t = 100: driving along a curve, every revolution skewed
     lidar = RPLidar(SimLine(world.lidar, clock, name="sim-lidar"), motor_control="none", clock=clock.now)
     try:

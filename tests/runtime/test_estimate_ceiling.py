@@ -14,6 +14,7 @@ import pytest
 from clomp.planner.scenarios import load_scenario
 from clomp.runtime.estimation.ekf import OdometryFilter
 from clomp.runtime.backends.world import WorldNoise, make_world_robot
+from clomp.runtime.supervision import SupervisorConfig
 
 BENCH = Path(__file__).resolve().parents[2] / "bench" / "estimate_ceiling.py"
 
@@ -93,7 +94,7 @@ def test_the_true_pose_is_fed_in_the_supervisors_frame() -> None:
     assert abs(scene.start.theta) > 0.1  # the case this test is about
     conf = Configurator()
     robot = make_robot(scene, noise="harsh", seed=0, model=conf.robot)
-    sup = _bench()._TruthFed(robot, tuple(scene.goal_in_robot_frame()), conf, feedback="scan")
+    sup = _bench()._TruthFed(robot, tuple(scene.goal_in_robot_frame()), conf, config=SupervisorConfig(feedback="scan"))
     sup.start()
     poses = []
     for _ in range(400):  # 40 s: the still start, a plan, driving

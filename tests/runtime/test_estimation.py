@@ -10,7 +10,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from clomp.formal.geometry import compose, relative
+from clomp.formal.geometry import compose, points_to_frame, relative
 from clomp.formal.model import Pose
 from clomp.planner.scenarios import parse_scenario
 from clomp.runtime.devices.frame import ScanFrame
@@ -155,13 +155,13 @@ def test_fusing_revolutions_shrinks_range_noise_and_drops_lone_outliers():
 def test_the_supervisor_runs_its_tasks_on_the_scan_matched_estimate():
     """In a structured room under harsh noise the estimate the tasks run on tracks the truth,
     better than dead reckoning alone does on the same worlds."""
-    from clomp.runtime.supervision import Supervisor
+    from clomp.runtime.supervision import Supervisor, SupervisorConfig
 
     scene = parse_scenario(ROOM, "room")
 
     def final_error(feedback: str, seed: int) -> tuple[float, Any]:
         world = make_world_robot(scene, "harsh", seed=seed)
-        sup = Supervisor(world, scene.goal_in_robot_frame(), feedback=feedback)
+        sup = Supervisor(world, scene.goal_in_robot_frame(), config=SupervisorConfig(feedback=feedback))
         rep = sup.run(max_time=150)
         truth = relative(world.start_pose, world.ground_truth_pose())
         return math.hypot(sup.pose.x - truth.x, sup.pose.y - truth.y), rep
@@ -173,7 +173,7 @@ def test_the_supervisor_runs_its_tasks_on_the_scan_matched_estimate():
     assert rep.feedback and all(r.ok for r in rep.feedback[1:])
     assert not blind or all(not r.feedback for r in [final_error("none", 0)[1]])
     with pytest.raises(ValueError, match="feedback"):
-        Supervisor(make_world_robot(scene, "ideal"), (1.0, 0.0), feedback="lidar")
+        SupervisorConfig(feedback="lidar")
 
 
 def test_still_revolutions_at_the_start_are_fused_into_the_map_seed() -> None:
@@ -439,3 +439,35 @@ def test_a_surface_joins_the_map_once_whatever_the_map_held_before() -> None:
     assert not odo._add(wall, at, reseed=False)       # known: nothing new (the map's tree is built here)
     assert odo._add(box, at, reseed=False)            # a new surface joins
     assert not odo._add(box + [0.0, 0.015], at, reseed=False)  # and is known from then on
+
+
+def _room_points(n: int = 201) -> np.ndarray:
+    """A closed room's four walls as dense points (x from -0.6 to 1.5 m, y ±0.6 m)."""
+    s = np.linspace(0.0, 1.0, n)
+    return np.r_[np.c_[1.5 + 0 * s, -0.6 + 1.2 * s], np.c_[-0.6 + 2.1 * s, 0.6 + 0 * s],
+                 np.c_[-0.6 + 2.1 * s, -0.6 + 0 * s], np.c_[-0.6 + 0 * s, -0.6 + 1.2 * s]]
+
+
+def test_a_robot_displaced_sideways_is_corrected_sideways() -> None:
+    """The estimator's lateral correction, alone and fast: dead reckoning drove 0.5 m straight
+    and believes y = 0, the walls of a closed room say the robot stands 3 cm to the left. The
+    match must see y (walls on both sides observe it) and the estimate must follow it (it
+    moved 2.8 of the 3 cm when written). Dropping the sideways part anywhere on the way
+    (the matcher's step, the innovation, the filter's gain) leaves y near 0."""
+    room = _room_points()
+    m = match_scans(room, points_to_frame(room, Pose(0.0, 0.03, 0.0)), Pose(0.0, 0.0, 0.0))
+    assert m.ok and "y" not in m.unobservable, m.reason
+    assert m.pose.y == pytest.approx(0.03, abs=0.002)
+
+    odo = ScanOdometry(wheel_base=0.15)
+    odo.reset(Pose(0.0, 0.0, 0.0), 0.0)
+    assert odo.update(ScanFrame(room, 0.0, point_times=np.zeros(len(room)))).ok  # the map's seed
+    for k in range(1, 51):
+        odo.advance(k / 10, (0.1, 0.1))  # 5 s at 0.1 m/s, straight
+    believed = odo.pose
+    assert believed.y == 0.0 and believed.x == pytest.approx(0.5)
+    seen = points_to_frame(room, Pose(believed.x, 0.03, 0.0))  # where it truly is: 3 cm to the left
+    rec = odo.update(ScanFrame(seen, 5.0, point_times=np.zeros(len(seen))))
+    assert rec.ok, rec.reason
+    assert rec.correction[1] > 0.02 and odo.pose.y == pytest.approx(0.03, abs=0.005), (rec.correction, odo.pose)
+    assert abs(odo.pose.x - believed.x) < 0.005  # and nothing else moved much

@@ -10,7 +10,7 @@ import pytest
 from scipy.stats import binomtest, ttest_rel
 
 from clomp.planner import load_scenario
-from clomp.runtime.experiment import runner
+from clomp.runtime.experiment import driver, runner
 from clomp.runtime.experiment.results import (
     CSV_COLUMNS,
     markdown_rows,
@@ -63,7 +63,7 @@ def test_run_once_measures_on_ground_truth():
     scene = load_scenario("overtaking")
     r = run_once(scene, "planning", 1, noise="paper")
     assert r.reached_goal and r.final_distance <= SUCCESS_RADIUS and r.collisions == 0
-    assert r.states is not None and r.states > 5 and r.planning_time_s is not None and r.planning_time_s > 0
+    assert r.n_states is not None and r.n_states > 5 and r.planning_time_s is not None and r.planning_time_s > 0
     assert r.planned and r.path[0] == (0.0, 0.0) and r.cpu_s > 0
     with pytest.raises(ValueError):
         run_once(scene, "psychic", 1)
@@ -168,12 +168,12 @@ def test_ctrl_c_keeps_what_finished(tmp_path, monkeypatch):
             raise KeyboardInterrupt
         return real(spec)
 
-    monkeypatch.setattr(runner, "run_spec", interrupted_at_third)
+    monkeypatch.setattr(driver, "run_spec", interrupted_at_third)
     with pytest.raises(ExperimentInterrupted) as exc:
         _small(out=tmp_path)
     assert len(exc.value.records) == 2 and exc.value.total == 4
     assert len(load_records(tmp_path / "runs.jsonl")) == 2
-    monkeypatch.setattr(runner, "run_spec", real)
+    monkeypatch.setattr(driver, "run_spec", real)
     assert len(_small(out=tmp_path, resume=True)) == 4
 
 
@@ -320,12 +320,12 @@ def test_a_run_that_raises_does_not_cost_the_others(tmp_path, monkeypatch):
             raise ZeroDivisionError("a bug")
         return real(spec)
 
-    monkeypatch.setattr(runner, "run_spec", broken_second_layout)
+    monkeypatch.setattr(driver, "run_spec", broken_second_layout)
     with pytest.raises(RunsFailed, match="1 run.*failed.*overtaking/5/1/reactive.*ZeroDivisionError: a bug") as exc:
         _small(out=tmp_path)
     assert len(exc.value.records) == 3 and len(load_records(tmp_path / "runs.jsonl")) == 3
     assert json.loads((tmp_path / "errors.jsonl").read_text())["error"] == "ZeroDivisionError: a bug"
-    monkeypatch.setattr(runner, "run_spec", real)
+    monkeypatch.setattr(driver, "run_spec", real)
     assert len(_small(out=tmp_path, resume=True)) == 4 and not (tmp_path / "errors.jsonl").exists()
 
 

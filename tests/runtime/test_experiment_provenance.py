@@ -6,7 +6,7 @@ import json
 
 import pytest
 
-from clomp.runtime.experiment import runner
+from clomp.runtime.experiment import driver
 from clomp.runtime.experiment.provenance import PROVENANCE_FILE, ResumeMismatch, code_version
 from clomp.runtime.experiment.runner import run_experiment
 
@@ -20,7 +20,7 @@ def fake_runs(monkeypatch):
         ran.append(spec.key)
         return {"key": spec.key, "run": spec.run, "condition": spec.condition}
 
-    monkeypatch.setattr(runner, "run_spec", fake)
+    monkeypatch.setattr(driver, "run_spec", fake)
     return ran
 
 

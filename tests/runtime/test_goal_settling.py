@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from clomp.planner import load_scenario
 from clomp.runtime.backends import make_world_robot
-from clomp.runtime.supervision import Supervisor, SupervisorState
+from clomp.runtime.supervision import Supervisor, SupervisorConfig, SupervisorState
 
 S = SupervisorState
 
@@ -28,7 +28,7 @@ def test_without_scan_feedback_the_plan_ends_at_the_goal_at_once() -> None:
     """Dead reckoning learns nothing from standing: there is nothing to settle."""
     scene = load_scenario("overtaking")
     world = make_world_robot(scene, "paper", seed=0)
-    rep = Supervisor(world, scene.goal_in_robot_frame(), feedback="none").run(max_time=120)
+    rep = Supervisor(world, scene.goal_in_robot_frame(), config=SupervisorConfig(feedback="none")).run(max_time=120)
     assert rep.state is S.GOAL_REACHED, rep.reason
     assert rep.transitions[-1].source is S.EXECUTING
     world.close()

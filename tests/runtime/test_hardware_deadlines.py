@@ -46,8 +46,8 @@ def test_a_broken_stream_stops_the_wheels_within_300_ms_of_device_time(fault: st
     maestro = MaestroEmulator(clock=clock.now)
     lidar_line = SimLine(lidar, clock, lock=lock, name="sim-lidar")
     motor_line = SimLine(maestro, clock, lock=lock, name="sim-maestro")
-    config = HardwareConfig(watchdog_timeout=None)  # the watchdog keeps wall time: not under test here
-    with HardwareRobot(lidar_line, motor_line, config, clock=clock, device_clock=clock.now) as robot:
+    config = HardwareConfig(watchdog_timeout=None)  # the Maestro's watchdog: not under test here
+    with HardwareRobot(lidar_line, motor_line, config, clock=clock) as robot:  # the devices read clock.now
         assert robot.read_scan(timeout=30.0) is not None
         robot.set_wheel_speeds(0.1, 0.1)
         with lock:  # no simulated time passes between the command and the fault
@@ -75,6 +75,6 @@ def test_a_silent_lidar_fails_the_start_after_the_start_timeout_of_device_time()
     with pytest.raises(RobotFault, match="does not answer"):
         HardwareRobot(SimLine(lidar, clock, lock=lock, name="sim-lidar"),
                       SimLine(maestro, clock, lock=lock, name="sim-maestro"), config,
-                      clock=clock, device_clock=clock.now)
+                      clock=clock)
     assert 0.3 <= clock.now() - t0 <= 0.3 + 0.01 + 1e-9  # not before it, late by at most one read (10 ms)
     assert _stop_time(maestro, t0) is not None  # the wheels were held stopped meanwhile

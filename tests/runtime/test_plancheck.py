@@ -284,7 +284,7 @@ def test_the_check_agrees_with_re_simulating_the_plan_on_a_blocked_and_a_free_sc
 
 
 def test_a_recalled_plans_guard_is_the_maps_guard_of_that_plan():
-    from clomp.formal.supervisory import guard
+    from clomp.formal.supervisory import Guard
 
     result, scan, goal = _plan()
     here = result.map[result.plan.states[2]].end
@@ -293,4 +293,4 @@ def test_a_recalled_plans_guard_is_the_maps_guard_of_that_plan():
     seen = np.c_[rel.x + c * scan[:, 0] - s * scan[:, 1], rel.y + s * scan[:, 0] + c * scan[:, 1]]
     found, why, _ = recall(result, ORIGIN, here, goal, seen, result.robot)
     assert found is not None, why
-    assert found.result.psi == guard(result.map, found.result.plan)
+    assert found.result.psi == Guard(result.map, found.result.plan).table()

@@ -12,7 +12,7 @@ from hypothesis import strategies as st
 
 from clomp.formal.geometry import relative
 from clomp.formal.model import Pose
-from clomp.formal.supervisory import guard
+from clomp.formal.supervisory import Guard
 from clomp.planner import Configurator
 from clomp.runtime.experiment.layouts import make_layout
 from clomp.runtime.backends import make_world_robot
@@ -102,8 +102,9 @@ def test_the_reference_agrees_on_every_branch_at_least_once():
 
 
 def test_a_recall_with_the_maps_guard_template_gives_the_maps_guard():
-    """The recall index's guard template (made with the index) gives Ψ of the recalled plan
-    exactly as :func:`clomp.formal.supervisory.guard`, also when the index was made without it."""
+    """The recall index's guard (reusing the keys of the guard given with the index) gives Ψ
+    of the recalled plan exactly as :meth:`clomp.formal.supervisory.Guard.table`, also when
+    the index was made without it."""
     result, scan, goal = _planned("overtaking", 0, "ideal")
     for psi in (result.psi, None):
         index = RecallIndex(result.map, plan=result.plan, psi=psi)
@@ -114,7 +115,7 @@ def test_a_recall_with_the_maps_guard_template_gives_the_maps_guard():
             seen = np.c_[rel.x + c * scan[:, 0] - s * scan[:, 1], rel.y + s * scan[:, 0] + c * scan[:, 1]]
             found, why, _ = recall(result, ORIGIN, here, goal, seen, result.robot, index=index)
             if found is not None:
-                assert found.result.psi == guard(result.map, found.result.plan)
+                assert found.result.psi == Guard(result.map, found.result.plan).table()
                 plain, _, _ = recall(result, ORIGIN, here, goal, seen, result.robot)
                 assert plain is not None and plain.result.psi == found.result.psi
 

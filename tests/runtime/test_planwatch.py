@@ -7,7 +7,7 @@ from typing import Any
 
 from clomp.planner import load_scenario
 from clomp.runtime.backends import make_world_robot
-from clomp.runtime.supervision import Supervisor, SupervisorState
+from clomp.runtime.supervision import Supervisor, SupervisorConfig, SupervisorState
 
 S = SupervisorState
 
@@ -19,7 +19,7 @@ def test_a_robot_interrupted_each_time_before_it_moves_gives_up_with_the_reason(
     UNREACHABLE, saying why, the wheels stopped and the robot where it started."""
     scene = load_scenario("open")
     world = make_world_robot(scene, "paper", seed=0)
-    sup = Supervisor(world, scene.goal_in_robot_frame(), max_stuck=6)
+    sup = Supervisor(world, scene.goal_in_robot_frame(), config=SupervisorConfig(max_stuck=6))
 
     def always(*args: Any, **kwargs: Any) -> str:
         return "collision imminent: injected"
@@ -63,12 +63,12 @@ def test_a_spent_budget_is_searched_again_deeper_and_gets_round_the_u() -> None:
     goal = scene.goal_in_robot_frame()
     first = Configurator().plan(scan, goal)
     assert first.stop_reason == "budget" and _inside(first.map[first.plan.states[-1]].end, p)
-    assert plan_deepening(Configurator(), scan, goal, deepen=1).states == first.states
+    assert plan_deepening(Configurator(), scan, goal, deepen=1).n_states == first.n_states
     deeper = plan_deepening(Configurator(), scan, goal)
     end = deeper.map[deeper.plan.states[-1]].end
-    assert deeper.states > 50 and end.x > p["back_x"] and not _inside(end, p)
+    assert deeper.n_states > 50 and end.x > p["back_x"] and not _inside(end, p)
     open_field = plan_deepening(Configurator(), scene.scan()[:0], goal)
-    assert open_field.stop_reason == "goal" and open_field.states < 50
+    assert open_field.stop_reason == "goal" and open_field.n_states < 50
 
 
 def test_the_supervisor_deepens_a_spent_search_unless_told_not_to() -> None:
@@ -91,10 +91,10 @@ def test_the_supervisor_deepens_a_spent_search_unless_told_not_to() -> None:
     for deepen, expect in ((4, True), (1, False)):
         budgets = Recording.budgets = []
         world = make_world_robot(scene, "ideal", seed=0)
-        Supervisor(world, scene.goal_in_robot_frame(), Recording(), deepen=deepen).run(max_time=4.0)
+        Supervisor(world, scene.goal_in_robot_frame(), Recording(), config=SupervisorConfig(deepen=deepen)).run(max_time=4.0)
         world.close()
         assert budgets and budgets[0] == (50, "budget")
         assert (len(budgets) > 1 and budgets[1][0] == 200) is expect, budgets
         assert all(m == 50 for m, _ in budgets) is not expect
     with pytest.raises(ValueError, match="deepen must be a positive integer"):
-        Supervisor(make_world_robot(scene, "ideal", seed=0), scene.goal_in_robot_frame(), deepen=0)
+        SupervisorConfig(deepen=0)

@@ -25,6 +25,7 @@ from clomp.runtime.supervision import (
     Event,
     GuardViolation,
     Supervisor,
+    SupervisorConfig,
     SupervisorState,
     state_machine_dot,
     state_machine_prism,
@@ -33,11 +34,12 @@ from clomp.runtime.supervision import (
 S = SupervisorState
 
 
-def run_scenario(name: str, **kw: Any) -> tuple[Supervisor, Any]:
-    """Run a shipped scenario in the execution world (the scenario's seed and noise over 'paper')."""
+def run_scenario(name: str, **settings: Any) -> tuple[Supervisor, Any]:
+    """Run a shipped scenario in the execution world (the scenario's seed and noise over 'paper');
+    ``settings``: the supervisor's (:class:`SupervisorConfig`)."""
     scene = load_scenario(name)
     sim = make_world_robot(scene, WorldNoise.for_scene(scene), seed=scene.raw.get("seed", 0))
-    sup = Supervisor(sim, scene.goal_in_robot_frame(), **kw)
+    sup = Supervisor(sim, scene.goal_in_robot_frame(), config=SupervisorConfig(**settings))
     sup.run(max_time=150)
     return sup, sim
 
@@ -115,7 +117,7 @@ def test_fault_halts_with_wheels_stopped(kind, at):
     assert rep.state is S.HALTED
     assert sim.commanded == (0.0, 0.0) and sup.commanded == (0.0, 0.0)
     halted_at = rep.transitions[-1].time
-    limit = sup.scan_timeout + 2 * sim.model.tick if kind == "silent" else sim.model.tick + 1e-9
+    limit = sup.config.scan_timeout + 2 * sim.model.tick if kind == "silent" else sim.model.tick + 1e-9
     since = at
     if kind in ("motor", "port"):  # observable at the first wheel command at or after the fault
         planned = [t.time for t in rep.transitions if t.target is S.EXECUTING and t.source is not S.EXECUTING]
@@ -178,7 +180,7 @@ def test_an_obstacle_appearing_in_the_way_interrupts_and_replans():
 
     # dead reckoning: a wall that moves with the robot would (rightly) hold a scan-matched
     # estimate still; what is tested here is the interruption, not the estimate
-    sup = Supervisor(Appearing(sim), (1.0, 0.0), feedback="none")
+    sup = Supervisor(Appearing(sim), (1.0, 0.0), config=SupervisorConfig(feedback="none"))
     rep = sup.run(max_time=120)
     disagree = [t for t in rep.transitions if t.event is Event.DISAGREE]
     assert disagree and ("in the way" in disagree[0].reason or "imminent" in disagree[0].reason)
@@ -302,7 +304,7 @@ def test_no_safe_task_is_a_verdict_only_when_fresh_revolutions_confirm_it(blind,
     noise-free scan from the same pose has a plan. The verdict stands only when
     ``confirm`` plans in a row, each on revolutions taken afresh, find no safe task."""
     scene = load_scenario("open")
-    sup = Supervisor(SimRobot(scene, seed=0), scene.goal_in_robot_frame(), _OnceBlind(blind), confirm=confirm)
+    sup = Supervisor(SimRobot(scene, seed=0), scene.goal_in_robot_frame(), _OnceBlind(blind), config=SupervisorConfig(confirm=confirm))
     rep = sup.run(max_time=60)
     assert (rep.state is S.GOAL_REACHED) == reached, rep.reason
     if not reached:
@@ -315,7 +317,26 @@ def test_no_safe_task_is_a_verdict_only_when_fresh_revolutions_confirm_it(blind,
 
 def test_confirm_is_validated():
     with pytest.raises(ValueError, match="confirm"):
-        Supervisor(SimRobot(load_scenario("open"), seed=0), (1.0, 0.0), confirm=0)
+        SupervisorConfig(confirm=0)
+
+
+@pytest.mark.parametrize("name, value", [
+    ("feedback", "lidar"), ("max_plans", 0), ("patience", 1.5), ("deepen", True), ("max_recalls", -1),
+    ("settle_scans", -1), ("scan_timeout", 0.0), ("goal_radius", math.nan), ("min_progress", -0.01),
+    ("lookahead", math.inf), ("end_tolerance", (0.08,)), ("end_tolerance", (0.08, -0.3)),
+])
+def test_a_bad_setting_is_refused_when_the_config_is_made(name: str, value: Any) -> None:
+    with pytest.raises(ValueError, match=name):
+        SupervisorConfig(**{name: value})
+
+
+def test_the_config_is_one_frozen_object_the_supervisor_keeps() -> None:
+    cfg = SupervisorConfig(patience=4)
+    with pytest.raises(AttributeError):
+        cfg.patience = 5  # type: ignore[misc]
+    sup = Supervisor(SimRobot(load_scenario("open"), seed=0), (1.0, 0.0), config=cfg)
+    assert sup.config is cfg and sup.progress.config is cfg and sup.sensing.config is cfg
+    assert sup.goal_radius == sup.model.goal_tolerance  # None: the planner's own tolerance
 
 
 @pytest.mark.parametrize("feedback, start", [("scan", 10), ("scan", 4), ("none", 10)])
@@ -341,7 +362,7 @@ def test_with_scan_feedback_the_robot_looks_before_it_moves(feedback: str, start
         drive(left, right)
 
     world.read_scan, world.set_wheel_speeds = counting_read, watching_drive  # type: ignore[method-assign]
-    Supervisor(world, scene.goal_in_robot_frame(), feedback=feedback, start_scans=start).run(max_time=6.0)
+    Supervisor(world, scene.goal_in_robot_frame(), config=SupervisorConfig(feedback=feedback, start_scans=start)).run(max_time=6.0)
     expected = start if feedback == "scan" else 1
     assert seen["first_drive"] is not None and seen["first_drive"] >= expected, seen
     assert seen["first_drive"] <= expected + 2, seen  # and then it does move

@@ -117,7 +117,7 @@ class SupervisorMachine(RuleBasedStateMachine):
         if self.sup.state in (S.GOAL_REACHED, S.UNREACHABLE) and self.sup.transitions[-1].time <= self.fault_at + tick:
             return  # it had already finished
         if self.kind == "silent":  # observable once no scan came for scan_timeout
-            deadline = self.sup.scan_timeout + 2 * tick
+            deadline = self.sup.config.scan_timeout + 2 * tick
         elif self.kind == "nan":  # observable when the next revolution arrives
             deadline = 1 / self.sim.scan_rate + tick
         else:  # the motors raise on the very next wheel command
@@ -169,7 +169,7 @@ def test_a_fault_at_any_tick_ends_halted_with_wheels_stopped(fraction, kind, see
     sup = Supervisor(robot, (1.0, 0.0), conf)
     # Leave the run time to notice the fault before a fault-free run would have arrived:
     # silence shows after scan_timeout, a bad scan or a phantom at the next revolution.
-    latency = 1 / sim.scan_rate + (sup.scan_timeout if kind == "silent" else 0.0)
+    latency = 1 / sim.scan_rate + (sup.config.scan_timeout if kind == "silent" else 0.0)
     window = _clean_run_ticks(seed) - math.ceil(latency / sim.model.tick) - 2
     assert window > 0, "the fault-free run is too short to inject a fault into"
     tick = int(fraction * window)

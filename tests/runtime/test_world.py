@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from clomp import specs
+from clomp.planner import noise as noise_module
 from clomp.formal.model import Pose
 from clomp.planner.scenarios import ScenarioError, load_scenario, parse_scenario
 from clomp.runtime.interface import Robot, RobotFault
@@ -29,27 +29,37 @@ def test_is_a_robot_backend_without_encoders():
     assert w.odometry() is None
 
 
-def test_the_world_imports_nothing_of_the_planners_model():
-    """Only the scenario description is shared: no planner physics, tasks, kinematics, configurator."""
-    allowed_planner = {"clomp.planner.scenarios"}
-    tree = ast.parse((ROOT / "runtime/backends/world.py").read_text(encoding="utf-8"))
-    names = set()
-    for node in ast.walk(tree):
+WORLD_MODULES = ("world.py", "_world_body.py", "_dynamics.py", "_lidar.py", "_gyro.py", "_raycast.py", "_simulated.py")
+
+
+def _imported_names(path: Path) -> set[tuple[str, str]]:
+    """(module, name) for each ``from module import name``, (module, "") for ``import module``."""
+    found: set[tuple[str, str]] = set()
+    for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
         if isinstance(node, ast.Import):
-            names |= {a.name for a in node.names}
+            found |= {(a.name, "") for a in node.names}
         elif isinstance(node, ast.ImportFrom) and node.module:
-            names.add(node.module)
-    planner = {n for n in names if n == "planner" or n.startswith("planner.")}
-    assert planner <= allowed_planner, f"the world imports {sorted(planner - allowed_planner)}"
-    runtime = {n for n in names if n.startswith("runtime")}
-    allowed_runtime = {"clomp.runtime.interface", "clomp.runtime.devices.frame", "clomp.runtime.backends._simulated",
-                       "clomp.runtime.backends._gyro", "clomp.runtime.backends._raycast"}
-    assert runtime <= allowed_runtime, f"the world imports {sorted(runtime - allowed_runtime)}"
-    for module in ("runtime/interface.py", "runtime/devices/frame.py", "runtime/backends/_simulated.py",
-                   "runtime/backends/_gyro.py", "runtime/backends/_raycast.py"):
-        for node in ast.walk(ast.parse((ROOT / module).read_text(encoding="utf-8"))):
-            if isinstance(node, ast.ImportFrom) and node.module:
-                assert not node.module.startswith(("planner", "clomp.runtime.supervision")), (module, node.module)
+            found |= {(node.module, a.name) for a in node.names}
+    return found
+
+
+def test_the_world_imports_nothing_of_the_planners_model():
+    """Only the scenario description, the body's dimensions (the one Body type) and the noise
+    terms are shared: no planner physics, tasks, kinematics, configurator, nor the RobotModel."""
+    allowed_planner = {("clomp.planner.scenarios", "Scene"), ("clomp.planner.scenarios", "ScenarioError"),
+                       ("clomp.planner.scenarios", "load_scenario"), ("clomp.planner.robot_model", "Body"),
+                       ("clomp.planner.noise", "NoiseTerms")}
+    allowed_runtime = {"clomp.runtime.interface", "clomp.runtime.devices.frame"} | {
+        f"clomp.runtime.backends.{m.removesuffix('.py')}" for m in WORLD_MODULES if m != "world.py"}
+    for module in WORLD_MODULES:
+        names = _imported_names(ROOT / "runtime" / "backends" / module)
+        planner = {(m, n) for m, n in names if m.startswith("clomp.planner") or m == "clomp"}
+        assert planner <= allowed_planner, f"{module} imports {sorted(planner - allowed_planner)}"
+        runtime = {m for m, _ in names if m.startswith("clomp.runtime")}
+        assert runtime <= allowed_runtime, f"{module} imports {sorted(runtime - allowed_runtime)}"
+    for module in ("runtime/interface.py", "runtime/devices/frame.py"):
+        for m, _ in _imported_names(ROOT / module):
+            assert not m.startswith(("clomp.planner", "clomp.runtime.supervision")), (module, m)
 
 
 def test_each_wheel_accelerates_at_its_limit():
@@ -156,7 +166,7 @@ def test_the_sensor_never_sees_beyond_range_and_rejects_bad_settings():
         make_world_robot(load_scenario("open"), scan_rate=20.0)
     with pytest.raises(ValueError, match="unknown noise preset"):
         make_world_robot(load_scenario("open"), "wild")
-    with pytest.raises(ValueError, match="noise scale"):
+    with pytest.raises(ValueError, match="noise.scale"):
         make_world_robot(load_scenario("open"), "paper", noise_scale=-1)
 
 
@@ -200,11 +210,11 @@ def test_a_start_inside_an_obstacle_is_refused():
 def test_presets_paper_is_todays_defaults_harsh_five_times_plus_latency():
     from clomp.runtime.backends.sim import NoiseConfig
 
-    presets = specs.noise_presets()
+    presets = noise_module.noise_presets()
     paper, harsh, ideal = presets["paper"], presets["harsh"], presets["ideal"]
     for k, v in NoiseConfig().to_dict().items():
         assert paper[k] == v, k
-    for k in specs.NOISE_FIELDS:
+    for k in noise_module.NOISE_FIELDS:
         assert ideal[k] == 0.0
         if k != "latency":
             assert harsh[k] == pytest.approx(5 * paper[k]), k
@@ -220,7 +230,6 @@ def test_the_lidars_rays_hit_what_pymunks_segment_queries_hit(family):
     import pymunk
 
     from clomp.runtime.experiment.layouts import make_layout
-    from clomp.runtime.backends._raycast import first_hits as _first_hits
 
     rng = np.random.default_rng(7)
     for index in range(4):
@@ -235,7 +244,7 @@ def test_the_lidars_rays_hit_what_pymunks_segment_queries_hit(family):
             if any(s.contains(x, y) for s in w.scene.shapes):
                 continue
             angles = rng.uniform(-math.pi, math.pi, 90)
-            got = _first_hits(x, y, angles, w._edges, w._circles, reach)
+            got = w._lidar.cast(x, y, angles)  # reach: max_range * 1.2
             want = []
             for a in angles:
                 hit = space.segment_query_first((x, y), (x + reach * math.cos(a), y + reach * math.sin(a)), 0.0,

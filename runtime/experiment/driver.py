@@ -1,0 +1,214 @@
+"""Many runs of an experiment: :func:`run_experiment` maps
+:func:`~clomp.runtime.experiment.runrecords.run_spec` over every
+:class:`~clomp.runtime.experiment.runspec.RunSpec` of it, in this process (``workers=0``)
+or on Dask (a local cluster of ``workers`` processes, or an existing scheduler), streaming
+each record to ``runs.jsonl`` as it finishes (``resume=True`` skips those there).
+"""
+
+from __future__ import annotations
+
+import importlib
+import json
+import os
+import warnings
+from collections.abc import Callable, Sequence
+from pathlib import Path
+from typing import Any
+
+from clomp.runtime.experiment.provenance import claim_folder
+from clomp.runtime.experiment.runrecords import load_records, run_spec
+from clomp.runtime.experiment.runspec import CONDITIONS, RunSpec, experiment_specs
+
+__all__ = ["ExperimentInterrupted", "RunsFailed", "run_experiment"]
+
+
+class ExperimentInterrupted(KeyboardInterrupt):
+    """Ctrl-C during an experiment: ``records`` holds the runs that finished (all saved)."""
+
+    def __init__(self, records: list[dict[str, Any]], total: int) -> None:
+        super().__init__(f"interrupted: {len(records)} of {total} runs finished")
+        self.records = records
+        self.total = total
+
+
+class RunsFailed(RuntimeError):
+    """Some runs raised: ``records`` holds the ones that finished, ``failures`` key → error."""
+
+    def __init__(self, records: list[dict[str, Any]], failures: dict[str, str]) -> None:
+        first = next(iter(failures.items()))
+        super().__init__(f"{len(failures)} run(s) failed, first {first[0]}: {first[1]}")
+        self.records = records
+        self.failures = failures
+
+
+def run_experiment(
+    family: str = "overtaking",
+    runs: int = 10,
+    seed: int = 0,
+    *,
+    noise: str = "paper",
+    noise_scales: Sequence[float] = (1.0,),
+    conditions: Sequence[str] = CONDITIONS,
+    max_time: float = 120.0,
+    workers: int = 0,
+    scheduler: str | None = None,
+    out: str | os.PathLike[str] | None = None,
+    resume: bool = False,
+    progress: Callable[[int, int], Any] | None = None,
+    on_record: Callable[[dict[str, Any]], None] | None = None,
+    feedback: str = "scan",
+) -> list[dict[str, Any]]:
+    """Run an experiment; the records of every run (finished before or now), in spec order.
+
+    ``workers=0`` runs in this process; ``workers=K`` starts a local Dask cluster of K
+    processes; ``scheduler`` uses an existing one. With ``out``, each record is appended
+    to ``out/runs.jsonl`` as it finishes; ``resume`` keeps the ones already there (same
+    specs) and runs only the rest. Ctrl-C raises :class:`ExperimentInterrupted` holding
+    what finished. A worker lost mid-run has its runs retried on another. A run that raises
+    does not stop the others: at the end :class:`RunsFailed` names the failures (also in
+    ``out/errors.jsonl``) and holds the records that finished. ``progress``
+    makes a bar from (total, already done); it gets ``update(1)`` per run and ``close()``.
+
+    >>> recs = run_experiment("overtaking", runs=1, noise="ideal", conditions=("reactive",))
+    >>> [(r["condition"], r["run"]) for r in recs]
+    [('reactive', 0)]
+    """
+    specs = experiment_specs(family, runs, seed, noise=noise, noise_scales=noise_scales, conditions=conditions,
+                             max_time=max_time, feedback=feedback)
+    store = _Store(specs, out, resume, progress, on_record)
+    todo = [s for s in specs if s.key not in store.done]
+    try:
+        if todo and (workers > 0 or scheduler):
+            _run_on_dask(todo, workers, scheduler, store)
+        else:
+            _run_here(todo, store)
+    except KeyboardInterrupt:
+        raise ExperimentInterrupted(store.finished(specs), len(specs)) from None
+    finally:
+        store.close()
+    if store.failures:
+        raise RunsFailed(store.finished(specs), store.failures)
+    return [store.done[s.key] for s in specs]
+
+
+class _Store:
+    """Where the runs of an experiment go as they finish: ``done`` (key → record) and
+    ``failures`` (key → error); with ``out``, ``out/runs.jsonl`` (resumed: the records
+    there of the same specs are kept, the file rewritten clean) and ``out/errors.jsonl``
+    (started afresh); the progress bar and ``on_record``."""
+
+    def __init__(self, specs: list[RunSpec], out: str | os.PathLike[str] | None, resume: bool,
+                 progress: Callable[[int, int], Any] | None,
+                 on_record: Callable[[dict[str, Any]], None] | None) -> None:
+        self.done: dict[str, dict[str, Any]] = {}
+        self.failures: dict[str, str] = {}
+        self._on_record = on_record
+        self._sink = None if out is None else self._open(Path(out), resume, {s.key for s in specs})
+        self._errors = None if out is None else Path(out) / "errors.jsonl"
+        self._bar = progress(len(specs), len(self.done)) if progress else None
+        if self._errors is not None and self._errors.exists():
+            self._errors.unlink()
+
+    def _open(self, folder: Path, resume: bool, wanted: set[str]) -> Any:
+        claim_folder(folder, resume)  # refuses to resume another code version's runs
+        path = folder / "runs.jsonl"
+        if resume:
+            for rec in load_records(path):
+                if rec["key"] in wanted:
+                    self.done[rec["key"]] = rec
+            # rewrite clean (drops a line cut short by a crash)
+            path.write_text("".join(json.dumps(r, allow_nan=False) + "\n" for r in self.done.values()), encoding="utf-8")
+        else:
+            path.write_text("", encoding="utf-8")
+        return open(path, "a", encoding="utf-8")
+
+    def keep(self, rec: dict[str, Any]) -> None:
+        """A run finished: its record."""
+        self.done[rec["key"]] = rec
+        if self._sink is not None:
+            self._sink.write(json.dumps(rec, allow_nan=False) + "\n")
+            self._sink.flush()
+        if self._bar is not None:
+            self._bar.update(1)
+        if self._on_record is not None:
+            self._on_record(rec)
+
+    def fail(self, key: str, exc: BaseException) -> None:
+        """A run raised: one broken run must not cost the others."""
+        self.failures[key] = f"{type(exc).__name__}: {exc}"
+        if self._errors is not None:
+            with open(self._errors, "a", encoding="utf-8") as fh:
+                fh.write(json.dumps({"key": key, "error": self.failures[key]}) + "\n")
+        if self._bar is not None:
+            self._bar.update(1)
+
+    def finished(self, specs: list[RunSpec]) -> list[dict[str, Any]]:
+        """The records of the runs that finished, in spec order."""
+        return [self.done[s.key] for s in specs if s.key in self.done]
+
+    def close(self) -> None:
+        """Close the bar and ``runs.jsonl``."""
+        if self._bar is not None:
+            self._bar.close()
+        if self._sink is not None:
+            self._sink.close()
+
+
+def _run_here(todo: list[RunSpec], store: _Store) -> None:
+    """Every run of ``todo`` in this process, one after the other."""
+    for s in todo:
+        try:
+            rec = run_spec(s)
+        except Exception as exc:  # one broken run must not cost the others
+            store.fail(s.key, exc)
+        else:
+            store.keep(rec)
+
+
+def _run_on_dask(todo: list[RunSpec], workers: int, scheduler: str | None, store: _Store) -> None:
+    """Every run of ``todo`` on Dask, each kept as it finishes; a lost worker's runs are retried."""
+    client, cluster = _dask_client(workers, scheduler)
+    try:
+        as_completed: Any = importlib.import_module("distributed").as_completed
+        futures = client.map(run_spec, todo, key=["clomp-" + s.key for s in todo], pure=False, retries=2)
+        for fut in as_completed(futures):
+            if fut.status == "error":
+                store.fail(fut.key.removeprefix("clomp-"), fut.exception())
+            else:
+                store.keep(fut.result())
+    finally:
+        client.close()
+        if cluster is not None:
+            cluster.close()
+
+
+def _dask_client(workers: int, scheduler: str | None) -> tuple[Any, Any]:
+    import logging
+
+    try:
+        distributed: Any = importlib.import_module("distributed")
+    except ImportError:
+        raise RuntimeError("running on Dask needs dask.distributed: pip install 'clomp[dask]' "
+                           "(or --workers 0 to run in this process)") from None
+    if scheduler:
+        return distributed.Client(scheduler), None
+    # the worker processes ignore Ctrl-C (they inherit SIG_IGN): the terminal's SIGINT reaches the
+    # whole process group, and only this process should answer it (cancel, keep what finished)
+    import signal
+
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN) if _main_thread() else None
+    try:
+        with warnings.catch_warnings():  # "port 8787 in use, using another": the scheduler's HTTP server, harmless
+            warnings.simplefilter("ignore", UserWarning)
+            cluster = distributed.LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
+                                               host="127.0.0.1", dashboard_address=None, silence_logs=logging.CRITICAL)
+    finally:
+        if previous is not None:
+            signal.signal(signal.SIGINT, previous)
+    return distributed.Client(cluster), cluster
+
+
+def _main_thread() -> bool:
+    import threading
+
+    return threading.current_thread() is threading.main_thread()

@@ -1,0 +1,275 @@
+"""One run of one condition, measured on the world's ground truth: :func:`run_once` and its :class:`RunResult`.
+
+:func:`run_once` drives one condition (``"planning"``: the :class:`~clomp.runtime.supervision.supervisor.
+Supervisor` with a :class:`~clomp.planner.Configurator`; ``"reactive"``: the :class:`~clomp.runtime.
+experiment.reactive.ReactiveController`) on a fresh robot of the execution world
+(:func:`~clomp.runtime.experiment.groundtruth.make_robot`) and measures it on the world's ground
+truth: contact episodes (:mod:`clomp.runtime.experiment.contacts`) and the true final distance
+to the goal.
+
+Success (``success``): for a family whose goal can be reached, the robot truly ends
+within :data:`SUCCESS_RADIUS` of it (ground truth, whatever the controller believed);
+for one whose goal cannot be reached (cul-de-sac), the controller stops by itself saying
+so (``UNREACHABLE``) with no collision.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import time
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from clomp.formal.geometry import compose, relative
+from clomp.formal.model import Pose
+from clomp.planner.configurator import Configurator
+from clomp.planner.scenarios import Scene
+from clomp.runtime.backends.sim import NoiseConfig
+from clomp.runtime.backends.world import WorldNoise, make_world_robot
+from clomp.runtime.experiment.contacts import ContactCount, Episode, contact_episodes
+from clomp.runtime.experiment.groundtruth import make_robot
+from clomp.runtime.experiment.layouts import shape_distance
+from clomp.runtime.experiment.plots import RunTrace
+from clomp.runtime.experiment.reactive import ReactiveController
+from clomp.runtime.experiment.runspec import check_condition
+from clomp.runtime.records.runlog import RunLog
+from clomp.runtime.supervision.supervisor import Supervisor, SupervisorConfig
+
+__all__ = ["SUCCESS_RADIUS", "RunResult", "run_once"]
+
+SUCCESS_RADIUS = 0.1
+"""Ground-truth distance (m) to the goal within which a run reached it: twice the planner's
+goal tolerance (0.05 m), about half the body's width; the paper gives none."""
+
+
+@dataclass
+class RunResult:
+    """One run of one condition, measured on the world's ground truth (world frame).
+
+    >>> from clomp.planner import load_scenario
+    >>> r = run_once(load_scenario("open"), "planning", 0, noise="ideal")
+    >>> r.condition, r.reached_goal, r.collisions, r.final_distance < SUCCESS_RADIUS
+    ('planning', True, 0, True)
+    """
+
+    condition: str
+    run: int
+    seed: int
+    scene: Scene
+    end_state: str
+    reason: str
+    reached_goal: bool
+    believed_goal: bool
+    final_distance: float
+    episodes: list[Episode]
+    contacts: list[tuple[float, float]]
+    time_s: float
+    time_to_goal_s: float | None
+    planning_time_s: float | None
+    n_states: int | None
+    plans: int
+    path: list[tuple[float, float]]
+    estimate: list[tuple[float, float]]
+    planned: list[list[tuple[float, float]]]
+    wall_s: float
+    cpu_s: float
+    final_pose: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    counters: dict[str, int | None] = field(default_factory=dict)
+    report: Any = field(default=None, repr=False)
+
+    @property
+    def collisions(self) -> int:
+        """Contact episodes that are not brushes."""
+        return ContactCount(tuple(self.episodes)).collisions
+
+    @property
+    def brushes(self) -> int:
+        """Short, shallow contact episodes."""
+        return ContactCount(tuple(self.episodes)).brushes
+
+    def trace(self) -> RunTrace:
+        """The run as a picture."""
+        verdict = "goal" if self.reached_goal else "failed"
+        title = f"run {self.run}: {verdict}, {self.collisions} coll., {self.brushes} brush."
+        st = self.scene.start
+        poses = [(st.x, st.y, st.theta), self.final_pose]
+        return RunTrace(self.scene, title, self.path, self.contacts, self.planned, self.estimate, poses,
+                        self.reached_goal)
+
+
+def _world(start: Pose, p: Pose) -> tuple[float, float]:
+    w = compose(start, p)
+    return (w.x, w.y)
+
+
+def _count(report: Any, name: str) -> int | None:
+    v = getattr(report, name, None)
+    if v is None:
+        return None
+    if isinstance(v, (int, np.integer)):
+        return int(v)
+    try:
+        return len(v)
+    except TypeError:
+        return None
+
+
+def _ground_truth_path(robot: Any, pose: Pose) -> list[tuple[float, float, float, float]]:
+    for name in ("ground_truth_trajectory", "trajectory"):
+        v = getattr(robot, name, None)
+        if callable(v):
+            v = v()
+        if v:
+            return [(float(a), float(b), float(c), float(d)) for a, b, c, d in v]
+    return [(0.0, pose.x, pose.y, pose.theta)]
+
+
+def _contact_point(scene: Scene, path: list[tuple[float, float, float, float]], t: float) -> tuple[float, float]:
+    """Where the body touched at time ``t``: the obstacle point nearest the true position then."""
+    times = [p[0] for p in path]
+    k = min(max(int(np.searchsorted(times, t)), 0), len(path) - 1)
+    x, y = path[k][1], path[k][2]
+    best, where = math.inf, (x, y)
+    for s in scene.shapes:
+        d = shape_distance(s, x, y)
+        if d < best:
+            best = d
+            if s.kind == "circle":
+                cx, cy = s.center
+                r = math.hypot(x - cx, y - cy) or 1.0
+                where = (cx + s.radius * (x - cx) / r, cy + s.radius * (y - cy) / r)
+            else:
+                v = s.vertices
+                bq, bp = math.inf, (x, y)
+                for i in range(len(v)):
+                    ax, ay = v[i]
+                    ex, ey = v[(i + 1) % len(v)][0] - ax, v[(i + 1) % len(v)][1] - ay
+                    u = max(0.0, min(1.0, ((x - ax) * ex + (y - ay) * ey) / (ex * ex + ey * ey)))
+                    q = (ax + u * ex, ay + u * ey)
+                    dq = math.hypot(x - q[0], y - q[1])
+                    if dq < bq:
+                        bq, bp = dq, q
+                where = bp
+    return (float(where[0]), float(where[1]))
+
+
+class _TruthLog:
+    """A simulated run's log: scan and task records also carry the ground truth pose
+    (in the odometry frame, the robot's start), what a viewer shows beside the estimate."""
+
+    def __init__(self, log: RunLog, robot: Any, start: Pose) -> None:
+        self._log, self._robot, self._start = log, robot, start
+
+    def write(self, event: str, **fields: Any) -> None:
+        if event in ("scan", "task"):
+            fields["truth"] = relative(self._start, self._robot.ground_truth_pose()).as_list()
+        self._log.write(event, **fields)
+
+
+def _open_log(dest: str | os.PathLike[str], robot: Any, scene: Scene, condition: str, seed: int,
+              noise: str | NoiseConfig | WorldNoise | None, goal: tuple[float, ...]) -> RunLog:
+    runlog = RunLog(dest, clock=robot)  # the robot keeps the simulated time
+    runlog.write("run", simulated=True, scenario=scene.name, condition=condition, seed=seed,
+                 noise=noise if isinstance(noise, str) else ("scene" if noise is None else "custom"),
+                 goal=list(goal), wall=time.time())
+    return runlog
+
+
+def run_once(
+    scene: Scene,
+    condition: str = "planning",
+    seed: int | None = 0,
+    *,
+    run: int = 0,
+    noise: str | NoiseConfig | WorldNoise | None = None,
+    noise_scale: float = 1.0,
+    max_time: float = 120.0,
+    expect: str = "reach",
+    configurator: Configurator | None = None,
+    keep_report: bool = False,
+    log: str | os.PathLike[str] | None = None,
+    feedback: str = "scan",
+    reactive: dict[str, Any] | None = None,
+) -> RunResult:
+    """Run one condition in ``scene`` on a fresh robot; see the module docstring.
+
+    ``noise``: a preset name (``ideal``, ``paper``, ``harsh``; the execution world of
+    :func:`~clomp.runtime.experiment.groundtruth.make_robot`), a :class:`~clomp.runtime.backends.sim.NoiseConfig`
+    for the simulated robot, a :class:`~clomp.runtime.backends.world.WorldNoise` for the execution
+    world with those terms, or None for the simulated robot with the scene's own noise.
+    ``log``: a file for the run log (the supervisor's records, as ``clomp run`` writes
+    them, in simulated time, with the ground truth beside each scan and task record).
+    ``feedback``: both conditions' pose estimate (the same robot, the same sensing) —
+    ``"scan"`` (scan matching, the default) or ``"none"`` (dead reckoning alone).
+    ``reactive``: keyword arguments for the ReactiveController (``bench/experiment_reactive.py``).
+
+    >>> from clomp.planner import load_scenario
+    >>> r = run_once(load_scenario("open"), "reactive", 0, noise="ideal")
+    >>> r.reached_goal, r.collisions, r.brushes
+    (True, 0, 0)
+    """
+    check_condition(condition)
+    if not (math.isfinite(max_time) and max_time > 0):  # a simulated run needs an end
+        raise ValueError(f"max_time must be a finite positive number of seconds, got {max_time!r}")
+    conf = configurator or Configurator()
+    seed_ = 0 if seed is None else int(seed)
+    robot: Any
+    if isinstance(noise, str):
+        robot = make_robot(scene, noise=noise, noise_scale=noise_scale, seed=seed_, model=conf.robot)
+    elif isinstance(noise, WorldNoise):
+        robot = make_world_robot(scene, noise, seed=seed_, robot=conf.robot)
+    else:
+        from clomp.runtime.experiment.groundtruth import _TracedSimRobot
+
+        robot = _TracedSimRobot(scene, conf.robot, noise=noise, seed=seed)
+    start = scene.start
+    goal = tuple(scene.goal_in_robot_frame())
+    t0, c0 = time.perf_counter(), time.thread_time()
+    planned: list[list[tuple[float, float]]] = []
+    plan_time = states = None
+    plans = 0
+    report: Any
+    if condition == "planning":
+        runlog = _open_log(log, robot, scene, condition, seed_, noise, goal) if log is not None else None
+        try:
+            sup = Supervisor(robot, goal, conf, config=SupervisorConfig(feedback=feedback),  # type: ignore[arg-type]
+                             log=None if runlog is None else _TruthLog(runlog, robot, start))
+            report = sup.run(max_time=max_time)
+        finally:
+            if runlog is not None:
+                runlog.close()
+        for rec in report.plans:
+            planned.append([_world(start, rec.to_frame(rec.result.map[i].end)) for i in rec.result.plan.states])
+        if report.plans:
+            plan_time = report.plans[0].result.planning_time_s
+            states = report.plans[0].result.n_states
+        plans = len(report.plans)
+        end_state, reason = report.state.value, report.reason
+    else:
+        opts: dict[str, Any] = {"model": conf.robot, "feedback": feedback, **(reactive or {})}
+        report = ReactiveController(robot, goal, **opts).run(max_time=max_time)  # type: ignore[arg-type]
+        end_state, reason = report.state, report.reason
+    wall, cpu = time.perf_counter() - t0, time.thread_time() - c0
+    true = robot.ground_truth_pose()
+    dist = math.hypot(true.x - scene.goal[0], true.y - scene.goal[1])
+    believed = bool(report.reached_goal)
+    episodes = contact_episodes(robot.contact_trace())
+    truth = _ground_truth_path(robot, true)
+    if expect == "unreachable":
+        reached = end_state == "UNREACHABLE" and not any(not e.brush for e in episodes)
+    else:
+        reached = dist <= SUCCESS_RADIUS
+    if believed and dist > SUCCESS_RADIUS:
+        reason = f"{reason}, but truly {dist:.3f} m from the goal"
+    path = [(x, y) for _, x, y, _ in truth[::10]] + [(true.x, true.y)]
+    estimate = [_world(start, Pose(x, y, th)) for _, x, y, th in report.trajectory]
+    contacts = [_contact_point(scene, truth, e.start_s) for e in episodes]
+    counters = {name: _count(report, name) for name in ("checks", "recalls", "fresh_plans")}
+    return RunResult(
+        condition, run, seed_, scene, end_state, reason, reached, believed, dist, episodes, contacts,
+        report.time_s, report.time_s if reached and expect == "reach" else None, plan_time, states, plans, path,
+        estimate, planned, wall, cpu, (true.x, true.y, true.theta), counters, report if keep_report else None,
+    )

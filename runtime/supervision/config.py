@@ -1,0 +1,129 @@
+"""The supervisor's settings: one frozen, validated object (:class:`SupervisorConfig`).
+
+Every number the supervisor's state machine judges by lives here, with its unit and why
+it has its default; :class:`~clomp.runtime.supervision.supervisor.Supervisor` takes one
+(``Supervisor(robot, goal, config=SupervisorConfig(feedback="none"))``). A bad value is
+refused when the config is made, not in the middle of a run.
+
+>>> SupervisorConfig().patience, SupervisorConfig(feedback="none").fused_revolutions
+(6, 1)
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+__all__ = ["FEEDBACK", "SupervisorConfig"]
+
+FEEDBACK = ("scan", "none")
+
+
+def _positive_int(name: str, n: object, least: int = 1) -> None:
+    if not (isinstance(n, int) and not isinstance(n, bool) and n >= least):
+        what = "a positive integer" if least == 1 else f"an integer >= {least}"
+        raise ValueError(f"{name} must be {what}, got {n!r}")
+
+
+def _non_negative(name: str, x: object, *, positive: bool = False) -> None:
+    ok = isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x) and (x > 0 if positive else x >= 0)
+    if not ok:
+        raise ValueError(f"{name} must be a {'positive' if positive else 'non-negative'} finite number, got {x!r}")
+
+
+@dataclass(frozen=True)
+class SupervisorConfig:
+    """How the supervisor judges a run (SI units; see :mod:`clomp.runtime.supervision.supervisor`).
+
+    Fields:
+
+    - ``goal_radius`` (m): the goal is reached within it; None: the planner's own goal
+      tolerance (:attr:`clomp.planner.robot_model.RobotModel.goal_tolerance`, 0.05 m).
+    - ``scan_timeout`` (s): no revolution for this long is a silent sensor, a fault (HALTED).
+    - ``max_plans``: fresh plans at most, then UNREACHABLE.
+    - ``patience``: plans in a row that bring the robot no closer (by ``min_progress``)
+      before UNREACHABLE (with 3, three of ten harsh slalom runs gave up 5-8 s in).
+    - ``max_recalls``: REPLANNING's recalls of the map in a row before it explores anew.
+    - ``max_stuck``: plans in a row that end before the robot moved ``min_progress``
+      before UNREACHABLE (standing by an obstacle, interrupted again and again).
+    - ``min_progress`` (m): what counts as coming closer or as having moved.
+    - ``end_tolerance`` (m, rad): a task that ends farther than this from the map's
+      prediction, or a plan check that predicts so, sends the supervisor to REPLANNING.
+    - ``lookahead`` (s): a collision this soon on the body's path interrupts the task.
+    - ``hazard_points``: how many scan points in the body's path make a hazard.
+    - ``settle_scans``: revolutions after a stop before the wheels count as settled.
+    - ``feedback``: the pose estimate, ``"scan"`` (dead reckoning corrected by scan
+      matching, :class:`~clomp.runtime.estimation.odometry.ScanOdometry`) or ``"none"``
+      (dead reckoning alone).
+    - ``fuse_scans``: revolutions fused (median range per bearing) into the scan a
+      replan starts from (scan feedback only: without it, one).
+    - ``start_scans``: revolutions taken standing at the start, the estimator's map seed
+      (scan feedback only; at least ``fuse_scans``).
+    - ``confirm``: plans in a row, each from fresh revolutions, that find no safe task
+      before UNREACHABLE (one fused scan at ``harsh`` can put a surface 2-4 cm into the way).
+    - ``deepen``: a search that spent the configurator's budget runs again with this many
+      times the budget (:func:`clomp.runtime.supervision.planwatch.plan_deepening`).
+
+    >>> SupervisorConfig(confirm=0)
+    Traceback (most recent call last):
+    ...
+    ValueError: confirm must be a positive integer, got 0
+    >>> SupervisorConfig(fuse_scans=5, start_scans=2).start_revolutions
+    5
+    """
+
+    goal_radius: float | None = None
+    scan_timeout: float = 1.0
+    max_plans: int = 30
+    patience: int = 6
+    max_recalls: int = 5
+    max_stuck: int = 8
+    min_progress: float = 0.03
+    end_tolerance: tuple[float, float] = (0.08, 0.3)
+    lookahead: float = 0.5
+    hazard_points: int = 2
+    settle_scans: int = 2
+    feedback: str = "scan"
+    fuse_scans: int = 3
+    start_scans: int = 10
+    confirm: int = 3
+    deepen: int = 4
+
+    def __post_init__(self) -> None:
+        if self.feedback not in FEEDBACK:
+            raise ValueError(f"feedback must be one of {', '.join(FEEDBACK)}, got {self.feedback!r}")
+        for name in ("max_plans", "patience", "max_stuck", "hazard_points", "fuse_scans", "start_scans", "confirm",
+                     "deepen"):
+            _positive_int(name, getattr(self, name))
+        _positive_int("max_recalls", self.max_recalls, least=0)
+        _positive_int("settle_scans", self.settle_scans, least=0)
+        if self.goal_radius is not None:
+            _non_negative("goal_radius", self.goal_radius, positive=True)
+        _non_negative("scan_timeout", self.scan_timeout, positive=True)
+        _non_negative("min_progress", self.min_progress)
+        _non_negative("lookahead", self.lookahead)
+        if not (isinstance(self.end_tolerance, tuple) and len(self.end_tolerance) == 2):
+            raise ValueError(f"end_tolerance must be (metres, radians), got {self.end_tolerance!r}")
+        for name, x in zip(("end_tolerance[0]", "end_tolerance[1]"), self.end_tolerance):
+            _non_negative(name, x, positive=True)
+
+    @property
+    def fused_revolutions(self) -> int:
+        """Revolutions fused into a replan's scan: ``fuse_scans`` with scan feedback, else 1.
+
+        >>> SupervisorConfig(fuse_scans=4).fused_revolutions
+        4
+        """
+        return self.fuse_scans if self.feedback == "scan" else 1
+
+    @property
+    def start_revolutions(self) -> int:
+        """Revolutions taken standing before the first plan: with scan feedback the map's
+        seed (``start_scans``, at least the fused ones), else the fused ones.
+
+        >>> SupervisorConfig(feedback="none").start_revolutions
+        1
+        """
+        if self.feedback == "scan":
+            return max(self.start_scans, self.fused_revolutions)
+        return self.fused_revolutions

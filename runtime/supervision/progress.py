@@ -1,0 +1,79 @@
+"""Whether the supervisor's plans still get the robot anywhere: :class:`Progress`.
+
+The counts behind UNREACHABLE (see :mod:`clomp.runtime.supervision.supervisor`): plans in
+a row that found no safe task (``confirm``), plans in a row that brought the robot no
+closer to the goal (``patience``), and the recalled continuations already taken (the same
+one again, after tasks of it ran and no closer than before, is a loop).
+
+>>> from clomp.runtime.supervision.config import SupervisorConfig
+>>> p = Progress(SupervisorConfig(patience=2))
+>>> p.planned(False, 1.0), p.planned(False, 1.0), p.planned(False, 1.0)
+(None, None, 'goal unreachable: 2 plans in a row brought it no closer')
+"""
+
+from __future__ import annotations
+
+import math
+
+from clomp.runtime.supervision.config import SupervisorConfig
+
+__all__ = ["Progress"]
+
+
+class Progress:
+    """The supervisor's judgement of progress over its plans (see the module docstring).
+
+    >>> from clomp.runtime.supervision.config import SupervisorConfig
+    >>> p = Progress(SupervisorConfig(confirm=2))
+    >>> p.no_safe_task(), p.no_safe_task()
+    (None, 'goal unreachable: no safe task leads closer to the goal (on 2 scans in a row)')
+    """
+
+    def __init__(self, config: SupervisorConfig) -> None:
+        self.config = config
+        self.empty = 0  # plans in a row, each from fresh revolutions at this stop, that found no safe task
+        self.best = math.inf  # the closest to the goal (m) a plan started from
+        self.stalled = 0  # plans in a row that started no closer than ``best``
+        self._recalled: dict[tuple[int, int], tuple[float, int]] = {}  # (map, state) -> distance, tasks done
+
+    def no_safe_task(self) -> str | None:
+        """A plan found no safe task: the reason to give up after ``confirm`` in a row, else
+        None (a verdict from one fused scan: stand, take fresh revolutions, plan again)."""
+        self.empty += 1
+        if self.empty < self.config.confirm:
+            return None
+        return ("goal unreachable: no safe task leads closer to the goal"
+                + (f" (on {self.empty} scans in a row)" if self.empty > 1 else ""))
+
+    def planned(self, reached_goal: bool, dist: float) -> str | None:
+        """A plan with tasks, made ``dist`` m from the goal (``reached_goal``: it ends there):
+        the reason to give up after ``patience`` plans in a row that came no closer, else None.
+        Progress is what the robot achieved, not what a plan to the disc's rim promised."""
+        self.empty = 0
+        if reached_goal or dist < self.best - self.config.min_progress:
+            self.stalled = 0
+        else:
+            self.stalled += 1
+            if self.stalled >= self.config.patience:
+                return f"goal unreachable: {self.stalled} plans in a row brought it no closer"
+        self.best = min(self.best, dist)
+        return None
+
+    def recalled(self) -> None:
+        """A recalled plan runs: an earlier empty one no longer counts towards ``confirm``."""
+        self.empty = 0
+
+    def loops(self, key: tuple[int, int], dist: float, done: int) -> bool:
+        """True when the recalled continuation ``key`` (map, state) was taken before, ``done``
+        tasks ago, and the robot is no closer (``dist`` m) than then: a loop (a cul-de-sac's
+        zig-zag, recalled five times over 90 s, ran into the time limit). Else it is noted.
+
+        >>> p = Progress(SupervisorConfig())
+        >>> p.loops((1, 2), 0.5, 0), p.loops((1, 2), 0.5, 3)
+        (False, True)
+        """
+        before = self._recalled.get(key)
+        if before is not None and done > before[1] and dist >= before[0] - self.config.min_progress:
+            return True
+        self._recalled[key] = (dist, done)
+        return False

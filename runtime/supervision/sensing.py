@@ -1,0 +1,165 @@
+"""What the supervisor knows of where the robot is and what it sees: :class:`Sensing`.
+
+The pose estimate (dead reckoning, corrected once a revolution by scan matching with
+``feedback="scan"``: :class:`~clomp.runtime.estimation.odometry.ScanOdometry`), the newest
+revolution, the last *clean* one (not smeared by a turn) with the pose it was taken at
+(what the hazard test and the plan check read), and the still revolutions taken since the
+wheels last stopped (what a plan starts from, fused). The supervisor's state machine
+decides what to do with them; this class only keeps them.
+
+>>> from clomp.planner import load_scenario
+>>> from clomp.planner.robot_model import RobotModel
+>>> from clomp.runtime.backends.sim import SimRobot
+>>> from clomp.runtime.supervision.config import SupervisorConfig
+>>> robot = SimRobot(load_scenario("open"), seed=0)
+>>> s = Sensing(robot, RobotModel(), SupervisorConfig(feedback="none"))
+>>> s.start(0.0)
+Pose(x=0.0, y=0.0, theta=0.0)
+>>> s.take(robot.read_scan(timeout=1.0), 0.1, (0.0, 0.0), still=True) is None, s.since_stop, s.ready()
+(True, 1, True)
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections import deque
+
+import numpy as np
+
+from clomp.formal.geometry import dead_reckon
+from clomp.formal.model import Pose
+from clomp.planner.perception import validate_scan
+from clomp.planner.robot_model import RobotModel
+from clomp.runtime.estimation.fusion import fuse_revolutions
+from clomp.runtime.estimation.odometry import FeedbackRecord, ScanOdometry
+from clomp.runtime.interface import Robot, ScanFrame, TurnSensing
+from clomp.runtime.supervision.config import SupervisorConfig
+
+__all__ = ["Sensing", "turning"]
+
+
+def turning(cmd: tuple[float, float]) -> bool:
+    """True when the wheel speeds ``cmd`` turn the body (they differ).
+
+    >>> turning((0.1, 0.1)), turning((-0.1, 0.1))
+    (False, True)
+    """
+    vl, vr = cmd
+    return abs(vr - vl) > 1e-9
+
+
+class Sensing:
+    """The pose estimate and the revolutions the supervisor keeps (see the module docstring).
+
+    ``pose``: the estimate (supervisor frame); ``estimator``: the scan matcher with scan
+    feedback, else None; ``scan``: the newest revolution; ``clean_scan`` / ``scan_pose``:
+    the newest revolution not smeared by a turn and where it was taken; ``since_stop``:
+    revolutions since the wheels last stopped; ``still``: the last of them taken standing.
+
+    >>> from clomp.planner import load_scenario
+    >>> from clomp.runtime.backends.sim import SimRobot
+    >>> s = Sensing(SimRobot(load_scenario("open"), seed=0), RobotModel(), SupervisorConfig())
+    >>> s.estimator is not None, s.ready()
+    (True, False)
+    """
+
+    def __init__(self, robot: Robot, model: RobotModel, config: SupervisorConfig) -> None:
+        self.robot = robot
+        self._rotation = robot.rotation if isinstance(robot, TurnSensing) else lambda: None  # a gyro, when it has one
+        self.config = config
+        self.wheel_base = model.wheel_base
+        self.estimator: ScanOdometry | None = ScanOdometry(model.wheel_base) if config.feedback == "scan" else None
+        self.pose = Pose(0.0, 0.0, 0.0)
+        self.scan: np.ndarray | None = None
+        self.clean_scan: np.ndarray | None = None
+        self.scan_pose = self.pose
+        self.turned = False
+        self.moved = False
+        self.since_stop = 0
+        self.still: deque[np.ndarray] = deque(maxlen=config.fused_revolutions)
+        self.last_update = 0.0
+        self.last_scan_at = 0.0
+
+    def start(self, now: float) -> Pose:
+        """Fix the frame at the robot's present pose (its odometry's, else the origin) at ``now``."""
+        self.last_update = self.last_scan_at = now
+        odo = self.robot.odometry()
+        self.pose = odo if odo is not None else Pose(0.0, 0.0, 0.0)
+        if self.estimator is not None:
+            self.estimator.reset(self.pose, now)
+            self.estimator.advance(now, (0.0, 0.0), odo, self._rotation())
+        return self.pose
+
+    def update_pose(self, now: float, cmd: tuple[float, float]) -> None:
+        """Dead-reckon the estimate to ``now`` (the wheels were commanded ``cmd``)."""
+        dt = now - self.last_update
+        self.last_update = now
+        odo = self.robot.odometry()
+        if self.estimator is not None:
+            self.estimator.advance(now, cmd, odo, self._rotation())
+            self.pose = self.estimator.pose
+            return
+        self.pose = odo if odo is not None else dead_reckon(self.pose, *cmd, self.wheel_base, dt)
+
+    def take(self, frame: ScanFrame, now: float, cmd: tuple[float, float], still: bool) -> FeedbackRecord | None:
+        """Keep a new revolution (read at ``now``); with scan feedback correct the estimate by
+        it and return what that did. ``still``: it counts among the still revolutions."""
+        scan = self.scan = validate_scan(frame.points, "scan")
+        rec = self._feedback(dataclasses.replace(frame, points=scan), now) if self.estimator is not None else None
+        self.last_scan_at = now
+        self.since_stop += 1
+        if still:
+            self.still.append(scan)
+        # a revolution taken while turning is smeared: keep the last clean one, unless
+        # _feedback de-skewed it (it then set the clean scan at its estimated pose)
+        if not self.turned and (self.estimator is None or frame.point_times is None):
+            self.clean_scan, self.scan_pose = scan, self.pose
+        self.turned = turning(cmd)
+        return rec
+
+    def _feedback(self, frame: ScanFrame, now: float) -> FeedbackRecord:
+        """Correct the pose estimate with this revolution (scan matching against the local map)."""
+        assert self.estimator is not None
+        if not (now - 1.0 <= frame.timestamp <= now + 1e-6):  # another clock: take it as now
+            frame = dataclasses.replace(frame, timestamp=now)
+        rec = self.estimator.update(frame)
+        self.pose = self.estimator.pose
+        if frame.point_times is not None:
+            self.clean_scan, self.scan_pose = self.estimator.last_points, self.estimator.pose_at(frame.timestamp)
+        return rec
+
+    def drove(self, cmd: tuple[float, float]) -> None:
+        """The wheels were commanded ``cmd``: a turn smears the revolution under way."""
+        self.turned = self.turned or turning(cmd)
+        if cmd[0] != 0 or cmd[1] != 0:
+            self.moved = True
+
+    def stopped(self) -> None:
+        """The wheels stopped (or a plan must be made afresh): count still revolutions anew."""
+        self.since_stop = 0
+        self.still.clear()
+
+    def ready(self) -> bool:
+        """Enough revolutions since the stop to plan: after driving, ``settle_scans`` for the
+        wheels to settle and the fused ones; at the start, ``start_revolutions`` (the map's seed)."""
+        cfg = self.config
+        need = cfg.settle_scans + cfg.fused_revolutions - 1 if self.moved else cfg.start_revolutions
+        return self.scan is not None and self.since_stop >= need
+
+    def planning_scan(self) -> np.ndarray:
+        """The scan a plan starts from: the still revolutions fused, or the newest alone."""
+        assert self.scan is not None
+        if self.moved and self.config.fused_revolutions > 1 and len(self.still) > 1:
+            return fuse_revolutions(list(self.still))
+        return self.scan
+
+    def seconds_silent(self, now: float) -> float:
+        """How long no revolution has come (s), at ``now``.
+
+        >>> from clomp.planner import load_scenario
+        >>> from clomp.runtime.backends.sim import SimRobot
+        >>> s = Sensing(SimRobot(load_scenario("open"), seed=0), RobotModel(), SupervisorConfig())
+        >>> s.seconds_silent(2.5)
+        2.5
+        """
+        return now - self.last_scan_at
