@@ -37,6 +37,9 @@ class LockstepClock(ManualClock):
     then has been taken in before the controller looks; ``step(dt)`` is what such a line
     calls when it finds nothing waiting: it moves time by at most ``dt`` toward the
     sleeper's wake-up time and returns how far it moved (0: time stands still).
+    With several lockstep lines (the LiDAR's and the IMU's readers), the wake-up time is
+    reached once every one of them has found nothing more to read there (each line
+    registers itself with :meth:`register` and passes its token to ``step``).
     ``release()`` lets time run freely from then on (for shutting down: the reader thread
     must see its timeouts pass once the controller has stopped sleeping).
     ``free_when`` (a callable, e.g. "the robot has tripped", after which its reader thread
@@ -52,6 +55,19 @@ class LockstepClock(ManualClock):
         self._free = False
         self.max_wall = max_wall
         self.free_when: Callable[[], bool] | None = None
+        self._lines = 0  # lockstep lines registered
+        self._idle: set[int] = set()  # those idle at the wake-up time
+
+    @property
+    def lines(self) -> int:
+        """How many lockstep lines are registered."""
+        return self._lines
+
+    def register(self) -> int:
+        """A token for one more lockstep line (see the class)."""
+        with self._cond:
+            self._lines += 1
+            return self._lines
 
     def sleep(self, seconds: float) -> None:
         if self._free:
@@ -63,6 +79,7 @@ class LockstepClock(ManualClock):
         with self._cond:
             until = self._t + seconds
             self._until, self._reached = until, False
+            self._idle.clear()
             self._cond.notify_all()
             while not self._reached and not self._free:
                 if self.free_when is not None and self.free_when():
@@ -84,7 +101,7 @@ class LockstepClock(ManualClock):
                 self._t += seconds
                 self._cond.notify_all()
 
-    def step(self, dt: float) -> float:
+    def step(self, dt: float, line: int = 0) -> float:
         with self._cond:
             if self._free:
                 self._t += dt
@@ -93,8 +110,10 @@ class LockstepClock(ManualClock):
                 return 0.0
             if self._t >= self._until:
                 # the line is idle at the wake-up time: all it had to read up to now is read
-                self._reached = True
-                self._cond.notify_all()
+                self._idle.add(line)
+                if len(self._idle) >= max(1, self._lines):
+                    self._reached = True
+                    self._cond.notify_all()
                 return 0.0
             moved = min(dt, self._until - self._t)
             self._t = self._until if moved < dt else self._t + dt
@@ -133,6 +152,7 @@ class SimLine:
             raise TypeError("lockstep=True needs a LockstepClock")
         self.device, self.clock, self.timeout, self.port = device, clock, timeout, name
         self.lockstep = lockstep
+        self._token = clock.register() if isinstance(clock, LockstepClock) and lockstep else 0
         self.lock = lock or threading.RLock()
         self.running = threading.Event()
         self.running.set()
@@ -178,7 +198,11 @@ class SimLine:
             with self.lock:
                 if self.lockstep:
                     assert isinstance(self.clock, LockstepClock)
-                    moved = self.clock.step(_STEP)
+                    if self.clock.lines > 1:  # another line may have moved the time: what is due by now first
+                        self.device._tick(self.clock.now())
+                        if self.device._out:
+                            continue
+                    moved = self.clock.step(_STEP, self._token)
                 else:
                     self.clock.advance(_STEP)
                     moved = _STEP

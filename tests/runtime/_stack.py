@@ -6,7 +6,9 @@ it flows only while the supervisor sleeps between ticks, so planning costs no si
 (an idealisation: the real-time cost is what the pty tests of test_run_cli.py measure) and a
 run's outcome does not depend on how busy the machine is. ``hook(t, run)`` is called in the
 supervisor's thread after each of its sleeps, at simulated time ``t``: a test injects a fault
-there (unplug a device, raise as a signal handler would) at a chosen moment.
+there (unplug a device, raise as a signal handler would) at a chosen moment. ``imu=True``
+adds the world's IMU on a third line (lockstep too: its reader has read all it sent before the
+supervisor wakes), as ``clomp run --imu``.
 """
 
 from __future__ import annotations
@@ -56,7 +58,7 @@ class _HookedClock:
 
 def run_stack(scenario: str, *, max_time: float = 80.0, seed: int = 0, conf: Configurator | None = None,
               hook: Callable[[float, StackRun], None] | None = None, clock: LockstepClock | None = None,
-              **world_options: Any) -> StackRun:
+              imu: bool = False, **world_options: Any) -> StackRun:
     """Plan and execute ``scenario``'s goal through the real drivers, in simulated time (the
     world's noise drawn from ``seed``: the same run every time). Whatever the supervisor's
     ``run`` raises (a KeyboardInterrupt a hook raised, say) is kept in ``raised``, with
@@ -66,13 +68,14 @@ def run_stack(scenario: str, *, max_time: float = 80.0, seed: int = 0, conf: Con
     run = StackRun(world, clock)
     lidar_line = SimLine(world.lidar, clock, lock=lock, name="sim-lidar", lockstep=True)
     motor_line = SimLine(world.maestro, clock, lock=lock, name="sim-maestro")
+    imu_line = SimLine(world.imu, clock, lock=lock, name="sim-imu", lockstep=True) if imu else None
     # the Maestro driver's watchdog: off, as in test_hardware_deadlines.py
     config = HardwareConfig(watchdog_timeout=None)
     conf = conf or Configurator()
     t0 = clock.now()
     sup_clock: Any = clock if hook is None else _HookedClock(clock, lambda t: hook(t, run))
     try:
-        with HardwareRobot(lidar_line, motor_line, config, model=conf.robot, clock=clock) as robot:
+        with HardwareRobot(lidar_line, motor_line, config, model=conf.robot, clock=clock, imu_port=imu_line) as robot:
             run.robot = robot
             clock.free_when = lambda: robot.fault is not None  # a tripped robot's reader reads no more
             run.supervisor = Supervisor(robot, world.scene.goal_in_robot_frame(), conf, clock=sup_clock)
