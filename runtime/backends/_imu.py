@@ -2,9 +2,9 @@
 
 The preset's gyro terms become the IMU's (per run: ``rate_bias`` the standard deviation of
 its drift in rad/s, ``rate_scale`` of its scale error; ``rate_sd`` its random walk in
-rad/√s); the white noise of each report is ``angle_sd`` (rad, as the LiDAR's beam angle
-jitter), the share of reports lost ``dropout`` (as the LiDAR's returns) and the share
-preceded by a garbage burst a tenth of it. So ``ideal`` gives a perfect IMU on a clean
+rad/√s); each report's white noise is one report's step of that walk (``rate_sd / 10``
+rad: a fused BNO08x yaw is smooth), the share of reports lost ``dropout`` (as the LiDAR's
+returns) and the share preceded by a garbage burst a tenth of it. So ``ideal`` gives a perfect IMU on a clean
 line, ``paper`` about 0.6°/s of drift at most and 2 % of reports lost, ``harsh`` five times
 that. The draws come from a generator of their own (the run's seed and a tag), so the
 world's other draws are the same with and without it.
@@ -41,7 +41,7 @@ def imu_terms(noise: NoiseTerms | None, seed: int | None, time_scale: float = 1.
         "drift": n.rate_bias * z_drift * time_scale,
         "scale_error": n.rate_scale * z_scale,
         "walk": n.rate_sd * math.sqrt(time_scale),
-        "noise": n.angle_sd,
+        "noise": n.rate_sd / math.sqrt(100.0),
         "drop_rate": n.dropout,
         "garbage_rate": n.dropout / 10.0,
         "seed": None if seed is None else int(rng.integers(2**31)),

@@ -7,8 +7,8 @@ it flows only while the supervisor sleeps between ticks, so planning costs no si
 run's outcome does not depend on how busy the machine is. ``hook(t, run)`` is called in the
 supervisor's thread after each of its sleeps, at simulated time ``t``: a test injects a fault
 there (unplug a device, raise as a signal handler would) at a chosen moment. ``imu=True``
-adds the world's IMU on a third line (lockstep too: its reader has read all it sent before the
-supervisor wakes), as ``clomp run --imu``.
+adds the world's IMU on a third line (ticked with the LiDAR; its reader has read all it sent
+before the supervisor wakes), as ``clomp run --imu``.
 """
 
 from __future__ import annotations
@@ -38,6 +38,7 @@ class StackRun:
     supervisor: Supervisor | None = None
     report: SupervisorReport | None = None
     elapsed: float = 0.0  # simulated seconds
+    started: float = 0.0  # the simulated time the supervisor's run began
     raised: BaseException | None = None  # what the supervisor's run raised
     notes: dict[str, Any] = field(default_factory=dict)  # what a hook wants to remember
 
@@ -66,18 +67,22 @@ def run_stack(scenario: str, *, max_time: float = 80.0, seed: int = 0, conf: Con
     clock, lock = clock or LockstepClock(100.0), threading.RLock()
     world = EmulatedWorld(scenario, clock=clock, seed=seed, **world_options)  # not started: no pty, no thread
     run = StackRun(world, clock)
-    lidar_line = SimLine(world.lidar, clock, lock=lock, name="sim-lidar", lockstep=True)
+    # the IMU is ticked with the LiDAR, in its line's thread: the world is advanced at the same
+    # instants however the readers' threads interleave (the same run every time)
+    lidar_line = SimLine(world.lidar, clock, lock=lock, name="sim-lidar", lockstep=True,
+                         also=(world.imu,) if imu else ())
     motor_line = SimLine(world.maestro, clock, lock=lock, name="sim-maestro")
-    imu_line = SimLine(world.imu, clock, lock=lock, name="sim-imu", lockstep=True) if imu else None
+    imu_line = SimLine(world.imu, clock, lock=lock, name="sim-imu", follow=True) if imu else None
     # the Maestro driver's watchdog: off, as in test_hardware_deadlines.py
     config = HardwareConfig(watchdog_timeout=None)
     conf = conf or Configurator()
-    t0 = clock.now()
+    t0 = run.started = clock.now()
     sup_clock: Any = clock if hook is None else _HookedClock(clock, lambda t: hook(t, run))
     try:
         with HardwareRobot(lidar_line, motor_line, config, model=conf.robot, clock=clock, imu_port=imu_line) as robot:
             run.robot = robot
-            clock.free_when = lambda: robot.fault is not None  # a tripped robot's reader reads no more
+            # a tripped robot's reader reads no more (nor a failed IMU's)
+            clock.free_when = lambda: robot.fault is not None or (robot.imu is not None and robot.imu.fault is not None)
             run.supervisor = Supervisor(robot, world.scene.goal_in_robot_frame(), conf, clock=sup_clock)
             try:
                 run.report = run.supervisor.run(max_time=max_time)

@@ -354,9 +354,9 @@ def test_emulate_world_serves_a_whole_stack_a_user_can_run(tmp_path: Path) -> No
         argv = [sys.executable, "-c", code, "world", "--scenario", "open", "--time-scale", "2"]
     world = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:
-        lines = [world.stdout.readline().strip() for _ in range(3)]
+        lines = [world.stdout.readline().strip() for _ in range(4)]
         ports = dict(line.split(": ", 1) for line in lines)
-        assert ports["run"].startswith("clomp run --lidar ")
+        assert ports["run"].startswith("clomp run --lidar ") and f"--imu {ports['imu']}" in ports["run"]
         run = subprocess.run(
             clomp("run", "--lidar", ports["lidar"], "--motors", ports["motors"], "--goal", "0.3,0",
                   "--time-scale", "2", "--log", str(tmp_path / "run.jsonl")),
