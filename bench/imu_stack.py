@@ -19,6 +19,11 @@ IMU too (its errors drawn from the preset: runtime/backends/_imu.py). Per settin
   at the end (m, in the start frame);
 - ``faults``: runs that ended on a device fault (an IMU fault would show here);
 - wall time, the process's CPU time and the main thread's (the supervisor's) CPU time.
+
+``--pty`` instead runs what a user runs, in real time: ``clomp emulate world``'s world (an
+:class:`EmulatedWorldProcess`) and ``clomp run --lidar … --motors … --imu … --goal 1,0`` as
+a subprocess, at ``--time-scale`` 1 and 2, ``--runs`` seeds each, and prints per setting how
+many runs end truly within 0.1 m and how many exit 0 farther than that (false successes).
 """
 
 from __future__ import annotations
@@ -73,13 +78,48 @@ def summary(label: str, rows: list[dict[str, Any]]) -> str:
             f"(supervisor thread {sum(r['thread'] for r in rows):.0f} s) for {sum(r['sim_s'] for r in rows):.0f} simulated s")
 
 
+def one_pty(scenario: str, noise: str, seed: int, scale: float, log: Path) -> tuple[int, float]:
+    """One real-time run over ptys: ``clomp run``'s exit status and the true final distance."""
+    import subprocess
+
+    from clomp.runtime.backends.emulated import EmulatedWorldProcess
+
+    with EmulatedWorldProcess(scenario, noise=noise, seed=seed, time_scale=scale) as world:
+        gx, gy = world.scene.goal_in_robot_frame()
+        argv = [sys.executable, "-m", "clomp.runtime.cli", "run", "--lidar", world.lidar_port, "--motors",
+                world.motor_port, "--imu", world.imu_port, "--goal", f"{gx:g},{gy:g}", "--time-scale", f"{scale:g}",
+                "--max-time", "120", "--log", str(log)]
+        done = subprocess.run(argv, capture_output=True, text=True, timeout=600)
+        return done.returncode, float(world.goal_distance)
+
+
+def main_pty(args: argparse.Namespace) -> int:
+    import tempfile
+
+    with tempfile.TemporaryDirectory() as tmp:
+        for scale in (1.0, 2.0):
+            near = false = 0
+            for seed in range(args.runs):
+                t0 = time.perf_counter()
+                code, dist = one_pty(args.scenario, args.noise, seed, scale, Path(tmp) / f"run-{scale}-{seed}.jsonl")
+                near += dist <= 0.1
+                false += code == 0 and dist > 0.1
+                print(f"time scale {scale:g} seed {seed:2d}: exit {code}  true {dist:.3f} m  "
+                      f"({time.perf_counter() - t0:.0f} s wall)", flush=True)
+            print(f"time scale {scale:g}: truly within 0.1 m {near}/{args.runs}, false successes {false}", flush=True)
+    return 0
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--runs", type=int, default=20)
     ap.add_argument("--noise", default="harsh")
     ap.add_argument("--scenario", default="overtaking")
     ap.add_argument("--max-time", type=float, default=90.0)
+    ap.add_argument("--pty", action="store_true", help="real-time runs of clomp run --imu over ptys (see the module)")
     args = ap.parse_args(argv)
+    if args.pty:
+        return main_pty(args)
     results: dict[str, list[dict[str, Any]]] = {"without IMU": [], "with --imu": []}
     for seed in range(args.runs):
         for label, imu in (("without IMU", False), ("with --imu", True)):
