@@ -90,6 +90,8 @@ def one_pty(scenario: str, noise: str, seed: int, scale: float, log: Path) -> tu
                 world.motor_port, "--imu", world.imu_port, "--goal", f"{gx:g},{gy:g}", "--time-scale", f"{scale:g}",
                 "--max-time", "120", "--log", str(log)]
         done = subprocess.run(argv, capture_output=True, text=True, timeout=600)
+        if done.returncode != 0:
+            print("   ", (done.stderr.strip().splitlines() or ["(nothing on stderr)"])[-1][:300], flush=True)
         return done.returncode, float(world.goal_distance)
 
 

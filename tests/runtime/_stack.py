@@ -25,7 +25,7 @@ from clomp.runtime.backends.hardware import HardwareConfig, HardwareRobot
 from clomp.runtime.supervision import Supervisor, SupervisorReport
 from tests.runtime._simline import LockstepClock, SimLine
 
-__all__ = ["NEUTRAL", "StackRun", "run_stack", "wheels_stopped_at"]
+__all__ = ["NEUTRAL", "StackRun", "at", "driving", "run_stack", "wheels_stopped_at"]
 
 NEUTRAL = 6000  # 1500 µs in quarter-µs
 
@@ -113,3 +113,20 @@ def wheels_stopped_at(maestro: MaestroEmulator, t0: float) -> float:
     if stop_at is None:
         raise AssertionError("the wheels were never commanded to stop")
     return stop_at
+
+
+def driving(run: StackRun) -> bool:
+    """Whether the wheels have been commanded to move in this run."""
+    return any(ch in (0, 1) and t not in (0, NEUTRAL) for _, ch, t in run.world.maestro.events)
+
+
+def at(t_fault: float, act: Callable[[StackRun], None]) -> Callable[[float, StackRun], None]:
+    """A hook that calls ``act(run)`` once, at the first wake-up at or after ``t_fault`` s of
+    the run, and remembers that moment in ``run.notes["t_fault"]``."""
+    def hook(t: float, run: StackRun) -> None:
+        t0 = run.notes.setdefault("t0", t)
+        if "t_fault" not in run.notes and t - t0 >= t_fault:
+            assert driving(run), "the fault is meant to come while the wheels turn"
+            run.notes["t_fault"] = t
+            act(run)
+    return hook

@@ -13,24 +13,9 @@ import pytest
 
 from clomp.runtime.interface import RobotFault
 from clomp.runtime.supervision import SupervisorState
-from tests.runtime._stack import NEUTRAL, StackRun, run_stack, wheels_stopped_at
+from tests.runtime._stack import StackRun, at, run_stack, wheels_stopped_at
 
 T_FAULT = 3.0  # simulated seconds into the run: driving its first straight
-
-
-def _driving(run: StackRun) -> bool:
-    return any(ch in (0, 1) and t not in (0, NEUTRAL) for _, ch, t in run.world.maestro.events)
-
-
-def _at(act: Any) -> Any:
-    """A hook that calls ``act(run)`` once, at the first wake-up at or after T_FAULT s."""
-    def hook(t: float, run: StackRun) -> None:
-        t0 = run.notes.setdefault("t0", t)
-        if "t_fault" not in run.notes and t - t0 >= T_FAULT:
-            assert _driving(run), "the fault is meant to come while the wheels turn"
-            run.notes["t_fault"] = t
-            act(run)
-    return hook
 
 
 def test_the_stack_with_the_imu_reaches_the_goal_following_its_heading() -> None:
@@ -91,7 +76,7 @@ def _wild(run: StackRun) -> None:
     ids=["unplugged", "silent", "garbage", "wild-yaw"],
 )
 def test_an_imu_fault_halts_the_run_with_the_wheels_stopped(act: Any, said: str, within: float) -> None:
-    run = run_stack("overtaking", imu=True, hook=_at(act))
+    run = run_stack("overtaking", imu=True, hook=at(T_FAULT, act))
     assert run.raised is None and run.report is not None, run.raised
     assert run.report.state is SupervisorState.HALTED, run.report
     robot = run.robot
