@@ -332,6 +332,11 @@ def test_start_up_errors_are_one_line_and_still_logged(
     recs = list(read_log(logs[0]))
     assert [r["event"] for r in recs] == ["run", "fault", "stop"]
 
+    # an IMU port that does not exist is a typo too (exit 2), named; the IMU is opened before the LiDAR
+    rc = cli.main(["run", "--lidar", "loop://", "--dry-run", "--imu", str(tmp_path / "ttyIMU9"), "--goal", "1,0"])
+    err = capsys.readouterr().err
+    assert rc == 2 and err.count("\n") == 1 and "IMU" in err and "ttyIMU9" in err, err
+
     for argv, said in [
         (["--lidar", "x", "--goal", "1,0"], "--motors"),
         (["--lidar", "x", "--motors", "y", "--goal", "1;0"], "--goal"),

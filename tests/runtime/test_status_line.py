@@ -1,0 +1,46 @@
+"""``clomp run``'s status line: drawn on a terminal only, cleared before the final line."""
+
+from __future__ import annotations
+
+import io
+import threading
+from types import SimpleNamespace
+
+from clomp.formal.model import Pose
+from clomp.runtime.cli._status import StatusLine
+
+
+def _run(imu_fault: object = None) -> tuple[SimpleNamespace, SimpleNamespace]:
+    sup = SimpleNamespace(state=SimpleNamespace(value="EXECUTING"), estimator=None, _task=None,
+                          goal_in_robot_frame=lambda: Pose(0.3, 0.4, 0.0))
+    imu = SimpleNamespace(fault=imu_fault)
+    robot = SimpleNamespace(fault=None if imu_fault is None else "IMU on x failed", scans=12, imu=imu)
+    return sup, robot
+
+
+def test_no_status_line_into_a_pipe_or_a_file() -> None:
+    stream = io.StringIO()  # not a terminal
+    sup, robot = _run()
+    with StatusLine(sup, robot, stream=stream, period=0.001) as line:
+        assert not line.enabled
+        threading.Event().wait(0.02)
+    assert stream.getvalue() == ""
+
+
+def test_the_status_line_says_what_the_run_does_and_is_cleared_at_the_end() -> None:
+    stream = io.StringIO()
+    sup, robot = _run(imu_fault="silent")
+    drawn = threading.Event()
+    write = stream.write
+
+    def seen(text: str) -> int:
+        if "rev" in text:
+            drawn.set()
+        return write(text)
+
+    stream.write = seen  # type: ignore[method-assign]
+    with StatusLine(sup, robot, stream=stream, period=0.001, enabled=True):
+        assert drawn.wait(30.0)
+    out = stream.getvalue()
+    assert "\rEXECUTING  -  goal 0.50 m  12 rev  lidar ok  imu fault" in out.replace("\x1b[2K", "")
+    assert out.endswith("\r\x1b[2K")  # cleared: the final line stands alone
