@@ -34,7 +34,7 @@ def status_text(state: str, task: str | None, dist: float, bound: float | None, 
 
 def _snapshot(sup: Any, robot: Any) -> str:
     """The supervisor's and the robot's state now, read from another thread (for display only)."""
-    g = sup.goal_in_robot_frame()
+    gx, gy = sup.goal_in_robot_frame()
     est = sup.estimator
     bound = None if est is None else 2.0 * est.filter.sigma_xy
     task = getattr(getattr(sup, "_task", None), "kind", None)
@@ -42,7 +42,7 @@ def _snapshot(sup: Any, robot: Any) -> str:
     imu = getattr(robot, "imu", None)
     imu_health = None if imu is None else ("fault" if imu.fault is not None else "ok")
     lidar_health = "fault" if fault is not None and "LiDAR" in fault else "ok"
-    return status_text(sup.state.value, None if task is None else task.value, math.hypot(g.x, g.y), bound,
+    return status_text(sup.state.value, None if task is None else task.value, math.hypot(gx, gy), bound,
                        robot.scans, lidar_health, imu_health)
 
 

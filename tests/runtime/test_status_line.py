@@ -6,13 +6,15 @@ import io
 import threading
 from types import SimpleNamespace
 
-from clomp.formal.model import Pose
-from clomp.runtime.cli._status import StatusLine
+from clomp.planner import Configurator, load_scenario
+from clomp.runtime.backends.sim import SimRobot
+from clomp.runtime.cli._status import StatusLine, _snapshot
+from clomp.runtime.supervision import Supervisor
 
 
 def _run(imu_fault: object = None) -> tuple[SimpleNamespace, SimpleNamespace]:
     sup = SimpleNamespace(state=SimpleNamespace(value="EXECUTING"), estimator=None, _task=None,
-                          goal_in_robot_frame=lambda: Pose(0.3, 0.4, 0.0))
+                          goal_in_robot_frame=lambda: (0.3, 0.4))
     imu = SimpleNamespace(fault=imu_fault)
     robot = SimpleNamespace(fault=None if imu_fault is None else "IMU on x failed", scans=12, imu=imu)
     return sup, robot
@@ -44,3 +46,12 @@ def test_the_status_line_says_what_the_run_does_and_is_cleared_at_the_end() -> N
     out = stream.getvalue()
     assert "\rEXECUTING  -  goal 0.50 m  12 rev  lidar ok  imu fault" in out.replace("\x1b[2K", "")
     assert out.endswith("\r\x1b[2K")  # cleared: the final line stands alone
+
+
+def test_the_status_line_reads_a_real_supervisor() -> None:
+    sim = SimRobot(load_scenario("open"), seed=0)
+    sup = Supervisor(sim, (1.0, 0.0), Configurator(), clock=sim)
+    sup.start()
+    robot = SimpleNamespace(fault=None, scans=3, imu=None)
+    text = _snapshot(sup, robot)
+    assert text.startswith(f"{sup.state.value}  -  goal 1.00 m ± 0.00  3 rev  lidar ok"), text
