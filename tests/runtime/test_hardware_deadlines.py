@@ -90,7 +90,8 @@ def test_an_imu_fault_stops_the_wheels_from_the_imus_reader_within_its_deadline(
     lidar = LidarEmulator(lambda: WALL, seed=1, clock=clock.now)
     maestro = MaestroEmulator(clock=clock.now)
     imu = Bno08xEmulator(lambda: 0.0, seed=1, clock=clock.now)
-    config = HardwareConfig(watchdog_timeout=None)
+    # the LiDAR is paused below: its stream watch must not be what trips the robot
+    config = HardwareConfig(watchdog_timeout=None, byte_timeout=30.0)
     lidar_line = SimLine(lidar, clock, lock=lock, name="sim-lidar")
     with HardwareRobot(lidar_line, SimLine(maestro, clock, lock=lock, name="sim-maestro"), config, clock=clock,
                        imu_port=SimLine(imu, clock, lock=lock, name="sim-imu")) as robot:
