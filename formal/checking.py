@@ -36,6 +36,8 @@ import networkx as nx
 from clomp.formal.export import ExportModel, ModelKind, export_model, write_drn, write_prism
 from clomp.formal.invariants import map_plan
 from clomp.formal.lts import CognitiveMap, MapError
+from clomp.formal.toolio import captured_fds
+from clomp.formal.witness import drn_actions, witness_trace
 
 __all__ = [
     "SpecError",
@@ -48,6 +50,9 @@ __all__ = [
     "parse_properties",
     "read_properties",
     "default_property_files",
+    "shipped_property_files",
+    "property_labels",
+    "file_labels",
     "require_stormpy",
     "build_storm_model",
     "load_storm_model",
@@ -246,10 +251,41 @@ def read_properties(path: str | os.PathLike[str]) -> PropertyFile:
 
 
 def default_property_files() -> list[Path]:
-    """The property files shipped in ``specs/properties/``."""
+    """The property files shipped in ``specs/properties/`` for cognitive maps."""
     from clomp import specs
     folder = Path(specs.__file__).resolve().parent / "properties"
     return sorted(folder.glob("*.pctl"))
+
+
+def shipped_property_files() -> list[Path]:
+    """Every property file shipped in ``specs/properties/``, the supervisor's
+    (``supervisor/machine.pctl``) included."""
+    from clomp import specs
+    return sorted((Path(specs.__file__).resolve().parent / "properties").rglob("*.pctl"))
+
+
+_LABEL_REF = re.compile(r'(?<!\{)"([A-Za-z_][A-Za-z0-9_]*)"')
+
+
+def property_labels(pf: PropertyFile) -> set[str]:
+    """The labels the formulas of ``pf`` name (reward names ``R{"…"}`` excluded).
+
+    >>> sorted(property_labels(parse_properties('// @model mdp\\n"d": R{"time"}min=? [!"collision" U "goal"]')))
+    ['collision', 'goal']
+    """
+    return {name for p in pf.properties for name in _LABEL_REF.findall(p.formula)}
+
+
+def file_labels(path: str | os.PathLike[str]) -> set[str]:
+    """The labels a written ``.prism`` or ``.drn`` model declares (read from its text)."""
+    text = Path(path).read_text(encoding="utf-8", errors="replace")
+    if Path(path).suffix == ".drn":
+        found = {"init"}
+        for line in text.splitlines():
+            if line.startswith("state "):
+                found.update(line.split("]", 1)[1].split() if "]" in line else line.split()[2:])
+        return found
+    return {"init", *re.findall(r'^\s*label\s+"([A-Za-z_][A-Za-z0-9_]*)"', text, re.M)}
 
 
 # -- building models with Storm ----------------------------------------------------------------------
@@ -262,6 +298,7 @@ class StormModel:
     idents: list[int]
     program: Any = None
     source: str = ""
+    actions: list[list[str]] | None = None  # a DRN's action names per state (Storm drops them)
     _graph: nx.DiGraph | None = field(default=None, init=False, repr=False, compare=False)
 
     @property
@@ -341,19 +378,22 @@ def load_storm_model(path: str | os.PathLike[str]) -> StormModel:
     p = Path(path)
     if not p.is_file():
         raise MapError(f"{p}: no such file")
+    if p.suffix not in (".drn", ".prism", ".pm", ".nm"):
+        raise MapError(f"{p}: Storm builds .prism or .drn files (got {p.suffix or 'no suffix'})")
     try:
-        if p.suffix == ".drn":
-            model = stormpy.build_model_from_drn(str(p))
-            program = None
-        elif p.suffix in (".prism", ".pm", ".nm"):
-            program = stormpy.parse_prism_program(str(p))
-            model = stormpy.build_model(program, options=stormpy.BuilderOptions(build_full=True))
-        else:
-            raise MapError(f"{p}: Storm builds .prism or .drn files (got {p.suffix or 'no suffix'})")
+        with captured_fds():  # Storm's C++ log stays off stdout; its exception says what failed
+            if p.suffix == ".drn":
+                model = stormpy.build_model_from_drn(str(p))
+                program, actions = None, drn_actions(p.read_text(encoding="utf-8", errors="replace"))
+            else:
+                program, actions = stormpy.parse_prism_program(str(p)), None
+                options = stormpy.BuilderOptions(build_full=True)
+                options.set_build_choice_labels(True)  # the commands' actions, for witness paths
+                model = stormpy.build_model(program, options=options)
     except RuntimeError as exc:
         raise MapError(f"{p}: Storm cannot build the model: {str(exc).strip()}") from None
     kind: ModelKind = "mdp" if "Mdp" in type(model).__name__ else "dtmc"
-    return StormModel(model, kind, _idents_from(model), program, str(p))
+    return StormModel(model, kind, _idents_from(model), program, str(p), actions)
 
 
 def build_storm_model(
@@ -384,6 +424,8 @@ class CheckResult:
     value: float | bool
     passed: bool | None  # None: not required
     witness: list[str] = field(default_factory=list)
+    trace: list[dict[str, Any]] = field(default_factory=list)
+    """The witness as records: state, ident, labels, action (:func:`~clomp.formal.witness.witness_trace`)."""
 
     @property
     def verdict(self) -> str:
@@ -418,25 +460,26 @@ def check_properties(sm: StormModel, props: PropertyFile | Iterable[PropertySpec
     out = []
     for spec in specs:
         try:
-            parsed = stormpy.parse_properties(spec.formula, sm.program) if sm.program is not None else stormpy.parse_properties(spec.formula)
-            if len(parsed) != 1:
-                raise RuntimeError(f"expected one property, got {len(parsed)}")
-            result = stormpy.model_checking(sm.model, parsed[0], only_initial_states=False)
+            with captured_fds():  # Storm's C++ log stays off stdout; its exception says what failed
+                parsed = stormpy.parse_properties(spec.formula, sm.program) if sm.program is not None else stormpy.parse_properties(spec.formula)
+                if len(parsed) != 1:
+                    raise RuntimeError(f"expected one property, got {len(parsed)}")
+                result = stormpy.model_checking(sm.model, parsed[0], only_initial_states=False)
         except RuntimeError as exc:
             raise SpecError(f"{source}:{spec.line}: Storm cannot check {spec.formula!r}: {str(exc).strip()}") from None
         value = _value(result, init)
         passed = None if spec.required is None else spec.required.holds(value)
-        witness: list[str] = []
+        path: list[int] = []
         if passed is False:
-            witness = _target_witness(sm, spec) or _witness(sm, result, spec.required)  # type: ignore[arg-type]
-        out.append(CheckResult(spec, sm.kind, value, passed, witness))
+            path = _target_witness(sm, spec) or _witness(sm, result, spec.required)  # type: ignore[arg-type]
+        out.append(CheckResult(spec, sm.kind, value, passed, [sm.describe(x) for x in path], witness_trace(sm, path)))
     return out
 
 
 _EVENTUALLY = re.compile(r"^P(?:min|max)?\s*=\?\s*\[\s*(?:F|.+?\sU)\s+(.+)\]$")
 
 
-def _target_witness(sm: StormModel, spec: PropertySpec) -> list[str]:
+def _target_witness(sm: StormModel, spec: PropertySpec) -> list[int]:
     """For ``P=? [F ψ]`` / ``[φ U ψ]`` that came out too high: a shortest path to a state
     where ψ holds (the violation itself); [] when the property is not of that shape."""
     req = spec.required
@@ -447,22 +490,23 @@ def _target_witness(sm: StormModel, spec: PropertySpec) -> list[str]:
         return []
     stormpy = require_stormpy()
     try:
-        parsed = stormpy.parse_properties(m.group(1), sm.program) if sm.program is not None else stormpy.parse_properties(m.group(1))
-        result = stormpy.model_checking(sm.model, parsed[0], only_initial_states=False)
+        with captured_fds():
+            parsed = stormpy.parse_properties(m.group(1), sm.program) if sm.program is not None else stormpy.parse_properties(m.group(1))
+            result = stormpy.model_checking(sm.model, parsed[0], only_initial_states=False)
     except RuntimeError:
         return []
     if not result.is_qualitative():
         return []
     path = _shortest_path_to(sm.graph(), int(sm.model.initial_states[0]), lambda s: bool(result[s]))
-    return [] if path is None else [sm.describe(x) for x in path]
+    return path or []
 
 
-def _witness(sm: StormModel, result: Any, req: Requirement) -> list[str]:
+def _witness(sm: StormModel, result: Any, req: Requirement) -> list[int]:
     """A shortest path to an absorbing state whose own value violates ``req``."""
     g = sm.graph()
     start = int(sm.model.initial_states[0])
     path = _shortest_path_to(g, start, lambda s: list(g.successors(s)) == [s] and not req.holds(_value(result, s)))
-    return [sm.describe(x) for x in path or [start]]
+    return path or [start]
 
 
 def _shortest_path_to(g: nx.DiGraph, start: int, accept: Callable[[int], bool]) -> list[int] | None:

@@ -162,6 +162,8 @@ _EVENTS = (
     MachineEvent("abort", True, "the supervisor stops the wheels on request (Ctrl-C, a time limit)"),
     MachineEvent("no_plan", False, "planning on a scan finds no safe task closer to the goal"),
     MachineEvent("at_goal", False, "a scan or a task's end puts the robot within the goal tolerance"),
+    MachineEvent("goal_unconfirmed", False, "the estimate puts the robot within the goal tolerance, but its "
+                                            "uncertainty cannot vouch for it"),
     MachineEvent("plan_short", False, "the plan's last task ended short of the goal"),
     MachineEvent("disagree", False, "a scan or a task's end disagrees with the map (hazard, off prediction, overrun)"),
     MachineEvent("fault", False, "a device fails (motor controller, LiDAR, a robot fault)"),
@@ -169,7 +171,8 @@ _EVENTS = (
 
 _GUARDS = {
     "plan_found": "the Configurator returned a plan with at least one safe task",
-    "within_goal_tolerance": "the estimated pose is within the goal tolerance of D_G",
+    "within_goal_tolerance": "the estimated pose, with its 95 % position bound, is within the goal tolerance of D_G",
+    "goal_not_vouched": "the estimated pose is within the goal tolerance of D_G, its 95 % position bound is not",
     "no_safe_task": "the plan is empty, the goal is unreachable, or plans stopped bringing it closer",
     "task_done_as_predicted": "the task's error reached zero near the map's predicted end, and the plan has another task",
     "plan_done_short": "the plan's last task is done and the goal is farther than the tolerance",
@@ -179,7 +182,7 @@ _GUARDS = {
 
 _T = MachineTransition
 _NON_TERMINAL = ("IDLE", "PLANNING", "EXECUTING", "REPLANNING")
-_TERMINAL = ("GOAL_REACHED", "UNREACHABLE", "HALTED")
+_TERMINAL = ("GOAL_REACHED", "GOAL_UNCONFIRMED", "UNREACHABLE", "HALTED")
 
 SUPERVISOR = Machine(
     name="supervisor",
@@ -193,12 +196,15 @@ SUPERVISOR = Machine(
         _T("IDLE", "start", "PLANNING"),
         _T("PLANNING", "planned", "EXECUTING", "plan_found"),
         _T("PLANNING", "at_goal", "GOAL_REACHED", "within_goal_tolerance"),
+        _T("PLANNING", "goal_unconfirmed", "GOAL_UNCONFIRMED", "goal_not_vouched"),
         _T("PLANNING", "no_plan", "UNREACHABLE", "no_safe_task"),
         _T("REPLANNING", "planned", "EXECUTING", "plan_found"),
         _T("REPLANNING", "at_goal", "GOAL_REACHED", "within_goal_tolerance"),
+        _T("REPLANNING", "goal_unconfirmed", "GOAL_UNCONFIRMED", "goal_not_vouched"),
         _T("REPLANNING", "no_plan", "UNREACHABLE", "no_safe_task"),
         _T("EXECUTING", "next_task", "EXECUTING", "task_done_as_predicted"),
         _T("EXECUTING", "at_goal", "GOAL_REACHED", "within_goal_tolerance"),
+        _T("EXECUTING", "goal_unconfirmed", "GOAL_UNCONFIRMED", "goal_not_vouched"),
         _T("EXECUTING", "plan_short", "REPLANNING", "plan_done_short"),
         _T("EXECUTING", "disagree", "REPLANNING", "map_disagrees"),
         *(_T(s, "fault", "HALTED", "device_failed") for s in _NON_TERMINAL),
@@ -222,10 +228,12 @@ PLANT = Machine(
         _T("STOPPED", "planned", "DRIVING"),
         _T("STOPPED", "no_plan", "STOPPED"),
         _T("STOPPED", "at_goal", "STOPPED"),
+        _T("STOPPED", "goal_unconfirmed", "STOPPED"),
         _T("STOPPED", "abort", "STOPPED"),
         _T("STOPPED", "fault", "FAILED"),
         _T("DRIVING", "next_task", "DRIVING"),
         _T("DRIVING", "at_goal", "STOPPED"),
+        _T("DRIVING", "goal_unconfirmed", "STOPPED"),
         _T("DRIVING", "plan_short", "STOPPED"),
         _T("DRIVING", "disagree", "STOPPED"),
         _T("DRIVING", "abort", "STOPPED"),
@@ -362,7 +370,7 @@ def machine_model(sup: Machine = SUPERVISOR, plant: Machine | None = PLANT, reme
 
     >>> m = machine_model(SUPERVISOR, None)
     >>> m.n_states, sorted(m.states[k].name for k in m.labels["motors"])
-    (7, ['EXECUTING'])
+    (8, ['EXECUTING'])
     """
     from clomp.formal.export import STAY, Choice, ExportModel
     from clomp.formal.supervisory import Plan

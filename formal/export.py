@@ -24,7 +24,7 @@ from fractions import Fraction
 from pathlib import Path
 from typing import IO, Any
 
-from clomp.formal.export_model import LABELS, STAY, Choice, ExportError, ExportModel, ModelKind, export_model
+from clomp.formal.export_model import LABELS, STAY, Choice, ExportError, ExportModel, ModelKind, export_model, induced_model
 from clomp.formal.lts import CognitiveMap
 from clomp.formal.model import State
 
@@ -34,6 +34,7 @@ __all__ = [
     "Choice",
     "ExportModel",
     "export_model",
+    "induced_model",
     "write_prism",
     "write_prism_explicit",
     "write_drn",
@@ -116,7 +117,8 @@ def _header(m: ExportModel, comment: str) -> list[str]:
             f"{comment} clomp {m.title} ({m.kind.upper()}: actions are events)",
             f"{comment} {m.n_states} states, {n_map} transitions + {len(m.self_loops)} absorbing self-loops",
         ]
-    what = "unsupervised map (MDP: actions are tasks)" if m.kind == "mdp" else "supervised system (Ψ applied, DTMC)"
+    what = ("unsupervised map (MDP: actions are tasks)" if m.kind == "mdp"
+            else "supervised system (Ψ applied, DTMC)" if m.policy == "plan" else f"system under {m.policy} (DTMC)")
     goal = "none" if m.goal is None else f"({m.goal[0]:g}, {m.goal[1]:g})"
     return [
         f"{comment} clomp cognitive map, {what}",

@@ -6,14 +6,20 @@
   choice per task the Configurator explored (the action is the task kind), whose
   branches are the map's transitions with that label;
 - ``"dtmc"`` — the supervised system: Ψ applied, so at each state only the task of the
-  plan is enabled; the states are those reachable under Ψ.
+  plan is enabled; the states are those reachable under Ψ. The policy it fixes is the
+  *plan's*: the map's own plan ρ (``metadata["plan"]``, the Configurator's best-first
+  plan) unless ``plan=`` names another; every state off ρ is absorbing.
+  :func:`induced_model` fixes another policy instead, a task per state (e.g. Storm's
+  optimal scheduler, ``clomp export --model dtmc --policy storm``).
 
 States without an outgoing choice (collisions, the goal, unexpanded frontier states)
 get one absorbing self-loop, action ``stay``, so that the models are well-formed; the
 model records them in ``self_loops``. Labels: ``init``, ``goal`` (reached the goal, not
 interrupted), ``collision`` (interrupted, D_N ≠ ∅), ``plan`` (states of ρ) and
-``goal_in_map`` (on q0 when the unsupervised map holds a reachable goal state: the
-Configurator found a way). Rewards ``distance`` (metres) and ``time`` (seconds) are
+``goal_in_map``: a fact about the whole map (it holds a goal state reachable from q0: the
+Configurator found a way), carried by q0 alone because the property files evaluate
+every formula at the initial state (``!"goal_in_map" | P>=1 [F "goal"]``); it does not
+say that the goal is reachable from a state (``P>0 [F "goal"]`` says that). Rewards ``distance`` (metres) and ``time`` (seconds) are
 earned on choices: the expected distance / duration of the task started.
 
 >>> from clomp.formal.model import Disturbance, Pose, State
@@ -40,7 +46,7 @@ from clomp.formal.lts import CognitiveMap, MapError
 from clomp.formal.model import State, TaskKind
 from clomp.formal.supervisory import Guard, Plan
 
-__all__ = ["Choice", "ExportError", "ExportModel", "LABELS", "ModelKind", "STAY", "export_model"]
+__all__ = ["Choice", "ExportError", "ExportModel", "LABELS", "ModelKind", "STAY", "export_model", "induced_model"]
 
 ModelKind = Literal["mdp", "dtmc"]
 STAY = "stay"
@@ -82,6 +88,9 @@ class ExportModel:
     title: str | None = None
     """What the model is when it is not a cognitive map (e.g. the supervisor's machine);
     its states then need only an ``ident`` and a ``name``."""
+    policy: str = "plan"
+    """Whose choices a DTMC fixes: ``"plan"`` (Ψ of the plan ρ) or the name of the
+    scheduler :func:`induced_model` applied (e.g. ``"Storm's scheduler"``)."""
 
     @property
     def n_states(self) -> int:
@@ -183,3 +192,44 @@ def _groups(cmap: CognitiveMap) -> dict[int, dict[TaskKind, list[Any]]]:
     for t in cmap.transitions():
         out[t.source].setdefault(t.label, []).append(t)
     return out
+
+
+def induced_model(m: ExportModel, choose: Mapping[int, str], policy: str = "scheduler") -> ExportModel:
+    """The DTMC that the MDP ``m`` becomes when each state takes the action ``choose``
+    names for its ident (a state without one, or whose action is not among its choices,
+    is absorbing): only the states reachable from the initial state, renumbered in their
+    order in ``m``; labels as in ``m`` (``plan`` still marks ``m.plan``).
+
+    >>> from clomp.formal.model import Disturbance, Pose, State
+    >>> g = Disturbance.goal(1.0, 0.0)
+    >>> cmap = CognitiveMap.from_parts(
+    ...     [State(0, TaskKind.STRAIGHT, g, None, Pose(0, 0), Pose(0, 0)),
+    ...      State(1, TaskKind.STRAIGHT, g, None, Pose(0, 0), Pose(1, 0), reached_goal=True),
+    ...      State(2, TaskKind.LEFT, g, None, Pose(0, 0), Pose(0, 0, 1.5))], [(0, 1), (0, 2)], goal=g)
+    >>> d = induced_model(export_model(cmap, "mdp"), {0: "LEFT"})
+    >>> d.kind, [s.ident for s in d.states], d.choices[0][0].action, d.labels["goal"]
+    ('dtmc', [0, 2], 'LEFT', frozenset())
+    """
+    if m.kind != "mdp":
+        raise ExportError("a scheduler resolves the choices of an MDP: export the map as an mdp first")
+    picked: dict[int, Choice | None] = {}
+    for k, row in enumerate(m.choices):
+        want = choose.get(m.states[k].ident)
+        picked[k] = next((ch for ch in row if ch.action == want), None)
+    g = nx.DiGraph()
+    g.add_node(m.initial)
+    g.add_edges_from((k, j) for k, ch in picked.items() if ch is not None for j, _ in ch.branches)
+    keep = sorted(nx.descendants(g, m.initial) | {m.initial})
+    index = {k: n for n, k in enumerate(keep)}
+    choices: list[tuple[Choice, ...]] = []
+    loops: list[int] = []
+    for n, k in enumerate(keep):
+        ch = picked[k]
+        if ch is None:
+            choices.append((Choice(STAY, ((n, Fraction(1)),)),))
+            loops.append(n)
+        else:
+            choices.append((Choice(ch.action, tuple((index[j], p) for j, p in ch.branches), ch.distance, ch.time, True),))
+    labels = {name: frozenset(index[k] for k in members if k in index) for name, members in m.labels.items()}
+    return ExportModel("dtmc", tuple(m.states[k] for k in keep), index[m.initial], tuple(choices), labels,
+                       tuple(loops), m.plan, m.goal, m.title, policy)

@@ -26,9 +26,11 @@ import numpy as np
 
 from clomp.formal.model import Disturbance, State, TaskKind
 
-__all__ = ["Transition", "CognitiveMap", "MapError", "FORMAT_VERSION"]
+__all__ = ["Transition", "CognitiveMap", "MapError", "FORMAT_VERSION", "MAX_MAP_BYTES"]
 
 FORMAT_VERSION = 1
+#: a map file holds at most this many bytes (a 50-state map is about 100 kB)
+MAX_MAP_BYTES = 64 * 1024 * 1024
 
 
 class MapError(ValueError):
@@ -385,15 +387,27 @@ class CognitiveMap:
 
     @classmethod
     def read_json(cls, src: str | os.PathLike[str] | IO[str]) -> "CognitiveMap":
-        """Read a map written by :meth:`write_json` from a path or an open text file."""
+        """Read a map written by :meth:`write_json` from a path or an open text file.
+
+        A path that is no regular file (a FIFO would block, ``/dev/zero`` never ends) or
+        holds more than :data:`MAX_MAP_BYTES` is a :class:`MapError`, as is anything that
+        is not a map's JSON (binary content, nesting too deep to decode)."""
         try:
             if hasattr(src, "read"):
                 data = json.load(src)  # type: ignore[arg-type]
             else:
+                if not os.path.isfile(src):
+                    raise MapError("not a regular file (a folder, FIFO, device or socket)")
+                if os.path.getsize(src) > MAX_MAP_BYTES:
+                    raise MapError(f"larger than the {MAX_MAP_BYTES // 2**20} MiB limit for a map")
                 with open(src, encoding="utf-8") as fh:
                     data = json.load(fh)
         except json.JSONDecodeError as exc:
             raise MapError(f"not valid JSON: {exc}") from None
+        except UnicodeDecodeError:
+            raise MapError("not a text file (binary content)") from None
+        except (RecursionError, ValueError) as exc:  # nested too deep; an integer too long to decode
+            raise MapError(f"not valid JSON: {str(exc)[:80]}") from None
         return cls.from_dict(data)
 
     def __getstate__(self) -> dict[str, Any]:

@@ -56,6 +56,7 @@ __all__ = [
     "attach_policy",
     "map_policy",
     "POLICY_KEY",
+    "scheduler_record",
 ]
 
 POLICY_KEY = "scheduler"
@@ -344,3 +345,29 @@ def plan_probability(cmap: CognitiveMap, plan: Plan | None = None, target: Itera
     result = stormpy.model_checking(model, prop)
     init = int(model.initial_states[0])
     return float(result.at(init)) if hasattr(result, "at") else float(result[init])
+
+
+def scheduler_record(cmap: CognitiveMap, best: RobustPlan) -> dict[str, Any]:
+    """Storm's optimal scheduler of :func:`robust_plan` as a JSON-ready record: the
+    property, its value at q0, the plan it starts on, and per map state it chooses in
+    (map order) the state's valuation (``pose``: where the state's task ended, x y theta;
+    ``task``: the task that led there) and the chosen action (a task kind).
+
+    >>> from clomp.formal.model import Disturbance, Pose, State
+    >>> g = Disturbance.goal(1.0, 0.0)
+    >>> m = CognitiveMap.from_parts(
+    ...     [State(0, TaskKind.STRAIGHT, g, None, Pose(0, 0), Pose(0, 0)),
+    ...      State(1, TaskKind.STRAIGHT, g, None, Pose(0, 0), Pose(1, 0), reached_goal=True)], [(0, 1)], goal=g)
+    >>> scheduler_record(m, robust_plan(m))["states"]  # needs stormpy
+    [{'state': 'q0', 'ident': 0, 'pose': [0.0, 0.0, 0.0], 'task': 'STRAIGHT', 'action': 'STRAIGHT'}]
+    """
+    return {
+        "property": f"Pmax=? [{SAFE_GOAL}]",
+        "probability": best.probability,
+        "plan": [f"q{i}" for i in best.plan.states],
+        "states": [
+            {"state": f"q{s.ident}", "ident": s.ident, "pose": [float(v) for v in s.end.as_list()], "task": s.task.value,
+             "action": best.scheduler[s.ident].value}
+            for s in cmap.states() if s.ident in best.scheduler
+        ],
+    }

@@ -56,7 +56,8 @@ from clomp.planner.noise import ALARM_DEVIATIONS, NoiseError, RolloutNoise, pres
 from clomp.planner.perception import Obstacles, load_scan, perceive
 from clomp.planner.rollout import Outcome, World, frontier_distance, in_the_way, make_task
 from clomp.planner.robot_model import RobotModel
-from clomp.formal.geometry import wrap_angle
+from clomp.formal.geometry import polar_to_xy, wrap_angle
+from clomp.planner import footprint
 from clomp.planner.tasks import Task
 
 __all__ = [
@@ -130,7 +131,7 @@ def _perturb(points: np.ndarray, noise: RolloutNoise, rng: np.random.Generator) 
     r = np.hypot(pts[:, 0], pts[:, 1])
     a = np.arctan2(pts[:, 1], pts[:, 0]) + (rng.normal(0.0, noise.angle_sd, len(pts)) if noise.angle_sd else 0.0)
     r2 = np.clip(r + rng.normal(0.0, noise.range_sd, len(pts)), 0.0, None) if noise.range_sd else r
-    out: np.ndarray = np.column_stack([r2 * np.cos(a), r2 * np.sin(a)])
+    out: np.ndarray = polar_to_xy(r2, a)
     return out
 
 
@@ -213,12 +214,14 @@ def _hazard_stop(out: Outcome, world: _World, robot: RobotModel, noise: RolloutN
     rr = r + rng.normal(0.0, noise.range_sd, shape) if noise.range_sd else np.broadcast_to(r, shape)
     aa = a + rng.normal(0.0, noise.angle_sd, shape) if noise.angle_sd else np.broadcast_to(a, shape)
     seen = rng.random(shape) >= noise.dropout
-    px, py = rr * np.cos(aa), rr * np.sin(aa)  # (revs, M)
+    xy = polar_to_xy(rr, aa)  # (revs, M, 2)
+    px, py = xy[..., 0], xy[..., 1]
     dx = px[:, None, :] - poses[None, :, 0, None]
     dy = py[:, None, :] - poses[None, :, 1, None]
     c, s_ = np.cos(poses[:, 2])[None, :, None], np.sin(poses[:, 2])[None, :, None]
     u, v = dx * c + dy * s_, -dx * s_ + dy * c
-    inside = (u >= -robot.rear_offset) & (u <= robot.front_offset) & (np.abs(v) <= robot.width / 2) & seen[:, None, :]
+    across = np.abs(v)
+    inside = footprint.inside(u, across, footprint.body_box(robot)) & seen[:, None, :]
     # revolution k is seen at pose index i_k and tests the rest of the path (i >= i_k)
     ahead = np.logical_or.accumulate(inside[:, ::-1, :], axis=1)[:, ::-1, :]
     at = np.minimum((np.arange(revs) / (revs * 1.0) * len(poses)).astype(int), len(poses) - 1)
@@ -226,8 +229,7 @@ def _hazard_stop(out: Outcome, world: _World, robot: RobotModel, noise: RolloutN
     alarm = counts >= rule.points
     if rule.allowance > 0:
         a_ = rule.allowance
-        deep_in = ((u >= -robot.rear_offset + a_) & (u <= robot.front_offset - a_) & (np.abs(v) <= robot.width / 2 - a_)
-                   & seen[:, None, :])
+        deep_in = footprint.inside(u, across, footprint.body_box(robot, -a_)) & seen[:, None, :]
         deep_ahead = np.logical_or.accumulate(deep_in[:, ::-1, :], axis=1)[:, ::-1, :]
         deep = deep_ahead[np.arange(revs), at, :].sum(axis=1) >= rule.points
         before = np.r_[False, alarm[:-1]]

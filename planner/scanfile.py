@@ -11,12 +11,13 @@ from __future__ import annotations
 import io
 import math
 import os
-import stat
 import tokenize
 from pathlib import Path
 
 import numpy as np
 from numpy.lib import format as npy_format
+
+from clomp.planner.inputs import read_input
 
 __all__ = [
     "MAX_SCAN_BYTES",
@@ -110,57 +111,10 @@ def validate_scan(points: object, name: str = "scan") -> np.ndarray:
     return arr
 
 
-def _kind(mode: int) -> str | None:
-    """What a non-regular file is, in words (None for a regular file)."""
-    for test, what in (
-        (stat.S_ISDIR, "is a folder, not a scan file"),
-        (stat.S_ISFIFO, "is a FIFO (named pipe), not a scan file"),
-        (stat.S_ISCHR, "is a character device, not a scan file"),
-        (stat.S_ISBLK, "is a block device, not a scan file"),
-        (stat.S_ISSOCK, "is a socket, not a scan file"),
-    ):
-        if test(mode):
-            return what
-    return None if stat.S_ISREG(mode) else "is not a regular file"
-
-
 def _read_bounded(path: Path) -> bytes:
-    """The bytes of a regular file of at most :data:`MAX_SCAN_BYTES`, or a ScanError.
-
-    The file is opened without blocking (a FIFO would block an ordinary open until a
-    writer appears) and its type checked on the open descriptor, so no special file is
-    ever read; the read itself stops after the limit (``/proc`` files report size 0).
-    """
-    try:
-        fd = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_NOCTTY", 0))
-    except FileNotFoundError:
-        raise ScanError(f"{path}: no such file") from None
-    except PermissionError:
-        raise ScanError(f"{path}: cannot read: permission denied") from None
-    except OSError as exc:
-        raise ScanError(f"{path}: cannot open: {exc.strerror or exc}") from None
-    try:
-        info = os.fstat(fd)
-        what = _kind(info.st_mode)
-        if what:
-            raise ScanError(f"{path}: {what}")
-        if info.st_size > MAX_SCAN_BYTES:
-            raise ScanError(f"{path}: {info.st_size:,} bytes, larger than the {MAX_SCAN_BYTES // 2**20} MiB limit for a scan file")
-        chunks: list[bytes] = []
-        total = 0
-        while total <= MAX_SCAN_BYTES:
-            chunk = os.read(fd, min(1 << 20, MAX_SCAN_BYTES + 1 - total))
-            if not chunk:
-                break
-            chunks.append(chunk)
-            total += len(chunk)
-        if total > MAX_SCAN_BYTES:
-            raise ScanError(f"{path}: larger than the {MAX_SCAN_BYTES // 2**20} MiB limit for a scan file")
-        return b"".join(chunks)
-    except OSError as exc:
-        raise ScanError(f"{path}: cannot read: {exc.strerror or exc}") from None
-    finally:
-        os.close(fd)
+    """The bytes of a regular file of at most :data:`MAX_SCAN_BYTES`, or a ScanError
+    (:func:`clomp.planner.inputs.read_input`: no special file is ever read)."""
+    return read_input(path, "scan file", MAX_SCAN_BYTES, ScanError)
 
 
 def _parse_npy(path: Path, data: bytes) -> np.ndarray:
@@ -182,7 +136,7 @@ def _parse_npy(path: Path, data: bytes) -> np.ndarray:
         raise ScanError(f"{path}: complex values; a scan holds real x, y coordinates")
     if dtype.kind not in "iuf" or dtype.hasobject or dtype.fields is not None or dtype.subdtype is not None:
         raise ScanError(f"{path}: not a numeric .npy array (dtype {dtype})")
-    if not all(isinstance(n, int) and n >= 0 for n in shape):
+    if not all(type(n) is int and n >= 0 for n in shape):
         raise ScanError(f"{path}: not a readable .npy array (bad shape {tuple(shape)!r} in header)")
     count = math.prod(shape)
     if count == 0:

@@ -8,7 +8,6 @@ Built-in scenarios are the files shipped in ``specs/scenarios/``.
 
 from __future__ import annotations
 
-import json
 import math
 import os
 from dataclasses import dataclass, field
@@ -19,6 +18,7 @@ import numpy as np
 
 from clomp.formal.geometry import points_to_frame, polar_to_xy
 from clomp.formal.model import Pose
+from clomp.planner.inputs import MAX_JSON_BYTES, load_json, read_text
 
 __all__ = ["ScenarioError", "Shape", "Scene", "load_scenario", "builtin_scenarios", "scenario_path"]
 
@@ -139,6 +139,15 @@ def to_robot_frame(pose: Pose, pts: np.ndarray) -> np.ndarray:
 
 
 # -- the file format ---------------------------------------------------------------------
+#: the smallest size of an obstacle (box side, wall thickness, circle radius), m: below a
+#: millimetre a shape is a typing slip (and a divisor near zero in the simulation)
+MIN_SIZE_M = 1e-3
+#: the largest coordinate or size in a scenario, m
+MAX_COORD_M = 1000.0
+#: the largest ``seed`` (numpy's seeds)
+MAX_SEED = 2**32 - 1
+
+
 def _num(data: dict[str, Any], key: str, where: str, default: float | None = None, positive: bool = False) -> float:
     if key not in data:
         if default is None:
@@ -147,8 +156,8 @@ def _num(data: dict[str, Any], key: str, where: str, default: float | None = Non
     v = data[key]
     if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
         raise ScenarioError(f"{where}.{key}: expected a finite number, got {v!r}")
-    if positive and v <= 0:
-        raise ScenarioError(f"{where}.{key}: must be positive, got {v!r}")
+    if positive and not MIN_SIZE_M <= v <= MAX_COORD_M:
+        raise ScenarioError(f"{where}.{key}: must be from {MIN_SIZE_M:g} to {MAX_COORD_M:g} m, got {v!r}")
     return float(v)
 
 
@@ -163,8 +172,15 @@ def _vec(data: dict[str, Any], key: str, where: str, n: int = 2, default: list[f
         or len(v) != n
         or not all(isinstance(a, (int, float)) and not isinstance(a, bool) and math.isfinite(a) for a in v)
     ):
-        raise ScenarioError(f"{where}.{key}: expected {n} finite numbers, got {v!r}")
+        raise ScenarioError(f"{where}.{key}: expected {n} finite numbers, got {_short(v)}")
+    if any(abs(a) > MAX_COORD_M for a in v):
+        raise ScenarioError(f"{where}.{key}: coordinates beyond {MAX_COORD_M:g} m, got {_short(v)}")
     return [float(a) for a in v]
+
+
+def _short(value: Any) -> str:
+    text = repr(value)
+    return text if len(text) <= 60 else text[:60] + "…"
 
 
 def _rect(cx: float, cy: float, sx: float, sy: float, angle: float) -> tuple[tuple[float, float], ...]:
@@ -182,16 +198,16 @@ def _shape(obj: Any, where: str) -> Shape:
     if kind == "box":
         cx, cy = _vec(obj, "center", where)
         sx, sy = _vec(obj, "size", where)
-        if sx <= 0 or sy <= 0:
-            raise ScenarioError(f"{where}.size: must be positive, got {[sx, sy]}")
+        if min(sx, sy) < MIN_SIZE_M:
+            raise ScenarioError(f"{where}.size: each side must be at least {MIN_SIZE_M:g} m, got {[sx, sy]}")
         return Shape("polygon", _rect(cx, cy, sx, sy, _num(obj, "angle", where, 0.0)))
     if kind == "wall":
         ax, ay = _vec(obj, "from", where)
         bx, by = _vec(obj, "to", where)
         th = _num(obj, "thickness", where, 0.02, positive=True)
         length = math.hypot(bx - ax, by - ay)
-        if length <= 0:
-            raise ScenarioError(f"{where}: 'from' and 'to' are the same point")
+        if length < MIN_SIZE_M:
+            raise ScenarioError(f"{where}: 'from' and 'to' are the same point (closer than {MIN_SIZE_M:g} m)")
         return Shape("polygon", _rect((ax + bx) / 2, (ay + by) / 2, length, th, math.atan2(by - ay, bx - ax)))
     if kind == "circle":
         return Shape("circle", center=tuple(_vec(obj, "center", where)), radius=_num(obj, "radius", where, positive=True))  # type: ignore[arg-type]
@@ -201,7 +217,7 @@ def _shape(obj: Any, where: str) -> Shape:
             raise ScenarioError(f"{where}.points: expected at least 3 [x, y] points")
         v = [tuple(_vec({"p": p}, "p", f"{where}.points[{i}]")) for i, p in enumerate(pts)]
         area = sum(v[i][0] * v[(i + 1) % len(v)][1] - v[(i + 1) % len(v)][0] * v[i][1] for i in range(len(v)))
-        if abs(area) < 1e-12:
+        if abs(area) < MIN_SIZE_M**2:
             raise ScenarioError(f"{where}.points: polygon has no area")
         if area < 0:
             v = v[::-1]
@@ -224,6 +240,7 @@ def parse_scenario(data: Any, name: str = "scenario") -> Scene:
     if not isinstance(obstacles, list):
         raise ScenarioError(f"{name}.obstacles: expected a list")
     shapes = tuple(_shape(o, f"{name}.obstacles[{i}]") for i, o in enumerate(obstacles))
+    _check_fields(data, name)
     scene = Scene(
         name=str(data.get("name", name)),
         shapes=shapes,
@@ -238,6 +255,17 @@ def parse_scenario(data: Any, name: str = "scenario") -> Scene:
         if s.contains(start[0], start[1]):
             raise ScenarioError(f"{name}.start: ({start[0]:g}, {start[1]:g}) is inside obstacles[{i}]")
     return scene
+
+
+def _check_fields(data: dict[str, Any], name: str) -> None:
+    """``seed`` a whole number from 0 to :data:`MAX_SEED` (the rule of every command's
+    ``--seed``), ``name`` and ``description`` strings, when given."""
+    seed = data.get("seed")
+    if seed is not None and (type(seed) is not int or not 0 <= seed <= MAX_SEED):
+        raise ScenarioError(f"{name}.seed: expected a whole number from 0 to {MAX_SEED}, got {_short(seed)}")
+    for key in ("name", "description"):
+        if key in data and not isinstance(data[key], str):
+            raise ScenarioError(f"{name}.{key}: expected a string, got {_short(data[key])}")
 
 
 def _scenario_dir() -> Path:
@@ -270,12 +298,25 @@ def load_scenario(source: str | os.PathLike[str]) -> Scene:
     'open'
     """
     path = Path(source)
-    if not path.suffix and not path.exists():
+    if "\x00" in str(source):
+        raise ScenarioError(f"{str(source)!r}: a path cannot hold a NUL byte")
+    if not path.suffix and not _exists(path):
         path = scenario_path(str(source))
-    if not path.is_file():
-        raise ScenarioError(f"{path}: no such scenario file")
     try:
-        data = json.loads(path.read_text(encoding="utf-8"))
-    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
-        raise ScenarioError(f"{path}: not valid JSON ({exc})") from None
-    return parse_scenario(data, path.stem)
+        text = read_text(path, "scenario file", MAX_JSON_BYTES, ScenarioError)
+    except ScenarioError as exc:
+        if str(exc) == f"{path}: no such file":
+            raise ScenarioError(f"{path}: no such scenario file") from None
+        raise
+    return parse_scenario(load_json(text, str(path), ScenarioError), path.stem)
+
+
+def _exists(path: Path) -> bool:
+    """True when something is at ``path`` (an unreachable path counts: its reader says why)."""
+    try:
+        os.stat(path)
+    except (FileNotFoundError, NotADirectoryError):
+        return False
+    except OSError:
+        return True
+    return True

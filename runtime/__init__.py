@@ -6,8 +6,8 @@ and the command line stay light and free of import cycles.
 >>> from clomp.runtime import SimRobot, Supervisor
 >>> from clomp.planner import load_scenario
 >>> scene = load_scenario("open")
->>> Supervisor(SimRobot(scene, seed=0), scene.goal_in_robot_frame()).run().state.value
-'GOAL_REACHED'
+>>> Supervisor(SimRobot(scene, seed=0), scene.goal_in_robot_frame()).run().state.value  # nothing in sight to vouch
+'GOAL_UNCONFIRMED'
 """
 
 from __future__ import annotations

@@ -30,15 +30,11 @@ POLAR_EXCEPTIONS = {
     # the device layer imports nothing of clomp outside runtime/devices (tests/test_architecture.py),
     # and the A1 counts its bearings clockwise
     Path("runtime/devices/rplidar_codec.py"): "devices stand alone",
-    # owned by another change of issue #37 (robot_model, noise, probabilistic): to call polar_to_xy
-    Path("planner/probabilistic.py"): "not converted yet",
 }
 FOOTPRINT_EXCEPTIONS = {
     # numba-compiled scalar loops: the same test point by point, held bit-equal to the
     # array form by tests/runtime/test_plancheck*.py
     Path("runtime/supervision/_contacts_core.py"): "compiled loops",
-    # owned by another change of issue #37 (robot_model, noise, probabilistic): to call inside_at
-    Path("planner/probabilistic.py"): "not converted yet",
 }
 
 

@@ -45,18 +45,24 @@ EXIT_INTERRUPTED = 130
 
 #: what each exit status means, per command (the end of every command's --help)
 EXIT_STATUS: dict[str, dict[int, str]] = {
-    "demo": {0: "the plan reached the goal without a collision", 1: "it did not"},
+    "demo": {0: "the plan reached the goal without a collision",
+             1: "it did not, or the estimate could not vouch for the goal (GOAL_UNCONFIRMED)"},
     "plan": {0: "the plan reaches the goal (for a folder or bag: every scan was processed)",
              1: "a partial plan: the goal is not reached (blocked, unseen, budget)"},
     "replay": {0: "every scan was processed (each has its line; the summary counts the outcomes)"},
-    "simulate": {0: "the robot reached the goal without a collision", 1: "it did not (or it collided)"},
+    "simulate": {0: "the robot reached the goal without a collision",
+                 1: "it did not (or it collided, or the estimate could not vouch for the goal: GOAL_UNCONFIRMED)"},
     "experiment": {0: "every run done"},
     "export": {0: "the file was written"},
     "convert": {0: "the MCAP was written (records it does not know are counted and passed over)"},
     "check": {0: "every required property holds", 1: "a required property fails (or Storm disagrees)"},
     "emulate": {0: "stopped by Ctrl-C or SIGTERM (how an emulator ends)"},
-    "run": {0: "goal reached (--dry-run: time limit)", 1: "halted safely: goal unreachable, --max-time, an error",
+    "run": {0: "goal reached (--dry-run: time limit)",
+            1: "halted safely: goal unreachable or unconfirmed (the estimate cannot vouch for it), --max-time, an error",
             3: "a device fault (LiDAR silent or corrupt, a port vanished, a device that does not answer)"},
+    "ros": {0: "node: goal reached (--dry-run: time limit); sim: stopped (--max-time, Ctrl-C)",
+            1: "node: halted safely: goal unreachable, --max-time, no goal, an error",
+            3: "node: a sensor fault (/scan or /odom silent or garbage)"},
 }
 _COMMON_STATUS = {2: "bad input or usage", 130: "interrupted (Ctrl-C, SIGTERM)"}
 
@@ -72,7 +78,7 @@ def plural(n: int, word: str, many: str | None = None) -> str:
 
 def _exit_epilog(command: str) -> str:
     table = {**EXIT_STATUS.get(command, {0: "done"}), **_COMMON_STATUS}
-    if command in ("run", "emulate"):
+    if command in ("run", "emulate", "ros"):
         table.setdefault(EXIT_DEVICE_FAULT, "a device fault")
     return "exit status:\n" + "\n".join(f"  {code:<4} {what}" for code, what in sorted(table.items()))
 
@@ -93,6 +99,7 @@ _COMMAND_MODULES: list[str] = [
     "clomp.runtime.cli.check",
     "clomp.runtime.cli.emulate",
     "clomp.runtime.cli.run",
+    "clomp.runtime.cli.ros",
 ]
 
 
@@ -189,7 +196,10 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 
 def _dispatch(args: argparse.Namespace) -> int:
+    from clomp.runtime.cli._args import check_args
+
     try:
+        check_args(args)  # numbers refused where they entered: one line, exit 2
         return int(args.func(args) or 0)
     except CliError as exc:
         print(f"clomp: error: {exc}", file=sys.stderr)

@@ -4,12 +4,14 @@
 from __future__ import annotations
 
 import argparse
+import os
 from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
 
 from clomp.planner import ScanError
+from clomp.planner.inputs import special_kind
 from clomp.runtime.cli import CliError
 from clomp.runtime.records.bags import BagError, LaserScan, LaserScanTopic, is_bag, parse_offset
 
@@ -36,7 +38,14 @@ def lidar_offset(args: argparse.Namespace, bag: bool = True) -> tuple[float, flo
 
 
 def open_topic(path: Path, args: argparse.Namespace) -> LaserScanTopic:
-    """The LaserScan topic ``--topic`` names in the bag at ``path`` (one-line errors)."""
+    """The LaserScan topic ``--topic`` names in the bag at ``path`` (one-line errors; a
+    FIFO, device or socket is refused before a reader could block on it)."""
+    try:
+        what = special_kind(os.stat(path).st_mode, "ROS bag")
+    except OSError as exc:
+        raise CliError(f"{path}: cannot read: {exc.strerror or exc}") from None
+    if what and what != "is a folder, not a ROS bag":
+        raise CliError(f"{path}: {what}")
     try:
         return LaserScanTopic(path, getattr(args, "topic", None))
     except BagError as exc:

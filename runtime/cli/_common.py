@@ -18,20 +18,24 @@ commands differ only in the lines they print.
 
 from __future__ import annotations
 
+import itertools
 import math
+import os
+import stat
 import warnings
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Iterator
 from pathlib import Path
 from typing import Any, TypeVar
 
 import numpy as np
 
-from clomp.planner import Configurator, PlanningError, PlanResult, ScanError
+from clomp.planner import Configurator, PlanningError, PlanResult, ScanError, load_scan, scan_files
+from clomp.planner.inputs import InputError, check_output
 from clomp.planner.scenarios import Scene, ScenarioError, load_scenario
 from clomp.runtime.cli import CliError, plural
 from clomp.runtime.records.runlog import LogError
 
-__all__ = ["load_scene", "log_records", "many_summary", "scan_outcomes", "summary_line"]
+__all__ = ["Notes", "folder_scans", "load_scene", "log_records", "many_summary", "output_folder", "output_path", "path_kind", "scan_outcomes", "summary_line"]
 
 T = TypeVar("T")
 
@@ -52,16 +56,61 @@ def load_scene(scenario: str) -> Scene:
         raise CliError(str(exc)) from None
 
 
-def log_records(read: Callable[[Path], Iterable[T]], path: Path, what: str) -> list[T]:
-    """Every record ``read`` finds in the run log at ``path``; a log that cannot be read,
-    or holds none (``what`` names them), is one CliError line."""
+def log_records(read: Callable[[Path], Iterable[T]], path: Path, what: str) -> Iterator[T]:
+    """The records ``read`` finds in the run log at ``path``, streamed (one line in memory
+    at a time); a log that cannot be read, or holds none (``what`` names them), is one
+    CliError line — an empty log before anything is yielded, a bad line when it is reached."""
+    it = iter(_cli_errors(read, path))
+    first = next(it, None)
+    if first is None:
+        raise CliError(f"{path}: the log holds no {what}")
+    return itertools.chain([first], it)
+
+
+def _cli_errors(read: Callable[[Path], Iterable[T]], path: Path) -> Iterator[T]:
     try:
-        records = list(read(path))
+        yield from read(path)
     except LogError as exc:
         raise CliError(str(exc)) from None
-    if not records:
-        raise CliError(f"{path}: the log holds no {what}")
-    return records
+
+
+def path_kind(path: Path, what: str) -> str:
+    """``"file"``, ``"folder"``, ``"other"`` (a FIFO, device, socket) or ``"missing"`` for
+    ``path``; a path that cannot be reached (an unreadable folder on the way, a NUL byte)
+    is one CliError line naming ``what`` (the option)."""
+    try:
+        info = os.stat(path)
+    except (FileNotFoundError, NotADirectoryError):
+        return "missing"
+    except PermissionError:
+        raise CliError(f"{what}: {path}: cannot reach: permission denied") from None
+    except (OSError, ValueError) as exc:
+        raise CliError(f"{what}: {path}: cannot reach: {getattr(exc, 'strerror', None) or exc}") from None
+    return "folder" if stat.S_ISDIR(info.st_mode) else "file" if stat.S_ISREG(info.st_mode) else "other"
+
+
+def output_folder(path: str | os.PathLike[str], what: str = "--out") -> Path:
+    """The folder ``path``, created if missing, checked writable before any work; else one
+    CliError line naming ``what``."""
+    p = Path(path)
+    if "\x00" in str(p):
+        raise CliError(f"{what}: the path holds a NUL byte")
+    try:
+        p.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise CliError(f"{what}: cannot create {p}: {exc.strerror or exc}") from None
+    if not os.access(p, os.W_OK | os.X_OK):
+        raise CliError(f"{what}: {p} is not writable")
+    return p
+
+
+def output_path(path: str | os.PathLike[str], what: str) -> Path:
+    """``path`` checked before any work: a file can be written there (no device, FIFO or
+    folder, not read-only, its folder exists); else one CliError line naming ``what``."""
+    try:
+        return check_output(path, what)
+    except InputError as exc:
+        raise CliError(str(exc)) from None
 
 
 def scan_outcomes(conf: Configurator, scan: Any, goal: tuple[float, float]) -> tuple[PlanResult | None, dict[str, Any]]:
@@ -79,7 +128,9 @@ def scan_outcomes(conf: Configurator, scan: Any, goal: tuple[float, float]) -> t
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         try:
-            scan = scan() if callable(scan) else scan
+            scan = load_scan(scan() if callable(scan) else scan)
+            if len(scan) and not scan.any():
+                raise ScanError(f"a placeholder scan: all {plural(len(scan), 'point')} at the origin (0, 0); not planned")
             r = conf.plan(scan, goal)
         except (ScanError, PlanningError) as exc:
             r = None
@@ -89,6 +140,61 @@ def scan_outcomes(conf: Configurator, scan: Any, goal: tuple[float, float]) -> t
     if r is not None:
         rec["outcome"] = "goal" if r.reached_goal else "partial" if r.steps else "no_move"
     return r, rec
+
+
+class Notes:
+    """What a many-scan run says once, after its summary, instead of once per scan: the
+    scans with returns beyond the sensor range, placeholder scans, duplicate recordings.
+
+    >>> n = Notes(["2 _smooth copies passed over"])
+    >>> n.add("map0001.dat", {"warnings": ["3 of 9 points lie beyond the 1.1 m sensor range and are ignored"]})
+    >>> n.add("map0002.dat", {"outcome": "error", "error": "a placeholder scan: all 4 points at the origin (0, 0); not planned"})
+    >>> for line in n.lines(): print(line)
+    warning: 2 _smooth copies passed over
+    warning: 1 scan has returns beyond the sensor range, ignored (first map0001.dat: 3 of 9 points lie beyond the 1.1 m sensor range and are ignored)
+    warning: 1 placeholder scan (every point at the origin), not planned (first map0002.dat)
+    """
+
+    def __init__(self, notes: list[str] | None = None) -> None:
+        self.notes = list(notes or [])
+        self.far: list[tuple[str, str]] = []
+        self.placeholders: list[str] = []
+
+    def add(self, label: str, rec: dict[str, Any]) -> None:
+        """Note what the outcome record ``rec`` of the scan ``label`` has to say."""
+        if rec.get("warnings"):
+            self.far.append((label, rec["warnings"][0]))
+        if rec.get("outcome") == "error" and str(rec.get("error", "")).startswith("a placeholder scan"):
+            self.placeholders.append(label)
+
+    def lines(self) -> list[str]:
+        """One ``warning:`` line per kind of suspicious data."""
+        out = [f"warning: {n}" for n in self.notes]
+        if self.far:
+            label, first = self.far[0]
+            out.append(f"warning: {plural(len(self.far), 'scan has', 'scans have')} returns beyond the sensor range, "
+                       f"ignored (first {label}: {first})")
+        if self.placeholders:
+            out.append(f"warning: {plural(len(self.placeholders), 'placeholder scan')} (every point at the origin), "
+                       f"not planned (first {self.placeholders[0]})")
+        return out
+
+
+def folder_scans(folder: Path) -> tuple[list[Path], list[str]]:
+    """The scan files of ``folder`` for a many-scan run, and what to say about them once:
+    ``NAME_smooth.dat`` beside ``NAME.dat`` is a smoothed copy of the same recording, passed
+    over (not counted as a scan of its own); a folder that cannot be listed is a CliError."""
+    try:
+        files = scan_files(folder)
+    except ScanError as exc:
+        raise CliError(str(exc)) from None
+    names = {f.name for f in files}
+    copies = [f for f in files if f.stem.endswith("_smooth") and f.stem[: -len("_smooth")] + f.suffix in names]
+    if not copies:
+        return files, []
+    note = (f"{plural(len(copies), '_smooth copy', '_smooth copies')} of other scans passed over "
+            f"(first {copies[0].name}; give one with --scan to plan on it)")
+    return [f for f in files if f not in copies], [note]
 
 
 def many_summary(outcomes: list[str], times: list[float]) -> dict[str, Any]:

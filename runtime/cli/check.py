@@ -10,6 +10,7 @@ fails, naming a path of map states that violates it (Storm finds the path), or, 
 from __future__ import annotations
 
 import argparse
+import json
 import math
 from pathlib import Path
 from typing import Any
@@ -24,8 +25,11 @@ from clomp.formal.checking import (
     build_storm_model,
     compare_distance,
     default_property_files,
+    file_labels,
     load_storm_model,
-    read_properties,
+    parse_properties,
+    property_labels,
+    shipped_property_files,
 )
 from clomp.formal.crosscheck import values_agree
 from clomp.formal.export import ExportError
@@ -35,6 +39,8 @@ from clomp.formal.lts import CognitiveMap, MapError
 from clomp.runtime.cli.export import add_source_options, map_from_args
 from clomp.runtime.cli.plan import add_planner_options
 from clomp.runtime.cli import CliError
+from clomp.runtime.cli._common import path_kind
+from clomp.planner.inputs import read_text
 
 __all__ = ["register"]
 
@@ -59,14 +65,71 @@ def register(sub: Any) -> None:
         default="storm",
         help="model checker: Storm (stormpy), PRISM (the PRISM language; $CLOMP_PRISM or shared/tools) or both side by side (default storm)",
     )
+    p.add_argument("--scheduler", metavar="FILE", help='write Storm\'s optimal scheduler for Pmax=? [!"collision" U "goal"] as JSON '
+                   "(per map state: pose, task, the chosen task); needs a map, not a model file")
+    p.add_argument("--induced", metavar="FILE", help="write the DTMC that scheduler induces: FILE.drn, FILE.prism (or .pm), "
+                   "or PRISM's explicit files for a name without suffix")
+    p.add_argument("--witness", metavar="FILE", help="write the violating path of each failed property as JSON (states, actions, labels)")
     add_planner_options(p)
     p.set_defaults(func=run)
 
 
-def _spec_files(args: argparse.Namespace) -> list[PropertyFile]:
-    paths = [Path(p) for p in args.specs] if args.specs else default_property_files()
+def _write_json(path: str, data: Any, option: str) -> None:
     try:
-        files = [read_properties(p) for p in paths]
+        Path(path).write_text(json.dumps(data, indent=1) + "\n", encoding="utf-8")
+    except OSError as exc:
+        raise CliError(f"{option}: cannot write {path}: {exc.strerror or exc}") from None
+
+
+def _write_policy(args: argparse.Namespace, cmap: CognitiveMap | None) -> None:
+    """``--scheduler`` and ``--induced``: Storm's scheduler of the map and its DTMC."""
+    if not (args.scheduler or args.induced):
+        return
+    if cmap is None:
+        raise CliError("--scheduler/--induced need a map (--scenario, --scan, --map or a .json FILE): a model file has no poses or tasks")
+    from clomp.formal.export import write_drn, write_prism, write_prism_explicit
+    from clomp.formal.scheduler import scheduler_record
+    from clomp.runtime.cli.export import storm_policy
+
+    best, induced = storm_policy(cmap)
+    if args.scheduler:
+        _write_json(args.scheduler, scheduler_record(cmap, best), "--scheduler")
+    if args.induced:
+        path = Path(args.induced)
+        writer = {".drn": write_drn, ".prism": write_prism, ".pm": write_prism, "": write_prism_explicit}.get(path.suffix)
+        if writer is None:
+            raise CliError(f"--induced: {path}: give a .drn or .prism file, or a name without suffix for PRISM's explicit files")
+        try:
+            writer(induced, path)
+        except OSError as exc:
+            raise CliError(f"--induced: cannot write {path}: {exc.strerror or exc}") from None
+
+
+def _witness_record(title: str, failed: list[CheckResult], cmap: CognitiveMap | None) -> dict[str, Any]:
+    """The violated properties with their paths (Storm's), actions named from the map's
+    transitions where the model's choices carry no name."""
+    tasks = None if cmap is None else {(t.source, t.target): t.label.value for t in cmap.transitions()}
+    out = []
+    for r in failed:
+        trace = [dict(x) for x in r.trace]
+        for a, b in zip(trace, trace[1:]):
+            if a["action"] is None and tasks is not None:
+                a["action"] = tasks.get((a["ident"], b["ident"]))
+        value: Any = r.value if isinstance(r.value, bool) or math.isfinite(r.value) else str(r.value)
+        out.append({"property": r.spec.name, "formula": r.spec.formula, "model": r.kind, "value": value,
+                    "required": str(r.spec.required), "path": trace})
+    return {"model": title, "tool": "Storm", "violated": out}
+
+
+def _spec_files(args: argparse.Namespace) -> list[PropertyFile]:
+    """The property files to check: ``--specs``; else, for a model FILE, every shipped file
+    (the supervisor's too: :func:`_matching` keeps those whose labels the file has); else
+    the cognitive maps' files."""
+    model_file = bool(args.file) and Path(args.file).suffix != ".json"
+    paths = [Path(p) for p in args.specs] if args.specs else shipped_property_files() if model_file else default_property_files()
+    try:
+        # the input layer: a FIFO, device or oversized file is refused before it is read
+        files = [parse_properties(read_text(p, "property file", MAX_SPEC_BYTES, SpecError), str(p)) for p in paths]
     except SpecError as exc:
         raise CliError(str(exc)) from None
     p = args.require_safe
@@ -83,31 +146,38 @@ def _spec_files(args: argparse.Namespace) -> list[PropertyFile]:
     return files
 
 
-def run(args: argparse.Namespace) -> int:
-    """Execute ``clomp check``."""
+def _check_sources(args: argparse.Namespace) -> None:
+    """Exactly one source, and a model FILE that is a file (a FIFO would block its reader)."""
     sources = [x for x in (args.scenario, args.scan, args.map, args.file) if x]
     if len(sources) != 1:
         raise CliError("give exactly one of --scenario, --scan, --map or a model FILE")
+    if args.file and Path(args.file).suffix != ".json" and path_kind(Path(args.file), "FILE") == "other":
+        raise CliError(f"{args.file}: not a regular file (a FIFO, device or socket)")
+
+
+#: a property file holds at most this many bytes
+MAX_SPEC_BYTES = 1024 * 1024
+
+
+def run(args: argparse.Namespace) -> int:
+    """Execute ``clomp check``."""
+    _check_sources(args)
     files = _spec_files(args)
+    chosen = bool(args.specs)
+    if args.witness and args.tool == "prism":
+        raise CliError("--witness: Storm finds the violating paths: use --tool storm or both")
     use_storm, use_prism = args.tool in ("storm", "both"), args.tool in ("prism", "both")
     try:
         if args.file and Path(args.file).suffix != ".json":
             path, cmap, title = Path(args.file), None, args.file
-            storm = _check_file(path, files) if use_storm else []
-            prism = _prism_file(path, files) if use_prism else []
+            storm = _check_file(path, files, chosen) if use_storm else []
+            prism = _prism_file(path, files, chosen) if use_prism else []
         else:
             if args.file:
                 args.map = args.file
             cmap, title = map_from_args(args)
-            storm, prism = [], []
-            built: dict[str, Any] = {}
-            for pf in files:
-                if use_storm:
-                    if pf.model not in built:
-                        built[pf.model] = build_storm_model(cmap, pf.model, args.via)
-                    storm += _check(built[pf.model], pf)
-                if use_prism:
-                    prism += _prism_results(check_with_prism(cmap, [p.formula for p in pf.properties], pf.model), pf, pf.model)
+            storm, prism = _check_map(cmap, files, args.via, use_storm, use_prism)
+        _write_policy(args, cmap)
     except (StormMissing, PrismMissing) as exc:
         raise CliError(str(exc)) from None
     except (SpecError, ExportError, MapError, PrismError) as exc:
@@ -119,6 +189,29 @@ def run(args: argparse.Namespace) -> int:
     failed = [r for r in results if r.passed is False]
     if storm and prism:
         failed += [q for r, q in zip(storm, prism) if q.passed is False and r.passed is not False]
+    if args.witness:
+        _write_json(args.witness, _witness_record(title, [r for r in storm if r.passed is False], cmap), "--witness")
+    return 1 if _report(failed, storm, prism) else 0
+
+
+def _check_map(cmap: CognitiveMap, files: list[PropertyFile], via: str, use_storm: bool, use_prism: bool) -> tuple[list[CheckResult], list[CheckResult]]:
+    """Storm's and PRISM's results for every property file on the map's export of its kind."""
+    storm: list[CheckResult] = []
+    prism: list[CheckResult] = []
+    built: dict[str, Any] = {}
+    for pf in files:
+        if use_storm:
+            if pf.model not in built:
+                built[pf.model] = build_storm_model(cmap, pf.model, via)
+            storm += _check(built[pf.model], pf)
+        if use_prism:
+            prism += _prism_results(check_with_prism(cmap, _named(pf), pf.model), pf, pf.model)
+    return storm, prism
+
+
+def _report(failed: list[CheckResult], storm: list[CheckResult], prism: list[CheckResult]) -> bool:
+    """Print a FAIL line per failed property and a DISAGREE line per property the tools
+    disagree on; whether there was any."""
     for r in failed:
         path_text = f"violating path: {' -> '.join(r.witness)}" if r.witness else "run with --tool storm for a violating path"
         print(f"FAIL {r.spec.name} ({r.kind}): {r.value_text()}, required {r.spec.required}; {path_text}")
@@ -127,7 +220,24 @@ def run(args: argparse.Namespace) -> int:
         disagree = [(r, q) for r, q in zip(storm, prism) if not values_agree(r.value, q.value)]
         for r, q in disagree:
             print(f"DISAGREE {r.spec.name} ({r.kind}): Storm {r.value!r}, PRISM {q.value!r}")
-    return 1 if failed or disagree else 0
+    return bool(failed or disagree)
+
+
+def _named(pf: PropertyFile) -> list[str]:
+    """The properties as the file names them (``"name": formula``): PRISM then sees what a
+    user's run of PRISM on the property file sees, e.g. a name that clashes with a label."""
+    return [f'"{p.name}": {p.formula}' if p.name != p.formula else p.formula for p in pf.properties]
+
+
+def _matching(path: Path, kind: str, files: list[PropertyFile], chosen: bool) -> list[PropertyFile]:
+    """The property files about a ``kind`` model; unless the user chose them (``--specs``),
+    only those whose labels the model file declares (a map's files for a map, the
+    supervisor's for the supervisor)."""
+    labels = file_labels(path)
+    matching = [pf for pf in files if pf.model == kind and (chosen or pf.source == "--require-safe" or property_labels(pf) <= labels)]
+    if not any(pf.source != "--require-safe" for pf in matching):
+        raise CliError(f"{path} is a {kind.upper()}, and no property file is about a {kind} with its labels ({', '.join(sorted(labels))}): give one with --specs")
+    return matching
 
 
 def _prism_results(res: Any, pf: PropertyFile, kind: Any) -> list[CheckResult]:
@@ -138,7 +248,7 @@ def _prism_results(res: Any, pf: PropertyFile, kind: Any) -> list[CheckResult]:
     return out
 
 
-def _prism_file(path: Path, files: list[PropertyFile]) -> list[CheckResult]:
+def _prism_file(path: Path, files: list[PropertyFile], chosen: bool) -> list[CheckResult]:
     if path.suffix not in (".prism", ".pm", ".nm"):
         raise CliError(f"{path}: PRISM reads the PRISM language (.prism .pm .nm); export one with --format prism, or use --tool storm")
     if not path.is_file():
@@ -147,12 +257,9 @@ def _prism_file(path: Path, files: list[PropertyFile]) -> list[CheckResult]:
     kind = first if first in ("mdp", "dtmc") else None
     if kind is None:
         raise CliError(f"{path}: not a PRISM model of kind mdp or dtmc (first statement {first!r})")
-    matching = [pf for pf in files if pf.model == kind]
-    if not matching:
-        raise CliError(f"{path} is a {kind.upper()}, and no property file is about a {kind}")
     out: list[CheckResult] = []
-    for pf in matching:
-        out += _prism_results(run_prism([str(path)], [p.formula for p in pf.properties]), pf, kind)
+    for pf in _matching(path, kind, files, chosen):
+        out += _prism_results(run_prism([str(path.resolve())], _named(pf)), pf, kind)  # PRISM runs in a temporary folder
     return out
 
 
@@ -162,13 +269,10 @@ def _check(sm: Any, pf: PropertyFile) -> list[CheckResult]:
     return check_properties(sm, pf)
 
 
-def _check_file(path: Path, files: list[PropertyFile]) -> list[CheckResult]:
+def _check_file(path: Path, files: list[PropertyFile], chosen: bool) -> list[CheckResult]:
     sm = load_storm_model(path)
-    matching = [pf for pf in files if pf.model == sm.kind]
-    if not matching:
-        raise CliError(f"{path} is a {sm.kind.upper()}, and no property file is about a {sm.kind}")
     out: list[CheckResult] = []
-    for pf in matching:
+    for pf in _matching(path, sm.kind, files, chosen):
         out += _check(sm, pf)
     return out
 

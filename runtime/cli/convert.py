@@ -9,9 +9,9 @@ from pathlib import Path
 from typing import Any
 
 from clomp.runtime.cli import EXIT_OK, CliError
-from clomp.runtime.cli._common import log_records
+from clomp.runtime.cli._common import log_records, output_path, path_kind
 from clomp.runtime.cli._progress import progress
-from clomp.runtime.records.mcap_writer import A1_BINS, ConvertError, write_mcap
+from clomp.runtime.records.mcap_writer import A1_BINS, MAX_BINS, ConvertError, write_mcap
 from clomp.runtime.records.runlog import read_log
 
 __all__ = ["register", "run"]
@@ -32,16 +32,17 @@ def register(sub: Any) -> None:
 def run(args: argparse.Namespace) -> int:
     """Execute ``clomp convert``."""
     src = Path(args.log)
-    if not src.is_file():
+    if path_kind(src, "log") == "missing":
         raise CliError(f"{src}: no such file")
+    if not 8 <= args.bins <= MAX_BINS:
+        raise CliError(f"--bins: from 8 to {MAX_BINS:,} readings per revolution, got {args.bins:,}")
     dest = Path(args.output) if args.output else src.with_suffix(".mcap")
-    if dest.resolve() == src.resolve():
+    if path_kind(dest, "-o") != "missing" and dest.resolve() == src.resolve():
         raise CliError(f"-o: {dest} is the log itself")
-    if not dest.parent.is_dir():
-        raise CliError(f"-o: folder {dest.parent} does not exist")
-    records = log_records(read_log, src, "records")
+    output_path(dest, "-o")
+    records = log_records(read_log, src, "records")  # streamed: one record in memory at a time
     try:
-        summary = write_mcap(progress(records, total=len(records), desc="convert", unit="record"), dest, bins=args.bins)
+        summary = write_mcap(progress(records, desc="convert", unit="record"), dest, bins=args.bins)
     except ConvertError as exc:
         raise CliError(str(exc)) from None
     if args.json:

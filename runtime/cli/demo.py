@@ -10,20 +10,21 @@ from pathlib import Path
 from typing import Any
 
 from clomp.planner.scenarios import ScenarioError
-from clomp.runtime.cli import EXIT_NOT_REACHED, EXIT_OK, CliError
-from clomp.runtime.cli._common import load_scene
+from clomp.runtime.cli._args import seed_arg
+from clomp.runtime.cli import CliError
+from clomp.runtime.cli._common import load_scene, output_folder
 from clomp.runtime.experiment.onerun import run_once
 from clomp.runtime.experiment.plots import plot_run
-from clomp.runtime.supervision.states import state_machine_dot, state_machine_prism
+from clomp.runtime.supervision.states import state_machine_dot
 
-__all__ = ["register", "run", "write_map"]
+__all__ = ["register", "run", "write_map", "supervisor_closed_loop_prism"]
 
 
 def register(sub: Any) -> None:
     """Add ``demo`` to the command line."""
     p = sub.add_parser("demo", help="plan and execute the overtaking scenario on the simulated robot", description=__doc__)
     p.add_argument("--scenario", default="overtaking", help="built-in scenario name or JSON file (default overtaking)")
-    p.add_argument("--seed", type=int, default=None, help="noise seed (default: the scenario's 'seed', else 0)")
+    p.add_argument("--seed", type=seed_arg, default=None, help="noise seed (default: the scenario's 'seed', else 0)")
     p.add_argument("--out", default="clomp-demo-out", help="output folder (default ./clomp-demo-out)")
     from clomp.runtime.cli.simulate import add_world_options
 
@@ -55,20 +56,41 @@ def write_map(cmap: Any, folder: Path, stem: str = "cognitive_map") -> list[str]
     return notes
 
 
+def supervisor_closed_loop_prism() -> str:
+    """The supervisor composed with the plant (the robot), as a PRISM MDP: the model
+    ``specs/properties/supervisor/machine.pctl`` is written for (the machine alone has no
+    plant, so its ``driving`` and ``after_fault`` would be constant false and the
+    property file would fail on it). ``supervisor.dot`` draws the machine alone.
+
+    >>> supervisor_closed_loop_prism().splitlines()[0]
+    '// check with specs/properties/supervisor/machine.pctl (clomp check picks it for this file)'
+    """
+    import io
+
+    from clomp.formal.control import PLANT, SUPERVISOR, machine_model
+    from clomp.formal.export import write_prism
+
+    buf = io.StringIO()
+    buf.write("// check with specs/properties/supervisor/machine.pctl (clomp check picks it for this file)\n")
+    write_prism(machine_model(SUPERVISOR, PLANT), buf)
+    return buf.getvalue()
+
+
 def run(args: argparse.Namespace) -> int:
     """Plan, execute on the simulated robot, summarise, write the pictures and models."""
-    from clomp.runtime.cli.simulate import check_world_options, print_summary, world_noise
+    from clomp.runtime.cli.simulate import check_world_options, exit_status, print_summary, world_noise
 
     out = Path(args.out)
     scene = load_scene(args.scenario)
     try:
         check_world_options(args)
-        out.mkdir(parents=True, exist_ok=True)
+        output_folder(out)
     except OSError as exc:
         raise CliError(f"--out: cannot create {out}: {exc}") from None
     seed = args.seed if args.seed is not None else scene.raw.get("seed", 0)
     try:
-        r = run_once(scene, "planning", seed, noise=world_noise(args, scene), keep_report=True, feedback=args.feedback)
+        r = run_once(scene, "planning", seed, noise=world_noise(args, scene), keep_report=True, feedback=args.feedback,
+                     gyro=not args.no_gyro)
     except ScenarioError as exc:
         raise CliError(str(exc)) from None
     print_summary(r)
@@ -79,8 +101,10 @@ def run(args: argparse.Namespace) -> int:
     rep = r.report
     if rep.plans:
         written += write_map(rep.plans[0].result.map, out)
-    for name, text in (("supervisor.dot", state_machine_dot()), ("supervisor.prism", state_machine_prism())):
+    for name, text in (("supervisor.dot", state_machine_dot()), ("supervisor.prism", supervisor_closed_loop_prism())):
         (out / name).write_text(text, encoding="utf-8")
         written.append(str(out / name))
     print(f"wrote to {out}{os.sep}: " + ", ".join(Path(w).name if not w.startswith("(") else w for w in written))
-    return EXIT_OK if r.reached_goal and r.collisions == 0 else EXIT_NOT_REACHED
+    if r.end_state == "GOAL_UNCONFIRMED":  # the last line says why: the distance and its bound
+        print(f"goal unconfirmed: {r.reason}")
+    return exit_status(r)

@@ -11,6 +11,7 @@ import sys
 import time
 from typing import Any
 
+from clomp.runtime.cli._args import seed_arg
 from clomp.runtime.cli import CliError
 from clomp.runtime.cli._common import load_scene
 from clomp.runtime.cli._signals import interrupts_raise
@@ -43,7 +44,7 @@ def register(subparsers: Any) -> None:
     lidar.add_argument("--vanish-after", type=float, metavar="N", help="close the pty after N (fractional) revolutions")
     lidar.add_argument("--health", choices=("good", "warning", "error"), default="good", help="GET_HEALTH status")
     lidar.add_argument("--error-code", type=int, default=0, metavar="CODE", help="GET_HEALTH error code")
-    lidar.add_argument("--seed", type=int, help="seed for fault injection and simulated noise")
+    lidar.add_argument("--seed", type=seed_arg, help="seed for fault injection and simulated noise")
     lidar.set_defaults(func=_run_lidar)
 
     maestro = devices.add_parser(

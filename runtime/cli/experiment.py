@@ -19,6 +19,8 @@ from pathlib import Path
 from typing import Any
 
 from clomp.planner.scenarios import ScenarioError
+from clomp.runtime.cli._common import output_folder
+from clomp.runtime.cli._args import seed_arg
 from clomp.runtime.cli import CliError
 from clomp.runtime.experiment.layouts import FAMILIES
 
@@ -33,12 +35,14 @@ def register(sub: Any) -> None:
                    help=f"layout family ({', '.join(FAMILIES)}) or a scenario name/JSON file for one fixed layout "
                         "(default overtaking)")
     p.add_argument("--runs", type=int, default=10, help="layouts, each run in both conditions (default 10)")
-    p.add_argument("--seed", type=int, default=0, help="seed of the layouts and the noise (default 0)")
+    p.add_argument("--seed", type=seed_arg, default=0, help="seed of the layouts and the noise (default 0)")
     p.add_argument("--noise", choices=("ideal", "paper", "harsh"), default="paper",
                    help="noise preset of the execution world (default paper)")
     p.add_argument("--noise-scale", type=float, default=1.0, help="factor on every noise term (default 1)")
     p.add_argument("--feedback", choices=("scan", "none"), default="scan",
                    help="both conditions' pose estimate: scan matching (default) or dead reckoning only")
+    p.add_argument("--no-gyro", action="store_true",
+                   help="the robot without its rate gyro, as the paper's robot and clomp run without an IMU")
     p.add_argument("--noise-sweep", metavar="X,Y,...", default=None,
                    help="run every noise scale in the list (e.g. 0,0.5,1,2,4) and plot success against it")
     p.add_argument("--workers", type=int, default=None,
@@ -105,11 +109,7 @@ def run(args: argparse.Namespace) -> int:
         raise CliError(f"--max-time: must be a finite positive number of seconds, got {args.max_time:g}")
     if not (math.isfinite(args.noise_scale) and args.noise_scale >= 0):
         raise CliError("--noise-scale: must be a finite number >= 0")
-    out = Path(args.out)
-    try:
-        out.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise CliError(f"--out: cannot create {out}: {exc}") from None
+    out = output_folder(args.out)
     if args.gallery:
         from clomp.runtime.experiment.plots import plot_gallery
 
@@ -136,7 +136,7 @@ def run(args: argparse.Namespace) -> int:
             records = run_experiment(args.family, args.runs, args.seed, noise=args.noise, noise_scales=scales,
                                      conditions=conditions, max_time=args.max_time, workers=workers,
                                      scheduler=args.scheduler, out=out, resume=args.resume, progress=bar,
-                                     feedback=args.feedback)
+                                     feedback=args.feedback, gyro=not args.no_gyro)
     except ScenarioError as exc:
         raise CliError(f"{exc} (or a layout family: {', '.join(FAMILIES)})") from None
     except ExperimentInterrupted as exc:

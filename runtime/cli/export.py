@@ -9,9 +9,10 @@ from pathlib import Path
 from collections.abc import Iterator
 from typing import Any
 
-from clomp.formal.export import FORMATS, ExportError, write
-from clomp.formal.lts import CognitiveMap, MapError
+from clomp.formal.export import FORMATS, LABEL_HOLDER, ExportError, ExportModel, ModelKind, drn_adds_holder, export_model, induced_model, write
+from clomp.formal.lts import MAX_MAP_BYTES, CognitiveMap, MapError
 from clomp.planner import PlanningError, ScanError, load_scan, scan_files
+from clomp.planner.inputs import InputError, load_json, read_text
 from clomp.planner.probabilistic import NoiseError, learn_from_scans
 from clomp.runtime.cli.plan import (
     add_planner_options,
@@ -22,8 +23,9 @@ from clomp.runtime.cli.plan import (
     scenario_scan,
 )
 from clomp.runtime.cli import EXIT_OK, CliError, plural
+from clomp.runtime.cli._common import output_path, path_kind
 
-__all__ = ["register", "add_source_options", "map_from_args"]
+__all__ = ["register", "add_source_options", "map_from_args", "export_for", "storm_policy"]
 
 
 def add_source_options(p: argparse.ArgumentParser, required: bool = True) -> None:
@@ -39,10 +41,11 @@ def add_source_options(p: argparse.ArgumentParser, required: bool = True) -> Non
 def map_from_args(args: argparse.Namespace) -> tuple[CognitiveMap, str]:
     """Plan (or read) the cognitive map the source options name; returns (map, title)."""
     if getattr(args, "map", None):
-        try:
-            return CognitiveMap.read_json(args.map), str(args.map)
-        except OSError as exc:
-            raise CliError(f"--map: cannot read {args.map}: {exc.strerror or exc}") from None
+        try:  # the input layer: no FIFO, device or oversized file; JSON depth and numbers limited
+            data = load_json(read_text(args.map, "map file", MAX_MAP_BYTES), str(args.map))
+            return CognitiveMap.from_dict(data), str(args.map)
+        except InputError as exc:
+            raise CliError(f"--map: {exc}") from None
         except MapError as exc:
             raise CliError(f"--map: {args.map}: {exc}") from None
     conf = configurator_from_args(args)
@@ -60,19 +63,20 @@ def map_from_args(args: argparse.Namespace) -> tuple[CognitiveMap, str]:
             return conf.plan(scan, goal).map, title
         path = Path(args.scan)
         goal = parse_goal(args.goal) if args.goal else (1.0, 0.0)
-        if learn and path.is_file():
+        kind = path_kind(path, "--scan")
+        if learn and kind == "file":
             standing, log_goal = _standing_scans(path)
             g = parse_goal(args.goal) if args.goal else log_goal
             return learn_from_scans(standing, g, conf), f"{path} ({len(standing)} scans taken at one pose)"
         if learn:
-            if not path.exists() or path.is_file():
+            if kind != "folder":
                 raise CliError(f"--scan: {path}: --learn needs a folder of scans or a run log (.jsonl)")
             files = scan_files(path)  # the shared folder reader: suffixes, hidden files, unreadable folders
             used: list[Path] = []
             cmap = learn_from_scans(_readable_scans(files, used), goal, conf)
             skipped = len(files) - len(used)
             return cmap, f"{path} ({plural(len(used), 'scan')}{f', {skipped} skipped' if skipped else ''})"
-        if not path.is_file():
+        if kind == "missing":
             raise CliError(f"--scan: {path}: no such file")
         if samples is not None:
             return probabilistic_from_args(args, conf, path, goal).map, str(path)
@@ -142,29 +146,89 @@ def register(sub: Any) -> None:
     p.add_argument(
         "--model",
         choices=("mdp", "dtmc"),
-        default="mdp",
-        help="mdp: the unsupervised map (actions are tasks); dtmc: the supervised system, Ψ applied (default mdp)",
+        default=None,
+        help="mdp: the unsupervised map (actions are tasks); dtmc: the supervised system, one task per state "
+        "(default mdp; not for -f json, which is the map itself)",
+    )
+    p.add_argument(
+        "--policy",
+        choices=("plan", "storm"),
+        default=None,
+        help="with --model dtmc, whose task each state takes: plan (the map's own plan ρ with the guard Ψ; every "
+        "state off ρ is absorbing; the default) or storm (Storm's optimal scheduler for "
+        'Pmax=? [!"collision" U "goal"] on the map\'s MDP, a task in every state it reaches)',
     )
     p.add_argument("-o", "--output", required=True, metavar="FILE", help="output file ('-' for standard output; a path stem for prism-explicit)")
     add_planner_options(p)
     p.set_defaults(func=run)
 
 
+def _check_model_options(args: argparse.Namespace) -> None:
+    """An option that does not apply to the format or model is an error, not ignored."""
+    if args.format == "json" and (args.model is not None or args.policy is not None):
+        given = "--model" if args.model is not None else "--policy"
+        raise CliError(f"{given} does not apply to -f json: JSON is the map itself (export a model with -f prism, drn, prism-explicit, dot or svg)")
+    if args.policy is not None and args.model != "dtmc":
+        raise CliError("--policy applies to --model dtmc (an MDP leaves every choice to the model checker)")
+
+
+def export_for(cmap: CognitiveMap, kind: ModelKind, policy: str | None) -> ExportModel:
+    """The model ``clomp export`` writes: the MDP, the DTMC of the map's plan, or the DTMC
+    Storm's optimal scheduler induces (``policy="storm"``; its ``plan`` label is the path
+    the scheduler starts on)."""
+    if policy != "storm":
+        return export_model(cmap, kind)
+    return storm_policy(cmap)[1]
+
+
+def storm_policy(cmap: CognitiveMap) -> tuple[Any, ExportModel]:
+    """Storm's optimal scheduler for ``Pmax=? [!"collision" U "goal"]`` on the map's MDP
+    (a :class:`~clomp.formal.scheduler.RobustPlan`) and the DTMC it induces."""
+    from clomp.formal.checking import StormMissing
+    from clomp.formal.scheduler import robust_plan
+
+    try:
+        best = robust_plan(cmap)
+    except StormMissing as exc:
+        raise CliError(str(exc)) from None
+    choose = {ident: task.value for ident, task in best.scheduler.items()}
+    return best, induced_model(export_model(cmap, "mdp", best.plan), choose, "Storm's scheduler for Pmax [!collision U goal]")
+
+
+def _states_written(m: ExportModel | None, cmap: CognitiveMap, fmt: str) -> str:
+    """How many states the written file holds (the map's for JSON, the model's otherwise;
+    a DRN's unreachable label holder is named)."""
+    if m is None:
+        return plural(len(cmap), "map state")
+    if fmt == "drn" and drn_adds_holder(m):
+        return f"{plural(m.n_states, 'state')} + 1 unreachable {LABEL_HOLDER} state"
+    return plural(m.n_states, "state")
+
+
 def run(args: argparse.Namespace) -> int:
     """Execute ``clomp export``."""
-    cmap, _ = map_from_args(args)
+    _check_model_options(args)
     if args.output == "-":
         if args.format == "prism-explicit":
             raise CliError("prism-explicit writes several files: give a path stem with -o")
         dest: Any = sys.stdout
     else:
         dest = Path(args.output)
-        if dest.parent and not dest.parent.exists():
+        if args.format != "prism-explicit":
+            output_path(dest, "-o")  # before any work: no device, FIFO or read-only file
+        elif not dest.parent.is_dir():
             raise CliError(f"-o: folder {dest.parent} does not exist")
+    cmap, _ = map_from_args(args)
+    kind: ModelKind = args.model or "mdp"
     started = time.time()
+    m = None
     try:
-        write(cmap, dest, args.format, args.model)
-    except ExportError as exc:
+        if args.format == "json":
+            write(cmap, dest, "json")
+        else:
+            m = export_for(cmap, kind, args.policy)
+            FORMATS[args.format](m, dest, kind)
+    except (ExportError, MapError) as exc:  # MapError: a map file whose metadata is inconsistent
         raise CliError(str(exc)) from None
     except OSError as exc:
         raise CliError(f"cannot write {args.output}: {exc.strerror or exc}") from None
@@ -175,5 +239,6 @@ def run(args: argparse.Namespace) -> int:
                            if f.is_file() and f.stat().st_mtime >= started - 1.0)  # this run's, not older ones
         else:
             files = [str(dest)]
-        print(f"wrote {', '.join(files)} ({args.format}, {args.model}, {plural(len(cmap), 'state')})")
+        what = "the map" if m is None else kind if m.policy == "plan" else f"{kind} under {m.policy}"
+        print(f"wrote {', '.join(files)} ({args.format}, {what}, {_states_written(m, cmap, args.format)})")
     return EXIT_OK

@@ -15,11 +15,12 @@ import numpy as np
 
 from clomp.formal.lts import CognitiveMap, MapError
 from clomp.planner import GOAL_LIMIT_M as _PLANNER_GOAL_LIMIT_M
-from clomp.planner import Configurator, PlanningError, PlanResult, RobotModel, ScanError, scan_files
+from clomp.planner import Configurator, PlanningError, PlanResult, RobotModel, ScanError
 from clomp.planner.probabilistic import MAX_SAMPLES, NoiseError, ProbabilisticMap, preset_names
 from clomp.runtime.cli import EXIT_NOT_REACHED, EXIT_OK, CliError, plural
+from clomp.runtime.cli._args import length_arg, seed_arg
 from clomp.runtime.cli._bags import add_bag_options, bag_points, is_bag, labelled_scans, lidar_offset, open_topic, scan_label
-from clomp.runtime.cli._common import load_scene, many_summary, scan_outcomes, summary_line
+from clomp.runtime.cli._common import Notes, folder_scans, load_scene, many_summary, output_path, path_kind, scan_outcomes, summary_line
 from clomp.runtime.cli._progress import progress
 from clomp.runtime.records.bags import BagError
 
@@ -97,8 +98,8 @@ def add_planner_options(p: argparse.ArgumentParser) -> None:
     """Options shared by the commands that plan."""
     g = p.add_argument_group("planner")
     g.add_argument("--max-states", type=int, default=50, help="state budget of the cognitive map (default 50)")
-    g.add_argument("--horizon", type=float, default=1.2, help="half-size of the box around the start beyond which states are not expanded (m, default 1.2)")
-    g.add_argument("--step-length", type=float, default=0.27, help="length of a STRAIGHT step when the way to the goal is not clear (m, default 0.27; 0 = no cut)")
+    g.add_argument("--horizon", type=length_arg(0.0, 100.0, "--horizon"), default=1.2, help="half-size of the box around the start beyond which states are not expanded (m, default 1.2)")
+    g.add_argument("--step-length", type=length_arg(0.0, 10.0, "--step-length"), default=0.27, help="length of a STRAIGHT step when the way to the goal is not clear (m, default 0.27; 0 = no cut)")
 
 
 def configurator_from_args(args: argparse.Namespace) -> Configurator:
@@ -115,7 +116,7 @@ def add_sampling_options(p: argparse.ArgumentParser) -> None:
     g = p.add_argument_group("probabilistic map")
     g.add_argument("--samples", type=int, metavar="N", help="estimate every task's outcome from N noisy rollouts (probabilities k/N)")
     g.add_argument("--noise", metavar="PRESET", default="paper", help=f"noise preset of the rollouts (default paper; known: {', '.join(preset_names())})")
-    g.add_argument("--seed", type=int, default=0, help="seed of the noisy rollouts (default 0)")
+    g.add_argument("--seed", type=seed_arg, default=0, help="seed of the noisy rollouts (default 0)")
     g.add_argument("--learn", action="store_true", help="with --scan FOLDER or a run log: learn the probabilities from consecutive scans of one place")
 
 
@@ -271,7 +272,7 @@ def _run_robust(args: argparse.Namespace, conf: Configurator) -> int:
         title, goal, scan = scenario_scan(args, conf)
     else:
         path = Path(args.scan)
-        if not path.is_file():
+        if path_kind(path, "--scan") != "file":
             raise CliError(f"--scan: {path}: --robust plans on one scan file")
         goal, scan, title = (parse_goal(args.goal) if args.goal else (1.0, 0.0)), path, str(path)
     # the runtime's robust configurator itself: the same rollouts (hazard stops, the
@@ -327,14 +328,15 @@ def run(args: argparse.Namespace) -> int:
         return EXIT_OK if r.reached_goal else EXIT_NOT_REACHED
     path = Path(args.scan)
     goal = parse_goal(args.goal) if args.goal else (1.0, 0.0)
-    if not path.exists():
+    kind = path_kind(path, "--scan")
+    if kind == "missing":
         raise CliError(f"{path}: no such file or folder")
     if args.topic or is_bag(path):
         return _plan_bag(conf, path, goal, args)
     if args.index is not None or args.time is not None:
         raise CliError("--index and --time pick a scan of a ROS bag; --scan is not a bag")
     lidar_offset(args, bag=False)
-    if path.is_dir():
+    if kind == "folder":
         return _plan_folder(conf, path, goal, args)
     r = _plan_one(conf, path, goal)
     _emit(r, args, str(path))
@@ -344,6 +346,7 @@ def run(args: argparse.Namespace) -> int:
 def _write_map(cmap: CognitiveMap, args: argparse.Namespace) -> None:
     """``--map FILE``: the cognitive map as JSON (a one-line error when it cannot be written)."""
     if args.map:
+        output_path(args.map, "--map")
         try:
             cmap.write_json(args.map)
         except (OSError, MapError) as exc:
@@ -376,22 +379,22 @@ def _plan_bag(conf: Configurator, path: Path, goal: tuple[float, float], args: a
 
 
 def _plan_folder(conf: Configurator, folder: Path, goal: tuple[float, float], args: argparse.Namespace) -> int:
-    try:
-        files = scan_files(folder)
-    except ScanError as exc:
-        raise CliError(str(exc)) from None
-    return _plan_many(conf, len(files), ((f.name, f, str(f)) for f in files), goal, args)
+    files, notes = folder_scans(folder)
+    return _plan_many(conf, len(files), ((f.name, f, str(f)) for f in files), goal, args, notes)
 
 
 def _plan_many(conf: Configurator, total: int, items: Iterable[tuple[str, Any, str]], goal: tuple[float, float],
-               args: argparse.Namespace) -> int:
-    """Plan on every (name, scan, JSON name) of ``items``: one line each, then a summary.
+               args: argparse.Namespace, listing: list[str] | None = None) -> int:
+    """Plan on every (name, scan, JSON name) of ``items``: one line each, then a summary
+    (in text, what is suspicious — returns beyond the range, placeholders, copies — is
+    said once, before the summary: :class:`~clomp.runtime.cli._common.Notes`).
 
     A scan that cannot be planned gets its own line with an error and the run goes on;
     the exit status is 0 once every scan was processed.
     """
     times: list[float] = []
     outcomes: list[str] = []
+    notes = Notes(listing)
     bar = progress(items, total=total, desc="plan", unit="scan")
     for name, scan, json_name in bar:
         r, rec = scan_outcomes(conf, scan, goal)
@@ -408,8 +411,9 @@ def _plan_many(conf: Configurator, total: int, items: Iterable[tuple[str, Any, s
                 f"{name}: {rec['outcome'].replace('_', ' ')}  {plural(len(r.steps), 'task')}  {plural(r.n_states, 'state')}  "
                 f"{r.planning_time_s * 1e3:.2f} ms  [{' '.join(s.task.value[0] for s in r.steps)}]"
             )
-        for w in rec.get("warnings", []) if not args.json else []:
-            bar.write(f"{name}: warning: {w}")
+        notes.add(name, rec)
     summary = many_summary(outcomes, times)
+    for note in [] if args.json else notes.lines():
+        print(note)
     print(json.dumps({"summary": summary}) if args.json else summary_line(summary))
     return EXIT_OK

@@ -11,11 +11,11 @@ from typing import Any
 
 import numpy as np
 
-from clomp.planner import Configurator, ScanError, scan_files
+from clomp.planner import Configurator
 from clomp.runtime.cli._bags import add_bag_options, bag_points, is_bag, labelled_scans, lidar_offset, open_topic
 from clomp.runtime.cli._progress import progress
 from clomp.runtime.cli import EXIT_OK, CliError, plural
-from clomp.runtime.cli._common import log_records, scan_outcomes
+from clomp.runtime.cli._common import Notes, folder_scans, log_records, path_kind, scan_outcomes
 from clomp.runtime.cli.plan import add_planner_options, configurator_from_args, parse_goal
 from clomp.runtime.records.bags import LaserScan
 from clomp.runtime.records.runlog import scans_from_log
@@ -35,22 +35,20 @@ def register(sub: Any) -> None:
 
 def _sources(
     path: Path, goal: tuple[float, float] | None
-) -> tuple[int, Iterator[tuple[str, Path | np.ndarray, tuple[float, float]]]]:
-    if path.is_dir():
-        try:
-            files = scan_files(path)
-        except ScanError as exc:
-            raise CliError(str(exc)) from None
-        return len(files), ((f.name, f, goal or (1.0, 0.0)) for f in files)
-    records = log_records(scans_from_log, path, "scan records")
-    return len(records), ((label, pts, goal or g or (1.0, 0.0)) for label, pts, g in records)
+) -> tuple[int | None, Iterator[tuple[str, Any, tuple[float, float]]], list[str]]:
+    """(count if known, the scans, what the listing found to say once) of a folder or run log."""
+    if path_kind(path, "replay") == "folder":
+        files, notes = folder_scans(path)
+        return len(files), ((f.name, f, goal or (1.0, 0.0)) for f in files), notes
+    records = log_records(scans_from_log, path, "scan records")  # streamed: bounded memory
+    return None, ((label, pts, goal or g or (1.0, 0.0)) for label, pts, g in records), []
 
 
 def run(args: argparse.Namespace) -> int:
     """Execute ``clomp replay``."""
     conf = configurator_from_args(args)
     path = Path(args.source)
-    if not path.exists():
+    if path_kind(path, "replay") == "missing":
         raise CliError(f"{path}: no such file or folder")
     goal = parse_goal(args.goal) if args.goal else None
     bag = bool(args.topic) or is_bag(path)
@@ -59,16 +57,17 @@ def run(args: argparse.Namespace) -> int:
         with open_topic(path, args) as topic:
             g = goal or (1.0, 0.0)
             return _replay(conf, topic.count, ((lb, s, g) for lb, s in labelled_scans(topic)), offset, args)
-    total, items = _sources(path, goal)
-    return _replay(conf, total, items, offset, args)
+    total, items, notes = _sources(path, goal)
+    return _replay(conf, total, items, offset, args, notes)
 
 
-def _replay(conf: Configurator, total: int, items: Iterable[tuple[str, Any, tuple[float, float]]],
-            offset: tuple[float, float, float], args: argparse.Namespace) -> int:
+def _replay(conf: Configurator, total: int | None, items: Iterable[tuple[str, Any, tuple[float, float]]],
+            offset: tuple[float, float, float], args: argparse.Namespace, listing: list[str] | None = None) -> int:
     """One line per scan (an ``error`` for a scan that cannot be planned, ``at_goal`` for
     one taken at the goal), then a summary; exit 0 once every scan was processed."""
     times: list[float] = []
     plans = reached = failed = at_goal = seen = 0
+    notes = Notes(listing)  # said once, before the summary, not once per scan
     bar = progress(items, total=total, desc="replay", unit="scan")
     for label, scan, g in bar:
         seen += 1
@@ -84,6 +83,7 @@ def _replay(conf: Configurator, total: int, items: Iterable[tuple[str, Any, tupl
                 line = {"scan": label, "outcome": "at_goal", "reached_goal": True, "plan": []}
                 text = f"{label}: already at the goal"
             bar.write(json.dumps(line) if args.json else text)
+            notes.add(label, rec)
             continue
         times.append(r.planning_time_s)
         plans += bool(r.steps) or r.reached_goal
@@ -106,8 +106,7 @@ def _replay(conf: Configurator, total: int, items: Iterable[tuple[str, Any, tupl
                 f"{label}: {rec['outcome'].replace('_', ' ')}  "
                 f"{r.n_states:3d} states  {r.planning_time_s * 1e3:7.2f} ms  [{' '.join(s.task.value[0] for s in r.steps)}]"
             )
-            for w in rec.get("warnings", []):
-                bar.write(f"{label}: warning: {w}")
+        notes.add(label, rec)
     t = np.array(times) if times else np.array([np.nan])
     median_s = float(np.median(t)) if times else None
     p90_s = float(np.percentile(t, 90)) if times else None
@@ -123,6 +122,8 @@ def _replay(conf: Configurator, total: int, items: Iterable[tuple[str, Any, tupl
     if args.json:
         print(json.dumps({"summary": summary}))
     else:
+        for note in notes.lines():
+            print(note)
         med = f"{median_s * 1e3:.2f} ms" if median_s is not None else "n/a"
         p90 = f"{p90_s * 1e3:.2f} ms" if p90_s is not None else "n/a"
         print(

@@ -36,15 +36,17 @@ import sys
 import threading
 import time
 from pathlib import Path
+from collections.abc import Callable
 from typing import Any
 
+from clomp.runtime.cli._args import seed_arg
 from clomp.runtime.cli.plan import add_planner_options, configurator_from_args, parse_goal
 from clomp.runtime.cli import EXIT_DEVICE_FAULT, EXIT_INTERRUPTED, EXIT_NOT_REACHED, EXIT_OK, CliError
-from clomp.runtime.cli._common import load_scene
+from clomp.runtime.cli._common import load_scene, output_path, path_kind
 from clomp.runtime.cli._signals import interrupts_raise
 from clomp.runtime.cli._status import StatusLine
 
-__all__ = ["register", "add_emulate_world", "default_log_path"]
+__all__ = ["register", "add_emulate_world", "default_log_path", "operate", "open_runlog"]
 
 def _missing_path(spec: str | None) -> bool:
     """True for a port named by a path that does not exist (a typo, not a device fault)."""
@@ -176,76 +178,110 @@ def run(args: argparse.Namespace) -> int:
 def _run(args: argparse.Namespace, scheduling: str) -> int:
     from clomp.runtime.backends.hardware import HardwareRobot
     from clomp.runtime.clock import ScaledClock, WallClock
-    from clomp.runtime.interface import RobotFault
-    from clomp.runtime.records.runlog import RunLog
     from clomp.runtime.supervision import Supervisor
 
     goal = parse_goal(args.goal)
     config = _config(args)
     conf = configurator_from_args(args)
-    path = Path(args.log) if args.log else default_log_path()
-    try:
-        runlog = RunLog(path)
-    except OSError as exc:
-        raise CliError(f"cannot write the run log {path}: {exc}") from None
-    print(f"log: {path}", flush=True)
+    runlog, path = open_runlog(args.log)
     lock = threading.Lock()
     log = _SharedLog(runlog, lock)
     clock = WallClock() if args.time_scale == 1.0 else ScaledClock(args.time_scale)
     log.write("run", argv=sys.argv[1:], lidar=args.lidar, motors=args.motors, imu=args.imu, dry_run=args.dry_run,
               goal=list(goal), max_time=args.max_time, time_scale=args.time_scale,
               config=config.to_dict(), monotonic=time.monotonic(), wall=time.time(), scheduling=scheduling)
-    robot = sup = None
+
+    def work(robot: Any, hold: Callable[[Any], None]) -> Any:
+        if args.dry_run:
+            _say("dry run: planning on every scan, the wheels are held stopped")
+            return _dry_run(robot, conf, goal, clock, log, args.max_time, path)
+        sup = Supervisor(robot, goal, conf, clock=clock, log=_SharedLog(runlog, lock, frozenset({"motor"})))
+        hold(sup)
+        with StatusLine(sup, robot):
+            return sup.run(max_time=args.max_time)
+
+    return operate(lambda: HardwareRobot(args.lidar, args.motors, config, model=conf.robot, log=log, clock=clock,
+                                         imu_port=args.imu),
+                   work, runlog, log, path,
+                   usage_fault=lambda: _missing_path(args.lidar) or _missing_path(args.motors) or _missing_path(args.imu))
+
+
+def open_runlog(name: str | None) -> tuple[Any, Path]:
+    """The run log at ``name`` (default: a new timestamped file in ./clomp-runs/), its path printed."""
+    from clomp.runtime.records.runlog import RunLog
+
+    path = Path(name) if name else default_log_path()
+    if path_kind(path, "--log") != "missing":
+        output_path(path, "--log")  # no FIFO (its open would block), device or read-only file
+    try:
+        runlog = RunLog(path)
+    except OSError as exc:
+        raise CliError(f"cannot write the run log {path}: {exc}") from None
+    print(f"log: {path}", flush=True)
+    return runlog, path
+
+
+def operate(open_robot: Callable[[], Any], work: Callable[[Any, Callable[[Any], None]], Any], runlog: Any, log: Any,
+            path: Path, *, usage_fault: Callable[[], bool] = lambda: False, name: str = "run") -> int:
+    """Open a robot, run ``work(robot, hold)`` on it, and stop and close it on every way out:
+    the exit status of ``clomp run`` (and ``clomp ros node``). ``work`` returns an exit
+    status or a supervisor's report, and hands ``hold`` the supervisor it runs (so that
+    Ctrl-C and an exception halt it); a robot that cannot be opened is a device fault (a
+    usage error when ``usage_fault()`` says the user named something that does not exist)."""
+    from clomp.runtime.interface import RobotFault
+
+    def say(text: str) -> None:
+        print(f"clomp {name}: {text}", file=sys.stderr, flush=True)
+
+    robot = None
+    held: list[Any] = []
     try:
         with interrupts_raise() as signalled:
             try:
                 try:
-                    robot = HardwareRobot(args.lidar, args.motors, config, model=conf.robot, log=log, clock=clock,
-                                          imu_port=args.imu)
+                    robot = open_robot()
                 except RobotFault as exc:
-                    return _not_started(exc, log, args, path)
-                if args.dry_run:
-                    _say("dry run: planning on every scan, the wheels are held stopped")
-                    return _dry_run(robot, conf, goal, clock, log, args.max_time, path)
-                sup = Supervisor(robot, goal, conf, clock=clock, log=_SharedLog(runlog, lock, frozenset({"motor"})))
-                with StatusLine(sup, robot):
-                    report = sup.run(max_time=args.max_time)
+                    return _not_started(exc, log, usage_fault(), path)
+                report = work(robot, held.append)
+                if isinstance(report, int):
+                    return report
             except KeyboardInterrupt:
-                return _interrupted(f"interrupted by {signalled() or 'KeyboardInterrupt'}", sup, robot, log, path)
+                sup = held[-1] if held else None
+                return _interrupted(f"interrupted by {signalled() or 'KeyboardInterrupt'}", sup, robot, log, path, say)
             except CliError:
                 raise
             except Exception as exc:  # anything unexpected: halt, say why in one line
-                return _halted(exc, sup, robot, log, path)
+                return _halted(exc, held[-1] if held else None, robot, log, path, say)
             finally:
                 if robot is not None:
                     robot.close()
     finally:
         runlog.close()
-    return _finished(report, robot, path)
+    return _finished(report, robot, path, say)
 
 
-def _not_started(exc: Exception, log: Any, args: argparse.Namespace, path: Path) -> int:
-    """The robot could not be started: a port path that does not exist is a usage error
-    (CliError), anything else a device fault."""
+def _not_started(exc: Exception, log: Any, usage: bool, path: Path) -> int:
+    """The robot could not be started: a port path that does not exist (``usage``) is a usage
+    error (CliError), anything else a device fault."""
     log.write("fault", reason=str(exc), source="start")
     log.write("stop", reason=str(exc), status="NOT_STARTED")
-    if _missing_path(args.lidar) or _missing_path(args.motors) or _missing_path(args.imu):
+    if usage:
         raise CliError(f"{exc} (log: {path})") from None
     print(f"clomp: error: {exc} (log: {path})", file=sys.stderr, flush=True)
     return EXIT_DEVICE_FAULT
 
 
-def _interrupted(reason: str, sup: Any, robot: Any, log: Any, path: Path) -> int:
+def _interrupted(reason: str, sup: Any, robot: Any, log: Any, path: Path, say: Callable[[str], None]) -> int:
     """Ctrl-C or SIGTERM: the supervisor aborts (or the log says the run never started)."""
     if sup is not None and not sup.terminal:
         sup.abort(reason)
     elif sup is None:
         log.write("stop", reason=reason, status="NOT_STARTED")
-    _say(f"{reason}: {_wheels(robot)} (log: {path})")
+    say(f"{reason}: {_wheels(robot)} (log: {path})")
     return EXIT_INTERRUPTED
 
 
-def _halted(exc: Exception, sup: Any, robot: Any, log: Any, path: Path) -> int:
+def _halted(exc: Exception, sup: Any, robot: Any, log: Any, path: Path, say: Callable[[str], None]) -> int:
     """An unexpected error: halt and say why in one line (a device fault for a RobotFault)."""
     from clomp.runtime.interface import RobotFault
 
@@ -255,11 +291,11 @@ def _halted(exc: Exception, sup: Any, robot: Any, log: Any, path: Path) -> int:
     else:
         log.write("fault", reason=reason, source="run")
         log.write("stop", reason=reason, status="HALTED")
-    _say(f"halted: {reason}; {_wheels(robot)} (log: {path})")
+    say(f"halted: {reason}; {_wheels(robot)} (log: {path})")
     return EXIT_DEVICE_FAULT if isinstance(exc, RobotFault) else EXIT_NOT_REACHED
 
 
-def _finished(report: Any, robot: Any, path: Path) -> int:
+def _finished(report: Any, robot: Any, path: Path, say: Callable[[str], None]) -> int:
     """Say how the supervisor's run ended; its exit status."""
     from clomp.runtime.supervision import SupervisorState
 
@@ -268,17 +304,19 @@ def _finished(report: Any, robot: Any, path: Path) -> int:
     if state is SupervisorState.GOAL_REACHED:
         print(f"goal reached: {report.reason} ({summary})", flush=True)
         return EXIT_OK
-    if state is SupervisorState.UNREACHABLE:
-        _say(f"goal unreachable: {report.reason}; {_wheels(robot)} ({summary}; log: {path})")
+    if state is SupervisorState.GOAL_UNCONFIRMED:  # at the goal by the estimate, which cannot vouch for it
+        say(f"goal unconfirmed: {report.reason}; {_wheels(robot)} ({summary}; log: {path})")
+    elif state is SupervisorState.UNREACHABLE:
+        say(f"goal unreachable: {report.reason}; {_wheels(robot)} ({summary}; log: {path})")
     else:
-        _say(f"halted: {report.reason}; {_wheels(robot)} ({summary}; log: {path})")
+        say(f"halted: {report.reason}; {_wheels(robot)} ({summary}; log: {path})")
     if robot is not None and robot.fault is not None:
         return EXIT_DEVICE_FAULT  # the devices tripped the robot (the supervisor halted on it)
     return EXIT_NOT_REACHED
 
 
 def _dry_run(robot: Any, conf: Any, goal: tuple[float, float], clock: Any, log: Any,
-             max_time: float | None, path: Path) -> int:
+             max_time: float | None, path: Path, say: Callable[[str], None] = _say) -> int:
     """Plan on every scan without moving: one ``scan`` and one ``plan`` record per scan."""
     from clomp.formal.model import Pose
     from clomp.planner import PlanningError, ScanError
@@ -294,7 +332,7 @@ def _dry_run(robot: Any, conf: Any, goal: tuple[float, float], clock: Any, log: 
         except RobotFault as exc:
             log.write("fault", reason=str(exc), source="dry-run")
             log.write("stop", reason=str(exc), status="HALTED")
-            _say(f"halted: {exc}; {_wheels(robot)} (log: {path})")
+            say(f"halted: {exc}; {_wheels(robot)} (log: {path})")
             return EXIT_DEVICE_FAULT
         if frame is None:
             continue
@@ -328,7 +366,7 @@ def add_emulate_world(devices: Any) -> None:
         "Ctrl-C, then prints where the robot ended and whether it touched anything.",
     )
     w.add_argument("--scenario", default="overtaking", help="scenario name or file (default overtaking)")
-    w.add_argument("--seed", type=int, help="seed of the simulated robot's noise")
+    w.add_argument("--seed", type=seed_arg, help="seed of the simulated robot's noise")
     w.add_argument("--noise", choices=("ideal", "paper", "harsh"), default=None,
                    help="run the execution world with this noise preset (default: the older simulated robot "
                         "with the scenario's noise)")

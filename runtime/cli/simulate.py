@@ -8,24 +8,28 @@ import math
 from pathlib import Path
 from typing import Any
 
+from clomp.planner.inputs import safe_name
 from clomp.planner.scenarios import ScenarioError
+from clomp.runtime.cli._args import seed_arg
 from clomp.runtime.cli import EXIT_NOT_REACHED, EXIT_OK, CliError
-from clomp.runtime.cli._common import load_scene
+from clomp.runtime.cli._common import load_scene, output_folder, output_path
 from clomp.runtime.experiment.onerun import SUCCESS_RADIUS, RunResult, run_once
 from clomp.runtime.experiment.plots import plot_run
 from clomp.runtime.backends.world import WorldNoise
 
-__all__ = ["add_world_options", "check_world_options", "world_noise", "register", "run", "print_summary"]
+__all__ = ["add_world_options", "check_world_options", "exit_status", "world_noise", "register", "run", "print_summary"]
 
 
 def add_world_options(p: Any) -> None:
-    """``--noise``, ``--noise-scale`` and ``--feedback`` (shared by simulate and demo)."""
+    """``--noise``, ``--noise-scale``, ``--feedback`` and ``--no-gyro`` (shared by simulate and demo)."""
     p.add_argument("--noise", choices=("ideal", "paper", "harsh"), default=None,
                    help="noise preset of the execution world (specs/noise_presets.json; default paper, with "
                         "the scenario file's own 'noise' object laid over it)")
     p.add_argument("--noise-scale", type=float, default=1.0, help="factor on every noise term (default 1)")
     p.add_argument("--feedback", choices=("scan", "none"), default="scan",
                    help="pose estimate: scan matching against a local map (default) or dead reckoning only")
+    p.add_argument("--no-gyro", action="store_true",
+                   help="the robot without its rate gyro, as the paper's robot and clomp run without an IMU")
 
 
 def check_world_options(args: argparse.Namespace) -> None:
@@ -51,7 +55,7 @@ def register(sub: Any) -> None:
     p = sub.add_parser("simulate", help="run one scenario on the simulated robot and draw the trajectory", description=__doc__)
     p.add_argument("--scenario", default="overtaking", help="built-in scenario name or JSON file (default overtaking)")
     p.add_argument("--reactive", action="store_true", help="run the reactive baseline instead of the planner")
-    p.add_argument("--seed", type=int, default=None, help="noise seed (default: the scenario's 'seed', else 0)")
+    p.add_argument("--seed", type=seed_arg, default=None, help="noise seed (default: the scenario's 'seed', else 0)")
     add_world_options(p)
     p.add_argument("--no-noise", action="store_true", help="same as --noise ideal")
     p.add_argument("--max-time", type=float, default=120.0, help="simulated seconds allowed (default 120)")
@@ -82,6 +86,13 @@ def print_summary(r: RunResult) -> None:
                 print(f"   {t.time:5.1f} s  {t.source.value} → {t.target.value}: {t.reason}")
 
 
+def exit_status(r: RunResult) -> int:
+    """0 when the robot truly reached the goal without a collision and the supervisor could
+    vouch for it; 1 otherwise (also GOAL_UNCONFIRMED: the estimate could not vouch for it)."""
+    ok = r.reached_goal and r.collisions == 0 and r.end_state != "GOAL_UNCONFIRMED"
+    return EXIT_OK if ok else EXIT_NOT_REACHED
+
+
 def _summary_dict(r: RunResult, png: Path) -> dict[str, Any]:
     return {
         "scenario": r.scene.name,
@@ -89,6 +100,7 @@ def _summary_dict(r: RunResult, png: Path) -> dict[str, Any]:
         "end_state": r.end_state,
         "reason": r.reason,
         "reached_goal": r.reached_goal,
+        "goal_unconfirmed": r.end_state == "GOAL_UNCONFIRMED",
         "final_distance_m": r.final_distance,
         "collisions": r.collisions,
         "time_s": r.time_s,
@@ -107,8 +119,7 @@ def run(args: argparse.Namespace) -> int:
         check_world_options(args)
         noise = WorldNoise.preset("ideal") if args.no_noise else world_noise(args, scene)
         seed = args.seed if args.seed is not None else scene.raw.get("seed", 0)
-        out = Path(args.out)
-        out.mkdir(parents=True, exist_ok=True)
+        out = output_folder(args.out)
         cond = "reactive" if args.reactive else "planning"
     except ScenarioError as exc:
         raise CliError(str(exc)) from None
@@ -119,17 +130,18 @@ def run(args: argparse.Namespace) -> int:
             raise CliError("--log: the reactive baseline has no supervisor and keeps no run log")
         try:
             Path(args.log).parent.mkdir(parents=True, exist_ok=True)
+            output_path(args.log, "--log")  # no FIFO (an open would block), device or read-only file
             open(args.log, "w", encoding="utf-8").close()  # a fresh log, not appended to an old one
         except OSError as exc:
             raise CliError(f"--log: cannot write {args.log}: {exc.strerror or exc}") from None
     try:
         r = run_once(scene, cond, seed, noise=noise, noise_scale=args.noise_scale, max_time=args.max_time,
-                     keep_report=True, log=args.log, feedback=args.feedback)
+                     keep_report=True, log=args.log, feedback=args.feedback, gyro=not args.no_gyro)
     except ScenarioError as exc:  # the scene's noise settings are checked when its robot is built
         raise CliError(str(exc)) from None
     except OSError as exc:
         raise CliError(f"--log: cannot write {args.log}: {exc.strerror or exc}") from None
-    png = out / f"{scene.name}_{cond}.png"
+    png = out / f"{safe_name(scene.name)}_{cond}.png"  # a name from a file: never a path
     plot_run(r.trace(), png, title=f"{scene.name} — {cond}")
     if args.json:
         print(json.dumps(_summary_dict(r, png)))
@@ -138,4 +150,6 @@ def run(args: argparse.Namespace) -> int:
         print(f"  trajectory: {png}")
         if args.log:
             print(f"  run log: {args.log}")
-    return EXIT_OK if r.reached_goal and r.collisions == 0 else EXIT_NOT_REACHED
+        if r.end_state == "GOAL_UNCONFIRMED":  # the last line says why: the distance and its bound
+            print(f"goal unconfirmed: {r.reason}")
+    return exit_status(r)

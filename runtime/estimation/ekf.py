@@ -33,6 +33,14 @@ variance, and updates the calibration terms through their correlation with the p
 a robot that matched its straight drive against a wall learns how its wheels curve, and
 the next straight — where a small box may leave the heading unobservable — curves less.
 
+Matches are made against a map drawn from the estimate itself, so the map carries the
+estimate's errors of when it was drawn; the gain ignores that (it would weaken every
+match), but :attr:`OdometryFilter.honest` counts it: a second covariance, propagated with
+the same motion and updated with the same gain, whose measurement noise adds the map's
+own (``map_sd`` of :meth:`OdometryFilter.correct`). The Joseph form gives the true
+covariance of an estimate for whatever gain made it, so ``honest`` is what the estimate can
+vouch for (issue #36: ``P`` at the goal said 3-5 mm on runs truly 0.1-0.3 m off).
+
 A match that leaves a direction with a share of heading unobserved (rotation about one
 small box, which looks like a step sideways) moves the pose only along the directions it
 observes; the others keep dead reckoning (the gain's share in them, which the pose's
@@ -150,6 +158,7 @@ class OdometryFilter:
         else:
             self.P[3:, 3:] = np.diag(np.square((*self.calibration_sd, self.rate_offset_sd)))
         self.P[:3, :3] = np.eye(3) * 1e-10
+        self.honest = self.P.copy()
 
     @property
     def pose(self) -> Pose:
@@ -171,6 +180,11 @@ class OdometryFilter:
     def sigma_xy(self) -> float:
         """Standard deviation of the position (m, the larger axis)."""
         return float(math.sqrt(max(np.linalg.eigvalsh(self.P[:2, :2])[-1], 0.0)))
+
+    @property
+    def honest_sigma_xy(self) -> float:
+        """Standard deviation of the position (m, the larger axis) by :attr:`honest`."""
+        return float(math.sqrt(max(np.linalg.eigvalsh(self.honest[:2, :2])[-1], 0.0)))
 
     @property
     def sigma_theta(self) -> float:
@@ -199,6 +213,14 @@ class OdometryFilter:
         pp = info[:2, :2] + prior
         marginal = float(info[2, 2] - info[2, :2] @ np.linalg.solve(pp, info[:2, 2]))
         return math.inf if not marginal > 0 else 1.0 / math.sqrt(marginal)
+
+    def inflate(self, position: Sequence[float], heading: float) -> None:
+        """Raise the uncertainty by a disagreement the evidence showed: ``position`` (dx, dy, m)
+        and ``heading`` (rad) added to the covariance (and to :attr:`honest`)."""
+        d = np.asarray(position, dtype=float).reshape(2)
+        for m in (self.P, self.honest):
+            m[:2, :2] += np.outer(d, d)
+            m[2, 2] += heading**2
 
     def shift(self, pose: Pose) -> None:
         """Move the pose estimate to ``pose`` (an outside correction), keeping the covariance."""
@@ -246,6 +268,7 @@ class OdometryFilter:
         q[3:7, 3:7] = np.diag(np.square(self.calibration_walk)) * dt * m
         q[7, 7] = self.rate_offset_walk**2 * dt
         self.P = f @ self.P @ f.T + q
+        self.honest = f @ self.honest @ f.T + q
 
     def zero_rate(self, turned: float, dt: float) -> None:
         """The robot is known to stand still over ``dt`` s, in which the gyro measured
@@ -270,6 +293,8 @@ class OdometryFilter:
         self.x[2] = wrap_angle(float(self.x[2]))
         ikh = np.eye(_N) - np.outer(k, np.eye(_N)[7])
         self.P = ikh @ self.P @ ikh.T + np.outer(k, k) * r
+        self.honest[7, 7] += self.rate_offset_walk**2 * dt
+        self.honest = ikh @ self.honest @ ikh.T + np.outer(k, k) * r
 
     def correct_heading(self, offset: float, sd: float) -> tuple[bool, float]:
         """Update with a heading measured directly: ``offset`` (rad, measured minus the
@@ -299,18 +324,22 @@ class OdometryFilter:
         self.x[2] = wrap_angle(float(self.x[2]))
         ikh = np.eye(_N) - np.outer(k, np.eye(_N)[2])
         self.P = ikh @ self.P @ ikh.T + np.outer(k, k) * sd * sd  # Joseph form
+        self.honest = ikh @ self.honest @ ikh.T + np.outer(k, k) * sd * sd
         return True, d2
 
     def correct(self, innovation: Sequence[float] | np.ndarray, information: Sequence[Sequence[float]] | np.ndarray,
                 min_information: float = 1e-9, floor: Sequence[float] | None = None,
-                learn: bool = True) -> tuple[bool, float]:
+                learn: bool = True, map_sd: tuple[float, float] = (0.0, 0.0)) -> tuple[bool, float]:
         """Update with a measured pose offset ``innovation`` (dx, dy, dtheta: measured minus
         predicted) whose information matrix (3×3, inverse covariance, state units) is
         ``information``; directions with less information than ``min_information`` are
         not measured; ``floor`` (m, m, rad) replaces ``match_floor`` for this match.
         ``learn`` False corrects the pose only and leaves the calibration as it is (a
         revolution seen again from where the last one was matched tells nothing new
-        about the wheels: its errors are the map's, repeated). Returns (accepted, squared Mahalanobis distance per direction)."""
+        about the wheels: its errors are the map's, repeated). ``map_sd`` (m, rad): how
+        wrong the map the match was made against may be (the estimate's own uncertainty
+        when its surfaces were drawn): the gain does not count it, :attr:`honest` does.
+        Returns (accepted, squared Mahalanobis distance per direction)."""
         nu = np.asarray(innovation, dtype=float).reshape(3)
         nu[2] = wrap_angle(float(nu[2]))
         info = np.asarray(information, dtype=float).reshape(3, 3)
@@ -352,4 +381,8 @@ class OdometryFilter:
         self.x[2] = wrap_angle(float(self.x[2]))
         ikh = np.eye(_N) - kgain @ h
         self.P = ikh @ self.P @ ikh.T + kgain @ r @ kgain.T  # Joseph form: stays symmetric, PSD
+        # the same gain, with the map's own error in the measurement: the Joseph form gives
+        # the covariance of this estimate for any gain, so ``honest`` is what it truly is
+        r_map = h[:, :3] @ np.diag([map_sd[0] ** 2, map_sd[0] ** 2, map_sd[1] ** 2]) @ h[:, :3].T
+        self.honest = ikh @ self.honest @ ikh.T + kgain @ (r + r_map) @ kgain.T
         return True, d2

@@ -57,6 +57,7 @@ def run_experiment(
     progress: Callable[[int, int], Any] | None = None,
     on_record: Callable[[dict[str, Any]], None] | None = None,
     feedback: str = "scan",
+    gyro: bool = True,
 ) -> list[dict[str, Any]]:
     """Run an experiment; the records of every run (finished before or now), in spec order.
 
@@ -68,13 +69,14 @@ def run_experiment(
     does not stop the others: at the end :class:`RunsFailed` names the failures (also in
     ``out/errors.jsonl``) and holds the records that finished. ``progress``
     makes a bar from (total, already done); it gets ``update(1)`` per run and ``close()``.
+    ``gyro`` False takes the world's rate gyro off (the paper's robot; ``clomp run`` without an IMU).
 
     >>> recs = run_experiment("overtaking", runs=1, noise="ideal", conditions=("reactive",))
     >>> [(r["condition"], r["run"]) for r in recs]
     [('reactive', 0)]
     """
     specs = experiment_specs(family, runs, seed, noise=noise, noise_scales=noise_scales, conditions=conditions,
-                             max_time=max_time, feedback=feedback)
+                             max_time=max_time, feedback=feedback, gyro=gyro)
     store = _Store(specs, out, resume, progress, on_record)
     todo = [s for s in specs if s.key not in store.done]
     try:

@@ -115,12 +115,13 @@ def world_name() -> str:
 
 
 def make_robot(scene: Scene, *, noise: str = "paper", noise_scale: float = 1.0, seed: int = 0,
-               model: RobotModel | None = None) -> WorldRobot:
-    """A fresh robot at the scene's start; see the module docstring."""
+               model: RobotModel | None = None, gyro: bool = True) -> WorldRobot:
+    """A fresh robot at the scene's start; see the module docstring. ``gyro`` False takes the
+    execution world's rate gyro off (the paper's robot; the fallback world has none)."""
     if noise not in NOISE_PRESETS:
         raise ValueError(f"unknown noise preset {noise!r} (known: {', '.join(NOISE_PRESETS)})")
     factory = _factory()
     if factory is not None:
-        robot: WorldRobot = factory(scene, noise=noise, noise_scale=noise_scale, seed=seed, robot=model)
+        robot: WorldRobot = factory(scene, noise=noise, noise_scale=noise_scale, seed=seed, robot=model, gyro=gyro)
         return robot
     return _TracedSimRobot(scene, model, noise=sim_noise(noise, noise_scale), seed=seed)

@@ -193,6 +193,8 @@ def run_once(
     log: str | os.PathLike[str] | None = None,
     feedback: str = "scan",
     reactive: dict[str, Any] | None = None,
+    gyro: bool = True,
+    supervisor: SupervisorConfig | None = None,
 ) -> RunResult:
     """Run one condition in ``scene`` on a fresh robot; see the module docstring.
 
@@ -205,6 +207,8 @@ def run_once(
     ``feedback``: both conditions' pose estimate (the same robot, the same sensing) —
     ``"scan"`` (scan matching, the default) or ``"none"`` (dead reckoning alone).
     ``reactive``: keyword arguments for the ReactiveController (``bench/experiment_reactive.py``).
+    ``gyro`` False: the execution world's robot without its rate gyro (the paper's robot).
+    ``supervisor``: the planning condition's settings (default: ``SupervisorConfig(feedback=feedback)``).
 
     >>> from clomp.planner import load_scenario
     >>> r = run_once(load_scenario("open"), "reactive", 0, noise="ideal")
@@ -218,9 +222,9 @@ def run_once(
     seed_ = 0 if seed is None else int(seed)
     robot: Any
     if isinstance(noise, str):
-        robot = make_robot(scene, noise=noise, noise_scale=noise_scale, seed=seed_, model=conf.robot)
+        robot = make_robot(scene, noise=noise, noise_scale=noise_scale, seed=seed_, model=conf.robot, gyro=gyro)
     elif isinstance(noise, WorldNoise):
-        robot = make_world_robot(scene, noise, seed=seed_, robot=conf.robot)
+        robot = make_world_robot(scene, noise, seed=seed_, robot=conf.robot, gyro=gyro)
     else:
         from clomp.runtime.experiment.groundtruth import _TracedSimRobot
 
@@ -235,7 +239,8 @@ def run_once(
     if condition == "planning":
         runlog = _open_log(log, robot, scene, condition, seed_, noise, goal) if log is not None else None
         try:
-            sup = Supervisor(robot, goal, conf, config=SupervisorConfig(feedback=feedback),  # type: ignore[arg-type]
+            cfg = supervisor if supervisor is not None else SupervisorConfig(feedback=feedback)
+            sup = Supervisor(robot, goal, conf, config=cfg,  # type: ignore[arg-type]
                              log=None if runlog is None else _TruthLog(runlog, robot, start))
             report = sup.run(max_time=max_time)
         finally:
@@ -255,14 +260,14 @@ def run_once(
     wall, cpu = time.perf_counter() - t0, time.thread_time() - c0
     true = robot.ground_truth_pose()
     dist = math.hypot(true.x - scene.goal[0], true.y - scene.goal[1])
-    believed = bool(report.reached_goal)
+    believed = bool(report.reached_goal)  # it claimed the goal (GOAL_REACHED; not GOAL_UNCONFIRMED)
     episodes = contact_episodes(robot.contact_trace())
     truth = _ground_truth_path(robot, true)
     if expect == "unreachable":
         reached = end_state == "UNREACHABLE" and not any(not e.brush for e in episodes)
     else:
         reached = dist <= SUCCESS_RADIUS
-    if believed and dist > SUCCESS_RADIUS:
+    if report.reached_goal and dist > SUCCESS_RADIUS:
         reason = f"{reason}, but truly {dist:.3f} m from the goal"
     path = [(x, y) for _, x, y, _ in truth[::10]] + [(true.x, true.y)]
     estimate = [_world(start, Pose(x, y, th)) for _, x, y, th in report.trajectory]

@@ -47,14 +47,18 @@ CSV_COLUMNS: dict[str, tuple[str, str]] = {
     "condition": ("", "planning (supervisor + Configurator) or reactive (the single-loop baseline)"),
     "noise": ("", "noise preset of the execution world: ideal, paper or harsh"),
     "noise_scale": ("×", "factor on every noise term of the preset"),
+    "gyro": ("0/1", "the robot had the world's rate gyro (0: --no-gyro, as the paper's robot)"),
     "world": ("", "execution world: world (independent world) or sim (simulated robot)"),
     "layout": ("", "name of the layout drawn: family-seed-run"),
     "expect": ("", "reach (goal reachable) or unreachable (success = stopping and saying so)"),
     "success": ("0/1", "reach: truly within success_radius of the goal at the end; unreachable: "
                        "ended UNREACHABLE with no collision"),
     "reached_goal": ("0/1", "ground truth: final distance to the goal <= success_radius (0.1 m)"),
-    "believed_goal": ("0/1", "the controller stopped because it believed it was at the goal"),
-    "end_state": ("", "final state: GOAL_REACHED, UNREACHABLE, TIMEOUT, HALTED"),
+    "believed_goal": ("0/1", "the controller stopped claiming the goal (GOAL_REACHED)"),
+    "goal_unconfirmed": ("0/1", "the estimate put the robot at the goal but could not vouch for it: its 95 % "
+                                "position bound did not fit in the tolerance (GOAL_UNCONFIRMED, issue #36)"),
+    "false_success": ("0/1", "claimed the goal (GOAL_REACHED) while truly farther than success_radius from it"),
+    "end_state": ("", "final state: GOAL_REACHED, GOAL_UNCONFIRMED, UNREACHABLE, TIMEOUT, HALTED"),
     "final_error_m": ("m", "ground-truth distance from the robot's rotation centre to the goal at the end"),
     "collisions": ("count", "contact episodes (gaps < 1 s merged) that are not brushes (ground truth)"),
     "brushes": ("count", "contact episodes shallower than 1 cm and shorter than 0.5 s"),
@@ -159,6 +163,14 @@ def _ms(vals: Sequence[float]) -> dict[str, float | None]:
     return {"mean": statistics.fmean(vals), "sd": statistics.stdev(vals) if len(vals) > 1 else 0.0}
 
 
+def _false_success(r: dict[str, Any]) -> int:
+    """1 when the run claimed the goal (GOAL_REACHED) while truly farther than the success
+    radius from it (a record written before the column: believed and not reached)."""
+    if r.get("false_success") is not None:
+        return int(r["false_success"])
+    return int(bool(int(r["believed_goal"])) and not int(r["reached_goal"]))
+
+
 def _condition(rs: list[dict[str, Any]]) -> dict[str, Any]:
     n = len(rs)
     succ = sum(int(r["success"]) for r in rs)
@@ -167,6 +179,8 @@ def _condition(rs: list[dict[str, Any]]) -> dict[str, Any]:
         "runs": n,
         "reached_goal": sum(int(r["reached_goal"]) for r in rs),
         "believed_goal": sum(int(r["believed_goal"]) for r in rs),
+        "goal_unconfirmed": sum(int(r.get("goal_unconfirmed") or 0) for r in rs),
+        "false_successes": sum(_false_success(r) for r in rs),
         "success": succ,
         "success_rate": succ / n if n else None,
         "success_ci95": [lo, hi],
@@ -256,6 +270,8 @@ def table(summary: dict[str, Any], paper: dict[str, Any] | None = None) -> str:
         ("success (95 % Wilson)", [_ci(c[n]) for n in names]),
         ("truly at the goal", [f"{c[n]['reached_goal']}/{c[n]['runs']}" for n in names]),
         ("believed at the goal", [f"{c[n]['believed_goal']}/{c[n]['runs']}" for n in names]),
+        ("unconfirmed at the goal", [f"{c[n].get('goal_unconfirmed', 0)}/{c[n]['runs']}" for n in names]),
+        ("false successes", [f"{c[n].get('false_successes', 0)}/{c[n]['runs']}" for n in names]),
         ("collisions (total)", [f"{c[n]['collisions']} (in {c[n]['runs_with_collision']} runs)" for n in names]),
         ("brushes (total)", [str(c[n]["brushes"]) for n in names]),
         ("collisions per run (95 %)", [_per_run(c[n], "collisions_per_run") for n in names]),

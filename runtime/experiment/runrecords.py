@@ -31,7 +31,8 @@ def run_spec(spec: RunSpec) -> dict[str, Any]:
     """
     scene, expect = scene_for(spec)
     r = run_once(scene, spec.condition, noise_seed(spec.seed, spec.run), run=spec.run, noise=spec.noise,
-                 noise_scale=spec.noise_scale, max_time=spec.max_time, expect=expect, feedback=spec.feedback)
+                 noise_scale=spec.noise_scale, max_time=spec.max_time, expect=expect, feedback=spec.feedback,
+                 gyro=spec.gyro)
     return {
         "key": spec.key,
         "family": spec.family,
@@ -41,12 +42,15 @@ def run_spec(spec: RunSpec) -> dict[str, Any]:
         "noise": spec.noise,
         "noise_scale": spec.noise_scale,
         "feedback": spec.feedback,
+        "gyro": int(spec.gyro),
         "world": world_name(),
         "layout": scene.name,
         "expect": expect,
         "success": int(r.reached_goal),
         "reached_goal": int(r.final_distance <= SUCCESS_RADIUS),
         "believed_goal": int(r.believed_goal),
+        "goal_unconfirmed": int(r.end_state == "GOAL_UNCONFIRMED"),
+        "false_success": int(r.end_state == "GOAL_REACHED" and r.final_distance > SUCCESS_RADIUS),
         "end_state": r.end_state,
         "final_error_m": _r(r.final_distance, 4),
         "collisions": r.collisions,

@@ -1,7 +1,7 @@
 """What one run of an experiment depends on, and every run of one: :class:`RunSpec` and its seeding.
 
 A run is (family, seed, run index, condition, noise preset, noise scale, time limit,
-feedback). The layout is :func:`~clomp.runtime.experiment.layouts.make_layout` (family,
+feedback, gyro). The layout is :func:`~clomp.runtime.experiment.layouts.make_layout` (family,
 seed, run) and the world's noise seed (:func:`noise_seed`) depends on (seed, run) only,
 so the two conditions of a run meet the same world and the same noise (paired), and a
 result does not depend on which process computed it or when.
@@ -52,12 +52,19 @@ class RunSpec:
     noise_scale: float = 1.0
     max_time: float = 120.0
     feedback: str = "scan"
+    gyro: bool = True
 
     @property
     def key(self) -> str:
-        """A stable name for the run (the Dask task key and the resume key)."""
+        """A stable name for the run (the Dask task key and the resume key; the defaults,
+        scan feedback and the gyro on, add nothing, so older keys still resume).
+
+        >>> RunSpec("open", 0, 0, "planning", gyro=False).key
+        'open/0/0/planning/paper/1/120/gyro=off'
+        """
         key = f"{self.family}/{self.seed}/{self.run}/{self.condition}/{self.noise}/{self.noise_scale:g}/{self.max_time:g}"
-        return key if self.feedback == "scan" else f"{key}/feedback={self.feedback}"
+        key = key if self.feedback == "scan" else f"{key}/feedback={self.feedback}"
+        return key if self.gyro else f"{key}/gyro=off"
 
 
 def noise_seed(seed: int, run: int) -> int:
@@ -91,7 +98,7 @@ def scene_for(spec: RunSpec) -> tuple[Scene, str]:
 
 def experiment_specs(family: str, runs: int, seed: int = 0, *, noise: str = "paper",
                      noise_scales: Sequence[float] = (1.0,), conditions: Sequence[str] = CONDITIONS,
-                     max_time: float = 120.0, feedback: str = "scan") -> list[RunSpec]:
+                     max_time: float = 120.0, feedback: str = "scan", gyro: bool = True) -> list[RunSpec]:
     """Every run of an experiment, in a fixed order (scale, run, condition); a ValueError
     (or the :class:`~clomp.planner.scenarios.ScenarioError` of an unknown family) now
     rather than in every worker.
@@ -112,5 +119,5 @@ def experiment_specs(family: str, runs: int, seed: int = 0, *, noise: str = "pap
         load_scenario(family)  # a clear ScenarioError now rather than in every worker
     if feedback not in ("scan", "none"):
         raise ValueError(f"feedback must be 'scan' or 'none', got {feedback!r}")
-    return [RunSpec(family, seed, k, c, noise, float(s), max_time, feedback) for s in noise_scales for k in range(runs)
-            for c in conditions]
+    return [RunSpec(family, seed, k, c, noise, float(s), max_time, feedback, bool(gyro)) for s in noise_scales
+            for k in range(runs) for c in conditions]

@@ -168,7 +168,14 @@ def is_bag(path: str | os.PathLike[str]) -> bool:
     (True, True, False)
     """
     p = Path(path)
-    return p.suffix in (".bag", ".mcap", ".db3") or (p.is_dir() and (p / "metadata.yaml").is_file())
+    try:
+        return p.suffix in (".bag", ".mcap", ".db3") or (p.is_dir() and (p / "metadata.yaml").is_file())
+    except OSError:  # an unreadable folder: not a bag that can be read (its reader says why)
+        return False
+
+
+#: ``--time`` beyond this many seconds after a bag's first scan is refused: a year
+_MAX_BAG_SECONDS = 366 * 86400.0
 
 
 class _Bag:
@@ -337,6 +344,8 @@ class LaserScanTopic:
         """The scan nearest to ``seconds`` after the topic's first message (bag time)."""
         if not math.isfinite(seconds) or seconds < 0:
             raise BagError(f"--time: expected seconds >= 0 from the first scan, got {seconds}")
+        if seconds > _MAX_BAG_SECONDS:
+            raise BagError(f"--time: {seconds:g} s is beyond any recording (the limit is {_MAX_BAG_SECONDS:g} s, a year)")
         t0 = self.start_ns()
         if t0 is None:
             raise BagError(f"{self.path}: topic {self.topic} has no messages")

@@ -37,7 +37,7 @@ import numpy as np
 
 from clomp.runtime.records.bags import points_to_ranges
 
-__all__ = ["ConvertError", "McapSummary", "write_mcap", "TOPICS", "A1_BINS"]
+__all__ = ["ConvertError", "McapSummary", "write_mcap", "TOPICS", "A1_BINS", "MAX_BINS"]
 
 A1_BINS = 360 * 64  #: the RPLIDAR A1's angular resolution: 1/64°
 
@@ -164,10 +164,31 @@ class _Out:
         return t["visualization_msgs/msg/MarkerArray"](markers=out)
 
 
+def _finite(x: Any, bound: float = 1e9) -> bool:
+    """A number (not a bool), finite and within ``bound`` of 0 (metres, seconds)."""
+    return isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x) and abs(x) <= bound
+
+
+def _seconds(x: Any, bound: float) -> float | None:
+    """``x`` as seconds from 0 to ``bound``, or None."""
+    return float(x) if _finite(x, bound) and x >= 0 else None
+
+
 def _pose3(v: Any) -> list[float] | None:
-    if isinstance(v, list) and len(v) >= 2 and all(isinstance(x, (int, float)) for x in v[:3]):
+    if isinstance(v, list) and len(v) >= 2 and all(_finite(x) for x in v[:3]):
         return [float(x) for x in v[:3]] + [0.0] * (3 - len(v[:3]))
     return None
+
+
+def _box(b: Any) -> bool:
+    """True for an obstacle box of a plan record: four [x, y] corners of finite numbers."""
+    return isinstance(b, list) and len(b) == 4 and all(isinstance(c, list) and len(c) == 2 and all(_finite(x) for x in c) for c in b)
+
+
+#: at most this many LaserScan readings per revolution (4 × the A1's 1/64°)
+MAX_BINS = 4 * A1_BINS
+#: the latest wall-clock origin a log may give (Unix time, s): the year 2100
+MAX_WALL_S = 4.1e9
 
 
 def write_mcap(
@@ -191,8 +212,8 @@ def write_mcap(
     >>> s.counts, s.skipped
     ({'/scan': 1, '/pose': 1, '/tf': 1}, {'recall': 1})
     """
-    if bins < 8:
-        raise ConvertError(f"bins: at least 8 readings per revolution, got {bins}")
+    if not 8 <= bins <= MAX_BINS:
+        raise ConvertError(f"--bins: from 8 to {MAX_BINS:,} readings per revolution, got {bins:,}")
     (writer_cls, compression), ts = _imports()
     dest = Path(dest)
     summary = McapSummary(dest)
@@ -200,24 +221,35 @@ def write_mcap(
         fh = open(dest, "wb")
     except OSError as exc:
         raise ConvertError(f"cannot write {dest}: {exc.strerror or exc}") from None
-    with fh:
-        out = _Out(fh, ts, writer_cls, compression)
-        base = origin_ns
-        for rec in records:
-            kind = rec.get("event")
-            if base is None:
-                wall = rec.get("wall") if kind == "run" else None
-                base = int(round(float(wall) * 1e9)) if isinstance(wall, (int, float)) else 0
-            t = rec.get("t")
-            if not isinstance(t, (int, float)) or not math.isfinite(t):
-                summary.skipped[str(kind)] = summary.skipped.get(str(kind), 0) + 1
-                continue
-            t_ns = base + int(round(float(t) * 1e9))
-            if not _write_record(out, kind, rec, t_ns, bins, range_max):
-                summary.skipped[str(kind)] = summary.skipped.get(str(kind), 0) + 1
-        out.w.finish()
+    try:
+        with fh:
+            out = _write_all(fh, records, ts, writer_cls, compression, summary, bins, range_max, origin_ns)
+    except OSError as exc:  # a full disk, /dev/full, an I/O error mid-write
+        raise ConvertError(f"cannot write {dest}: {exc.strerror or exc}") from None
     summary.counts = dict(out.counts)
     return summary
+
+
+def _write_all(fh: Any, records: Iterable[dict[str, Any]], ts: Any, writer_cls: Any, compression: Any,
+               summary: McapSummary, bins: int, range_max: float, origin_ns: int | None) -> _Out:
+    """Write every record to the open file ``fh``; the counts of what was passed over go to ``summary``."""
+    out = _Out(fh, ts, writer_cls, compression)
+    base = origin_ns
+    for rec in records:
+        kind = rec.get("event")
+        if base is None:
+            wall = rec.get("wall") if kind == "run" else None
+            wall_s = _seconds(wall, MAX_WALL_S)
+            base = 0 if wall_s is None else int(round(wall_s * 1e9))
+        t = _seconds(rec.get("t"), 1e9)
+        if t is None:
+            summary.skipped[str(kind)] = summary.skipped.get(str(kind), 0) + 1
+            continue
+        t_ns = base + int(round(t * 1e9))
+        if not _write_record(out, kind, rec, t_ns, bins, range_max):
+            summary.skipped[str(kind)] = summary.skipped.get(str(kind), 0) + 1
+    out.w.finish()
+    return out
 
 
 def _write_record(out: _Out, kind: Any, rec: dict[str, Any], t_ns: int, bins: int, range_max: float) -> bool:
@@ -246,12 +278,12 @@ def _write_record(out: _Out, kind: Any, rec: dict[str, Any], t_ns: int, bins: in
         out.write("/plan", t_ns, out.path(t_ns, poses))
         boxes = rec.get("obstacles")
         if isinstance(boxes, list):
-            ok = [b for b in boxes if isinstance(b, list) and len(b) == 4]
+            ok = [b for b in boxes if _box(b)]
             out.write("/obstacles", t_ns, out.markers(t_ns, ok))
         return True
     if kind == "start":
         goal = rec.get("goal")
-        if isinstance(goal, list) and len(goal) == 2:
+        if isinstance(goal, list) and len(goal) == 2 and all(_finite(x) for x in goal):
             out.write("/goal", t_ns, out.pose_stamped(t_ns, [float(goal[0]), float(goal[1]), 0.0]))
             return True
         return False

@@ -44,7 +44,9 @@ from typing import IO, Any, Protocol
 
 import numpy as np
 
-__all__ = ["RunLog", "RunLogLike", "LogError", "read_log", "scans_from_log", "plan_fields"]
+from clomp.planner.inputs import json_lines
+
+__all__ = ["MAX_LOG_TIME_S", "RunLog", "RunLogLike", "LogError", "enumerate_records", "read_log", "scans_from_log", "plan_fields"]
 
 
 class RunLogLike(Protocol):
@@ -150,8 +152,12 @@ class RunLog:
 
 
 def read_log(src: str | os.PathLike[str]) -> Iterator[dict[str, Any]]:
-    """The records of a run log, in order. A truncated last line (a run cut short
-    mid-write) is skipped; any other malformed line raises :class:`LogError`.
+    """The records of a run log, in order, read one line at a time (bounded memory,
+    :func:`clomp.planner.inputs.json_lines`: special files refused, a record at most
+    :data:`~clomp.planner.inputs.MAX_LINE_BYTES`, JSON depth and numbers limited). A
+    truncated last line (a run cut short mid-write) is skipped; any other malformed line,
+    or a record without an ``event`` or with a ``t`` that is not a finite number, raises
+    :class:`LogError` naming the line.
 
     >>> import tempfile
     >>> path = Path(tempfile.mkdtemp()) / "run.jsonl"
@@ -160,33 +166,64 @@ def read_log(src: str | os.PathLike[str]) -> Iterator[dict[str, Any]]:
     >>> [(r["event"], r["reason"]) for r in read_log(path)]
     [('stop', 'done')]
     """
-    path = Path(src)
-    try:
-        lines = path.read_text(encoding="utf-8").splitlines()
-    except (OSError, UnicodeDecodeError) as exc:
-        raise LogError(f"{path}: cannot read ({exc})") from None
-    for n, line in enumerate(lines, 1):
-        if not line.strip():
-            continue
-        try:
-            rec = json.loads(line)
-        except json.JSONDecodeError:
-            if n == len(lines):
-                return
-            raise LogError(f"{path}:{n}: not a JSON record") from None
-        if not isinstance(rec, dict) or "event" not in rec:
-            raise LogError(f"{path}:{n}: a record needs an 'event' key")
+    for _, rec in enumerate_records(Path(src)):
         yield rec
 
 
-def scans_from_log(src: str | os.PathLike[str]) -> Iterator[tuple[str, np.ndarray, tuple[float, float] | None]]:
-    """(label, points, goal in the robot frame or None) for every scan record of a log."""
+#: the largest time a run log's record may carry (s): a year
+MAX_LOG_TIME_S = 366 * 86400.0
+
+
+def _short(value: Any) -> str:
+    text = repr(value)
+    return text if len(text) <= 60 else text[:60] + "…"
+
+
+def _goal(rec: dict[str, Any], where: str) -> tuple[float, float] | None:
+    goal = rec.get("goal")
+    if goal is None:
+        return None
+    if (not isinstance(goal, list) or len(goal) != 2
+            or not all(isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) for v in goal)):
+        raise LogError(f"{where}: field 'goal': expected [x, y] in metres, got {_short(goal)}")
+    return float(goal[0]), float(goal[1])
+
+
+def scans_from_log(src: str | os.PathLike[str]) -> Iterator[tuple[str, Any, tuple[float, float] | None]]:
+    """(label, points, goal in the robot frame or None) for every scan record of a log,
+    streamed. ``points`` is an N×2 array, or — for a record whose points are no scan — a
+    callable raising that scan's :class:`~clomp.planner.ScanError` (a many-scan run
+    records it and goes on); a bad ``goal`` is a :class:`LogError` naming the line."""
+    from clomp.planner.scanfile import ScanError, validate_scan
+
+    path = Path(src)
     k = 0
-    for rec in read_log(src):
+    for n, rec in enumerate_records(path):
         if rec["event"] != "scan":
             continue
         k += 1
-        pts = np.asarray(rec.get("points", []), dtype=float).reshape(-1, 2)
-        goal = rec.get("goal")
-        g = (float(goal[0]), float(goal[1])) if isinstance(goal, list) and len(goal) == 2 else None
-        yield f"scan{k:04d}@{rec.get('t', 0):.3f}s", pts, g
+        where = f"{path}:{n}"
+        g = _goal(rec, where)
+        label = f"scan{k:04d}@{rec.get('t', 0):.3f}s"
+        try:
+            pts: Any = validate_scan(rec.get("points") or np.zeros((0, 2)), f"{where}: field 'points'")
+        except ScanError as exc:
+            pts = _raiser(exc)
+        yield label, pts, g
+
+
+def _raiser(exc: Exception) -> Any:
+    def fail() -> Any:
+        raise exc
+    return fail
+
+
+def enumerate_records(path: Path) -> Iterator[tuple[int, dict[str, Any]]]:
+    """(line number, record) of every record of the run log at ``path`` (see :func:`read_log`)."""
+    for n, rec in json_lines(path, "run log", LogError):
+        if not isinstance(rec, dict) or "event" not in rec:
+            raise LogError(f"{path}:{n}: a record needs an 'event' key")
+        t = rec.get("t", 0.0)
+        if isinstance(t, bool) or not isinstance(t, (int, float)) or not 0 <= t <= MAX_LOG_TIME_S:
+            raise LogError(f"{path}:{n}: field 't': expected seconds from 0 to {MAX_LOG_TIME_S:g}, got {_short(t)}")
+        yield n, rec

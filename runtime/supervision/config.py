@@ -63,6 +63,18 @@ class SupervisorConfig:
       before UNREACHABLE (one fused scan at ``harsh`` can put a surface 2-4 cm into the way).
     - ``deepen``: a search that spent the configurator's budget runs again with this many
       times the budget (:func:`clomp.runtime.supervision.planwatch.plan_deepening`).
+    - ``vouch_radius`` (m): with scan feedback, the goal is *reached* (GOAL_REACHED) only
+      when the estimated distance plus the 95 % bound of the position
+      (``vouch_sigmas`` standard deviations of
+      :meth:`~clomp.runtime.estimation.odometry.ScanOdometry.position_sd`) is within it; an
+      estimate at the goal (within ``goal_radius``) that cannot vouch for it ends
+      GOAL_UNCONFIRMED. Default 0.1 m: the tolerance runs are judged by on ground truth
+      (:data:`clomp.runtime.experiment.onerun.SUCCESS_RADIUS`). None: no bound is asked
+      for (the goal is declared on the estimate alone, as before issue #36). Dead
+      reckoning alone (``feedback="none"``) carries no uncertainty and declares on the
+      estimate.
+    - ``vouch_sigmas``: standard deviations in the bound; 2.45 is the 95 % radius of a
+      2-D normal (the square root of chi-square's 95 % point with 2 degrees of freedom).
 
     >>> SupervisorConfig(confirm=0)
     Traceback (most recent call last):
@@ -88,6 +100,8 @@ class SupervisorConfig:
     start_scans: int = 10
     confirm: int = 3
     deepen: int = 4
+    vouch_radius: float | None = 0.1
+    vouch_sigmas: float = 2.45
 
     def __post_init__(self) -> None:
         if self.feedback not in FEEDBACK:
@@ -99,6 +113,9 @@ class SupervisorConfig:
         _positive_int("settle_scans", self.settle_scans, least=0)
         if self.goal_radius is not None:
             _non_negative("goal_radius", self.goal_radius, positive=True)
+        if self.vouch_radius is not None:
+            _non_negative("vouch_radius", self.vouch_radius, positive=True)
+        _non_negative("vouch_sigmas", self.vouch_sigmas)
         _non_negative("scan_timeout", self.scan_timeout, positive=True)
         _non_negative("min_progress", self.min_progress)
         _non_negative("lookahead", self.lookahead)

@@ -82,7 +82,10 @@ class SupervisorReport:
 
     ``feedback``: one record per revolution of what scan matching did to the estimate;
     ``checks``, ``recalls``, ``fresh_plans``: every plan check, recall attempt and fresh
-    plan, with when (s since start) and how long it took (s).
+    plan, with when (s since start) and how long it took (s). ``goal_distance``,
+    ``goal_bound`` (m): at the end, when the estimate put the robot at the goal, how far
+    from it the estimate was and the 95 % bound of its position
+    (:meth:`~clomp.runtime.supervision.sensing.Sensing.position_bound`).
 
     >>> SupervisorReport(SupervisorState.HALTED, "LiDAR unplugged", 1.5, [], [], [], [], (1.0, 0.0)).reached_goal
     False
@@ -100,6 +103,8 @@ class SupervisorReport:
     checks: list[TimedRecord] = dataclasses.field(default_factory=list)
     recalls: list[TimedRecord] = dataclasses.field(default_factory=list)
     fresh_plans: list[TimedRecord] = dataclasses.field(default_factory=list)
+    goal_distance: float | None = None
+    goal_bound: float | None = None
 
     @property
     def reached_goal(self) -> bool:

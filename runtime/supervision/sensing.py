@@ -128,6 +128,19 @@ class Sensing:
             self.clean_scan, self.scan_pose = self.estimator.last_points, self.estimator.pose_at(frame.timestamp)
         return rec
 
+    def position_bound(self, sigmas: float) -> float | None:
+        """``sigmas`` standard deviations of the position estimate (m), what the estimate
+        can vouch for (:meth:`~clomp.runtime.estimation.odometry.ScanOdometry.position_sd`);
+        None without scan feedback (dead reckoning alone carries no uncertainty).
+
+        >>> from clomp.planner import load_scenario
+        >>> from clomp.runtime.backends.sim import SimRobot
+        >>> s = Sensing(SimRobot(load_scenario("open"), seed=0), RobotModel(), SupervisorConfig())
+        >>> s.position_bound(2.45) < 0.001
+        True
+        """
+        return None if self.estimator is None else sigmas * self.estimator.position_sd()
+
     def drove(self, cmd: tuple[float, float]) -> None:
         """The wheels were commanded ``cmd``: a turn smears the revolution under way."""
         self.turned = self.turned or turning(cmd)

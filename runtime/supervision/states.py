@@ -4,6 +4,7 @@
 
     IDLE ─start→ PLANNING ─planned→ EXECUTING ─next_task→ EXECUTING
                  PLANNING ─at_goal→ GOAL_REACHED      EXECUTING ─at_goal→ GOAL_REACHED
+                 PLANNING ─goal_unconfirmed→ GOAL_UNCONFIRMED (also from EXECUTING, REPLANNING)
                  PLANNING ─no_plan→ UNREACHABLE       EXECUTING ─plan_short / disagree→ REPLANNING
                  REPLANNING ─planned / at_goal / no_plan→ (as from PLANNING)
     any non-terminal state ─fault / abort→ HALTED
@@ -20,7 +21,7 @@ the machine through :mod:`clomp.formal.export` (:func:`clomp.formal.control.mach
 >>> TRANSITIONS[(SupervisorState.IDLE, Event.START)].value
 'PLANNING'
 >>> sorted(s.value for s in TERMINAL)
-['GOAL_REACHED', 'HALTED', 'UNREACHABLE']
+['GOAL_REACHED', 'GOAL_UNCONFIRMED', 'HALTED', 'UNREACHABLE']
 """
 
 from __future__ import annotations
@@ -48,7 +49,7 @@ class SupervisorState(str, enum.Enum):
     """The supervisor's states.
 
     >>> [s.value for s in SupervisorState if s in TERMINAL]
-    ['GOAL_REACHED', 'UNREACHABLE', 'HALTED']
+    ['GOAL_REACHED', 'GOAL_UNCONFIRMED', 'UNREACHABLE', 'HALTED']
     """
 
     IDLE = "IDLE"
@@ -56,6 +57,7 @@ class SupervisorState(str, enum.Enum):
     EXECUTING = "EXECUTING"
     REPLANNING = "REPLANNING"
     GOAL_REACHED = "GOAL_REACHED"
+    GOAL_UNCONFIRMED = "GOAL_UNCONFIRMED"
     UNREACHABLE = "UNREACHABLE"
     HALTED = "HALTED"
 
@@ -70,6 +72,7 @@ class Event(str, enum.Enum):
     START = "start"
     PLANNED = "planned"
     AT_GOAL = "at_goal"
+    GOAL_UNCONFIRMED = "goal_unconfirmed"
     NO_PLAN = "no_plan"
     NEXT_TASK = "next_task"
     PLAN_SHORT = "plan_short"

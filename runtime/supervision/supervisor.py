@@ -1,7 +1,8 @@
 """The supervisor: executes the Configurator's plans closed-loop on a robot and replans.
 
 It follows the state machine of :mod:`clomp.runtime.supervision.states` (IDLE → PLANNING →
-EXECUTING ⇄ REPLANNING → GOAL_REACHED / UNREACHABLE, any → HALTED on a fault or abort).
+EXECUTING ⇄ REPLANNING → GOAL_REACHED / GOAL_UNCONFIRMED / UNREACHABLE, any → HALTED on a fault
+or abort).
 
 Each control tick (:meth:`Supervisor.step`) reads the newest scan, updates the pose
 estimate and acts on the state. The estimate (``feedback="scan"``, the default) is
@@ -27,6 +28,13 @@ reckoning alone. The goal, the remaining plan and every task's error signal come
   goes to REPLANNING too (with scan feedback): the robot stands, the still revolutions
   correct the estimate, and the goal is declared (or approached anew) on the settled one,
   within ``goal_radius`` (default: the planner's goal tolerance, 0.05 m; 0.08 m before).
+- At the goal by the estimate, the estimate must vouch for it (issue #36): GOAL_REACHED
+  only when the distance plus the 95 % bound of the position (``vouch_sigmas`` standard
+  deviations of :meth:`~clomp.runtime.estimation.odometry.ScanOdometry.position_sd`: the
+  filter's covariance with what it cannot see of itself) is within ``vouch_radius``
+  (0.1 m); otherwise the run ends GOAL_UNCONFIRMED, the distance and the bound in its
+  reason, its report and the log's ``stop`` record (``distance``, ``bound``). Runs ended
+  GOAL_REACHED while truly 0.1-1.35 m off before (harsh, no gyro: 19 %).
 - REPLANNING: after the wheels settled, from ``fuse_scans`` revolutions fused into one
   (median range per bearing), first *recall*: match the situation to a state of the map
   it already has and continue the map's plan from there if the new scan agrees
@@ -104,8 +112,10 @@ class Supervisor:
     >>> from clomp.runtime.backends.sim import SimRobot
     >>> scene = load_scenario("open")
     >>> report = Supervisor(SimRobot(scene, seed=0), scene.goal_in_robot_frame()).run(max_time=60)
-    >>> report.state.value, report.replans
-    ('GOAL_REACHED', 0)
+    >>> report.state.value, report.replans       # nothing in sight: dead reckoning cannot vouch for 0.1 m
+    ('GOAL_UNCONFIRMED', 0)
+    >>> round(report.goal_bound, 2)
+    0.48
     >>> Supervisor(SimRobot(scene, seed=0), (1.0, 0.0), config=SupervisorConfig(feedback="none")).estimator is None
     True
     """
@@ -147,6 +157,7 @@ class Supervisor:
         self._plan: PlanRecord | None = None
         self.fresh_plans: list[TimedRecord] = []
         self._check_due = False
+        self._goal_end: tuple[float, float | None] | None = None  # (distance, 95 % bound) when it ended at the goal
         self.watch = PlanWatch(self.model, self._log)  # hazard test, plan check, recall (clomp.runtime.supervision.planwatch)
         self.alarms = self.watch.alarms
         self.checks, self.recalls = self.watch.checks, self.watch.recalls
@@ -154,7 +165,7 @@ class Supervisor:
     # -- public -------------------------------------------------------------------------------
     @property
     def terminal(self) -> bool:
-        """True in GOAL_REACHED, UNREACHABLE or HALTED."""
+        """True in GOAL_REACHED, GOAL_UNCONFIRMED, UNREACHABLE or HALTED."""
         return self.state in TERMINAL
 
     @property
@@ -255,6 +266,8 @@ class Supervisor:
             list(self.checks),
             list(self.recalls),
             list(self.fresh_plans),
+            None if self._goal_end is None else self._goal_end[0],
+            None if self._goal_end is None else self._goal_end[1],
         )
 
     # -- machinery -------------------------------------------------------------------------------
@@ -276,7 +289,8 @@ class Supervisor:
         if event is E.FAULT:
             self._log("fault", reason=reason)
         if target in TERMINAL:
-            self._log("stop", reason=reason, status=target.value)
+            extra = {} if self._goal_end is None else {"distance": self._goal_end[0], "bound": self._goal_end[1]}
+            self._log("stop", reason=reason, status=target.value, **extra)
 
     def _halt(self, event: Event, reason: str) -> None:
         self._stop_wheels()
@@ -353,7 +367,7 @@ class Supervisor:
         """At the goal, out of plans, or stuck: fire the end and say so."""
         cfg = self.config
         if dist <= self.goal_radius:
-            self._fire(E.AT_GOAL, f"at the goal ({dist:.3f} m)")
+            self._at_goal(dist, "at the goal")
             return True
         if len(self.fresh_plans) >= cfg.max_plans:
             self._fire(E.NO_PLAN, f"gave up after {len(self.fresh_plans)} plans")
@@ -469,13 +483,28 @@ class Supervisor:
         g = relative(self.pose, self.goal)
         dist = math.hypot(g.x, g.y)
         if dist <= self.goal_radius and self.estimator is None:
-            self._fire(E.AT_GOAL, f"plan done at the goal ({dist:.3f} m)")
+            self._at_goal(dist, "plan done at the goal")
         elif dist <= self.goal_radius:
             # the estimate taken while driving: stand, let the still revolutions correct it,
             # and decide on the settled pose (REPLANNING ends at the goal or approaches anew)
             self._fire(E.PLAN_SHORT, f"plan done at the goal by the moving estimate ({dist:.3f} m): settling")
         else:
             self._fire(E.PLAN_SHORT, f"plan done {dist:.3f} m short of the goal")
+
+    def _at_goal(self, dist: float, what: str) -> None:
+        """The estimate is ``dist`` m from the goal, within ``goal_radius``: GOAL_REACHED when
+        the distance plus the position's 95 % bound is within ``vouch_radius`` (or no bound
+        is asked for or known), else GOAL_UNCONFIRMED; both say the distance and the bound."""
+        cfg = self.config
+        bound = self.sensing.position_bound(cfg.vouch_sigmas)
+        self._goal_end = (dist, bound)
+        if bound is None or cfg.vouch_radius is None:
+            self._fire(E.AT_GOAL, f"{what} ({dist:.3f} m)")
+        elif dist + bound <= cfg.vouch_radius:
+            self._fire(E.AT_GOAL, f"{what} ({dist:.3f} m, 95 % bound {bound:.3f} m)")
+        else:
+            self._fire(E.GOAL_UNCONFIRMED, f"{what} by the estimate ({dist:.3f} m), but its 95 % bound {bound:.3f} m "
+                                           f"cannot vouch for {cfg.vouch_radius:g} m: unconfirmed")
 
     def _hazard(self, task: Task, error: float) -> str | None:
         """A reason to interrupt: the newest scan has points in the body's remaining path."""

@@ -18,7 +18,8 @@ def _verdicts(machine: Machine) -> dict[str, tuple[bool | None, list[str]]]:
 
 def test_the_shipped_machine_satisfies_every_property():
     v = _verdicts(SUPERVISOR)
-    assert set(v) == {"wheels_only_on_a_task", "fault_stops_the_wheels", "terminal_is_still", "nonblocking", "goal_possible"}
+    assert set(v) == {"wheels_only_on_a_task", "fault_stops_the_wheels", "terminal_is_still", "nonblocking", "goal_possible",
+                      "unconfirmed_stays_unconfirmed"}
     assert all(passed for passed, _ in v.values()), v
 
 
@@ -40,7 +41,7 @@ def test_wheels_on_in_replanning_fails_in_storm():
 
 def test_events_are_split_into_controllable_and_uncontrollable():
     assert SUPERVISOR.controllable == {"start", "planned", "next_task", "abort"}
-    assert SUPERVISOR.uncontrollable == {"no_plan", "at_goal", "plan_short", "disagree", "fault"}
+    assert SUPERVISOR.uncontrollable == {"no_plan", "at_goal", "goal_unconfirmed", "plan_short", "disagree", "fault"}
     assert all(t.guard is None or t.guard in SUPERVISOR.guards for t in SUPERVISOR.transitions)
 
 
@@ -84,3 +85,15 @@ def test_the_machine_renders_through_the_exporters_and_both_tools_agree():
         pytest.skip("PRISM not found")
     cc = cross_check(m, "mdp", files=[read_properties(machine_property_file())], title="machine")
     assert cc.agrees, (cc.disagreements(), {k: v[:2] for k, v in cc.loads.items()})
+
+
+def test_goal_unconfirmed_is_a_terminal_end_the_checks_keep():
+    """Issue #36: an end at the goal the estimate cannot vouch for. Terminal, reached on the
+    uncontrollable ``goal_unconfirmed`` wherever ``at_goal`` can happen; the machine stays
+    controllable and non-blocking, and leaving the event out of EXECUTING breaks it."""
+    assert "GOAL_UNCONFIRMED" in SUPERVISOR.terminal and "goal_unconfirmed" in SUPERVISOR.uncontrollable
+    for s in ("PLANNING", "EXECUTING", "REPLANNING"):
+        assert SUPERVISOR.target(s, "goal_unconfirmed") == "GOAL_UNCONFIRMED"
+    assert controllability(SUPERVISOR, PLANT).ok and nonblocking(SUPERVISOR, PLANT).ok
+    broken = SUPERVISOR.with_transition("EXECUTING", "goal_unconfirmed", None)
+    assert not controllability(broken, PLANT).ok

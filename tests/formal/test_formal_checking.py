@@ -100,7 +100,7 @@ def test_required_properties_hold_on_recorded_scans(scan_maps):
 @needs_storm
 def test_supervised_overtaking_reaches_the_goal_without_collision(scenario_map):
     results = {r.spec.name: r.value for r in check_map_properties(scenario_map("overtaking"))}
-    assert results["goal"] == pytest.approx(1.0) and results["no_collision"] == pytest.approx(0.0)
+    assert results["p_goal"] == pytest.approx(1.0) and results["no_collision"] == pytest.approx(0.0)
     assert results["distance"] == pytest.approx(plan_distance(scenario_map("overtaking")))
 
 
@@ -503,3 +503,91 @@ def test_cli_export_learn_from_a_run_log_uses_the_scans_taken_at_one_pose(clomp,
     bad.write_text('{"t": 0, "event": "run"}\n')
     code, _, err = clomp("export", "--scan", str(bad), "--learn", "-f", "json", "-o", str(out))
     assert code == 2 and "no scan records" in err
+
+
+# -- the demo's supervisor export and the supervisor's property file ----------------------------------
+@needs_storm
+def test_cli_check_passes_the_demos_supervisor_export_with_its_property_file(clomp, tmp_path):
+    """Before: ``supervisor.prism`` was the machine alone (``driving`` and ``after_fault``
+    constant false): ``--specs machine.pctl`` FAILed wheels_only_on_a_task, and without
+    ``--specs`` the map's files were tried on it (exit 2)."""
+    from clomp.formal.checking import shipped_property_files
+    from clomp.runtime.cli.demo import supervisor_closed_loop_prism
+
+    path = tmp_path / "supervisor.prism"
+    path.write_text(supervisor_closed_loop_prism())
+    machine = next(p for p in shipped_property_files() if p.parent.name == "supervisor")
+    for argv in (("--specs", str(machine)), ()):
+        code, out, _ = clomp("check", str(path), *argv)
+        assert code == 0, out
+        assert "wheels_only_on_a_task" in out and "FAIL" not in out and "no_collision" not in out
+
+
+@needs_storm
+def test_cli_check_keeps_storms_cpp_log_off_stdout(tmp_path, capfd):
+    """Before: Storm's ``ERROR (SparsePropositionalModelChecker.cpp:46)`` line reached
+    stdout (fd 1, under Python's sys.stdout) when a property named an unknown label."""
+    import clomp.runtime.cli as cli
+    from clomp.runtime.cli.demo import supervisor_closed_loop_prism
+
+    path = tmp_path / "supervisor.prism"
+    path.write_text(supervisor_closed_loop_prism())
+    unsupervised = next(p for p in default_property_files() if p.name == "unsupervised.pctl")
+    capfd.readouterr()
+    code = cli.main(["check", str(path), "--specs", str(unsupervised)])
+    fd = capfd.readouterr()
+    assert code == 2
+    assert "unknown label" in fd.err and "Storm" in fd.err
+    assert ".cpp" not in fd.out and ".cpp" not in fd.err
+
+
+# -- exports say what they hold ---------------------------------------------------------------------
+def _file_states(path: Path) -> int:
+    """The states a written PRISM-language or DRN file holds, read from the file."""
+    import re
+
+    text = path.read_text()
+    if path.suffix == ".drn":
+        return len(re.findall(r"^state \d+", text, re.M))
+    return len(set(re.findall(r"^\s*\[\w+\] q=(\d+) ->", text, re.M)))
+
+
+@pytest.mark.parametrize("kind", ["mdp", "dtmc"])
+@pytest.mark.parametrize("fmt", ["prism", "drn"])
+def test_cli_export_prints_the_files_state_count(clomp, tmp_path, kind, fmt):
+    """Before: ``--model dtmc`` printed the map's 15 states for a file of 6."""
+    import re
+
+    path = tmp_path / f"ov.{fmt}"
+    code, out, _ = clomp("export", "--scenario", "overtaking", "-f", fmt, "--model", kind, "-o", str(path))
+    assert code == 0
+    m = re.search(r"(\d+) states?( \+ 1 unreachable label_holder state)?\)$", out.strip())
+    assert m, out
+    assert int(m.group(1)) + (1 if m.group(2) else 0) == _file_states(path)
+
+
+@pytest.mark.parametrize("extra", [("--model", "dtmc"), ("--model", "mdp"), ("--policy", "storm")])
+def test_cli_export_json_refuses_model_options(clomp, tmp_path, extra):
+    """Before: ``-f json --model dtmc`` wrote the same bytes as ``--model mdp``, silently."""
+    code, out, err = clomp("export", "--scenario", "open", "-f", "json", *extra, "-o", str(tmp_path / "m.json"))
+    assert code == 2 and out == ""
+    assert err.count("\n") == 1 and err.startswith(f"clomp: error: {extra[0]} does not apply to -f json")
+    assert not (tmp_path / "m.json").exists()
+
+
+@needs_storm
+def test_cli_export_dtmc_fixes_the_plans_or_storms_policy(clomp, tmp_path, risky_map):
+    """``--policy plan`` (default) is the best-first plan's DTMC (the short STRAIGHT,
+    collision 1 in 5); ``--policy storm`` the DTMC of Storm's scheduler (the detour)."""
+    from clomp.formal.checking import load_storm_model
+
+    risky_map.write_json(tmp_path / "risky.json")
+    got = {}
+    for policy in ("plan", "storm"):
+        path = tmp_path / f"{policy}.drn"
+        code, out, _ = clomp("export", "--map", str(tmp_path / "risky.json"), "-f", "drn", "--model", "dtmc", "--policy", policy, "-o", str(path))
+        assert code == 0, out
+        (r,) = check_properties(load_storm_model(path), [PropertySpec('P=? [!"collision" U "goal"]', "safe")])
+        got[policy] = r.value
+    assert got == pytest.approx({"plan": 0.8, "storm": 1.0}, abs=1e-12)
+    assert clomp("export", "--map", str(tmp_path / "risky.json"), "-f", "drn", "--policy", "storm", "-o", str(tmp_path / "x.drn"))[0] == 2

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import json
 import math
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -338,3 +339,19 @@ def test_a_point_survives_the_bearing_grid_and_the_mounting_offset(r, a, off):
     (w,) = laserscan_points(ANGLE_MIN, INC, ranges, RANGE_MIN, RANGE_MAX, off)
     c, s = math.cos(off[2]), math.sin(off[2])
     assert math.dist(w, (off[0] + c * q[0] - s * q[1], off[1] + s * q[0] + c * q[1])) <= 1e-9
+
+
+@pytest.mark.parametrize("time", ["1e300", "1e12"])
+def test_a_time_far_beyond_any_recording_is_one_line(recorded, capsys, time):
+    """``--time 1e300`` overflowed to a traceback (issue #43): it is beyond any bag."""
+    _, _, bags, _ = recorded
+    r = cli(capsys, "plan", "--scan", str(bags["ros1"]), "--time", time)
+    assert r.returncode == 2 and r.stderr.startswith("clomp: error: --time: ") and len(r.stderr.splitlines()) == 1, r.stderr
+
+
+@pytest.mark.parametrize("command", ["plan", "replay"])
+def test_a_fifo_named_like_a_bag_is_refused_before_it_is_opened(tmp_path, capsys, command):
+    fifo = tmp_path / "run.mcap"
+    os.mkfifo(fifo)
+    r = cli(capsys, command, *(["--scan"] if command == "plan" else []), str(fifo))
+    assert r.returncode == 2 and r.stderr == f"clomp: error: {fifo}: is a FIFO (named pipe), not a ROS bag\n", r.stderr

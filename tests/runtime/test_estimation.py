@@ -471,3 +471,23 @@ def test_a_robot_displaced_sideways_is_corrected_sideways() -> None:
     assert rec.ok, rec.reason
     assert rec.correction[1] > 0.02 and odo.pose.y == pytest.approx(0.03, abs=0.005), (rec.correction, odo.pose)
     assert abs(odo.pose.x - believed.x) < 0.005  # and nothing else moved much
+
+
+def test_with_odometry_the_gyro_offset_is_learnt_standing_still() -> None:
+    """A base with wheel odometry and a gyro that reads 0.05 rad/s standing (clomp ros node
+    with /odom and /imu): standing, the offset is learnt, so 5 s of driving straight
+    afterwards do not turn the estimate (without, it turned by 0.25 rad)."""
+    est = ScanOdometry(0.15)
+    est.reset(Pose(0.0, 0.0, 0.0), 0.0)
+    t, bias = 0.0, 0.05
+    for _ in range(50):  # 5 s standing, wheels commanded still
+        t += 0.1
+        est.advance(t, (0.0, 0.0), Pose(0.0, 0.0, 0.0), bias * t)
+    heading = est.pose.theta
+    x = 0.0
+    for _ in range(50):  # 5 s straight at 0.1 m/s: the odometry moves, the gyro reads only its offset
+        t += 0.1
+        x += 0.01
+        est.advance(t, (0.1, 0.1), Pose(x, 0.0, 0.0), bias * t)
+    assert abs(est.pose.theta - heading) < 0.01
+    assert est.pose.x == pytest.approx(0.5, abs=0.01)

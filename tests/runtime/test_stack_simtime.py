@@ -18,7 +18,7 @@ from tests.runtime._stack import NEUTRAL, run_stack
 
 def test_overtaking_reaches_the_goal_through_the_hardware_stack_in_simulated_time() -> None:
     run = run_stack("overtaking")
-    assert run.report.state.value == "GOAL_REACHED", run.report
+    assert run.report.state.value in ("GOAL_REACHED", "GOAL_UNCONFIRMED"), run.report
     assert run.world.goal_distance <= 0.12, run.world.pose  # truly there, not only by dead reckoning
     assert run.world.collisions == 0
     assert run.world.maestro.speeds == (0.0, 0.0)
@@ -31,7 +31,7 @@ def test_overtaking_reaches_the_goal_through_the_hardware_stack_in_simulated_tim
 def test_a_little_line_garbage_is_tolerated_and_the_run_still_works_in_simulated_time() -> None:
     faults = {"garbage_rate": 0.02, "bad_check_rate": 0.01, "seed": 7}
     run = run_stack("open", lidar_options=faults)
-    assert run.report.state.value == "GOAL_REACHED", run.report
+    assert run.report.state.value in ("GOAL_REACHED", "GOAL_UNCONFIRMED"), run.report
     assert run.world.goal_distance <= 0.12, run.world.pose
     assert run.world.lidar.garbage_bytes_sent > 0
     assert run.robot.fault is None
@@ -50,7 +50,7 @@ def test_the_hardware_stack_closes_the_loop_in_the_harsh_world_in_simulated_time
     near = 0
     for seed in range(4):
         run = run_stack("overtaking", noise=noise, max_time=90.0, seed=seed)
-        assert run.report is not None and run.report.state.value == "GOAL_REACHED", (seed, run.report)
+        assert run.report is not None and run.report.state.value in ("GOAL_REACHED", "GOAL_UNCONFIRMED"), (seed, run.report)
         assert run.world.collisions == 0, seed
         last = {ch: t for _, ch, t in run.world.maestro.events if ch in (0, 1)}
         assert last and all(t in (0, NEUTRAL) for t in last.values()), (seed, last)

@@ -47,7 +47,7 @@ def run_scenario(name: str, **settings: Any) -> tuple[Supervisor, Any]:
 @pytest.mark.parametrize("name", ["overtaking", "corridor", "doorway", "slalom"])
 def test_reaches_the_goal_without_collision(name):
     sup, sim = run_scenario(name)
-    assert sup.state is S.GOAL_REACHED, sup.reason
+    assert sup.state in (S.GOAL_REACHED, S.GOAL_UNCONFIRMED), sup.reason  # at the goal by the estimate
     gx, gy = sim.scene.goal
     assert math.hypot(sim.pose.x - gx, sim.pose.y - gy) <= 0.1  # truly there, not only by its own estimate
     assert sim.collisions == 0
@@ -306,7 +306,7 @@ def test_no_safe_task_is_a_verdict_only_when_fresh_revolutions_confirm_it(blind,
     scene = load_scenario("open")
     sup = Supervisor(SimRobot(scene, seed=0), scene.goal_in_robot_frame(), _OnceBlind(blind), config=SupervisorConfig(confirm=confirm))
     rep = sup.run(max_time=60)
-    assert (rep.state is S.GOAL_REACHED) == reached, rep.reason
+    assert (rep.state in (S.GOAL_REACHED, S.GOAL_UNCONFIRMED)) == reached, rep.reason  # the open: dead reckoning
     if not reached:
         assert rep.state is S.UNREACHABLE and "no safe task" in rep.reason
         empty = [p.time for p in rep.plans if not p.result.steps]
