@@ -65,7 +65,7 @@ def one(scenario: str, noise: str, seed: int, imu: bool, max_time: float) -> dic
 def summary(label: str, rows: list[dict[str, Any]]) -> str:
     reached = [r for r in rows if r["state"] is SupervisorState.GOAL_REACHED]
     false = [r for r in reached if r["true"] > 0.1]
-    unconf = "n/a (no GOAL_UNCONFIRMED on this branch): 0" if UNCONFIRMED is None else \
+    unconf = "n/a (no GOAL_UNCONFIRMED here): 0" if UNCONFIRMED is None else \
         str(sum(r["state"] is UNCONFIRMED for r in rows))
     faults = sum(r["fault"] is not None for r in rows)
     med = statistics.median
@@ -130,7 +130,7 @@ def main(argv: list[str] | None = None) -> int:
             state = r["state"].value if r["state"] is not None else "raised"
             print(f"seed {seed:2d} {label:>12}: {state:<13} true {r['true']:.3f} m  estimate off {r['est']:.3f} m"
                   f"{'  fault: ' + r['fault'] if r['fault'] else ''}  ({r['wall']:.1f} s wall)", flush=True)
-    print(f"{args.runs} runs of {args.scenario}, noise {args.noise}, simulated time:")
+    print(f"{args.runs} runs of {args.scenario}, noise {args.noise}, simulated time:", flush=True)
     for label, rows in results.items():
         print(summary(label, rows))
     return 0
