@@ -1,7 +1,8 @@
 """``clomp run``'s status line: what the run does, one line on a terminal, updated in place.
 
-State, task, the estimated distance to the goal with its bound (two standard deviations of
-the estimate's position), LiDAR revolutions, and the LiDAR's and IMU's health. Drawn only
+State, task, the estimated distance to the goal with its bound (the 95 % bound of the
+estimate's position the supervisor vouches with,
+:meth:`~clomp.runtime.supervision.sensing.Sensing.position_bound`), LiDAR revolutions, and the LiDAR's and IMU's health. Drawn only
 when standard error is a terminal (:func:`~clomp.runtime.cli._progress.enabled_for`): in a
 pipe, a file or a test's captured output ``clomp run`` prints exactly what it printed
 before. The line is cleared before the run's final line.
@@ -35,8 +36,7 @@ def status_text(state: str, task: str | None, dist: float, bound: float | None, 
 def _snapshot(sup: Any, robot: Any) -> str:
     """The supervisor's and the robot's state now, read from another thread (for display only)."""
     gx, gy = sup.goal_in_robot_frame()
-    est = sup.estimator
-    bound = None if est is None else 2.0 * est.filter.sigma_xy
+    bound = sup.sensing.position_bound(sup.config.vouch_sigmas)
     task = getattr(getattr(sup, "_task", None), "kind", None)
     fault = robot.fault
     imu = getattr(robot, "imu", None)

@@ -13,7 +13,9 @@ from clomp.runtime.supervision import Supervisor
 
 
 def _run(imu_fault: object = None) -> tuple[SimpleNamespace, SimpleNamespace]:
-    sup = SimpleNamespace(state=SimpleNamespace(value="EXECUTING"), estimator=None, _task=None,
+    sup = SimpleNamespace(state=SimpleNamespace(value="EXECUTING"), _task=None,
+                          sensing=SimpleNamespace(position_bound=lambda sigmas: None),
+                          config=SimpleNamespace(vouch_sigmas=2.45),
                           goal_in_robot_frame=lambda: (0.3, 0.4))
     imu = SimpleNamespace(fault=imu_fault)
     robot = SimpleNamespace(fault=None if imu_fault is None else "IMU on x failed", scans=12, imu=imu)
