@@ -1,5 +1,10 @@
 """An emulated world for the hardware stack: the device emulators wired to a simulated robot.
 
+Three devices: the LiDAR and the Maestro, and a BNO08x IMU in UART-RVC mode reporting the
+world's true heading at 100 Hz with a drift, noise, scale error, dropped reports and
+garbage bursts drawn from the noise preset (:mod:`clomp.runtime.backends._imu`), for
+``clomp run --imu``; a run without it never opens its port.
+
 :class:`EmulatedWorld` runs a :class:`~clomp.runtime.backends.sim.SimRobot` (the ground truth of a
 scenario) in real time — a thread advances it every ``tick`` seconds of wall time — and
 puts the two device emulators on pseudo-terminals in front of it: the Maestro
@@ -36,9 +41,11 @@ from clomp.formal.geometry import polar_to_xy
 from clomp.formal.model import Pose
 from clomp.planner.robot_model import RobotModel
 from clomp.planner.scenarios import Scene, load_scenario
+from clomp.runtime.devices.bno08x_emulator import Bno08xEmulator
 from clomp.runtime.devices.maestro_emulator import MaestroEmulator
 from clomp.runtime.devices.rplidar_emulator import LidarEmulator
 from clomp.runtime.devices.maestro import WheelConfig
+from clomp.runtime.backends._imu import imu_terms
 from clomp.runtime.backends.sim import NoiseConfig, SimRobot
 from clomp.runtime.realtime import favour_this_thread
 from clomp.runtime.backends.world import WorldNoise, WorldRobot, make_world_robot
@@ -58,6 +65,8 @@ class EmulatedWorld:
     wheel mapping (``left``, ``right``, ``neutral_us``, ``span_us``) must match the
     driver's. ``lidar_options`` are passed to :class:`LidarEmulator` (fault injection);
     its attributes such as ``garbage_rate`` can also be changed while it runs.
+    ``imu_options`` are laid over the IMU emulator's arguments the preset gives
+    (:func:`~clomp.runtime.backends._imu.imu_terms`; e.g. ``{"drop_rate": 0.0}``).
     ``serial_timeout`` is the Maestro's own fail-safe (off by default, as on a new
     board): no byte for that long sends the wheels home (stopped).
 
@@ -81,6 +90,7 @@ class EmulatedWorld:
         span_us: float = 100.0,
         device_number: int = 12,
         lidar_options: dict[str, Any] | None = None,
+        imu_options: dict[str, Any] | None = None,
         serial_timeout: float | None = None,
         clock: Clock | None = None,
     ) -> None:
@@ -118,6 +128,9 @@ class EmulatedWorld:
             serial_timeout=serial_timeout,
             clock=now,
         )
+        world_noise = self.sim.noise if isinstance(self.sim, WorldRobot) else None
+        self.imu = Bno08xEmulator(self._heading, clock=now,
+                                  **{**imu_terms(world_noise, seed, self.time_scale), **(imu_options or {})})
 
     # -- wiring -----------------------------------------------------------------------------
     def _on_speeds(self, left: float, right: float) -> None:
@@ -148,6 +161,12 @@ class EmulatedWorld:
             else:
                 pts = self.sim.scan_now()
         return np.round(pts, 2)
+
+    def _heading(self) -> float:
+        """The simulated robot's true heading now (rad, world frame): what the IMU measures."""
+        with self._lock:
+            self._catch_up()
+            return self.sim.pose.theta
 
     def _samples(self) -> list[tuple[float, float, bool]]:
         """The execution world's LiDAR samples measured since the last call, as an A1 sends
@@ -185,20 +204,22 @@ class EmulatedWorld:
 
     # -- lifetime -----------------------------------------------------------------------------
     def start(self) -> Self:
-        """Open both ptys and start the world; returns self."""
+        """Open the three ptys and start the world; returns self."""
         if self._thread is not None:
             raise RuntimeError("the emulated world is already running")
         self.maestro.start()
         self.lidar.start()
+        self.imu.start()
         self._thread = threading.Thread(target=self._run, name="emulated-world", daemon=True)
         self._thread.start()
         return self
 
     def stop(self) -> None:
-        """Stop the world and close both ptys (idempotent)."""
+        """Stop the world and close the three ptys (idempotent)."""
         self._stop.set()
         if self._thread is not None:
             self._thread.join(timeout=2.0)
+        self.imu.stop()
         self.lidar.stop()
         self.maestro.stop()
 
@@ -220,6 +241,11 @@ class EmulatedWorld:
     def motor_port(self) -> str:
         """The Maestro emulator's pty (what ``clomp run --motors`` opens)."""
         return self.maestro.port
+
+    @property
+    def imu_port(self) -> str:
+        """The IMU emulator's pty (what ``clomp run --imu`` opens)."""
+        return self.imu.port
 
     @property
     def pose(self) -> Pose:
@@ -261,8 +287,8 @@ def _serve_world(conn: Any, scenario: Any, options: dict[str, Any], favour: bool
     except BaseException as exc:  # noqa: BLE001 - reported to the parent, which raises it
         conn.send(("failed", exc))
         return
-    conn.send(("ready", world.lidar_port, world.motor_port, scheduling))
-    targets = {"world": world, "lidar": world.lidar, "maestro": world.maestro}
+    conn.send(("ready", world.lidar_port, world.motor_port, world.imu_port, scheduling))
+    targets = {"world": world, "lidar": world.lidar, "maestro": world.maestro, "imu": world.imu}
     try:
         while True:
             try:
@@ -289,7 +315,7 @@ def _serve_world(conn: Any, scenario: Any, options: dict[str, Any], favour: bool
 
 
 class _Remote:
-    """One object of the world process (the world, its LiDAR or its Maestro), seen from the parent:
+    """One object of the world process (the world, its LiDAR, Maestro or IMU), seen from the parent:
     attribute reads and writes and method calls go to the child; ``wait_for`` polls here."""
 
     def __init__(self, owner: EmulatedWorldProcess, target: str) -> None:
@@ -328,7 +354,7 @@ class EmulatedWorldProcess:
     (:mod:`clomp.runtime.realtime`, where allowed; ``scheduling`` says what it got): real devices
     and physics do not slow down when the host is busy.
 
-    Takes :class:`EmulatedWorld`'s arguments. ``lidar`` and ``maestro`` forward attribute
+    Takes :class:`EmulatedWorld`'s arguments. ``lidar``, ``maestro`` and ``imu`` forward attribute
     reads, writes and method calls (``world.lidar.silent = True``, ``world.maestro.vanish()``)
     to the devices in the child; ``wait_for(predicate, timeout)`` re-checks ``predicate``
     on them every 5 ms. Starting takes a second or two (a fresh interpreter).
@@ -347,11 +373,12 @@ class EmulatedWorldProcess:
         self._conn: Any = None
         self._proc: Any = None
         self._lock = threading.Lock()
-        self.lidar_port = self.motor_port = ""
+        self.lidar_port = self.motor_port = self.imu_port = ""
         #: how the world's process is scheduled ("realtime", "nice -10", "normal")
         self.scheduling = ""
         self.lidar: Any = _Remote(self, "lidar")
         self.maestro: Any = _Remote(self, "maestro")
+        self.imu: Any = _Remote(self, "imu")
         self._world = _Remote(self, "world")
 
     def start(self) -> Self:
@@ -377,7 +404,7 @@ class EmulatedWorldProcess:
         if msg[0] == "failed":
             self.stop()
             raise msg[1]
-        _, self.lidar_port, self.motor_port, self.scheduling = msg
+        _, self.lidar_port, self.motor_port, self.imu_port, self.scheduling = msg
         return self
 
     def _request(self, op: str, target: str, name: str = "", args: Any = ()) -> Any:

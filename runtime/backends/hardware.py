@@ -1,5 +1,5 @@
 """The hardware robot: a :class:`~clomp.runtime.interface.Robot` backend over an RPLIDAR A1 and a
-Pololu Maestro driving two continuous-rotation wheel servos.
+Pololu Maestro driving two continuous-rotation wheel servos, optionally with a BNO08x IMU.
 
 Wheel speeds in m/s become the Maestro's normalised speeds in [-1, 1] by dividing by the
 robot model's ``max_speed`` (0.2 m/s on the paper's robot). The paper's robot has no
@@ -16,6 +16,18 @@ little garbage is resynchronised by the decoder and tolerated.
 
 Every device error (LidarError, MaestroError, serial and OS errors) surfaces as a
 RobotFault naming the device and port; :meth:`stop` always tries to stop the wheels.
+
+With an IMU (``imu_port``: a BNO08x in UART-RVC mode, :mod:`clomp.runtime.devices.bno08x`) the
+robot is :class:`~clomp.runtime.interface.TurnSensing`: :meth:`HardwareRobot.rotation` is the
+heading the IMU turned since its first report, which the supervisor's estimator follows for
+the heading (the wheels give the distance, the scans the corrections) and whose offset it
+measures while the wheels stand, as it does the execution world's gyro. :meth:`odometry` is
+then None, so the estimator reckons the wheels itself and knows when they stand. The IMU's
+driver watches its stream as the LiDAR's is watched: unplugged, no report for
+``imu_silence`` s, garbage instead of reports, or a yaw turning faster than the wheels can
+turn the robot (``imu_rate_margin`` times their fastest spin) trips the robot at once from
+the IMU's reader thread — the wheels stopped, every later call a RobotFault. Without an IMU
+:meth:`rotation` is None and nothing else changes.
 In ``dry_run`` mode the LiDAR is read as usual but the wheels are held stopped (neutral
 is sent instead of every command); the dead-reckoned pose still follows the commands,
 i.e. it is where the robot *would* be. ``clomp run --dry-run`` does not execute plans at
@@ -35,6 +47,7 @@ from clomp.formal.geometry import dead_reckon
 from clomp.formal.model import Pose
 from clomp.planner.robot_model import RobotModel
 from clomp.runtime.devices.port import OPEN_ERRORS, PORT_ERRORS, open_serial
+from clomp.runtime.devices.bno08x import Bno08xRvc, ImuError
 from clomp.runtime.devices.maestro import Maestro, MaestroError, WheelConfig
 from clomp.runtime.devices.rplidar import DEFAULT_BAUDRATE, LidarError, LidarTimeout, RPLidar
 from clomp.runtime.clock import Clock, WallClock, device_time
@@ -43,7 +56,7 @@ from clomp.runtime.records.runlog import RunLogLike
 
 __all__ = ["HardwareConfig", "HardwareRobot", "open_lidar_port"]
 
-_DEVICE_ERRORS: tuple[type[BaseException], ...] = (LidarError, MaestroError, ValueError, *PORT_ERRORS)
+_DEVICE_ERRORS: tuple[type[BaseException], ...] = (LidarError, MaestroError, ImuError, ValueError, *PORT_ERRORS)
 _READ_SLICE = 0.05  # seconds one blocking read of the LiDAR port may take
 
 
@@ -57,7 +70,10 @@ class HardwareConfig:
     the wheels when no command came for that long). LiDAR: ``lidar_baudrate``,
     ``motor_control`` (``dtr`` on the A1's USB adapter), ``start_timeout`` for the
     first reply and the first revolution (a motor spinning up). Watch: ``byte_timeout``
-    (once revolutions flow), ``garbage_window``, ``garbage_fraction``.
+    (once revolutions flow), ``garbage_window``, ``garbage_fraction``. IMU (when one is
+    given): ``imu_baudrate``, ``imu_start_timeout`` for the first report, ``imu_silence``
+    for every later gap, ``imu_rate_margin`` (a yaw turning faster than this times the
+    wheels' fastest spin, ``2 max_speed / wheel_base``, is a fault).
 
     >>> cfg = HardwareConfig(motor_control="none", dry_run=True)
     >>> cfg.to_dict()["dry_run"], cfg.motor_control
@@ -82,9 +98,14 @@ class HardwareConfig:
     garbage_window: float = 0.1
     garbage_fraction: float = 0.5
     min_window_bytes: int = 200
+    imu_baudrate: int = 115200
+    imu_start_timeout: float = 1.0
+    imu_silence: float = 0.2
+    imu_rate_margin: float = 1.5
 
     def __post_init__(self) -> None:
-        for name in ("start_timeout", "byte_timeout", "garbage_window"):
+        for name in ("start_timeout", "byte_timeout", "garbage_window", "imu_start_timeout", "imu_silence",
+                     "imu_rate_margin"):
             v = getattr(self, name)
             if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
                 raise ValueError(f"{name} must be a positive number of seconds, got {v!r}")
@@ -142,7 +163,8 @@ class HardwareRobot:
 
     ``lidar_port`` and ``motor_port`` are device paths, pyserial URLs or open serial-like
     objects (objects are not closed by :meth:`close`). ``motor_port`` may be None only
-    in dry-run mode. ``log`` receives ``device``, ``motor`` and ``fault`` records (see
+    in dry-run mode; ``imu_port`` (the same kinds, optional) a BNO08x in UART-RVC mode (see
+    the module). ``log`` receives ``device``, ``motor`` and ``fault`` records (see
     :mod:`clomp.runtime.records.runlog`); ``clock`` (a :class:`~clomp.runtime.clock.Clock`, wall time by default)
     is the robot's one time: the dead reckoning's, and — through :func:`~clomp.runtime.clock.device_time` —
     the stream watch's windows and the LiDAR and Maestro drivers' deadlines, so a test that
@@ -169,6 +191,7 @@ class HardwareRobot:
         model: RobotModel | None = None,
         log: RunLogLike | None = None,
         clock: Clock | None = None,
+        imu_port: str | Any | None = None,
     ) -> None:
         self.config = cfg = config or HardwareConfig()
         self.model = model or RobotModel()
@@ -191,12 +214,15 @@ class HardwareRobot:
         self._thread: threading.Thread | None = None
         self._owned_lidar_port: Any = None
         self.maestro: Maestro | None = None
+        self.imu: Bno08xRvc | None = None
         if motor_port is None and not cfg.dry_run:
             raise ValueError("a motor port is needed unless dry_run is set")
         try:
             if motor_port is not None:
                 self.maestro = self._open_maestro(motor_port)
                 self._maestro_stop()  # wheels stopped before anything else happens
+            if imu_port is not None:
+                self.imu = self._open_imu(imu_port)
             self.lidar, self._counter = self._open_lidar(lidar_port)
         except BaseException:
             self._release()
@@ -225,6 +251,20 @@ class HardwareRobot:
             raise RobotFault(f"motor controller: {exc}") from exc
         maestro.on_watchdog_stop = self._on_watchdog_stop
         return maestro
+
+    def _open_imu(self, port: str | Any) -> Bno08xRvc:
+        """Open the IMU; its faults (also no first report within ``imu_start_timeout``) trip the robot."""
+        cfg, model = self.config, self.model
+        max_rate = cfg.imu_rate_margin * 2.0 * model.max_speed / model.wheel_base
+        try:
+            imu = Bno08xRvc(port, baudrate=cfg.imu_baudrate, silence_timeout=cfg.imu_silence,
+                            start_timeout=cfg.imu_start_timeout, clock=self._device_clock, max_rate=max_rate)
+        except (ImuError, ValueError, TypeError) as exc:
+            raise RobotFault(f"IMU: {exc}") from exc
+        # no wait for the first report here: the driver's start_timeout trips the robot when none comes
+        imu.on_fault = lambda exc: self._trip(f"IMU on {imu.port_name} failed: {_describe(exc)}", source="imu")
+        self._write_log("device", device="imu", port=imu.port_name, mode="rvc", max_rate=max_rate)
+        return imu
 
     def _open_lidar(self, port: str | Any) -> tuple[RPLidar, _CountingPort]:
         cfg = self.config
@@ -381,17 +421,31 @@ class HardwareRobot:
         self._halt_wheels("stop")
 
     def odometry(self) -> Pose | None:
-        """Dead reckoning from the commanded speeds (start = origin), or None when disabled.
+        """Dead reckoning from the commanded speeds (start = origin), or None when disabled or
+        with an IMU (the estimator then reckons the commanded wheels itself, the heading the IMU's).
 
         A stop by the motor controller's watchdog counts: the pose then stays where it was."""
-        if not self.config.odometry:
+        if not self.config.odometry or self.imu is not None:
             return None
         with self._lock:
             self._dead_reckon(self.clock.now())
             return self._pose
 
+    def rotation(self) -> float | None:
+        """The heading the IMU turned since its first report (rad, counter-clockwise), None
+        without an IMU (:class:`~clomp.runtime.interface.TurnSensing`). Raises RobotFault once
+        the robot has tripped (the IMU's own faults trip it)."""
+        if self.imu is None:
+            return None
+        self._check()
+        try:
+            return self.imu.rotation()
+        except ImuError as exc:
+            self._trip(f"IMU on {self.imu.port_name} failed: {_describe(exc)}", source="imu")
+            raise RobotFault(self._fault or str(exc)) from exc
+
     def close(self) -> None:
-        """Stop the wheels (best effort), end the reader, stop the LiDAR, release the ports."""
+        """Stop the wheels (best effort), end the readers, stop the LiDAR, release the ports."""
         if self._closing.is_set():
             return
         try:
@@ -413,6 +467,8 @@ class HardwareRobot:
 
     # -- internals ---------------------------------------------------------------------------------
     def _release(self) -> None:
+        if self.imu is not None:
+            self.imu.close()
         if self.maestro is not None:
             try:
                 self.maestro.close()  # stops the wheels (best effort) and ends its watchdog
@@ -486,4 +542,5 @@ class HardwareRobot:
 
     def __repr__(self) -> str:
         motors = self.maestro.port_name if self.maestro is not None else None
-        return f"HardwareRobot(lidar={self.lidar.port_name!r}, motors={motors!r}, dry_run={self.dry_run})"
+        imu = "" if self.imu is None else f", imu={self.imu.port_name!r}"
+        return f"HardwareRobot(lidar={self.lidar.port_name!r}, motors={motors!r}{imu}, dry_run={self.dry_run})"

@@ -23,7 +23,7 @@ def register(subparsers: Any) -> None:
     """Add the ``emulate`` subcommand (with ``lidar``, ``maestro`` and ``imu``) to the CLI."""
     parser = subparsers.add_parser(
         "emulate",
-        help="emulate the LiDAR, the motor controller, the IMU, or the first two over a simulated world, on pseudo-terminals",
+        help="emulate the LiDAR, the motor controller, the IMU, or all three over a simulated world, on pseudo-terminals",
         description="Start a device emulator on a pseudo-terminal, print its path, run until Ctrl-C.",
     )
     devices = parser.add_subparsers(dest="device", metavar="DEVICE", required=True)
@@ -75,7 +75,7 @@ def register(subparsers: Any) -> None:
     imu.add_argument("--seed", type=int, help="seed for the noise and the fault injection")
     imu.set_defaults(func=_run_imu)
 
-    # both devices over one simulated world: the whole stack without hardware
+    # the three devices over one simulated world: the whole stack without hardware
     from clomp.runtime.cli.run import add_emulate_world
 
     add_emulate_world(devices)
@@ -191,5 +191,4 @@ def _run_imu(args: argparse.Namespace) -> int:
         )
     except ValueError as exc:
         raise CliError(str(exc)) from exc
-    return _serve(emulator, "IMU", "imu", "read it with clomp.runtime.devices.bno08x.Bno08xRvc('{port}') "
-                  "(clomp run does not take an IMU yet)")
+    return _serve(emulator, "IMU", "imu", "clomp run --lidar LIDAR_PORT --motors MOTOR_PORT --imu {port} --goal 1.0,0.0")

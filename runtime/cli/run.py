@@ -13,8 +13,18 @@ device that does not answer, is unhealthy, falls silent, sends garbage or vanish
 goal where it is — logging and printing each plan, and sends no motion (the wheels are
 held at neutral). It ends at ``--max-time`` (exit 0) or on Ctrl-C (130), or on a device fault (3).
 
+``--imu PORT`` adds a BNO08x IMU in UART-RVC mode: the heading comes from it (its offset
+measured while the robot stands), the distance from the wheels, the corrections from the
+scans. An IMU that is unplugged, falls silent for 0.2 s, sends garbage or reports a turn
+faster than the wheels can make is a device fault (exit 3, wheels stopped), never a silent
+fallback to the wheels. Without ``--imu`` the run is as it was.
+
+On a terminal, one status line updates while the robot runs (state, task, estimated
+distance to the goal and its bound, LiDAR revolutions, LiDAR/IMU health); it is not drawn
+into a pipe or a file.
+
 Without hardware, ``clomp emulate world --scenario overtaking`` serves a simulated world
-on two pseudo-terminals to point ``--lidar`` and ``--motors`` at.
+on three pseudo-terminals to point ``--lidar``, ``--motors`` and ``--imu`` at.
 """
 
 from __future__ import annotations
@@ -34,6 +44,7 @@ from clomp.runtime.cli.plan import add_planner_options, configurator_from_args, 
 from clomp.runtime.cli import EXIT_DEVICE_FAULT, EXIT_INTERRUPTED, EXIT_NOT_REACHED, EXIT_OK, CliError
 from clomp.runtime.cli._common import load_scene, output_path, path_kind
 from clomp.runtime.cli._signals import interrupts_raise
+from clomp.runtime.cli._status import StatusLine
 
 __all__ = ["register", "add_emulate_world", "default_log_path", "operate", "open_runlog"]
 
@@ -48,6 +59,8 @@ def register(sub: Any) -> None:
                        description=__doc__)
     p.add_argument("--lidar", required=True, metavar="PORT", help="RPLIDAR A1 serial port (path or pyserial URL)")
     p.add_argument("--motors", metavar="PORT", help="Pololu Maestro serial port (optional with --dry-run)")
+    p.add_argument("--imu", metavar="PORT",
+                   help="BNO08x IMU (UART-RVC mode) serial port: the heading from it, fused with the wheels and scans")
     p.add_argument("--goal", required=True, help="goal X,Y in metres in the robot's frame at start (x forward, y left)")
     p.add_argument("--dry-run", action="store_true",
                    help="plan on every LiDAR scan and log the plans, but send no motion (wheels held stopped)")
@@ -174,7 +187,7 @@ def _run(args: argparse.Namespace, scheduling: str) -> int:
     lock = threading.Lock()
     log = _SharedLog(runlog, lock)
     clock = WallClock() if args.time_scale == 1.0 else ScaledClock(args.time_scale)
-    log.write("run", argv=sys.argv[1:], lidar=args.lidar, motors=args.motors, dry_run=args.dry_run,
+    log.write("run", argv=sys.argv[1:], lidar=args.lidar, motors=args.motors, imu=args.imu, dry_run=args.dry_run,
               goal=list(goal), max_time=args.max_time, time_scale=args.time_scale,
               config=config.to_dict(), monotonic=time.monotonic(), wall=time.time(), scheduling=scheduling)
 
@@ -184,10 +197,13 @@ def _run(args: argparse.Namespace, scheduling: str) -> int:
             return _dry_run(robot, conf, goal, clock, log, args.max_time, path)
         sup = Supervisor(robot, goal, conf, clock=clock, log=_SharedLog(runlog, lock, frozenset({"motor"})))
         hold(sup)
-        return sup.run(max_time=args.max_time)
+        with StatusLine(sup, robot):
+            return sup.run(max_time=args.max_time)
 
-    return operate(lambda: HardwareRobot(args.lidar, args.motors, config, model=conf.robot, log=log, clock=clock),
-                   work, runlog, log, path, usage_fault=lambda: _missing_path(args.lidar) or _missing_path(args.motors))
+    return operate(lambda: HardwareRobot(args.lidar, args.motors, config, model=conf.robot, log=log, clock=clock,
+                                         imu_port=args.imu),
+                   work, runlog, log, path,
+                   usage_fault=lambda: _missing_path(args.lidar) or _missing_path(args.motors) or _missing_path(args.imu))
 
 
 def open_runlog(name: str | None) -> tuple[Any, Path]:
@@ -343,9 +359,10 @@ def add_emulate_world(devices: Any) -> None:
     """Add ``world`` to ``clomp emulate``'s device subparsers: both emulators over a simulated world."""
     w = devices.add_parser(
         "world",
-        help="a simulated robot in a scenario behind an emulated LiDAR and Maestro",
-        description="Serve a scenario's world on two pseudo-terminals: the LiDAR sees the simulated robot's "
-        "surroundings, the Maestro drives its wheels. Prints both paths and a clomp run command, runs until "
+        help="a simulated robot in a scenario behind an emulated LiDAR, Maestro and IMU",
+        description="Serve a scenario's world on three pseudo-terminals: the LiDAR sees the simulated robot's "
+        "surroundings, the Maestro drives its wheels, the IMU (BNO08x, UART-RVC) reports its heading with the "
+        "noise preset's errors. Prints the three paths and a clomp run command, runs until "
         "Ctrl-C, then prints where the robot ended and whether it touched anything.",
     )
     w.add_argument("--scenario", default="overtaking", help="scenario name or file (default overtaking)")
@@ -402,8 +419,9 @@ def _serve_world(world: Any, args: argparse.Namespace) -> None:
     gx, gy = world.scene.goal_in_robot_frame()
     print(f"lidar: {world.lidar_port}", flush=True)
     print(f"motors: {world.motor_port}", flush=True)
+    print(f"imu: {world.imu_port}", flush=True)
     scale = f" --time-scale {args.time_scale:g}" if args.time_scale != 1.0 else ""
-    print(f"run: clomp run --lidar {world.lidar_port} --motors {world.motor_port} --goal {gx:g},{gy:g}{scale}",
-          flush=True)
+    print(f"run: clomp run --lidar {world.lidar_port} --motors {world.motor_port} --imu {world.imu_port} "
+          f"--goal {gx:g},{gy:g}{scale}", flush=True)
     while world.lidar.running and world.maestro.running and world.error is None:
         time.sleep(0.1)

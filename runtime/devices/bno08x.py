@@ -5,7 +5,10 @@ mode takes no commands) and keeps the newest heading with its time, followed thr
 ±180° wrap. It watches the stream as the hardware backend watches the LiDAR's: a port
 that fails, no byte for ``silence_timeout`` seconds, or bytes without a valid report for
 as long latch a fault (:class:`ImuPortError`, :class:`ImuTimeout`,
-:class:`ImuProtocolError`, all :class:`ImuError`), which every later call raises. Built
+:class:`ImuProtocolError`, all :class:`ImuError`), which every later call raises. Given the
+fastest turn its platform can make (``max_rate``), it also latches a yaw that turns faster
+than that over ``rate_window`` s, report after report (:class:`ImuProtocolError`): a heading
+that is wildly wrong, which no consumer should follow. Built
 on :mod:`clomp.runtime.devices.bno08x_codec` (whose names are re-exported here).
 
 >>> with Bno08xRvc("loop://") as imu:
@@ -81,7 +84,11 @@ class Bno08xRvc:
     object (``read``, optionally ``in_waiting``; not closed by :meth:`close`). ``clock`` is
     the time of the samples and of the deadlines (``time.monotonic`` unless a test passes
     its own). ``start_timeout`` bounds the wait for the first report, ``silence_timeout``
-    every later gap between reports; ``history`` recent samples are kept.
+    every later gap between reports; ``history`` recent samples are kept. ``max_rate``
+    (rad/s, None: no check): the yaw may change over the last ``rate_window`` s of the
+    device's time (report indices, so a host that read late does not matter) by at most
+    ``max_rate × rate_window + rate_slack``; ``rate_reports`` reports in a row beyond that
+    latch :class:`ImuProtocolError` (one outlier, a report forged by line noise, passes).
 
     What a heading consumer calls: :meth:`rotation` (rad turned since the first report,
     as :class:`clomp.runtime.interface.TurnSensing` asks), :meth:`latest` (the newest
@@ -99,9 +106,19 @@ class Bno08xRvc:
         start_timeout: float = 1.0,
         history: int = 256,
         clock: Callable[[], float] | None = None,
+        max_rate: float | None = None,
+        rate_window: float = 0.1,
+        rate_slack: float = 0.05,
+        rate_reports: int = 3,
     ) -> None:
         if not (silence_timeout > 0 and start_timeout > 0):
             raise ValueError("silence_timeout and start_timeout must be positive")
+        if max_rate is not None and not (max_rate > 0 and 0 < rate_window * REPORT_RATE < history
+                                         and rate_slack >= 0 and rate_reports >= 1):
+            raise ValueError("max_rate and rate_window must be positive (the window shorter than the history), "
+                             "rate_slack not negative, rate_reports at least 1")
+        self.max_rate, self.rate_window, self.rate_slack, self.rate_reports = max_rate, rate_window, rate_slack, rate_reports
+        self._too_fast = 0  # reports in a row whose yaw turned faster than max_rate
         if history < 1:
             raise ValueError("history must be at least 1")
         self.baudrate = baudrate
@@ -203,11 +220,13 @@ class Bno08xRvc:
                     self._trip(ImuPortError(f"IMU port {self.port_name} failed while reading (device unplugged?): {exc}"))
                 return
             now = self.clock()
+            fault: ImuError | None = None
             if data:
                 last_byte = now
-                if self._take(self.decoder.feed(data), now):
+                took, fault = self._take(self.decoder.feed(data), now)
+                if took:
                     last_report, dropped_at_report = now, self.decoder.dropped_bytes
-            fault = self._deadline_fault(now, last_report, last_byte, self.decoder.dropped_bytes - dropped_at_report)
+            fault = fault or self._deadline_fault(now, last_report, last_byte, self.decoder.dropped_bytes - dropped_at_report)
             if fault is not None:
                 self._trip(fault)
                 return
@@ -215,10 +234,12 @@ class Bno08xRvc:
                 self.passes += 1
                 self._cond.notify_all()
 
-    def _take(self, reports: list[RvcReport], now: float) -> bool:
+    def _take(self, reports: list[RvcReport], now: float) -> tuple[bool, ImuError | None]:
+        """Keep the reports (True when there were any) and the fault of a yaw turning too fast."""
         if not reports:
-            return False
+            return False, None
         newest = reports[-1].index
+        fault = None
         with self._cond:
             for r in reports:
                 t = now - ((newest - r.index) % 256) / REPORT_RATE
@@ -229,7 +250,29 @@ class Bno08xRvc:
                 else:
                     sample = ImuSample(r, max(t, prev.timestamp), unwrap(prev.yaw, r.yaw))
                 self._recent.append(sample)
-        return True
+                fault = fault or self._rate_fault()
+        return True, fault
+
+    def _rate_fault(self) -> ImuError | None:
+        """The fault when the newest sample ends ``rate_reports`` in a row whose yaw changed
+        faster than ``max_rate`` over the window (call with the lock held)."""
+        if self.max_rate is None:
+            return None
+        hist, span = self._recent, 0
+        new = hist[-1]
+        for k in range(len(hist) - 2, -1, -1):  # back to the sample rate_window of device time before
+            span += (hist[k + 1].report.index - hist[k].report.index) % 256
+            if span >= self.rate_window * REPORT_RATE:
+                dt = span / REPORT_RATE
+                turned = abs(new.yaw - hist[k].yaw)
+                self._too_fast = self._too_fast + 1 if turned > self.max_rate * dt + self.rate_slack else 0
+                if self._too_fast >= self.rate_reports:
+                    return ImuProtocolError(
+                        f"IMU on {self.port_name} reports an impossible turn: {turned:.2f} rad in {dt:.2f} s "
+                        f"({self._too_fast} reports in a row), the robot turns at most {self.max_rate:.2f} rad/s "
+                        f"(a heading wildly wrong: the device reset, a bad mount, or a forged stream?)")
+                return None
+        return None
 
     def _deadline_fault(self, now: float, last_report: float, last_byte: float, dropped: int) -> ImuError | None:
         """The fault when no report came for too long: silence, or bytes that are no report

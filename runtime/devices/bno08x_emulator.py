@@ -31,9 +31,10 @@ class Bno08xEmulator(PtyEmulator):
     report every ``1 / rate`` s of its clock, paced like the device.
 
     The yaw it reports is, as the device's, relative to the heading at its start (its
-    reset): ``(1 + scale_error) × turned + drift × t + N(0, noise)``, wrapped to ±180°,
+    reset): ``(1 + scale_error) × turned + drift × t + W + N(0, noise)``, wrapped to ±180°,
     where ``turned`` is the source's heading since the start followed through the wrap,
-    ``t`` the time since the start, ``drift`` in rad/s and ``noise`` in rad. Pitch and
+    ``t`` the time since the start, ``drift`` in rad/s, ``noise`` in rad, and ``W`` a random
+    walk of ``walk`` rad/√s (a step of ``walk / √rate`` per report). Pitch and
     roll are 0 and the acceleration is gravity, as on a level floor.
 
     Faults: ``drop_rate`` (probability per report of not sending it: its index is used,
@@ -57,6 +58,7 @@ class Bno08xEmulator(PtyEmulator):
         rate: float = _c.REPORT_RATE,
         drift: float = 0.0,
         noise: float = 0.0,
+        walk: float = 0.0,
         scale_error: float = 0.0,
         drop_rate: float = 0.0,
         garbage_rate: float = 0.0,
@@ -69,13 +71,14 @@ class Bno08xEmulator(PtyEmulator):
         clock: Callable[[], float] | None = None,
     ) -> None:
         super().__init__(clock)
-        if not rate > 0 or noise < 0:
-            raise ValueError("rate must be positive and noise not negative")
+        if not rate > 0 or noise < 0 or walk < 0:
+            raise ValueError("rate must be positive, noise and walk not negative")
         for name, p in (("drop_rate", drop_rate), ("garbage_rate", garbage_rate), ("bad_checksum_rate", bad_checksum_rate)):
             if not 0 <= p <= 1:
                 raise ValueError(f"{name} is a probability in [0, 1], got {p!r}")
         self.heading: HeadingSource = heading or (lambda: 0.0)
         self.rate, self.drift, self.noise, self.scale_error = rate, drift, noise, scale_error
+        self.walk, self._walked = walk, 0.0
         self.drop_rate, self.garbage_rate, self.bad_checksum_rate = drop_rate, garbage_rate, bad_checksum_rate
         self.silent_after, self.vanish_after = silent_after, vanish_after
         self.silent = False
@@ -169,6 +172,9 @@ class Bno08xEmulator(PtyEmulator):
         rng = self._rng
         assert self._t0 is not None
         yaw = (1.0 + self.scale_error) * turned + self.drift * (now - self._t0)
+        if self.walk:
+            self._walked += rng.gauss(0.0, self.walk / math.sqrt(self.rate))
+            yaw += self._walked
         if self.noise:
             yaw += rng.gauss(0.0, self.noise)
         report = _c.RvcReport.of(self.index, yaw)

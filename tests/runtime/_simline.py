@@ -19,7 +19,7 @@ from __future__ import annotations
 import errno
 import threading
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 
 from clomp.runtime.clock import ManualClock
 from clomp.runtime.devices._pty import PtyEmulator
@@ -37,6 +37,9 @@ class LockstepClock(ManualClock):
     then has been taken in before the controller looks; ``step(dt)`` is what such a line
     calls when it finds nothing waiting: it moves time by at most ``dt`` toward the
     sleeper's wake-up time and returns how far it moved (0: time stands still).
+    With several lockstep lines (the LiDAR's and the IMU's readers), the wake-up time is
+    reached once every one of them has found nothing more to read there (each line
+    registers itself with :meth:`register` and passes its token to ``step``).
     ``release()`` lets time run freely from then on (for shutting down: the reader thread
     must see its timeouts pass once the controller has stopped sleeping).
     ``free_when`` (a callable, e.g. "the robot has tripped", after which its reader thread
@@ -52,6 +55,19 @@ class LockstepClock(ManualClock):
         self._free = False
         self.max_wall = max_wall
         self.free_when: Callable[[], bool] | None = None
+        self._lines = 0  # lockstep lines registered
+        self._idle: set[int] = set()  # those idle at the wake-up time
+
+    def register(self) -> int:
+        """A token for one more lockstep line (see the class)."""
+        with self._cond:
+            self._lines += 1
+            return self._lines
+
+    @property
+    def free(self) -> bool:
+        """True once released: time runs freely."""
+        return self._free
 
     def sleep(self, seconds: float) -> None:
         if self._free:
@@ -63,6 +79,7 @@ class LockstepClock(ManualClock):
         with self._cond:
             until = self._t + seconds
             self._until, self._reached = until, False
+            self._idle.clear()
             self._cond.notify_all()
             while not self._reached and not self._free:
                 if self.free_when is not None and self.free_when():
@@ -84,7 +101,7 @@ class LockstepClock(ManualClock):
                 self._t += seconds
                 self._cond.notify_all()
 
-    def step(self, dt: float) -> float:
+    def step(self, dt: float, line: int = 0) -> float:
         with self._cond:
             if self._free:
                 self._t += dt
@@ -93,8 +110,10 @@ class LockstepClock(ManualClock):
                 return 0.0
             if self._t >= self._until:
                 # the line is idle at the wake-up time: all it had to read up to now is read
-                self._reached = True
-                self._cond.notify_all()
+                self._idle.add(line)
+                if len(self._idle) >= max(1, self._lines):
+                    self._reached = True
+                    self._cond.notify_all()
                 return 0.0
             moved = min(dt, self._until - self._t)
             self._t = self._until if moved < dt else self._t + dt
@@ -122,17 +141,24 @@ class SimLine:
     one ``lock`` (the clock moves under it). ``lockstep=True`` (with a :class:`LockstepClock`)
     moves time only while the controller sleeps: the line to the device a background thread
     reads (the LiDAR). A line the controller itself reads (the Maestro's replies) keeps the
-    default: its waiting is the controller's own. Once the device has vanished
+    default: its waiting is the controller's own. ``also``: devices ticked with this line's
+    (at the same times, in its thread: the world they read is advanced at the same instants
+    however the threads interleave, so a run stays the same run); ``follow=True`` (lockstep)
+    is the line to such a device: it never moves time nor ticks its device, and counts as
+    idle at the wake-up time once it has read all the device sent. Once the device has vanished
     (``device.vanish()``, an unplugged USB device) every call raises ``OSError(EIO)``, as a
     serial port whose device is gone does.
     """
 
     def __init__(self, device: PtyEmulator, clock: ManualClock, *, timeout: float = 0.01, name: str = "sim",
-                 lock: threading.RLock | None = None, lockstep: bool = False) -> None:
+                 lock: threading.RLock | None = None, lockstep: bool = False,
+                 also: Sequence[PtyEmulator] = (), follow: bool = False) -> None:
         if lockstep and not isinstance(clock, LockstepClock):
             raise TypeError("lockstep=True needs a LockstepClock")
         self.device, self.clock, self.timeout, self.port = device, clock, timeout, name
-        self.lockstep = lockstep
+        self.lockstep = lockstep or follow
+        self.also, self.follow = tuple(also), follow
+        self._token = clock.register() if isinstance(clock, LockstepClock) and self.lockstep else 0
         self.lock = lock or threading.RLock()
         self.running = threading.Event()
         self.running.set()
@@ -146,7 +172,8 @@ class SimLine:
     def in_waiting(self) -> int:
         self._check_present()
         with self.lock:
-            self.device._tick(self.clock.now())
+            if not self.follow:  # a followed device is ticked by its leading line alone
+                self.device._tick(self.clock.now())
             return len(self.device._out)
 
     def write(self, data: bytes) -> int:
@@ -163,7 +190,7 @@ class SimLine:
             self.device._out.clear()
 
     def read(self, size: int = 1) -> bytes:
-        waited = 0.0
+        waited, started = 0.0, self.clock.now()
         while True:
             self._check_present()
             with self.lock:
@@ -176,15 +203,31 @@ class SimLine:
                     return b""
             self.running.wait()
             with self.lock:
-                if self.lockstep:
+                if self.follow and self.device._out:  # sent since the look above: read it first
+                    moved = -1.0
+                elif self.follow:  # another line moves time and ticks the device
                     assert isinstance(self.clock, LockstepClock)
-                    moved = self.clock.step(_STEP)
+                    moved = self.clock.step(_STEP if self.clock.free else 0.0, self._token)
+                    if moved:
+                        self.device._tick(self.clock.now())
+                    waited = self.clock.now() - started
+                    if waited < self.timeout and not moved:
+                        moved = -1.0  # time may move: look again soon
+                elif self.lockstep:
+                    assert isinstance(self.clock, LockstepClock)
+                    moved = self.clock.step(_STEP, self._token)
                 else:
                     self.clock.advance(_STEP)
                     moved = _STEP
-                if moved:
+                if moved > 0 and not self.follow:
                     waited += moved
-                    self.device._tick(self.clock.now())
+                    now = self.clock.now()
+                    self.device._tick(now)
+                    for other in self.also:
+                        other._tick(now)
+            if moved < 0:
+                time.sleep(0.0002)
+                continue
             if not moved:
                 assert isinstance(self.clock, LockstepClock)
                 self.clock.wait_for_sleeper()

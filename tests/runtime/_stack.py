@@ -6,7 +6,9 @@ it flows only while the supervisor sleeps between ticks, so planning costs no si
 (an idealisation: the real-time cost is what the pty tests of test_run_cli.py measure) and a
 run's outcome does not depend on how busy the machine is. ``hook(t, run)`` is called in the
 supervisor's thread after each of its sleeps, at simulated time ``t``: a test injects a fault
-there (unplug a device, raise as a signal handler would) at a chosen moment.
+there (unplug a device, raise as a signal handler would) at a chosen moment. ``imu=True``
+adds the world's IMU on a third line (ticked with the LiDAR; its reader has read all it sent
+before the supervisor wakes), as ``clomp run --imu``.
 """
 
 from __future__ import annotations
@@ -23,7 +25,7 @@ from clomp.runtime.backends.hardware import HardwareConfig, HardwareRobot
 from clomp.runtime.supervision import Supervisor, SupervisorReport
 from tests.runtime._simline import LockstepClock, SimLine
 
-__all__ = ["NEUTRAL", "StackRun", "run_stack", "wheels_stopped_at"]
+__all__ = ["NEUTRAL", "StackRun", "at", "driving", "run_stack", "wheels_stopped_at"]
 
 NEUTRAL = 6000  # 1500 µs in quarter-µs
 
@@ -36,6 +38,7 @@ class StackRun:
     supervisor: Supervisor | None = None
     report: SupervisorReport | None = None
     elapsed: float = 0.0  # simulated seconds
+    started: float = 0.0  # the simulated time the supervisor's run began
     raised: BaseException | None = None  # what the supervisor's run raised
     notes: dict[str, Any] = field(default_factory=dict)  # what a hook wants to remember
 
@@ -56,7 +59,7 @@ class _HookedClock:
 
 def run_stack(scenario: str, *, max_time: float = 80.0, seed: int = 0, conf: Configurator | None = None,
               hook: Callable[[float, StackRun], None] | None = None, clock: LockstepClock | None = None,
-              **world_options: Any) -> StackRun:
+              imu: bool = False, **world_options: Any) -> StackRun:
     """Plan and execute ``scenario``'s goal through the real drivers, in simulated time (the
     world's noise drawn from ``seed``: the same run every time). Whatever the supervisor's
     ``run`` raises (a KeyboardInterrupt a hook raised, say) is kept in ``raised``, with
@@ -64,17 +67,22 @@ def run_stack(scenario: str, *, max_time: float = 80.0, seed: int = 0, conf: Con
     clock, lock = clock or LockstepClock(100.0), threading.RLock()
     world = EmulatedWorld(scenario, clock=clock, seed=seed, **world_options)  # not started: no pty, no thread
     run = StackRun(world, clock)
-    lidar_line = SimLine(world.lidar, clock, lock=lock, name="sim-lidar", lockstep=True)
+    # the IMU is ticked with the LiDAR, in its line's thread: the world is advanced at the same
+    # instants however the readers' threads interleave (the same run every time)
+    lidar_line = SimLine(world.lidar, clock, lock=lock, name="sim-lidar", lockstep=True,
+                         also=(world.imu,) if imu else ())
     motor_line = SimLine(world.maestro, clock, lock=lock, name="sim-maestro")
+    imu_line = SimLine(world.imu, clock, lock=lock, name="sim-imu", follow=True) if imu else None
     # the Maestro driver's watchdog: off, as in test_hardware_deadlines.py
     config = HardwareConfig(watchdog_timeout=None)
     conf = conf or Configurator()
-    t0 = clock.now()
+    t0 = run.started = clock.now()
     sup_clock: Any = clock if hook is None else _HookedClock(clock, lambda t: hook(t, run))
     try:
-        with HardwareRobot(lidar_line, motor_line, config, model=conf.robot, clock=clock) as robot:
+        with HardwareRobot(lidar_line, motor_line, config, model=conf.robot, clock=clock, imu_port=imu_line) as robot:
             run.robot = robot
-            clock.free_when = lambda: robot.fault is not None  # a tripped robot's reader reads no more
+            # a tripped robot's reader reads no more (nor a failed IMU's)
+            clock.free_when = lambda: robot.fault is not None or (robot.imu is not None and robot.imu.fault is not None)
             run.supervisor = Supervisor(robot, world.scene.goal_in_robot_frame(), conf, clock=sup_clock)
             try:
                 run.report = run.supervisor.run(max_time=max_time)
@@ -105,3 +113,20 @@ def wheels_stopped_at(maestro: MaestroEmulator, t0: float) -> float:
     if stop_at is None:
         raise AssertionError("the wheels were never commanded to stop")
     return stop_at
+
+
+def driving(run: StackRun) -> bool:
+    """Whether the wheels have been commanded to move in this run."""
+    return any(ch in (0, 1) and t not in (0, NEUTRAL) for _, ch, t in run.world.maestro.events)
+
+
+def at(t_fault: float, act: Callable[[StackRun], None]) -> Callable[[float, StackRun], None]:
+    """A hook that calls ``act(run)`` once, at the first wake-up at or after ``t_fault`` s of
+    the run, and remembers that moment in ``run.notes["t_fault"]``."""
+    def hook(t: float, run: StackRun) -> None:
+        t0 = run.notes.setdefault("t0", t)
+        if "t_fault" not in run.notes and t - t0 >= t_fault:
+            assert driving(run), "the fault is meant to come while the wheels turn"
+            run.notes["t_fault"] = t
+            act(run)
+    return hook

@@ -228,3 +228,33 @@ def test_reports_read_late_are_timed_by_their_index() -> None:
         assert len(times) == 12
         assert times[:9] == pytest.approx([0.095 - (8 - k) * PERIOD for k in range(9)])
         assert all(b >= a for a, b in zip(times, times[1:]))
+
+
+def _jumping(after: int, *, once: bool) -> Callable[[], float]:
+    """A heading source that stands still, then reads 1 rad off from its ``after``-th call on
+    (once: at that call only, a single outlier). The emulator asks it once per report."""
+    calls = [0]
+
+    def heading() -> float:
+        calls[0] += 1
+        jumped = calls[0] == after if once else calls[0] >= after
+        return 1.0 if jumped else 0.0
+
+    return heading
+
+
+@pytest.mark.parametrize("once", [False, True])
+def test_a_yaw_turning_faster_than_the_robot_can_is_a_fault_and_one_outlier_is_not(once: bool) -> None:
+    """1 rad in 10 ms, held: beyond 4 rad/s over 0.1 s for three reports in a row, an
+    ImuProtocolError at the third; the same jump in one report only (a report forged by line
+    noise) passes."""
+    clock, lock = ManualClock(0.0), threading.RLock()
+    emu = Bno08xEmulator(_jumping(30, once=once), seed=1, clock=clock.now)
+    with Bno08xRvc(SimLine(emu, clock, lock=lock, name="sim-imu"), clock=clock.now, max_rate=4.0) as imu:
+        _wait(imu, lambda i: i.fault is not None or i.decoder.reports >= 80)
+        if once:
+            assert imu.fault is None and imu.decoder.reports >= 80
+            assert max(abs(s.yaw) for s in imu.recent()) == pytest.approx(1.0, abs=1e-3)  # the outlier was read
+            return
+        assert isinstance(imu.fault, ImuProtocolError) and "impossible turn" in str(imu.fault), imu.fault
+        assert 30 <= imu.decoder.reports <= 33  # the jump's third report (and the one the decoder held)

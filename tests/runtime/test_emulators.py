@@ -356,7 +356,7 @@ def test_cli_emulate_imu_streams_a_turning_heading() -> None:
         assert line.startswith("imu: /dev/"), (line, proc.stderr.read() if proc.stderr else "")
         port = line.split(": ", 1)[1]
         hint = proc.stdout.readline().strip()
-        assert hint.startswith("next: ") and port in hint and "Bno08xRvc" in hint, hint
+        assert hint.startswith("next: ") and f"--imu {port}" in hint and "clomp run" in hint, hint
         # deadlines are not under test here (test_bno08x.py times them on simulated time)
         with Bno08xRvc(port, silence_timeout=30.0, start_timeout=30.0) as imu:
             assert imu.wait_for(lambda i: (r := i.rotation()) is not None and r > math.radians(10.0), 30.0)

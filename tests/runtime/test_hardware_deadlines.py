@@ -78,3 +78,34 @@ def test_a_silent_lidar_fails_the_start_after_the_start_timeout_of_device_time()
                       clock=clock)
     assert 0.3 <= clock.now() - t0 <= 0.3 + 0.01 + 1e-9  # not before it, late by at most one read (10 ms)
     assert _stop_time(maestro, t0) is not None  # the wheels were held stopped meanwhile
+
+
+@pytest.mark.parametrize(("fault", "said"), [("silent", "fell silent"), ("garbage_only", "corrupt")])
+def test_an_imu_fault_stops_the_wheels_from_the_imus_reader_within_its_deadline(fault: str, said: str) -> None:
+    """Nothing asks the robot's rotation() here: the IMU's reader trips the robot itself
+    (Bno08xRvc.on_fault), 0.2 s after the last report plus one read at most."""
+    from clomp.runtime.devices.bno08x_emulator import Bno08xEmulator
+
+    clock, lock = ManualClock(100.0), threading.RLock()
+    lidar = LidarEmulator(lambda: WALL, seed=1, clock=clock.now)
+    maestro = MaestroEmulator(clock=clock.now)
+    imu = Bno08xEmulator(lambda: 0.0, seed=1, clock=clock.now)
+    # the LiDAR is paused below: its stream watch must not be what trips the robot
+    config = HardwareConfig(watchdog_timeout=None, byte_timeout=30.0)
+    lidar_line = SimLine(lidar, clock, lock=lock, name="sim-lidar")
+    with HardwareRobot(lidar_line, SimLine(maestro, clock, lock=lock, name="sim-maestro"), config, clock=clock,
+                       imu_port=SimLine(imu, clock, lock=lock, name="sim-imu")) as robot:
+        assert robot.read_scan(timeout=30.0) is not None
+        assert robot.imu is not None and robot.imu.wait_for(lambda i: i.decoder.reports >= 20, 30.0)
+        lidar_line.running.clear()  # from here only the IMU's reader lets time pass: its deadline alone
+        robot.set_wheel_speeds(0.1, 0.1)
+        with lock:
+            assert _stop_time(maestro, clock.now()) is None
+            t0 = imu.inject(**{fault: True})
+        give_up = time.monotonic() + 60.0
+        while (stop_t := _stop_time(maestro, t0)) is None and time.monotonic() < give_up:
+            time.sleep(0.005)
+        assert stop_t is not None, "the wheels were never commanded to stop"
+        assert robot.fault is not None and said in robot.fault and "IMU" in robot.fault, robot.fault
+        assert stop_t - t0 <= 0.2 + 0.02 + 0.001, f"wheels stopped {stop_t - t0:.3f} s after the IMU's {fault}"
+        lidar_line.running.set()

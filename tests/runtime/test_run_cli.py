@@ -332,6 +332,11 @@ def test_start_up_errors_are_one_line_and_still_logged(
     recs = list(read_log(logs[0]))
     assert [r["event"] for r in recs] == ["run", "fault", "stop"]
 
+    # an IMU port that does not exist is a typo too (exit 2), named; the IMU is opened before the LiDAR
+    rc = cli.main(["run", "--lidar", "loop://", "--dry-run", "--imu", str(tmp_path / "ttyIMU9"), "--goal", "1,0"])
+    err = capsys.readouterr().err
+    assert rc == 2 and err.count("\n") == 1 and "IMU" in err and "ttyIMU9" in err, err
+
     for argv, said in [
         (["--lidar", "x", "--goal", "1,0"], "--motors"),
         (["--lidar", "x", "--motors", "y", "--goal", "1;0"], "--goal"),
@@ -354,9 +359,9 @@ def test_emulate_world_serves_a_whole_stack_a_user_can_run(tmp_path: Path) -> No
         argv = [sys.executable, "-c", code, "world", "--scenario", "open", "--time-scale", "2"]
     world = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:
-        lines = [world.stdout.readline().strip() for _ in range(3)]
+        lines = [world.stdout.readline().strip() for _ in range(4)]
         ports = dict(line.split(": ", 1) for line in lines)
-        assert ports["run"].startswith("clomp run --lidar ")
+        assert ports["run"].startswith("clomp run --lidar ") and f"--imu {ports['imu']}" in ports["run"]
         run = subprocess.run(
             clomp("run", "--lidar", ports["lidar"], "--motors", ports["motors"], "--goal", "0.3,0",
                   "--time-scale", "2", "--log", str(tmp_path / "run.jsonl")),

@@ -19,34 +19,18 @@ from clomp.planner import Configurator
 from clomp.runtime.supervision import SupervisorState
 from clomp.runtime.supervision.states import Event
 from tests.runtime._simline import LockstepClock
-from tests.runtime._stack import NEUTRAL, StackRun, run_stack, wheels_stopped_at
+from tests.runtime._stack import StackRun, at, driving, run_stack, wheels_stopped_at
 
 TICK = 0.1  # the supervisor's control period (RobotModel.tick)
 T_FAULT = 3.0  # simulated seconds into the run: the robot is driving its first straight (it stands
 # the first ten revolutions, about 1.8 s at 5.5 Hz, to seed its map)
 
 
-def _driving(run: StackRun) -> bool:
-    return any(ch in (0, 1) and t not in (0, NEUTRAL) for _, ch, t in run.world.maestro.events)
-
-
-def _at(t_fault: float, act: Any) -> Any:
-    """A hook that calls ``act(run)`` once, at the first wake-up at or after ``t_fault`` s of
-    the run, and remembers that moment in ``run.notes["t_fault"]``."""
-    def hook(t: float, run: StackRun) -> None:
-        t0 = run.notes.setdefault("t0", t)
-        if "t_fault" not in run.notes and t - t0 >= t_fault:
-            assert _driving(run), "the fault is meant to come while the wheels turn"
-            run.notes["t_fault"] = t
-            act(run)
-    return hook
-
-
 def test_ctrl_c_between_ticks_stops_the_wheels_at_once() -> None:
     def interrupt(run: StackRun) -> None:
         raise KeyboardInterrupt("interrupted by SIGINT")
 
-    run = run_stack("overtaking", hook=_at(T_FAULT, interrupt))
+    run = run_stack("overtaking", hook=at(T_FAULT, interrupt))
     assert isinstance(run.raised, KeyboardInterrupt)
     t_fault = run.notes["t_fault"]
     assert wheels_stopped_at(run.world.maestro, t_fault) - t_fault == 0.0  # in the same instant, before any wait
@@ -63,7 +47,7 @@ def test_ctrl_c_inside_a_tick_halts_the_supervisor_with_the_wheels_stopped() -> 
 
         run.robot.set_wheel_speeds = interrupted  # type: ignore[method-assign]
 
-    run = run_stack("overtaking", hook=_at(T_FAULT, arm))
+    run = run_stack("overtaking", hook=at(T_FAULT, arm))
     assert isinstance(run.raised, KeyboardInterrupt)
     sup = run.supervisor
     assert sup is not None and sup.state is SupervisorState.HALTED and "SIGINT" in sup.reason
@@ -73,7 +57,7 @@ def test_ctrl_c_inside_a_tick_halts_the_supervisor_with_the_wheels_stopped() -> 
 
 
 def test_the_motor_controller_vanishing_is_detected_at_the_next_command() -> None:
-    run = run_stack("overtaking", hook=_at(T_FAULT, lambda run: run.world.maestro.vanish()))
+    run = run_stack("overtaking", hook=at(T_FAULT, lambda run: run.world.maestro.vanish()))
     assert run.raised is None and run.report is not None
     assert run.report.state is SupervisorState.HALTED
     assert run.robot is not None and run.robot.fault is not None and "motor controller" in run.robot.fault
@@ -96,4 +80,4 @@ def test_an_exception_inside_planning_halts_with_the_wheels_stopped(monkeypatch:
     assert run.report is not None and run.report.state is SupervisorState.HALTED
     assert "boom in the planner" in run.report.reason and "RuntimeError" in run.report.reason
     assert raised and wheels_stopped_at(run.world.maestro, raised[0]) - raised[0] == 0.0
-    assert not _driving(run)  # no plan, no task: the wheels were never commanded to move
+    assert not driving(run)  # no plan, no task: the wheels were never commanded to move
