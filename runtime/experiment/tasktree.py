@@ -20,6 +20,7 @@ from typing import Any
 
 import numpy as np
 
+from clomp.formal.geometry import polar_to_xy
 from clomp.formal.model import State, TaskKind
 from clomp.planner.configurator import PlanResult
 
@@ -48,7 +49,8 @@ def _task_path(s: State) -> tuple[list[float], list[float]]:
     if s.task is TaskKind.STRAIGHT or math.hypot(s.end.x - s.start.x, s.end.y - s.start.y) > 1e-6:
         return [s.start.x, s.end.x], [s.start.y, s.end.y]
     a = np.linspace(s.start.theta, s.end.theta, 12)
-    return list(s.start.x + _TURN_RADIUS * np.cos(a)), list(s.start.y + _TURN_RADIUS * np.sin(a))
+    arc = polar_to_xy(np.full_like(a, _TURN_RADIUS), a)
+    return list(s.start.x + arc[:, 0]), list(s.start.y + arc[:, 1])
 
 
 def _label_at(s: State) -> tuple[float, float]:

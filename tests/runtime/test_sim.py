@@ -162,9 +162,8 @@ def test_scenario_noise_and_seed_are_read():
     ],
 )
 def test_bad_noise_or_seed_names_the_field(noise, seed, field):
-    scene = parse_scenario({"goal": [1.0, 0.0], "seed": seed, "noise": noise}, "n")
-    with pytest.raises(ScenarioError) as err:
-        SimRobot(scene)
+    with pytest.raises(ScenarioError) as err:  # the seed is checked as the scenario is read, the noise by the robot
+        SimRobot(parse_scenario({"goal": [1.0, 0.0], "seed": seed, "noise": noise}, "n"))
     assert str(err.value).startswith(field + ":")
 
 

@@ -476,4 +476,5 @@ def test_the_supervisor_crops_far_returns_without_a_warning():
     with warnings.catch_warnings():
         warnings.simplefilter("error", ScanWarning)
         r = run_once(scene, "planning", 0, noise=WorldNoise(far_range=4.9), max_time=60.0)
-    assert r.end_state == "GOAL_REACHED", r.reason
+    # truly at the goal; in a corridor the estimate may not vouch for it (x along it is unobservable)
+    assert r.reached_goal and r.end_state in ("GOAL_REACHED", "GOAL_UNCONFIRMED"), r.reason
