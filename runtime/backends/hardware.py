@@ -58,6 +58,10 @@ __all__ = ["HardwareConfig", "HardwareRobot", "open_lidar_port"]
 
 _DEVICE_ERRORS: tuple[type[BaseException], ...] = (LidarError, MaestroError, ImuError, ValueError, *PORT_ERRORS)
 _READ_SLICE = 0.05  # seconds one blocking read of the LiDAR port may take
+#: seconds (device time) close() waits, once the wheels are stopped, for the reader to end and
+#: the devices to be released: a stalled device (a write that blocks) is then left behind, and
+#: never holds the process
+CLOSE_BUDGET = 0.5
 
 
 @dataclass(frozen=True)
@@ -445,7 +449,11 @@ class HardwareRobot:
             raise RobotFault(self._fault or str(exc)) from exc
 
     def close(self) -> None:
-        """Stop the wheels (best effort), end the readers, stop the LiDAR, release the ports."""
+        """Stop the wheels (best effort), end the readers, stop the LiDAR, release the ports.
+
+        Once the wheels are stopped, the rest is bounded by :data:`CLOSE_BUDGET` (device time):
+        what a stalled device still holds then is left to a daemon thread and logged
+        (``close`` record), so it never keeps the process from exiting."""
         if self._closing.is_set():
             return
         try:
@@ -455,9 +463,15 @@ class HardwareRobot:
         self._closing.set()
         with self._lock:
             self._lock.notify_all()
+        deadline = self._device_clock() + CLOSE_BUDGET
         if self._thread is not None and self._thread is not threading.current_thread():
-            self._thread.join(timeout=2.0)
-        self._release()
+            self._join(self._thread, deadline)
+        # released apart: a port whose write or close blocks (a stalled device) is left behind
+        release = threading.Thread(target=self._release, name="device-release", daemon=True)
+        release.start()
+        if not self._join(release, deadline):
+            self._write_log("close", stalled=[t.name for t in (self._thread, release) if t is not None and t.is_alive()],
+                            budget=CLOSE_BUDGET)
 
     def __enter__(self) -> HardwareRobot:
         return self
@@ -466,6 +480,19 @@ class HardwareRobot:
         self.close()
 
     # -- internals ---------------------------------------------------------------------------------
+    def _join(self, thread: threading.Thread, deadline: float) -> bool:
+        """Wait for ``thread`` until ``deadline`` (device time); whether it ended. On simulated
+        time the wait is counted on that clock, as the devices' other deadlines are."""
+        wall = self._device_clock is time.monotonic
+        while thread.is_alive():
+            left = deadline - self._device_clock()
+            if left <= 0:
+                return False
+            thread.join(left if wall else min(left, 0.01))
+            if not wall and thread.is_alive():
+                self.clock.sleep(min(left, 0.01))
+        return True
+
     def _release(self) -> None:
         if self.imu is not None:
             self.imu.close()
