@@ -451,7 +451,7 @@ class HardwareRobot:
     def close(self) -> None:
         """Stop the wheels (best effort), end the readers, stop the LiDAR, release the ports.
 
-        Once the wheels are stopped, the rest is bounded by :data:`CLOSE_BUDGET` (device time):
+        Once the wheels are stopped, the rest is bounded by :data:`CLOSE_BUDGET` (device and wall time):
         what a stalled device still holds then is left to a daemon thread and logged
         (``close`` record), so it never keeps the process from exiting."""
         if self._closing.is_set():
@@ -463,13 +463,13 @@ class HardwareRobot:
         self._closing.set()
         with self._lock:
             self._lock.notify_all()
-        deadline = self._device_clock() + CLOSE_BUDGET
+        deadline, wall_end = self._device_clock() + CLOSE_BUDGET, time.monotonic() + CLOSE_BUDGET
         if self._thread is not None and self._thread is not threading.current_thread():
-            self._join(self._thread, deadline)
+            self._join(self._thread, deadline, wall_end)
         # released apart: a port whose write or close blocks (a stalled device) is left behind
         release = threading.Thread(target=self._release, name="device-release", daemon=True)
         release.start()
-        if not self._join(release, deadline):
+        if not self._join(release, deadline, wall_end):
             self._write_log("close", stalled=[t.name for t in (self._thread, release) if t is not None and t.is_alive()],
                             budget=CLOSE_BUDGET)
 
@@ -480,17 +480,14 @@ class HardwareRobot:
         self.close()
 
     # -- internals ---------------------------------------------------------------------------------
-    def _join(self, thread: threading.Thread, deadline: float) -> bool:
-        """Wait for ``thread`` until ``deadline`` (device time); whether it ended. On simulated
-        time the wait is counted on that clock, as the devices' other deadlines are."""
-        wall = self._device_clock is time.monotonic
+    def _join(self, thread: threading.Thread, deadline: float, wall_end: float) -> bool:
+        """Wait for ``thread`` until ``deadline`` (device time) or ``wall_end`` (wall time:
+        simulated time may stand still meanwhile), whichever comes first; whether it ended."""
         while thread.is_alive():
-            left = deadline - self._device_clock()
+            left = min(deadline - self._device_clock(), wall_end - time.monotonic())
             if left <= 0:
                 return False
-            thread.join(left if wall else min(left, 0.01))
-            if not wall and thread.is_alive():
-                self.clock.sleep(min(left, 0.01))
+            thread.join(min(left, 0.01))
         return True
 
     def _release(self) -> None:

@@ -92,6 +92,10 @@ def test_a_stalled_lidar_stops_the_wheels_and_never_holds_the_way_out() -> None:
     from clomp.runtime.cli import EXIT_DEVICE_FAULT
     from clomp.runtime.cli.run import _finished
 
+    from clomp.runtime.backends.hardware import CLOSE_BUDGET
+
+    # close() waits at most CLOSE_BUDGET s of wall time for what is left (simulated time stands still meanwhile)
+    assert 0.3 + CLOSE_BUDGET <= 1.0
     run = run_stack("overtaking", hook=at(T_FAULT, lambda run: run.lines["lidar"].stall()))
     line = run.lines["lidar"]
     try:
