@@ -8,7 +8,7 @@ experiment`` does, and prints the resident set size (``/proc/self/statm``, else 
     PYTHONPATH=$PWD python bench/experiment_memory.py --runs 2000
 
 Measured (2 shared cores, 2,000 runs, about 3.5 min): before records were kept summary-only,
-+41.7 MB (21.9 KiB per run; an overtaking planning run at paper noise holds about 150 KiB);
++41.7 MB (20.9 KiB per run; an overtaking planning run at paper noise holds about 150 KiB);
 after, +3.9 MB (1.9 KiB per run: the summary fields each returned record still holds).
 """
 
