@@ -58,6 +58,10 @@ __all__ = ["HardwareConfig", "HardwareRobot", "open_lidar_port"]
 
 _DEVICE_ERRORS: tuple[type[BaseException], ...] = (LidarError, MaestroError, ImuError, ValueError, *PORT_ERRORS)
 _READ_SLICE = 0.05  # seconds one blocking read of the LiDAR port may take
+#: seconds (device time) close() waits, once the wheels are stopped, for the reader to end and
+#: the devices to be released: a stalled device (a write that blocks) is then left behind, and
+#: never holds the process
+CLOSE_BUDGET = 0.5
 
 
 @dataclass(frozen=True)
@@ -445,7 +449,11 @@ class HardwareRobot:
             raise RobotFault(self._fault or str(exc)) from exc
 
     def close(self) -> None:
-        """Stop the wheels (best effort), end the readers, stop the LiDAR, release the ports."""
+        """Stop the wheels (best effort), end the readers, stop the LiDAR, release the ports.
+
+        Once the wheels are stopped, the rest is bounded by :data:`CLOSE_BUDGET` (device and wall time):
+        what a stalled device still holds then is left to a daemon thread and logged
+        (``close`` record), so it never keeps the process from exiting."""
         if self._closing.is_set():
             return
         try:
@@ -455,9 +463,15 @@ class HardwareRobot:
         self._closing.set()
         with self._lock:
             self._lock.notify_all()
+        deadline, wall_end = self._device_clock() + CLOSE_BUDGET, time.monotonic() + CLOSE_BUDGET
         if self._thread is not None and self._thread is not threading.current_thread():
-            self._thread.join(timeout=2.0)
-        self._release()
+            self._join(self._thread, deadline, wall_end)
+        # released apart: a port whose write or close blocks (a stalled device) is left behind
+        release = threading.Thread(target=self._release, name="device-release", daemon=True)
+        release.start()
+        if not self._join(release, deadline, wall_end):
+            self._write_log("close", stalled=[t.name for t in (self._thread, release) if t is not None and t.is_alive()],
+                            budget=CLOSE_BUDGET)
 
     def __enter__(self) -> HardwareRobot:
         return self
@@ -466,6 +480,16 @@ class HardwareRobot:
         self.close()
 
     # -- internals ---------------------------------------------------------------------------------
+    def _join(self, thread: threading.Thread, deadline: float, wall_end: float) -> bool:
+        """Wait for ``thread`` until ``deadline`` (device time) or ``wall_end`` (wall time:
+        simulated time may stand still meanwhile), whichever comes first; whether it ended."""
+        while thread.is_alive():
+            left = min(deadline - self._device_clock(), wall_end - time.monotonic())
+            if left <= 0:
+                return False
+            thread.join(min(left, 0.01))
+        return True
+
     def _release(self) -> None:
         if self.imu is not None:
             self.imu.close()

@@ -16,7 +16,7 @@ from pathlib import Path
 from typing import Any
 
 from clomp.runtime.experiment.provenance import claim_folder
-from clomp.runtime.experiment.runrecords import load_records, run_spec
+from clomp.runtime.experiment.runrecords import PLOTTED_RUNS, load_records, run_spec, summary_record
 from clomp.runtime.experiment.runspec import CONDITIONS, RunSpec, experiment_specs
 
 __all__ = ["ExperimentInterrupted", "RunsFailed", "run_experiment"]
@@ -70,6 +70,11 @@ def run_experiment(
     ``out/errors.jsonl``) and holds the records that finished. ``progress``
     makes a bar from (total, already done); it gets ``update(1)`` per run and ``close()``.
     ``gyro`` False takes the world's rate gyro off (the paper's robot; ``clomp run`` without an IMU).
+    With ``out`` the records are kept whole on disk only: in memory (and in what this returns)
+    the runs from :data:`~clomp.runtime.experiment.runrecords.PLOTTED_RUNS` on lose their
+    traces (:func:`~clomp.runtime.experiment.runrecords.summary_record`), so memory stays
+    flat however many runs (``load_records(out / "runs.jsonl")`` reads them back whole);
+    ``on_record`` gets every record whole.
 
     >>> recs = run_experiment("overtaking", runs=1, noise="ideal", conditions=("reactive",))
     >>> [(r["condition"], r["run"]) for r in recs]
@@ -115,18 +120,22 @@ class _Store:
         claim_folder(folder, resume)  # refuses to resume another code version's runs
         path = folder / "runs.jsonl"
         if resume:
-            for rec in load_records(path):
-                if rec["key"] in wanted:
-                    self.done[rec["key"]] = rec
-            # rewrite clean (drops a line cut short by a crash)
-            path.write_text("".join(json.dumps(r, allow_nan=False) + "\n" for r in self.done.values()), encoding="utf-8")
+            kept = {rec["key"]: rec for rec in load_records(path) if rec["key"] in wanted}
+            # rewrite clean (drops a line cut short by a crash, and a run written twice)
+            path.write_text("".join(json.dumps(r, allow_nan=False) + "\n" for r in kept.values()), encoding="utf-8")
+            self.done.update((key, self._in_memory(rec, on_disk=True)) for key, rec in kept.items())
         else:
             path.write_text("", encoding="utf-8")
         return open(path, "a", encoding="utf-8")
 
+    @staticmethod
+    def _in_memory(rec: dict[str, Any], on_disk: bool) -> dict[str, Any]:
+        """What of a record stays in memory: all of it unless it is on disk and not plotted."""
+        return summary_record(rec) if on_disk and int(rec["run"]) >= PLOTTED_RUNS else rec
+
     def keep(self, rec: dict[str, Any]) -> None:
         """A run finished: its record."""
-        self.done[rec["key"]] = rec
+        self.done[rec["key"]] = self._in_memory(rec, on_disk=self._sink is not None)
         if self._sink is not None:
             self._sink.write(json.dumps(rec, allow_nan=False) + "\n")
             self._sink.flush()

@@ -15,7 +15,12 @@ from clomp.runtime.experiment.groundtruth import world_name
 from clomp.runtime.experiment.onerun import SUCCESS_RADIUS, run_once
 from clomp.runtime.experiment.runspec import RunSpec, noise_seed, scene_for
 
-__all__ = ["load_records", "run_spec"]
+__all__ = ["PLOTTED_RUNS", "TRACE_FIELDS", "load_records", "run_spec", "summary_record"]
+
+#: the fields of a record that only the plots read (not in the CSV): what a run grows with
+TRACE_FIELDS = ("obstacles", "goal", "start", "path", "estimate", "planned", "contacts", "episodes", "final_pose")
+#: the runs (index below this) whose traces the plots draw (report.write_plots' max_panels)
+PLOTTED_RUNS = 20
 
 
 def _r(v: float | None, nd: int) -> float | None:
@@ -79,6 +84,15 @@ def run_spec(spec: RunSpec) -> dict[str, Any]:
         "episodes": [asdict(e) for e in r.episodes],
         "final_pose": [round(v, 4) for v in r.final_pose],
     }
+
+
+def summary_record(rec: dict[str, Any]) -> dict[str, Any]:
+    """``rec`` without its :data:`TRACE_FIELDS`: what the summary, the CSV and Parquet read.
+
+    >>> summary_record({"key": "k", "success": 1, "path": [[0.0, 0.0]]})
+    {'key': 'k', 'success': 1}
+    """
+    return {k: v for k, v in rec.items() if k not in TRACE_FIELDS}
 
 
 def load_records(path: str | os.PathLike[str]) -> list[dict[str, Any]]:

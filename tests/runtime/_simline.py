@@ -27,6 +27,7 @@ from clomp.runtime.devices._pty import PtyEmulator
 __all__ = ["LockstepClock", "SimLine"]
 
 _STEP = 0.001  # simulated seconds a waiting reader lets pass at a time
+_STALL_WALL = 20.0  # wall seconds a write on a stalled line blocks at most
 
 
 class LockstepClock(ManualClock):
@@ -163,6 +164,26 @@ class SimLine:
         self.running = threading.Event()
         self.running.set()
         self.dtr = False
+        self._flowing = threading.Event()  # cleared: the line is stalled (see stall())
+        self._flowing.set()
+        self.blocked = 0  # writes blocked on the stalled line right now
+
+    def stall(self) -> None:
+        """The device stops (its process stopped): it sends nothing more, reads time out, and
+        a write blocks (its buffer full) until :meth:`resume` (or ``_STALL_WALL`` s of wall
+        time, then ``OSError``: a test without the bound fails instead of hanging)."""
+        self._flowing.clear()
+
+    def resume(self) -> None:
+        self._flowing.set()
+
+    @property
+    def stalled(self) -> bool:
+        return not self._flowing.is_set()
+
+    def _tick_device(self, now: float) -> None:
+        if self._flowing.is_set():
+            self.device._tick(now)
 
     def _check_present(self) -> None:
         if self.device._vanish.is_set():
@@ -173,11 +194,20 @@ class SimLine:
         self._check_present()
         with self.lock:
             if not self.follow:  # a followed device is ticked by its leading line alone
-                self.device._tick(self.clock.now())
+                self._tick_device(self.clock.now())
             return len(self.device._out)
 
     def write(self, data: bytes) -> int:
         self._check_present()
+        if not self._flowing.is_set():
+            with self.lock:
+                self.blocked += 1
+            try:
+                if not self._flowing.wait(_STALL_WALL):
+                    raise OSError(errno.EIO, f"{self.port}: the write blocked for {_STALL_WALL} s (stalled device)")
+            finally:
+                with self.lock:
+                    self.blocked -= 1
         with self.lock:
             self.device._on_bytes(bytes(data), self.clock.now())
         return len(data)
@@ -222,7 +252,7 @@ class SimLine:
                 if moved > 0 and not self.follow:
                     waited += moved
                     now = self.clock.now()
-                    self.device._tick(now)
+                    self._tick_device(now)
                     for other in self.also:
                         other._tick(now)
             if moved < 0:

@@ -41,6 +41,8 @@ class StackRun:
     started: float = 0.0  # the simulated time the supervisor's run began
     raised: BaseException | None = None  # what the supervisor's run raised
     notes: dict[str, Any] = field(default_factory=dict)  # what a hook wants to remember
+    lines: dict[str, SimLine] = field(default_factory=dict)  # "lidar", "maestro" (and "imu")
+    closed_at: float | None = None  # the simulated time the robot's close() returned
 
 
 class _HookedClock:
@@ -73,6 +75,7 @@ def run_stack(scenario: str, *, max_time: float = 80.0, seed: int = 0, conf: Con
                          also=(world.imu,) if imu else ())
     motor_line = SimLine(world.maestro, clock, lock=lock, name="sim-maestro")
     imu_line = SimLine(world.imu, clock, lock=lock, name="sim-imu", follow=True) if imu else None
+    run.lines.update(lidar=lidar_line, maestro=motor_line, **({"imu": imu_line} if imu_line is not None else {}))
     # the Maestro driver's watchdog: off, as in test_hardware_deadlines.py
     config = HardwareConfig(watchdog_timeout=None)
     conf = conf or Configurator()
@@ -91,6 +94,7 @@ def run_stack(scenario: str, *, max_time: float = 80.0, seed: int = 0, conf: Con
             finally:
                 run.elapsed = clock.now() - t0
                 clock.release()  # let the reader thread's timeouts run out as it closes
+        run.closed_at = clock.now()
     finally:
         clock.release()
     return run

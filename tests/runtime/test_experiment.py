@@ -158,6 +158,25 @@ def test_records_stream_to_the_folder_and_resume_skips_them(tmp_path):
     assert len(more) == 6 and sorted(r["run"] for r in again) == [2, 2]
 
 
+def test_an_experiment_written_to_a_folder_keeps_only_the_plotted_traces_in_memory(tmp_path):
+    """Flat memory at scale (issue #43): from run PLOTTED_RUNS on, a record is whole on disk
+    and summary-only in memory; the runs the plots draw keep their traces; resuming alike."""
+    from clomp.runtime.experiment.runrecords import PLOTTED_RUNS, TRACE_FIELDS
+
+    n = PLOTTED_RUNS + 2
+    whole = []
+    recs = run_experiment("open", runs=n, noise="ideal", conditions=("reactive",), out=tmp_path,
+                          on_record=whole.append)
+    on_disk = load_records(tmp_path / "runs.jsonl")
+    assert all(set(TRACE_FIELDS) <= r.keys() for r in on_disk + whole)
+    for again in (recs, run_experiment("open", runs=n, noise="ideal", conditions=("reactive",), out=tmp_path,
+                                       resume=True)):
+        assert [r["run"] < PLOTTED_RUNS for r in again] == [bool(set(TRACE_FIELDS) & r.keys()) for r in again]
+        assert [{k: v for k, v in r.items() if k not in TRACE_FIELDS} for r in on_disk] == [
+            {k: v for k, v in r.items() if k not in TRACE_FIELDS} for r in again]
+    assert set(TRACE_FIELDS) <= run_experiment("open", runs=n, noise="ideal", conditions=("reactive",))[-1].keys()
+
+
 def test_ctrl_c_keeps_what_finished(tmp_path, monkeypatch):
     real = runner.run_spec
     calls = []

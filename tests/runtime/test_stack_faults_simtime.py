@@ -11,6 +11,7 @@ next command (within one tick, 0.1 s).
 
 from __future__ import annotations
 
+from pathlib import Path
 from typing import Any
 
 import pytest
@@ -81,3 +82,29 @@ def test_an_exception_inside_planning_halts_with_the_wheels_stopped(monkeypatch:
     assert "boom in the planner" in run.report.reason and "RuntimeError" in run.report.reason
     assert raised and wheels_stopped_at(run.world.maestro, raised[0]) - raised[0] == 0.0
     assert not driving(run)  # no plan, no task: the wheels were never commanded to move
+
+
+def test_a_stalled_lidar_stops_the_wheels_and_never_holds_the_way_out() -> None:
+    """The LiDAR's process stops (nothing more arrives, a write blocks until it resumes, as
+    on a pty whose other end is stopped): the silence trips the robot, the wheels stop within
+    0.3 s, and close() returns within 1 s of the stall, leaving the STOP it writes to the LiDAR
+    blocked behind it; ``clomp run`` then exits 3."""
+    from clomp.runtime.cli import EXIT_DEVICE_FAULT
+    from clomp.runtime.cli.run import _finished
+
+    from clomp.runtime.backends.hardware import CLOSE_BUDGET
+
+    # close() waits at most CLOSE_BUDGET s of wall time for what is left (simulated time stands still meanwhile)
+    assert 0.3 + CLOSE_BUDGET <= 1.0
+    run = run_stack("overtaking", hook=at(T_FAULT, lambda run: run.lines["lidar"].stall()))
+    line = run.lines["lidar"]
+    try:
+        t_fault = run.notes["t_fault"]
+        assert run.robot is not None and run.robot.fault is not None and "fell silent" in run.robot.fault
+        assert wheels_stopped_at(run.world.maestro, t_fault) - t_fault <= 0.3
+        assert run.closed_at is not None and run.closed_at - t_fault <= 1.0, run.closed_at - t_fault
+        assert line.blocked == 1  # the way out did not wait for the stalled LiDAR
+        assert run.report is not None and run.report.state is SupervisorState.HALTED
+        assert _finished(run.report, run.robot, Path("run.jsonl"), lambda text: None) == EXIT_DEVICE_FAULT
+    finally:
+        line.resume()
