@@ -6,4 +6,6 @@ doctests (and docs/gym.md's) are skipped rather than failing to import.
 
 import importlib.util
 
-collect_ignore_glob = [] if importlib.util.find_spec("gymnasium") else ["clomp/runtime/gym/*.py", "runtime/gym/*.py", "docs/gym.md"]
+_without_gym = importlib.util.find_spec("gymnasium") is None
+collect_ignore_glob = ["clomp/runtime/gym/*.py", "runtime/gym/*.py"] if _without_gym else []
+collect_ignore = ["docs/gym.md"] if _without_gym else []
