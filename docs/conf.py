@@ -42,7 +42,7 @@ html_theme_options = {"description": "Closed-loop multi-step planning with innat
 PACKAGES = [
     "clomp", "clomp.planner", "clomp.formal", "clomp.runtime",
     "clomp.runtime.backends", "clomp.runtime.cli", "clomp.runtime.devices", "clomp.runtime.estimation",
-    "clomp.runtime.experiment", "clomp.runtime.records", "clomp.runtime.ros", "clomp.runtime.supervision",
+    "clomp.runtime.experiment", "clomp.runtime.gym", "clomp.runtime.records", "clomp.runtime.ros", "clomp.runtime.supervision",
     "clomp.specs",
 ]
 

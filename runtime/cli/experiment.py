@@ -50,8 +50,8 @@ def register(sub: Any) -> None:
     p.add_argument("--scheduler", default=None, metavar="ADDRESS",
                    help="use an existing Dask scheduler (e.g. tcp://host:8786) instead of a local cluster")
     p.add_argument("--max-time", type=float, default=120.0, help="simulated seconds a run may take (default 120)")
-    p.add_argument("--condition", choices=("planning", "reactive"), action="append",
-                   help="run only this condition (repeatable)")
+    p.add_argument("--condition", choices=("planning", "reactive", "dwa"), action="append",
+                   help="run only this condition (repeatable; default planning and reactive; dwa: the dynamic window approach)")
     p.add_argument("--out", default="clomp-experiment-out", help="output folder (default ./clomp-experiment-out)")
     p.add_argument("--resume", action="store_true", help="keep the finished runs in OUT/runs.jsonl, run the rest")
     p.add_argument("--no-plots", action="store_true", help="skip the PNGs")
@@ -99,7 +99,7 @@ def run(args: argparse.Namespace) -> int:
     """Execute ``clomp experiment``."""
     from clomp.runtime.experiment.driver import ExperimentInterrupted, RunsFailed, run_experiment
     from clomp.runtime.experiment.results import PAPER
-    from clomp.runtime.experiment.runspec import CONDITIONS
+    from clomp.runtime.experiment.runspec import DEFAULT_CONDITIONS
 
     if args.runs < 1:
         raise CliError("--runs: must be at least 1")
@@ -118,7 +118,7 @@ def run(args: argparse.Namespace) -> int:
         print(f"wrote {path}")
         return 0
     scales = parse_scales(args.noise_sweep) if args.noise_sweep else [args.noise_scale]
-    conditions = tuple(dict.fromkeys(args.condition)) if args.condition else CONDITIONS
+    conditions = tuple(dict.fromkeys(args.condition)) if args.condition else DEFAULT_CONDITIONS
     workers = (os.cpu_count() or 1) if args.workers is None else args.workers
     from clomp.runtime.cli._progress import progress
 

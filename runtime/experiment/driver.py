@@ -17,7 +17,7 @@ from typing import Any
 
 from clomp.runtime.experiment.provenance import claim_folder
 from clomp.runtime.experiment.runrecords import PLOTTED_RUNS, load_records, run_spec, summary_record
-from clomp.runtime.experiment.runspec import CONDITIONS, RunSpec, experiment_specs
+from clomp.runtime.experiment.runspec import DEFAULT_CONDITIONS, RunSpec, experiment_specs
 
 __all__ = ["ExperimentInterrupted", "RunsFailed", "run_experiment"]
 
@@ -48,7 +48,7 @@ def run_experiment(
     *,
     noise: str = "paper",
     noise_scales: Sequence[float] = (1.0,),
-    conditions: Sequence[str] = CONDITIONS,
+    conditions: Sequence[str] = DEFAULT_CONDITIONS,
     max_time: float = 120.0,
     workers: int = 0,
     scheduler: str | None = None,

@@ -33,6 +33,7 @@ from clomp.runtime.experiment.contacts import ContactCount, Episode, contact_epi
 from clomp.runtime.experiment.groundtruth import make_robot
 from clomp.runtime.experiment.layouts import shape_distance
 from clomp.runtime.experiment.plots import RunTrace
+from clomp.runtime.experiment.dwa import DwaController
 from clomp.runtime.experiment.reactive import ReactiveController
 from clomp.runtime.experiment.runspec import check_condition
 from clomp.runtime.records.runlog import RunLog
@@ -255,7 +256,8 @@ def run_once(
         end_state, reason = report.state.value, report.reason
     else:
         opts: dict[str, Any] = {"model": conf.robot, "feedback": feedback, **(reactive or {})}
-        report = ReactiveController(robot, goal, **opts).run(max_time=max_time)  # type: ignore[arg-type]
+        controller = DwaController if condition == "dwa" else ReactiveController
+        report = controller(robot, goal, **opts).run(max_time=max_time)  # type: ignore[arg-type]
         end_state, reason = report.state, report.reason
     wall, cpu = time.perf_counter() - t0, time.thread_time() - c0
     true = robot.ground_truth_pose()

@@ -226,6 +226,9 @@ def summarise(records: Iterable[dict[str, Any]]) -> dict[str, Any]:
     return out
 
 
+_NAMES = ("planning", "reactive", "dwa")  # the conditions, in the table's order (runspec.CONDITIONS)
+
+
 def _pair_key(r: dict[str, Any]) -> tuple[float, int]:
     return (float(r.get("noise_scale", 1.0)), int(r["run"]))
 
@@ -235,16 +238,17 @@ def _block(recs: list[dict[str, Any]]) -> dict[str, Any]:
     by: dict[str, list[dict[str, Any]]] = {}
     for r in recs:
         by.setdefault(r["condition"], []).append(r)
-    for name in ("planning", "reactive"):
+    for name in _NAMES:
         if name in by:
             conds[name] = _condition(by[name])
     out: dict[str, Any] = {"conditions": conds}
-    if "planning" in by and "reactive" in by:
-        p = {_pair_key(r): r for r in by["planning"]}
-        q = {_pair_key(r): r for r in by["reactive"]}
-        pairs = sorted(set(p) & set(q))
-        out["ttest_collisions"] = paired_ttest([p[k]["collisions"] for k in pairs], [q[k]["collisions"] for k in pairs])
-        out["mcnemar_success"] = mcnemar([int(p[k]["success"]) for k in pairs], [int(q[k]["success"]) for k in pairs])
+    for other, suffix in (("reactive", ""), ("dwa", "_dwa")):  # each baseline paired against planning
+        if "planning" in by and other in by:
+            p = {_pair_key(r): r for r in by["planning"]}
+            q = {_pair_key(r): r for r in by[other]}
+            pairs = sorted(set(p) & set(q))
+            out["ttest_collisions" + suffix] = paired_ttest([p[k]["collisions"] for k in pairs], [q[k]["collisions"] for k in pairs])
+            out["mcnemar_success" + suffix] = mcnemar([int(p[k]["success"]) for k in pairs], [int(q[k]["success"]) for k in pairs])
     return out
 
 
@@ -265,7 +269,7 @@ def _per_run(d: dict[str, Any], key: str) -> str:
 def table(summary: dict[str, Any], paper: dict[str, Any] | None = None) -> str:
     """The summary as a text table (the paper's figures beside it when given)."""
     c = summary["conditions"]
-    names = [n for n in ("planning", "reactive") if n in c]
+    names = [n for n in _NAMES if n in c]
     rows: list[tuple[str, list[str]]] = [
         ("success (95 % Wilson)", [_ci(c[n]) for n in names]),
         ("truly at the goal", [f"{c[n]['reached_goal']}/{c[n]['runs']}" for n in names]),
@@ -303,14 +307,15 @@ def table(summary: dict[str, Any], paper: dict[str, Any] | None = None) -> str:
         }
     for label, vals in rows:
         lines.append(f"{label:<{w0}}" + "".join(f"{v:<{w1}}" for v in vals) + paper_col.get(label, ""))
-    t = summary.get("ttest_collisions")
-    if t:
-        mine = f"T = {t['t']:.3f}, p = {t['p']:.3g}" if t["t"] is not None else t["note"]
-        ref = f"   [paper: T = {paper['ttest']['t']}, p = {paper['ttest']['p']}]" if paper else ""
-        lines.append(f"paired t-test on collisions (planning − reactive, n={t['n']}): {mine}{ref}")
-    m = summary.get("mcnemar_success")
-    if m:
-        lines.append(f"McNemar on success: only planning {m['b10']}, only reactive {m['b01']}, exact p = {m['p']:.4g}")
+    for other, suffix in (("reactive", ""), ("dwa", "_dwa")):
+        t = summary.get("ttest_collisions" + suffix)
+        if t:
+            mine = f"T = {t['t']:.3f}, p = {t['p']:.3g}" if t["t"] is not None else t["note"]
+            ref = f"   [paper: T = {paper['ttest']['t']}, p = {paper['ttest']['p']}]" if paper and not suffix else ""
+            lines.append(f"paired t-test on collisions (planning − {other}, n={t['n']}): {mine}{ref}")
+        m = summary.get("mcnemar_success" + suffix)
+        if m:
+            lines.append(f"McNemar on success: only planning {m['b10']}, only {other} {m['b01']}, exact p = {m['p']:.4g}")
     lines.append(f"success = truly within {summary.get('success_radius_m', SUCCESS_RADIUS_M)} m of the goal (ground truth); "
                  "collision = contact episode (gaps < 1 s merged), brush = < 1 cm deep and < 0.5 s")
     return "\n".join(lines)

@@ -22,9 +22,13 @@ from clomp.planner.scenarios import Scene, load_scenario
 from clomp.runtime.experiment.groundtruth import NOISE_PRESETS
 from clomp.runtime.experiment.layouts import FAMILIES, make_layout
 
-__all__ = ["CONDITIONS", "RunSpec", "check_condition", "experiment_specs", "noise_seed", "scene_for"]
+__all__ = ["CONDITIONS", "DEFAULT_CONDITIONS", "RunSpec", "check_condition", "experiment_specs", "noise_seed", "scene_for"]
 
-CONDITIONS = ("planning", "reactive")
+CONDITIONS = ("planning", "reactive", "dwa")
+"""The experiment's conditions: the planner, the authors' one-loop reactive controller and the
+dynamic window approach (:mod:`clomp.runtime.experiment.dwa`)."""
+DEFAULT_CONDITIONS = ("planning", "reactive")
+"""The conditions an experiment runs unless told: the paper's comparison."""
 
 
 def check_condition(condition: str) -> None:
@@ -97,7 +101,7 @@ def scene_for(spec: RunSpec) -> tuple[Scene, str]:
 
 
 def experiment_specs(family: str, runs: int, seed: int = 0, *, noise: str = "paper",
-                     noise_scales: Sequence[float] = (1.0,), conditions: Sequence[str] = CONDITIONS,
+                     noise_scales: Sequence[float] = (1.0,), conditions: Sequence[str] = DEFAULT_CONDITIONS,
                      max_time: float = 120.0, feedback: str = "scan", gyro: bool = True) -> list[RunSpec]:
     """Every run of an experiment, in a fixed order (scale, run, condition); a ValueError
     (or the :class:`~clomp.planner.scenarios.ScenarioError` of an unknown family) now
