@@ -26,6 +26,22 @@ class PtyEmulator(abc.ABC):
 
     _name = "emulator"
 
+    def _set_faults(self, faults: dict[str, float | bool], known: tuple[str, ...] | dict[str, object],
+                    probabilities: tuple[str, ...]) -> float:
+        """Set ``faults`` (attribute: value) under the lock, after refusing unknown names and
+        probabilities outside [0, 1]; the device's time of it (what a fault is timed from).
+        The one body of the emulators' ``inject``."""
+        unknown = set(faults) - set(known)
+        if unknown:
+            raise ValueError(f"unknown fault(s) {', '.join(sorted(unknown))}; known: {', '.join(known)}")
+        for name in probabilities:
+            if name in faults and not 0 <= float(faults[name]) <= 1:
+                raise ValueError(f"{name} is a probability in [0, 1], got {faults[name]!r}")
+        with self._lock:
+            for name, value in faults.items():
+                setattr(self, name, value)
+            return self.clock()
+
     def __init__(self, clock: Callable[[], float] | None = None) -> None:
         #: the device's own time (seconds); a test may pass a manual clock's ``now``
         self.clock: Callable[[], float] = clock or time.monotonic

@@ -201,16 +201,7 @@ class LidarEmulator(PtyEmulator):
         ...     lidar.inject(silent=True) <= lidar.clock() and lidar.silent
         True
         """
-        unknown = set(faults) - set(self._FAULTS)
-        if unknown:
-            raise ValueError(f"unknown fault(s) {', '.join(sorted(unknown))}; known: {', '.join(self._FAULTS)}")
-        for name in ("garbage_rate", "bad_check_rate"):
-            if name in faults and not 0 <= float(faults[name]) <= 1:
-                raise ValueError(f"{name} is a probability in [0, 1], got {faults[name]!r}")
-        with self._lock:
-            for name, value in faults.items():
-                setattr(self, name, value)
-            return self.clock()
+        return self._set_faults(faults, self._FAULTS, ("garbage_rate", "bad_check_rate"))
 
     # -- requests
 
