@@ -386,3 +386,20 @@ def test_cli_emulate_user_errors(argv: list[str], message: str, tmp_path: Path) 
     _, err = proc.communicate(timeout=20)
     assert proc.returncode == 2
     assert message in err and "Traceback" not in err
+
+
+def test_both_emulators_refuse_unknown_faults_and_bad_probabilities() -> None:
+    """``inject`` (one body, PtyEmulator._set_faults): a misspelt fault or a rate outside [0, 1]
+    is refused and nothing is switched; a known fault is set."""
+    from clomp.runtime.devices.bno08x_emulator import Bno08xEmulator
+    from clomp.runtime.devices.rplidar_emulator import LidarEmulator
+
+    for make, rate in ((LidarEmulator, "garbage_rate"), (Bno08xEmulator, "drop_rate")):
+        with make() as emu:
+            with pytest.raises(ValueError, match="unknown fault"):
+                emu.inject(silnet=True)
+            with pytest.raises(ValueError, match="probability in"):
+                emu.inject(**{rate: 1.5})
+            assert getattr(emu, rate) != 1.5 and not emu.silent
+            emu.inject(silent=True)
+            assert emu.silent
