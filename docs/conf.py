@@ -2,7 +2,8 @@
 
 The Markdown pages under ``docs/`` are read by MyST; the API pages under ``docs/api/`` are
 written here, at build time, from each public package's ``__all__``, so that a new public
-name appears in the reference without anyone editing a page. No network: intersphinx is off.
+name appears in the reference without anyone editing a page; the command-line reference under
+``docs/cli/`` likewise from the argparse parsers (``docs/cliref.py``). No network: intersphinx is off.
 """
 
 from __future__ import annotations
@@ -15,6 +16,7 @@ from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE.parent))  # the checkout's clomp, not an installed copy
+sys.path.insert(1, str(HERE))  # cliref: the command-line reference's writer
 
 project = "clomp"
 author = "the clomp contributors"
@@ -125,6 +127,13 @@ def write_figures(out: Path = HERE / "_generated") -> None:
     plot_task_tree(result, out / "fig3c_overtaking.png", scan, title="overtaking: explored task tree")
 
 
+def _write_cli() -> None:
+    """The command-line reference (``docs/cli/``), from the argparse parsers themselves."""
+    from cliref import write_cli_pages
+
+    write_cli_pages(HERE / "cli")
+
+
 def _drop_type_docstring(app: object, what: str, name: str, obj: object, options: object, lines: list[str]) -> None:
     """A constant without a ``#:`` comment: show nothing rather than its type's docstring."""
     if what == "data" and lines and type(obj).__doc__ and "\n".join(lines).strip() == inspect.cleandoc(type(obj).__doc__ or ""):
@@ -136,4 +145,5 @@ def setup(app: object) -> None:
     # pytest imports this file as a module when it collects doctests)
     app.connect("builder-inited", lambda _app: write_api_pages())  # type: ignore[attr-defined]
     app.connect("builder-inited", lambda _app: write_figures())  # type: ignore[attr-defined]
+    app.connect("builder-inited", lambda _app: _write_cli())  # type: ignore[attr-defined]
     app.connect("autodoc-process-docstring", _drop_type_docstring)  # type: ignore[attr-defined]
