@@ -116,15 +116,34 @@ def write_api_pages(out: Path = HERE / "api") -> None:
 
 def write_figures(out: Path = HERE / "_generated") -> None:
     """The figures the pages show, drawn by the library itself at build time (as ``clomp plan
-    --scenario overtaking --figure`` draws them), so a page never shows a stale picture."""
+    --scenario overtaking --figure``, ``clomp simulate --animate`` and ``clomp demo`` draw them),
+    so a page never shows a stale picture."""
     import clomp
+    from clomp.formal.export import render_svg
+    from clomp.runtime.backends.world import WorldNoise
+    from clomp.runtime.experiment.animation import animate_run
+    from clomp.runtime.experiment.onerun import run_once
+    from clomp.runtime.experiment.plots import plot_run
     from clomp.runtime.experiment.tasktree import plot_task_tree
+    from clomp.runtime.supervision.states import state_machine_dot
 
     out.mkdir(exist_ok=True)
     scene = clomp.load_scenario("overtaking")
     scan = scene.scan()
     result = clomp.plan(scan, goal=scene.goal_in_robot_frame())
     plot_task_tree(result, out / "fig3c_overtaking.png", scan, title="overtaking: explored task tree")
+    render_svg(result.map, out / "cognitive_map_overtaking.svg")
+    dot = Path(out / "supervisor.dot")
+    dot.write_text(state_machine_dot(), encoding="utf-8")
+    import subprocess
+
+    subprocess.run(["dot", "-Tsvg", str(dot), "-o", str(out / "supervisor.svg")], check=True, timeout=60)
+    for name, gif in (("overtaking", True), ("cul-de-sac", False)):  # as clomp simulate runs them
+        sc = clomp.load_scenario(name)
+        run = run_once(sc, "planning", sc.raw.get("seed", 0), noise=WorldNoise.for_scene(sc, "paper", 1.0), keep_report=True)
+        plot_run(run.trace(), out / f"trajectory_{name}.png", title=f"{name} — planning")
+        if gif:
+            animate_run(run.trace(), out / f"run_{name}.gif", title=f"{name}: planned and executed closed-loop")
 
 
 def _write_cli() -> None:

@@ -81,6 +81,7 @@ class RunResult:
     counters: dict[str, int | None] = field(default_factory=dict)
     report: Any = field(default=None, repr=False)
     times: list[float] = field(default_factory=list, repr=False)  # the time (s) of each point of ``path``
+    headings: list[float] = field(default_factory=list, repr=False)  # the true heading (rad) at each point of ``path``
 
     @property
     def collisions(self) -> int:
@@ -108,7 +109,7 @@ class RunResult:
             scan = [_world(st, rec.to_frame(Pose(x, y, 0.0))) for rec in plans for x, y in rec.result.obstacles.points.tolist()]
             label = "scan points the planner saw"
         return RunTrace(self.scene, title, self.path, self.contacts, self.planned, self.estimate, poses,
-                        self.reached_goal, tone, scan, label, list(self.times))
+                        self.reached_goal, tone, scan, label, list(self.times), list(self.headings))
 
 
 def _world(start: Pose, p: Pose) -> tuple[float, float]:
@@ -283,6 +284,7 @@ def run_once(
         reason = f"{reason}, but truly {dist:.3f} m from the goal"
     path = [(x, y) for _, x, y, _ in truth[::10]] + [(true.x, true.y)]
     times = [t for t, _, _, _ in truth[::10]] + [float(report.time_s)]
+    headings = [th for _, _, _, th in truth[::10]] + [true.theta]
     estimate = [_world(start, Pose(x, y, th)) for _, x, y, th in report.trajectory]
     contacts = [_contact_point(scene, truth, e.start_s) for e in episodes]
     counters = {name: _count(report, name) for name in ("checks", "recalls", "fresh_plans")}
@@ -290,4 +292,5 @@ def run_once(
         condition, run, seed_, scene, end_state, reason, reached, believed, dist, episodes, contacts,
         report.time_s, report.time_s if reached and expect == "reach" else None, plan_time, states, plans, path,
         estimate, planned, wall, cpu, (true.x, true.y, true.theta), counters, report if keep_report else None, times,
+        headings,
     )

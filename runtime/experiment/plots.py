@@ -47,7 +47,7 @@ class RunTrace:
     ``ok``: the run succeeded; ``tone``: ``"ok"``, ``"stop"`` (an honest stop short of the goal)
     or ``"bad"`` (default: from ``ok``), the title's colour; ``scan``: scan points to draw,
     named ``scan_label`` in the legend; ``times``: the time (s) of each point of ``path``
-    (empty: no time marks).
+    (empty: no time marks); ``headings``: the true heading (rad) there (for an animation).
     """
 
     scene: Scene
@@ -62,6 +62,7 @@ class RunTrace:
     scan: list[tuple[float, float]] = field(default_factory=list)
     scan_label: str = "scan points"
     times: list[float] = field(default_factory=list)
+    headings: list[float] = field(default_factory=list)
 
 
 @dataclass

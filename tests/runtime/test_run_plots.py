@@ -105,3 +105,22 @@ def test_an_experiment_record_of_a_correct_stop_reads_as_one():
 def test_an_honest_stop_is_not_coloured_as_a_failure(state):
     words, tone = outcome_words(state, False, 0.4)
     assert tone == "stop"
+
+
+def test_animate_writes_a_small_gif_of_the_run(tmp_path: Path, capsys):
+    """``clomp simulate --animate``: a GIF under 2 MB, the moving frames at most MAX_FRAMES plus the held end."""
+    from PIL import Image
+
+    from clomp.runtime.experiment.animation import MAX_FRAMES
+
+    gif = tmp_path / "run.gif"
+    assert main(["simulate", "--scenario", "open", "--no-noise", "--out", str(tmp_path), "--animate", str(gif)]) in (0, 1)
+    assert f"animation: {gif}" in capsys.readouterr().out
+    with Image.open(gif) as im:
+        assert im.format == "GIF" and 20 < im.n_frames <= MAX_FRAMES + 20
+    assert gif.stat().st_size < 2_000_000
+
+
+def test_animate_refuses_what_it_cannot_write(tmp_path: Path, capsys):
+    assert main(["simulate", "--scenario", "open", "--out", str(tmp_path), "--animate", str(tmp_path / "run.mp4")]) == 2
+    assert "--animate" in capsys.readouterr().err and not list(tmp_path.glob("*.png"))
