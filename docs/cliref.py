@@ -18,24 +18,46 @@ from __future__ import annotations
 
 import argparse
 import re
+import textwrap
 from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
 
 _SPECIAL = re.compile(r"([\\*`|_\[\]<>])")
+_OPTION = re.compile(r"(?<![\w`])(--?[a-z][\w-]*)")
 
 
 def _escape(text: str) -> str:
-    """Help text as plain reStructuredText: markup characters escaped.
+    """Help text as plain reStructuredText: markup characters escaped, options shown as code
+    (so that ``--noise`` is not typeset as a dash).
 
-    >>> _escape("a *b* `c` d_")
-    'a \\\\*b\\\\* \\\\`c\\\\` d\\\\_'
+    >>> _escape("a *b* d_ as --noise ideal")
+    'a \\\\*b\\\\* d\\\\_ as ``--noise`` ideal'
     """
-    return _SPECIAL.sub(r"\\\1", text)
+    return _OPTION.sub(r"``\1``", _SPECIAL.sub(r"\\\1", text))
 
 
-def _literal(text: str) -> list[str]:
-    return ["::", ""] + ["   " + line if line.strip() else "" for line in text.rstrip().splitlines()] + [""]
+def _literal(text: str, width: int = 78) -> list[str]:
+    """``text`` as a plain-text block: the lines of a flush-left paragraph joined and wrapped to
+    ``width``, indented lines (lists, tables, usage) kept, wrapped under their own indentation.
+
+    >>> _literal("a b\\nc\\n  - x")[2:]
+    ['   a b c', '     - x', '']
+    """
+    paras: list[tuple[str, str]] = []
+    for line in text.replace("``", "").rstrip().splitlines():  # reST literals as plain text (as --help shows)
+        body = line.strip()
+        indent = line[: len(line) - len(line.lstrip())]
+        joins = body and not indent and paras and paras[-1][1] and not paras[-1][0] and not re.match(r"[-*•]|\d+\.", body)
+        if joins:
+            paras[-1] = ("", paras[-1][1] + " " + body)
+        else:
+            paras.append((indent, body))
+    out = [".. code-block:: text", ""]
+    for indent, body in paras:
+        wrapped = textwrap.wrap(body, width - len(indent), subsequent_indent="  " if indent else "") or [""]
+        out += ["   " + indent + w if w else "" for w in wrapped]
+    return out + [""]
 
 
 def _subparsers(parser: argparse.ArgumentParser) -> dict[str, argparse.ArgumentParser]:
@@ -85,8 +107,8 @@ def _body(prog: str, parser: argparse.ArgumentParser, under: str) -> list[str]:
     node``) follow as sections underlined with ``under``, their parts one level deeper."""
     lines: list[str] = []
     if parser.description:
-        lines += ["Description"] + _literal(parser.description)
-    lines += ["Usage"] + _literal(parser.format_usage().removeprefix("usage: "))
+        lines += [".. rubric:: Description", ""] + _literal(parser.description)
+    lines += [".. rubric:: Usage", ""] + _literal(parser.format_usage().removeprefix("usage: "))
     lines += [f".. program:: {prog}", ""]
     formatter = parser._get_formatter()
     deeper = {"-": "~", "~": "^", "^": '"'}[under]
@@ -135,10 +157,10 @@ def write_cli_pages(out: Path = HERE / "cli") -> list[str]:
     index = ["Command-line reference", "======================", "",
              "Written when the site is built from ``clomp``'s own argument parsers (``docs/cliref.py``), so",
              "it lists exactly the options the installed command takes. ``clomp COMMAND --help`` prints the same.", "",
-             "Usage"] + _literal(parser.format_usage().removeprefix("usage: "))
+             ".. rubric:: Usage", ""] + _literal(parser.format_usage().removeprefix("usage: "))
     index += [f"* :doc:`{name}` — {_escape(helps.get(name, ''))}" for name in commands] + [""]
     if parser.epilog:
-        index += ["Exit status"] + _literal(parser.epilog)
+        index += [".. rubric:: Exit status", ""] + _literal(parser.epilog)
     index += [".. toctree::", "   :hidden:", ""] + [f"   {name}" for name in commands] + [""]
     (out / "index.rst").write_text("\n".join(index), encoding="utf-8")
     return list(commands)
