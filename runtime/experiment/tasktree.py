@@ -61,39 +61,52 @@ def _label_at(s: State) -> tuple[float, float]:
     return s.end.x + r * math.cos(s.end.theta), s.end.y + r * math.sin(s.end.theta)
 
 
-def _label_groups(result: PlanResult, pts: np.ndarray) -> list[tuple[tuple[float, float], list[State]]]:
-    """The states whose labels would crowd (anchors closer than 3.5 % of the drawing's span,
-    e.g. several turns at one pivot) gathered, each group with its first anchor."""
+def _label_groups(result: PlanResult, pts: np.ndarray) -> list[list[tuple[State, tuple[float, float]]]]:
+    """The states whose labels would crowd — anchors within about a label's size of each other
+    (5 % of the drawing's span across, 3 % up; e.g. several turns at one pivot), chained — gathered
+    into groups of (state, anchor), each sorted top to bottom."""
     anchors = [(s, _label_at(s)) for s in result.map]
     xs = [a[0] for _, a in anchors] + list(pts[:, 0])
     ys = [a[1] for _, a in anchors] + list(pts[:, 1])
-    crowd = 0.035 * max(max(xs) - min(xs), max(ys) - min(ys), 0.1)
-    groups: list[tuple[tuple[float, float], list[State]]] = []
-    for s, a in anchors:
-        for g in groups:
-            if math.hypot(a[0] - g[0][0], a[1] - g[0][1]) < crowd:
-                g[1].append(s)
-                break
-        else:
-            groups.append((a, [s]))
-    return groups
+    span = max(max(xs) - min(xs), max(ys) - min(ys), 0.1)
+    root = list(range(len(anchors)))
+
+    def find(i: int) -> int:
+        while root[i] != i:
+            root[i] = root[root[i]]
+            i = root[i]
+        return i
+
+    for i, (_, a) in enumerate(anchors):
+        for j in range(i):
+            b = anchors[j][1]
+            if abs(a[0] - b[0]) < 0.05 * span and abs(a[1] - b[1]) < 0.03 * span:
+                root[find(i)] = find(j)
+    groups: dict[int, list[tuple[State, tuple[float, float]]]] = {}
+    for i, sa in enumerate(anchors):
+        groups.setdefault(find(i), []).append(sa)
+    return [sorted(g, key=lambda sa: -sa[1][1]) for g in groups.values()]
 
 
 def _draw_labels(ax: Any, result: PlanResult, pts: np.ndarray) -> dict[int, Any]:
     """One label per state: alone, at its anchor; in a crowd, the crowd's labels stacked in a
-    column beside it (offset in points, so at any scale), each with a thin leader to the spot."""
+    column right of it (offset in points, so at any scale), each with a thin grey leader to its spot."""
+    from matplotlib.transforms import offset_copy
+
     out = {}
     box = {"boxstyle": "round,pad=0.1", "facecolor": "white", "edgecolor": "none", "alpha": 0.7}  # legible over a line
-    for (gx, gy), states in _label_groups(result, pts):
-        for i, s in enumerate(states):
+    for group in _label_groups(result, pts):
+        right = max(a[0] for _, a in group)
+        middle = sum(a[1] for _, a in group) / len(group)
+        for i, (s, (x, y)) in enumerate(group):
             weight = "bold" if s.ident in result.plan.states else "normal"
-            if len(states) == 1:
-                out[s.ident] = ax.text(gx, gy, f"q{s.ident}", fontsize=7, ha="center", va="center", zorder=7,
+            if len(group) == 1:
+                out[s.ident] = ax.text(x, y, f"q{s.ident}", fontsize=7, ha="center", va="center", zorder=7,
                                        fontweight=weight, bbox=box)
                 continue
-            dy = (len(states) - 1) / 2 - i
-            out[s.ident] = ax.annotate(f"q{s.ident}", (gx, gy), xytext=(14, 8.5 * dy), textcoords="offset points",
-                                       fontsize=7, ha="left", va="center", zorder=7, fontweight=weight, bbox=box,
+            place = offset_copy(ax.transData, fig=ax.figure, x=12, y=8.5 * ((len(group) - 1) / 2 - i), units="points")
+            out[s.ident] = ax.annotate(f"q{s.ident}", (x, y), xytext=(right, middle), textcoords=place, fontsize=7,
+                                       ha="left", va="center", zorder=7, fontweight=weight, bbox=box,
                                        arrowprops={"arrowstyle": "-", "color": "0.5", "lw": 0.5, "shrinkA": 0, "shrinkB": 1})
     return out
 
