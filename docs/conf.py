@@ -132,6 +132,9 @@ def write_figures(out: Path = HERE / "_generated") -> None:
     scan = scene.scan()
     result = clomp.plan(scan, goal=scene.goal_in_robot_frame())
     plot_task_tree(result, out / "fig3c_overtaking.png", scan, title="overtaking: explored task tree")
+    from clomp.runtime.experiment.physics_view import plot_physics_world
+
+    plot_physics_world(result, out / "physics_overtaking.png", scan)
     render_svg(result.map, out / "cognitive_map_overtaking.svg")
     dot = Path(out / "supervisor.dot")
     dot.write_text(state_machine_dot(), encoding="utf-8")
