@@ -279,8 +279,7 @@ class HardwareRobot:
     def _open_imu(self, port: str | Any) -> Bno08xRvc:
         """Open the IMU; its faults (also no first report within ``imu_start_timeout``) trip the robot."""
         cfg, model = self.config, self.model
-        # the IMU's rates are per second of device time: a world on a ScaledClock turns faster in it
-        max_rate = cfg.imu_rate_margin * 2.0 * model.max_speed / model.wheel_base * device_seconds(self.clock)
+        max_rate = cfg.imu_rate_margin * 2.0 * model.max_speed / model.wheel_base
         try:
             imu = Bno08xRvc(port, baudrate=cfg.imu_baudrate, silence_timeout=cfg.imu_silence,
                             start_timeout=cfg.imu_start_timeout, clock=self._device_clock, max_rate=max_rate)
