@@ -21,9 +21,14 @@ IMU too (its errors drawn from the preset: runtime/backends/_imu.py). Per settin
 - wall time, the process's CPU time and the main thread's (the supervisor's) CPU time.
 
 ``--pty`` instead runs what a user runs, in real time: ``clomp emulate world``'s world (an
-:class:`EmulatedWorldProcess`) and ``clomp run --lidar … --motors … --imu … --goal 1,0`` as
-a subprocess, at ``--time-scale`` 1 and 2, ``--runs`` seeds each, and prints per setting how
-many runs end truly within 0.1 m and how many exit 0 farther than that (false successes).
+:class:`EmulatedWorldProcess`) and ``clomp run --lidar … --motors … --imu … --goal X,Y`` (the
+scenario's goal, as ``bench/ros_loop.py`` gives it to ``clomp ros node``) as a subprocess, at
+each ``--scales`` time scale (1 and 2), for each of ``--scenarios`` (default ``--scenario``)
+and ``--seeds`` (default 0..runs-1); one JSON line a run (also appended to ``--json``; the run
+logs kept in ``--logs``), per setting how many runs end truly within 0.1 m and how many exit 0
+farther than that (false successes), and at the end the per-family table of docs/ros2.md::
+
+    python bench/imu_stack.py --pty --scenarios overtaking,corridor,doorway --seeds 0,1,2,3,4,5,6,7,8,9 --scales 1
 """
 
 from __future__ import annotations
