@@ -32,7 +32,7 @@ from clomp.planner.perception import validate_scan
 from clomp.planner.robot_model import RobotModel
 from clomp.runtime.estimation.fusion import fuse_revolutions
 from clomp.runtime.estimation.odometry import FeedbackRecord, ScanOdometry
-from clomp.runtime.interface import Robot, ScanFrame, TurnSensing
+from clomp.runtime.interface import OdometryUncertainty, Robot, ScanFrame, TurnSensing
 from clomp.runtime.supervision.config import SupervisorConfig
 
 __all__ = ["Sensing", "crop_far", "turning"]
@@ -91,6 +91,8 @@ class Sensing:
     def __init__(self, robot: Robot, model: RobotModel, config: SupervisorConfig) -> None:
         self.robot = robot
         self._rotation = robot.rotation if isinstance(robot, TurnSensing) else lambda: None  # a gyro, when it has one
+        # the odometry's own covariance, when the backend reports one (a ROS base's /odom)
+        self._odo_cov = robot.odometry_covariance if isinstance(robot, OdometryUncertainty) else lambda: None
         self.config = config
         self.wheel_base = model.wheel_base
         self.estimator: ScanOdometry | None = ScanOdometry(model.wheel_base) if config.feedback == "scan" else None
@@ -114,7 +116,7 @@ class Sensing:
         self.pose = odo if odo is not None else Pose(0.0, 0.0, 0.0)
         if self.estimator is not None:
             self.estimator.reset(self.pose, now)
-            self.estimator.advance(now, (0.0, 0.0), odo, self._rotation())
+            self.estimator.advance(now, (0.0, 0.0), odo, self._rotation(), self._odo_cov())
         return self.pose
 
     def update_pose(self, now: float, cmd: tuple[float, float]) -> None:
@@ -123,7 +125,7 @@ class Sensing:
         self.last_update = now
         odo = self.robot.odometry()
         if self.estimator is not None:
-            self.estimator.advance(now, cmd, odo, self._rotation())
+            self.estimator.advance(now, cmd, odo, self._rotation(), self._odo_cov())
             self.pose = self.estimator.pose
             return
         self.pose = odo if odo is not None else dead_reckon(self.pose, *cmd, self.wheel_base, dt)
