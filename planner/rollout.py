@@ -60,7 +60,14 @@ from clomp.planner.perception import Obstacles
 from clomp.planner.robot_model import RobotModel
 from clomp.planner.tasks import Task
 
-__all__ = ["Outcome", "World", "in_the_way", "straight_limit", "simulate", "make_task", "frontier_distance", "turn_angle"]
+__all__ = ["MIN_TURN", "Outcome", "World", "in_the_way", "straight_limit", "simulate", "make_task", "frontier_distance", "turn_angle"]
+
+MIN_TURN = math.radians(1.0)
+"""The smallest turn towards the goal the planner offers (rad): a goal within 1° of the
+heading counts as straight ahead (both turns are then turns away from it). A turn of less
+changes nothing a plan can use (a straight ahead passes such a goal within its tolerance
+of 5 cm up to 2.8 m away; farther, the next plan turns) and, as a state, ties with its parent:
+the demo's first plan began with a RIGHT of 0.0014° (issue #39)."""
 
 
 def in_the_way(obstacles: Obstacles, robot: RobotModel, start: Pose, kind: TaskKind, length: float) -> np.ndarray:
@@ -266,8 +273,9 @@ def turn_angle(
 ) -> float:
     """Where a turn from ``start`` ends: the paper ends a task when its error is zero.
 
-    A turn towards the side the goal is on is contingent on the goal: it ends facing it,
-    provided the way to the goal is clear for the next straight. Otherwise (the goal is
+    A turn towards the side the goal is on (at least :data:`MIN_TURN` off the heading:
+    no turn turns by nothing) is contingent on the goal: it ends facing it, provided the
+    way to the goal is clear for the next straight. Otherwise (the goal is
     on the other side, or the way to it is blocked) the turn is contingent on what is in
     the way: it ends at the first mark, every ``turn_angle / 4`` from ``turn_angle / 2``
     (π/4, 3π/8, π/2 for the default quarter turn; short of the goal's bearing or beyond
@@ -360,7 +368,7 @@ def _turn_options(
         bearing = sign * wrapped
         if bearing < -math.pi + 1e-9:
             bearing += 2 * math.pi  # the goal straight behind: either turn faces it
-        if bearing > 1e-6:
+        if bearing >= MIN_TURN:  # a goal nearer the heading is ahead: no turn of nothing
             towards = bearing
     step = robot.step_length if robot.step_length is not None else robot.sensor_range
     # short of the goal's bearing too: the free way may lie between the heading and the goal
