@@ -30,6 +30,7 @@ from typing import Any, TypeVar
 import numpy as np
 
 from clomp.planner import Configurator, PlanningError, PlanResult, ScanError, load_scan, scan_files
+from clomp.planner.deepening import plan_deepening
 from clomp.planner.inputs import InputError, check_output
 from clomp.planner.scenarios import Scene, ScenarioError, load_scenario
 from clomp.runtime.cli import CliError, plural
@@ -131,7 +132,7 @@ def scan_outcomes(conf: Configurator, scan: Any, goal: tuple[float, float]) -> t
             scan = load_scan(scan() if callable(scan) else scan)
             if len(scan) and not scan.any():
                 raise ScanError(f"a placeholder scan: all {plural(len(scan), 'point')} at the origin (0, 0); not planned")
-            r = conf.plan(scan, goal)
+            r = plan_deepening(conf, scan, goal)  # as the supervisor plans
         except (ScanError, PlanningError) as exc:
             r = None
             rec.update(outcome="error", error=str(exc))

@@ -12,6 +12,7 @@ from typing import Any
 from clomp.formal.export import FORMATS, LABEL_HOLDER, ExportError, ExportModel, ModelKind, drn_adds_holder, export_model, induced_model, write
 from clomp.formal.lts import MAX_MAP_BYTES, CognitiveMap, MapError
 from clomp.planner import PlanningError, ScanError, load_scan, scan_files
+from clomp.planner.deepening import plan_deepening
 from clomp.planner.inputs import InputError, load_json, read_text
 from clomp.planner.probabilistic import NoiseError, learn_from_scans
 from clomp.runtime.cli.plan import (
@@ -60,7 +61,7 @@ def map_from_args(args: argparse.Namespace) -> tuple[CognitiveMap, str]:
             title, goal, scan = scenario_scan(args, conf)
             if samples is not None:
                 return probabilistic_from_args(args, conf, scan, goal).map, title
-            return conf.plan(scan, goal).map, title
+            return plan_deepening(conf, scan, goal).map, title
         path = Path(args.scan)
         goal = parse_goal(args.goal) if args.goal else (1.0, 0.0)
         kind = path_kind(path, "--scan")
@@ -80,7 +81,7 @@ def map_from_args(args: argparse.Namespace) -> tuple[CognitiveMap, str]:
             raise CliError(f"--scan: {path}: no such file")
         if samples is not None:
             return probabilistic_from_args(args, conf, path, goal).map, str(path)
-        return conf.plan(path, goal).map, str(path)
+        return plan_deepening(conf, path, goal).map, str(path)
     except (ScanError, PlanningError, NoiseError) as exc:
         raise CliError(str(exc)) from None
 

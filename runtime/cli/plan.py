@@ -16,6 +16,7 @@ import numpy as np
 from clomp.formal.lts import CognitiveMap, MapError
 from clomp.planner import GOAL_LIMIT_M as _PLANNER_GOAL_LIMIT_M
 from clomp.planner import Configurator, PlanningError, PlanResult, RobotModel, ScanError
+from clomp.planner.deepening import plan_deepening
 from clomp.planner.probabilistic import MAX_SAMPLES, NoiseError, ProbabilisticMap, preset_names
 from clomp.runtime.cli import EXIT_NOT_REACHED, EXIT_OK, CliError, plural
 from clomp.runtime.cli._args import length_arg, seed_arg
@@ -97,7 +98,7 @@ def scenario_scan(args: argparse.Namespace, conf: Configurator) -> tuple[str, tu
 def add_planner_options(p: argparse.ArgumentParser) -> None:
     """Options shared by the commands that plan."""
     g = p.add_argument_group("planner")
-    g.add_argument("--max-states", type=int, default=50, help="state budget of the cognitive map (default 50)")
+    g.add_argument("--max-states", type=int, default=50, help="state budget of the cognitive map (default 50; a search that spends it short of the goal and the frontier runs again with 4 times as many)")
     g.add_argument("--horizon", type=length_arg(0.0, 100.0, "--horizon"), default=1.2, help="half-size of the box around the start beyond which states are not expanded (m, default 1.2)")
     g.add_argument("--step-length", type=length_arg(0.0, 10.0, "--step-length"), default=0.27, help="length of a STRAIGHT step when the way to the goal is not clear (m, default 0.27; 0 = no cut)")
 
@@ -184,7 +185,7 @@ def register(sub: Any) -> None:
 
 def _plan_one(conf: Configurator, scan: Any, goal: tuple[float, float]) -> PlanResult:
     try:
-        return conf.plan(scan, goal)
+        return plan_deepening(conf, scan, goal)  # as the supervisor plans: a spent budget searched again
     except (ScanError, PlanningError) as exc:
         raise CliError(str(exc)) from None
 
