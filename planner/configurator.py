@@ -27,8 +27,9 @@ state and ends the search, and none of the 20 recorded scans reaches the goal.
 The plan ends at argmin φ over the uninterrupted states (:func:`clomp.formal.supervisory.plan_end`).
 The tie rule: of states of equal φ the first created (the lowest ident) wins, so a plan
 never ends on a turn in place, whose end is as far from the goal as its parent's (created
-before it). No turn turns by nothing: a goal within :data:`clomp.planner.rollout.MIN_TURN`
-(1°) of the heading counts as ahead, so every turn in the map changes the heading.
+before it). No turn turns by nothing: a turn whose chosen angle is below
+:data:`clomp.planner.rollout.MIN_TURN` (1°) is not available, so every turn in the map
+changes the heading.
 A search that spends its budget is searched again deeper by
 :func:`clomp.planner.deepening.plan_deepening` (the supervisor's and the commands' way).
 

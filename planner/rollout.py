@@ -63,11 +63,12 @@ from clomp.planner.tasks import Task
 __all__ = ["MIN_TURN", "Outcome", "World", "in_the_way", "straight_limit", "simulate", "make_task", "frontier_distance", "turn_angle"]
 
 MIN_TURN = math.radians(1.0)
-"""The smallest turn towards the goal the planner offers (rad): a goal within 1° of the
-heading counts as straight ahead (both turns are then turns away from it). A turn of less
-changes nothing a plan can use (a straight ahead passes such a goal within its tolerance
-of 5 cm up to 2.8 m away; farther, the next plan turns) and, as a state, ties with its parent:
-the demo's first plan began with a RIGHT of 0.0014° (issue #39)."""
+"""The smallest turn the search expands (rad): a turn whose chosen angle is less (facing a
+goal that lies within 1° of the heading) is not available, as one that would leave the
+sensed disc is not. It changes nothing a plan can use (the straight from its parent passes
+such a goal within its 5 cm tolerance up to 2.8 m away; farther, the next plan turns), and
+its straight nearly repeats the parent's: the demo's first plan began with a RIGHT of
+0.0014° (issue #39)."""
 
 
 def in_the_way(obstacles: Obstacles, robot: RobotModel, start: Pose, kind: TaskKind, length: float) -> np.ndarray:
@@ -273,9 +274,8 @@ def turn_angle(
 ) -> float:
     """Where a turn from ``start`` ends: the paper ends a task when its error is zero.
 
-    A turn towards the side the goal is on (at least :data:`MIN_TURN` off the heading:
-    no turn turns by nothing) is contingent on the goal: it ends facing it, provided the
-    way to the goal is clear for the next straight. Otherwise (the goal is
+    A turn towards the side the goal is on is contingent on the goal: it ends facing it,
+    provided the way to the goal is clear for the next straight. Otherwise (the goal is
     on the other side, or the way to it is blocked) the turn is contingent on what is in
     the way: it ends at the first mark, every ``turn_angle / 4`` from ``turn_angle / 2``
     (π/4, 3π/8, π/2 for the default quarter turn; short of the goal's bearing or beyond
@@ -368,7 +368,7 @@ def _turn_options(
         bearing = sign * wrapped
         if bearing < -math.pi + 1e-9:
             bearing += 2 * math.pi  # the goal straight behind: either turn faces it
-        if bearing >= MIN_TURN:  # a goal nearer the heading is ahead: no turn of nothing
+        if bearing > 1e-6:
             towards = bearing
     step = robot.step_length if robot.step_length is not None else robot.sensor_range
     # short of the goal's bearing too: the free way may lie between the heading and the goal
@@ -429,8 +429,9 @@ def simulate(
     is an optional cache (one per planning run, for the same obstacles and robot) that
     keeps what the run's rollouts share. ``angle`` is a turn's angle (default the
     robot's ``turn_angle``). A STRAIGHT that meets the rim of the sensed disc ends
-    there (``frontier``); a turn that would leave it comes back with ``frontier`` set
-    and its end at its start (not available).
+    there (``frontier``); a turn that would leave it, or whose chosen angle is a turn of
+    nothing (below :data:`MIN_TURN`), comes back with ``frontier`` set and its end at its
+    start (not available).
 
     >>> from clomp.planner.perception import perceive
     >>> out = simulate(TaskKind.STRAIGHT, Pose(0.0, 0.0, 0.0), Disturbance.goal(1.0, 0.0), perceive(np.zeros((0, 2))), RobotModel())
@@ -503,7 +504,7 @@ def _turn(
 ) -> Outcome | None:
     """:func:`simulate` for a turn (by ``angle``, else the angle :func:`turn_angle` chooses),
     cut at the first tick heading where the body meets a point; None when the turn would
-    leave the sensed disc."""
+    leave the sensed disc, or when the angle it chose is below :data:`MIN_TURN`."""
     sign = 1.0 if kind is TaskKind.LEFT else -1.0
     if angle is None and robot.free_turns:
         if scene is None:
@@ -514,6 +515,8 @@ def _turn(
             angle = scene.turns.get(tkey)
             if angle is None:
                 angle = _turn_pair(kind, start, goal, robot, scene, tkey)
+        if angle < MIN_TURN:  # a turn of nothing: not available (see MIN_TURN)
+            return None
     task = Task.turn(robot, kind, start, goal, angle)
     if _turn_leaves_disc(robot, start, sign * task.limit):
         return None

@@ -1,6 +1,6 @@
-"""No turn of (near) zero angle in plans or maps (issue #39): a goal within
-:data:`clomp.planner.rollout.MIN_TURN` of the heading counts as ahead, so no turn towards it
-turns by nothing. The demo's first plan began with a RIGHT of 0.0014° before the rule.
+"""No turn of (near) zero angle in plans or maps (issue #39): a turn whose chosen angle is
+below :data:`clomp.planner.rollout.MIN_TURN` (facing a goal within 1° of the heading) is not
+available. The demo's first plan began with a RIGHT of 0.0014° before the rule.
 
 Checked on every built-in scenario, one-shot (the scene's own scan) and in the closed loop
 (the first plan the supervisor makes on the simulated robot, as ``clomp demo`` does)."""
@@ -62,6 +62,6 @@ def test_the_closed_loop_s_first_plan_turns_by_something(name: str) -> None:
 
 
 def test_the_demo_s_first_plan_starts_with_a_straight() -> None:
-    """The goal lies 0.0014° right of the heading: ahead. The plan drives before it turns."""
+    """The goal lies 0.0014° right of the heading: no RIGHT towards it. The plan drives first."""
     steps = _first_plan("overtaking").steps
     assert steps[0].task is TaskKind.STRAIGHT, [s.task.value for s in steps]
