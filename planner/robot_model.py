@@ -85,8 +85,20 @@ class RobotModel(Body):
     longer spin in place; without, every turn turns ``turn_angle`` and every step is
     ``step_length`` long (the authors' planner).
 
+    Two ranges, one of them the planner's (issue #39): ``sensor_range`` is the **planning
+    horizon**, the radius of the sensed disc round the planning origin within which the
+    planner uses returns and keeps the body (1.1 m, the paper's); :attr:`planning_horizon`
+    reads the same number. Its name is kept because code, ROS parameters (``sensor_range``)
+    and written maps (``metadata.robot.sensor_range``) already mean the horizon by it, as
+    they did when the paper's sensor was cropped there. ``max_range`` is the LiDAR's own
+    maximum range (12 m, an RPLIDAR A1's): the returns between the two are normal and
+    cropped without a warning; a scan whose returns lie mostly beyond 20 m is not in
+    metres (:mod:`clomp.planner.units`).
+
     >>> RobotModel().turn_wheel_speed  # wheel speed for a 0.58 rad/s spin in place
     0.0435
+    >>> RobotModel().planning_horizon, RobotModel().max_range
+    (1.1, 12.0)
     """
 
     max_speed: float = 0.2
@@ -95,11 +107,12 @@ class RobotModel(Body):
     turn_angle: float = math.pi / 2
     step_length: float | None = 0.27
     tick: float = 0.1
-    sensor_range: float = 1.1
+    sensor_range: float = 1.1  # the planning horizon (see the docstring: the name is kept)
     cluster_distance: float = 0.1
     goal_tolerance: float = 0.05
     clearance: float = 0.01
     free_turns: bool = True
+    max_range: float = 12.0
 
     _CHECKS_ITSELF: ClassVar[frozenset[str]] = frozenset({"step_length", "clearance", "free_turns"})
 
@@ -117,6 +130,15 @@ class RobotModel(Body):
             raise ValueError("RobotModel.turn_rate needs wheel speeds above max_speed")
         if self.turn_angle > math.pi:
             raise ValueError("RobotModel.turn_angle must be at most pi")
+
+    @property
+    def planning_horizon(self) -> float:
+        """The planning horizon (m): ``sensor_range``, by the name that says what it is.
+
+        >>> RobotModel(sensor_range=1.5).planning_horizon
+        1.5
+        """
+        return self.sensor_range
 
     @property
     def turn_wheel_speed(self) -> float:
