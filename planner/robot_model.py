@@ -17,6 +17,10 @@ from typing import Any, ClassVar
 __all__ = ["Body", "RobotModel"]
 
 
+#: the LiDAR's maximum range by default (m): an RPLIDAR A1's
+_MAX_RANGE = 12.0
+
+
 def _check_positive(owner: str, name: str, v: Any) -> None:
     if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v <= 0:
         raise ValueError(f"{owner}.{name} must be a positive finite number, got {v!r}")
@@ -112,7 +116,7 @@ class RobotModel(Body):
     goal_tolerance: float = 0.05
     clearance: float = 0.01
     free_turns: bool = True
-    max_range: float = 12.0
+    max_range: float = _MAX_RANGE
 
     _CHECKS_ITSELF: ClassVar[frozenset[str]] = frozenset({"step_length", "clearance", "free_turns"})
 
@@ -163,9 +167,16 @@ class RobotModel(Body):
         return replace(self, **changes)
 
     def to_dict(self) -> dict[str, Any]:
-        """JSON-ready form (every field is a number or a flag: no deep copy is needed).
+        """JSON-ready form (every field is a number or a flag: no deep copy is needed);
+        ``RobotModel(**d)`` gives the model back. ``max_range`` is written only when it is not
+        the default: it changes no plan, and the maps written with the default stay as they were.
 
-        >>> RobotModel().to_dict()["width"]
-        0.18
+        >>> RobotModel().to_dict()["width"], "max_range" in RobotModel().to_dict()
+        (0.18, False)
+        >>> RobotModel(**RobotModel(max_range=30.0).to_dict()).max_range
+        30.0
         """
-        return {f.name: getattr(self, f.name) for f in fields(self)}
+        d = {f.name: getattr(self, f.name) for f in fields(self)}
+        if d.get("max_range") == _MAX_RANGE:
+            del d["max_range"]
+        return d
