@@ -41,8 +41,11 @@ def test_the_one_shot_plan_gets_out_of_the_u_as_the_runtime_does(tmp_path: Path,
     assert d["states"] > 50 and d["stop_reason"] == "goal" and d["reached_goal"], (d["states"], d["stop_reason"])
     assert not _inside(end, p) and end[0] > p["back_x"], end
     # the runtime's own function gives the very same plan (one place)
+    from clomp.planner.deepening import plan_deepening
+    from clomp.runtime.supervision import supervisor
     from clomp.runtime.supervision.planwatch import plan_deepening as runtime_deepening
 
+    assert runtime_deepening is plan_deepening and supervisor.plan_deepening is plan_deepening
     same = runtime_deepening(Configurator(), np.loadtxt(f), goal)
     assert [s["state"] for s in d["plan"]] == list(same.plan.states[1:])
 
