@@ -53,7 +53,7 @@ def map_from_args(args: argparse.Namespace) -> tuple[CognitiveMap, str]:
     conf = configurator_from_args(args)
     units = getattr(args, "units", None)
     if units and not getattr(args, "scan", None):
-        raise CliError("--units gives the units of the scans read with --scan; a scenario is in metres")
+        raise CliError("--units gives the units of the scans read with --scan; a scenario or a map is in metres")
     samples = getattr(args, "samples", None)
     learn = getattr(args, "learn", False)
     if learn and samples:
