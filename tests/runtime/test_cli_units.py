@@ -84,3 +84,26 @@ def test_every_scan_reading_command_takes_units(command: str) -> None:
     sub = next(a for a in build_parser()._actions if a.dest == "command")
     options = {o for a in sub.choices[command]._actions for o in a.option_strings}  # type: ignore[union-attr]
     assert "--units" in options
+
+
+def test_the_lidar_emulator_reads_units_too(scans_dir: Path, tmp_path: Path) -> None:
+    """``clomp emulate lidar --scans DIR`` plays recorded scans: a recording in millimetres is
+    refused before the emulator starts, and with ``--units mm`` served in metres, in order."""
+    import argparse
+
+    from clomp.runtime.cli import CliError
+    from clomp.runtime.cli.emulate import _scan_source
+
+    d = tmp_path / "rec"
+    d.mkdir()
+    metres = [np.loadtxt(scans_dir / f"map{k:04d}.dat").reshape(-1, 2) for k in (1, 2)]
+    for k, pts in enumerate(metres, 1):
+        np.savetxt(d / f"map{k:04d}.dat", np.round(pts * 1000.0), fmt="%.0f")
+    args = argparse.Namespace(scenario=None, scans=str(d), seed=None, units=None)
+    with pytest.raises(CliError, match=r"looks like millimetres .*pass --units mm"):
+        _scan_source(args)
+    args.units = "mm"
+    source = _scan_source(args)
+    served = [source() for _ in range(3)]
+    assert np.array_equal(served[0], metres[0]) and np.array_equal(served[1], metres[1]) and np.array_equal(served[2], metres[0])
+    assert build_parser().parse_args(["emulate", "lidar", "--scans", str(d), "--units", "mm"]).units == "mm"
