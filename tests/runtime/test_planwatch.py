@@ -40,7 +40,7 @@ def test_a_robot_interrupted_each_time_before_it_moves_gives_up_with_the_reason(
 # -- a spent budget is searched again, deeper -------------------------------------------------------
 def _u_trap() -> tuple[Any, Any, dict[str, Any]]:
     """A U open toward the robot with the goal behind it (layout family ``u-trap``, seed 1, run 0;
-    seed 0 run 1 escapes within 50 states since a goal within 1° of the heading counts as ahead):
+    seed 0 run 1 escapes within 50 states since its turns of 0.4° towards the goal are not available):
     from the start, the paper's budget of 50 states runs out with the plan's end inside the U."""
     from clomp.runtime.experiment.layouts import make_layout
 
