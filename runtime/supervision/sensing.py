@@ -38,10 +38,10 @@ from clomp.runtime.supervision.config import SupervisorConfig
 __all__ = ["Sensing", "crop_far", "turning"]
 
 _FAR = 1.05
-"""Returns beyond the sensor range × this are cropped where a revolution comes in: a LiDAR
-that sees farther than the planning horizon (an A1 sees 12 m) would otherwise have the
-planner's perception warn about them on every plan. Within it they are kept, as before
-(perception drops them quietly: its warning's allowance is the same 5 %)."""
+"""Returns beyond the planning horizon (``sensor_range``) × this are cropped where a
+revolution comes in, once, and counted (``Sensing.cropped``): a LiDAR that sees farther
+than the horizon (an A1 sees 12 m) would otherwise carry them through every plan's
+perception, which crops them too, silently. Within it they are kept, as before."""
 
 
 def crop_far(frame: ScanFrame, sensor_range: float) -> tuple[ScanFrame, int]:
