@@ -23,6 +23,8 @@ from clomp.runtime.cli._common import output_folder
 from clomp.runtime.cli._args import seed_arg
 from clomp.runtime.cli import CliError
 from clomp.runtime.experiment.layouts import FAMILIES
+from clomp.runtime.experiment.policy import PolicyError
+from clomp.runtime.experiment.runspec import CONDITIONS
 
 __all__ = ["parse_scales", "register", "run"]
 
@@ -50,8 +52,11 @@ def register(sub: Any) -> None:
     p.add_argument("--scheduler", default=None, metavar="ADDRESS",
                    help="use an existing Dask scheduler (e.g. tcp://host:8786) instead of a local cluster")
     p.add_argument("--max-time", type=float, default=120.0, help="simulated seconds a run may take (default 120)")
-    p.add_argument("--condition", choices=("planning", "reactive", "dwa"), action="append",
-                   help="run only this condition (repeatable; default planning and reactive; dwa: the dynamic window approach)")
+    p.add_argument("--condition", choices=CONDITIONS, action="append",
+                   help="run only this condition (repeatable; default planning and reactive; dwa: the dynamic window "
+                        "approach; rl: a learned policy, --policy)")
+    p.add_argument("--policy", metavar="FILE", default=None,
+                   help="the rl condition's policy: a clomp-policy JSON or a stable-baselines3 .zip (default: the shipped one)")
     p.add_argument("--out", default="clomp-experiment-out", help="output folder (default ./clomp-experiment-out)")
     p.add_argument("--resume", action="store_true", help="keep the finished runs in OUT/runs.jsonl, run the rest")
     p.add_argument("--no-plots", action="store_true", help="skip the PNGs")
@@ -136,7 +141,9 @@ def run(args: argparse.Namespace) -> int:
             records = run_experiment(args.family, args.runs, args.seed, noise=args.noise, noise_scales=scales,
                                      conditions=conditions, max_time=args.max_time, workers=workers,
                                      scheduler=args.scheduler, out=out, resume=args.resume, progress=bar,
-                                     feedback=args.feedback, gyro=not args.no_gyro)
+                                     feedback=args.feedback, gyro=not args.no_gyro, policy=args.policy)
+    except PolicyError as exc:
+        raise CliError(f"--policy: {exc}") from None
     except ScenarioError as exc:
         raise CliError(f"{exc} (or a layout family: {', '.join(FAMILIES)})") from None
     except ExperimentInterrupted as exc:

@@ -58,6 +58,7 @@ def run_experiment(
     on_record: Callable[[dict[str, Any]], None] | None = None,
     feedback: str = "scan",
     gyro: bool = True,
+    policy: str | None = None,
 ) -> list[dict[str, Any]]:
     """Run an experiment; the records of every run (finished before or now), in spec order.
 
@@ -69,6 +70,7 @@ def run_experiment(
     does not stop the others: at the end :class:`RunsFailed` names the failures (also in
     ``out/errors.jsonl``) and holds the records that finished. ``progress``
     makes a bar from (total, already done); it gets ``update(1)`` per run and ``close()``.
+    ``policy``: the ``rl`` condition's policy file (None: the shipped one).
     ``gyro`` False takes the world's rate gyro off (the paper's robot; ``clomp run`` without an IMU).
     With ``out`` the records are kept whole on disk only: in memory (and in what this returns)
     the runs from :data:`~clomp.runtime.experiment.runrecords.PLOTTED_RUNS` on lose their
@@ -81,7 +83,7 @@ def run_experiment(
     [('reactive', 0)]
     """
     specs = experiment_specs(family, runs, seed, noise=noise, noise_scales=noise_scales, conditions=conditions,
-                             max_time=max_time, feedback=feedback, gyro=gyro)
+                             max_time=max_time, feedback=feedback, gyro=gyro, policy=policy)
     store = _Store(specs, out, resume, progress, on_record)
     todo = [s for s in specs if s.key not in store.done]
     try:
