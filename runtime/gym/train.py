@@ -62,7 +62,9 @@ def train_linear(families: Sequence[str] = ("overtaking",), *, iterations: int =
     iteration: ``iteration``, ``steps`` and ``cpu_s`` so far, ``elite_return``, ``mean_return``).
 
     ``episodes`` training layouts per iteration, drawn round-robin over ``families``;
-    ``init`` the search's starting mean (default all zeros); ``sigma`` its starting spread.
+    ``init`` the search's starting mean (default all zeros; a policy this function returned
+    carries its search's spread in ``trained["sd"]``, so training continues where it stopped);
+    ``sigma`` the starting spread otherwise.
     """
     if not (iterations >= 1 and population >= 2 and 1 <= elite <= population and episodes >= 1 and max_steps >= 1):
         raise ValueError("need iterations >= 1, population >= 2, 1 <= elite <= population, episodes >= 1, max_steps >= 1")
@@ -71,6 +73,8 @@ def train_linear(families: Sequence[str] = ("overtaking",), *, iterations: int =
     shape = (3, len(FEATURES) + 1)
     mean = np.zeros(shape) if init is None else np.asarray(init.weights, dtype=float).copy()
     sd = np.full(shape, float(sigma))
+    if init is not None and "sd" in init.trained:  # continue a search where it stopped
+        sd = np.asarray(init.trained["sd"], dtype=float).reshape(shape)
     curve: list[dict[str, Any]] = []
     steps_total, c0, run = 0, time.thread_time(), TRAIN_RUN_BASE
     for it in range(iterations):
@@ -102,5 +106,6 @@ def train_linear(families: Sequence[str] = ("overtaking",), *, iterations: int =
         env.close()
     info = {"method": "cross-entropy", "families": list(envs), "noise": noise, "iterations": iterations,
             "population": population, "elite": elite, "episodes": episodes, "seed": seed, "max_steps": max_steps,
-            "steps": steps_total, "layout_runs_from": TRAIN_RUN_BASE}
+            "steps": steps_total, "layout_runs_from": TRAIN_RUN_BASE,
+            "sd": [[round(float(v), 6) for v in row] for row in sd]}
     return LinearPolicy(mean, trained=info), curve
