@@ -60,6 +60,8 @@ def register(sub: Any) -> None:
     p.add_argument("--out", default="clomp-experiment-out", help="output folder (default ./clomp-experiment-out)")
     p.add_argument("--resume", action="store_true", help="keep the finished runs in OUT/runs.jsonl, run the rest")
     p.add_argument("--no-plots", action="store_true", help="skip the PNGs")
+    p.add_argument("--report", action="store_true",
+                   help="also write OUT/report.html: the summary, the paired tests, every run's trajectory (offline, one file)")
     p.add_argument("--gallery", action="store_true", help="only draw OUT/gallery.png: sample layouts of every family")
     p.add_argument("--json", action="store_true", help="print the summary as one JSON object instead of the table")
     p.add_argument("--markdown", action="store_true", help="print the summary as a row of the experiment table (docs/experiment-room.md)")
@@ -83,7 +85,7 @@ def parse_scales(text: str) -> list[float]:
     return sorted(set(out))
 
 
-def _write_outputs(records: list[dict[str, Any]], out: Path, plots: bool) -> dict[str, Any]:
+def _write_outputs(records: list[dict[str, Any]], out: Path, plots: bool, report: str | None = None) -> dict[str, Any]:
     from clomp.runtime.experiment.results import summarise, write_csv, write_parquet, write_schema
 
     files: dict[str, Any] = {"jsonl": str(out / "runs.jsonl"), "csv": str(write_csv(records, out / "runs.csv")),
@@ -95,6 +97,11 @@ def _write_outputs(records: list[dict[str, Any]], out: Path, plots: bool) -> dic
         from clomp.runtime.experiment.report import write_plots
 
         files["png"] = [str(p) for p in write_plots(records, out)]
+    if report is not None:  # the page, titled so, from the whole records on disk (memory keeps only some traces)
+        from clomp.runtime.experiment.htmlpage import write_report
+        from clomp.runtime.experiment.runrecords import load_records
+
+        files["html"] = str(write_report(load_records(out / "runs.jsonl"), out / "report.html", report, images=out))
     summary["files"] = files
     (out / "summary.json").write_text(json.dumps(summary, indent=1, allow_nan=False) + "\n", encoding="utf-8")
     return summary
@@ -158,7 +165,8 @@ def run(args: argparse.Namespace) -> int:
         return 1
     except (RuntimeError, OSError) as exc:
         raise CliError(str(exc)) from None
-    summary = _write_outputs(records, out, plots=not args.no_plots)
+    summary = _write_outputs(records, out, plots=not args.no_plots,
+                             report=f"clomp experiment {args.family}" if args.report else None)
     if args.json:
         print(json.dumps(summary, allow_nan=False))
     elif args.markdown:
@@ -171,6 +179,6 @@ def run(args: argparse.Namespace) -> int:
         paper = PAPER if args.family == "overtaking" else None
         print(table(summary, paper))
         print(f"wrote {out}{os.sep}: runs.jsonl, runs.csv, " + ("runs.parquet, " if "parquet" in summary["files"] else "")
-              + "runs_schema.md, summary.json"
+              + "runs_schema.md, summary.json" + (", report.html" if "html" in summary["files"] else "")
               + (", " + ", ".join(Path(p).name for p in summary["files"].get("png", [])) if summary["files"].get("png") else ""))
     return 0
