@@ -35,6 +35,7 @@ from clomp.runtime.experiment.layouts import shape_distance
 from clomp.runtime.experiment.plots import RunTrace
 from clomp.runtime.experiment.dwa import DwaController
 from clomp.runtime.experiment.reactive import ReactiveController
+from clomp.runtime.experiment.rl import RlController
 from clomp.runtime.experiment.runspec import check_condition
 from clomp.runtime.records.runlog import RunLog
 from clomp.runtime.supervision.supervisor import Supervisor, SupervisorConfig
@@ -218,7 +219,8 @@ def run_once(
     them, in simulated time, with the ground truth beside each scan and task record).
     ``feedback``: both conditions' pose estimate (the same robot, the same sensing) —
     ``"scan"`` (scan matching, the default) or ``"none"`` (dead reckoning alone).
-    ``reactive``: keyword arguments for the ReactiveController (``bench/experiment_reactive.py``).
+    ``reactive``: keyword arguments for the ReactiveController (``bench/experiment_reactive.py``)
+    or its dwa/rl subclass (``{"policy": path}`` for ``rl``).
     ``gyro`` False: the execution world's robot without its rate gyro (the paper's robot).
     ``supervisor``: the planning condition's settings (default: ``SupervisorConfig(feedback=feedback)``).
 
@@ -267,8 +269,8 @@ def run_once(
         end_state, reason = report.state.value, report.reason
     else:
         opts: dict[str, Any] = {"model": conf.robot, "feedback": feedback, **(reactive or {})}
-        controller = DwaController if condition == "dwa" else ReactiveController
-        report = controller(robot, goal, **opts).run(max_time=max_time)  # type: ignore[arg-type]
+        controller = {"dwa": DwaController, "rl": RlController}.get(condition, ReactiveController)
+        report = controller(robot, goal, **opts).run(max_time=max_time)
         end_state, reason = report.state, report.reason
     wall, cpu = time.perf_counter() - t0, time.thread_time() - c0
     true = robot.ground_truth_pose()

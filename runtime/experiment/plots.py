@@ -397,12 +397,12 @@ def plot_collisions(per_run: dict[str, list[tuple[int, int]]], path: str | os.Pa
     ``per_run``: condition → [(collisions, brushes)] in run order.
     """
     plt = _pyplot()
-    names = [n for n in ("planning", "reactive", "dwa") if n in per_run]
+    names = [n for n in ("planning", "reactive", "dwa", "rl") if n in per_run]
     n = max((len(v) for v in per_run.values()), default=0)
     fig, ax = plt.subplots(figsize=(max(6.0, 0.35 * n + 2), 3.6))
     try:
         width = 0.8 / max(1, len(names))
-        colours = {"planning": "tab:blue", "reactive": "tab:red", "dwa": "tab:green"}
+        colours = {"planning": "tab:blue", "reactive": "tab:red", "dwa": "tab:green", "rl": "tab:purple"}
         for j, name in enumerate(names):
             xs = [k + (j - (len(names) - 1) / 2) * width for k in range(len(per_run[name]))]
             col = [c for c, _ in per_run[name]]
@@ -434,7 +434,7 @@ def plot_success_vs_noise(points: dict[str, list[tuple[float, int, int]]], path:
     plt = _pyplot()
     fig, ax = plt.subplots(figsize=(6.4, 4.0))
     try:
-        colours = {"planning": "tab:blue", "reactive": "tab:red", "dwa": "tab:green"}
+        colours = {"planning": "tab:blue", "reactive": "tab:red", "dwa": "tab:green", "rl": "tab:purple"}
         for name, pts in points.items():
             pts = sorted(pts)
             xs = [p[0] for p in pts]

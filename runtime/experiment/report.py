@@ -58,7 +58,7 @@ def write_plots(records: list[dict[str, Any]], folder: str | os.PathLike[str], m
     noise = records[0].get("noise", "")
     at = [r for r in records if float(r.get("noise_scale", 1.0)) == base]
     per_run: dict[str, list[tuple[int, int]]] = {}
-    for name in ("planning", "reactive", "dwa"):
+    for name in ("planning", "reactive", "dwa", "rl"):
         rs = sorted((r for r in at if r["condition"] == name), key=lambda r: r["run"])
         if not rs:
             continue
@@ -79,7 +79,7 @@ def write_plots(records: list[dict[str, Any]], folder: str | os.PathLike[str], m
         written.append(p)
     if len(scales) > 1:
         points: dict[str, list[tuple[float, int, int]]] = {}
-        for name in ("planning", "reactive", "dwa"):
+        for name in ("planning", "reactive", "dwa", "rl"):
             for s in scales:
                 rs = [r for r in records if r["condition"] == name and float(r.get("noise_scale", 1.0)) == s]
                 if rs:
