@@ -52,13 +52,29 @@ import networkx as nx
 
 from clomp.formal.export_model import STAY, Choice, ExportError, ExportModel
 
-__all__ = ["RETRY", "STOP_LABEL", "STOPS_KEY", "retry_model", "map_stops"]
+__all__ = ["RETRY", "STOP_LABEL", "STOPS_KEY", "OFF_LABEL", "OFFS_KEY", "INTERRUPTED", "GAVE_UP", "retry_model", "loop_model",
+           "map_stops", "map_offs"]
 
 RETRY = "retry"
 """The action of a stop state's retry (the supervisor's replan from the stop)."""
 
 STOP_LABEL = "stop"
 """The label of the stop states (interruptions by the scan test, not contacts)."""
+
+INTERRUPTED = "interrupted"
+"""The closed-loop model's label of a stop: the supervisor's check interrupted the task
+(it is not a collision; it is replanned from while a replan is left)."""
+
+GAVE_UP = "gave_up"
+"""The closed-loop model's label of a stop with no replan left (the run ends there: not
+the goal, and not a collision either)."""
+
+OFF_LABEL = "off_map"
+"""The label of the free leaves where a task ended off the map's prediction (given ``offs``)."""
+
+OFFS_KEY = "offs"
+"""The key of a closed-loop map's ``metadata`` naming its free leaves off the map's
+prediction: ident -> the state the task aimed at (:func:`map_offs` reads it)."""
 
 STOPS_KEY = "stops"
 """The key of a map's ``metadata`` naming its stop states: ident -> the state its task
@@ -77,11 +93,27 @@ def map_stops(metadata: Mapping[str, object]) -> dict[int, int]:
     return {int(k): int(v) for k, v in raw.items()}
 
 
-def retry_model(m: ExportModel, stops: Mapping[int, int], retries: int = 1) -> ExportModel:
+def map_offs(metadata: Mapping[str, object]) -> dict[int, int]:
+    """The outcomes off the map's prediction a map's ``metadata`` names (:data:`OFFS_KEY`), or ``{}``.
+
+    >>> map_offs({"offs": {"7": 3}}), map_offs({})
+    ({7: 3}, {})
+    """
+    raw = metadata.get(OFFS_KEY)
+    if not isinstance(raw, Mapping):
+        return {}
+    return {int(k): int(v) for k, v in raw.items()}
+
+
+def retry_model(m: ExportModel, stops: Mapping[int, int], retries: int = 1,
+                offs: Mapping[int, int] | None = None) -> ExportModel:
     """The product of ``m`` with ``retries`` retries: ``stops`` maps each stop state's
     ident to the ident of the state its retry re-enters (see the module docstring).
     Stops that ``m`` does not hold are ignored (e.g. off the plan of a DTMC); a re-entry
-    state it does not hold is an :class:`ExportError`."""
+    state it does not hold is an :class:`ExportError`. ``offs``: free leaves where a
+    task ended off the map's prediction (:data:`OFFS_KEY`), each with the state the
+    task aimed at; their retry (the supervisor's replan from near there) re-enters that
+    state, and they are labelled :data:`OFF_LABEL` (given ``offs`` only)."""
     if isinstance(retries, bool) or not isinstance(retries, int) or retries < 0:
         raise ExportError(f"retries must be a whole number >= 0, got {retries!r}")
     index = {s.ident: k for k, s in enumerate(m.states)}
@@ -94,8 +126,11 @@ def retry_model(m: ExportModel, stops: Mapping[int, int], retries: int = 1) -> E
         if not m.states[index[stop]].interrupted:
             raise ExportError(f"q{stop} is named a stop but was not interrupted")
         back[index[stop]] = index[source]
+    ends = _offs(m, index, offs or {})
+    back.update(ends)
+    off_label = {} if offs is None else {OFF_LABEL: frozenset(ends)}
     if retries == 0 or not back:
-        return replace(m, labels={**m.labels, STOP_LABEL: frozenset(back)})
+        return replace(m, labels={**m.labels, STOP_LABEL: frozenset(back) - set(ends), **off_label})
     span = max(s.ident for s in m.states) + 1
     # product states (index in m, layer): layer 0 first, in m's order, then the copies
     # reachable from it, breadth-first (the product's root leads to layer 0, in order)
@@ -117,9 +152,70 @@ def retry_model(m: ExportModel, stops: Mapping[int, int], retries: int = 1) -> E
             labels[name] = frozenset(p for p, (k, _) in enumerate(order) if k in members)
     labels["collision"] = frozenset(p for p in labels.get("collision", frozenset())
                                     if not (order[p][0] in back and order[p][1] < retries))
-    labels[STOP_LABEL] = frozenset(p for p, (k, _) in enumerate(order) if k in back)
+    labels[STOP_LABEL] = frozenset(p for p, (k, _) in enumerate(order) if k in back and k not in ends)
+    if offs is not None:
+        labels[OFF_LABEL] = frozenset(p for p, (k, _) in enumerate(order) if k in ends)
     loops = tuple(p for p, row in enumerate(choices) if len(row) == 1 and row[0].action == STAY)
     return replace(m, states=states, choices=tuple(choices), labels=labels, self_loops=loops)
+
+
+def _offs(m: ExportModel, index: Mapping[int, int], offs: Mapping[int, int]) -> dict[int, int]:
+    """``offs`` as indices of ``m`` (leaf -> the state it re-enters); those ``m`` does not
+    hold are ignored; a leaf that is not a free leaf, or a re-entry state ``m`` does not
+    hold, is an :class:`ExportError`."""
+    out: dict[int, int] = {}
+    for leaf, aim in offs.items():
+        if leaf not in index:
+            continue
+        if aim not in index:
+            raise ExportError(f"the replan from q{leaf} re-enters q{aim}, which the model does not hold")
+        k = index[leaf]
+        if m.states[k].interrupted or [c.action for c in m.choices[k]] != [STAY]:
+            raise ExportError(f"q{leaf} is named an outcome off the map's prediction but is not a free leaf")
+        out[k] = index[aim]
+    return out
+
+
+def loop_model(m: ExportModel, stops: Mapping[int, int], replans: int = 1,
+               offs: Mapping[int, int] | None = None) -> ExportModel:
+    """The model of the closed loop: :func:`retry_model` with ``replans`` retries, labelled
+    by what happened rather than by the map's ``interrupted`` flag. ``collision`` is a
+    contact only (a stop is never one, retried or not); ``interrupted`` marks every stop
+    (the check fired: the supervisor stops and replans, the ``retry`` action back to the
+    task's start); ``gave_up`` the stops with no replan left. The ``stop`` label of
+    :func:`retry_model` is renamed ``interrupted``; the outcomes ``offs`` off the map's
+    prediction (the plan check fails a task that would end there: the supervisor
+    replans from near the state the task aimed at) are ``interrupted`` too, and
+    ``off_map``. With ``P=? [F "goal"]`` on it, Storm
+    and PRISM give the chance of reaching the goal with replans, ``P=? [F "collision"]``
+    the chance of a contact the check could not prevent
+    (``specs/properties/closed_loop/``).
+
+    >>> from clomp.formal.lts import CognitiveMap
+    >>> from clomp.formal.model import Disturbance, DisturbanceKind, Pose, State, TaskKind
+    >>> from clomp.formal.export_model import export_model
+    >>> g = Disturbance.goal(1.0, 0.0)
+    >>> box = Disturbance(DisturbanceKind.OBSTACLE, 0.5, 0.0)
+    >>> m = CognitiveMap(goal=g)
+    >>> _ = m.add_state(State(0, TaskKind.STRAIGHT, g, None, Pose(0, 0), Pose(0, 0)))
+    >>> _ = m.add_state(State(1, TaskKind.STRAIGHT, g, None, Pose(0, 0), Pose(1, 0), reached_goal=True))
+    >>> _ = m.add_state(State(2, TaskKind.STRAIGHT, g, box, Pose(0, 0), Pose(0.3, 0)))
+    >>> from fractions import Fraction
+    >>> _ = m.add_transition(0, 1, TaskKind.STRAIGHT, Fraction(1, 2))
+    >>> _ = m.add_transition(0, 2, TaskKind.STRAIGHT, Fraction(1, 2))
+    >>> r = loop_model(export_model(m, "mdp"), {2: 0}, replans=1)
+    >>> [sorted(r.states[k].ident for k in r.labels[name]) for name in ("collision", "interrupted", "gave_up")]
+    [[], [2, 5], [5]]
+    """
+    r = retry_model(m, stops, replans, offs if offs is not None else {})
+    stop = r.labels[STOP_LABEL]
+    off = r.labels[OFF_LABEL]
+    final = frozenset(p for p in stop | off if not any(c.action == RETRY for c in r.choices[p]))
+    labels = {name: members for name, members in r.labels.items() if name != STOP_LABEL}
+    labels["collision"] = labels.get("collision", frozenset()) - stop
+    labels[INTERRUPTED] = stop | off
+    labels[GAVE_UP] = final
+    return replace(r, labels=labels)
 
 
 _ROOT = (-1, -1)
