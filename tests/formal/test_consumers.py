@@ -253,6 +253,10 @@ def _labels_for(pf) -> set[str]:
 
     if Path(pf.source).parent.name == "supervisor":
         return set(machine_model(SUPERVISOR, PLANT).labels)
+    if Path(pf.source).parent.name == "closed_loop":  # clomp export --closed-loop: clomp.formal.retry.loop_model
+        from clomp.formal.retry import GAVE_UP, INTERRUPTED, OFF_LABEL
+
+        return {*LABELS, INTERRUPTED, GAVE_UP, OFF_LABEL}
     return set(LABELS)
 
 
