@@ -87,7 +87,11 @@ def map_stops(metadata: Mapping[str, object]) -> dict[int, int]:
     >>> map_stops({"stops": {"4": 1}}), map_stops({})
     ({4: 1}, {})
     """
-    raw = metadata.get(STOPS_KEY)
+    return _idents(metadata, STOPS_KEY)
+
+
+def _idents(metadata: Mapping[str, object], key: str) -> dict[int, int]:
+    raw = metadata.get(key)
     if not isinstance(raw, Mapping):
         return {}
     return {int(k): int(v) for k, v in raw.items()}
@@ -99,10 +103,7 @@ def map_offs(metadata: Mapping[str, object]) -> dict[int, int]:
     >>> map_offs({"offs": {"7": 3}}), map_offs({})
     ({7: 3}, {})
     """
-    raw = metadata.get(OFFS_KEY)
-    if not isinstance(raw, Mapping):
-        return {}
-    return {int(k): int(v) for k, v in raw.items()}
+    return _idents(metadata, OFFS_KEY)
 
 
 def retry_model(m: ExportModel, stops: Mapping[int, int], retries: int = 1,
@@ -191,21 +192,18 @@ def loop_model(m: ExportModel, stops: Mapping[int, int], replans: int = 1,
     the chance of a contact the check could not prevent
     (``specs/properties/closed_loop/``).
 
+    A stop (q1, started from q0) whose one replan is left in layer 0 and gone in layer 1
+    (q1 + 2 = q3): interrupted in both, never a collision, given up in layer 1:
+
     >>> from clomp.formal.lts import CognitiveMap
-    >>> from clomp.formal.model import Disturbance, DisturbanceKind, Pose, State, TaskKind
+    >>> from clomp.formal.model import Disturbance, DisturbanceKind, Pose, State, TaskKind as K
     >>> from clomp.formal.export_model import export_model
-    >>> g = Disturbance.goal(1.0, 0.0)
-    >>> box = Disturbance(DisturbanceKind.OBSTACLE, 0.5, 0.0)
-    >>> m = CognitiveMap(goal=g)
-    >>> _ = m.add_state(State(0, TaskKind.STRAIGHT, g, None, Pose(0, 0), Pose(0, 0)))
-    >>> _ = m.add_state(State(1, TaskKind.STRAIGHT, g, None, Pose(0, 0), Pose(1, 0), reached_goal=True))
-    >>> _ = m.add_state(State(2, TaskKind.STRAIGHT, g, box, Pose(0, 0), Pose(0.3, 0)))
-    >>> from fractions import Fraction
-    >>> _ = m.add_transition(0, 1, TaskKind.STRAIGHT, Fraction(1, 2))
-    >>> _ = m.add_transition(0, 2, TaskKind.STRAIGHT, Fraction(1, 2))
-    >>> r = loop_model(export_model(m, "mdp"), {2: 0}, replans=1)
+    >>> g, o = Disturbance.goal(1.0, 0.0), Pose(0, 0)
+    >>> hit = State(1, K.LEFT, g, Disturbance(DisturbanceKind.OBSTACLE, 0.2, 0.1), o, Pose(0, 0, 0.4))
+    >>> m = CognitiveMap.from_parts([State(0, K.STRAIGHT, g, None, o, o), hit], [(0, 1)], goal=g)
+    >>> r = loop_model(export_model(m, "mdp"), {1: 0}, replans=1)
     >>> [sorted(r.states[k].ident for k in r.labels[name]) for name in ("collision", "interrupted", "gave_up")]
-    [[], [2, 5], [5]]
+    [[], [1, 3], [3]]
     """
     r = retry_model(m, stops, replans, offs if offs is not None else {})
     stop = r.labels[STOP_LABEL]
