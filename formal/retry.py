@@ -44,7 +44,7 @@ lead on to the goal, where the stop alone was a failure).
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import replace
 from fractions import Fraction
 
@@ -118,16 +118,9 @@ def retry_model(m: ExportModel, stops: Mapping[int, int], retries: int = 1,
     if isinstance(retries, bool) or not isinstance(retries, int) or retries < 0:
         raise ExportError(f"retries must be a whole number >= 0, got {retries!r}")
     index = {s.ident: k for k, s in enumerate(m.states)}
-    back: dict[int, int] = {}
-    for stop, source in stops.items():
-        if stop not in index:
-            continue
-        if source not in index:
-            raise ExportError(f"the retry of stop q{stop} re-enters q{source}, which the model does not hold")
-        if not m.states[index[stop]].interrupted:
-            raise ExportError(f"q{stop} is named a stop but was not interrupted")
-        back[index[stop]] = index[source]
-    ends = _offs(m, index, offs or {})
+    back = _reentries(index, stops, lambda k: m.states[k].interrupted, "a stop but was not interrupted")
+    ends = _reentries(index, offs or {}, lambda k: not m.states[k].interrupted and [c.action for c in m.choices[k]] == [STAY],
+                      "an outcome off the map's prediction but is not a free leaf")
     back.update(ends)
     off_label = {} if offs is None else {OFF_LABEL: frozenset(ends)}
     if retries == 0 or not back:
@@ -160,20 +153,19 @@ def retry_model(m: ExportModel, stops: Mapping[int, int], retries: int = 1,
     return replace(m, states=states, choices=tuple(choices), labels=labels, self_loops=loops)
 
 
-def _offs(m: ExportModel, index: Mapping[int, int], offs: Mapping[int, int]) -> dict[int, int]:
-    """``offs`` as indices of ``m`` (leaf -> the state it re-enters); those ``m`` does not
-    hold are ignored; a leaf that is not a free leaf, or a re-entry state ``m`` does not
-    hold, is an :class:`ExportError`."""
+def _reentries(index: Mapping[int, int], named: Mapping[int, int], fits: Callable[[int], bool], what: str) -> dict[int, int]:
+    """``named`` (ident -> the ident its retry re-enters) as indices (``index``); those the
+    model does not hold are ignored; one whose re-entry it does not hold, or that does not
+    ``fits`` (``what`` it is named), is an :class:`ExportError`."""
     out: dict[int, int] = {}
-    for leaf, aim in offs.items():
-        if leaf not in index:
+    for q, back in named.items():
+        if q not in index:
             continue
-        if aim not in index:
-            raise ExportError(f"the replan from q{leaf} re-enters q{aim}, which the model does not hold")
-        k = index[leaf]
-        if m.states[k].interrupted or [c.action for c in m.choices[k]] != [STAY]:
-            raise ExportError(f"q{leaf} is named an outcome off the map's prediction but is not a free leaf")
-        out[k] = index[aim]
+        if back not in index:
+            raise ExportError(f"the retry of q{q} re-enters q{back}, which the model does not hold")
+        if not fits(index[q]):
+            raise ExportError(f"q{q} is named {what}")
+        out[index[q]] = index[back]
     return out
 
 
