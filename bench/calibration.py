@@ -42,7 +42,8 @@ from typing import Any
 
 from clomp.planner.configurator import Configurator, PlanResult
 from clomp.planner.robust import CLOSED_LOOP_HAZARD, SUPERVISOR_HAZARD, RobustConfigurator
-from clomp.runtime.experiment.layouts import make_layout
+from clomp.planner.noise import preset_names
+from clomp.runtime.experiment.layouts import FAMILIES, make_layout
 from clomp.runtime.experiment.runner import run_once
 from clomp.runtime.experiment.stats import mcnemar, wilson
 
@@ -197,6 +198,10 @@ def main(argv: list[str] | None = None) -> int:
     args = ap.parse_args(argv)
     if args.layouts < 1 or args.first < 0 or args.samples < 1:
         ap.error("--layouts and --samples must be >= 1, --first >= 0")
+    unknown = [f for f in args.families if f not in FAMILIES] + [n for n in args.noise if n not in preset_names()]
+    if unknown:
+        ap.error(f"unknown family or noise preset: {', '.join(unknown)} (families: {', '.join(FAMILIES)}; "
+                 f"noise: {', '.join(preset_names())})")
     w0 = time.perf_counter()
     pairs: list[dict[str, Any]] = []
     for p in _pairs(args):
