@@ -297,7 +297,11 @@ def test_check_with_both_tools_reports_prisms_refusal(tmp_path, capfd):
 # format wants a model-type line PRISM's files do not have), the DRN in plain Storm, the
 # JSON map through ``clomp check --tool both``. Every load must give the same values
 # (<= 1e-9) and pass every required property.
-EXPORTS = (("mdp", ()), ("dtmc", ()), ("dtmc", ("--policy", "storm")))
+EXPORTS = (("mdp", ()), ("dtmc", ()), ("dtmc", ("--policy", "storm")),
+           # the closed loop's model (docs/calibration.md); ideal noise: the map's own "sure"
+           # requirements hold, the closed-loop files' labels are declared on a model without stops
+           ("mdp", ("--samples", "3", "--noise", "ideal", "--closed-loop")),
+           ("dtmc", ("--samples", "3", "--noise", "ideal", "--closed-loop")))
 
 
 def _cli(*argv: str) -> int:
