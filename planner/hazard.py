@@ -17,8 +17,10 @@ points, then replans from where the robot stands. :class:`HazardRule` is that te
   each revolution with fresh range noise and dropout; one point in the way fails the
   check, as one fails a plan. When a revolution before the contact fires, the rollout is
   a stop there, not a collision: the supervisor would have stopped and replanned. Only
-  a contact no revolution before it sees coming (its returns dropped in every
-  revolution, or touched at once) stays a collision. Without ``contacts`` every contact
+  a contact no revolution before it sees coming (its returns dropped, or pushed out
+  of the grown body by the range noise, in every revolution) stays a collision; one at
+  the very start is seen by the revolution at the start, as the check sees a plan
+  before its first task. Without ``contacts`` every contact
   is a collision (the open-loop rollout).
 
 >>> from clomp.planner.noise import RolloutNoise
