@@ -21,9 +21,14 @@ IMU too (its errors drawn from the preset: runtime/backends/_imu.py). Per settin
 - wall time, the process's CPU time and the main thread's (the supervisor's) CPU time.
 
 ``--pty`` instead runs what a user runs, in real time: ``clomp emulate world``'s world (an
-:class:`EmulatedWorldProcess`) and ``clomp run --lidar … --motors … --imu … --goal 1,0`` as
-a subprocess, at ``--time-scale`` 1 and 2, ``--runs`` seeds each, and prints per setting how
-many runs end truly within 0.1 m and how many exit 0 farther than that (false successes).
+:class:`EmulatedWorldProcess`) and ``clomp run --lidar … --motors … --imu … --goal X,Y`` (the
+scenario's goal, as ``bench/ros_loop.py`` gives it to ``clomp ros node``) as a subprocess, at
+each ``--scales`` time scale (1 and 2), for each of ``--scenarios`` (default ``--scenario``)
+and ``--seeds`` (default 0..runs-1); one JSON line a run (also appended to ``--json``; the run
+logs kept in ``--logs``), per setting how many runs end truly within 0.1 m and how many exit 0
+farther than that (false successes), and at the end the per-family table of docs/ros2.md::
+
+    python bench/imu_stack.py --pty --scenarios overtaking,corridor,doorway --seeds 0,1,2,3,4,5,6,7,8,9 --scales 1
 """
 
 from __future__ import annotations
@@ -78,38 +83,68 @@ def summary(label: str, rows: list[dict[str, Any]]) -> str:
             f"(supervisor thread {sum(r['thread'] for r in rows):.0f} s) for {sum(r['sim_s'] for r in rows):.0f} simulated s")
 
 
-def one_pty(scenario: str, noise: str, seed: int, scale: float, log: Path) -> tuple[int, float]:
-    """One real-time run over ptys: ``clomp run``'s exit status and the true final distance."""
+def one_pty(scenario: str, noise: str, seed: int, scale: float, log: Path) -> dict[str, Any]:
+    """One real-time run over ptys: ``clomp run``'s exit status, the goal it was given and the
+    true final distance (the world's), its collisions and the last line on stderr."""
     import subprocess
 
     from clomp.runtime.backends.emulated import EmulatedWorldProcess
 
+    t0 = time.perf_counter()
     with EmulatedWorldProcess(scenario, noise=noise, seed=seed, time_scale=scale) as world:
         gx, gy = world.scene.goal_in_robot_frame()
         argv = [sys.executable, "-m", "clomp.runtime.cli", "run", "--lidar", world.lidar_port, "--motors",
-                world.motor_port, "--imu", world.imu_port, "--goal", f"{gx:g},{gy:g}", "--time-scale", f"{scale:g}",
+                world.motor_port, "--imu", world.imu_port, "--goal", f"{gx!r},{gy!r}", "--time-scale", f"{scale:g}",
                 "--max-time", "120", "--log", str(log)]
         done = subprocess.run(argv, capture_output=True, text=True, timeout=600)
-        if done.returncode != 0:
-            print("   ", (done.stderr.strip().splitlines() or ["(nothing on stderr)"])[-1][:300], flush=True)
-        return done.returncode, float(world.goal_distance)
+        last = (done.stderr.strip().splitlines() or done.stdout.strip().splitlines() or ["(nothing printed)"])[-1]
+        return {"scenario": scenario, "noise": noise, "seed": seed, "time_scale": scale, "goal": [gx, gy],
+                "exit": done.returncode, "true": float(world.goal_distance), "collisions": int(world.collisions),
+                "last": last[:300], "wall": time.perf_counter() - t0, "log": str(log)}
+
+
+def family_table(rows: list[dict[str, Any]]) -> str:
+    """The per-family Markdown table of docs/ros2.md (pty runs): truly within 0.1 m, exit 0,
+    false successes (exit 0, truly > 0.1 m), unconfirmed (exit 1 on GOAL_UNCONFIRMED), collisions,
+    median true final error."""
+    out = ["| scenario | time scale | runs | truly within 0.1 m | exit 0 (claimed) | false successes | unconfirmed "
+           "| collisions | median true final error (m) |", "|---|---|---|---|---|---|---|---|---|"]
+    keys = sorted({(r["scenario"], r["time_scale"]) for r in rows}, key=lambda k: ([r["scenario"] for r in rows].index(k[0]), k[1]))
+    for scenario, scale in keys:
+        rs = [r for r in rows if r["scenario"] == scenario and r["time_scale"] == scale]
+        out.append(f"| {scenario} | {scale:g} | {len(rs)} | {sum(r['true'] <= 0.1 for r in rs)} "
+                   f"| {sum(r['exit'] == 0 for r in rs)} | {sum(r['exit'] == 0 and r['true'] > 0.1 for r in rs)} "
+                   f"| {sum(r['exit'] == 1 and 'unconfirmed' in r['last'].lower() for r in rs)} "
+                   f"| {sum(r['collisions'] for r in rs)} | {statistics.median(r['true'] for r in rs):.3f} |")
+    return "\n".join(out)
 
 
 def main_pty(args: argparse.Namespace) -> int:
+    import json
     import tempfile
 
+    rows: list[dict[str, Any]] = []
     with tempfile.TemporaryDirectory() as tmp:
-        for scale in (1.0, 2.0):
-            near = false = 0
-            for seed in range(args.runs):
-                t0 = time.perf_counter()
-                code, dist = one_pty(args.scenario, args.noise, seed, scale, Path(tmp) / f"run-{scale}-{seed}.jsonl")
-                near += dist <= 0.1
-                false += code == 0 and dist > 0.1
-                print(f"time scale {scale:g} seed {seed:2d}: exit {code}  true {dist:.3f} m  "
-                      f"({time.perf_counter() - t0:.0f} s wall)", flush=True)
-            print(f"time scale {scale:g}: truly within 0.1 m {near}/{args.runs}, false successes {false}", flush=True)
+        logs = Path(args.logs) if args.logs else Path(tmp)
+        logs.mkdir(parents=True, exist_ok=True)
+        for scale in (float(k) for k in args.scales.split(",")):
+            for scenario in args.scenarios.split(","):
+                for seed in _seeds(args):
+                    r = one_pty(scenario, args.noise, seed, scale, logs / f"{scenario}-{scale:g}-{seed}.jsonl")
+                    rows.append(r)
+                    print(json.dumps(r), flush=True)
+                    if args.json:
+                        with open(args.json, "a") as f:
+                            f.write(json.dumps(r) + "\n")
+                rs = [r for r in rows if r["scenario"] == scenario and r["time_scale"] == scale]
+                print(f"{scenario} time scale {scale:g}: truly within 0.1 m {sum(r['true'] <= 0.1 for r in rs)}/{len(rs)}, "
+                      f"false successes {sum(r['exit'] == 0 and r['true'] > 0.1 for r in rs)}", flush=True)
+    print(family_table(rows))
     return 0
+
+
+def _seeds(args: argparse.Namespace) -> list[int]:
+    return [int(s) for s in args.seeds.split(",")] if args.seeds else list(range(args.runs))
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -119,8 +154,14 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--scenario", default="overtaking")
     ap.add_argument("--max-time", type=float, default=90.0)
     ap.add_argument("--pty", action="store_true", help="real-time runs of clomp run --imu over ptys (see the module)")
+    ap.add_argument("--scenarios", default="", help="--pty: comma-separated scenarios (default: --scenario)")
+    ap.add_argument("--seeds", default="", help="--pty: comma-separated seeds (default: 0..runs-1)")
+    ap.add_argument("--scales", default="1,2", help="--pty: comma-separated --time-scale values")
+    ap.add_argument("--json", metavar="FILE", help="--pty: also append each run as a JSON line")
+    ap.add_argument("--logs", metavar="DIR", help="--pty: keep the run logs here")
     args = ap.parse_args(argv)
     if args.pty:
+        args.scenarios = args.scenarios or args.scenario
         return main_pty(args)
     results: dict[str, list[dict[str, Any]]] = {"without IMU": [], "with --imu": []}
     for seed in range(args.runs):

@@ -2,7 +2,8 @@
 
 The Markdown pages under ``docs/`` are read by MyST; the API pages under ``docs/api/`` are
 written here, at build time, from each public package's ``__all__``, so that a new public
-name appears in the reference without anyone editing a page. No network: intersphinx is off.
+name appears in the reference without anyone editing a page; the command-line reference under
+``docs/cli/`` likewise from the argparse parsers (``docs/cliref.py``). No network: intersphinx is off.
 """
 
 from __future__ import annotations
@@ -15,6 +16,7 @@ from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE.parent))  # the checkout's clomp, not an installed copy
+sys.path.insert(1, str(HERE))  # cliref: the command-line reference's writer
 
 project = "clomp"
 author = "the clomp contributors"
@@ -112,17 +114,55 @@ def write_api_pages(out: Path = HERE / "api") -> None:
     (out / "index.rst").write_text("\n".join(toc) + "\n", encoding="utf-8")
 
 
+_NO_DOT = ('<svg xmlns="http://www.w3.org/2000/svg" width="480" height="40"><text x="4" y="24" font-size="14">'
+           "Graphviz (dot) was not installed where these docs were built: no picture</text></svg>\n")
+
+
 def write_figures(out: Path = HERE / "_generated") -> None:
     """The figures the pages show, drawn by the library itself at build time (as ``clomp plan
-    --scenario overtaking --figure`` draws them), so a page never shows a stale picture."""
+    --scenario overtaking --figure``, ``clomp simulate --animate`` and ``clomp demo`` draw them),
+    so a page never shows a stale picture."""
     import clomp
+    from clomp.formal.export import render_svg
+    from clomp.runtime.backends.world import WorldNoise
+    from clomp.runtime.experiment.animation import animate_run
+    from clomp.runtime.experiment.onerun import run_once
+    from clomp.runtime.experiment.plots import plot_run
     from clomp.runtime.experiment.tasktree import plot_task_tree
+    from clomp.runtime.supervision.states import state_machine_dot
 
     out.mkdir(exist_ok=True)
     scene = clomp.load_scenario("overtaking")
     scan = scene.scan()
     result = clomp.plan(scan, goal=scene.goal_in_robot_frame())
     plot_task_tree(result, out / "fig3c_overtaking.png", scan, title="overtaking: explored task tree")
+    from clomp.runtime.experiment.physics_view import plot_physics_world
+
+    plot_physics_world(result, out / "physics_overtaking.png", scan)
+    dot = Path(out / "supervisor.dot")
+    dot.write_text(state_machine_dot(), encoding="utf-8")
+    import shutil
+    import subprocess
+
+    if shutil.which("dot") is not None:
+        render_svg(result.map, out / "cognitive_map_overtaking.svg")
+        subprocess.run(["dot", "-Tsvg", str(dot), "-o", str(out / "supervisor.svg")], check=True, timeout=60)
+    else:  # no Graphviz on this machine: the pages still build, the two pictures say what is missing
+        for name in ("cognitive_map_overtaking.svg", "supervisor.svg"):
+            (out / name).write_text(_NO_DOT, encoding="utf-8")
+    for name, gif in (("overtaking", True), ("cul-de-sac", False)):  # as clomp simulate runs them
+        sc = clomp.load_scenario(name)
+        run = run_once(sc, "planning", sc.raw.get("seed", 0), noise=WorldNoise.for_scene(sc, "paper", 1.0), keep_report=True)
+        plot_run(run.trace(), out / f"trajectory_{name}.png", title=f"{name} — planning")
+        if gif:
+            animate_run(run.trace(), out / f"run_{name}.gif", title=f"{name}: planned and executed closed-loop")
+
+
+def _write_cli() -> None:
+    """The command-line reference (``docs/cli/``), from the argparse parsers themselves."""
+    from cliref import write_cli_pages
+
+    write_cli_pages(HERE / "cli")
 
 
 def _drop_type_docstring(app: object, what: str, name: str, obj: object, options: object, lines: list[str]) -> None:
@@ -136,4 +176,5 @@ def setup(app: object) -> None:
     # pytest imports this file as a module when it collects doctests)
     app.connect("builder-inited", lambda _app: write_api_pages())  # type: ignore[attr-defined]
     app.connect("builder-inited", lambda _app: write_figures())  # type: ignore[attr-defined]
+    app.connect("builder-inited", lambda _app: _write_cli())  # type: ignore[attr-defined]
     app.connect("autodoc-process-docstring", _drop_type_docstring)  # type: ignore[attr-defined]

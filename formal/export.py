@@ -24,6 +24,7 @@ from fractions import Fraction
 from pathlib import Path
 from typing import IO, Any
 
+from clomp.formal import dot_picture
 from clomp.formal.export_model import LABELS, STAY, Choice, ExportError, ExportModel, ModelKind, export_model, induced_model
 from clomp.formal.lts import CognitiveMap
 from clomp.formal.model import State
@@ -361,20 +362,23 @@ def _dot_quote(text: str) -> str:
 
 
 def write_dot(source: CognitiveMap | ExportModel, dest: Dest, kind: ModelKind = "mdp") -> None:
-    """Write Graphviz DOT: integer node ids with quoted labels (state, task, outcome, φ);
+    """Write Graphviz DOT: integer node ids with quoted labels (state, task, outcome, φ, end pose);
     plan transitions bold, collision states red octagons, goal states green, q0 a double
-    border; added self-loops are dashed grey."""
+    border; added self-loops are dashed grey; a state's self-loops on several events one
+    labelled loop; a legend node, and a layout that fits a page (:mod:`clomp.formal.dot_picture`)."""
     m = _model(source, kind)
     name = "cognitive_map" if m.title is None else (m.title if m.title.isidentifier() else "machine")
     lines = [f"digraph {name} {{"]
     lines += [f"  // {h[3:]}" for h in _header(m, "//")]
-    lines.append('  graph [rankdir=LR, fontname="Helvetica"];')
+    lines += dot_picture.layout(m)
     lines.append('  node [shape=box, style="rounded", fontname="Helvetica", fontsize=10];')
     lines.append('  edge [fontname="Helvetica", fontsize=9];')
     for k, s in enumerate(m.states):
         attrs = _dot_state(m, k, s) if isinstance(s, State) else _dot_node(m, k, s)
         lines.append(f"  {k} [{', '.join(attrs)}];")
     lines += _dot_edges(m)
+    lines += dot_picture.folded_loops(m)
+    lines += dot_picture.legend(m)
     lines.append("}")
     with _open(dest) as fh:
         fh.write("\n".join(lines) + "\n")
@@ -395,7 +399,8 @@ def _dot_node(m: ExportModel, k: int, s: Any) -> list[str]:
 def _dot_state(m: ExportModel, k: int, s: State) -> list[str]:
     """The DOT attributes of a map's state: its label, outcome colours, q0 and the plan."""
     outcome = "collision" if s.interrupted else "goal" if s.reached_goal else "ok"
-    attrs = [f"label={_dot_quote(f'q{s.ident} {s.task.value}' + chr(10) + f'{outcome}  φ={s.cost:.3f}')}"]
+    text = f"q{s.ident} {s.task.value}\n{outcome}  φ={s.cost:.3f}\n{dot_picture.pose_line(s)}"
+    attrs = [f"label={_dot_quote(text)}"]
     if s.interrupted:
         attrs += ["shape=octagon", "color=red", "fontcolor=red"]
     elif s.reached_goal:
@@ -408,10 +413,14 @@ def _dot_state(m: ExportModel, k: int, s: State) -> list[str]:
 
 
 def _dot_edges(m: ExportModel) -> list[str]:
-    """One DOT edge per branch: plan steps bold, added self-loops dashed grey."""
+    """One DOT edge per branch: plan steps bold, added self-loops dashed grey (a state's
+    self-loops on several events are left to :func:`clomp.formal.dot_picture.folded_loops`)."""
     lines = []
+    skip = dot_picture.folded(m)
     for k, row in enumerate(m.choices):
         for ch in row:
+            if (k, ch.action) in skip:
+                continue
             for j, p in ch.branches:
                 if ch.action == STAY:
                     lines.append(f'  {k} -> {j} [style=dashed, color=grey, label="stay"];')

@@ -24,9 +24,14 @@ search that never queued hits (the same on the 7 scenarios and 20 recorded scans
 (``cost=chi``) changes 24 of those 27 maps: a hit near the goal becomes the least-φ
 state and ends the search, and none of the 20 recorded scans reaches the goal.
 
-The plan ends at argmin φ over the uninterrupted states (:func:`clomp.formal.supervisory.plan_end`);
-of states of equal φ the first created wins, so a plan never ends on a turn in place
-that leaves its end as far from the goal as the state before it.
+The plan ends at argmin φ over the uninterrupted states (:func:`clomp.formal.supervisory.plan_end`).
+The tie rule: of states of equal φ the first created (the lowest ident) wins, so a plan
+never ends on a turn in place, whose end is as far from the goal as its parent's (created
+before it). No turn turns by nothing: a turn whose chosen angle is below
+:data:`clomp.planner.rollout.MIN_TURN` (1°) is not available, so every turn in the map
+changes the heading.
+A search that spends its budget is searched again deeper by
+:func:`clomp.planner.deepening.plan_deepening` (the supervisor's and the commands' way).
 
 A state is determined by its task and its start pose (rollouts are deterministic), so a
 task reached twice from the same pose is one state with two incoming transitions: the

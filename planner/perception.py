@@ -1,7 +1,8 @@
 """Perception: a LiDAR scan becomes obstacle disturbances.
 
 A scan is an N×2 array of points (metres, robot frame: x forward, y left). It is
-validated, cropped to the sensor range, de-duplicated and clustered (points closer than
+validated, cropped to the planning horizon (``RobotModel.sensor_range``, 1.1 m: an A1
+returns to 12 m, and cropping is normal, not a warning), de-duplicated and clustered (points closer than
 ``cluster_distance`` belong to one object). Each cluster is covered tightly by thin
 oriented boxes: a cluster is split along its principal axis until every piece is thin,
 so a slanted wall becomes a slanted slab and an L-shaped corner two slabs, never one fat
@@ -19,6 +20,7 @@ from typing import Any
 import numpy as np
 
 from clomp.planner.footprint import inside
+from clomp.planner.units import MOSTLY_BEYOND_M, millimetres_suspected
 from clomp.planner.scanfile import MAX_SCAN_BYTES, MAX_SCAN_POINTS, SCAN_SUFFIXES, ScanError, load_scan, scan_files, validate_scan
 
 __all__ = [
@@ -51,48 +53,42 @@ _SIGNS_PAD = _SIGNS * _PAD
 _SIGNS_PAD.flags.writeable = False
 # from how many points repeats are dropped before the sort (below it the test costs what it saves)
 _DEDUPE_FROM = 512
+# a return beyond this squared range (20 m) asks whether the scan is in millimetres
+_UNITS_R2 = MOSTLY_BEYOND_M * MOSTLY_BEYOND_M
 
 
 class ScanWarning(UserWarning):
-    """A scan was read but something about it is suspicious (e.g. points beyond the sensor range).
+    """A scan was read but something about it is suspicious: it looks like millimetres
+    (:func:`range_warning`). Returns beyond the planning horizon are not: they are cropped
+    without a word.
 
     >>> import warnings
     >>> with warnings.catch_warnings(record=True) as caught:
     ...     warnings.simplefilter("always")
-    ...     _ = perceive(np.array([[5.0, 0.0], [5.0, 0.02]]))
-    >>> any(issubclass(w.category, ScanWarning) for w in caught)
-    True
+    ...     _ = perceive(np.array([[5.0, 0.0], [5.0, 0.02]]))       # beyond the horizon: cropped
+    ...     _ = perceive(np.array([[5000.0, 0.0], [5000.0, 20.0]]))  # millimetres?
+    >>> [issubclass(w.category, ScanWarning) for w in caught]
+    [True]
     """
-
-
-# points this far beyond the sensor range (as a fraction of it) are worth a warning:
-# recorded scans cropped at the range reach 1.104 m for a 1.1 m range
-_RANGE_SLACK = 0.05
 
 
 def range_warning(points: np.ndarray, sensor_range: float) -> str | None:
-    """A warning when points lie beyond the sensor range (they are ignored), else None.
+    """A warning when the scan looks like millimetres (:func:`clomp.planner.units.millimetres_suspected`:
+    its returns mostly beyond 20 m, or its median range above 50 m), else None. Returns beyond
+    the planning horizon ``sensor_range`` alone are no warning: perception crops them.
 
-    When most of the scan lies far beyond the range, the coordinates are probably not
-    in metres, and the warning says so.
-
-    >>> range_warning(np.array([[300.0, 0.0], [0.5, 0.0]]), 1.1)
-    '1 of 2 points lies beyond the 1.1 m sensor range and is ignored'
+    >>> range_warning(np.array([[300.0, 0.0], [0.5, 0.0], [0.7, 0.0]]), 1.1) is None   # one far return: cropped
+    True
+    >>> range_warning(np.array([[300.0, 0.0], [500.0, 0.0]]), 1.1)
+    'the scan looks like millimetres (2 of 2 returns lie beyond 20 m, median range 400 m); every return lies beyond the 1.1 m planning horizon and is ignored'
     """
-    if not len(points):
-        return None
-    r = np.hypot(points[:, 0], points[:, 1])
-    far = int(np.count_nonzero(r > sensor_range * (1 + _RANGE_SLACK)))
-    if not far:
+    why = millimetres_suspected(points)
+    if why is None:
         return None
     n = len(points)
-    msg = (
-        f"{far} of {n} point{'s' if n != 1 else ''} {'lies' if far == 1 else 'lie'} beyond the "
-        f"{sensor_range:g} m sensor range and {'is' if far == 1 else 'are'} ignored"
-    )
-    if far * 2 > len(points) and float(np.median(r)) > 10 * sensor_range:
-        msg += f" (median distance {float(np.median(r)):g}: scans are in metres — is this one in millimetres?)"
-    return msg
+    far = int(np.count_nonzero(np.hypot(points[:, 0], points[:, 1]) > sensor_range))
+    lost = "every return lies" if far == n else f"{far} of {n} returns lie"
+    return f"the scan looks like millimetres ({why}); {lost} beyond the {sensor_range:g} m planning horizon and {'is' if far == n else 'are'} ignored"
 
 
 @dataclass(frozen=True, eq=False)
@@ -225,8 +221,9 @@ def perceive(
 ) -> Obstacles:
     """Turn a scan into obstacle disturbances (see the module docstring).
 
-    Points beyond ``sensor_range`` are dropped (the paper's robot ignored them), with a
-    :class:`ScanWarning` (see :func:`range_warning`), as are returns at the sensor
+    Points beyond ``sensor_range`` (the planning horizon) are dropped without a word (the
+    paper's robot ignored them; a :class:`ScanWarning` only when the scan looks like
+    millimetres, see :func:`range_warning`), as are returns at the sensor
     itself (closer than 1 mm). ``pad`` is how far a box stands off its outermost points
     (the allowance for sensor noise). ``body`` = ``(rear, front, half_width)`` is the
     robot's body at the planning origin: returns inside it are its own (or already under
@@ -254,7 +251,7 @@ def _kept(
 ) -> tuple[np.ndarray, np.ndarray, int] | Obstacles:
     """The scan as a float array, which of its points perception keeps (within range, not
     at the sensor, not the body's own) and how many the body exempted; when none is
-    kept, the (empty) obstacles instead. Warns (:class:`ScanWarning`) of points beyond range."""
+    kept, the (empty) obstacles instead. Warns (:class:`ScanWarning`) of a scan in millimetres."""
     if type(points) is np.ndarray and points.ndim == 2 and points.shape[1] == 2 and points.dtype == np.float64:
         # the common case: a float array (from a driver or a file). Its finiteness is
         # checked below only when some point is not kept (a NaN or inf never is)
@@ -281,7 +278,7 @@ def _kept(
     if kept < len(pts):
         if not checked:
             validate_scan(pts)  # a ScanError naming the first point that is not finite
-        if (r2 > (sensor_range * (1 + _RANGE_SLACK)) ** 2).any():
+        if r2.max() > _UNITS_R2:  # returns beyond 20 m: perhaps not metres (the horizon's crop is silent)
             warning = range_warning(pts, sensor_range)
             if warning:
                 warnings.warn(ScanWarning(warning), stacklevel=3)  # at perceive's caller

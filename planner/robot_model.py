@@ -17,6 +17,10 @@ from typing import Any, ClassVar
 __all__ = ["Body", "RobotModel"]
 
 
+#: the LiDAR's maximum range by default (m): an RPLIDAR A1's
+_MAX_RANGE = 12.0
+
+
 def _check_positive(owner: str, name: str, v: Any) -> None:
     if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v <= 0:
         raise ValueError(f"{owner}.{name} must be a positive finite number, got {v!r}")
@@ -85,8 +89,20 @@ class RobotModel(Body):
     longer spin in place; without, every turn turns ``turn_angle`` and every step is
     ``step_length`` long (the authors' planner).
 
+    Two ranges, one of them the planner's (issue #39): ``sensor_range`` is the **planning
+    horizon**, the radius of the sensed disc round the planning origin within which the
+    planner uses returns and keeps the body (1.1 m, the paper's); :attr:`planning_horizon`
+    reads the same number. Its name is kept because code, ROS parameters (``sensor_range``)
+    and written maps (``metadata.robot.sensor_range``) already mean the horizon by it, as
+    they did when the paper's sensor was cropped there. ``max_range`` is the LiDAR's own
+    maximum range (12 m, an RPLIDAR A1's): the returns between the two are normal and
+    cropped without a warning; a scan whose returns lie mostly beyond 20 m is not in
+    metres (:mod:`clomp.planner.units`).
+
     >>> RobotModel().turn_wheel_speed  # wheel speed for a 0.58 rad/s spin in place
     0.0435
+    >>> RobotModel().planning_horizon, RobotModel().max_range
+    (1.1, 12.0)
     """
 
     max_speed: float = 0.2
@@ -95,11 +111,12 @@ class RobotModel(Body):
     turn_angle: float = math.pi / 2
     step_length: float | None = 0.27
     tick: float = 0.1
-    sensor_range: float = 1.1
+    sensor_range: float = 1.1  # the planning horizon (see the docstring: the name is kept)
     cluster_distance: float = 0.1
     goal_tolerance: float = 0.05
     clearance: float = 0.01
     free_turns: bool = True
+    max_range: float = _MAX_RANGE
 
     _CHECKS_ITSELF: ClassVar[frozenset[str]] = frozenset({"step_length", "clearance", "free_turns"})
 
@@ -117,6 +134,15 @@ class RobotModel(Body):
             raise ValueError("RobotModel.turn_rate needs wheel speeds above max_speed")
         if self.turn_angle > math.pi:
             raise ValueError("RobotModel.turn_angle must be at most pi")
+
+    @property
+    def planning_horizon(self) -> float:
+        """The planning horizon (m): ``sensor_range``, by the name that says what it is.
+
+        >>> RobotModel(sensor_range=1.5).planning_horizon
+        1.5
+        """
+        return self.sensor_range
 
     @property
     def turn_wheel_speed(self) -> float:
@@ -141,9 +167,16 @@ class RobotModel(Body):
         return replace(self, **changes)
 
     def to_dict(self) -> dict[str, Any]:
-        """JSON-ready form (every field is a number or a flag: no deep copy is needed).
+        """JSON-ready form (every field is a number or a flag: no deep copy is needed);
+        ``RobotModel(**d)`` gives the model back. ``max_range`` is written only when it is not
+        the default: it changes no plan, and the maps written with the default stay as they were.
 
-        >>> RobotModel().to_dict()["width"]
-        0.18
+        >>> RobotModel().to_dict()["width"], "max_range" in RobotModel().to_dict()
+        (0.18, False)
+        >>> RobotModel(**RobotModel(max_range=30.0).to_dict()).max_range
+        30.0
         """
-        return {f.name: getattr(self, f.name) for f in fields(self)}
+        d = {f.name: getattr(self, f.name) for f in fields(self)}
+        if d.get("max_range") == _MAX_RANGE:
+            del d["max_range"]
+        return d

@@ -60,7 +60,15 @@ from clomp.planner.perception import Obstacles
 from clomp.planner.robot_model import RobotModel
 from clomp.planner.tasks import Task
 
-__all__ = ["Outcome", "World", "in_the_way", "straight_limit", "simulate", "make_task", "frontier_distance", "turn_angle"]
+__all__ = ["MIN_TURN", "Outcome", "World", "in_the_way", "straight_limit", "simulate", "make_task", "frontier_distance", "turn_angle"]
+
+MIN_TURN = math.radians(1.0)
+"""The smallest turn the search expands (rad): a turn whose chosen angle is less (facing a
+goal that lies within 1° of the heading) is not available, as one that would leave the
+sensed disc is not. It changes nothing a plan can use (the straight from its parent passes
+such a goal within its 5 cm tolerance up to 2.8 m away; farther, the next plan turns), and
+its straight nearly repeats the parent's: the demo's first plan began with a RIGHT of
+0.0014° (issue #39)."""
 
 
 def in_the_way(obstacles: Obstacles, robot: RobotModel, start: Pose, kind: TaskKind, length: float) -> np.ndarray:
@@ -421,8 +429,9 @@ def simulate(
     is an optional cache (one per planning run, for the same obstacles and robot) that
     keeps what the run's rollouts share. ``angle`` is a turn's angle (default the
     robot's ``turn_angle``). A STRAIGHT that meets the rim of the sensed disc ends
-    there (``frontier``); a turn that would leave it comes back with ``frontier`` set
-    and its end at its start (not available).
+    there (``frontier``); a turn that would leave it, or whose chosen angle is a turn of
+    nothing (below :data:`MIN_TURN`), comes back with ``frontier`` set and its end at its
+    start (not available).
 
     >>> from clomp.planner.perception import perceive
     >>> out = simulate(TaskKind.STRAIGHT, Pose(0.0, 0.0, 0.0), Disturbance.goal(1.0, 0.0), perceive(np.zeros((0, 2))), RobotModel())
@@ -495,7 +504,7 @@ def _turn(
 ) -> Outcome | None:
     """:func:`simulate` for a turn (by ``angle``, else the angle :func:`turn_angle` chooses),
     cut at the first tick heading where the body meets a point; None when the turn would
-    leave the sensed disc."""
+    leave the sensed disc, or when the angle it chose is below :data:`MIN_TURN`."""
     sign = 1.0 if kind is TaskKind.LEFT else -1.0
     if angle is None and robot.free_turns:
         if scene is None:
@@ -506,6 +515,8 @@ def _turn(
             angle = scene.turns.get(tkey)
             if angle is None:
                 angle = _turn_pair(kind, start, goal, robot, scene, tkey)
+        if angle < MIN_TURN:  # a turn of nothing: not available (see MIN_TURN)
+            return None
     task = Task.turn(robot, kind, start, goal, angle)
     if _turn_leaves_disc(robot, start, sign * task.limit):
         return None

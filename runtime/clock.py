@@ -23,7 +23,8 @@ import time
 from collections.abc import Callable
 from typing import Protocol, runtime_checkable
 
-__all__ = ["Clock", "ManualClock", "ScaledClock", "WallClock", "clock_for", "device_time"]
+__all__ = ["Clock", "ManualClock", "ScaledClock", "WallClock", "clock_for", "device_seconds", "device_time",
+           "device_to_clock"]
 
 
 @runtime_checkable
@@ -82,6 +83,14 @@ class ScaledClock:
         if seconds > 0:
             time.sleep(seconds / self.scale)
 
+    def from_monotonic(self, t: float) -> float:
+        """This clock's time at the ``time.monotonic`` reading ``t`` (a device's timestamp).
+
+        >>> c = ScaledClock(2.0); round(c.from_monotonic(c._origin + 1.5), 9)
+        3.0
+        """
+        return (t - self._origin) * self.scale
+
 
 class ManualClock:
     """A clock that advances only by :meth:`sleep` (or :meth:`advance`): time under test control.
@@ -105,6 +114,32 @@ class ManualClock:
     def advance(self, seconds: float) -> None:
         """Same as :meth:`sleep`."""
         self.sleep(seconds)
+
+
+def device_to_clock(clock: Clock) -> Callable[[float], float]:
+    """The map from a device's timestamp (on :func:`device_time`) to ``clock``'s time: the
+    identity, but for a :class:`ScaledClock`, whose devices stamp wall time while its own runs
+    ``scale`` times faster from its origin (a scan stamped in wall time is, to a supervisor on
+    scaled time, from another clock).
+
+    >>> c = ScaledClock(2.0); round(device_to_clock(c)(c._origin + 1.0), 9), device_to_clock(WallClock())(7.0)
+    (2.0, 7.0)
+    """
+    return clock.from_monotonic if isinstance(clock, ScaledClock) else _same
+
+
+def device_seconds(clock: Clock) -> float:
+    """How many of ``clock``'s seconds one second of device time is: a :class:`ScaledClock`'s
+    ``scale`` (its world, and the rates the devices measure, run that much faster), else 1.
+
+    >>> device_seconds(ScaledClock(2.0)), device_seconds(WallClock()), device_seconds(ManualClock())
+    (2.0, 1.0, 1.0)
+    """
+    return clock.scale if isinstance(clock, ScaledClock) else 1.0
+
+
+def _same(t: float) -> float:
+    return t
 
 
 def clock_for(robot: object, clock: Clock | None = None) -> Clock:

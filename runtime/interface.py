@@ -15,11 +15,12 @@ import math
 
 from typing import Protocol, runtime_checkable
 
+import numpy as np
 
 from clomp.formal.model import Pose
 from clomp.runtime.devices.frame import ScanFrame
 
-__all__ = ["ScanFrame", "Robot", "RobotFault", "TurnSensing", "finite_goal"]
+__all__ = ["ScanFrame", "Robot", "RobotFault", "TurnSensing", "OdometryUncertainty", "finite_goal"]
 
 
 class RobotFault(RuntimeError):
@@ -83,6 +84,24 @@ class TurnSensing(Protocol):
     def rotation(self) -> float | None:
         """The heading turned since start-up (rad, counter-clockwise), as the sensor
         integrates it; None when the sensor has nothing (yet)."""
+        ...
+
+
+@runtime_checkable
+class OdometryUncertainty(Protocol):
+    """A backend whose odometry reports its own uncertainty (a ROS base's ``/odom``
+    covariance). Optional: the supervisor's estimator then takes no less noise for a step
+    than the base reports (:mod:`clomp.runtime.estimation.reported`), its own model's otherwise.
+
+    >>> from clomp.planner import load_scenario
+    >>> from clomp.runtime.backends.sim import SimRobot
+    >>> isinstance(SimRobot(load_scenario("open"), seed=0), OdometryUncertainty)
+    False
+    """
+
+    def odometry_covariance(self) -> tuple[np.ndarray | None, np.ndarray | None]:
+        """The newest odometry's (pose, twist) covariance, each planar 3×3 (x, y, yaw; the
+        pose's in the odometry frame, the twist's in the base frame), None where unknown."""
         ...
 
 

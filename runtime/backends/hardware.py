@@ -36,6 +36,7 @@ all: it plans on every scan with the robot standing still (see ``clomp.runtime.c
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import threading
 import time
@@ -50,11 +51,11 @@ from clomp.runtime.devices.port import OPEN_ERRORS, PORT_ERRORS, open_serial
 from clomp.runtime.devices.bno08x import Bno08xRvc, ImuError
 from clomp.runtime.devices.maestro import Maestro, MaestroError, WheelConfig
 from clomp.runtime.devices.rplidar import DEFAULT_BAUDRATE, LidarError, LidarTimeout, RPLidar
-from clomp.runtime.clock import Clock, WallClock, device_time
+from clomp.runtime.clock import Clock, WallClock, device_seconds, device_time, device_to_clock
 from clomp.runtime.interface import RobotFault, ScanFrame
 from clomp.runtime.records.runlog import RunLogLike
 
-__all__ = ["HardwareConfig", "HardwareRobot", "open_lidar_port"]
+__all__ = ["HardwareConfig", "HardwareRobot", "on_clock", "open_lidar_port"]
 
 _DEVICE_ERRORS: tuple[type[BaseException], ...] = (LidarError, MaestroError, ImuError, ValueError, *PORT_ERRORS)
 _READ_SLICE = 0.05  # seconds one blocking read of the LiDAR port may take
@@ -160,6 +161,25 @@ def open_lidar_port(spec: str, baudrate: int = DEFAULT_BAUDRATE) -> Any:
 
 def _describe(exc: BaseException) -> str:
     return f"{type(exc).__name__}: {exc}"
+
+
+def on_clock(frame: ScanFrame, clock: Clock) -> ScanFrame:
+    """``frame`` (stamped by the LiDAR's driver on :func:`~clomp.runtime.clock.device_time`) with its
+    timestamp and point times on ``clock``: unchanged but on a ScaledClock, whose supervisor
+    would otherwise take a revolution for one of another clock and de-skew it by wall seconds.
+
+    >>> import numpy as np
+    >>> from clomp.runtime.clock import ScaledClock
+    >>> c = ScaledClock(2.0); f = on_clock(ScanFrame(np.zeros((2, 2)), c._origin + 1.0, point_times=np.array([-0.09, 0.0])), c)
+    >>> round(f.timestamp, 9), f.point_times.tolist()
+    (2.0, [-0.18, 0.0])
+    """
+    scale = device_seconds(clock)
+    stamp = device_to_clock(clock)(frame.timestamp)
+    if scale == 1.0 and stamp == frame.timestamp:
+        return frame
+    times = None if frame.point_times is None else frame.point_times * scale
+    return dataclasses.replace(frame, timestamp=stamp, point_times=times)
 
 
 class HardwareRobot:
@@ -312,6 +332,7 @@ class HardwareRobot:
                 return
             now = now_fn()
             if frame is not None:
+                frame = on_clock(frame, self.clock)
                 with self._lock:
                     self._latest, self._delivered = frame, False
                     self.scans += 1

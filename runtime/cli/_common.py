@@ -18,6 +18,7 @@ commands differ only in the lines they print.
 
 from __future__ import annotations
 
+import argparse
 import itertools
 import math
 import os
@@ -30,12 +31,16 @@ from typing import Any, TypeVar
 import numpy as np
 
 from clomp.planner import Configurator, PlanningError, PlanResult, ScanError, load_scan, scan_files
+from clomp.planner.deepening import plan_deepening
 from clomp.planner.inputs import InputError, check_output
+from clomp.planner.perception import ScanWarning
+from clomp.planner.units import UNITS, ScanUnitsError, in_metres
 from clomp.planner.scenarios import Scene, ScenarioError, load_scenario
 from clomp.runtime.cli import CliError, plural
 from clomp.runtime.records.runlog import LogError
 
-__all__ = ["Notes", "folder_scans", "load_scene", "log_records", "many_summary", "output_folder", "output_path", "path_kind", "scan_outcomes", "summary_line"]
+__all__ = ["Notes", "add_units_option", "folder_scans", "load_scene", "log_records", "many_summary", "output_folder", "output_path",
+           "path_kind", "read_points", "scan_outcomes", "summary_line"]
 
 T = TypeVar("T")
 
@@ -113,13 +118,44 @@ def output_path(path: str | os.PathLike[str], what: str) -> Path:
         raise CliError(str(exc)) from None
 
 
-def scan_outcomes(conf: Configurator, scan: Any, goal: tuple[float, float]) -> tuple[PlanResult | None, dict[str, Any]]:
-    """Plan on one scan of a many-scan run; never raises for the scan's own faults.
+def add_units_option(p: argparse.ArgumentParser) -> None:
+    """``--units m|mm``: the units of the scans a command reads (:func:`read_points`)."""
+    p.add_argument("--units", choices=tuple(UNITS), default=None,
+                   help="the units of the scans read (default: metres, and a scan that looks like millimetres — "
+                        "its returns mostly beyond 20 m, or a median range above 50 m — is refused)")
+
+
+def read_points(scan: Any, units: str | None = None, what: str = "--scan") -> np.ndarray:
+    """The points of ``scan`` (a file, an array, or a callable giving one) in metres
+    (:func:`clomp.planner.units.in_metres`): a scan that looks like millimetres, read without
+    ``--units``, is one CliError line naming ``what`` (exit 2), not a scan error; other
+    faults of the scan are its :class:`~clomp.planner.ScanError`.
+
+    >>> read_points(np.array([[1200.0, 0.0], [0.0, 900.0]]), "mm").tolist()
+    [[1.2, 0.0], [0.0, 0.9]]
+    >>> read_points(np.array([[1200.0, 0.0], [0.0, 900.0]]))
+    Traceback (most recent call last):
+    clomp.runtime.cli.CliError: --scan: looks like millimetres (2 of 2 returns lie beyond 20 m, median range 1050 m); pass --units mm (or --units m if it is in metres)
+    """
+    points = load_scan(scan() if callable(scan) else scan)
+    try:
+        return in_metres(points, units)
+    except ScanUnitsError as exc:
+        raise CliError(f"{what}: {exc}") from None
+
+
+def scan_outcomes(conf: Configurator, scan: Any, goal: tuple[float, float], units: str | None = None,
+                  label: str = "scan") -> tuple[PlanResult | None, dict[str, Any]]:
+    """Plan on one scan of a many-scan run; never raises for the scan's own faults (a scan
+    that looks like millimetres, read without ``units``, is the command's: a CliError naming
+    ``label``, see :func:`read_points`).
 
     Returns (result or None, record): the record has ``outcome`` — ``goal``, ``partial``,
     ``no_move``, ``at_goal`` (the goal lies within the goal tolerance of the robot: being
     there is an outcome, not an error) or ``error`` (with ``error``: why the scan cannot
-    be planned) — and ``warnings`` (e.g. points beyond the sensor range) when any.
+    be planned) —, ``returns`` and ``beyond_horizon`` (how many of them lie beyond the
+    planning horizon, cropped: :class:`Notes` sums them) once the scan is read, and
+    ``warnings`` when any.
     """
     rec: dict[str, Any] = {}
     if math.hypot(goal[0], goal[1]) <= conf.robot.goal_tolerance:
@@ -127,11 +163,15 @@ def scan_outcomes(conf: Configurator, scan: Any, goal: tuple[float, float]) -> t
         return None, rec
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
+        if units is not None:
+            warnings.simplefilter("ignore", ScanWarning)  # the units were given: no "millimetres?"
         try:
-            scan = load_scan(scan() if callable(scan) else scan)
+            scan = read_points(scan, units, label)
             if len(scan) and not scan.any():
                 raise ScanError(f"a placeholder scan: all {plural(len(scan), 'point')} at the origin (0, 0); not planned")
-            r = conf.plan(scan, goal)
+            horizon = conf.robot.sensor_range
+            rec.update(returns=len(scan), beyond_horizon=int(np.count_nonzero(np.einsum("ij,ij->i", scan, scan) > horizon * horizon)))
+            r = plan_deepening(conf, scan, goal)  # as the supervisor plans
         except (ScanError, PlanningError) as exc:
             r = None
             rec.update(outcome="error", error=str(exc))
@@ -143,37 +183,53 @@ def scan_outcomes(conf: Configurator, scan: Any, goal: tuple[float, float]) -> t
 
 
 class Notes:
-    """What a many-scan run says once, after its summary, instead of once per scan: the
-    scans with returns beyond the sensor range, placeholder scans, duplicate recordings.
+    """What a many-scan run says once, before its summary, instead of once per scan: how
+    many returns lay beyond the planning horizon (cropped: normal, an A1 returns to 12 m;
+    one line), the scans that warned, placeholder scans, duplicate recordings.
 
-    >>> n = Notes(["2 _smooth copies passed over"])
-    >>> n.add("map0001.dat", {"warnings": ["3 of 9 points lie beyond the 1.1 m sensor range and are ignored"]})
+    >>> n = Notes(["2 _smooth copies passed over"], horizon=1.1)
+    >>> n.add("map0001.dat", {"returns": 9, "beyond_horizon": 3})
     >>> n.add("map0002.dat", {"outcome": "error", "error": "a placeholder scan: all 4 points at the origin (0, 0); not planned"})
     >>> for line in n.lines(): print(line)
     warning: 2 _smooth copies passed over
-    warning: 1 scan has returns beyond the sensor range, ignored (first map0001.dat: 3 of 9 points lie beyond the 1.1 m sensor range and are ignored)
+    beyond the 1.1 m planning horizon, cropped: 3 of 9 returns (in 1 of 1 scan read)
     warning: 1 placeholder scan (every point at the origin), not planned (first map0002.dat)
+    >>> n.summary()
+    {'returns': 9, 'beyond_horizon': 3}
     """
 
-    def __init__(self, notes: list[str] | None = None) -> None:
+    def __init__(self, notes: list[str] | None = None, horizon: float | None = None) -> None:
         self.notes = list(notes or [])
-        self.far: list[tuple[str, str]] = []
+        self.horizon = horizon
+        self.warned: list[tuple[str, str]] = []
         self.placeholders: list[str] = []
+        self.returns = self.beyond = self.read = self.cropped = 0
 
     def add(self, label: str, rec: dict[str, Any]) -> None:
         """Note what the outcome record ``rec`` of the scan ``label`` has to say."""
+        if "returns" in rec:
+            self.read += 1
+            self.returns += rec["returns"]
+            self.beyond += rec.get("beyond_horizon", 0)
+            self.cropped += bool(rec.get("beyond_horizon"))
         if rec.get("warnings"):
-            self.far.append((label, rec["warnings"][0]))
+            self.warned.append((label, rec["warnings"][0]))
         if rec.get("outcome") == "error" and str(rec.get("error", "")).startswith("a placeholder scan"):
             self.placeholders.append(label)
 
+    def summary(self) -> dict[str, int]:
+        """The counts for a JSON summary: the returns read and those beyond the horizon."""
+        return {"returns": self.returns, "beyond_horizon": self.beyond}
+
     def lines(self) -> list[str]:
-        """One ``warning:`` line per kind of suspicious data."""
+        """One ``warning:`` line per kind of suspicious data, and one line on the horizon."""
         out = [f"warning: {n}" for n in self.notes]
-        if self.far:
-            label, first = self.far[0]
-            out.append(f"warning: {plural(len(self.far), 'scan has', 'scans have')} returns beyond the sensor range, "
-                       f"ignored (first {label}: {first})")
+        if self.beyond and self.horizon is not None:
+            out.append(f"beyond the {self.horizon:g} m planning horizon, cropped: {self.beyond:,} of "
+                       f"{self.returns:,} returns (in {self.cropped} of {plural(self.read, 'scan')} read)")
+        if self.warned:
+            label, first = self.warned[0]
+            out.append(f"warning: {plural(len(self.warned), 'scan')} warned (first {label}: {first})")
         if self.placeholders:
             out.append(f"warning: {plural(len(self.placeholders), 'placeholder scan')} (every point at the origin), "
                        f"not planned (first {self.placeholders[0]})")

@@ -13,7 +13,7 @@ from typing import Any
 
 from clomp.runtime.cli._args import seed_arg
 from clomp.runtime.cli import CliError
-from clomp.runtime.cli._common import load_scene
+from clomp.runtime.cli._common import add_units_option, load_scene, read_points
 from clomp.runtime.cli._signals import interrupts_raise
 
 __all__ = ["register"]
@@ -37,6 +37,7 @@ def register(subparsers: Any) -> None:
     source = lidar.add_mutually_exclusive_group()
     source.add_argument("--scans", metavar="DIR", help="folder of recorded mapNNNN.dat scans, played in a loop")
     source.add_argument("--scenario", metavar="NAME", help="scenario name or file to simulate scans from")
+    add_units_option(lidar)
     lidar.add_argument("--speed", type=float, default=1.0, metavar="FACTOR", help="pace factor (default 1: ~5.5 Hz)")
     lidar.add_argument("--garbage", type=float, default=0.0, metavar="RATE", help="probability per sample of a garbage burst")
     lidar.add_argument("--bad-check", type=float, default=0.0, metavar="RATE", help="probability per sample of a bad check bit")
@@ -83,6 +84,8 @@ def register(subparsers: Any) -> None:
 
 def _scan_source(args: argparse.Namespace) -> Any:
     if args.scenario is not None:
+        if getattr(args, "units", None):
+            raise CliError("--units gives the units of the scans read with --scans; a scenario is in metres")
         try:
             from clomp.runtime.backends.sim import scenario_scan_source
         except ImportError as exc:
@@ -97,9 +100,24 @@ def _scan_source(args: argparse.Namespace) -> Any:
     from clomp.runtime.devices.rplidar_emulator import recorded_scan_source
 
     try:
-        return recorded_scan_source(args.scans)
+        recorded = recorded_scan_source(args.scans)
     except (OSError, ValueError) as exc:
         raise CliError(str(exc)) from exc
+    return _in_metres(recorded, getattr(args, "units", None), f"--scans: {args.scans}")
+
+
+def _in_metres(source: Any, units: str | None, what: str) -> Any:
+    """``source`` (a recorded scan source) in metres: its first scan is read here, so that a
+    recording that looks like millimetres, given without ``--units``, is one CliError line
+    before the emulator starts (the rest of the recording is in the same units), and is the
+    first one served."""
+    first = [read_points(source(), units, what)]
+    units = units or "m"
+
+    def metres() -> Any:
+        return first.pop() if first else read_points(source(), units, what)
+
+    return metres
 
 
 def _serve(emulator: Any, what: str, label: str, next_step: str) -> int:

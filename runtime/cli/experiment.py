@@ -23,6 +23,8 @@ from clomp.runtime.cli._common import output_folder
 from clomp.runtime.cli._args import seed_arg
 from clomp.runtime.cli import CliError
 from clomp.runtime.experiment.layouts import FAMILIES
+from clomp.runtime.experiment.policy import PolicyError
+from clomp.runtime.experiment.runspec import CONDITIONS
 
 __all__ = ["parse_scales", "register", "run"]
 
@@ -50,11 +52,16 @@ def register(sub: Any) -> None:
     p.add_argument("--scheduler", default=None, metavar="ADDRESS",
                    help="use an existing Dask scheduler (e.g. tcp://host:8786) instead of a local cluster")
     p.add_argument("--max-time", type=float, default=120.0, help="simulated seconds a run may take (default 120)")
-    p.add_argument("--condition", choices=("planning", "reactive", "dwa"), action="append",
-                   help="run only this condition (repeatable; default planning and reactive; dwa: the dynamic window approach)")
+    p.add_argument("--condition", choices=CONDITIONS, action="append",
+                   help="run only this condition (repeatable; default planning and reactive; dwa: the dynamic window "
+                        "approach; rl: a learned policy, --policy)")
+    p.add_argument("--policy", metavar="FILE", default=None,
+                   help="the rl condition's policy: a clomp-policy JSON or a stable-baselines3 .zip (default: the shipped one)")
     p.add_argument("--out", default="clomp-experiment-out", help="output folder (default ./clomp-experiment-out)")
     p.add_argument("--resume", action="store_true", help="keep the finished runs in OUT/runs.jsonl, run the rest")
     p.add_argument("--no-plots", action="store_true", help="skip the PNGs")
+    p.add_argument("--report", action="store_true",
+                   help="also write OUT/report.html: the summary, the paired tests, every run's trajectory (offline, one file)")
     p.add_argument("--gallery", action="store_true", help="only draw OUT/gallery.png: sample layouts of every family")
     p.add_argument("--json", action="store_true", help="print the summary as one JSON object instead of the table")
     p.add_argument("--markdown", action="store_true", help="print the summary as a row of the experiment table (docs/experiment-room.md)")
@@ -78,7 +85,7 @@ def parse_scales(text: str) -> list[float]:
     return sorted(set(out))
 
 
-def _write_outputs(records: list[dict[str, Any]], out: Path, plots: bool) -> dict[str, Any]:
+def _write_outputs(records: list[dict[str, Any]], out: Path, plots: bool, report: str | None = None) -> dict[str, Any]:
     from clomp.runtime.experiment.results import summarise, write_csv, write_parquet, write_schema
 
     files: dict[str, Any] = {"jsonl": str(out / "runs.jsonl"), "csv": str(write_csv(records, out / "runs.csv")),
@@ -90,6 +97,11 @@ def _write_outputs(records: list[dict[str, Any]], out: Path, plots: bool) -> dic
         from clomp.runtime.experiment.report import write_plots
 
         files["png"] = [str(p) for p in write_plots(records, out)]
+    if report is not None:  # the page, titled so, from the whole records on disk (memory keeps only some traces)
+        from clomp.runtime.experiment.htmlpage import write_report
+        from clomp.runtime.experiment.runrecords import load_records
+
+        files["html"] = str(write_report(load_records(out / "runs.jsonl"), out / "report.html", report, images=out))
     summary["files"] = files
     (out / "summary.json").write_text(json.dumps(summary, indent=1, allow_nan=False) + "\n", encoding="utf-8")
     return summary
@@ -136,7 +148,9 @@ def run(args: argparse.Namespace) -> int:
             records = run_experiment(args.family, args.runs, args.seed, noise=args.noise, noise_scales=scales,
                                      conditions=conditions, max_time=args.max_time, workers=workers,
                                      scheduler=args.scheduler, out=out, resume=args.resume, progress=bar,
-                                     feedback=args.feedback, gyro=not args.no_gyro)
+                                     feedback=args.feedback, gyro=not args.no_gyro, policy=args.policy)
+    except PolicyError as exc:
+        raise CliError(f"--policy: {exc}") from None
     except ScenarioError as exc:
         raise CliError(f"{exc} (or a layout family: {', '.join(FAMILIES)})") from None
     except ExperimentInterrupted as exc:
@@ -151,7 +165,8 @@ def run(args: argparse.Namespace) -> int:
         return 1
     except (RuntimeError, OSError) as exc:
         raise CliError(str(exc)) from None
-    summary = _write_outputs(records, out, plots=not args.no_plots)
+    summary = _write_outputs(records, out, plots=not args.no_plots,
+                             report=f"clomp experiment {args.family}" if args.report else None)
     if args.json:
         print(json.dumps(summary, allow_nan=False))
     elif args.markdown:
@@ -164,6 +179,6 @@ def run(args: argparse.Namespace) -> int:
         paper = PAPER if args.family == "overtaking" else None
         print(table(summary, paper))
         print(f"wrote {out}{os.sep}: runs.jsonl, runs.csv, " + ("runs.parquet, " if "parquet" in summary["files"] else "")
-              + "runs_schema.md, summary.json"
+              + "runs_schema.md, summary.json" + (", report.html" if "html" in summary["files"] else "")
               + (", " + ", ".join(Path(p).name for p in summary["files"].get("png", [])) if summary["files"].get("png") else ""))
     return 0

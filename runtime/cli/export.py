@@ -12,7 +12,8 @@ from typing import Any
 from clomp.formal.export import FORMATS, LABEL_HOLDER, ExportError, ExportModel, ModelKind, drn_adds_holder, export_model, induced_model, write
 from clomp.formal.lts import MAX_MAP_BYTES, CognitiveMap, MapError
 from clomp.formal.retry import loop_model, map_offs, map_stops
-from clomp.planner import PlanningError, ScanError, load_scan, scan_files
+from clomp.planner import PlanningError, ScanError, scan_files
+from clomp.planner.deepening import plan_deepening
 from clomp.planner.inputs import InputError, load_json, read_text
 from clomp.planner.probabilistic import NoiseError, learn_from_scans
 from clomp.runtime.cli.plan import (
@@ -24,7 +25,7 @@ from clomp.runtime.cli.plan import (
     scenario_scan,
 )
 from clomp.runtime.cli import EXIT_OK, CliError, plural
-from clomp.runtime.cli._common import output_path, path_kind
+from clomp.runtime.cli._common import add_units_option, output_path, path_kind, read_points
 
 __all__ = ["register", "add_source_options", "map_from_args", "export_for", "storm_policy"]
 
@@ -40,6 +41,7 @@ def add_source_options(p: argparse.ArgumentParser, required: bool = True) -> Non
     src.add_argument("--scan", help="a scan file (x y per line, or .npy); with --learn, a folder of consecutive scans or a run log")
     src.add_argument("--map", metavar="JSON", help="a cognitive map written by 'clomp plan --map' or 'export --format json'")
     p.add_argument("--goal", help="goal X,Y in the robot frame (metres); default: the scenario's, or 1.0,0.0")
+    add_units_option(p)
     add_sampling_options(p)
 
 
@@ -54,6 +56,9 @@ def map_from_args(args: argparse.Namespace) -> tuple[CognitiveMap, str]:
         except MapError as exc:
             raise CliError(f"--map: {args.map}: {exc}") from None
     conf = configurator_from_args(args)
+    units = getattr(args, "units", None)
+    if units and not getattr(args, "scan", None):
+        raise CliError("--units gives the units of the scans read with --scan; a scenario or a map is in metres")
     samples = getattr(args, "samples", None)
     learn = getattr(args, "learn", False)
     if learn and samples:
@@ -65,12 +70,13 @@ def map_from_args(args: argparse.Namespace) -> tuple[CognitiveMap, str]:
             title, goal, scan = scenario_scan(args, conf)
             if samples is not None:
                 return probabilistic_from_args(args, conf, scan, goal).map, title
-            return conf.plan(scan, goal).map, title
+            return plan_deepening(conf, scan, goal).map, title
         path = Path(args.scan)
         goal = parse_goal(args.goal) if args.goal else (1.0, 0.0)
         kind = path_kind(path, "--scan")
         if learn and kind == "file":
             standing, log_goal = _standing_scans(path)
+            standing = [read_points(pts, units) for pts in standing]
             g = parse_goal(args.goal) if args.goal else log_goal
             return learn_from_scans(standing, g, conf), f"{path} ({len(standing)} scans taken at one pose)"
         if learn:
@@ -78,21 +84,23 @@ def map_from_args(args: argparse.Namespace) -> tuple[CognitiveMap, str]:
                 raise CliError(f"--scan: {path}: --learn needs a folder of scans or a run log (.jsonl)")
             files = scan_files(path)  # the shared folder reader: suffixes, hidden files, unreadable folders
             used: list[Path] = []
-            cmap = learn_from_scans(_readable_scans(files, used), goal, conf)
+            cmap = learn_from_scans(_readable_scans(files, used, units), goal, conf)
             skipped = len(files) - len(used)
             return cmap, f"{path} ({plural(len(used), 'scan')}{f', {skipped} skipped' if skipped else ''})"
         if kind == "missing":
             raise CliError(f"--scan: {path}: no such file")
+        points = read_points(path, units)
         if samples is not None:
-            return probabilistic_from_args(args, conf, path, goal).map, str(path)
-        return conf.plan(path, goal).map, str(path)
+            return probabilistic_from_args(args, conf, points, goal).map, str(path)
+        return plan_deepening(conf, points, goal).map, str(path)
     except (ScanError, PlanningError, NoiseError) as exc:
         raise CliError(str(exc)) from None
 
 
-def _readable_scans(files: list[Path], used: list[Path]) -> Iterator[Any]:
+def _readable_scans(files: list[Path], used: list[Path], units: str | None = None) -> Iterator[Any]:
     """The scans of ``files`` read one by one as they are consumed (with a bar on a
-    terminal); a file that is not a scan is skipped with one warning line naming it, as
+    terminal), in metres (``units``; one that looks like millimetres without them is one
+    error); a file that is not a scan is skipped with one warning line naming it, as
     folder runs of ``clomp plan`` do, and the files read are appended to ``used``. No
     readable scan at all is one error."""
     from clomp.runtime.cli._progress import progress
@@ -100,7 +108,7 @@ def _readable_scans(files: list[Path], used: list[Path]) -> Iterator[Any]:
     bar = progress(files, desc="learn", unit="scan")
     for f in bar:
         try:
-            points = load_scan(f)
+            points = read_points(f, units, f"--scan: {f.name}")
         except ScanError as exc:
             bar.write(f"warning: {f.name}: skipped: {exc}", file=sys.stderr)
             continue

@@ -7,6 +7,7 @@ import argparse
 import json
 import math
 import sys
+import warnings
 from collections.abc import Iterable
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -16,11 +17,14 @@ import numpy as np
 from clomp.formal.lts import CognitiveMap, MapError
 from clomp.planner import GOAL_LIMIT_M as _PLANNER_GOAL_LIMIT_M
 from clomp.planner import Configurator, PlanningError, PlanResult, RobotModel, ScanError
+from clomp.planner.perception import ScanWarning
+from clomp.planner.deepening import plan_deepening
 from clomp.planner.probabilistic import MAX_SAMPLES, NoiseError, ProbabilisticMap, preset_names
 from clomp.runtime.cli import EXIT_NOT_REACHED, EXIT_OK, CliError, plural
 from clomp.runtime.cli._args import length_arg, seed_arg
 from clomp.runtime.cli._bags import add_bag_options, bag_points, is_bag, labelled_scans, lidar_offset, open_topic, scan_label
-from clomp.runtime.cli._common import Notes, folder_scans, load_scene, many_summary, output_path, path_kind, scan_outcomes, summary_line
+from clomp.runtime.cli._common import (Notes, add_units_option, folder_scans, load_scene, many_summary, output_path, path_kind,
+                                      read_points, scan_outcomes, summary_line)
 from clomp.runtime.cli._progress import progress
 from clomp.runtime.records.bags import BagError
 
@@ -97,7 +101,7 @@ def scenario_scan(args: argparse.Namespace, conf: Configurator) -> tuple[str, tu
 def add_planner_options(p: argparse.ArgumentParser) -> None:
     """Options shared by the commands that plan."""
     g = p.add_argument_group("planner")
-    g.add_argument("--max-states", type=int, default=50, help="state budget of the cognitive map (default 50)")
+    g.add_argument("--max-states", type=int, default=50, help="state budget of the cognitive map (default 50; a search that spends it short of the goal and the frontier runs again with 4 times as many)")
     g.add_argument("--horizon", type=length_arg(0.0, 100.0, "--horizon"), default=1.2, help="half-size of the box around the start beyond which states are not expanded (m, default 1.2)")
     g.add_argument("--step-length", type=length_arg(0.0, 10.0, "--step-length"), default=0.27, help="length of a STRAIGHT step when the way to the goal is not clear (m, default 0.27; 0 = no cut)")
 
@@ -169,6 +173,7 @@ def register(sub: Any) -> None:
     p.add_argument("--map", metavar="FILE", help="also write the cognitive map as JSON to FILE")
     p.add_argument("--figure", metavar="FILE", help="also draw the explored task tree over the scan and the obstacle boxes "
                    "(the paper's Fig. 3C; .png, .svg or .pdf) to FILE: one plan (--scenario, a scan file, a bag's --index/--time)")
+    add_units_option(p)
     add_bag_options(p)
     pick = p.add_mutually_exclusive_group()
     pick.add_argument("--index", type=int, metavar="K", help="plan on the K-th scan of the bag's topic (from 0; default: every scan)")
@@ -184,9 +189,13 @@ def register(sub: Any) -> None:
     p.set_defaults(func=run)
 
 
-def _plan_one(conf: Configurator, scan: Any, goal: tuple[float, float]) -> PlanResult:
+def _plan_one(conf: Configurator, scan: Any, goal: tuple[float, float], units: str | None = None) -> PlanResult:
     try:
-        return conf.plan(scan, goal)
+        points = read_points(scan, units)  # in metres: one that looks like millimetres is refused
+        with warnings.catch_warnings():
+            if units is not None:
+                warnings.simplefilter("ignore", ScanWarning)  # the units were given: no "millimetres?"
+            return plan_deepening(conf, points, goal)  # as the supervisor plans: a spent budget searched again
     except (ScanError, PlanningError) as exc:
         raise CliError(str(exc)) from None
 
@@ -278,7 +287,11 @@ def _run_robust(args: argparse.Namespace, conf: Configurator) -> int:
         path = Path(args.scan)
         if path_kind(path, "--scan") != "file":
             raise CliError(f"--scan: {path}: --robust plans on one scan file")
-        goal, scan, title = (parse_goal(args.goal) if args.goal else (1.0, 0.0)), path, str(path)
+        goal, title = (parse_goal(args.goal) if args.goal else (1.0, 0.0)), str(path)
+        try:
+            scan = read_points(path, args.units)
+        except ScanError as exc:
+            raise CliError(str(exc)) from None
     # the runtime's robust configurator itself: the same rollouts (hazard stops, the
     # supervisor's tolerance, poses carried), target, retry and second look
     robust = robust_from_args(args, conf)
@@ -321,6 +334,8 @@ def run(args: argparse.Namespace) -> int:
     conf = configurator_from_args(args)
     if args.scenario and (args.topic or args.index is not None or args.time is not None or args.lidar_offset):
         raise CliError("--topic, --index, --time and --lidar-offset read a ROS bag given with --scan")
+    if args.scenario and args.units:
+        raise CliError("--units gives the units of the scans read with --scan; a scenario is in metres")
     _check_figure(args)
     if args.robust:
         return _run_robust(args, conf)
@@ -344,7 +359,7 @@ def run(args: argparse.Namespace) -> int:
     if kind == "folder":
         _one_plan_only(args, "a folder of scans")
         return _plan_folder(conf, path, goal, args)
-    r = _plan_one(conf, path, goal)
+    r = _plan_one(conf, path, goal, args.units)
     _emit(r, args, str(path))  # the figure draws the points the boxes cover (the file's, as perceived)
     return EXIT_OK if r.reached_goal else EXIT_NOT_REACHED
 
@@ -411,7 +426,11 @@ def _plan_bag(conf: Configurator, path: Path, goal: tuple[float, float], args: a
             points = scan.points(offset)
         except BagError as exc:
             raise CliError(str(exc)) from None
-        r = _plan_one(conf, points, goal)
+        try:
+            points = read_points(points, args.units)
+        except ScanError as exc:
+            raise CliError(str(exc)) from None
+        r = _plan_one(conf, points, goal, args.units and "m")  # in metres now
         _emit(r, args, f"{path} {scan_label(topic.topic, scan, t0 or scan.time_ns)}", points)
     return EXIT_OK if r.reached_goal else EXIT_NOT_REACHED
 
@@ -424,18 +443,18 @@ def _plan_folder(conf: Configurator, folder: Path, goal: tuple[float, float], ar
 def _plan_many(conf: Configurator, total: int, items: Iterable[tuple[str, Any, str]], goal: tuple[float, float],
                args: argparse.Namespace, listing: list[str] | None = None) -> int:
     """Plan on every (name, scan, JSON name) of ``items``: one line each, then a summary
-    (in text, what is suspicious — returns beyond the range, placeholders, copies — is
-    said once, before the summary: :class:`~clomp.runtime.cli._common.Notes`).
+    (in text, what is worth a word — how many returns lay beyond the planning horizon,
+    placeholders, copies — is said once, before the summary: :class:`~clomp.runtime.cli._common.Notes`).
 
     A scan that cannot be planned gets its own line with an error and the run goes on;
     the exit status is 0 once every scan was processed.
     """
     times: list[float] = []
     outcomes: list[str] = []
-    notes = Notes(listing)
+    notes = Notes(listing, conf.robot.sensor_range)
     bar = progress(items, total=total, desc="plan", unit="scan")
     for name, scan, json_name in bar:
-        r, rec = scan_outcomes(conf, scan, goal)
+        r, rec = scan_outcomes(conf, scan, goal, args.units, f"--scan: {json_name}")
         outcomes.append(rec["outcome"])
         if r is not None:
             times.append(r.planning_time_s)
@@ -450,7 +469,7 @@ def _plan_many(conf: Configurator, total: int, items: Iterable[tuple[str, Any, s
                 f"{r.planning_time_s * 1e3:.2f} ms  [{' '.join(s.task.value[0] for s in r.steps)}]"
             )
         notes.add(name, rec)
-    summary = many_summary(outcomes, times)
+    summary = {**many_summary(outcomes, times), **notes.summary()}
     for note in [] if args.json else notes.lines():
         print(note)
     print(json.dumps({"summary": summary}) if args.json else summary_line(summary))

@@ -15,7 +15,7 @@ from clomp.planner import Configurator
 from clomp.runtime.cli._bags import add_bag_options, bag_points, is_bag, labelled_scans, lidar_offset, open_topic
 from clomp.runtime.cli._progress import progress
 from clomp.runtime.cli import EXIT_OK, CliError, plural
-from clomp.runtime.cli._common import Notes, folder_scans, log_records, path_kind, scan_outcomes
+from clomp.runtime.cli._common import Notes, add_units_option, folder_scans, log_records, path_kind, scan_outcomes
 from clomp.runtime.cli.plan import add_planner_options, configurator_from_args, parse_goal
 from clomp.runtime.records.bags import LaserScan
 from clomp.runtime.records.runlog import scans_from_log
@@ -28,6 +28,7 @@ def register(sub: Any) -> None:
     p.add_argument("source", help="a folder of scans (mapNNNN.dat …), a clomp run log (.jsonl), or a ROS bag (with --topic)")
     p.add_argument("--goal", help="goal X,Y in the robot frame for every scan (default: the log's, else 1.0,0.0)")
     p.add_argument("--json", action="store_true", help="one JSON line per scan, then a summary line")
+    add_units_option(p)
     add_bag_options(p)
     add_planner_options(p)
     p.set_defaults(func=run)
@@ -67,12 +68,12 @@ def _replay(conf: Configurator, total: int | None, items: Iterable[tuple[str, An
     one taken at the goal), then a summary; exit 0 once every scan was processed."""
     times: list[float] = []
     plans = reached = failed = at_goal = seen = 0
-    notes = Notes(listing)  # said once, before the summary, not once per scan
+    notes = Notes(listing, conf.robot.sensor_range)  # said once, before the summary, not once per scan
     bar = progress(items, total=total, desc="replay", unit="scan")
     for label, scan, g in bar:
         seen += 1
         source = (lambda s=scan: bag_points(s, offset)) if isinstance(scan, LaserScan) else scan
-        r, rec = scan_outcomes(conf, source, g)
+        r, rec = scan_outcomes(conf, source, g, args.units, f"replay: {label}")
         if r is None:
             if rec["outcome"] == "error":
                 failed += 1
@@ -118,6 +119,7 @@ def _replay(conf: Configurator, total: int | None, items: Iterable[tuple[str, An
         "errors": failed,
         "median_planning_time_s": median_s,
         "p90_planning_time_s": p90_s,
+        **notes.summary(),
     }
     if args.json:
         print(json.dumps({"summary": summary}))

@@ -61,6 +61,8 @@ def register(sub: Any) -> None:
     p.add_argument("--max-time", type=float, default=120.0, help="simulated seconds allowed (default 120)")
     p.add_argument("--out", default="clomp-simulate-out", help="folder for the PNG (default ./clomp-simulate-out)")
     p.add_argument("--json", action="store_true", help="print one JSON object")
+    p.add_argument("--animate", metavar="FILE.gif", help="also write the run as an animated GIF (the robot's body moving "
+                   "along its true path over the scene, the time and, at the end, the outcome)")
     p.add_argument("--log", metavar="FILE", help="write the run log (JSON lines, as clomp run writes; simulated time, "
                    "with the ground truth) to FILE; 'clomp convert FILE -o RUN.mcap' opens it in Foxglove")
     p.set_defaults(func=run)
@@ -112,6 +114,31 @@ def _summary_dict(r: RunResult, png: Path) -> dict[str, Any]:
     }
 
 
+def _check_animate(args: argparse.Namespace) -> None:
+    """``--animate FILE.gif``: a GIF that can be written, checked before the run."""
+    if not args.animate:
+        return
+    if Path(args.animate).suffix.lower() != ".gif":
+        raise CliError(f"--animate: writes a GIF; name the file FILE.gif, got {args.animate}")
+    try:
+        Path(args.animate).parent.mkdir(parents=True, exist_ok=True)
+        output_path(args.animate, "--animate")
+    except OSError as exc:
+        raise CliError(f"--animate: cannot write {args.animate}: {exc.strerror or exc}") from None
+
+
+def _animate(args: argparse.Namespace, r: RunResult, title: str) -> None:
+    """Write the run as the GIF ``--animate`` names (nothing without it)."""
+    if not args.animate:
+        return
+    from clomp.runtime.experiment.animation import animate_run
+
+    try:
+        animate_run(r.trace(), args.animate, title=title)
+    except OSError as exc:
+        raise CliError(f"--animate: cannot write {args.animate}: {exc.strerror or exc}") from None
+
+
 def run(args: argparse.Namespace) -> int:
     """Execute ``clomp simulate``."""
     scene = load_scene(args.scenario)
@@ -125,6 +152,7 @@ def run(args: argparse.Namespace) -> int:
         raise CliError(str(exc)) from None
     except OSError as exc:
         raise CliError(f"--out: {exc}") from None
+    _check_animate(args)
     if args.log:
         if args.reactive:
             raise CliError("--log: the reactive baseline has no supervisor and keeps no run log")
@@ -143,11 +171,17 @@ def run(args: argparse.Namespace) -> int:
         raise CliError(f"--log: cannot write {args.log}: {exc.strerror or exc}") from None
     png = out / f"{safe_name(scene.name)}_{cond}.png"  # a name from a file: never a path
     plot_run(r.trace(), png, title=f"{scene.name} — {cond}")
+    _animate(args, r, f"{scene.name} — {cond}")
     if args.json:
-        print(json.dumps(_summary_dict(r, png)))
+        summary = _summary_dict(r, png)
+        if args.animate:
+            summary["gif"] = str(args.animate)
+        print(json.dumps(summary))
     else:
         print_summary(r)
         print(f"  trajectory: {png}")
+        if args.animate:
+            print(f"  animation: {args.animate}")
         if args.log:
             print(f"  run log: {args.log}")
         if r.end_state == "GOAL_UNCONFIRMED":  # the last line says why: the distance and its bound

@@ -8,7 +8,9 @@ as long latch a fault (:class:`ImuPortError`, :class:`ImuTimeout`,
 :class:`ImuProtocolError`, all :class:`ImuError`), which every later call raises. Given the
 fastest turn its platform can make (``max_rate``), it also latches a yaw that turns faster
 than that over ``rate_window`` s, report after report (:class:`ImuProtocolError`): a heading
-that is wildly wrong, which no consumer should follow. Built
+that is wildly wrong, which no consumer should follow. A deadline found passed while bytes
+wait in the port is the reader's own hold-up (its process busy), not silence: it takes
+them in once before it judges. Built
 on :mod:`clomp.runtime.devices.bno08x_codec` (whose names are re-exported here).
 
 >>> with Bno08xRvc("loop://") as imu:
@@ -211,6 +213,7 @@ class Bno08xRvc:
     def _read_loop(self) -> None:
         last_report = last_byte = self.clock()
         dropped_at_report = 0  # the decoder's dropped bytes when the last report came
+        held = False  # a deadline passed with bytes waiting: read them before judging
         while not self._closing.is_set():
             try:
                 waiting = int(getattr(self.port, "in_waiting", 0))
@@ -225,14 +228,26 @@ class Bno08xRvc:
                 last_byte = now
                 took, fault = self._take(self.decoder.feed(data), now)
                 if took:
-                    last_report, dropped_at_report = now, self.decoder.dropped_bytes
+                    last_report, dropped_at_report, held = now, self.decoder.dropped_bytes, False
             fault = fault or self._deadline_fault(now, last_report, last_byte, self.decoder.dropped_bytes - dropped_at_report)
+            if isinstance(fault, ImuTimeout) and not held and self._waiting() > 0:
+                # not silence: this thread was held up (its process busy, the machine loaded) and
+                # the device's reports wait in the port's buffer; judge after taking them in
+                held = True
+                continue
             if fault is not None:
                 self._trip(fault)
                 return
             with self._cond:
                 self.passes += 1
                 self._cond.notify_all()
+
+    def _waiting(self) -> int:
+        """Bytes waiting in the port's buffer (0 when it cannot say)."""
+        try:
+            return int(getattr(self.port, "in_waiting", 0))
+        except _PORT_ERRORS:
+            return 0
 
     def _take(self, reports: list[RvcReport], now: float) -> tuple[bool, ImuError | None]:
         """Keep the reports (True when there were any) and the fault of a yaw turning too fast."""

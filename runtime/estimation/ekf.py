@@ -86,6 +86,7 @@ import numpy as np
 
 from clomp.formal.geometry import midpoint_step, wrap_angle
 from clomp.formal.model import Pose
+from clomp.runtime.estimation.reported import psd_max, rotate_covariance
 
 __all__ = ["OdometryFilter"]
 
@@ -226,15 +227,19 @@ class OdometryFilter:
         """Move the pose estimate to ``pose`` (an outside correction), keeping the covariance."""
         self.x[:3] = (pose.x, pose.y, pose.theta)
 
-    def predict(self, v: float, w: float, dt: float, turned: float | None = None) -> None:
+    def predict(self, v: float, w: float, dt: float, turned: float | None = None,
+                floor: np.ndarray | None = None) -> None:
         """Propagate over ``dt`` s at the commanded linear speed ``v`` and turn rate ``w``;
         ``turned`` (rad): the rotation a gyro measured over the same ``dt``, which then
         gives the heading instead of the wheels (also standing, when the body may still
-        coast)."""
+        coast). ``floor`` (3×3, x forward, y left, yaw in the robot frame at the step's
+        start): the least noise of the step's pose, what a base reported for its own odometry
+        (:func:`~clomp.runtime.estimation.reported.step_noise_floor`); the model's noise is
+        raised to it where it is smaller (:func:`~clomp.runtime.estimation.reported.psd_max`)."""
         if not dt > 0:
             return
         moving = v != 0.0 or w != 0.0
-        if not moving and turned is None:
+        if not moving and turned is None and floor is None:
             return
         x, y, th, s, k, c, d, b = self.x
         m = 1.0 if moving else 0.0
@@ -265,6 +270,8 @@ class OdometryFilter:
         g = np.array([[cs, 0.0], [sn, 0.0], [0.0, 1.0]])
         q = np.zeros((_N, _N))
         q[:3, :3] = g @ np.array([[var_d, cov_dth], [cov_dth, var_th]]) @ g.T
+        if floor is not None:  # never less than the base says its own odometry is uncertain
+            q[:3, :3] = psd_max(q[:3, :3], rotate_covariance(np.asarray(floor, dtype=float).reshape(3, 3), th))
         q[3:7, 3:7] = np.diag(np.square(self.calibration_walk)) * dt * m
         q[7, 7] = self.rate_offset_walk**2 * dt
         self.P = f @ self.P @ f.T + q

@@ -65,6 +65,7 @@ from clomp.runtime.estimation.faces import FaceCompass
 from clomp.runtime.estimation.fusion import fuse_revolutions, range_spread
 from clomp.runtime.estimation._icp_core import warm_up
 from clomp.runtime.estimation.icp import ReferenceScan, ScanMatch, match_scans
+from clomp.runtime.estimation.reported import OdometryCovariance, step_noise_floor
 
 __all__ = ["ScanOdometry", "FeedbackRecord", "deskew"]
 
@@ -217,6 +218,7 @@ class ScanOdometry:
         self._map = None
         self._map_points = self._map_tree = self._map_sds = None
         self._odo = None
+        self._odo_cov: np.ndarray | None = None  # the odometry's pose covariance at _odo, when reported
         self._rot = None
         self._still_since = self._t
         self._moved_since = 0.0
@@ -228,13 +230,16 @@ class ScanOdometry:
             self.compass.reset()
 
     def advance(self, t: float, wheels: tuple[float, float], odometry: Pose | None = None,
-                rotation: float | None = None) -> None:
+                rotation: float | None = None, covariance: OdometryCovariance | None = None) -> None:
         """Dead-reckon to time ``t``: from the backend's ``odometry`` when given (its change
         since the last call), else from the ``wheels`` (m/s) commanded since the last call;
         ``rotation`` (rad): the heading turned since start-up by the backend's gyro
         (:class:`~clomp.runtime.interface.TurnSensing`), which then gives the heading. Once the wheels
         have been commanded still for ``still_after`` s (and the odometry, when given, does
-        not move), the gyro's reading measures its offset instead (:meth:`OdometryFilter.zero_rate`)."""
+        not move), the gyro's reading measures its offset instead (:meth:`OdometryFilter.zero_rate`).
+        ``covariance``: the odometry's own (pose, twist) covariance, when the backend reports one
+        (:class:`~clomp.runtime.interface.OdometryUncertainty`): the step's noise is then no
+        smaller than it (:func:`~clomp.runtime.estimation.reported.step_noise_floor`)."""
         dt = float(t) - self._t
         turned = None
         if rotation is not None:
@@ -253,9 +258,12 @@ class ScanOdometry:
             if still and (step is None or math.hypot(step.x, step.y) + abs(step.theta) < 1e-9):
                 self.filter.zero_rate(turned, dt)  # type: ignore[arg-type]  # standing: the gyro reads its offset
             elif step is not None and dt > 0:
-                self.filter.predict(step.x / dt, step.theta / dt, dt, turned)
+                floor = None if covariance is None or self._odo is None else \
+                    step_noise_floor(self._odo_cov, covariance[0], covariance[1], self._odo.theta, dt)
+                self.filter.predict(step.x / dt, step.theta / dt, dt, turned, floor)
                 self._moved_since += math.hypot(step.x, step.y) + abs(step.theta) * self.wheel_base
             self._odo = odometry
+            self._odo_cov = None if covariance is None else covariance[0]
             self._twist = (v, w)
         else:
             self._twist = (v, w)

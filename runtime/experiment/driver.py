@@ -8,6 +8,7 @@ each record to ``runs.jsonl`` as it finishes (``resume=True`` skips those there)
 from __future__ import annotations
 
 import importlib
+import importlib.util
 import json
 import os
 import warnings
@@ -19,7 +20,7 @@ from clomp.runtime.experiment.provenance import claim_folder
 from clomp.runtime.experiment.runrecords import PLOTTED_RUNS, load_records, run_spec, summary_record
 from clomp.runtime.experiment.runspec import DEFAULT_CONDITIONS, RunSpec, experiment_specs
 
-__all__ = ["ExperimentInterrupted", "RunsFailed", "run_experiment"]
+__all__ = ["ExperimentInterrupted", "RunsFailed", "run_experiment", "run_specs"]
 
 
 class ExperimentInterrupted(KeyboardInterrupt):
@@ -58,6 +59,7 @@ def run_experiment(
     on_record: Callable[[dict[str, Any]], None] | None = None,
     feedback: str = "scan",
     gyro: bool = True,
+    policy: str | None = None,
 ) -> list[dict[str, Any]]:
     """Run an experiment; the records of every run (finished before or now), in spec order.
 
@@ -69,6 +71,7 @@ def run_experiment(
     does not stop the others: at the end :class:`RunsFailed` names the failures (also in
     ``out/errors.jsonl``) and holds the records that finished. ``progress``
     makes a bar from (total, already done); it gets ``update(1)`` per run and ``close()``.
+    ``policy``: the ``rl`` condition's policy file (None: the shipped one).
     ``gyro`` False takes the world's rate gyro off (the paper's robot; ``clomp run`` without an IMU).
     With ``out`` the records are kept whole on disk only: in memory (and in what this returns)
     the runs from :data:`~clomp.runtime.experiment.runrecords.PLOTTED_RUNS` on lose their
@@ -81,12 +84,39 @@ def run_experiment(
     [('reactive', 0)]
     """
     specs = experiment_specs(family, runs, seed, noise=noise, noise_scales=noise_scales, conditions=conditions,
-                             max_time=max_time, feedback=feedback, gyro=gyro)
+                             max_time=max_time, feedback=feedback, gyro=gyro, policy=policy)
+    return run_specs(specs, workers=workers, scheduler=scheduler, out=out, resume=resume, progress=progress,
+                     on_record=on_record)
+
+
+def run_specs(
+    specs: Sequence[RunSpec],
+    *,
+    workers: int = 0,
+    scheduler: str | None = None,
+    out: str | os.PathLike[str] | None = None,
+    resume: bool = False,
+    progress: Callable[[int, int], Any] | None = None,
+    on_record: Callable[[dict[str, Any]], None] | None = None,
+    on_dashboard: Callable[[str], None] | None = None,
+) -> list[dict[str, Any]]:
+    """Run any list of :class:`~clomp.runtime.experiment.runspec.RunSpec` (several families,
+    presets, seeds and conditions: a sweep) as :func:`run_experiment` runs one experiment's;
+    ``on_dashboard`` gets the Dask dashboard's address when the local cluster serves one
+    (bokeh installed: ``clomp[dask]``).
+
+    >>> from clomp.runtime.experiment.runspec import RunSpec
+    >>> [r["key"] for r in run_specs([RunSpec("open", 0, 0, "reactive", "ideal")])]
+    ['open/0/0/reactive/ideal/1/120']
+    """
+    specs = list(specs)
+    if len({s.key for s in specs}) != len(specs):
+        raise ValueError("the same run is listed twice")
     store = _Store(specs, out, resume, progress, on_record)
     todo = [s for s in specs if s.key not in store.done]
     try:
         if todo and (workers > 0 or scheduler):
-            _run_on_dask(todo, workers, scheduler, store)
+            _run_on_dask(todo, workers, scheduler, store, on_dashboard)
         else:
             _run_here(todo, store)
     except KeyboardInterrupt:
@@ -176,10 +206,14 @@ def _run_here(todo: list[RunSpec], store: _Store) -> None:
             store.keep(rec)
 
 
-def _run_on_dask(todo: list[RunSpec], workers: int, scheduler: str | None, store: _Store) -> None:
+def _run_on_dask(todo: list[RunSpec], workers: int, scheduler: str | None, store: _Store,
+                 on_dashboard: Callable[[str], None] | None = None) -> None:
     """Every run of ``todo`` on Dask, each kept as it finishes; a lost worker's runs are retried."""
-    client, cluster = _dask_client(workers, scheduler)
+    client, cluster = _dask_client(workers, scheduler, dashboard=on_dashboard is not None)
     try:
+        link = getattr(client, "dashboard_link", None) if on_dashboard is not None else None
+        if link and (cluster is None or importlib.util.find_spec("bokeh") is not None):
+            on_dashboard(str(link))  # type: ignore[misc]
         as_completed: Any = importlib.import_module("distributed").as_completed
         futures = client.map(run_spec, todo, key=["clomp-" + s.key for s in todo], pure=False, retries=2)
         for fut in as_completed(futures):
@@ -193,7 +227,7 @@ def _run_on_dask(todo: list[RunSpec], workers: int, scheduler: str | None, store
             cluster.close()
 
 
-def _dask_client(workers: int, scheduler: str | None) -> tuple[Any, Any]:
+def _dask_client(workers: int, scheduler: str | None, dashboard: bool = False) -> tuple[Any, Any]:
     import logging
 
     try:
@@ -212,7 +246,8 @@ def _dask_client(workers: int, scheduler: str | None) -> tuple[Any, Any]:
         with warnings.catch_warnings():  # "port 8787 in use, using another": the scheduler's HTTP server, harmless
             warnings.simplefilter("ignore", UserWarning)
             cluster = distributed.LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                                               host="127.0.0.1", dashboard_address=None, silence_logs=logging.CRITICAL)
+                                               host="127.0.0.1",
+                                               dashboard_address="127.0.0.1:0" if dashboard else None, silence_logs=logging.CRITICAL)
     finally:
         if previous is not None:
             signal.signal(signal.SIGINT, previous)

@@ -35,6 +35,7 @@ from clomp.runtime.experiment.layouts import shape_distance
 from clomp.runtime.experiment.plots import RunTrace
 from clomp.runtime.experiment.dwa import DwaController
 from clomp.runtime.experiment.reactive import ReactiveController
+from clomp.runtime.experiment.rl import RlController
 from clomp.runtime.experiment.runspec import check_condition
 from clomp.runtime.records.runlog import RunLog
 from clomp.runtime.supervision.supervisor import Supervisor, SupervisorConfig
@@ -80,6 +81,8 @@ class RunResult:
     final_pose: tuple[float, float, float] = (0.0, 0.0, 0.0)
     counters: dict[str, int | None] = field(default_factory=dict)
     report: Any = field(default=None, repr=False)
+    times: list[float] = field(default_factory=list, repr=False)  # the time (s) of each point of ``path``
+    headings: list[float] = field(default_factory=list, repr=False)  # the true heading (rad) at each point of ``path``
 
     @property
     def collisions(self) -> int:
@@ -92,13 +95,22 @@ class RunResult:
         return ContactCount(tuple(self.episodes)).brushes
 
     def trace(self) -> RunTrace:
-        """The run as a picture."""
-        verdict = "goal" if self.reached_goal else "failed"
-        title = f"run {self.run}: {verdict}, {self.collisions} coll., {self.brushes} brush."
+        """The run as a picture: its outcome in words (:func:`~clomp.runtime.experiment.plots.outcome_words`),
+        the scan points every plan saw (placed by the estimate it planned from; without a kept
+        report, the noise-free scan from the start) and the time along the path."""
+        from clomp.runtime.experiment.plots import outcome_title, start_scan
+
+        title, tone = outcome_title(self.run, self.end_state, self.reached_goal, self.final_distance, self.collisions,
+                                    self.brushes, reason=self.reason)
         st = self.scene.start
         poses = [(st.x, st.y, st.theta), self.final_pose]
+        scan, label = start_scan(self.scene), "LiDAR scan at the start (noise-free)"
+        plans = getattr(self.report, "plans", None)
+        if plans:
+            scan = [_world(st, rec.to_frame(Pose(x, y, 0.0))) for rec in plans for x, y in rec.result.obstacles.points.tolist()]
+            label = "scan points the planner saw"
         return RunTrace(self.scene, title, self.path, self.contacts, self.planned, self.estimate, poses,
-                        self.reached_goal)
+                        self.reached_goal, tone, scan, label, list(self.times), list(self.headings))
 
 
 def _world(start: Pose, p: Pose) -> tuple[float, float]:
@@ -207,7 +219,8 @@ def run_once(
     them, in simulated time, with the ground truth beside each scan and task record).
     ``feedback``: both conditions' pose estimate (the same robot, the same sensing) —
     ``"scan"`` (scan matching, the default) or ``"none"`` (dead reckoning alone).
-    ``reactive``: keyword arguments for the ReactiveController (``bench/experiment_reactive.py``).
+    ``reactive``: keyword arguments for the ReactiveController (``bench/experiment_reactive.py``)
+    or its dwa/rl subclass (``{"policy": path}`` for ``rl``).
     ``gyro`` False: the execution world's robot without its rate gyro (the paper's robot).
     ``supervisor``: the planning condition's settings (default: ``SupervisorConfig(feedback=feedback)``).
 
@@ -256,8 +269,8 @@ def run_once(
         end_state, reason = report.state.value, report.reason
     else:
         opts: dict[str, Any] = {"model": conf.robot, "feedback": feedback, **(reactive or {})}
-        controller = DwaController if condition == "dwa" else ReactiveController
-        report = controller(robot, goal, **opts).run(max_time=max_time)  # type: ignore[arg-type]
+        controller = {"dwa": DwaController, "rl": RlController}.get(condition, ReactiveController)
+        report = controller(robot, goal, **opts).run(max_time=max_time)
         end_state, reason = report.state, report.reason
     wall, cpu = time.perf_counter() - t0, time.thread_time() - c0
     true = robot.ground_truth_pose()
@@ -272,11 +285,14 @@ def run_once(
     if report.reached_goal and dist > SUCCESS_RADIUS:
         reason = f"{reason}, but truly {dist:.3f} m from the goal"
     path = [(x, y) for _, x, y, _ in truth[::10]] + [(true.x, true.y)]
+    times = [t for t, _, _, _ in truth[::10]] + [float(report.time_s)]
+    headings = [th for _, _, _, th in truth[::10]] + [true.theta]
     estimate = [_world(start, Pose(x, y, th)) for _, x, y, th in report.trajectory]
     contacts = [_contact_point(scene, truth, e.start_s) for e in episodes]
     counters = {name: _count(report, name) for name in ("checks", "recalls", "fresh_plans")}
     return RunResult(
         condition, run, seed_, scene, end_state, reason, reached, believed, dist, episodes, contacts,
         report.time_s, report.time_s if reached and expect == "reach" else None, plan_time, states, plans, path,
-        estimate, planned, wall, cpu, (true.x, true.y, true.theta), counters, report if keep_report else None,
+        estimate, planned, wall, cpu, (true.x, true.y, true.theta), counters, report if keep_report else None, times,
+        headings,
     )

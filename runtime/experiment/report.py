@@ -14,9 +14,11 @@ from typing import Any
 from clomp.planner.scenarios import Scene, parse_scenario
 from clomp.runtime.experiment.plots import (
     RunTrace,
+    outcome_title,
     plot_collisions,
     plot_runs,
     plot_success_vs_noise,
+    start_scan,
 )
 
 __all__ = ["record_scene", "record_trace", "write_plots"]
@@ -29,16 +31,21 @@ def record_scene(rec: dict[str, Any]) -> Scene:
 
 
 def record_trace(rec: dict[str, Any]) -> RunTrace:
-    """A record as a picture."""
+    """A record as a picture: its outcome in words, the noise-free scan from the start (a record
+    keeps no scan) and time marks (the path's points are the run's even simulation steps, every
+    tenth, so the k-th of n is at ``time_s * k / (n - 1)``)."""
     scene = record_scene(rec)
-    ok = bool(rec["success"])
-    verdict = "success" if ok else "failed"
-    title = f"run {rec['run']}: {verdict}, {rec['collisions']} coll., {rec['brushes']} brush."
+    title, tone = outcome_title(int(rec["run"]), str(rec.get("end_state", "")), bool(rec["reached_goal"]),
+                                float(rec["final_error_m"]), int(rec["collisions"]), int(rec["brushes"]),
+                                str(rec.get("expect", "reach")), str(rec.get("reason", "")))
     st = scene.start
-    return RunTrace(scene, title, [tuple(p) for p in rec["path"]], [tuple(c) for c in rec["contacts"]],
+    path = [tuple(p) for p in rec["path"]]
+    n, dur = len(path), float(rec.get("time_s") or 0.0)
+    times = [dur * k / (n - 1) for k in range(n)] if n > 1 and dur > 0 else []
+    return RunTrace(scene, title, path, [tuple(c) for c in rec["contacts"]],
                     [[tuple(p) for p in poly] for poly in rec["planned"]],
                     [tuple(p) for p in rec["estimate"]], [(st.x, st.y, st.theta), tuple(rec["final_pose"])],
-                    ok)
+                    bool(rec["success"]), tone, start_scan(scene), "LiDAR scan at the start (noise-free)", times)
 
 
 def write_plots(records: list[dict[str, Any]], folder: str | os.PathLike[str], max_panels: int = 20) -> list[Path]:
@@ -51,7 +58,7 @@ def write_plots(records: list[dict[str, Any]], folder: str | os.PathLike[str], m
     noise = records[0].get("noise", "")
     at = [r for r in records if float(r.get("noise_scale", 1.0)) == base]
     per_run: dict[str, list[tuple[int, int]]] = {}
-    for name in ("planning", "reactive", "dwa"):
+    for name in ("planning", "reactive", "dwa", "rl"):
         rs = sorted((r for r in at if r["condition"] == name), key=lambda r: r["run"])
         if not rs:
             continue
@@ -72,7 +79,7 @@ def write_plots(records: list[dict[str, Any]], folder: str | os.PathLike[str], m
         written.append(p)
     if len(scales) > 1:
         points: dict[str, list[tuple[float, int, int]]] = {}
-        for name in ("planning", "reactive", "dwa"):
+        for name in ("planning", "reactive", "dwa", "rl"):
             for s in scales:
                 rs = [r for r in records if r["condition"] == name and float(r.get("noise_scale", 1.0)) == s]
                 if rs:

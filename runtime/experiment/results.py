@@ -226,7 +226,10 @@ def summarise(records: Iterable[dict[str, Any]]) -> dict[str, Any]:
     return out
 
 
-_NAMES = ("planning", "reactive", "dwa")  # the conditions, in the table's order (runspec.CONDITIONS)
+_NAMES = ("planning", "reactive", "dwa", "rl")  # the conditions, in the table's order (runspec.CONDITIONS)
+
+
+_BASELINES = (("reactive", ""), ("dwa", "_dwa"), ("rl", "_rl"))  # each baseline paired against planning
 
 
 def _pair_key(r: dict[str, Any]) -> tuple[float, int]:
@@ -242,7 +245,7 @@ def _block(recs: list[dict[str, Any]]) -> dict[str, Any]:
         if name in by:
             conds[name] = _condition(by[name])
     out: dict[str, Any] = {"conditions": conds}
-    for other, suffix in (("reactive", ""), ("dwa", "_dwa")):  # each baseline paired against planning
+    for other, suffix in _BASELINES:  # each baseline paired against planning
         if "planning" in by and other in by:
             p = {_pair_key(r): r for r in by["planning"]}
             q = {_pair_key(r): r for r in by[other]}
@@ -307,7 +310,7 @@ def table(summary: dict[str, Any], paper: dict[str, Any] | None = None) -> str:
         }
     for label, vals in rows:
         lines.append(f"{label:<{w0}}" + "".join(f"{v:<{w1}}" for v in vals) + paper_col.get(label, ""))
-    for other, suffix in (("reactive", ""), ("dwa", "_dwa")):
+    for other, suffix in _BASELINES:
         t = summary.get("ttest_collisions" + suffix)
         if t:
             mine = f"T = {t['t']:.3f}, p = {t['p']:.3g}" if t["t"] is not None else t["note"]

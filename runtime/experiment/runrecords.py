@@ -37,7 +37,7 @@ def run_spec(spec: RunSpec) -> dict[str, Any]:
     scene, expect = scene_for(spec)
     r = run_once(scene, spec.condition, noise_seed(spec.seed, spec.run), run=spec.run, noise=spec.noise,
                  noise_scale=spec.noise_scale, max_time=spec.max_time, expect=expect, feedback=spec.feedback,
-                 gyro=spec.gyro)
+                 gyro=spec.gyro, reactive={"policy": spec.policy} if spec.condition == "rl" else None)
     return {
         "key": spec.key,
         "family": spec.family,

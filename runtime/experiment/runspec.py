@@ -21,12 +21,14 @@ import numpy as np
 from clomp.planner.scenarios import Scene, load_scenario
 from clomp.runtime.experiment.groundtruth import NOISE_PRESETS
 from clomp.runtime.experiment.layouts import FAMILIES, make_layout
+from clomp.runtime.experiment.policy import load_policy, policy_id
 
 __all__ = ["CONDITIONS", "DEFAULT_CONDITIONS", "RunSpec", "check_condition", "experiment_specs", "noise_seed", "scene_for"]
 
-CONDITIONS = ("planning", "reactive", "dwa")
-"""The experiment's conditions: the planner, the authors' one-loop reactive controller and the
-dynamic window approach (:mod:`clomp.runtime.experiment.dwa`)."""
+CONDITIONS = ("planning", "reactive", "dwa", "rl")
+"""The experiment's conditions: the planner, the authors' one-loop reactive controller, the
+dynamic window approach (:mod:`clomp.runtime.experiment.dwa`) and a learned policy
+(:mod:`clomp.runtime.experiment.rl`)."""
 DEFAULT_CONDITIONS = ("planning", "reactive")
 """The conditions an experiment runs unless told: the paper's comparison."""
 
@@ -57,18 +59,21 @@ class RunSpec:
     max_time: float = 120.0
     feedback: str = "scan"
     gyro: bool = True
+    policy: str | None = None
 
     @property
     def key(self) -> str:
         """A stable name for the run (the Dask task key and the resume key; the defaults,
-        scan feedback and the gyro on, add nothing, so older keys still resume).
+        scan feedback and the gyro on, add nothing, so older keys still resume; an ``rl`` run's key
+        names its policy file by content, so a resume never mixes two policies).
 
         >>> RunSpec("open", 0, 0, "planning", gyro=False).key
         'open/0/0/planning/paper/1/120/gyro=off'
         """
         key = f"{self.family}/{self.seed}/{self.run}/{self.condition}/{self.noise}/{self.noise_scale:g}/{self.max_time:g}"
         key = key if self.feedback == "scan" else f"{key}/feedback={self.feedback}"
-        return key if self.gyro else f"{key}/gyro=off"
+        key = key if self.gyro else f"{key}/gyro=off"
+        return key if self.condition != "rl" else f"{key}/policy={policy_id(self.policy)}"
 
 
 def noise_seed(seed: int, run: int) -> int:
@@ -102,10 +107,11 @@ def scene_for(spec: RunSpec) -> tuple[Scene, str]:
 
 def experiment_specs(family: str, runs: int, seed: int = 0, *, noise: str = "paper",
                      noise_scales: Sequence[float] = (1.0,), conditions: Sequence[str] = DEFAULT_CONDITIONS,
-                     max_time: float = 120.0, feedback: str = "scan", gyro: bool = True) -> list[RunSpec]:
+                     max_time: float = 120.0, feedback: str = "scan", gyro: bool = True,
+                     policy: str | None = None) -> list[RunSpec]:
     """Every run of an experiment, in a fixed order (scale, run, condition); a ValueError
     (or the :class:`~clomp.planner.scenarios.ScenarioError` of an unknown family) now
-    rather than in every worker.
+    rather than in every worker. ``policy``: the ``rl`` condition's policy file (None: the shipped one).
 
     >>> [(s.run, s.condition, s.noise_scale) for s in experiment_specs("open", 2, conditions=("reactive",))]
     [(0, 'reactive', 1.0), (1, 'reactive', 1.0)]
@@ -123,5 +129,8 @@ def experiment_specs(family: str, runs: int, seed: int = 0, *, noise: str = "pap
         load_scenario(family)  # a clear ScenarioError now rather than in every worker
     if feedback not in ("scan", "none"):
         raise ValueError(f"feedback must be 'scan' or 'none', got {feedback!r}")
-    return [RunSpec(family, seed, k, c, noise, float(s), max_time, feedback, bool(gyro)) for s in noise_scales
+    if "rl" in conditions:
+        load_policy(policy)  # a clear PolicyError now rather than in every worker
+    return [RunSpec(family, seed, k, c, noise, float(s), max_time, feedback, bool(gyro), policy if c == "rl" else None)
+            for s in noise_scales
             for k in range(runs) for c in conditions]

@@ -6,6 +6,8 @@ a box is often a few millimetres thin), every
 simulated task of the cognitive map as a line from its start to its end — a turn in place
 as a small arc around its pivot — each state labelled as in the map (``q0``, ``q1`` …), the
 interrupted states (collisions) starred where their trace ends, the plan drawn bold and the goal as a red heart.
+Labels that would crowd (several turns at one pivot) stand in a column beside the spot, each
+with a thin grey leader to it.
 
 - :func:`draw_task_tree` — onto a matplotlib axes (returns the artists, for tests);
 - :func:`plot_task_tree` — a PNG/SVG/PDF file (``clomp plan --figure``, ``clomp demo``).
@@ -59,6 +61,56 @@ def _label_at(s: State) -> tuple[float, float]:
     return s.end.x + r * math.cos(s.end.theta), s.end.y + r * math.sin(s.end.theta)
 
 
+def _label_groups(result: PlanResult, pts: np.ndarray) -> list[list[tuple[State, tuple[float, float]]]]:
+    """The states whose labels would crowd — anchors within about a label's size of each other
+    (5 % of the drawing's span across, 3 % up; e.g. several turns at one pivot), chained — gathered
+    into groups of (state, anchor), each sorted top to bottom."""
+    anchors = [(s, _label_at(s)) for s in result.map]
+    xs = [a[0] for _, a in anchors] + list(pts[:, 0])
+    ys = [a[1] for _, a in anchors] + list(pts[:, 1])
+    span = max(max(xs) - min(xs), max(ys) - min(ys), 0.1)
+    root = list(range(len(anchors)))
+
+    def find(i: int) -> int:
+        while root[i] != i:
+            root[i] = root[root[i]]
+            i = root[i]
+        return i
+
+    for i, (_, a) in enumerate(anchors):
+        for j in range(i):
+            b = anchors[j][1]
+            if abs(a[0] - b[0]) < 0.05 * span and abs(a[1] - b[1]) < 0.03 * span:
+                root[find(i)] = find(j)
+    groups: dict[int, list[tuple[State, tuple[float, float]]]] = {}
+    for i, sa in enumerate(anchors):
+        groups.setdefault(find(i), []).append(sa)
+    return [sorted(g, key=lambda sa: -sa[1][1]) for g in groups.values()]
+
+
+def _draw_labels(ax: Any, result: PlanResult, pts: np.ndarray) -> dict[int, Any]:
+    """One label per state: alone, at its anchor; in a crowd, the crowd's labels stacked in a
+    column right of it (offset in points, so at any scale), each with a thin grey leader to its spot."""
+    from matplotlib.transforms import offset_copy
+
+    out = {}
+    box = {"boxstyle": "round,pad=0.1", "facecolor": "white", "edgecolor": "none", "alpha": 0.7}  # legible over a line
+    for group in _label_groups(result, pts):
+        right = max(a[0] for _, a in group)
+        middle = sum(a[1] for _, a in group) / len(group)
+        for i, (s, (x, y)) in enumerate(group):
+            weight = "bold" if s.ident in result.plan.states else "normal"
+            if len(group) == 1:
+                out[s.ident] = ax.text(x, y, f"q{s.ident}", fontsize=7, ha="center", va="center", zorder=7,
+                                       fontweight=weight, bbox=box)
+                continue
+            place = offset_copy(ax.transData, fig=ax.figure, x=12, y=8.5 * ((len(group) - 1) / 2 - i), units="points")
+            out[s.ident] = ax.annotate(f"q{s.ident}", (x, y), xytext=(right, middle), textcoords=place, fontsize=7,
+                                       ha="left", va="center", zorder=7, fontweight=weight, bbox=box,
+                                       arrowprops={"arrowstyle": "-", "color": "0.5", "lw": 0.5, "shrinkA": 0, "shrinkB": 1})
+    return out
+
+
 def draw_task_tree(ax: Any, result: PlanResult, scan: Any = None) -> TaskTreeArtists:
     """Draw ``result``'s explored task tree over ``scan`` (N×2, planner frame; default: the
     points the obstacle boxes cover) and the boxes; the plan bold, collisions starred.
@@ -92,9 +144,7 @@ def draw_task_tree(ax: Any, result: PlanResult, scan: Any = None) -> TaskTreeArt
         (line,) = ax.plot(xs, ys, color="black" if bold else "tab:blue", lw=_PLAN_WIDTH if bold else _TREE_WIDTH,
                           alpha=1.0 if bold else 0.7, zorder=5 if bold else 3, solid_capstyle="round")
         out.tasks[s.ident] = line
-        lx, ly = _label_at(s)
-        out.labels[s.ident] = ax.text(lx, ly, f"q{s.ident}", fontsize=7, ha="center", va="center", zorder=7,
-                                      fontweight="bold" if s.ident in result.plan.states else "normal")
+    out.labels = _draw_labels(ax, result, pts)
     hit = [(xs[-1], ys[-1]) for xs, ys in (_task_path(s) for s in result.map if s.interrupted)]
     if hit:
         out.collisions = ax.plot(*zip(*hit), marker="*", color="red", markersize=12, ls="none", zorder=6,

@@ -48,10 +48,11 @@ from clomp.planner.scenarios import Scene
 from clomp.runtime.backends.world import WorldRobot, make_world_robot
 from clomp.runtime.experiment.groundtruth import NOISE_PRESETS
 from clomp.runtime.experiment.layouts import FAMILIES, make_layout
+from clomp.runtime.experiment.policy import ACTION_TASKS, scan_ranges
 
 __all__ = ["ACTIONS", "GOAL_RADIUS", "GOAL_LIMIT", "MAX_STEPS", "ClompEnv"]
 
-ACTIONS = ("straight", "left", "right")
+ACTIONS = ACTION_TASKS
 """The discrete actions, in order: the planner's three tasks."""
 GOAL_RADIUS = 0.1
 """The true distance to the goal (m) that ends an episode as a success."""
@@ -104,10 +105,15 @@ class ClompEnv(gym.Env[np.ndarray, Any]):
 
     # -- the episode ------------------------------------------------------------------------
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None) -> tuple[np.ndarray, dict[str, Any]]:
-        """A new layout and a fresh robot, both drawn from ``np_random`` (seeded by ``seed``)."""
+        """A new layout and a fresh robot, both drawn from ``np_random`` (seeded by ``seed``);
+        ``options={"layout": (seed, run)}`` takes the family's layout ``make_layout(family, seed, run)``
+        instead (what training and held-out evaluation use)."""
         super().reset(seed=seed)
         layout_seed, world_seed = (int(v) for v in self.np_random.integers(2**31, size=2))
-        self.scene = make_layout(self.family, layout_seed, 0).scene
+        layout_run = 0
+        if options and "layout" in options:  # a chosen layout (seed, run) of the family, as an experiment draws it
+            layout_seed, layout_run = (int(v) for v in options["layout"])
+        self.scene = make_layout(self.family, layout_seed, layout_run).scene
         self.robot = make_world_robot(self.scene, self.noise, seed=world_seed, robot=self.model)
         self._points = np.zeros((0, 2))
         first = self.robot.read_scan(timeout=1.0)  # stand until the first revolution (under 0.2 s simulated)
@@ -160,14 +166,7 @@ class ClompEnv(gym.Env[np.ndarray, Any]):
 
     def ranges(self) -> np.ndarray:
         """The newest revolution as ``bins`` ranges (see the module), float32."""
-        out = np.full(self.bins, self.max_range, dtype=np.float32)
-        p = self._points
-        if len(p):
-            r = np.hypot(p[:, 0], p[:, 1])
-            k = (np.floor(np.mod(np.arctan2(p[:, 1], p[:, 0]), 2 * math.pi) / (2 * math.pi) * self.bins).astype(int)
-                 % self.bins)
-            np.minimum.at(out, k, np.minimum(r, self.max_range).astype(np.float32))
-        return out
+        return scan_ranges(self._points, self.bins, self.max_range)
 
     def goal_in_robot_frame(self) -> tuple[float, float]:
         """The goal seen from the robot's true pose (x ahead, y left, m)."""

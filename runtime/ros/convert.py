@@ -38,6 +38,8 @@ __all__ = [
     "scan_point_times",
     "points_to_laserscan",
     "odometry_pose",
+    "odometry_covariance",
+    "planar_covariance",
     "imu_yaw",
     "yaw_quaternion",
     "twist_from_wheels",
@@ -155,6 +157,36 @@ def odometry_pose(msg: Any, frame: str | None = None, child: str | None = None) 
     return Pose(float(p.x), float(p.y), _yaw(q))
 
 
+_PLANAR = (0, 1, 5)  # x, y and rotation about z in a ROS 6×6 (x, y, z, rot x, rot y, rot z) covariance
+
+
+def planar_covariance(values: Sequence[float]) -> np.ndarray | None:
+    """The planar (x, y, yaw) 3×3 block of a ROS 6×6 row-major covariance; None when it is
+    unknown: all zeros, -1 in its first element (REP 145), not finite, or a negative variance
+    (a base that cannot say, or says nonsense, leaves the estimator its own noise).
+
+    >>> c = [0.0] * 36; c[0], c[7], c[35], c[5], c[30] = 0.04, 0.09, 0.01, 0.002, 0.002
+    >>> planar_covariance(c).tolist()
+    [[0.04, 0.0, 0.002], [0.0, 0.09, 0.0], [0.002, 0.0, 0.01]]
+    >>> planar_covariance([0.0] * 36) is None, planar_covariance([-1.0] + [0.0] * 35) is None
+    (True, True)
+    """
+    full = np.asarray(values, dtype=float).reshape(-1)
+    if full.size != 36 or not np.all(np.isfinite(full)) or full[0] == -1.0 or not np.any(full):
+        return None
+    out: np.ndarray = full.reshape(6, 6)[np.ix_(_PLANAR, _PLANAR)]
+    out = (out + out.T) / 2
+    if np.any(np.diag(out) < 0) or not np.any(out):
+        return None
+    return out
+
+
+def odometry_covariance(msg: Any) -> tuple[np.ndarray | None, np.ndarray | None]:
+    """The planar (pose, twist) covariances of a ``nav_msgs/Odometry`` (the pose's in its
+    frame, the twist's in its child frame), each None when unknown (:func:`planar_covariance`)."""
+    return planar_covariance(msg.pose.covariance), planar_covariance(msg.twist.covariance)
+
+
 def imu_yaw(msg: Any) -> float | None:
     """The yaw of a ``sensor_msgs/Imu``'s orientation; None when it has none (covariance[0]
     = -1, the REP 145 convention, or an all-zero quaternion); MessageError when not finite."""
@@ -196,14 +228,20 @@ def _set_pose(target: Any, pose: Pose) -> None:
     target.orientation.x, target.orientation.y, target.orientation.z, target.orientation.w = q
 
 
-def make_odometry(pose: Pose, stamp: Any, frame: str, child: str, twist: tuple[float, float] = (0.0, 0.0)) -> Any:
-    """A ``nav_msgs/Odometry`` of a planar pose (and its body twist)."""
+def make_odometry(pose: Pose, stamp: Any, frame: str, child: str, twist: tuple[float, float] = (0.0, 0.0),
+                  pose_covariance: Sequence[float] | None = None, twist_covariance: Sequence[float] | None = None) -> Any:
+    """A ``nav_msgs/Odometry`` of a planar pose (and its body twist); the covariances (36
+    values each, row-major 6×6) stay zero, unknown, unless given."""
     from nav_msgs.msg import Odometry
 
     msg = Odometry()
     msg.header.stamp, msg.header.frame_id, msg.child_frame_id = stamp, frame, child
     _set_pose(msg.pose.pose, pose)
     msg.twist.twist.linear.x, msg.twist.twist.angular.z = float(twist[0]), float(twist[1])
+    if pose_covariance is not None:
+        msg.pose.covariance = [float(v) for v in pose_covariance]
+    if twist_covariance is not None:
+        msg.twist.covariance = [float(v) for v in twist_covariance]
     return msg
 
 

@@ -5,7 +5,9 @@
 all with the sensor-data QoS, and publishes the wheel speeds as ``geometry_msgs/Twist``
 on ``/cmd_vel`` (reliable). The supervisor drives it as any other backend: the newest
 scan in the robot frame (the LiDAR's pose on the base applied), the base's odometry, the
-IMU's heading.
+IMU's heading. The ``/odom`` covariance (pose and twist), when the base fills it in,
+is the least noise the estimator takes for each step of that odometry (all zeros or -1:
+unknown, the estimator's own model then).
 
 Fail-safe, as the hardware robot's stream watch: a watchdog in the ROS executor's thread
 *trips* the robot when ``/scan`` (or ``/odom``, when used) brings nothing valid for
@@ -38,6 +40,7 @@ from clomp.runtime.ros.convert import (
     imu_yaw,
     laserscan_to_points,
     make_twist,
+    odometry_covariance,
     odometry_pose,
     scan_point_times,
     stamp_seconds,
@@ -110,6 +113,7 @@ class RosRobot:
         self._odom_at: float | None = None
         self._stamps: dict[str, float] = {}
         self._pose: Pose | None = None
+        self._covariance: tuple[np.ndarray | None, np.ndarray | None] = (None, None)  # of /odom: pose, twist
         self._yaw: float | None = None
         self._rejected: dict[str, str] = {}  # topic -> why its last message was dropped
         self.rejects: dict[str, int] = {"scan": 0, "odom": 0, "imu": 0}
@@ -212,8 +216,9 @@ class RosRobot:
             return
         if self._backwards("odom", msg.header.stamp):
             return
+        covariance = odometry_covariance(msg)
         with self._cond:
-            self._pose, self._odom_at = pose, time.monotonic()
+            self._pose, self._odom_at, self._covariance = pose, time.monotonic(), covariance
             self._rejected.pop("odom", None)
             self._cond.notify_all()
 
@@ -342,6 +347,12 @@ class RosRobot:
         """The newest ``/odom`` pose (odom frame), None without odometry."""
         self._check()
         return self._pose if self.config.use_odom else None
+
+    def odometry_covariance(self) -> tuple[np.ndarray | None, np.ndarray | None]:
+        """The newest ``/odom``'s planar (pose, twist) covariance, None where the base leaves
+        it unknown (all zeros, or -1 first): the estimator's prediction noise for a step is
+        no smaller than it (:mod:`clomp.runtime.estimation.reported`)."""
+        return self._covariance if self.config.use_odom else (None, None)
 
     def rotation(self) -> float | None:
         """The IMU's heading (rad, unwrapped: turns add up), None before an Imu with an orientation came."""

@@ -14,6 +14,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+from clomp.planner.deepening import DEEPEN
+
 __all__ = ["FEEDBACK", "SupervisorConfig"]
 
 FEEDBACK = ("scan", "none")
@@ -62,7 +64,7 @@ class SupervisorConfig:
     - ``confirm``: plans in a row, each from fresh revolutions, that find no safe task
       before UNREACHABLE (one fused scan at ``harsh`` can put a surface 2-4 cm into the way).
     - ``deepen``: a search that spent the configurator's budget runs again with this many
-      times the budget (:func:`clomp.runtime.supervision.planwatch.plan_deepening`).
+      times the budget (:func:`clomp.planner.deepening.plan_deepening`).
     - ``vouch_radius`` (m): with scan feedback, the goal is *reached* (GOAL_REACHED) only
       when the estimated distance plus the 95 % bound of the position
       (``vouch_sigmas`` standard deviations of
@@ -99,7 +101,7 @@ class SupervisorConfig:
     fuse_scans: int = 3
     start_scans: int = 10
     confirm: int = 3
-    deepen: int = 4
+    deepen: int = DEEPEN
     vouch_radius: float | None = 0.1
     vouch_sigmas: float = 2.45
 

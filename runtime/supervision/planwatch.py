@@ -13,9 +13,9 @@ robot can reuse when it does not:
 - first in REPLANNING, :meth:`PlanWatch.recall`: a plan continued from a state of the map
   the robot already has (:func:`clomp.runtime.supervision.plancheck.recall`), at most
   ``max_recalls`` in a row before the supervisor explores anew;
-- a fresh plan, :func:`plan_deepening`: when the search spends its budget, the same scan
-  is searched again with a larger one (a spent budget's plan ends at argmin φ, which can
-  lie inside a trap);
+- a fresh plan, :func:`plan_deepening` (:mod:`clomp.planner.deepening`, the one-shot
+  commands' too): when the search spends its budget, the same scan is searched again with
+  a larger one (a spent budget's plan ends at argmin φ, which can lie inside a trap);
 - progress: :meth:`PlanWatch.started` notes where each plan (fresh or recalled) began,
   :meth:`PlanWatch.stalled` counts the plans in a row that ended before the robot moved.
   After two such plans recall is skipped (a plan interrupted where it began is not
@@ -35,7 +35,6 @@ supervisor keeps the state machine, the task queue and the wheels.
 
 from __future__ import annotations
 
-import copy
 import math
 import time
 from collections import deque
@@ -45,7 +44,8 @@ import numpy as np
 
 from clomp.formal.geometry import wrap_angle
 from clomp.formal.model import Pose, State
-from clomp.planner.configurator import Configurator, PlanResult
+from clomp.planner.configurator import PlanResult
+from clomp.planner.deepening import plan_deepening
 from clomp.planner.robot_model import RobotModel
 from clomp.planner.tasks import Task
 from clomp.runtime.estimation.fusion import fuse_revolutions
@@ -65,36 +65,6 @@ class LogFn(Protocol):
 
 def _no_log(event: str, **fields: Any) -> None:
     del event, fields
-
-
-def plan_deepening(configurator: Configurator, scan: Any, goal: tuple[float, float], deepen: int = 4) -> PlanResult:
-    """``configurator.plan(scan, goal)``; when that search spends its budget (stop reason
-    ``budget``), the same scan is searched again with ``deepen`` times the budget (once;
-    ``deepen=1``: never). ``planning_time_s`` covers both searches.
-
-    Why: a search whose budget runs out ends its plan at the explored state nearest the
-    goal (argmin φ). Behind a U open toward the robot, that state lies inside the U, and the
-    closed loop drove in and stood there. The paper's budget of 50 is enough on its recorded
-    scans. With the execution world's harsh noise, scattered ranges make more obstacles and
-    the search needs more states to get round (``clomp experiment u-trap --noise harsh``,
-    seeds 0–2: 21/30 reached with 50, 26/30 with 200). Best-first search is deterministic, so
-    the deeper search begins as the first one did. A search that reached the goal, or ended
-    at the frontier, returns unchanged.
-
-    >>> import numpy as np
-    >>> from clomp.planner.configurator import Configurator
-    >>> plan_deepening(Configurator(), np.zeros((0, 2)), (1.0, 0.0)).stop_reason
-    'goal'
-    """
-    result = configurator.plan(scan, goal)
-    if result.stop_reason != "budget" or deepen <= 1:
-        return result
-    deeper = copy.copy(configurator)
-    deeper.max_states = configurator.max_states * deepen
-    spent = result.planning_time_s
-    result = deeper.plan(scan, goal)
-    result.planning_time_s += spent
-    return result
 
 
 class PlanWatch:

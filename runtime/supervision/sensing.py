@@ -32,16 +32,16 @@ from clomp.planner.perception import validate_scan
 from clomp.planner.robot_model import RobotModel
 from clomp.runtime.estimation.fusion import fuse_revolutions
 from clomp.runtime.estimation.odometry import FeedbackRecord, ScanOdometry
-from clomp.runtime.interface import Robot, ScanFrame, TurnSensing
+from clomp.runtime.interface import OdometryUncertainty, Robot, ScanFrame, TurnSensing
 from clomp.runtime.supervision.config import SupervisorConfig
 
 __all__ = ["Sensing", "crop_far", "turning"]
 
 _FAR = 1.05
-"""Returns beyond the sensor range × this are cropped where a revolution comes in: a LiDAR
-that sees farther than the planning horizon (an A1 sees 12 m) would otherwise have the
-planner's perception warn about them on every plan. Within it they are kept, as before
-(perception drops them quietly: its warning's allowance is the same 5 %)."""
+"""Returns beyond the planning horizon (``sensor_range``) × this are cropped where a
+revolution comes in, once, and counted (``Sensing.cropped``): a LiDAR that sees farther
+than the horizon (an A1 sees 12 m) would otherwise carry them through every plan's
+perception, which crops them too, silently. Within it they are kept, as before."""
 
 
 def crop_far(frame: ScanFrame, sensor_range: float) -> tuple[ScanFrame, int]:
@@ -91,6 +91,8 @@ class Sensing:
     def __init__(self, robot: Robot, model: RobotModel, config: SupervisorConfig) -> None:
         self.robot = robot
         self._rotation = robot.rotation if isinstance(robot, TurnSensing) else lambda: None  # a gyro, when it has one
+        # the odometry's own covariance, when the backend reports one (a ROS base's /odom)
+        self._odo_cov = robot.odometry_covariance if isinstance(robot, OdometryUncertainty) else lambda: None
         self.config = config
         self.wheel_base = model.wheel_base
         self.estimator: ScanOdometry | None = ScanOdometry(model.wheel_base) if config.feedback == "scan" else None
@@ -114,7 +116,7 @@ class Sensing:
         self.pose = odo if odo is not None else Pose(0.0, 0.0, 0.0)
         if self.estimator is not None:
             self.estimator.reset(self.pose, now)
-            self.estimator.advance(now, (0.0, 0.0), odo, self._rotation())
+            self.estimator.advance(now, (0.0, 0.0), odo, self._rotation(), self._odo_cov())
         return self.pose
 
     def update_pose(self, now: float, cmd: tuple[float, float]) -> None:
@@ -123,7 +125,7 @@ class Sensing:
         self.last_update = now
         odo = self.robot.odometry()
         if self.estimator is not None:
-            self.estimator.advance(now, cmd, odo, self._rotation())
+            self.estimator.advance(now, cmd, odo, self._rotation(), self._odo_cov())
             self.pose = self.estimator.pose
             return
         self.pose = odo if odo is not None else dead_reckon(self.pose, *cmd, self.wheel_base, dt)

@@ -41,7 +41,7 @@ reckoning alone. The goal, the remaining plan and every task's error signal come
   (:func:`clomp.runtime.supervision.plancheck.recall`); only when that fails, explore anew
   (at most ``max_recalls`` recalls in a row). A search that spends the configurator's
   budget is run again with ``deepen`` (4) times the budget
-  (:func:`clomp.runtime.supervision.planwatch.plan_deepening`): the plan of a spent budget can end
+  (:func:`clomp.planner.deepening.plan_deepening`): the plan of a spent budget can end
   inside a U-trap. The hazard test, the check and recall are
   :class:`clomp.runtime.supervision.planwatch.PlanWatch`'s.
 - any exception (a device fault, a silent sensor, a scan with NaN, a planner crash) →
@@ -85,7 +85,8 @@ from clomp.runtime.clock import Clock, clock_for
 from clomp.runtime.estimation.odometry import ScanOdometry
 from clomp.runtime.supervision.config import SupervisorConfig
 from clomp.runtime.supervision.execution import GuardViolation, end_error, guard, task_for
-from clomp.runtime.supervision.planwatch import PlanWatch, plan_deepening
+from clomp.planner.deepening import plan_deepening
+from clomp.runtime.supervision.planwatch import PlanWatch
 from clomp.runtime.supervision.progress import Progress
 from clomp.runtime.supervision.records import PlanRecord, SupervisorReport, TaskRecord, TimedRecord
 from clomp.runtime.records.runlog import RunLogLike, plan_fields

@@ -308,16 +308,19 @@ def test_scan_files_lists_by_suffix_and_names_empty_folders(tmp_path):
 # ---------------------------------------------------------------- wrong units
 
 
-def test_points_beyond_the_range_warn_and_millimetres_are_suspected(scans_dir):
+def test_returns_beyond_the_horizon_are_cropped_silently_and_millimetres_are_suspected(scans_dir):
+    """Issue #39: cropping to the planning horizon is normal (an A1 returns to 12 m), not a
+    warning; a scan that looks like millimetres still warns in the library (the commands
+    refuse it: ``--units``)."""
     metres = load_scan(scans_dir / "map0100.dat")
+    far = np.c_[np.linspace(2.0, 11.0, 50), np.linspace(-3.0, 3.0, 50)]  # an A1's far returns
     with warnings.catch_warnings():
         warnings.simplefilter("error", ScanWarning)
         perceive(metres)  # a recorded scan in metres: no warning
+        assert len(perceive(np.vstack([metres, far]))) == len(perceive(metres))  # cropped, silently
     mm = metres * 1000.0
-    with pytest.warns(ScanWarning, match=r"beyond the 1.1 m sensor range.*millimetres"):
+    with pytest.warns(ScanWarning, match=r"looks like millimetres.*beyond the 1.1 m planning horizon"):
         obs = perceive(mm)
     assert len(obs) == 0
-    assert range_warning(np.array([[0.5, 0.0], [2.0, 0.0]]), 1.1) == (
-        "1 of 2 points lies beyond the 1.1 m sensor range and is ignored"
-    )
+    assert range_warning(np.array([[0.5, 0.0], [2.0, 0.0], [0.7, 0.0]]), 1.1) is None
     assert range_warning(metres, 1.1) is None

@@ -258,3 +258,70 @@ def test_a_yaw_turning_faster_than_the_robot_can_is_a_fault_and_one_outlier_is_n
             return
         assert isinstance(imu.fault, ImuProtocolError) and "impossible turn" in str(imu.fault), imu.fault
         assert 30 <= imu.decoder.reports <= 33  # the jump's third report (and the one the decoder held)
+
+
+class _HeldUpPort:
+    """A serial-like port of an IMU that reports every 10 ms of ``clock`` without fail, read by
+    a reader that is held up once: the read that blocked for one byte returns it ``held`` s
+    late, the reports made meanwhile waiting in the buffer (as when the reader's process is
+    busy: the start of ``clomp run`` on a loaded machine). ``silent_from`` (index): the device
+    stops reporting there and nothing more is buffered."""
+
+    timeout = 0.01
+
+    def __init__(self, clock: ManualClock, held_at: int, held: float, silent_from: int | None = None) -> None:
+        from clomp.runtime.devices.bno08x_codec import RvcReport, encode_report
+
+        self.clock, self.held_at, self.held, self.silent_from = clock, held_at, held, silent_from
+        self._encode = lambda i: encode_report(RvcReport.of(i % 256, yaw=0.0))
+        self.buffer, self.made, self.port = bytearray(), 0, "held-up-imu"
+
+    def _make_until(self, t: float) -> None:
+        while self.made * PERIOD <= t + 1e-9 and (self.silent_from is None or self.made < self.silent_from):
+            self.buffer += self._encode(self.made)
+            self.made += 1
+
+    @property
+    def in_waiting(self) -> int:
+        self._make_until(self.clock.now())
+        return len(self.buffer)
+
+    def read(self, n: int) -> bytes:
+        if self.made == self.held_at and not self.buffer:
+            self.clock.advance(PERIOD)
+            self._make_until(self.clock.now())
+            self.clock.advance(self.held)  # one byte arrived; the reader takes it this late
+            out = bytes(self.buffer[:1])
+            del self.buffer[:1]
+            self._make_until(self.clock.now())
+            return out
+        if not self.buffer:
+            self.clock.advance(PERIOD)
+            self._make_until(self.clock.now())
+        out = bytes(self.buffer[:n])
+        del self.buffer[:n]
+        return out
+
+    def close(self) -> None:
+        pass
+
+
+def test_a_reader_held_up_with_reports_waiting_is_not_a_silent_imu() -> None:
+    """The reader comes back 0.4 s late with one byte, the reports of those 0.4 s waiting in
+    the port: it takes them in before it judges, and the IMU is healthy (it tripped on a
+    false 'fell silent' at the start of clomp run on a loaded machine)."""
+    clock = ManualClock(0.0)
+    port = _HeldUpPort(clock, held_at=20, held=0.4)
+    with Bno08xRvc(port, clock=clock.now) as imu:
+        _wait(imu, lambda i: i.decoder.reports >= 80 or i.fault is not None)
+        assert imu.fault is None
+        assert imu.decoder.reports >= 80
+
+
+def test_a_held_up_reader_still_finds_a_device_that_fell_silent() -> None:
+    """The same hold-up with the device silent meanwhile (nothing waiting): a fault at once."""
+    clock = ManualClock(0.0)
+    port = _HeldUpPort(clock, held_at=20, held=0.4, silent_from=21)
+    with Bno08xRvc(port, clock=clock.now) as imu:
+        assert imu.wait_for(lambda i: i.fault is not None, WAIT)
+        assert isinstance(imu.fault, ImuTimeout)

@@ -78,8 +78,9 @@ def test_a_folder_run_never_stops_at_one_scan(tmp_path: Path, scans_dir: Path, c
     assert set(errors) == {"README.txt", "map0050.dat"} and ":2:" in errors["map0050.dat"]
     s = summary["summary"]
     assert s["scans"] == 4 and s.get("error", s.get("errors")) == 2
-    rc, out, _ = _rc(capsys, *argv)  # readable: one line per scan, then the summary
-    assert rc == 0 and len(out.splitlines()) == 5 and out.splitlines()[-1].startswith("summary: 4 scans")
+    rc, out, _ = _rc(capsys, *argv)  # readable: one line per scan, the returns beyond the horizon, the summary
+    assert rc == 0 and len(out.splitlines()) == 6 and out.splitlines()[-1].startswith("summary: 4 scans")
+    assert out.splitlines()[-2].startswith("beyond the 1.1 m planning horizon, cropped: ")
     assert "2 errors" in out.splitlines()[-1]
 
 

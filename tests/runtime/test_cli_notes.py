@@ -1,5 +1,5 @@
 """Suspicious data said once per folder, not once per scan (issue #43): returns beyond the
-sensor range, placeholder scans holding only the origin, ``_smooth`` copies of a recording."""
+planning horizon (issue #39: not a warning, a count), placeholder scans holding only the origin, ``_smooth`` copies of a recording."""
 
 from __future__ import annotations
 
@@ -27,11 +27,13 @@ def _out(capsys: pytest.CaptureFixture[str], *argv: str) -> list[str]:
 
 @pytest.mark.parametrize("command", ["plan", "replay"])
 def test_long_range_returns_are_one_line_per_folder(tmp_path: Path, capsys: pytest.CaptureFixture[str], command: str) -> None:
+    """Issue #39: cropping to the planning horizon is no warning; one line counts the returns beyond it."""
     far = "0.5 0.3\n9.0 1.0\n8.0 -2.0\n"
     d = _folder(tmp_path, {f"map{k:04d}.dat": far for k in range(1, 6)})
     lines = _out(capsys, command, *(["--scan"] if command == "plan" else []), str(d))
-    warned = [x for x in lines if "warning" in x]
-    assert len(warned) == 1 and warned[0].startswith("warning: 5 scans have returns beyond the sensor range"), lines
+    assert not [x for x in lines if "warning" in x], lines
+    horizon = [x for x in lines if "horizon" in x]
+    assert horizon == ["beyond the 1.1 m planning horizon, cropped: 10 of 15 returns (in 5 of 5 scans read)"], lines
     assert lines[-1].startswith("summary: 5 scans")
 
 

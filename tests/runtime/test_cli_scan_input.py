@@ -3,7 +3,6 @@ warning and a defined outcome; never a traceback, never a hang (each case under 
 
 from __future__ import annotations
 
-import json
 import os
 import struct
 import subprocess
@@ -81,14 +80,16 @@ def test_each_bad_scan_is_one_line_and_exit_2(corpus, capsys, name):
     assert len(lines[0]) < 400 and out == ""
 
 
-def test_a_scan_in_millimetres_warns_and_still_answers(scans_dir, tmp_path, capsys):
+def test_a_scan_in_millimetres_is_refused_with_the_hint(scans_dir, tmp_path, capsys):
+    """Issue #39: it warned and planned one straight through the obstacles, exit 0; now exit 2
+    and one line saying what to pass (tests/runtime/test_cli_units.py: ``--units mm``)."""
     mm = np.loadtxt(scans_dir / "map0100.dat").reshape(-1, 2) * 1000
     f = tmp_path / "mm.dat"
     np.savetxt(f, mm)
-    _run(["plan", "--scan", str(f), "--goal", "1.0,0.0", "--json"])
+    assert _run(["plan", "--scan", str(f), "--goal", "1.0,0.0", "--json"]) == 2
     out, err = capsys.readouterr()
-    assert json.loads(out)["plan"] is not None  # a defined outcome
-    assert err.startswith("clomp: warning: ") and "millimetres" in err and len(err.splitlines()) == 1
+    assert out == "" and err.startswith("clomp: error: --scan: looks like millimetres") and len(err.splitlines()) == 1
+    assert "pass --units mm" in err
 
 
 def test_a_real_console_run_prints_no_traceback(corpus):

@@ -39,11 +39,12 @@ def test_a_robot_interrupted_each_time_before_it_moves_gives_up_with_the_reason(
 
 # -- a spent budget is searched again, deeper -------------------------------------------------------
 def _u_trap() -> tuple[Any, Any, dict[str, Any]]:
-    """A U open toward the robot with the goal behind it (layout family ``u-trap``, seed 0, run 1):
+    """A U open toward the robot with the goal behind it (layout family ``u-trap``, seed 1, run 0;
+    seed 0 run 1 escapes within 50 states since its turns of 0.4° towards the goal are not available):
     from the start, the paper's budget of 50 states runs out with the plan's end inside the U."""
     from clomp.runtime.experiment.layouts import make_layout
 
-    layout = make_layout("u-trap", 0, 1)
+    layout = make_layout("u-trap", 1, 0)
     scene = layout.scene
     return scene, scene.scan(), layout.params
 

@@ -453,3 +453,43 @@ def test_the_sim_stops_the_wheels_when_commands_go_stale(idle_node: Any) -> None
     sim._last_cmd = time.monotonic() - 0.6  # the last command is older than cmd_timeout
     sim._step()
     assert world.commanded == (0.0, 0.0) and sim.stale_stops == 1
+
+
+def _bound_after_driving(node: Any, twist_covariance: list[float] | None, steps: int = 30) -> float:
+    """The bound the supervisor vouches with (Sensing.position_bound at vouch_sigmas) after
+    ``steps`` odometry messages of 1 cm forward each 0.1 s, through a RosRobot's /odom callback."""
+    from builtin_interfaces.msg import Time
+
+    from clomp.planner.robot_model import RobotModel
+    from clomp.runtime.ros.robot import RosRobot, RosRobotConfig
+    from clomp.runtime.supervision.config import SupervisorConfig
+    from clomp.runtime.supervision.sensing import Sensing
+
+    robot = RosRobot(node, 0.15, RosRobotConfig(use_imu=False))
+    cfg = SupervisorConfig()
+    sensing = Sensing(robot, RobotModel(), cfg)
+    for i in range(steps + 1):
+        stamp = Time(sec=100 + i // 10, nanosec=(i % 10) * 100_000_000)
+        robot._on_odom(make_odometry(Pose(0.01 * i, 0.0, 0.0), stamp, "odom", "base_link", (0.1, 0.0),
+                                     twist_covariance=twist_covariance))
+        if i == 0:
+            sensing.start(0.0)
+        else:
+            sensing.update_pose(0.1 * i, (0.1, 0.1))
+    assert robot.fault is None
+    bound = sensing.position_bound(cfg.vouch_sigmas)
+    robot.close()
+    assert bound is not None
+    return bound
+
+
+def test_a_large_odometry_covariance_widens_the_bound_the_supervisor_vouches_with(idle_node: Any) -> None:
+    """A base that says its speed is good to 0.2 m/s only: the estimate may not vouch for
+    better than that after 0.3 m; all zeros (unknown): the estimator's own noise."""
+    own = _bound_after_driving(idle_node, None)
+    assert _bound_after_driving(idle_node, [0.0] * 36) == own
+    big = [0.0] * 36
+    big[0], big[7], big[35] = 0.2**2, 0.2**2, 0.3**2
+    wide = _bound_after_driving(idle_node, big)
+    assert wide >= 2.45 * math.sqrt(30 * (0.2 * 0.1) ** 2) * 0.999
+    assert wide > 3 * own

@@ -96,20 +96,26 @@ def assert_clean_failure(run: Run, rc: int, wheels: str = "wheels stopped") -> N
 # ---------------------------------------------------------------------------- end to end
 
 
+def assert_honest_end(run: Run, rc: int, truly: float, within: float = 0.1) -> None:
+    """Without an IMU a run may end unconfirmed (exit 1, issue #36) but never claims a goal it
+    is not at: exit 0 only with the world truly within ``within`` m; either way the robot got there."""
+    assert rc in (0, 1), run.stderr
+    assert ("goal reached" if rc == 0 else "goal unconfirmed") in (run.stdout + run.stderr).lower(), run.stdout
+    assert truly <= within, f"truly {truly:.3f} m from the goal (exit {rc})"
+
+
 def _overtaking(tmp_path: Path, scale: float) -> None:
     with EmulatedWorldProcess("overtaking", time_scale=scale) as world:
         run = Run(world, tmp_path / "run.jsonl", "--time-scale", f"{scale:g}", "--max-time", "80")
         rc = run.finish(timeout=80 / scale + 15)
-        assert rc == 0, run.stderr
-        assert "goal reached" in run.stdout
-        assert world.goal_distance <= 0.12, world.pose  # truly there, not only by dead reckoning
+        assert_honest_end(run, rc, world.goal_distance, 0.12)  # truly there, not only by dead reckoning
         assert world.collisions == 0
         assert world.maestro.speeds == (0.0, 0.0)
         assert world.error is None and world.lidar.error is None and world.maestro.error is None
     recs = run.records()
     events = {r["event"] for r in recs}
     assert {"run", "device", "start", "scan", "plan", "state", "task", "motor", "stop"} <= events
-    assert recs[-1]["event"] == "stop" and recs[-1]["status"] == "GOAL_REACHED"
+    assert recs[-1]["event"] == "stop" and recs[-1]["status"] == ("GOAL_REACHED" if rc == 0 else "GOAL_UNCONFIRMED")
     assert any(r["event"] == "motor" and r["left"] > 0 for r in recs)
     assert recs[0]["event"] == "run" and recs[0]["lidar"] == world.lidar_port
 
@@ -133,9 +139,7 @@ def test_the_hardware_stack_closes_the_loop_in_the_harsh_world(tmp_path: Path) -
     with EmulatedWorldProcess("corridor", noise="harsh", seed=1, time_scale=2.0) as world:
         run = Run(world, tmp_path / "run.jsonl", "--time-scale", "2", "--max-time", "90")
         rc = run.finish(timeout=90 / 2 + 15)
-        assert rc == 0, run.stderr
-        assert "goal reached" in run.stdout
-        assert world.goal_distance <= 0.1, world.pose
+        assert_honest_end(run, rc, world.goal_distance)
         assert world.collisions == 0
     recs = run.records()
     feedback = [r for r in recs if r["event"] == "feedback"]
@@ -148,9 +152,9 @@ def test_a_little_line_garbage_is_tolerated_and_the_run_still_works(tmp_path: Pa
     faults = {"garbage_rate": 0.02, "bad_check_rate": 0.01, "seed": 7}
     with EmulatedWorldProcess("open", time_scale=2.0, lidar_options=faults) as world:
         run = Run(world, tmp_path / "run.jsonl", "--time-scale", "2", "--max-time", "30", goal="0.5,0.0")
-        assert run.finish(timeout=30) == 0, run.stderr
+        rc = run.finish(timeout=30)
         p = world.pose
-        assert math.hypot(p.x - 0.5, p.y) <= 0.08
+        assert_honest_end(run, rc, math.hypot(p.x - 0.5, p.y), 0.08)
         assert world.lidar.garbage_bytes_sent > 0
     assert not any(r["event"] == "fault" for r in run.records())
 

@@ -99,3 +99,17 @@ def test_plot_task_tree_writes_svg(overtaking, tmp_path: Path):
     r, scan = overtaking
     plot_task_tree(r, tmp_path / "t.svg", scan)
     assert (tmp_path / "t.svg").read_text(encoding="utf-8").count("<svg") == 1
+
+
+def test_labels_do_not_overlap_where_states_crowd(overtaking):
+    """Several states end at one pivot (turns in place): their labels are spread, none covers another."""
+    r, scan = overtaking
+    fig, ax = plt.subplots(figsize=(8, 6))
+    try:
+        art = draw_task_tree(ax, r, scan)
+        fig.canvas.draw()
+        boxes = [(i, t.get_window_extent()) for i, t in art.labels.items()]
+        overlapping = [(a, b) for k, (a, ba) in enumerate(boxes) for b, bb in boxes[k + 1:] if ba.overlaps(bb)]
+        assert overlapping == []
+    finally:
+        plt.close(fig)

@@ -1,0 +1,95 @@
+"""The rl condition's learning curve: success on held-out layouts against environment steps and CPU time.
+
+Trains a linear policy by the cross-entropy method (:func:`clomp.runtime.gym.train.train_linear`)
+on training layouts (runs 1,000,000 and up of each family) and, every ``--eval-every``
+iterations, runs the current policy as the experiment's ``rl`` condition on the held-out
+layouts (runs 0 … ``--eval-runs``−1 of seed ``--seed``, what ``clomp experiment`` scores),
+beside the planner's success on the same layouts with zero training. Prints one row per
+evaluation and the environment steps at which the policy first matched the planner (or
+that it never did within the budget). ``--save`` writes the final policy (a
+``clomp-policy/1`` JSON the ``rl`` condition loads).
+
+    python bench/rl_curve.py --families overtaking,corridor,doorway,slalom,clutter --iterations 15
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+from clomp.runtime.experiment.onerun import run_once
+from clomp.runtime.experiment.policy import LinearPolicy
+from clomp.runtime.experiment.runspec import RunSpec, noise_seed, scene_for
+from clomp.runtime.gym.train import train_linear
+
+
+def held_out_success(condition: str, families: list[str], runs: int, seed: int, noise: str,
+                     policy: LinearPolicy | None = None) -> tuple[int, int, int]:
+    """(truly reached, runs, false successes) of ``condition`` on runs 0..runs-1 of each family."""
+    reached = total = false = 0
+    for fam in families:
+        for k in range(runs):
+            scene, expect = scene_for(RunSpec(fam, seed, k, condition, noise))
+            r = run_once(scene, condition, noise_seed(seed, k), run=k, noise=noise, expect=expect,
+                         reactive={"policy": policy} if policy is not None else None)
+            reached += int(r.reached_goal)
+            false += int(r.end_state == "GOAL_REACHED" and not r.reached_goal)
+            total += 1
+    return reached, total, false
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--families", default="overtaking,corridor,doorway,slalom,clutter")
+    ap.add_argument("--noise", default="paper")
+    ap.add_argument("--iterations", type=int, default=15)
+    ap.add_argument("--population", type=int, default=16)
+    ap.add_argument("--elite", type=int, default=4)
+    ap.add_argument("--episodes", type=int, default=8, help="training episodes per iteration (round-robin over families)")
+    ap.add_argument("--eval-every", type=int, default=5)
+    ap.add_argument("--eval-runs", type=int, default=10, help="held-out layouts per family")
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--init", choices=("zeros", "goal-seeker"), default="zeros")
+    ap.add_argument("--save", type=Path, default=None)
+    a = ap.parse_args(argv)
+    fams = [f.strip() for f in a.families.split(",") if f.strip()]
+    c0, w0 = time.thread_time(), time.perf_counter()
+    plan = held_out_success("planning", fams, a.eval_runs, a.seed, a.noise)
+    print(f"planner (zero training) on {plan[1]} held-out layouts ({', '.join(fams)}, noise {a.noise}, seed {a.seed}): "
+          f"reached {plan[0]}/{plan[1]}, false successes {plan[2]} "
+          f"[{time.thread_time() - c0:.0f} s CPU]", flush=True)
+    print("iteration  env steps  train CPU s  wall s  held-out reached (rl)  false successes  elite return", flush=True)
+    matched: dict[str, Any] | None = None
+    policy = LinearPolicy.goal_seeker() if a.init == "goal-seeker" else None
+    done = 0
+    steps = 0
+    train_cpu = 0.0
+    while done < a.iterations:
+        n = min(a.eval_every, a.iterations - done)
+        policy, curve = train_linear(fams, iterations=n, population=a.population, elite=a.elite, episodes=a.episodes,
+                                     seed=a.seed * 1000 + done, noise=a.noise, init=policy)
+        done += n
+        steps += curve[-1]["steps"]
+        train_cpu += curve[-1]["cpu_s"]
+        rl = held_out_success("rl", fams, a.eval_runs, a.seed, a.noise, policy)
+        print(f"{done:>9}  {steps:>9}  {train_cpu:>11.1f}  {time.perf_counter() - w0:>6.0f}  "
+              f"{rl[0]:>10}/{rl[1]:<10}  {rl[2]:>15}  {curve[-1]['elite_return']:>12.3f}", flush=True)
+        if matched is None and rl[0] >= plan[0]:
+            matched = {"iteration": done, "steps": steps, "cpu_s": train_cpu}
+    if matched:
+        print(f"the policy matched the planner's {plan[0]}/{plan[1]} after {matched['steps']} environment steps "
+              f"({matched['cpu_s']:.0f} s training CPU)")
+    else:
+        print(f"the policy never matched the planner's {plan[0]}/{plan[1]} within {steps} environment steps "
+              f"({train_cpu:.0f} s training CPU)")
+    if a.save is not None and policy is not None:
+        policy.trained.update({"families": fams, "iterations": a.iterations, "steps": steps, "init": a.init})
+        print(f"wrote {policy.save(a.save)}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

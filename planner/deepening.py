@@ -1,0 +1,49 @@
+"""A spent budget searched again, deeper: :func:`plan_deepening`, the one place it is done.
+
+The supervisor plans through it (:mod:`clomp.runtime.supervision.planwatch`), and so do the
+one-shot commands (``clomp plan``, ``replay``, ``export``, ``check``): a plan from one scan
+is the plan the robot would make there.
+"""
+
+from __future__ import annotations
+
+import copy
+from typing import Any
+
+from clomp.planner.configurator import Configurator, PlanResult
+
+__all__ = ["DEEPEN", "plan_deepening"]
+
+DEEPEN = 4
+"""How many times the budget a spent search is run again with (the supervisor's default
+``deepen``): 50 → 200 states."""
+
+
+def plan_deepening(configurator: Configurator, scan: Any, goal: Any, deepen: int = DEEPEN) -> PlanResult:
+    """``configurator.plan(scan, goal)``; when that search spends its budget short of both the
+    goal and the frontier (stop reason ``budget``), the same scan is searched again with
+    ``deepen`` times the budget (once; ``deepen=1``: never). ``planning_time_s`` covers both
+    searches.
+
+    Why: a search whose budget runs out ends its plan at the explored state nearest the
+    goal (argmin φ). Behind a U open toward the robot, that state lies inside the U, and the
+    closed loop drove in and stood there. The paper's budget of 50 is enough on its recorded
+    scans. With the execution world's harsh noise, scattered ranges make more obstacles and
+    the search needs more states to get round (``clomp experiment u-trap --noise harsh``,
+    seeds 0–2: 21/30 reached with 50, 26/30 with 200). Best-first search is deterministic, so
+    the deeper search begins as the first one did. A search that reached the goal, or ended
+    at the frontier, returns unchanged.
+
+    >>> import numpy as np
+    >>> plan_deepening(Configurator(), np.zeros((0, 2)), (1.0, 0.0)).stop_reason
+    'goal'
+    """
+    result = configurator.plan(scan, goal)
+    if result.stop_reason != "budget" or deepen <= 1:
+        return result
+    deeper = copy.copy(configurator)
+    deeper.max_states = configurator.max_states * deepen
+    spent = result.planning_time_s
+    result = deeper.plan(scan, goal)
+    result.planning_time_s += spent
+    return result

@@ -1,0 +1,92 @@
+"""``clomp sweep`` and ``clomp experiment --report``: every cell run once, one page a browser and a parser read."""
+
+from __future__ import annotations
+
+import json
+import shutil
+import subprocess
+from html.parser import HTMLParser
+from pathlib import Path
+
+import pytest
+
+from clomp.runtime.cli import main
+from clomp.runtime.cli.sweep import parse_seeds
+from clomp.runtime.experiment.htmlpage import write_report
+
+
+class _Count(HTMLParser):
+    def __init__(self) -> None:
+        super().__init__()
+        self.tags: dict[str, int] = {}
+        self.external: list[str] = []
+        self.h2: list[str] = []
+        self._in_h2 = False
+
+    def handle_starttag(self, tag: str, attrs: list[tuple[str, str | None]]) -> None:
+        self.tags[tag] = self.tags.get(tag, 0) + 1
+        self._in_h2 = tag == "h2"
+        for k, v in attrs:
+            if k in ("src", "href") and v and not (v.startswith("#") or v.startswith("data:")):
+                self.external.append(v)
+
+    def handle_data(self, data: str) -> None:
+        if self._in_h2:
+            self.h2.append(data)
+            self._in_h2 = False
+
+
+def _parse(text: str) -> _Count:
+    p = _Count()
+    p.feed(text)
+    return p
+
+
+def test_a_sweep_runs_every_cell_once_and_writes_one_page(tmp_path: Path) -> None:
+    out = tmp_path / "sw"
+    code = main(["sweep", "--families", "overtaking,doorway", "--noise", "ideal,paper", "--runs", "1",
+                 "--condition", "planning", "--condition", "reactive", "--workers", "0", "--out", str(out)])
+    assert code == 0
+    keys = [json.loads(line)["key"] for line in (out / "runs.jsonl").read_text().splitlines()]
+    assert len(keys) == len(set(keys)) == 2 * 2 * 1 * 2  # families × presets × runs × conditions, nothing lost
+    summary = json.loads((out / "summary.json").read_text())
+    assert sorted((c["family"], c["noise"]) for c in summary["cells"]) == [
+        ("doorway", "ideal"), ("doorway", "paper"), ("overtaking", "ideal"), ("overtaking", "paper")]
+    page = _parse((out / "report.html").read_text())
+    assert page.tags["details"] == 8 and page.tags["svg"] == 8  # every run drillable, drawn
+    assert len([h for h in page.h2 if "runs" in h]) == 4  # one section per cell
+    assert page.external == []  # offline: nothing fetched
+
+
+def test_seeds_and_names_are_checked_before_any_run(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    assert parse_seeds("3,0-1") == [0, 1, 3]
+    for argv, words in ((["--seeds", "2-1"], "--seeds"), (["--families", "nowhere"], "--families"),
+                        (["--noise", "loud"], "--noise")):
+        assert main(["sweep", *argv, "--workers", "0", "--out", str(tmp_path / "x")]) == 2
+        assert words in capsys.readouterr().err
+
+
+def test_experiment_report_embeds_its_figures_and_chromium_renders_it(tmp_path: Path) -> None:
+    out = tmp_path / "ex"
+    assert main(["experiment", "overtaking", "--runs", "2", "--noise", "ideal", "--workers", "0", "--out", str(out),
+                 "--report"]) == 0
+    text = (out / "report.html").read_text()
+    page = _parse(text)
+    assert page.tags.get("img", 0) >= 2 and page.external == []  # the PNGs are inside the page
+    assert page.tags["details"] == 4 and "McNemar" in text
+    chromium = shutil.which("chromium") or shutil.which("chromium-browser")
+    if chromium is None:
+        pytest.skip("no headless Chromium on this machine")
+    dom = subprocess.run([chromium, "--headless", "--no-sandbox", "--disable-gpu", "--dump-dom",
+                          (out / "report.html").as_uri()], capture_output=True, text=True, timeout=120)
+    assert dom.returncode == 0
+    rendered = _parse(dom.stdout)
+    assert rendered.tags.get("details") == 4 and rendered.tags.get("svg") == 4
+
+
+def test_a_record_without_its_trace_still_gets_a_row(tmp_path: Path) -> None:
+    rec = {"key": "k", "family": "open", "noise": "ideal", "condition": "planning", "run": 0, "success": 0,
+           "reached_goal": 0, "believed_goal": 1, "false_success": 1, "collisions": 0, "brushes": 0,
+           "final_error_m": 0.4, "time_s": 5.0, "wall_s": 0.1}
+    text = write_report([rec], tmp_path / "r.html", "t").read_text()
+    assert "FALSE SUCCESS" in text and "no trace kept" in text
