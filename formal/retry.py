@@ -44,7 +44,7 @@ lead on to the goal, where the stop alone was a failure).
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import replace
 from fractions import Fraction
 
@@ -52,13 +52,29 @@ import networkx as nx
 
 from clomp.formal.export_model import STAY, Choice, ExportError, ExportModel
 
-__all__ = ["RETRY", "STOP_LABEL", "STOPS_KEY", "retry_model", "map_stops"]
+__all__ = ["RETRY", "STOP_LABEL", "STOPS_KEY", "OFF_LABEL", "OFFS_KEY", "INTERRUPTED", "GAVE_UP", "retry_model", "loop_model",
+           "map_stops", "map_offs"]
 
 RETRY = "retry"
 """The action of a stop state's retry (the supervisor's replan from the stop)."""
 
 STOP_LABEL = "stop"
 """The label of the stop states (interruptions by the scan test, not contacts)."""
+
+INTERRUPTED = "interrupted"
+"""The closed-loop model's label of a stop: the supervisor's check interrupted the task
+(it is not a collision; it is replanned from while a replan is left)."""
+
+GAVE_UP = "gave_up"
+"""The closed-loop model's label of a stop with no replan left (the run ends there: not
+the goal, and not a collision either)."""
+
+OFF_LABEL = "off_map"
+"""The label of the free leaves where a task ended off the map's prediction (given ``offs``)."""
+
+OFFS_KEY = "offs"
+"""The key of a closed-loop map's ``metadata`` naming its free leaves off the map's
+prediction: ident -> the state the task aimed at (:func:`map_offs` reads it)."""
 
 STOPS_KEY = "stops"
 """The key of a map's ``metadata`` naming its stop states: ident -> the state its task
@@ -71,31 +87,44 @@ def map_stops(metadata: Mapping[str, object]) -> dict[int, int]:
     >>> map_stops({"stops": {"4": 1}}), map_stops({})
     ({4: 1}, {})
     """
-    raw = metadata.get(STOPS_KEY)
+    return _idents(metadata, STOPS_KEY)
+
+
+def _idents(metadata: Mapping[str, object], key: str) -> dict[int, int]:
+    raw = metadata.get(key)
     if not isinstance(raw, Mapping):
         return {}
     return {int(k): int(v) for k, v in raw.items()}
 
 
-def retry_model(m: ExportModel, stops: Mapping[int, int], retries: int = 1) -> ExportModel:
+def map_offs(metadata: Mapping[str, object]) -> dict[int, int]:
+    """The outcomes off the map's prediction a map's ``metadata`` names (:data:`OFFS_KEY`), or ``{}``.
+
+    >>> map_offs({"offs": {"7": 3}}), map_offs({})
+    ({7: 3}, {})
+    """
+    return _idents(metadata, OFFS_KEY)
+
+
+def retry_model(m: ExportModel, stops: Mapping[int, int], retries: int = 1,
+                offs: Mapping[int, int] | None = None) -> ExportModel:
     """The product of ``m`` with ``retries`` retries: ``stops`` maps each stop state's
     ident to the ident of the state its retry re-enters (see the module docstring).
     Stops that ``m`` does not hold are ignored (e.g. off the plan of a DTMC); a re-entry
-    state it does not hold is an :class:`ExportError`."""
+    state it does not hold is an :class:`ExportError`. ``offs``: free leaves where a
+    task ended off the map's prediction (:data:`OFFS_KEY`), each with the state the
+    task aimed at; their retry (the supervisor's replan from near there) re-enters that
+    state, and they are labelled :data:`OFF_LABEL` (given ``offs`` only)."""
     if isinstance(retries, bool) or not isinstance(retries, int) or retries < 0:
         raise ExportError(f"retries must be a whole number >= 0, got {retries!r}")
     index = {s.ident: k for k, s in enumerate(m.states)}
-    back: dict[int, int] = {}
-    for stop, source in stops.items():
-        if stop not in index:
-            continue
-        if source not in index:
-            raise ExportError(f"the retry of stop q{stop} re-enters q{source}, which the model does not hold")
-        if not m.states[index[stop]].interrupted:
-            raise ExportError(f"q{stop} is named a stop but was not interrupted")
-        back[index[stop]] = index[source]
+    back = _reentries(index, stops, lambda k: m.states[k].interrupted, "a stop but was not interrupted")
+    ends = _reentries(index, offs or {}, lambda k: not m.states[k].interrupted and [c.action for c in m.choices[k]] == [STAY],
+                      "an outcome off the map's prediction but is not a free leaf")
+    back.update(ends)
+    off_label = {} if offs is None else {OFF_LABEL: frozenset(ends)}
     if retries == 0 or not back:
-        return replace(m, labels={**m.labels, STOP_LABEL: frozenset(back)})
+        return replace(m, labels={**m.labels, STOP_LABEL: frozenset(back) - set(ends), **off_label})
     span = max(s.ident for s in m.states) + 1
     # product states (index in m, layer): layer 0 first, in m's order, then the copies
     # reachable from it, breadth-first (the product's root leads to layer 0, in order)
@@ -117,9 +146,66 @@ def retry_model(m: ExportModel, stops: Mapping[int, int], retries: int = 1) -> E
             labels[name] = frozenset(p for p, (k, _) in enumerate(order) if k in members)
     labels["collision"] = frozenset(p for p in labels.get("collision", frozenset())
                                     if not (order[p][0] in back and order[p][1] < retries))
-    labels[STOP_LABEL] = frozenset(p for p, (k, _) in enumerate(order) if k in back)
+    labels[STOP_LABEL] = frozenset(p for p, (k, _) in enumerate(order) if k in back and k not in ends)
+    if offs is not None:
+        labels[OFF_LABEL] = frozenset(p for p, (k, _) in enumerate(order) if k in ends)
     loops = tuple(p for p, row in enumerate(choices) if len(row) == 1 and row[0].action == STAY)
     return replace(m, states=states, choices=tuple(choices), labels=labels, self_loops=loops)
+
+
+def _reentries(index: Mapping[int, int], named: Mapping[int, int], fits: Callable[[int], bool], what: str) -> dict[int, int]:
+    """``named`` (ident -> the ident its retry re-enters) as indices (``index``); those the
+    model does not hold are ignored; one whose re-entry it does not hold, or that does not
+    ``fits`` (``what`` it is named), is an :class:`ExportError`."""
+    out: dict[int, int] = {}
+    for q, back in named.items():
+        if q not in index:
+            continue
+        if back not in index:
+            raise ExportError(f"the retry of q{q} re-enters q{back}, which the model does not hold")
+        if not fits(index[q]):
+            raise ExportError(f"q{q} is named {what}")
+        out[index[q]] = index[back]
+    return out
+
+
+def loop_model(m: ExportModel, stops: Mapping[int, int], replans: int = 1,
+               offs: Mapping[int, int] | None = None) -> ExportModel:
+    """The model of the closed loop: :func:`retry_model` with ``replans`` retries, labelled
+    by what happened rather than by the map's ``interrupted`` flag. ``collision`` is a
+    contact only (a stop is never one, retried or not); ``interrupted`` marks every stop
+    (the check fired: the supervisor stops and replans, the ``retry`` action back to the
+    task's start); ``gave_up`` the stops with no replan left. The ``stop`` label of
+    :func:`retry_model` is renamed ``interrupted``; the outcomes ``offs`` off the map's
+    prediction (the plan check fails a task that would end there: the supervisor
+    replans from near the state the task aimed at) are ``interrupted`` too, and
+    ``off_map``. With ``P=? [F "goal"]`` on it, Storm
+    and PRISM give the chance of reaching the goal with replans, ``P=? [F "collision"]``
+    the chance of a contact the check could not prevent
+    (``specs/properties/closed_loop/``).
+
+    A stop (q1, started from q0) whose one replan is left in layer 0 and gone in layer 1
+    (q1 + 2 = q3): interrupted in both, never a collision, given up in layer 1:
+
+    >>> from clomp.formal.lts import CognitiveMap
+    >>> from clomp.formal.model import Disturbance, DisturbanceKind, Pose, State, TaskKind as K
+    >>> from clomp.formal.export_model import export_model
+    >>> g, o = Disturbance.goal(1.0, 0.0), Pose(0, 0)
+    >>> hit = State(1, K.LEFT, g, Disturbance(DisturbanceKind.OBSTACLE, 0.2, 0.1), o, Pose(0, 0, 0.4))
+    >>> m = CognitiveMap.from_parts([State(0, K.STRAIGHT, g, None, o, o), hit], [(0, 1)], goal=g)
+    >>> r = loop_model(export_model(m, "mdp"), {1: 0}, replans=1)
+    >>> [sorted(r.states[k].ident for k in r.labels[name]) for name in ("collision", "interrupted", "gave_up")]
+    [[], [1, 3], [3]]
+    """
+    r = retry_model(m, stops, replans, offs if offs is not None else {})
+    stop = r.labels[STOP_LABEL]
+    off = r.labels[OFF_LABEL]
+    final = frozenset(p for p in stop | off if not any(c.action == RETRY for c in r.choices[p]))
+    labels = {name: members for name, members in r.labels.items() if name != STOP_LABEL}
+    labels["collision"] = labels.get("collision", frozenset()) - stop
+    labels[INTERRUPTED] = stop | off
+    labels[GAVE_UP] = final
+    return replace(r, labels=labels)
 
 
 _ROOT = (-1, -1)

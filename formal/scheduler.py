@@ -39,7 +39,7 @@ from clomp.formal.export import ExportModel, ModelKind, export_model, write_drn
 from clomp.formal.invariants import map_plan
 from clomp.formal.lts import CognitiveMap, MapError
 from clomp.formal.model import TaskKind
-from clomp.formal.retry import STOPS_KEY, map_stops, retry_model
+from clomp.formal.retry import OFFS_KEY, STOPS_KEY, map_offs, map_stops, retry_model
 from clomp.formal.supervisory import Guard, Plan
 
 __all__ = [
@@ -89,7 +89,7 @@ def _build(cmap: CognitiveMap, kind: ModelKind, plan: Plan | None = None,
         wanted = set(target)
         m = replace(m, labels={**m.labels, TARGET: frozenset(k for k, s in enumerate(m.states) if s.ident in wanted)})
     if retries:
-        m = retry_model(m, map_stops(cmap.metadata), retries)
+        m = retry_model(m, map_stops(cmap.metadata), retries, map_offs(cmap.metadata) or None)
     with tempfile.TemporaryDirectory() as tmp:
         path = Path(tmp) / "m.drn"
         write_drn(m, path)
@@ -190,8 +190,9 @@ def policy_probability(cmap: CognitiveMap, scheduler: Mapping[int, TaskKind], ta
     for st in cmap.states():
         sub.add_state(st)
     sub.set_initial(cmap.initial.ident)
-    if STOPS_KEY in cmap.metadata:  # the stops, for the retries; not the plan, whose steps the policy may not take
-        sub.metadata[STOPS_KEY] = cmap.metadata[STOPS_KEY]
+    for key in (STOPS_KEY, OFFS_KEY):  # the stops (and offs), for the retries; not the plan, whose steps the policy may not take
+        if key in cmap.metadata:
+            sub.metadata[key] = cmap.metadata[key]
     for t in cmap.transitions():
         if scheduler.get(t.source) is t.label:
             sub.add_transition(t.source, t.target, t.label, t.probability)

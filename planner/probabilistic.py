@@ -15,7 +15,10 @@ reaching the goal from them is counted as zero: the estimate is conservative. Wi
 :class:`HazardRule`, a rollout the supervisor's scan test interrupts is a *stop*, its own
 outcome kind (never grouped with a contact, nor with another source's stop), named in
 ``metadata["stops"]`` with the state its task started from, so that an objective can
-retry it as the supervisor does (:mod:`clomp.formal.retry`).
+retry it as the supervisor does (:mod:`clomp.formal.retry`). With
+``HazardRule(contacts=True)`` (the closed loop, :mod:`clomp.planner.hazard`) a rollout
+that touches an obstacle is a stop too when a revolution before the contact sees it
+coming; only a contact the test cannot foresee stays a collision.
 
 :func:`learn_from_scans` learns the same kind of map from repeated *observation*:
 consecutive scans of a recorded run (or the scans of a run log) each give a map; states
@@ -48,16 +51,16 @@ from typing import Any
 import numpy as np
 
 from clomp.formal.lts import CognitiveMap
-from clomp.formal.model import Disturbance, DisturbanceKind, Pose, State, TaskKind
-from clomp.formal.retry import STOPS_KEY
+from clomp.formal.model import Disturbance, Pose, State, TaskKind
+from clomp.formal.retry import OFFS_KEY, STOPS_KEY
 from clomp.formal.supervisory import extract_plan
 from clomp.planner.configurator import Configurator, CostContext, PlanResult
-from clomp.planner.noise import ALARM_DEVIATIONS, NoiseError, RolloutNoise, preset_names
+from clomp.planner.hazard import HazardRule, hazard_stop
+from clomp.planner.noise import NoiseError, RolloutNoise, preset_names
 from clomp.planner.perception import Obstacles, load_scan, perceive
 from clomp.planner.rollout import Outcome, World, frontier_distance, in_the_way, make_task
 from clomp.planner.robot_model import RobotModel
 from clomp.formal.geometry import polar_to_xy, wrap_angle
-from clomp.planner import footprint
 from clomp.planner.tasks import Task
 
 __all__ = [
@@ -135,117 +138,6 @@ def _perturb(points: np.ndarray, noise: RolloutNoise, rng: np.random.Generator) 
     return out
 
 
-@dataclass(frozen=True)
-class HazardRule:
-    """The supervisor's interruption on the scan, applied to a rollout: every revolution
-    (``scan_rate`` a second) of a task shows the scan with fresh noise, and the task is
-    interrupted as soon as ``points`` or more of its returns lie inside the (uninflated)
-    body anywhere along the rest of the task's path. In the world this, not a contact, is
-    what stops a task that passes close to an obstacle under range noise: the model's
-    ``collision`` then means "the task is interrupted", as the closed loop measures it.
-    Defaults: the supervisor's ``hazard_points`` (2) and the A1 LiDAR's 5.5 Hz.
-
-    ``allowance`` (m) is the supervisor's noise allowance (runtime/supervision/alarms.py):
-    with it, only points more than ``allowance`` inside the body stop a task at once (a
-    *deep* alarm); points inside the full body only stop it when the revolution before
-    showed such points too (a *shallow* alarm must persist). :meth:`supervisor` gives the
-    rule the supervisor applies at a noise level.
-
-    >>> HazardRule().points, HazardRule().scan_rate
-    (2, 5.5)
-    >>> round(HazardRule.supervisor(RolloutNoise.preset("harsh")).allowance, 4), round(HazardRule.supervisor(RolloutNoise()).allowance, 4)
-    (0.03, 0.005)
-    """
-
-    points: int = 2
-    scan_rate: float = 5.5
-    allowance: float = 0.0
-
-    @classmethod
-    def supervisor(cls, noise: RolloutNoise, k: float = ALARM_DEVIATIONS, clearance: float = 0.01, cap: float = 0.03) -> "HazardRule":
-        """The supervisor's rule at ``noise``: its allowance, ``k`` range-noise sd less the
-        planner's ``clearance``, at most ``cap`` (the defaults of the runtime's ``Alarms``)."""
-        return cls(allowance=min(max(k * noise.range_sd - clearance, 0.0), cap))
-
-    def __post_init__(self) -> None:
-        if not (isinstance(self.allowance, (int, float)) and math.isfinite(self.allowance) and self.allowance >= 0):
-            raise NoiseError(f"hazard allowance: expected a finite number >= 0, got {self.allowance!r}")
-        if isinstance(self.points, bool) or not isinstance(self.points, int) or self.points < 1:
-            raise NoiseError(f"hazard points: expected a whole number >= 1, got {self.points!r}")
-        if not (isinstance(self.scan_rate, (int, float)) and math.isfinite(self.scan_rate) and self.scan_rate > 0):
-            raise NoiseError(f"hazard scan_rate: expected a positive number, got {self.scan_rate!r}")
-
-
-def _path_poses(kind: TaskKind, start: Pose, end: Pose) -> np.ndarray:
-    """Poses (x, y, theta) along a rollout's path from ``start`` to ``end``."""
-    if kind is TaskKind.STRAIGHT:
-        n = max(2, int(math.ceil(start.distance_to(end.x, end.y) / 0.02)) + 1)
-        f = np.linspace(0.0, 1.0, n)
-        th = start.theta + f * wrap_angle(end.theta - start.theta)
-        line: np.ndarray = np.c_[start.x + f * (end.x - start.x), start.y + f * (end.y - start.y), th]
-        return line
-    turn = wrap_angle(end.theta - start.theta)
-    if kind is TaskKind.LEFT and turn < -math.pi / 2:
-        turn += 2 * math.pi
-    elif kind is TaskKind.RIGHT and turn > math.pi / 2:
-        turn -= 2 * math.pi
-    n = max(2, int(math.ceil(abs(turn) / math.radians(5))) + 1)
-    f = np.linspace(0.0, 1.0, n)
-    spin: np.ndarray = np.c_[np.full(n, start.x), np.full(n, start.y), start.theta + f * turn]
-    return spin
-
-
-def _hazard_stop(out: Outcome, world: _World, robot: RobotModel, noise: RolloutNoise, rule: HazardRule) -> Outcome:
-    """``out`` interrupted where the :class:`HazardRule` would stop it, else ``out``."""
-    scan = world.scan
-    if scan is None or len(scan) == 0 or out.d_n is not None:
-        return out
-    poses = _path_poses(out.task, out.start, out.end)
-    reach = max(robot.front_offset, robot.rear_offset) + robot.width + 4 * noise.range_sd + 0.02
-    lo, hi = poses[:, :2].min(axis=0) - reach, poses[:, :2].max(axis=0) + reach
-    pts = scan[np.all((scan >= lo) & (scan <= hi), axis=1)]
-    if len(pts) < rule.points:
-        return out
-    revs = max(1, int(math.ceil(out.duration * rule.scan_rate)))
-    rng = world.rng
-    r = np.hypot(pts[:, 0], pts[:, 1])
-    a = np.arctan2(pts[:, 1], pts[:, 0])
-    shape = (revs, len(pts))
-    rr = r + rng.normal(0.0, noise.range_sd, shape) if noise.range_sd else np.broadcast_to(r, shape)
-    aa = a + rng.normal(0.0, noise.angle_sd, shape) if noise.angle_sd else np.broadcast_to(a, shape)
-    seen = rng.random(shape) >= noise.dropout
-    xy = polar_to_xy(rr, aa)  # (revs, M, 2)
-    px, py = xy[..., 0], xy[..., 1]
-    dx = px[:, None, :] - poses[None, :, 0, None]
-    dy = py[:, None, :] - poses[None, :, 1, None]
-    c, s_ = np.cos(poses[:, 2])[None, :, None], np.sin(poses[:, 2])[None, :, None]
-    u, v = dx * c + dy * s_, -dx * s_ + dy * c
-    across = np.abs(v)
-    inside = footprint.inside(u, across, footprint.body_box(robot)) & seen[:, None, :]
-    # revolution k is seen at pose index i_k and tests the rest of the path (i >= i_k)
-    ahead = np.logical_or.accumulate(inside[:, ::-1, :], axis=1)[:, ::-1, :]
-    at = np.minimum((np.arange(revs) / (revs * 1.0) * len(poses)).astype(int), len(poses) - 1)
-    counts = ahead[np.arange(revs), at, :].sum(axis=1)
-    alarm = counts >= rule.points
-    if rule.allowance > 0:
-        a_ = rule.allowance
-        deep_in = footprint.inside(u, across, footprint.body_box(robot, -a_)) & seen[:, None, :]
-        deep_ahead = np.logical_or.accumulate(deep_in[:, ::-1, :], axis=1)[:, ::-1, :]
-        deep = deep_ahead[np.arange(revs), at, :].sum(axis=1) >= rule.points
-        before = np.r_[False, alarm[:-1]]
-        alarm = deep | (alarm & before)  # a shallow alarm stands when the revolution before raised one
-    hit = np.flatnonzero(alarm)
-    if len(hit) == 0:
-        return out
-    k = int(hit[0])
-    x, y, th = poses[at[k]]
-    first = int(np.flatnonzero(ahead[k, at[k]])[0])
-    d_n = Disturbance(DisturbanceKind.OBSTACLE, float(px[k, first]), float(py[k, first]))
-    end = Pose(float(x), float(y), float(th))
-    frac = at[k] / max(len(poses) - 1, 1)
-    return replace(out, end=end, distance=out.distance * frac, duration=out.duration * frac, d_n=d_n, reached_goal=False)
-
-
 def _rollout(kind: TaskKind, start: Pose, goal: Disturbance, world: _World, robot: RobotModel, noise: RolloutNoise,
              hazard: HazardRule | None = None) -> Outcome:
     """One noisy rollout of ``kind`` from ``start`` in ``world`` (see :func:`_rollout_stop`)."""
@@ -300,7 +192,7 @@ def _rollout_stop(kind: TaskKind, start: Pose, goal: Disturbance, world: _World,
     stopped = False
     if hazard is not None:
         free = out
-        out = _hazard_stop(out, world, robot, noise, hazard)
+        out = hazard_stop(out, world.scan, world.rng, robot, noise, hazard, task.limit, world.obstacles.points)
         stopped = out is not free
     if out.d_n is None and out.end.distance_to(goal.x, goal.y) <= robot.goal_tolerance:
         out = replace(out, reached_goal=True)
@@ -359,6 +251,8 @@ class _Builder:
                 self.by_task[s.task].append(s.ident)
         self.new: list[int] = []
         self.stops: dict[int, int] = {}
+        self.aims: dict[int, int] = {}
+        """New free states -> the nominal state their task aimed at."""
         """Stop states (interrupted by the hazard rule, not by a contact) -> their source."""
 
     def _state_kind(self, ident: int) -> str:
@@ -387,6 +281,8 @@ class _Builder:
         self.new.append(ident)
         if stop:
             self.stops[ident] = source
+        elif nominal_target is not None and k == "free":
+            self.aims[ident] = nominal_target
         return ident
 
 
@@ -468,8 +364,19 @@ def sample_map(
     b.map.metadata.update({"plan": list(plan.states), "samples": samples, "noise": nz.to_dict(), "seed": seed, "nominal_plan": list(nominal.plan.states),
                            "carry": carry,
                            STOPS_KEY: {str(i): src for i, src in sorted(b.stops.items()) if i in b.map and src in b.map}})
+    if hazard is not None and hazard.contacts:
+        b.map.metadata[OFFS_KEY] = {str(i): a for i, a in sorted(_offs(b).items())}
     kept = sum(1 for i in b.new if i in b.map)
     return ProbabilisticMap(b.map, nominal, samples, nz, time.perf_counter() - t0, time.thread_time() - c0, kept)
+
+
+def _offs(b: _Builder) -> dict[int, int]:
+    """The closed loop's outcomes off the map's prediction: new free leaves (a task ended
+    beyond the tolerance of every state) -> the state the task aimed at, where the plan
+    check's replan picks up (:func:`clomp.formal.retry.loop_model`)."""
+    m = b.map
+    return {i: aim for i, aim in b.aims.items()
+            if i in m and aim in m and not m[aim].interrupted and not m.out_transitions(i)}
 
 
 def _breadth_first(cmap: CognitiveMap) -> dict[int, int]:

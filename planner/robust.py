@@ -30,7 +30,8 @@ from clomp.planner.probabilistic import (
 )
 from clomp.planner.robot_model import RobotModel
 
-__all__ = ["plan_target", "RobustChoice", "RobustDecision", "RobustConfigurator", "SUPERVISOR_HAZARD", "CLOSED_LOOP_TERMS",
+__all__ = ["plan_target", "RobustChoice", "RobustDecision", "RobustConfigurator", "SUPERVISOR_HAZARD", "CLOSED_LOOP_HAZARD",
+           "CLOSED_LOOP_TERMS",
            "closed_loop_noise", "rollout_noise"]
 
 _CONFIRM_SEED = 2**40
@@ -38,6 +39,11 @@ _CONFIRM_SEED = 2**40
 
 SUPERVISOR_HAZARD = HazardRule()
 """The supervisor's scan test with its defaults (2 points, 5.5 Hz)."""
+
+CLOSED_LOOP_HAZARD = HazardRule(contacts=True)
+"""The same test applied to the rollouts that touch an obstacle too: a contact it sees
+coming is a stop (replanned from), not a collision (:mod:`clomp.planner.hazard`); what
+``clomp export --closed-loop`` samples with."""
 
 CLOSED_LOOP_TERMS: dict[str, dict[str, float]] = {
     "harsh": {"wheel_bias": 0.005, "drift": 0.002, "turn_sd": 0.058, "turn_mean": 0.058,

@@ -56,6 +56,7 @@ def test_the_wheel_installs_clomp_alone_with_its_data(tmp_path: Path) -> None:
     names = zipfile.ZipFile(wheel).namelist()
     assert {n.split("/")[0] for n in names} == {"clomp", wheel.name.split("-")[0] + "-" + wheel.name.split("-")[1] + ".dist-info"}
     for data in ("clomp/specs/scenarios/overtaking.json", "clomp/specs/properties/supervisor/machine.pctl",
+                 "clomp/specs/properties/closed_loop/map.pctl", "clomp/specs/properties/closed_loop/plan.pctl",
                  "clomp/specs/noise_presets.json", "clomp/specs/policies/linear-default.json", "clomp/planner/py.typed"):
         assert data in names
     site = tmp_path / "site"

@@ -11,6 +11,7 @@ from typing import Any
 
 from clomp.formal.export import FORMATS, LABEL_HOLDER, ExportError, ExportModel, ModelKind, drn_adds_holder, export_model, induced_model, write
 from clomp.formal.lts import MAX_MAP_BYTES, CognitiveMap, MapError
+from clomp.formal.retry import loop_model, map_offs, map_stops
 from clomp.planner import PlanningError, ScanError, scan_files
 from clomp.planner.deepening import plan_deepening
 from clomp.planner.inputs import InputError, load_json, read_text
@@ -27,6 +28,10 @@ from clomp.runtime.cli import EXIT_OK, CliError, plural
 from clomp.runtime.cli._common import add_units_option, output_path, path_kind, read_points
 
 __all__ = ["register", "add_source_options", "map_from_args", "export_for", "storm_policy"]
+
+
+MAX_REPLANS = 20
+"""The most replans ``--replans`` takes: the model grows by a copy of the map per replan."""
 
 
 def add_source_options(p: argparse.ArgumentParser, required: bool = True) -> None:
@@ -167,6 +172,15 @@ def register(sub: Any) -> None:
         'Pmax=? [!"collision" U "goal"] on the map\'s MDP, a task in every state it reaches)',
     )
     p.add_argument("-o", "--output", required=True, metavar="FILE", help="output file ('-' for standard output; a path stem for prism-explicit)")
+    p.add_argument(
+        "--closed-loop",
+        action="store_true",
+        help="with --samples: the model of the closed loop: a rollout the supervisor's check would interrupt before a "
+        "contact is an 'interrupted' outcome replanned from (action retry), not a collision; labels interrupted and "
+        "gave_up; properties in specs/properties/closed_loop/",
+    )
+    p.add_argument("--replans", type=int, metavar="N", default=None,
+                   help="with --closed-loop: replans after an interruption before the run gives up (default 1, as the robust planner's objective)")
     add_planner_options(p)
     p.set_defaults(func=run)
 
@@ -178,6 +192,18 @@ def _check_model_options(args: argparse.Namespace) -> None:
         raise CliError(f"{given} does not apply to -f json: JSON is the map itself (export a model with -f prism, drn, prism-explicit, dot or svg)")
     if args.policy is not None and args.model != "dtmc":
         raise CliError("--policy applies to --model dtmc (an MDP leaves every choice to the model checker)")
+    if args.closed_loop and args.samples is None:
+        raise CliError("--closed-loop models the rollouts of a probabilistic map: give --samples N")
+    if args.replans is not None:
+        if not args.closed_loop:
+            raise CliError("--replans applies to --closed-loop (the replans after an interruption)")
+        if args.format == "json":
+            raise CliError("--replans does not apply to -f json: JSON is the map itself (its stops named in its metadata)")
+        if not 0 <= args.replans <= MAX_REPLANS:
+            raise CliError(f"--replans: expected a whole number from 0 to {MAX_REPLANS}, got {args.replans}")
+    if args.closed_loop and args.policy == "storm":
+        raise CliError("--closed-loop with --policy storm is not supported: export the MDP (--model mdp) and let the "
+                       "model checker choose, or the plan's DTMC (--model dtmc)")
 
 
 def export_for(cmap: CognitiveMap, kind: ModelKind, policy: str | None) -> ExportModel:
@@ -235,6 +261,8 @@ def run(args: argparse.Namespace) -> int:
             write(cmap, dest, "json")
         else:
             m = export_for(cmap, kind, args.policy)
+            if args.closed_loop:
+                m = loop_model(m, map_stops(cmap.metadata), 1 if args.replans is None else args.replans, map_offs(cmap.metadata))
             FORMATS[args.format](m, dest, kind)
     except (ExportError, MapError) as exc:  # MapError: a map file whose metadata is inconsistent
         raise CliError(str(exc)) from None
@@ -248,5 +276,7 @@ def run(args: argparse.Namespace) -> int:
         else:
             files = [str(dest)]
         what = "the map" if m is None else kind if m.policy == "plan" else f"{kind} under {m.policy}"
+        if args.closed_loop:
+            what += ", closed loop" if m is None else f", closed loop with {plural(1 if args.replans is None else args.replans, 'replan')}"
         print(f"wrote {', '.join(files)} ({args.format}, {what}, {_states_written(m, cmap, args.format)})")
     return EXIT_OK

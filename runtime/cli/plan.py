@@ -136,7 +136,7 @@ def robust_from_args(args: argparse.Namespace, conf: Configurator) -> RobustConf
     """The runtime's robust configurator for the sampling options (``--samples``, default
     30; ``--noise``; ``--seed``) and the planner options of ``conf``: one construction for
     ``plan --robust`` and the maps ``export``/``check --samples`` write, so they agree."""
-    from clomp.planner.robust import RobustConfigurator, rollout_noise
+    from clomp.planner.robust import CLOSED_LOOP_HAZARD, SUPERVISOR_HAZARD, RobustConfigurator, rollout_noise
 
     if args.samples is None:
         args.samples = 30
@@ -145,8 +145,10 @@ def robust_from_args(args: argparse.Namespace, conf: Configurator) -> RobustConf
         noise = rollout_noise(args.noise)
     except NoiseError as exc:
         raise CliError(f"--noise: {exc}") from None
+    closed = getattr(args, "closed_loop", False)  # export --closed-loop: contacts the check foresees are stops
     return RobustConfigurator(conf.robot, samples=args.samples, noise=noise, seed=args.seed,
-                              max_states=conf.max_states, horizon=conf.horizon)
+                              max_states=conf.max_states, horizon=conf.horizon,
+                              hazard=CLOSED_LOOP_HAZARD if closed else SUPERVISOR_HAZARD)
 
 
 def probabilistic_from_args(args: argparse.Namespace, conf: Configurator, scan: Any, goal: tuple[float, float]) -> ProbabilisticMap:

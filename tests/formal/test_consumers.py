@@ -257,6 +257,10 @@ def _labels_for(pf) -> set[str]:
 
     if Path(pf.source).parent.name == "supervisor":
         return set(machine_model(SUPERVISOR, PLANT).labels)
+    if Path(pf.source).parent.name == "closed_loop":  # clomp export --closed-loop: clomp.formal.retry.loop_model
+        from clomp.formal.retry import GAVE_UP, INTERRUPTED, OFF_LABEL
+
+        return {*LABELS, INTERRUPTED, GAVE_UP, OFF_LABEL}
     return set(LABELS)
 
 
@@ -297,7 +301,11 @@ def test_check_with_both_tools_reports_prisms_refusal(tmp_path, capfd):
 # format wants a model-type line PRISM's files do not have), the DRN in plain Storm, the
 # JSON map through ``clomp check --tool both``. Every load must give the same values
 # (<= 1e-9) and pass every required property.
-EXPORTS = (("mdp", ()), ("dtmc", ()), ("dtmc", ("--policy", "storm")))
+EXPORTS = (("mdp", ()), ("dtmc", ()), ("dtmc", ("--policy", "storm")),
+           # the closed loop's model (docs/calibration.md); ideal noise: the map's own "sure"
+           # requirements hold, the closed-loop files' labels are declared on a model without stops
+           ("mdp", ("--samples", "3", "--noise", "ideal", "--closed-loop")),
+           ("dtmc", ("--samples", "3", "--noise", "ideal", "--closed-loop")))
 
 
 def _cli(*argv: str) -> int:

@@ -288,3 +288,64 @@ def test_the_closed_loops_mean_errors_bias_turns_and_straights():
     for bad in ({"turn_mean": 0.6}, {"straight_mean": -0.5}, {"straight_sd": -0.1}, {"turn_mean": math.nan}):
         with pytest.raises(NoiseError, match="noise"):
             replace(ideal, **bad)
+
+
+# -- the closed loop: a contact the plan check sees coming is a stop (clomp.planner.hazard) -----------------
+def _straight_outcomes(scan, hazard):
+    """(contacts, stops, map) of q0's STRAIGHT toward a goal 0.8 m ahead, 20 harsh rollouts."""
+    from clomp.formal.retry import map_stops
+    from clomp.planner.probabilistic import SUPERVISOR_TOLERANCE
+
+    pm = sample_map(scan, (0.8, 0.0), samples=20, noise="harsh", seed=0, tolerance=SUPERVISOR_TOLERANCE, hazard=hazard)
+    stops = map_stops(pm.map.metadata)
+    ts = [t for t in pm.map.out_transitions(0) if t.label is TaskKind.STRAIGHT]
+    contact = sum((t.probability for t in ts if pm.map[t.target].interrupted and t.target not in stops), Fraction(0))
+    stop = sum((t.probability for t in ts if t.target in stops), Fraction(0))
+    return contact, stop, pm
+
+
+def test_closed_loop_contacts_the_check_sees_coming_are_stops_not_collisions():
+    """A wall that closes in on the way ahead (11 cm beside the centre line at its far
+    end, 20 at its near one): at harsh noise some rollouts of the straight drift into it
+    far along (0.6-0.7 m). Open loop (the default rule) each is a contact, a collision;
+    with ``contacts=True`` the plan check sees the wall on the rest of the task before
+    the body reaches it, so each is a stop (a replan, not a collision) and no contact
+    is left; the free outcomes are the same rollouts either way."""
+    from clomp.planner.probabilistic import HazardRule
+
+    xs = np.arange(0.05, 0.9, 0.01)
+    wall = np.c_[xs, 0.2 - 0.09 * (xs - 0.05) / 0.85]
+    contact_open, stop_open, pm_open = _straight_outcomes(wall, HazardRule())
+    assert contact_open >= Fraction(1, 10)
+    assert all(pm_open.map[t.target].distance > 0.5 for t in pm_open.map.out_transitions(0)
+               if t.label is TaskKind.STRAIGHT and pm_open.map[t.target].interrupted and pm_open.map[t.target].distance > 0)
+    contact, stop, pm = _straight_outcomes(wall, HazardRule(contacts=True))
+    assert contact == 0 and stop == stop_open + contact_open
+    free = sorted((str(t.probability), round(pm.map[t.target].distance, 6)) for t in pm.map.out_transitions(0)
+                  if t.label is TaskKind.STRAIGHT and not pm.map[t.target].interrupted)
+    assert free == sorted((str(t.probability), round(pm_open.map[t.target].distance, 6)) for t in pm_open.map.out_transitions(0)
+                          if t.label is TaskKind.STRAIGHT and not pm_open.map[t.target].interrupted)
+    with pytest.raises(NoiseError, match="hazard contacts"):
+        HazardRule(contacts="yes")  # type: ignore[arg-type]
+
+
+def test_closed_loop_maps_name_their_outcomes_off_the_maps_prediction_and_the_default_map_is_unchanged():
+    """With ``contacts=True`` the map names its new free leaves (a task ended beyond the
+    supervisor's tolerance of every state: the plan check replans there) with the state
+    the task aimed at; the default rule's map has no such key and the same transitions
+    as before this rule existed (the contacts' test draws nothing from its worlds)."""
+    from clomp.formal.retry import OFFS_KEY, map_offs
+    from clomp.planner.probabilistic import HazardRule, SUPERVISOR_TOLERANCE
+
+    scan, goal = _scene("overtaking")
+    closed = sample_map(scan, goal, samples=10, noise="harsh", seed=1, tolerance=SUPERVISOR_TOLERANCE,
+                        hazard=HazardRule(contacts=True), carry=True)
+    offs = map_offs(closed.map.metadata)
+    assert offs
+    for leaf, aim in offs.items():
+        s = closed.map[leaf]
+        assert not s.interrupted and not closed.map.out_transitions(leaf) and not closed.map[aim].interrupted
+        assert any(t.target == leaf and closed.map[aim].task is s.task for t in closed.map.transitions())
+    plain = sample_map(scan, goal, samples=10, noise="harsh", seed=1, tolerance=SUPERVISOR_TOLERANCE,
+                       hazard=HazardRule(), carry=True)
+    assert OFFS_KEY not in plain.map.metadata

@@ -1,0 +1,34 @@
+"""``bench/calibration.py``: its calibration table and its refusals (the runs themselves
+are measured, not tested: see docs/calibration.md)."""
+
+from __future__ import annotations
+
+import importlib
+import sys
+from pathlib import Path
+from types import ModuleType
+
+import pytest
+
+BENCH = Path(__file__).resolve().parents[2] / "bench" / "calibration.py"
+
+
+def _bench() -> ModuleType:
+    if str(BENCH.parent) not in sys.path:
+        sys.path.insert(0, str(BENCH.parent))
+    return importlib.import_module(BENCH.stem)
+
+
+def test_the_table_bins_predictions_and_sets_the_wilson_interval_beside_them():
+    rows = _bench().calibration_rows([0.05, 0.1, 0.5, 0.55, 0.9, 1.0, float("nan")], [1, 1, 0, 1, 1, 1, 0])
+    assert [(r["bin"], r["n"], r["successes"]) for r in rows] == [("0.0-0.2", 2, 2), ("0.4-0.6", 2, 1), ("0.8-1.0", 2, 2)]
+    low = rows[0]
+    assert low["mean_predicted"] == pytest.approx(0.075) and low["wilson"][0] == pytest.approx(0.342, abs=1e-3)
+    assert low["inside"] is False and rows[1]["inside"] is True  # 0.075 below [34 %, 100 %]; 0.525 in [9 %, 91 %]
+
+
+@pytest.mark.parametrize("argv", [["--layouts", "0"], ["--families", "nowhere"], ["--noise", "stormy"]])
+def test_bad_options_are_refused_before_any_run(argv, capsys):
+    with pytest.raises(SystemExit) as exc:
+        _bench().main(argv)
+    assert exc.value.code == 2 and "error:" in capsys.readouterr().err

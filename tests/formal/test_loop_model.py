@@ -1,0 +1,144 @@
+"""The closed loop's model (``clomp.formal.retry.loop_model``, ``clomp export --closed-loop``):
+an interruption is replanned from, not a collision; PRISM and Storm read it alike and
+check the shipped ``specs/properties/closed_loop/`` files on it."""
+
+from __future__ import annotations
+
+from fractions import Fraction
+from pathlib import Path
+
+import pytest
+
+from clomp.formal import CognitiveMap, Disturbance, DisturbanceKind, Pose, State, TaskKind
+from clomp.formal.checking import read_properties, shipped_property_files
+from clomp.formal.export import export_model
+from clomp.formal.prism import find_prism
+from clomp.formal.retry import GAVE_UP, INTERRUPTED, OFF_LABEL, RETRY, loop_model, map_offs, map_stops
+
+stormpy = pytest.importorskip("stormpy", reason="stormpy not installed: pip install -e '.[verify]'")
+needs_prism = pytest.mark.skipif(find_prism() is None, reason="PRISM not found: set CLOMP_PRISM or keep shared/tools/prism-*/ beside the repo")
+
+
+def _loop_files() -> dict[str, object]:
+    files = [read_properties(p) for p in shipped_property_files() if p.parent.name == "closed_loop"]
+    return {pf.model: pf for pf in files}
+
+
+def _quarters() -> CognitiveMap:
+    """q0's STRAIGHT: 1/4 each the nominal q1 (then the goal surely), a stop q2, a
+    contact q3 and q4, an outcome off the map's prediction aimed at q1."""
+    g = Disturbance.goal(1.0, 0.0)
+    box = Disturbance(DisturbanceKind.OBSTACLE, 0.5, 0.0)
+    o = Pose(0, 0)
+    m = CognitiveMap.from_parts([
+        State(0, TaskKind.STRAIGHT, g, None, o, o),
+        State(1, TaskKind.STRAIGHT, g, None, o, Pose(0.5, 0)),
+        State(2, TaskKind.STRAIGHT, g, box, o, Pose(0.1, 0)),
+        State(3, TaskKind.STRAIGHT, g, box, o, Pose(0.4, 0)),
+        State(4, TaskKind.STRAIGHT, g, None, o, Pose(0.5, 0.2)),
+        State(5, TaskKind.STRAIGHT, g, None, Pose(0.5, 0), Pose(1, 0), reached_goal=True),
+    ], [], goal=g)
+    for k in (1, 2, 3, 4):
+        m.add_transition(0, k, TaskKind.STRAIGHT, Fraction(1, 4))
+    m.add_transition(1, 5, TaskKind.STRAIGHT)
+    m.metadata.update({"plan": [0, 1, 5], "stops": {"2": 0}, "offs": {"4": 1}})
+    return m
+
+
+def test_loop_model_labels_what_happened_not_the_maps_interrupted_flag():
+    m = _quarters()
+    r = loop_model(export_model(m, "dtmc"), map_stops(m.metadata), 1, map_offs(m.metadata))
+    name = {k: s.ident for k, s in enumerate(r.states)}
+    span = 6
+    assert sorted(name[k] for k in r.labels["collision"]) == [3, 3 + span]  # contacts only, in both layers
+    assert sorted(name[k] for k in r.labels[INTERRUPTED]) == [2, 4, 2 + span, 4 + span]
+    assert sorted(name[k] for k in r.labels[GAVE_UP]) == [2 + span, 4 + span]  # no replan left
+    assert sorted(name[k] for k in r.labels[OFF_LABEL]) == [4, 4 + span]
+    by_ident = {s.ident: k for k, s in enumerate(r.states)}
+    retry = {name[k]: [name[j] for j, _ in r.choices[k][0].branches] for k in by_ident.values() if r.choices[k][0].action == RETRY}
+    assert retry == {2: [0 + span], 4: [1 + span]}  # a stop re-enters its task's start, an off the state aimed at
+
+
+@pytest.mark.parametrize("replans", [0, 1, 2])
+def test_storm_and_prism_value_the_replans_alike(replans):
+    """Four loads (PRISM language and explicit files in PRISM, the PRISM language and the
+    DRN in Storm) give the shipped closed-loop properties the values worked out by hand:
+    with r replans, V_r = 1/4 (q1) + 1/4 V_(r-1) (stop) + 1/4 (off, then q1) and V with
+    none left 1/4; contacts 1/4 per try."""
+    from clomp.formal.crosscheck import LOADS, cross_check
+
+    m = _quarters()
+    model = loop_model(export_model(m, "dtmc"), map_stops(m.metadata), replans, map_offs(m.metadata))
+    loads = LOADS if find_prism() is not None else tuple(x for x in LOADS if not x.endswith("in PRISM"))
+    cc = cross_check(model, "dtmc", [_loop_files()["dtmc"]], title="quarters", loads=loads)  # type: ignore[list-item]
+    assert cc.sizes_agree and not cc.disagreements(), cc.disagreements()
+    v, c, gave = 0.25, 0.25, 0.5  # no replan: q1 then the goal; the contact; a stop or an off ends the run
+    for _ in range(replans):
+        v, c, gave = 0.25 + 0.25 * v + 0.25, 0.25 + 0.25 * c, 0.25 * gave
+    want = {"interrupted_is_not_collision": True, "p_goal_with_replans": v, "p_collision": c, "p_interrupted": 0.5,
+            "p_gave_up": gave}
+    for load, (_, _, values) in cc.loads.items():
+        got = dict(zip(cc.names, values))
+        for key, value in want.items():
+            assert got[key] == pytest.approx(value, abs=1e-9), (load, key, got[key], value)
+
+
+def _cli(*argv: str) -> int:
+    import clomp.runtime.cli as cli
+
+    return cli.main(list(argv))
+
+
+@pytest.mark.parametrize("kind", ["mdp", "dtmc"])
+def test_the_closed_loop_export_passes_its_property_file_in_both_tools(kind, tmp_path, capsys):
+    """``clomp export --samples 10 --noise harsh --closed-loop`` on the overtaking scenario,
+    in the PRISM language, the DRN and PRISM's explicit files: the shipped closed-loop file
+    of its kind gives the same values in every load and its requirement holds; the
+    collision (an unforeseen contact) is no likelier than the open-loop export's."""
+    from clomp.formal.checking import check_properties, load_storm_model
+    from clomp.formal.export import prism_import_args
+    from clomp.formal.prism import run_prism
+
+    pf = _loop_files()[kind]
+    specs = list(pf.properties)  # type: ignore[attr-defined]
+    base = ["--scenario", "overtaking", "--samples", "10", "--noise", "harsh", "--seed", "3", "--model", kind]
+    stem = tmp_path / f"loop-{kind}"
+    for fmt, out in (("prism", stem.with_suffix(".prism")), ("drn", stem.with_suffix(".drn")), ("prism-explicit", stem)):
+        assert _cli("export", *base, "--closed-loop", "-f", fmt, "-o", str(out)) == 0
+    assert "closed loop with 1 replan" in capsys.readouterr().out
+    loads = {"PRISM language in Storm": [r.value for r in check_properties(load_storm_model(stem.with_suffix(".prism")), specs)],
+             "DRN in Storm": [r.value for r in check_properties(load_storm_model(stem.with_suffix(".drn")), specs)]}
+    if find_prism() is not None:
+        named = [f'"{p.name}": {p.formula}' for p in specs]
+        loads["PRISM language in PRISM"] = run_prism([str(stem.with_suffix(".prism"))], named).values
+        loads["explicit files in PRISM"] = run_prism(prism_import_args(stem, kind), named).values  # type: ignore[arg-type]
+    ref = loads["DRN in Storm"]
+    for load, values in loads.items():
+        assert values == pytest.approx(ref, abs=1e-9), load
+    got = dict(zip([p.name for p in specs], ref))
+    assert got["interrupted_is_not_collision"] is True
+    open_loop = tmp_path / "open.prism"
+    assert _cli("export", *base, "-f", "prism", "-o", str(open_loop)) == 0
+    formula = 'Pmin=? [F "collision"]' if kind == "mdp" else 'P=? [F "collision"]'
+    p_open = check_properties(load_storm_model(open_loop), [type(specs[0])(formula, "c")])[0].value
+    assert got["p_collision"] <= p_open + 1e-9  # type: ignore[operator]
+    assert _cli("check", str(stem.with_suffix(".prism")), "--specs", pf.source,  # type: ignore[attr-defined]
+                "--tool", "both" if find_prism() is not None else "storm") == 0
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["--closed-loop"], "give --samples N"),
+    (["--samples", "5", "--replans", "2"], "--replans applies to --closed-loop"),
+    (["--samples", "5", "--closed-loop", "--replans", "-1"], "--replans: expected a whole number"),
+    (["--samples", "5", "--closed-loop", "--model", "dtmc", "--policy", "storm"], "not supported"),
+])
+def test_closed_loop_options_that_do_not_apply_are_refused(argv, message, tmp_path, capsys):
+    code = _cli("export", "--scenario", "overtaking", "-f", "drn", "-o", str(tmp_path / "x.drn"), *argv)
+    assert code == 2 and message in capsys.readouterr().err
+    assert not (tmp_path / "x.drn").exists()
+
+
+def test_the_closed_loop_files_are_shipped_for_both_kinds():
+    files = _loop_files()
+    assert set(files) == {"mdp", "dtmc"}
+    assert all(Path(pf.source).parent.name == "closed_loop" for pf in files.values())  # type: ignore[attr-defined]
