@@ -1,0 +1,189 @@
+"""Perception's pieces and boxes, compiled (numba): the second half of :func:`clomp.planner.perception.perceive`.
+
+:func:`clomp.planner.perception._cut` and :func:`clomp.planner.perception._boxes` state
+the rules with numpy (a surface breaks at a step longer than the cluster distance, is cut
+every ``_PIECE`` metres of path, a piece is halved while thick, each piece is covered by a
+padded box along its chord). On a scan of a few hundred points they cost dozens of small
+array calls per halving round, 50–70 µs, most of a plan where nothing is ahead. This loop
+does the same with the same floating-point operations, in the same order, and rounded the
+same way as numpy's own loops round them on this machine: numpy multiplies complex numbers
+with a fused multiply-add (``re = fma(ar, br, -ai·bi)``, ``im = fma(ar, bi, ai·br)``),
+takes a complex modulus as ``larger · sqrt(fma(q, q, 1))`` with ``q = smaller / larger``,
+and divides a complex number by a real one as Smith's algorithm does (by the reciprocal).
+The tests hold both to each other bit for bit (``tests/planner/test_surfaces.py``).
+
+>>> wall = np.c_[np.full(5, 0.5), np.linspace(-0.02, 0.02, 5)]   # 1 cm apart: one piece
+>>> pts, bounds, boxes, centres, radii = pieces_and_boxes(wall, np.array([0.0, 0.01, 0.01, 0.01, 0.01]), 0.1, 0.002, 0.08, 0.0075)
+>>> bounds.tolist(), [round(float(v), 3) for v in boxes[0, 0]], round(float(radii[0]), 4)
+([0, 5], [0.502, -0.022], 0.0221)
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+from numba import njit, types
+from numba.extending import intrinsic
+
+__all__ = ["pieces_and_boxes"]
+
+
+def _compiled(fn: Any) -> Any:
+    # as clomp.runtime.jit.compiled (which the planner may not import): machine code cached
+    # beside the module, compiled afresh per process where no cache can be written
+    try:
+        return njit(cache=True)(fn)
+    except RuntimeError:  # pragma: no cover - numba: "cannot cache function …: no locator available"
+        return njit()(fn)
+
+
+def _fma_typed(typingctx: Any, a: Any, b: Any, c: Any) -> Any:
+    """a·b + c rounded once (LLVM's fma), as numpy's complex loops compute it."""
+    sig = types.float64(types.float64, types.float64, types.float64)
+
+    def codegen(context: Any, builder: Any, signature: Any, args: Any) -> Any:
+        return builder.fma(*args)
+
+    return sig, codegen
+
+
+_fma: Any = intrinsic(_fma_typed)
+
+
+@_compiled
+def _cabs(re: float, im: float) -> float:  # pragma: no cover - compiled
+    # numpy's complex absolute value (its SIMD loop): larger · sqrt(q² + 1), q = smaller / larger
+    r, i = abs(re), abs(im)
+    larger, smaller = max(r, i), min(r, i)
+    q = smaller / larger if larger != 0.0 and smaller != math.inf else 0.0
+    return math.sqrt(_fma(q, q, 1.0)) * larger
+
+
+@_compiled
+def _chord(zr: np.ndarray, zi: np.ndarray, s: int, e: int) -> tuple[float, float, float, float]:  # pragma: no cover
+    # the piece s:e's first point a and unit chord to its last point (1 when they coincide)
+    ar, ai = zr[s], zi[s]
+    er, ei = zr[e - 1] - ar, zi[e - 1] - ai
+    norm = _cabs(er, ei)
+    if norm < 1e-9:
+        norm, er, ei = 1.0, 1.0, 0.0
+    # complex / real as numpy divides (Smith's algorithm with a zero imaginary part)
+    rat = 0.0 / norm
+    scl = 1.0 / (norm + 0.0 * rat)
+    return ar, ai, (er + ei * rat) * scl, (ei - er * rat) * scl
+
+
+@_compiled
+def _extents(zr: np.ndarray, zi: np.ndarray, s: int, e: int, ar: float, ai: float, er: float, ei: float) -> tuple[float, float, float, float]:  # pragma: no cover
+    # (u0, t0, u1, t1): the piece's extents along and across its chord, w = (z - a)·conj(e)
+    br, bi = er, -ei
+    u0 = t0 = math.inf
+    u1 = t1 = -math.inf
+    for k in range(s, e):
+        xr, xi = zr[k] - ar, zi[k] - ai
+        u = _fma(xr, br, -(xi * bi))
+        t = _fma(xr, bi, xi * br)
+        u0, u1, t0, t1 = min(u0, u), max(u1, u), min(t0, t), max(t1, t)
+    return u0, t0, u1, t1
+
+
+@_compiled
+def _cuts(zr: np.ndarray, zi: np.ndarray, step: np.ndarray, cluster_distance: float, per_piece: float) -> np.ndarray:  # pragma: no cover
+    # perception._cut: rotate to start at a break (in place), then flag where pieces start
+    n = zr.shape[0]
+    first = -1
+    for k in range(n):
+        if step[k] > cluster_distance:
+            first = k
+            break
+    if first > 0:
+        zr[:] = np.concatenate((zr[first:], zr[:first]))
+        zi[:] = np.concatenate((zi[first:], zi[:first]))
+        step[:] = np.concatenate((step[first:], step[:first]))
+    cut = np.zeros(n + 1, dtype=np.bool_)
+    path = 0.0
+    last = 0
+    for k in range(n):
+        brk = step[k] > cluster_distance or (first < 0 and k == 0)
+        path = path + (0.0 if brk else step[k])
+        cell = int(path * per_piece)
+        cut[k] = brk or (k > 0 and cell != last)
+        last = cell
+    cut[n] = True
+    return cut
+
+
+@_compiled
+def _halve(zr: np.ndarray, zi: np.ndarray, cut: np.ndarray, thin: float) -> None:  # pragma: no cover
+    # perception._boxes's rounds: every piece thicker than ``thin`` across its chord halved, until none is
+    n = zr.shape[0]
+    stack = np.empty(2 * n + 2, dtype=np.int64)
+    top = 0
+    s = 0
+    for k in range(1, n + 1):
+        if cut[k]:
+            stack[top], stack[top + 1] = s, k
+            top += 2
+            s = k
+    while top:
+        top -= 2
+        s, e = stack[top], stack[top + 1]
+        ar, ai, er, ei = _chord(zr, zi, s, e)
+        _, t0, _, t1 = _extents(zr, zi, s, e, ar, ai, er, ei)
+        if t1 - t0 > thin:
+            mid = (s + e) >> 1
+            cut[mid] = True
+            stack[top], stack[top + 1], stack[top + 2], stack[top + 3] = s, mid, mid, e
+            top += 4
+
+
+@_compiled
+def _kernel(
+    zf: np.ndarray, step: np.ndarray, cluster_distance: float, pad: float, per_piece: float, thin: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:  # pragma: no cover
+    n = zf.shape[0]
+    zr, zi = zf[:, 0].copy(), zf[:, 1].copy()
+    cut = _cuts(zr, zi, step, cluster_distance, per_piece)
+    _halve(zr, zi, cut, thin)
+    bounds = np.flatnonzero(cut)
+    m = bounds.shape[0] - 1
+    boxes = np.empty((m, 4, 2))
+    centres = np.empty((m, 2))
+    radii = np.empty(m)
+    local = np.empty((4, 2))
+    for j in range(m):
+        s, e = bounds[j], bounds[j + 1]
+        ar, ai, er, ei = _chord(zr, zi, s, e)
+        u0, t0, u1, t1 = _extents(zr, zi, s, e, ar, ai, er, ei)
+        u0, t0, u1, t1 = u0 + -pad, t0 + -pad, u1 + pad, t1 + pad
+        local[0, 0], local[0, 1], local[1, 0], local[1, 1] = u0, t0, u1, t0
+        local[2, 0], local[2, 1], local[3, 0], local[3, 1] = u1, t1, u0, t1
+        for c in range(4):  # a + local·e, numpy's complex product
+            lr, li = local[c, 0], local[c, 1]
+            boxes[j, c, 0] = _fma(lr, er, -(li * ei)) + ar
+            boxes[j, c, 1] = _fma(lr, ei, li * er) + ai
+        sr, si = boxes[j, 0, 0] + boxes[j, 2, 0], boxes[j, 0, 1] + boxes[j, 2, 1]
+        centres[j, 0] = _fma(sr, 0.5, -(si * 0.0))  # (c0 + c2) · (0.5 + 0i)
+        centres[j, 1] = _fma(sr, 0.0, si * 0.5)
+        radii[j] = _cabs(u1 - u0, t1 - t0) * 0.5
+    pts = np.empty((n, 2))
+    pts[:, 0], pts[:, 1] = zr, zi
+    return pts, bounds, boxes, centres, radii
+
+
+def pieces_and_boxes(
+    z: np.ndarray, step: np.ndarray, cluster_distance: float, pad: float, piece: float, thin: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The surfaces' points ``z`` (N×2, in sweep order) and each one's ``step`` from the
+    one before (changed in place) as perception's pieces (cut every ``piece`` metres of
+    path, halved while more than ``thin`` across) and boxes padded by ``pad``: the points
+    turned to start at a break (N×2), where each piece starts (M + 1, the last N), the
+    boxes (M×4×2), centres (M×2) and circumradii (M). ``pad`` must be positive (the
+    numpy path keeps the sign of a zero extent for the rest)."""
+    if not pad > 0:
+        raise ValueError(f"pieces_and_boxes: pad must be positive, got {pad!r}")
+    out: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]
+    out = _kernel(z, step, float(cluster_distance), float(pad), 1.0 / piece, float(thin))
+    return out

@@ -1,0 +1,77 @@
+"""Perception's compiled pieces and boxes (:mod:`clomp.planner._surfaces`) against its numpy
+statement (:func:`clomp.planner.perception._cut` and ``_boxes``): the same arrays, bit for bit."""
+
+from __future__ import annotations
+
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from clomp.planner import footprint, load_scan, perception
+from clomp.planner._surfaces import pieces_and_boxes
+from clomp.planner.robot_model import RobotModel
+
+SCANS = Path(__file__).resolve().parents[2].parent / "shared" / "data" / "scans"
+FIELDS = ("points", "starts", "boxes", "centres", "radii")
+
+
+def _both(points: np.ndarray, pad: float = 0.002, cluster: float = 0.1) -> tuple[list[np.ndarray], list[np.ndarray]] | None:
+    robot = RobotModel()
+    with warnings.catch_warnings():  # returns beyond the range: cropped, which is not under test here
+        warnings.simplefilter("ignore", perception.ScanWarning)
+        kept = perception._kept(points, robot.sensor_range, footprint.body_box(robot))
+    if not isinstance(kept, tuple):
+        return None
+    pts, keep, exempt = kept
+    z, step = perception._along_surfaces(pts, keep)
+    ref = perception._boxes(*perception._cut(z.copy(), step.copy(), cluster), pad, exempt)
+    got = pieces_and_boxes(z.view(np.float64).reshape(-1, 2).copy(), step.copy(), cluster, pad, perception._PIECE, perception._THIN)
+    return [np.asarray(getattr(ref, f)) for f in FIELDS], list(got)
+
+
+def _assert_bitwise(pair: tuple[list[np.ndarray], list[np.ndarray]] | None) -> None:
+    if pair is None:
+        return
+    for name, a, b in zip(FIELDS, *pair):
+        assert a.shape == b.shape and a.tobytes() == b.tobytes(), name
+
+
+# surfaces: arcs, walls and scattered posts (thick pieces are halved; breaks at the ±π bearing)
+_surface = st.tuples(
+    st.floats(-3.2, 3.2), st.floats(0.05, 2.5), st.floats(0.15, 1.3), st.floats(-0.3, 0.3), st.integers(1, 120),
+    st.sampled_from([0.0, 0.001, 0.01]),
+)
+
+
+@settings(max_examples=150, deadline=None)
+@given(st.lists(_surface, min_size=1, max_size=6), st.integers(0, 2**32 - 1), st.sampled_from([0.002, 0.0005, 0.03]), st.booleans())
+def test_compiled_pieces_and_boxes_are_numpys_to_the_bit(surfaces, seed, pad, rounded):
+    rng = np.random.default_rng(seed)
+    parts = []
+    for start, span, radius, bend, n, noise in surfaces:
+        a = start + np.linspace(0.0, span, n)
+        r = radius + bend * np.sin(3 * a) + rng.normal(0.0, noise + 1e-12, n)
+        parts.append(np.c_[r * np.cos(a), r * np.sin(a)])
+    pts = np.concatenate(parts)
+    if rounded:  # as the recorded scans: centimetres, with repeats
+        pts = np.round(pts, 2)
+    _assert_bitwise(_both(pts, pad=pad))
+
+
+@pytest.mark.skipif(not SCANS.is_dir(), reason="the shared recorded scans are not here")
+def test_compiled_pieces_and_boxes_match_on_the_shared_scans():
+    files = sorted(SCANS.glob("*/*.dat"))[::7]
+    assert files
+    for f in files:
+        _assert_bitwise(_both(load_scan(f)))
+
+
+@pytest.mark.parametrize("pad", [0.0, -0.001, float("nan")])
+def test_the_compiled_loop_refuses_a_pad_that_is_not_positive(pad):
+    # with no pad an extent keeps the sign of a zero, which only perception's numpy path writes
+    with pytest.raises(ValueError, match="pad must be positive"):
+        pieces_and_boxes(np.zeros((1, 2)), np.zeros(1), 0.1, pad, 0.08, 0.0075)
