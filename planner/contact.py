@@ -12,6 +12,7 @@ points would give, to the bit.
 
 from __future__ import annotations
 
+import functools
 import math
 from typing import Any
 
@@ -31,6 +32,15 @@ __all__ = ["Scene", "cut_straight", "unobstructed", "SPIN_SLACK"]
 SPIN_SLACK = 0.003
 _EPS = 1e-9
 _TWO_PI = 2 * math.pi
+
+
+@functools.cache
+def _lane_gap() -> Any:
+    """:func:`clomp.planner._kernels.lane_gap`, imported at the first straight among points
+    (numba's import is paid by a process that plans among obstacles, not by every import)."""
+    from clomp.planner._kernels import lane_gap
+
+    return lane_gap
 
 
 class Scene:
@@ -121,7 +131,18 @@ class Scene:
         return hit
 
     def _straight_gap(self, s: Pose, near: tuple[np.ndarray, np.ndarray, bool] | None = None) -> tuple[float, int]:
-        # :meth:`_gaps` for one heading, on the points in the body's lane only (of ``near``)
+        # :meth:`_gaps` for one heading, on the points in the body's lane only (of ``near``):
+        # the compiled loop of :meth:`_straight_gap_numpy` (the same arithmetic, to the bit)
+        cr, ci = math.cos(s.theta), -math.sin(s.theta)
+        if near is None:
+            d, k = _lane_gap()(self.x, self.y, s.x, s.y, cr, ci, self.infl, self.real, True)
+            return d, k
+        dz = near[1]
+        d, k = _lane_gap()(dz.real, dz.imag, 0.0, 0.0, cr, ci, self.infl, self.real, near[2])
+        return (d, int(near[0][k])) if k >= 0 else (d, k)
+
+    def _straight_gap_numpy(self, s: Pose, near: tuple[np.ndarray, np.ndarray, bool] | None = None) -> tuple[float, int]:
+        # :meth:`_straight_gap` as array operations (the statement the tests hold the loop to)
         rot = complex(math.cos(s.theta), -math.sin(s.theta))
         if near is None:
             w = (self.z - complex(s.x, s.y)) * rot

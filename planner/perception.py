@@ -254,11 +254,11 @@ def perceive(
 
 @functools.cache
 def _compiled() -> Any:
-    """:func:`clomp.planner._surfaces.pieces_and_boxes`, imported at the first scan that needs
+    """:func:`clomp.planner._kernels.pieces_and_boxes`, imported at the first scan that needs
     it: numba's import (about half a second) is paid by a process that perceives, not by
     every import of the planner. Its first call in a process loads the cached machine code
     (about a second on a busy 2-core machine: numba's start-up, once per process)."""
-    from clomp.planner._surfaces import pieces_and_boxes
+    from clomp.planner._kernels import pieces_and_boxes
 
     return pieces_and_boxes
 

@@ -1,5 +1,5 @@
-"""Perception's compiled pieces and boxes (:mod:`clomp.planner._surfaces`) against its numpy
-statement (:func:`clomp.planner.perception._cut` and ``_boxes``): the same arrays, bit for bit."""
+"""The planner's compiled loops (:mod:`clomp.planner._kernels`) against their numpy statements
+(perception's ``_cut`` and ``_boxes``; ``Scene._straight_gap_numpy``): the same figures, bit for bit."""
 
 from __future__ import annotations
 
@@ -11,8 +11,10 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from clomp.formal.model import Pose
 from clomp.planner import footprint, load_scan, perception
-from clomp.planner._surfaces import pieces_and_boxes
+from clomp.planner.contact import Scene
+from clomp.planner._kernels import pieces_and_boxes
 from clomp.planner.robot_model import RobotModel
 
 SCANS = Path(__file__).resolve().parents[2].parent / "shared" / "data" / "scans"
@@ -75,3 +77,42 @@ def test_the_compiled_loop_refuses_a_pad_that_is_not_positive(pad):
     # with no pad an extent keeps the sign of a zero, which only perception's numpy path writes
     with pytest.raises(ValueError, match="pad must be positive"):
         pieces_and_boxes(np.zeros((1, 2)), np.zeros(1), 0.1, pad, 0.08, 0.0075)
+
+
+def _scene(points: np.ndarray) -> Scene | None:
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", perception.ScanWarning)
+        obs = perception.perceive(points, body=footprint.body_box(RobotModel()))
+    return Scene(obs, RobotModel()) if len(obs) else None
+
+
+def _assert_gaps_agree(scene: Scene, poses: list[Pose]) -> None:
+    for pose in poses:
+        for near in (None, scene.near(pose.x, pose.y)):
+            got, ref = scene._straight_gap(pose, near), scene._straight_gap_numpy(pose, near)
+            assert type(got[1]) is int and np.float64(got[0]).tobytes() == np.float64(ref[0]).tobytes() and got[1] == ref[1]
+
+
+@settings(max_examples=100, deadline=None)
+@given(st.lists(_surface, min_size=1, max_size=5), st.integers(0, 2**32 - 1),
+       st.lists(st.tuples(st.floats(-0.6, 0.6), st.floats(-0.6, 0.6), st.floats(-3.2, 3.2)), min_size=1, max_size=8))
+def test_the_compiled_straight_gap_is_numpys_to_the_bit(surfaces, seed, poses):
+    rng = np.random.default_rng(seed)
+    parts = []
+    for start, span, radius, bend, n, noise in surfaces:
+        a = start + np.linspace(0.0, span, n)
+        r = radius + bend * np.sin(3 * a) + rng.normal(0.0, noise + 1e-12, n)
+        parts.append(np.c_[r * np.cos(a), r * np.sin(a)])
+    scene = _scene(np.round(np.concatenate(parts), 2))
+    if scene is not None:
+        # the planning origin (points inside the inflated body at the start) and elsewhere
+        _assert_gaps_agree(scene, [Pose(0.0, 0.0, 0.0), *(Pose(x, y, t) for x, y, t in poses)])
+
+
+@pytest.mark.skipif(not SCANS.is_dir(), reason="the shared recorded scans are not here")
+def test_the_compiled_straight_gap_matches_on_the_shared_scans():
+    headings = np.linspace(-np.pi, np.pi, 9)
+    for f in sorted(SCANS.glob("*/*.dat"))[::11]:
+        scene = _scene(load_scan(f))
+        if scene is not None:
+            _assert_gaps_agree(scene, [Pose(x, y, t) for x in (0.0, 0.27) for y in (0.0, -0.1) for t in headings])

@@ -1,5 +1,6 @@
-"""Perception's pieces and boxes, compiled (numba): the second half of :func:`clomp.planner.perception.perceive`.
+"""The planner's compiled loops (numba): perception's pieces and boxes, and a straight's gap.
 
+:func:`pieces_and_boxes` is the second half of :func:`clomp.planner.perception.perceive`:
 :func:`clomp.planner.perception._cut` and :func:`clomp.planner.perception._boxes` state
 the rules with numpy (a surface breaks at a step longer than the cluster distance, is cut
 every ``_PIECE`` metres of path, a piece is halved while thick, each piece is covered by a
@@ -10,7 +11,9 @@ same way as numpy's own loops round them on this machine: numpy multiplies compl
 with a fused multiply-add (``re = fma(ar, br, -ai·bi)``, ``im = fma(ar, bi, ai·br)``),
 takes a complex modulus as ``larger · sqrt(fma(q, q, 1))`` with ``q = smaller / larger``,
 and divides a complex number by a real one as Smith's algorithm does (by the reciprocal).
-The tests hold both to each other bit for bit (``tests/planner/test_surfaces.py``).
+:func:`lane_gap` is :meth:`clomp.planner.contact.Scene.straight_gap`'s pass over the points
+(a dozen array calls per straight). The tests hold each to its numpy statement bit for bit
+(``tests/planner/test_kernels.py``).
 
 >>> wall = np.c_[np.full(5, 0.5), np.linspace(-0.02, 0.02, 5)]   # 1 cm apart: one piece
 >>> pts, bounds, boxes, centres, radii = pieces_and_boxes(wall, np.array([0.0, 0.01, 0.01, 0.01, 0.01]), 0.1, 0.002, 0.08, 0.0075)
@@ -27,7 +30,7 @@ import numpy as np
 from numba import njit, types
 from numba.extending import intrinsic
 
-__all__ = ["pieces_and_boxes"]
+__all__ = ["lane_gap", "pieces_and_boxes"]
 
 
 def _compiled(fn: Any) -> Any:
@@ -187,3 +190,37 @@ def pieces_and_boxes(
     out: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]
     out = _kernel(z, step, float(cluster_distance), float(pad), 1.0 / piece, float(thin))
     return out
+
+
+@_compiled
+def lane_gap(
+    zr: np.ndarray, zi: np.ndarray, x: float, y: float, cr: float, ci: float,
+    infl: tuple[float, float, float], real: tuple[float, float, float], body: bool,
+) -> tuple[float, int]:  # pragma: no cover - compiled
+    """How far the body at (``x``, ``y``) heading θ (``cr + i·ci`` = cos θ − i sin θ)
+    drives before it meets one of the points ``zr + i·zi``, and the first such point's
+    position; (inf, -1) when none. ``infl`` and ``real`` are the inflated and
+    the real body (rear, front, half width); with ``body`` a point inside the inflated
+    footprint at the start is held to the real body (the start-touching rule).
+
+    >>> lane_gap(np.array([0.5, 0.5]), np.array([0.3, 0.0]), 0.0, 0.0, 1.0, -0.0, (0.1, 0.2, 0.1), (0.1, 0.19, 0.09), True)
+    (0.3, 1)
+    """
+    rear, front, half = infl
+    _, rfront, rhalf = real
+    best, k = math.inf, -1
+    for j in range(zr.shape[0]):
+        dr, di = zr[j] - x, zi[j] - y
+        u = _fma(dr, cr, -(di * ci))  # (dz · rot), numpy's complex product
+        v = abs(_fma(dr, ci, di * cr))
+        if not v <= half:
+            continue
+        if u > front:
+            gap = u - front
+        elif body and u >= -rear and v < rhalf and u >= rfront:
+            gap = u - rfront
+        else:
+            continue
+        if gap < best:
+            best, k = gap, j
+    return (best, k) if k >= 0 else (math.inf, -1)
