@@ -120,6 +120,13 @@ class Scene:
         if hit is None:
             if need < math.inf and self.clear.get(key, -1.0) >= need:
                 return math.inf, -1
+            if need > self.local_gap:
+                # the local points could only answer a gap within local_gap, and a gap
+                # beyond it is needed too (the run to a goal dead ahead): one pass over
+                # all points answers both (every point whose gap is within local_gap is
+                # local, so the pass over them finds the same point)
+                hit = self.gaps[key] = self._straight_gap(s)
+                return hit
             d, j = self._straight_gap(s, self.near(s.x, s.y))
             if d <= self.local_gap:
                 hit = self.gaps[key] = (d, j)  # every point that could be nearer is local

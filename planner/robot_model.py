@@ -22,6 +22,12 @@ def _check_positive(owner: str, name: str, v: Any) -> None:
         raise ValueError(f"{owner}.{name} must be a positive finite number, got {v!r}")
 
 
+@functools.cache
+def _field_names(cls: type) -> tuple[str, ...]:
+    # a dataclass's field names, once per class (``fields`` costs more than the dict it names)
+    return tuple(f.name for f in fields(cls))
+
+
 @dataclass(frozen=True)
 class Body:
     """A differential-drive robot's body (SI units; the paper's robot by default).
@@ -146,4 +152,4 @@ class RobotModel(Body):
         >>> RobotModel().to_dict()["width"]
         0.18
         """
-        return {f.name: getattr(self, f.name) for f in fields(self)}
+        return {name: getattr(self, name) for name in _field_names(type(self))}
