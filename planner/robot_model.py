@@ -22,10 +22,15 @@ def _check_positive(owner: str, name: str, v: Any) -> None:
         raise ValueError(f"{owner}.{name} must be a positive finite number, got {v!r}")
 
 
-@functools.cache
-def _field_names(cls: type) -> tuple[str, ...]:
+_FIELD_NAMES: dict[type, tuple[str, ...]] = {}
+
+
+def _field_names(cls: type[Any]) -> tuple[str, ...]:
     # a dataclass's field names, once per class (``fields`` costs more than the dict it names)
-    return tuple(f.name for f in fields(cls))
+    names = _FIELD_NAMES.get(cls)
+    if names is None:
+        names = _FIELD_NAMES[cls] = tuple(f.name for f in fields(cls))
+    return names
 
 
 @dataclass(frozen=True)
