@@ -1,22 +1,25 @@
-"""The planner's compiled loops (numba): perception's pieces and boxes, and a straight's gap.
+"""The planner's compiled loops (numba): perception's surfaces, pieces and boxes, and a straight's gap.
 
-:func:`pieces_and_boxes` is the second half of :func:`clomp.planner.perception.perceive`:
-:func:`clomp.planner.perception._cut` and :func:`clomp.planner.perception._boxes` state
-the rules with numpy (a surface breaks at a step longer than the cluster distance, is cut
-every ``_PIECE`` metres of path, a piece is halved while thick, each piece is covered by a
-padded box along its chord). On a scan of a few hundred points they cost dozens of small
-array calls per halving round, 50–70 µs, most of a plan where nothing is ahead. This loop
-does the same with the same floating-point operations, in the same order, and rounded the
-same way as numpy's own loops round them on this machine: numpy multiplies complex numbers
-with a fused multiply-add (``re = fma(ar, br, -ai·bi)``, ``im = fma(ar, bi, ai·br)``),
-takes a complex modulus as ``larger · sqrt(fma(q, q, 1))`` with ``q = smaller / larger``,
-and divides a complex number by a real one as Smith's algorithm does (by the reciprocal).
+:func:`surfaces_and_boxes` is the second half of :func:`clomp.planner.perception.perceive`:
+:func:`clomp.planner.perception._along_surfaces`, ``_cut`` and ``_boxes`` state the rules
+with numpy (the kept points in bearing order, repeats dropped; a surface breaks at a step
+longer than the cluster distance, is cut every ``_PIECE`` metres of path, a piece is halved
+while thick, each piece is covered by a padded box along its chord). On a scan of a few
+hundred points they cost dozens of small array calls per halving round, 80–100 µs, most
+of a plan where nothing is ahead. These loops do the same with the same floating-point
+operations, in the same order, and rounded the same way as numpy's own loops round them
+on this machine: numpy multiplies complex numbers with a fused multiply-add
+(``re = fma(ar, br, -ai·bi)``, ``im = fma(ar, bi, ai·br)``), takes a complex modulus as
+``larger · sqrt(fma(q, q, 1))`` with ``q = smaller / larger``, and divides a complex number
+by a real one as Smith's algorithm does (by the reciprocal); the bearings are numpy's own
+``arctan2`` (its SIMD loop), computed between two compiled calls.
+
 :func:`lane_gap` is :meth:`clomp.planner.contact.Scene.straight_gap`'s pass over the points
 (a dozen array calls per straight). The tests hold each to its numpy statement bit for bit
 (``tests/planner/test_kernels.py``).
 
 >>> wall = np.c_[np.full(5, 0.5), np.linspace(-0.02, 0.02, 5)]   # 1 cm apart: one piece
->>> pts, bounds, boxes, centres, radii = pieces_and_boxes(wall, np.array([0.0, 0.01, 0.01, 0.01, 0.01]), 0.1, 0.002, 0.08, 0.0075)
+>>> pts, bounds, boxes, centres, radii = surfaces_and_boxes(wall, np.ones(5, dtype=bool), False, 0.1, 0.002, 0.08, 0.0075)
 >>> bounds.tolist(), [round(float(v), 3) for v in boxes[0, 0]], round(float(radii[0]), 4)
 ([0, 5], [0.502, -0.022], 0.0221)
 """
@@ -30,7 +33,7 @@ import numpy as np
 from numba import njit, types
 from numba.extending import intrinsic
 
-__all__ = ["lane_gap", "pieces_and_boxes"]
+__all__ = ["lane_gap", "surfaces_and_boxes"]
 
 
 def _compiled(fn: Any) -> Any:
@@ -144,10 +147,9 @@ def _halve(zr: np.ndarray, zi: np.ndarray, cut: np.ndarray, thin: float) -> None
 
 @_compiled
 def _kernel(
-    zf: np.ndarray, step: np.ndarray, cluster_distance: float, pad: float, per_piece: float, thin: float
+    zr: np.ndarray, zi: np.ndarray, step: np.ndarray, cluster_distance: float, pad: float, per_piece: float, thin: float
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:  # pragma: no cover
-    n = zf.shape[0]
-    zr, zi = zf[:, 0].copy(), zf[:, 1].copy()
+    n = zr.shape[0]
     cut = _cuts(zr, zi, step, cluster_distance, per_piece)
     _halve(zr, zi, cut, thin)
     bounds = np.flatnonzero(cut)
@@ -176,19 +178,74 @@ def _kernel(
     return pts, bounds, boxes, centres, radii
 
 
-def pieces_and_boxes(
-    z: np.ndarray, step: np.ndarray, cluster_distance: float, pad: float, piece: float, thin: float
+@_compiled
+def _select(zf: np.ndarray, bits: np.ndarray, keep: np.ndarray, dedupe: bool) -> tuple[np.ndarray, np.ndarray]:  # pragma: no cover
+    # perception._along_surfaces's first half: the kept points (with ``dedupe``, less each
+    # one bit-equal to the point before it in the scan), as contiguous x and y
+    n = zf.shape[0]
+    if dedupe:
+        for k in range(n - 1, 0, -1):
+            if bits[k, 0] == bits[k - 1, 0] and bits[k, 1] == bits[k - 1, 1]:
+                keep[k] = False
+    m = 0
+    for k in range(n):
+        m += keep[k]
+    zr, zi = np.empty(m), np.empty(m)
+    j = 0
+    for k in range(n):
+        if keep[k]:
+            zr[j], zi[j] = zf[k, 0], zf[k, 1]
+            j += 1
+    return zr, zi
+
+
+@_compiled
+def _swept(
+    zr: np.ndarray, zi: np.ndarray, bearing: np.ndarray, cluster_distance: float, pad: float, per_piece: float, thin: float
+) -> Any:  # pragma: no cover - compiled: the five arrays of surfaces_and_boxes
+    # perception._along_surfaces's second half (in bearing order, each point's step from
+    # the one before, repeats dropped), then the pieces and boxes
+    order = np.argsort(bearing, kind="mergesort")  # stable, as numpy's
+    n = order.shape[0]
+    sr, si = zr[order], zi[order]
+    step = np.empty(n)
+    step[0] = np.hypot(sr[0] - sr[n - 1], si[0] - si[n - 1])
+    for k in range(1, n):
+        step[k] = np.hypot(sr[k] - sr[k - 1], si[k] - si[k - 1])
+    if n > 1:
+        uniq = step > 1e-4
+        distinct = 0
+        for k in range(n):
+            distinct += uniq[k]
+        if distinct < n:
+            if not distinct:
+                uniq[0] = True
+            sr, si, step = sr[uniq], si[uniq], step[uniq]
+    return _kernel(sr, si, step, cluster_distance, pad, per_piece, thin)
+
+
+def surfaces_and_boxes(
+    points: np.ndarray, keep: np.ndarray, dedupe: bool, cluster_distance: float, pad: float, piece: float, thin: float
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """The surfaces' points ``z`` (N×2, in sweep order) and each one's ``step`` from the
-    one before (changed in place) as perception's pieces (cut every ``piece`` metres of
-    path, halved while more than ``thin`` across) and boxes padded by ``pad``: the points
-    turned to start at a break (N×2), where each piece starts (M + 1, the last N), the
-    boxes (M×4×2), centres (M×2) and circumradii (M). ``pad`` must be positive (the
-    numpy path keeps the sign of a zero extent for the rest)."""
+    """Perception's pieces and boxes of the ``keep`` of ``points`` (N×2; ``keep`` is changed
+    in place): the kept points in surface order, turned to start at a break (K×2); where
+    each piece starts (M + 1, the last K); the boxes (M×4×2), centres (M×2) and circumradii
+    (M). With ``dedupe`` a point bit-equal to the one before it in the scan is dropped
+    first. Pieces are cut every ``piece`` metres of path and halved while more than
+    ``thin`` across; boxes stand ``pad`` off their points (positive: perception's numpy
+    path keeps the sign of a zero extent for the rest).
+
+    >>> wall = np.array([[0.5, 0.02], [0.5, 0.01], [0.5, 0.0], [0.5, -0.01], [0.5, -0.02]])
+    >>> pts, bounds, *_ = surfaces_and_boxes(wall, np.ones(5, dtype=bool), False, 0.1, 0.002, 0.08, 0.0075)
+    >>> pts[:, 1].tolist(), bounds.tolist()   # in bearing order, one piece
+    ([-0.02, -0.01, 0.0, 0.01, 0.02], [0, 5])
+    """
     if not pad > 0:
-        raise ValueError(f"pieces_and_boxes: pad must be positive, got {pad!r}")
+        raise ValueError(f"surfaces_and_boxes: pad must be positive, got {pad!r}")
+    zf = np.ascontiguousarray(points, dtype=np.float64)
+    zr, zi = _select(zf, zf.view(np.int64), keep, bool(dedupe))
     out: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]
-    out = _kernel(z, step, float(cluster_distance), float(pad), 1.0 / piece, float(thin))
+    out = _swept(zr, zi, np.arctan2(zi, zr), float(cluster_distance), float(pad), 1.0 / piece, float(thin))
     return out
 
 

@@ -244,23 +244,24 @@ def perceive(
     if isinstance(kept, Obstacles):
         return kept
     pts, keep, exempt = kept
-    z, step = _along_surfaces(pts, keep)
-    if pad > 0:  # the compiled loop of _cut and _boxes (the same arithmetic, to the bit)
-        pts, bounds, boxes, centres, radii = _compiled()(z.view(np.float64).reshape(-1, 2), step, cluster_distance, pad, _PIECE, _THIN)
+    if pad > 0:  # the compiled loops of _along_surfaces, _cut and _boxes (the same arithmetic, to the bit)
+        dedupe = len(pts) > _DEDUPE_FROM
+        pts, bounds, boxes, centres, radii = _compiled()(pts, keep, dedupe, cluster_distance, pad, _PIECE, _THIN)
         return _built(boxes, centres, radii, pts, bounds, exempt)
+    z, step = _along_surfaces(pts, keep)
     z, cut = _cut(z, step, cluster_distance)
     return _boxes(z, cut, pad, exempt)
 
 
 @functools.cache
 def _compiled() -> Any:
-    """:func:`clomp.planner._kernels.pieces_and_boxes`, imported at the first scan that needs
+    """:func:`clomp.planner._kernels.surfaces_and_boxes`, imported at the first scan that needs
     it: numba's import (about half a second) is paid by a process that perceives, not by
     every import of the planner. Its first call in a process loads the cached machine code
     (about a second on a busy 2-core machine: numba's start-up, once per process)."""
-    from clomp.planner._kernels import pieces_and_boxes
+    from clomp.planner._kernels import surfaces_and_boxes
 
-    return pieces_and_boxes
+    return surfaces_and_boxes
 
 
 def _kept(

@@ -14,7 +14,7 @@ from hypothesis import strategies as st
 from clomp.formal.model import Pose
 from clomp.planner import footprint, load_scan, perception
 from clomp.planner.contact import Scene
-from clomp.planner._kernels import pieces_and_boxes
+from clomp.planner._kernels import surfaces_and_boxes
 from clomp.planner.robot_model import RobotModel
 
 SCANS = Path(__file__).resolve().parents[2].parent / "shared" / "data" / "scans"
@@ -29,9 +29,9 @@ def _both(points: np.ndarray, pad: float = 0.002, cluster: float = 0.1) -> tuple
     if not isinstance(kept, tuple):
         return None
     pts, keep, exempt = kept
+    got = surfaces_and_boxes(pts, keep.copy(), len(pts) > perception._DEDUPE_FROM, cluster, pad, perception._PIECE, perception._THIN)
     z, step = perception._along_surfaces(pts, keep)
-    ref = perception._boxes(*perception._cut(z.copy(), step.copy(), cluster), pad, exempt)
-    got = pieces_and_boxes(z.view(np.float64).reshape(-1, 2).copy(), step.copy(), cluster, pad, perception._PIECE, perception._THIN)
+    ref = perception._boxes(*perception._cut(z, step, cluster), pad, exempt)
     return [np.asarray(getattr(ref, f)) for f in FIELDS], list(got)
 
 
@@ -51,7 +51,7 @@ _surface = st.tuples(
 
 @settings(max_examples=150, deadline=None)
 @given(st.lists(_surface, min_size=1, max_size=6), st.integers(0, 2**32 - 1), st.sampled_from([0.002, 0.0005, 0.03]), st.booleans())
-def test_compiled_pieces_and_boxes_are_numpys_to_the_bit(surfaces, seed, pad, rounded):
+def test_compiled_surfaces_and_boxes_are_numpys_to_the_bit(surfaces, seed, pad, rounded):
     rng = np.random.default_rng(seed)
     parts = []
     for start, span, radius, bend, n, noise in surfaces:
@@ -65,7 +65,7 @@ def test_compiled_pieces_and_boxes_are_numpys_to_the_bit(surfaces, seed, pad, ro
 
 
 @pytest.mark.skipif(not SCANS.is_dir(), reason="the shared recorded scans are not here")
-def test_compiled_pieces_and_boxes_match_on_the_shared_scans():
+def test_compiled_surfaces_and_boxes_match_on_the_shared_scans():
     files = sorted(SCANS.glob("*/*.dat"))[::7]
     assert files
     for f in files:
@@ -76,7 +76,7 @@ def test_compiled_pieces_and_boxes_match_on_the_shared_scans():
 def test_the_compiled_loop_refuses_a_pad_that_is_not_positive(pad):
     # with no pad an extent keeps the sign of a zero, which only perception's numpy path writes
     with pytest.raises(ValueError, match="pad must be positive"):
-        pieces_and_boxes(np.zeros((1, 2)), np.zeros(1), 0.1, pad, 0.08, 0.0075)
+        surfaces_and_boxes(np.zeros((1, 2)), np.ones(1, dtype=bool), False, 0.1, pad, 0.08, 0.0075)
 
 
 def _scene(points: np.ndarray) -> Scene | None:
