@@ -22,17 +22,6 @@ def _check_positive(owner: str, name: str, v: Any) -> None:
         raise ValueError(f"{owner}.{name} must be a positive finite number, got {v!r}")
 
 
-_FIELD_NAMES: dict[type, tuple[str, ...]] = {}
-
-
-def _field_names(cls: type[Any]) -> tuple[str, ...]:
-    # a dataclass's field names, once per class (``fields`` costs more than the dict it names)
-    names = _FIELD_NAMES.get(cls)
-    if names is None:
-        names = _FIELD_NAMES[cls] = tuple(f.name for f in fields(cls))
-    return names
-
-
 @dataclass(frozen=True)
 class Body:
     """A differential-drive robot's body (SI units; the paper's robot by default).
@@ -157,4 +146,4 @@ class RobotModel(Body):
         >>> RobotModel().to_dict()["width"]
         0.18
         """
-        return {name: getattr(self, name) for name in _field_names(type(self))}
+        return {f.name: getattr(self, f.name) for f in fields(self)}
