@@ -33,7 +33,7 @@ import numpy as np
 from numba import njit, types
 from numba.extending import intrinsic
 
-__all__ = ["lane_gap", "surfaces_and_boxes"]
+__all__ = ["lane_gap", "near_boxes", "surfaces_and_boxes"]
 
 
 def _compiled(fn: Any) -> Any:
@@ -281,3 +281,18 @@ def lane_gap(
         if gap < best:
             best, k = gap, j
     return (best, k) if k >= 0 else (math.inf, -1)
+
+
+@_compiled
+def near_boxes(centres: np.ndarray, radii: np.ndarray, x: float, y: float, margin: float) -> list[int]:  # pragma: no cover
+    """The boxes (ascending) whose circumcircle, grown by ``margin``, holds (``x``, ``y``):
+    :meth:`clomp.planner.perception.Obstacles.contains_point`'s filter, in its arithmetic.
+
+    >>> near_boxes(np.array([[0.5, 0.0], [2.0, 0.0]]), np.array([0.1, 0.1]), 0.55, 0.0, 0.0)
+    [0]
+    """
+    out = []
+    for i in range(centres.shape[0]):
+        if np.hypot(centres[i, 0] - x, centres[i, 1] - y) <= radii[i] + margin + 1e-12:
+            out.append(i)
+    return out

@@ -173,8 +173,9 @@ class Obstacles:
         """The index of a box containing (x, y) (grown by ``margin``), or None."""
         if not len(self.boxes):
             return None
-        near = np.flatnonzero(np.hypot(self.centres[:, 0] - x, self.centres[:, 1] - y) <= self.radii + margin + 1e-12)
-        for i in near.tolist():
+        # the boxes whose circumcircle (grown by margin) holds the point: a compiled loop over
+        # the centres (the arithmetic of hypot(cx - x, cy - y) <= radii + margin + 1e-12)
+        for i in _near_boxes()(self.centres, self.radii, float(x), float(y), float(margin)):
             if _point_in_convex(self.boxes[i].tolist(), x, y, margin):  # as floats: the same arithmetic
                 return int(i)
         return None
@@ -251,6 +252,14 @@ def perceive(
     z, step = _along_surfaces(pts, keep)
     z, cut = _cut(z, step, cluster_distance)
     return _boxes(z, cut, pad, exempt)
+
+
+@functools.cache
+def _near_boxes() -> Any:
+    """:func:`clomp.planner._kernels.near_boxes`, imported at first use (as :func:`_compiled`)."""
+    from clomp.planner._kernels import near_boxes
+
+    return near_boxes
 
 
 @functools.cache

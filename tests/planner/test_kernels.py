@@ -14,7 +14,7 @@ from hypothesis import strategies as st
 from clomp.formal.model import Pose
 from clomp.planner import footprint, load_scan, perception
 from clomp.planner.contact import Scene
-from clomp.planner._kernels import surfaces_and_boxes
+from clomp.planner._kernels import near_boxes, surfaces_and_boxes
 from clomp.planner.robot_model import RobotModel
 
 SCANS = Path(__file__).resolve().parents[2].parent / "shared" / "data" / "scans"
@@ -116,3 +116,14 @@ def test_the_compiled_straight_gap_matches_on_the_shared_scans():
         scene = _scene(load_scan(f))
         if scene is not None:
             _assert_gaps_agree(scene, [Pose(x, y, t) for x in (0.0, 0.27) for y in (0.0, -0.1) for t in headings])
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.integers(0, 2**32 - 1), st.integers(1, 60), st.sampled_from([0.0, 0.01, 0.3]))
+def test_the_compiled_box_filter_is_numpys(seed, m, margin):
+    rng = np.random.default_rng(seed)
+    centres = np.round(rng.uniform(-1.0, 1.0, (m, 2)), 2)
+    radii = np.round(rng.uniform(0.0, 0.3, m), 2)
+    for x, y in [*np.round(rng.uniform(-1.2, 1.2, (5, 2)), 2).tolist(), *centres[:2].tolist(), (centres[0, 0] + radii[0], centres[0, 1])]:
+        ref = np.flatnonzero(np.hypot(centres[:, 0] - x, centres[:, 1] - y) <= radii + margin + 1e-12).tolist()
+        assert near_boxes(centres, radii, x, y, margin) == ref
