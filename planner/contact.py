@@ -48,7 +48,7 @@ class Scene:
     rollout of one planning run shares (built once per run, nothing per query)."""
 
     __slots__ = (
-        "obstacles", "robot", "x", "y", "z", "owner", "real", "infl", "radius2", "gaps", "clear", "reach", "spin",
+        "obstacles", "robot", "x", "y", "z", "real", "infl", "radius2", "gaps", "clear", "reach", "spin",
         "local", "local2", "local_gap", "turns", "turned",
     )
 
@@ -61,7 +61,6 @@ class Scene:
         self.z = np.ascontiguousarray(obstacles.points, dtype=np.float64).view(np.complex128).reshape(-1)
         self.x = self.z.real
         self.y = self.z.imag
-        self.owner = obstacles.owner
         c = robot.clearance
         self.real = body_box(robot)
         self.infl = body_box(robot, c)
@@ -85,6 +84,12 @@ class Scene:
         self.turns: dict[tuple[Any, ...], float] = {}
         # per pose, kind and angle: the outcome of a turn answered with another one
         self.turned: dict[tuple[Any, ...], Outcome] = {}
+
+    @property
+    def owner(self) -> np.ndarray:
+        """For every point, the index of the box that covers it (:attr:`Obstacles.owner`,
+        built when a task first meets a point: a plan where nothing is met never needs it)."""
+        return self.obstacles.owner
 
     def near(self, x: float, y: float) -> tuple[np.ndarray, np.ndarray, bool]:
         """The points within reach of a step and its turns from (x, y): their indices
