@@ -37,10 +37,11 @@ _TWO_PI = 2 * math.pi
 @functools.cache
 def _lane_gap() -> Any:
     """:func:`clomp.planner._kernels.lane_gap`, imported at the first straight among points
-    (numba's import is paid by a process that plans among obstacles, not by every import)."""
-    from clomp.planner._kernels import lane_gap
+    (numba's import is paid by a process that plans among obstacles, not by every import);
+    None where numpy rounds otherwise (``_kernels.ROUNDS_AS_NUMPY``: the numpy statement runs)."""
+    from clomp.planner import _kernels
 
-    return lane_gap
+    return _kernels.lane_gap if _kernels.ROUNDS_AS_NUMPY else None
 
 
 class Scene:
@@ -145,12 +146,15 @@ class Scene:
     def _straight_gap(self, s: Pose, near: tuple[np.ndarray, np.ndarray, bool] | None = None) -> tuple[float, int]:
         # :meth:`_gaps` for one heading, on the points in the body's lane only (of ``near``):
         # the compiled loop of :meth:`_straight_gap_numpy` (the same arithmetic, to the bit)
+        gap = _lane_gap()
+        if gap is None:
+            return self._straight_gap_numpy(s, near)
         cr, ci = math.cos(s.theta), -math.sin(s.theta)
         if near is None:
-            d, k = _lane_gap()(self.x, self.y, s.x, s.y, cr, ci, self.infl, self.real, True)
+            d, k = gap(self.x, self.y, s.x, s.y, cr, ci, self.infl, self.real, True)
             return d, k
         dz = near[1]
-        d, k = _lane_gap()(dz.real, dz.imag, 0.0, 0.0, cr, ci, self.infl, self.real, near[2])
+        d, k = gap(dz.real, dz.imag, 0.0, 0.0, cr, ci, self.infl, self.real, near[2])
         return (d, int(near[0][k])) if k >= 0 else (d, k)
 
     def _straight_gap_numpy(self, s: Pose, near: tuple[np.ndarray, np.ndarray, bool] | None = None) -> tuple[float, int]:

@@ -245,9 +245,9 @@ def perceive(
     if isinstance(kept, Obstacles):
         return kept
     pts, keep, exempt = kept
-    if pad > 0:  # the compiled loops of _along_surfaces, _cut and _boxes (the same arithmetic, to the bit)
-        dedupe = len(pts) > _DEDUPE_FROM
-        pts, bounds, boxes, centres, radii = _compiled()(pts, keep, dedupe, cluster_distance, pad, _PIECE, _THIN)
+    compiled = _compiled() if pad > 0 else None
+    if compiled is not None:  # the compiled loops of _along_surfaces, _cut and _boxes (the same arithmetic, to the bit)
+        pts, bounds, boxes, centres, radii = compiled(pts, keep, len(pts) > _DEDUPE_FROM, cluster_distance, pad, _PIECE, _THIN)
         return _built(boxes, centres, radii, pts, bounds, exempt)
     z, step = _along_surfaces(pts, keep)
     z, cut = _cut(z, step, cluster_distance)
@@ -267,10 +267,12 @@ def _compiled() -> Any:
     """:func:`clomp.planner._kernels.surfaces_and_boxes`, imported at the first scan that needs
     it: numba's import (about half a second) is paid by a process that perceives, not by
     every import of the planner. Its first call in a process loads the cached machine code
-    (about a second on a busy 2-core machine: numba's start-up, once per process)."""
-    from clomp.planner._kernels import surfaces_and_boxes
+    (about a second on a busy 2-core machine: numba's start-up, once per process). None
+    where numpy rounds otherwise than the compiled loops (``_kernels.ROUNDS_AS_NUMPY``):
+    the numpy statements then run."""
+    from clomp.planner import _kernels
 
-    return surfaces_and_boxes
+    return _kernels.surfaces_and_boxes if _kernels.ROUNDS_AS_NUMPY else None
 
 
 def _kept(
