@@ -140,8 +140,11 @@ def test_where_numpy_rounds_otherwise_the_numpy_statements_run(monkeypatch):
     wall = np.c_[np.full(41, 0.5), np.linspace(-0.2, 0.2, 41)]
     compiled = perception.perceive(wall)
     monkeypatch.setattr(_kernels, "ROUNDS_AS_NUMPY", False)
-    monkeypatch.setattr(_kernels, "surfaces_and_boxes", None)  # called: a TypeError
-    monkeypatch.setattr(_kernels, "lane_gap", None)
+    def not_called(*args: object) -> None:
+        raise AssertionError("a compiled loop ran where numpy rounds otherwise")
+
+    monkeypatch.setattr(_kernels, "surfaces_and_boxes", not_called)
+    monkeypatch.setattr(_kernels, "lane_gap", not_called)
     for cached in (perception._compiled, contact._lane_gap):
         cached.cache_clear()
     try:
