@@ -52,17 +52,22 @@ _surface = st.tuples(
 )
 
 
-@same_rounding
-@settings(max_examples=150, deadline=None)
-@given(st.lists(_surface, min_size=1, max_size=6), st.integers(0, 2**32 - 1), st.sampled_from([0.002, 0.0005, 0.03]), st.booleans())
-def test_compiled_surfaces_and_boxes_are_numpys_to_the_bit(surfaces, seed, pad, rounded):
+def _scan(surfaces: list[tuple[float, float, float, float, int, float]], seed: int) -> np.ndarray:
+    """The points of generated surfaces (arcs bent by a sine, with noise), in their order."""
     rng = np.random.default_rng(seed)
     parts = []
     for start, span, radius, bend, n, noise in surfaces:
         a = start + np.linspace(0.0, span, n)
         r = radius + bend * np.sin(3 * a) + rng.normal(0.0, noise + 1e-12, n)
         parts.append(np.c_[r * np.cos(a), r * np.sin(a)])
-    pts = np.concatenate(parts)
+    return np.concatenate(parts)
+
+
+@same_rounding
+@settings(max_examples=150, deadline=None)
+@given(st.lists(_surface, min_size=1, max_size=6), st.integers(0, 2**32 - 1), st.sampled_from([0.002, 0.0005, 0.03]), st.booleans())
+def test_compiled_surfaces_and_boxes_are_numpys_to_the_bit(surfaces, seed, pad, rounded):
+    pts = _scan(surfaces, seed)
     if rounded:  # as the recorded scans: centimetres, with repeats
         pts = np.round(pts, 2)
     _assert_bitwise(_both(pts, pad=pad))
@@ -103,13 +108,7 @@ def _assert_gaps_agree(scene: Scene, poses: list[Pose]) -> None:
 @given(st.lists(_surface, min_size=1, max_size=5), st.integers(0, 2**32 - 1),
        st.lists(st.tuples(st.floats(-0.6, 0.6), st.floats(-0.6, 0.6), st.floats(-3.2, 3.2)), min_size=1, max_size=8))
 def test_the_compiled_straight_gap_is_numpys_to_the_bit(surfaces, seed, poses):
-    rng = np.random.default_rng(seed)
-    parts = []
-    for start, span, radius, bend, n, noise in surfaces:
-        a = start + np.linspace(0.0, span, n)
-        r = radius + bend * np.sin(3 * a) + rng.normal(0.0, noise + 1e-12, n)
-        parts.append(np.c_[r * np.cos(a), r * np.sin(a)])
-    scene = _scene(np.round(np.concatenate(parts), 2))
+    scene = _scene(np.round(_scan(surfaces, seed), 2))
     if scene is not None:
         # the planning origin (points inside the inflated body at the start) and elsewhere
         _assert_gaps_agree(scene, [Pose(0.0, 0.0, 0.0), *(Pose(x, y, t) for x, y, t in poses)])
