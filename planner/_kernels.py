@@ -143,8 +143,10 @@ def _cuts(zr: np.ndarray, zi: np.ndarray, step: np.ndarray, cluster_distance: fl
 
 
 @_compiled
-def _halve(zr: np.ndarray, zi: np.ndarray, cut: np.ndarray, thin: float) -> None:  # pragma: no cover
-    # perception._boxes's rounds: every piece thicker than ``thin`` across its chord halved, until none is
+def _halve(zr: np.ndarray, zi: np.ndarray, cut: np.ndarray, thin: float, rec: np.ndarray) -> None:  # pragma: no cover
+    # perception._boxes's rounds: every piece thicker than ``thin`` across its chord halved,
+    # until none is; each final piece's chord and extents into ``rec`` at its first point
+    # (a final piece is one found thin: the same figures the boxes would compute again)
     n = zr.shape[0]
     stack = np.empty(2 * n + 2, dtype=np.int64)
     top = 0
@@ -158,12 +160,15 @@ def _halve(zr: np.ndarray, zi: np.ndarray, cut: np.ndarray, thin: float) -> None
         top -= 2
         s, e = stack[top], stack[top + 1]
         ar, ai, er, ei = _chord(zr, zi, s, e)
-        _, t0, _, t1 = _extents(zr, zi, s, e, ar, ai, er, ei)
+        u0, t0, u1, t1 = _extents(zr, zi, s, e, ar, ai, er, ei)
         if t1 - t0 > thin:
             mid = (s + e) >> 1
             cut[mid] = True
             stack[top], stack[top + 1], stack[top + 2], stack[top + 3] = s, mid, mid, e
             top += 4
+        else:
+            rec[s, 0], rec[s, 1], rec[s, 2], rec[s, 3] = ar, ai, er, ei
+            rec[s, 4], rec[s, 5], rec[s, 6], rec[s, 7] = u0, t0, u1, t1
 
 
 @_compiled
@@ -172,7 +177,8 @@ def _kernel(
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:  # pragma: no cover
     n = zr.shape[0]
     cut = _cuts(zr, zi, step, cluster_distance, per_piece)
-    _halve(zr, zi, cut, thin)
+    rec = np.empty((n, 8))
+    _halve(zr, zi, cut, thin, rec)
     bounds = np.flatnonzero(cut)
     m = bounds.shape[0] - 1
     boxes = np.empty((m, 4, 2))
@@ -180,9 +186,7 @@ def _kernel(
     radii = np.empty(m)
     local = np.empty((4, 2))
     for j in range(m):
-        s, e = bounds[j], bounds[j + 1]
-        ar, ai, er, ei = _chord(zr, zi, s, e)
-        u0, t0, u1, t1 = _extents(zr, zi, s, e, ar, ai, er, ei)
+        ar, ai, er, ei, u0, t0, u1, t1 = rec[bounds[j]]
         u0, t0, u1, t1 = u0 + -pad, t0 + -pad, u1 + pad, t1 + pad
         local[0, 0], local[0, 1], local[1, 0], local[1, 1] = u0, t0, u1, t0
         local[2, 0], local[2, 1], local[3, 0], local[3, 1] = u1, t1, u0, t1
