@@ -6,9 +6,11 @@ takes the transition). The map holds the goal D_G it was built for and exactly o
 initial state q0. Iteration is always in a stable order (states by ident, transitions
 by (source, target, label)), so that the same map renders to the same bytes.
 
-Graph questions (what is reachable, from where a set of states can be reached, a
-shortest path) are answered by networkx on the map's one graph view,
-:meth:`CognitiveMap.to_networkx`, which the map builds once and keeps until it changes.
+Graph questions (from where a set of states can be reached, and any other a caller
+asks) are answered by networkx on the map's one graph view, :meth:`CognitiveMap.to_networkx`,
+which the map builds once and keeps until it changes; the two every plan asks (what is
+reachable, a shortest path) by a breadth-first search over the map's own adjacency, with
+the same answers (building the view cost more than the rest of a small plan's extraction).
 """
 
 from __future__ import annotations
@@ -16,6 +18,7 @@ from __future__ import annotations
 import json
 import operator
 import os
+from collections import deque
 from collections.abc import Iterable, Iterator
 from dataclasses import dataclass, fields
 from fractions import Fraction
@@ -260,10 +263,27 @@ class CognitiveMap:
         return False
 
     def reachable(self, source: int | None = None) -> set[int]:
-        """Idents reachable from ``source`` (default q0), itself included."""
+        """Idents reachable from ``source`` (default q0), itself included.
+
+        >>> from clomp.formal.model import Pose
+        >>> m = CognitiveMap()
+        >>> for i in range(4):
+        ...     _ = m.add_state(State(i, TaskKind.STRAIGHT, None, None, Pose(0, 0), Pose(i, 0)))
+        >>> _ = m.add_transition(0, 1); _ = m.add_transition(1, 2); _ = m.add_transition(3, 0)
+        >>> sorted(m.reachable()), sorted(m.reachable(3))
+        ([0, 1, 2], [0, 1, 2, 3])
+        """
         start = self.initial.ident if source is None else self[source].ident
-        out: set[int] = nx.descendants(self.to_networkx(), start)
-        out.add(start)
+        # a search over the map's own adjacency: the planner asks this of every map it
+        # builds, and the networkx view cost more than the rest of a small plan's extraction
+        out = {start}
+        todo = [start]
+        adjacency = self._out
+        while todo:
+            for target, _ in adjacency[todo.pop()]:
+                if target not in out:
+                    out.add(target)
+                    todo.append(target)
         return out
 
     def coreachable(self, targets: Iterable[int]) -> set[int]:
@@ -293,12 +313,23 @@ class CognitiveMap:
         """
         start = self.initial.ident if source is None else self[source].ident
         self[target]
-        parent: dict[int, int] = {}
+        parent: dict[int, int] = {start: start}
         if target != start:
-            for u, v in nx.bfs_edges(self.to_networkx(), start, sort_neighbors=sorted):
-                parent[v] = u
-                if v == target:
-                    break
+            # breadth first over the map's own adjacency, each state's successors in
+            # ascending order (as networkx's bfs_edges with sort_neighbors=sorted visits them)
+            adjacency = self._out
+            queue = deque([start])
+            while queue:
+                u = queue.popleft()
+                for v in sorted({k[0] for k in adjacency[u]}):
+                    if v not in parent:
+                        parent[v] = u
+                        if v == target:
+                            break
+                        queue.append(v)
+                else:
+                    continue
+                break
             else:
                 raise MapError(f"q{target} is not reachable from q{start}")
         out = [target]

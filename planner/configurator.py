@@ -405,8 +405,8 @@ class _Search:
         self.horizon = max(conf.horizon, abs(g.x) + robot.length, abs(g.y) + robot.length)
         self.cmap = CognitiveMap(goal=g)
         self.reset = Reset(self.cmap)  # R, the one reset of formal
-        q0 = State(0, TaskKind.STRAIGHT, g, None, origin, origin)
-        q0 = State(0, TaskKind.STRAIGHT, g, None, origin, origin, cost=cost(q0, ctx))
+        q0 = new_state(0, _STRAIGHT, g, None, origin, origin, 0.0, 0.0, 0.0, False, ())
+        q0 = new_state(0, _STRAIGHT, g, None, origin, origin, 0.0, 0.0, cost(q0, ctx), False, ())
         self.cmap.add_state(q0)
         self.index: dict[tuple[TaskKind, int, int, int], int] = {}
         self.frontier_ids: set[int] = set()

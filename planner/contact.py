@@ -12,6 +12,7 @@ points would give, to the bit.
 
 from __future__ import annotations
 
+import functools
 import math
 from typing import Any
 
@@ -33,12 +34,22 @@ _EPS = 1e-9
 _TWO_PI = 2 * math.pi
 
 
+@functools.cache
+def _lane_gap() -> Any:
+    """:func:`clomp.planner._kernels.lane_gap`, imported at the first straight among points
+    (numba's import is paid by a process that plans among obstacles, not by every import);
+    None where numpy rounds otherwise (``_kernels.ROUNDS_AS_NUMPY``: the numpy statement runs)."""
+    from clomp.planner import _kernels
+
+    return _kernels.lane_gap if _kernels.ROUNDS_AS_NUMPY else None
+
+
 class Scene:
     """The run's sensed points as flat arrays, and the body's extents: what every
     rollout of one planning run shares (built once per run, nothing per query)."""
 
     __slots__ = (
-        "obstacles", "robot", "x", "y", "z", "owner", "real", "infl", "radius2", "gaps", "clear", "reach", "spin",
+        "obstacles", "robot", "x", "y", "z", "real", "infl", "radius2", "gaps", "clear", "reach", "spin",
         "local", "local2", "local_gap", "turns", "turned",
     )
 
@@ -51,7 +62,6 @@ class Scene:
         self.z = np.ascontiguousarray(obstacles.points, dtype=np.float64).view(np.complex128).reshape(-1)
         self.x = self.z.real
         self.y = self.z.imag
-        self.owner = obstacles.owner
         c = robot.clearance
         self.real = body_box(robot)
         self.infl = body_box(robot, c)
@@ -75,6 +85,12 @@ class Scene:
         self.turns: dict[tuple[Any, ...], float] = {}
         # per pose, kind and angle: the outcome of a turn answered with another one
         self.turned: dict[tuple[Any, ...], Outcome] = {}
+
+    @property
+    def owner(self) -> np.ndarray:
+        """For every point, the index of the box that covers it (:attr:`Obstacles.owner`,
+        built when a task first meets a point: a plan where nothing is met never needs it)."""
+        return self.obstacles.owner
 
     def near(self, x: float, y: float) -> tuple[np.ndarray, np.ndarray, bool]:
         """The points within reach of a step and its turns from (x, y): their indices
@@ -110,6 +126,13 @@ class Scene:
         if hit is None:
             if need < math.inf and self.clear.get(key, -1.0) >= need:
                 return math.inf, -1
+            if need > self.local_gap:
+                # the local points could only answer a gap within local_gap, and a gap
+                # beyond it is needed too (the run to a goal dead ahead): one pass over
+                # all points answers both (every point whose gap is within local_gap is
+                # local, so the pass over them finds the same point)
+                hit = self.gaps[key] = self._straight_gap(s)
+                return hit
             d, j = self._straight_gap(s, self.near(s.x, s.y))
             if d <= self.local_gap:
                 hit = self.gaps[key] = (d, j)  # every point that could be nearer is local
@@ -121,7 +144,21 @@ class Scene:
         return hit
 
     def _straight_gap(self, s: Pose, near: tuple[np.ndarray, np.ndarray, bool] | None = None) -> tuple[float, int]:
-        # :meth:`_gaps` for one heading, on the points in the body's lane only (of ``near``)
+        # :meth:`_gaps` for one heading, on the points in the body's lane only (of ``near``):
+        # the compiled loop of :meth:`_straight_gap_numpy` (the same arithmetic, to the bit)
+        gap = _lane_gap()
+        if gap is None:
+            return self._straight_gap_numpy(s, near)
+        cr, ci = math.cos(s.theta), -math.sin(s.theta)
+        if near is None:
+            d, k = gap(self.x, self.y, s.x, s.y, cr, ci, self.infl, self.real, True)
+            return d, k
+        dz = near[1]
+        d, k = gap(dz.real, dz.imag, 0.0, 0.0, cr, ci, self.infl, self.real, near[2])
+        return (d, int(near[0][k])) if k >= 0 else (d, k)
+
+    def _straight_gap_numpy(self, s: Pose, near: tuple[np.ndarray, np.ndarray, bool] | None = None) -> tuple[float, int]:
+        # :meth:`_straight_gap` as array operations (the statement the tests hold the loop to)
         rot = complex(math.cos(s.theta), -math.sin(s.theta))
         if near is None:
             w = (self.z - complex(s.x, s.y)) * rot

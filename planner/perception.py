@@ -169,8 +169,9 @@ class Obstacles:
         """The index of a box containing (x, y) (grown by ``margin``), or None."""
         if not len(self.boxes):
             return None
-        near = np.flatnonzero(np.hypot(self.centres[:, 0] - x, self.centres[:, 1] - y) <= self.radii + margin + 1e-12)
-        for i in near.tolist():
+        # the boxes whose circumcircle (grown by margin) holds the point: a compiled loop over
+        # the centres (the arithmetic of hypot(cx - x, cy - y) <= radii + margin + 1e-12)
+        for i in _near_boxes()(self.centres, self.radii, float(x), float(y), float(margin)):
             if _point_in_convex(self.boxes[i].tolist(), x, y, margin):  # as floats: the same arithmetic
                 return int(i)
         return None
@@ -241,9 +242,34 @@ def perceive(
     if isinstance(kept, Obstacles):
         return kept
     pts, keep, exempt = kept
+    compiled = _compiled() if pad > 0 else None
+    if compiled is not None:  # the compiled loops of _along_surfaces, _cut and _boxes (the same arithmetic, to the bit)
+        pts, bounds, boxes, centres, radii = compiled(pts, keep, len(pts) > _DEDUPE_FROM, cluster_distance, pad, _PIECE, _THIN)
+        return _built(boxes, centres, radii, pts, bounds, exempt)
     z, step = _along_surfaces(pts, keep)
     z, cut = _cut(z, step, cluster_distance)
     return _boxes(z, cut, pad, exempt)
+
+
+@functools.cache
+def _near_boxes() -> Any:
+    """:func:`clomp.planner._kernels.near_boxes`, imported at first use (as :func:`_compiled`)."""
+    from clomp.planner._kernels import near_boxes
+
+    return near_boxes
+
+
+@functools.cache
+def _compiled() -> Any:
+    """:func:`clomp.planner._kernels.surfaces_and_boxes`, imported at the first scan that needs
+    it: numba's import (about half a second) is paid by a process that perceives, not by
+    every import of the planner. Its first call in a process loads the cached machine code
+    (about a second on a busy 2-core machine: numba's start-up, once per process). None
+    where numpy rounds otherwise than the compiled loops (``_kernels.ROUNDS_AS_NUMPY``):
+    the numpy statements then run."""
+    from clomp.planner import _kernels
+
+    return _kernels.surfaces_and_boxes if _kernels.ROUNDS_AS_NUMPY else None
 
 
 def _kept(

@@ -1,4 +1,4 @@
-"""The graph questions networkx answers for the formal layer — reachable, co-reachable
+"""The graph questions of the formal layer — reachable, co-reachable
 (non-blocking), shortest path — against tiny references computed here by fixpoint, on
 hand-made maps, on generated maps with extra transitions (cycles, shared successors), and
 on the supervisor's closed loop with mutated transitions."""
