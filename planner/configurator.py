@@ -52,6 +52,7 @@ from clomp.planner import footprint
 from clomp.planner.perception import Obstacles, load_scan, perceive
 from clomp.planner.rollout import Outcome, simulate
 from clomp.planner.robot_model import RobotModel
+from clomp.planner.visibility import KnownFree
 
 __all__ = [
     "CostContext",
@@ -396,7 +397,10 @@ class _Search:
         self.priced = next((f for f in _ROLLOUT_COSTS if f is cost), None)
         self.obstacles, self.robot, self.goal = obstacles, robot, g
         self.routes, self.max_states = conf.routes, conf.max_states
-        self.goal_seen = ctx.start_distance <= robot.sensor_range  # inside the sensed disc: a way to it may lie inside too
+        # what the rays crossed (:mod:`clomp.planner.visibility`): a task whose body leaves it is a frontier end
+        self.known = KnownFree.from_points(obstacles.points, robot.sensor_range, robot=robot)
+        # inside the sensed disc and not in a shadow: a way to it may lie inside too
+        self.goal_seen = ctx.start_distance <= robot.sensor_range and self.known.contains(g.x, g.y)
         self.horizon = max(conf.horizon, abs(g.x) + robot.length, abs(g.y) + robot.length)
         self.cmap = CognitiveMap(goal=g)
         self.reset = Reset(self.cmap)  # R, the one reset of formal
@@ -483,6 +487,11 @@ class _Search:
             return cmap[known], False
         d_i = self.reset.after(parent)  # R(q1, q2) = D_G, undefined (raises) when q1 was interrupted
         out = simulate(kind, p, d_i, self.obstacles, self.robot, self.worlds)
+        if out.d_n is None and (out.reached_goal or not out.frontier) and not self.known.clear(out, self.robot):
+            # the body would pass through space no ray crossed (a shadow): like the rim of
+            # the disc, a STRAIGHT ends the way there (a frontier end, never a goal), a
+            # turn is not available
+            out = Outcome(out.task, out.start, out.end, out.distance, out.duration, out.ticks, None, False, True)
         if out.frontier and kind is not _STRAIGHT:
             self.index[k] = -1
             return None, False
