@@ -43,6 +43,7 @@ at once (no array operation).
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
@@ -65,14 +66,32 @@ _TOL = 0.001
 # the per-degree table of nearest free ranges (quick acceptance)
 _BINS = 360
 _BIN = 2 * math.pi / _BINS
-# a turn's corner arcs as circumscribed polylines, at most this much a segment (rad)
-_ARC_STEP = 0.1
+# a turn's corner arcs as circumscribed polylines, at most this much a segment (rad): the
+# polyline stands at most r (1 / cos(0.1) - 1), 1 mm at the rear corners, off the arc
+_ARC_STEP = 0.2
+
+
+def _next(a: np.ndarray) -> np.ndarray:
+    """Each element's successor round the circle (the last one's: the first)."""
+    return np.concatenate((a[1:], a[:1]))
+
+
+def _prev(a: np.ndarray) -> np.ndarray:
+    """Each element's predecessor round the circle (the first one's: the last)."""
+    return np.concatenate((a[-1:], a[:-1]))
+
+
+@functools.lru_cache(maxsize=8)
+def _corners_polar(robot: RobotModel) -> tuple[np.ndarray, np.ndarray]:
+    """The body's corners as distances and angles from the rotation centre."""
+    corners = np.array(robot.corners)
+    return np.hypot(corners[:, 0], corners[:, 1]), np.arctan2(corners[:, 1], corners[:, 0])
 
 
 class KnownFree:
     """One scan's known-free space (see the module docstring): its returns by bearing,
     per gap between adjacent returns whether it is a surface (bounded by the chord) or
-    open, and each chord's line.
+    open, each chord's line, and per return how far along its own ray space is known.
 
     >>> KnownFree.from_points(np.zeros((0, 2)), 1.1).contains(1.0, 0.0)
     True
@@ -80,43 +99,78 @@ class KnownFree:
     False
     """
 
-    __slots__ = ("horizon", "nothing_beyond", "body", "b", "b2", "r", "bounded", "nx", "ny", "c", "lb", "m")
+    __slots__ = (
+        "horizon", "nothing_beyond", "body", "m", "b", "r", "bounded", "nx", "ny", "c", "lim", "near",
+        "_near2", "_sb2", "_sl", "_sc", "_ss",
+    )
 
     def __init__(
         self, points: np.ndarray, horizon: float, *, nothing_beyond: bool = True,
         body: tuple[float, float, float] = (0.18, 0.09, 0.09), beam_gap: float = BEAM_GAP, surface: float = SURFACE,
     ) -> None:
         pts = np.asarray(points, dtype=np.float64).reshape(-1, 2)
-        self.horizon = float(horizon)
+        h = self.horizon = float(horizon)
         self.nothing_beyond = bool(nothing_beyond)
         self.body = body
         x, y = pts[:, 0], pts[:, 1]
         r = np.hypot(x, y)
-        keep = (r > 1e-6) & (r <= horizon)
-        b = np.arctan2(y[keep], x[keep])
-        order = b.argsort(kind="stable")
-        b, x, y, r = b[order], x[keep][order], y[keep][order], r[keep][order]
+        keep = (r > 1e-6) & (r <= h)
+        if not keep.all():
+            x, y, r = x[keep], y[keep], r[keep]
+        b = np.arctan2(y, x)
         m = self.m = len(b)
+        if m > 1:
+            # perception keeps its points by bearing, turned to start at a break: turned back
+            # when so (one cut), else sorted
+            down = (b[1:] < b[:-1]).nonzero()[0]
+            if len(down) == 1 and b[-1] <= b[0]:
+                k = int(down[0]) + 1
+                b, x, y, r = (np.concatenate((a[k:], a[:k])) for a in (b, x, y, r))
+            elif len(down):
+                order = b.argsort(kind="stable")
+                b, x, y, r = b.take(order), x.take(order), y.take(order), r.take(order)
         self.b, self.r = b, r
-        self.b2 = np.concatenate((b, b + 2 * math.pi))
         # gap k: from return k to return k + 1 (the last to the first, round the circle)
-        nxt = np.roll(np.arange(m), -1)
-        gap = np.empty(m)
+        gap, dx, dy = _next(b) - b, _next(x) - x, _next(y) - y
         if m:
-            gap[:-1] = b[1:] - b[:-1]
-            gap[-1] = b[0] + 2 * math.pi - b[-1]
-        dx, dy = x[nxt] - x, y[nxt] - y
+            gap[-1] += 2 * math.pi
         chord = np.hypot(dx, dy)
-        self.bounded = (gap < math.pi / 2) & ((gap <= beam_gap) | (chord <= surface))
+        bounded = self.bounded = (gap < math.pi / 2) & ((gap <= beam_gap) | (chord <= surface))
         # each chord's line n·p = c with n a unit normal pointing away from the sensor
         # (a chord of no length: the radial line through its return)
-        with np.errstate(invalid="ignore", divide="ignore"):
-            nx = np.where(chord > 1e-12, dy / chord, x / r)
-            ny = np.where(chord > 1e-12, -dx / chord, y / r)
+        short = chord <= 1e-12
+        if short.any():
+            chord = np.where(short, 1.0, chord)
+            dx, dy = np.where(short, -y / r, dx), np.where(short, x / r, dy)
+        nx, ny = dy / chord, -dx / chord
         c = nx * x + ny * y
         flip = c < 0
-        self.nx, self.ny, self.c = np.where(flip, -nx, nx), np.where(flip, -ny, ny), np.abs(c)
-        self.lb = self._table(x, y, dx, dy, chord, r)
+        if flip.any():
+            nx, ny, c = np.where(flip, -nx, nx), np.where(flip, -ny, ny), np.abs(c)
+        self.nx, self.ny, self.c = nx, ny, c
+        # how far along each return's own ray space is known: to the return where a
+        # surface lies on either side, else to the horizon (or, for a bare point list,
+        # only within the body at the origin)
+        open_lim: float | np.ndarray = h if self.nothing_beyond else self._body_range(x / r, y / r)
+        side = np.where(bounded, r + _TOL, open_lim)
+        lim = np.minimum(side, _prev(side))
+        if not self.nothing_beyond:
+            lim = np.maximum(lim, open_lim)
+        self.lim = lim
+        # per return, a range within which everything in the sectors beside it is known free
+        with np.errstate(invalid="ignore", divide="ignore"):
+            tau = -(x * dx + y * dy) / (chord * chord)
+        open_near = h if self.nothing_beyond else min(body)
+        sector = np.where(bounded, np.where((tau > 0) & (tau < 1), c, np.minimum(r, _next(r))), open_near)
+        near = self.near = np.minimum(np.minimum(lim, open_near), np.minimum(sector, _prev(sector)))
+        self._near2 = np.concatenate((near, near))
+        # the returns whose own ray is known short of the horizon, doubled round the circle
+        shadow = (lim < h).nonzero()[0]
+        sb, sr = b.take(shadow), r.take(shadow)
+        self._sb2 = np.concatenate((sb, sb + 2 * math.pi))
+        self._sl = np.concatenate((lim.take(shadow),) * 2)
+        self._sc = np.concatenate((x.take(shadow) / sr,) * 2)
+        self._ss = np.concatenate((y.take(shadow) / sr,) * 2)
 
     @classmethod
     def from_points(
@@ -130,112 +184,89 @@ class KnownFree:
         box = (rob.rear_offset, rob.front_offset, rob.width / 2)
         return cls(points, horizon, nothing_beyond=nothing_beyond, body=box, beam_gap=beam_gap, surface=surface)
 
-    def _table(self, x: np.ndarray, y: np.ndarray, dx: np.ndarray, dy: np.ndarray, chord: np.ndarray, r: np.ndarray) -> list[float]:
-        """Per degree of bearing, a range within which everything is known free."""
-        open_range = self.horizon if self.nothing_beyond else 0.0
-        m = self.m
-        if not m:
-            val_ext = np.array([open_range])
-            s_ext = np.zeros(_BINS + 1, dtype=np.intp)
-        else:
-            # the sector's nearest point: the chord's (a surface), else the horizon or nothing
-            with np.errstate(invalid="ignore", divide="ignore"):
-                tau = np.where(chord > 1e-12, -(x * dx + y * dy) / (chord * chord), 0.0)
-            near = np.where((tau > 0) & (tau < 1), self.c, np.minimum(r, np.roll(r, -1)))
-            val = np.where(self.bounded, near, open_range)
-            val_ext = np.concatenate((val[-1:], val))  # index 0: the sector round the bearing ±π
-            edges = -math.pi + _BIN * np.arange(_BINS + 1)
-            s_ext = np.searchsorted(self.b, edges, side="right")
-        red = np.minimum.reduceat(val_ext, s_ext)[:_BINS]
-        lb = np.minimum(red, val_ext[s_ext[1:]])
+    def _body_range(self, cb: np.ndarray, sb: np.ndarray) -> np.ndarray:
+        """How far the body at the origin reaches along each bearing (its cosine, sine)."""
         rear, front, half = self.body
-        return np.maximum(lb, min(rear, front, half)).tolist()  # type: ignore[no-any-return]
+        with np.errstate(divide="ignore"):
+            along = np.where(cb > 0, front / cb, np.where(cb < 0, -rear / cb, np.inf))
+            across = np.where(sb != 0, half / np.abs(sb), np.inf)
+        out: np.ndarray = np.minimum(along, across)
+        return out
 
     # -- queries -----------------------------------------------------------------------
     def contains(self, x: float, y: float) -> bool:
         """True when the point (x, y) (sensor frame) is known free."""
-        return bool(self._free(np.array([x]), np.array([y]))[0])
+        rear, front, half = self.body
+        if -rear <= x <= front and abs(y) <= half:
+            return True
+        if x * x + y * y > self.horizon * self.horizon:
+            return False
+        if not self.m:
+            return self.nothing_beyond
+        k = int(np.searchsorted(self.b, math.atan2(y, x), side="right")) - 1
+        if self.bounded[k]:
+            return float(self.nx[k]) * x + float(self.ny[k]) * y <= float(self.c[k]) + _TOL
+        return self.nothing_beyond
 
     def _in_body(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
         rear, front, half = self.body
         out: np.ndarray = (x >= -rear) & (x <= front) & (np.abs(y) <= half)
         return out
 
-    def _sector_free(self, x: np.ndarray, y: np.ndarray, k: np.ndarray) -> np.ndarray:
-        """Whether each point lies in the free set of sector ``k`` (its gap's)."""
-        if not self.m:
-            d2 = x * x + y * y
-            out: np.ndarray = d2 <= self.horizon ** 2 if self.nothing_beyond else np.zeros(len(x), dtype=bool)
-            return out | self._in_body(x, y)
-        bounded = self.bounded[k]
-        chord_ok = self.nx[k] * x + self.ny[k] * y <= self.c[k] + _TOL
-        open_ok = (x * x + y * y <= self.horizon ** 2) if self.nothing_beyond else np.zeros(len(x), dtype=bool)
-        return np.where(bounded, chord_ok, open_ok) | self._in_body(x, y)
-
-    def _sector(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
-        """The gap each point's bearing lies in (gap k: from return k to return k + 1)."""
-        if not self.m:
-            return np.zeros(len(x), dtype=np.intp)
-        i = np.searchsorted(self.b, np.arctan2(y, x), side="right") - 1
-        i[i < 0] = self.m - 1
-        return i
-
     def _free(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
-        return self._sector_free(x, y, self._sector(x, y))
+        """:meth:`contains` for arrays of points."""
+        inside = x * x + y * y <= self.horizon * self.horizon
+        if not self.m:
+            ok = inside & self.nothing_beyond
+        else:
+            k = np.searchsorted(self.b, np.arctan2(y, x), side="right") - 1
+            chord_ok = self.nx[k] * x + self.ny[k] * y <= self.c[k] + _TOL
+            ok = inside & np.where(self.bounded[k], chord_ok, self.nothing_beyond)
+        out: np.ndarray = ok | self._in_body(x, y)
+        return out
 
-    def _quick(self, xs: list[float], ys: list[float]) -> bool:
-        """True when the convex polygon of these vertices (not round the sensor) lies within
-        the table's nearest free ranges over its bearings (then it is surely free)."""
-        far = max(math.hypot(a, b) for a, b in zip(xs, ys))
-        b0 = math.atan2(ys[0], xs[0])
-        rel = [wrap_angle(math.atan2(b, a) - b0) for a, b in zip(xs, ys)]
-        return self._span_ok(b0 + min(rel), b0 + max(rel), far)
+    def _span(self, lo: float, hi: float) -> tuple[int, int]:
+        """The shadow returns with bearings in [lo, hi] (lo in [-π, π]): a slice of the doubled arrays."""
+        i0, i1 = np.searchsorted(self._sb2, (lo, hi), side="left")
+        return int(i0), int(i1)
 
-    def _span_ok(self, lo: float, hi: float, far: float) -> bool:
-        i0 = int(math.floor((lo + math.pi) / _BIN))
-        i1 = int(math.floor((hi + math.pi) / _BIN))
-        lb = self.lb
-        if i1 - i0 >= _BINS - 1:
-            return far <= min(lb)
-        i0 %= _BINS
-        i1 %= _BINS
-        near = min(lb[i0 : i1 + 1]) if i0 <= i1 else min(min(lb[i0:]), min(lb[: i1 + 1]))
-        return far <= near
-
-    def edges_clear(self, ax: np.ndarray, ay: np.ndarray, bx: np.ndarray, by: np.ndarray) -> bool:
-        """True when every segment from (ax, ay) to (bx, by) lies in known-free space: each
-        is cut where it crosses the ray through a return, and both ends of every piece
-        are tested in the piece's own sector (whose free set is convex)."""
-        ok = self._free(ax, ay) & self._free(bx, by)
-        if not ok.all():
-            return False
-        if self.m < 2:
-            return True  # one sector round the sensor: its ends decide
+    def _quick(self, lo: float, hi: float, far: float) -> bool:
+        """True when nothing within ``far`` of the sensor over bearings [lo, hi] is unknown."""
         m = self.m
-        ba, bb = np.arctan2(ay, ax), np.arctan2(by, bx)
-        rel = bb - ba
-        rel = np.where(rel > math.pi, rel - 2 * math.pi, np.where(rel <= -math.pi, rel + 2 * math.pi, rel))
-        lo = np.where(rel >= 0, ba, bb)
-        hi = lo + np.abs(rel)
-        i0 = np.searchsorted(self.b2, lo, side="right")
-        i1 = np.searchsorted(self.b2, hi, side="left")
-        counts = np.maximum(i1 - i0, 0)
-        total = int(counts.sum())
-        if not total:
-            return True
-        e = np.repeat(np.arange(len(ax)), counts)
-        j = np.arange(total) - np.repeat(np.cumsum(counts) - counts, counts) + np.repeat(i0, counts)
-        j = j % m
-        # where each segment's line meets the ray through return j: rho along the ray
-        ex, ey = (bx - ax)[e], (by - ay)[e]
-        ux, uy = np.cos(self.b[j]), np.sin(self.b[j])
-        den = ux * ey - uy * ex
-        with np.errstate(invalid="ignore", divide="ignore"):
-            rho = (ax[e] * ey - ay[e] * ex) / den
-        rho = np.where(np.isfinite(rho), rho, 0.0)
-        px, py = rho * ux, rho * uy
-        left = (j - 1) % m
-        return bool((self._sector_free(px, py, left) & self._sector_free(px, py, j)).all())
+        if not m:
+            return far <= self.horizon and self.nothing_beyond
+        if hi - lo >= 2 * math.pi - 1e-9:
+            return far <= float(self._near2[:m].min())
+        if lo < -math.pi:
+            lo, hi = lo + 2 * math.pi, hi + 2 * math.pi
+        # the sector holding lo begins at the return before it
+        i0, i1 = (int(i) for i in np.searchsorted(self.b, (lo, hi if hi <= math.pi else hi - 2 * math.pi), side="left"))
+        i0 -= 1
+        if hi > math.pi:
+            i1 += m
+        if i0 < 0:
+            i0 += m
+            i1 += m
+        return far <= float(self._near2[i0 : i1 + 1].min())
+
+    def _rays(self, lo: float, hi: float, far: float) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+        """The shadow returns with bearings in [lo, hi] whose known range along their own
+        ray is under ``far`` (the only ones a shape within ``far`` can pass): their rays'
+        directions and known ranges; None when there is none."""
+        n = len(self._sl) // 2
+        if hi - lo >= 2 * math.pi - 1e-9:
+            i0, i1 = 0, n
+        else:
+            if lo < -math.pi:
+                lo, hi = lo + 2 * math.pi, hi + 2 * math.pi
+            i0, i1 = self._span(lo, hi)
+        if i1 <= i0:
+            return None
+        lim = self._sl[i0:i1]
+        sel = (lim < far).nonzero()[0]
+        if not len(sel):
+            return None
+        return self._sc[i0:i1].take(sel), self._ss[i0:i1].take(sel), lim.take(sel)
 
     def straight_clear(self, start: Pose, distance: float, robot: RobotModel) -> bool:
         """True when the real body, driven ``distance`` metres straight from ``start``,
@@ -247,43 +278,76 @@ class KnownFree:
         vs = (-half, -half, half, half)
         xs = [start.x + u * c - v * s for u, v in zip(us, vs)]
         ys = [start.y + u * s + v * c for u, v in zip(us, vs)]
+        far = max(math.hypot(a, b) for a, b in zip(xs, ys))
         # the sensor inside the swept rectangle: every bearing is spanned
         ox, oy = -start.x * c - start.y * s, start.x * s - start.y * c
-        if not (-rear <= ox <= front and abs(oy) <= half) and self._quick(xs, ys):
+        if -rear <= ox <= front and abs(oy) <= half:
+            lo, hi = -math.pi, math.pi
+        else:
+            b0 = math.atan2(ys[0], xs[0])
+            rel = [wrap_angle(math.atan2(b, a) - b0) for a, b in zip(xs, ys)]
+            lo, hi = b0 + min(rel), b0 + max(rel)
+        if self._quick(lo, hi, far):
             return True
-        ax, ay = np.array(xs), np.array(ys)
-        return self.edges_clear(ax, ay, np.roll(ax, -1), np.roll(ay, -1))
+        if not all(self.contains(a, b) for a, b in zip(xs, ys)):
+            return False
+        rays = self._rays(lo, hi, far)
+        if rays is None:
+            return True
+        ux, uy, lim = rays
+        # where each ray leaves the rectangle (its frame: the ray from (ox, oy) along (du, dv))
+        du, dv = ux * c + uy * s, uy * c - ux * s
+        with np.errstate(invalid="ignore", divide="ignore"):
+            t1, t2 = (-rear - ox) / du, (front - ox) / du
+            t3, t4 = (-half - oy) / dv, (half - oy) / dv
+        out = np.minimum(np.fmax(t1, t2), np.fmax(t3, t4))
+        into = np.maximum(np.fmin(t1, t2), np.fmin(t3, t4))
+        return not bool(((into <= out) & (out > lim)).any())
 
     def turn_clear(self, start: Pose, angle: float, robot: RobotModel) -> bool:
         """True when the real body, turned in place by ``angle`` (signed, rad) at
-        ``start``, stays in known-free space."""
+        ``start``, stays in known-free space: the body at both ends and its corners' arcs
+        (as circumscribed polylines) are its outline."""
         rad = robot.body_radius
-        d = math.hypot(start.x, start.y)
+        x, y = start.x, start.y
+        d = math.hypot(x, y)
         if d > rad:
             half = math.asin(rad / d)
-            bc = math.atan2(start.y, start.x)
-            if self._span_ok(bc - half, bc + half, d + rad):
-                return True
-        segs = [self._body_edges(start.x, start.y, start.theta, robot), self._body_edges(start.x, start.y, start.theta + angle, robot)]
+            bc = math.atan2(y, x)
+            lo, hi = bc - half, bc + half
+        else:
+            lo, hi = -math.pi, math.pi
+        if self._quick(lo, hi, d + rad):
+            return True
         n = max(1, int(math.ceil(abs(angle) / _ARC_STEP)))
         step = angle / n
-        grow = 1.0 / math.cos(step / 2)
-        for a, b in robot.corners:
-            rc, phi = math.hypot(a, b), start.theta + math.atan2(b, a)
-            mid = phi + step * (np.arange(n) + 0.5)
-            px = np.concatenate(([start.x + rc * math.cos(phi)], start.x + rc * grow * np.cos(mid), [start.x + rc * math.cos(phi + angle)]))
-            py = np.concatenate(([start.y + rc * math.sin(phi)], start.y + rc * grow * np.sin(mid), [start.y + rc * math.sin(phi + angle)]))
-            segs.append((px[:-1], py[:-1], px[1:], py[1:]))
-        ax, ay, bx, by = (np.concatenate([s[i] for s in segs]) for i in range(4))
-        return self.edges_clear(ax, ay, bx, by)
-
-    @staticmethod
-    def _body_edges(x: float, y: float, theta: float, robot: RobotModel) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        c, s = math.cos(theta), math.sin(theta)
-        corners = robot.corners
-        ax = np.array([x + u * c - v * s for u, v in corners])
-        ay = np.array([y + u * s + v * c for u, v in corners])
-        return ax, ay, np.roll(ax, -1), np.roll(ay, -1)
+        offs = np.empty(n + 2)
+        offs[0], offs[-1] = 0.0, angle
+        offs[1:-1] = step * (np.arange(n) + 0.5)
+        grow = np.full(n + 2, 1.0 / math.cos(step / 2))
+        grow[0] = grow[-1] = 1.0
+        rc, phi = _corners_polar(robot)
+        ang = (start.theta + phi)[:, None] + offs
+        rr = rc[:, None] * grow
+        px, py = x + rr * np.cos(ang), y + rr * np.sin(ang)  # per corner: its arc's polyline
+        if not self._free(px.ravel(), py.ravel()).all():
+            return False
+        rays = self._rays(lo, hi, d + rad)
+        if rays is None:
+            return True
+        # the segments: each arc's, and the body's outline at the start and at the end
+        ends = np.roll(np.arange(4), -1)
+        ax = np.concatenate((px[:, :-1].ravel(), px[:, 0], px[:, -1]))
+        ay = np.concatenate((py[:, :-1].ravel(), py[:, 0], py[:, -1]))
+        bx = np.concatenate((px[:, 1:].ravel(), px[ends, 0], px[ends, -1]))
+        by = np.concatenate((py[:, 1:].ravel(), py[ends, 0], py[ends, -1]))
+        ux, uy, lim = (v[:, None] for v in rays)
+        ex, ey = bx - ax, by - ay
+        den = ux * ey - uy * ex
+        with np.errstate(invalid="ignore", divide="ignore"):
+            rho = (ax * ey - ay * ex) / den  # where the segment's line meets the ray
+            t = (ax * uy - ay * ux) / den  # and where along the segment
+        return not bool(((t >= 0) & (t <= 1) & (rho > lim)).any())
 
     def clear(self, out: Outcome, robot: RobotModel) -> bool:
         """True when the body stays in known-free space over the task ``out`` rolled out."""
