@@ -399,8 +399,10 @@ class _Search:
         self.routes, self.max_states = conf.routes, conf.max_states
         # what the rays crossed (:mod:`clomp.planner.visibility`): a task whose body leaves it is a frontier end
         self.known = KnownFree.from_points(obstacles.points, robot.sensor_range, robot=robot)
-        # inside the sensed disc and not in a shadow: a way to it may lie inside too
-        self.goal_seen = ctx.start_distance <= robot.sensor_range and self.known.contains(g.x, g.y)
+        # inside the sensed disc: a way to it may lie inside too (for a goal in a shadow, a
+        # way to the frontier nearest it: the search goes on past frontier ends, as for any
+        # goal inside the disc)
+        self.goal_seen = ctx.start_distance <= robot.sensor_range
         self.horizon = max(conf.horizon, abs(g.x) + robot.length, abs(g.y) + robot.length)
         self.cmap = CognitiveMap(goal=g)
         self.reset = Reset(self.cmap)  # R, the one reset of formal

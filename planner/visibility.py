@@ -48,9 +48,10 @@ import math
 
 import numpy as np
 
-from clomp.formal.geometry import wrap_angle
+from clomp.formal.geometry import polar_to_xy, wrap_angle
 from clomp.formal.model import Pose, TaskKind
 from clomp.planner.engine import Outcome
+from clomp.planner.footprint import inside
 from clomp.planner.robot_model import RobotModel
 
 __all__ = ["KnownFree", "BEAM_GAP", "SURFACE"]
@@ -196,8 +197,7 @@ class KnownFree:
     # -- queries -----------------------------------------------------------------------
     def contains(self, x: float, y: float) -> bool:
         """True when the point (x, y) (sensor frame) is known free."""
-        rear, front, half = self.body
-        if -rear <= x <= front and abs(y) <= half:
+        if inside(x, abs(y), self.body):
             return True
         if x * x + y * y > self.horizon * self.horizon:
             return False
@@ -209,9 +209,7 @@ class KnownFree:
         return self.nothing_beyond
 
     def _in_body(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
-        rear, front, half = self.body
-        out: np.ndarray = (x >= -rear) & (x <= front) & (np.abs(y) <= half)
-        return out
+        return inside(x, np.abs(y), self.body)
 
     def _free(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
         """:meth:`contains` for arrays of points."""
@@ -281,7 +279,7 @@ class KnownFree:
         far = max(math.hypot(a, b) for a, b in zip(xs, ys))
         # the sensor inside the swept rectangle: every bearing is spanned
         ox, oy = -start.x * c - start.y * s, start.x * s - start.y * c
-        if -rear <= ox <= front and abs(oy) <= half:
+        if inside(ox, abs(oy), (rear, front, half)):
             lo, hi = -math.pi, math.pi
         else:
             b0 = math.atan2(ys[0], xs[0])
@@ -329,7 +327,8 @@ class KnownFree:
         rc, phi = _corners_polar(robot)
         ang = (start.theta + phi)[:, None] + offs
         rr = rc[:, None] * grow
-        px, py = x + rr * np.cos(ang), y + rr * np.sin(ang)  # per corner: its arc's polyline
+        arcs = polar_to_xy(rr, ang)  # per corner: its arc's polyline, round (x, y)
+        px, py = x + arcs[..., 0], y + arcs[..., 1]
         if not self._free(px.ravel(), py.ravel()).all():
             return False
         rays = self._rays(lo, hi, d + rad)
