@@ -17,6 +17,14 @@ state (ending it there, as before, gave up on ways round inside the disc: record
 state popped ends the search. States beyond the planning
 horizon (a box of half-size ``horizon`` around the start) are kept but not expanded.
 
+Known-free space is what the scan's rays crossed (:mod:`clomp.planner.visibility`): a
+task whose swept body leaves it is treated as one that meets the rim — a STRAIGHT is a
+frontier state (kept as a candidate end, not expanded, never a goal), a turn is not
+available. So a plan's body never passes through space no ray crossed before its last
+task, and ``reached_goal`` holds only for a plan wholly inside known-free space. A goal
+in a shadow is searched for as any goal inside the disc (the plan then ends at a
+frontier, typically a straight into the shadow beside the goal).
+
 γ ∈ [1, 2] on an interrupted state and χ ∈ [0, 1) everywhere, so a hit is popped only
 when no free state is left: with the default cost the maps and plans are those of a
 search that never queued hits (the same on the 7 scenarios and 20 recorded scans), and
