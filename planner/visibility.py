@@ -5,11 +5,14 @@ behind it (its shadow) nothing is known. :class:`KnownFree` holds one scan's ret
 sorted by bearing (a per-bearing free-range table, exact between returns) and answers
 whether the region a task's body sweeps lies inside the union of those rays:
 
-- between two returns adjacent in bearing that belong to one surface (less than
-  ``beam_gap`` apart in bearing, or less than ``surface`` apart in space) the free range
-  is the chord between them: behind it is the surface's shadow, unknown;
-- between returns farther apart, the beams in between returned nothing within the
-  planning horizon. That is free space to the horizon when the sensor says so
+- between two returns adjacent in bearing less than ``surface`` (10 cm) apart, one
+  surface lies: the free range is the chord between them, and behind it is the
+  surface's shadow, unknown;
+- between two returns farther apart but less than ``beam_gap`` (2°, a beam or two of
+  the A1's) apart in bearing, the depth jumps (one beam grazed a near object's edge, the
+  next went on): the wedge between them is known as far as the farther one;
+- between returns farther apart in bearing, the beams in between returned nothing within
+  the planning horizon. That is free space to the horizon when the sensor says so
   (``nothing_beyond=True``: a scan cropped at the horizon, as the recorded scans, the
   simulated LiDAR and the drivers deliver it — an empty scan is free space); for a bare
   point list without that promise (``nothing_beyond=False``) it is unknown;
@@ -21,15 +24,16 @@ known-free space is like a step that meets the rim of the sensed disc — a STRA
 kept as a frontier end (never expanded, never a goal: the closed loop drives there and
 looks again), a turn is not available. So a plan's body never passes through unknown
 space before its last task, and ``reached_goal`` is claimed only for a plan wholly inside
-known-free space. A goal outside known-free space (in a shadow) is treated like one
-beyond the disc: the first frontier end popped ends the search.
+known-free space. A goal in a shadow is searched for as any goal inside the disc (frontier
+ends are kept and the search goes on; the plan ends at argmin φ).
 
 The test is exact on straight edges: the swept region (a STRAIGHT's rectangle; a turn's
-start and end bodies with its corners' arcs as circumscribed polylines, 0.1 rad a
-segment) is star-shaped checked by its outline, and an outline edge is cut where it
-crosses the ray through a return, so that every piece lies within one sector, whose free
-set is convex. A per-degree table of each sector's nearest free range accepts most tasks
-at once (no array operation).
+start and end bodies with its corners' arcs as circumscribed polylines, 0.2 rad a
+segment) is star-shaped about the sensor's known space, so its outline decides; an
+outline edge is cut where it crosses the ray through a return, so that every piece lies
+within one sector, whose free set is convex, and both ends of each piece are tested. Per
+return, how far its own ray is known and a range within which the sectors beside it are
+wholly known let most tasks pass at once (no array operation).
 
 >>> import numpy as np
 >>> from clomp.planner.robot_model import RobotModel
@@ -101,7 +105,7 @@ class KnownFree:
     """
 
     __slots__ = (
-        "horizon", "nothing_beyond", "body", "m", "b", "r", "bounded", "nx", "ny", "c", "lim", "near",
+        "horizon", "nothing_beyond", "body", "m", "b", "r", "surface", "jump", "reach", "nx", "ny", "c", "lim", "near",
         "_near2", "_sb2", "_sl", "_sc", "_ss",
     )
 
@@ -136,7 +140,14 @@ class KnownFree:
         if m:
             gap[-1] += 2 * math.pi
         chord = np.hypot(dx, dy)
-        bounded = self.bounded = (gap < math.pi / 2) & ((gap <= beam_gap) | (chord <= surface))
+        # a surface: the chord bounds what is known; a jump in depth between adjacent beams
+        # (one grazes a near object's edge, the next goes on): the wedge is known to the
+        # farther return, as far as the beam beside it went; else open
+        narrow = gap < math.pi / 2
+        face = self.surface = narrow & (chord <= surface)
+        jump = self.jump = narrow & ~face & (gap <= beam_gap)
+        bounded = face | jump
+        self.reach = np.maximum(r, _next(r)) + _TOL
         # each chord's line n·p = c with n a unit normal pointing away from the sensor
         # (a chord of no length: the radial line through its return)
         short = chord <= 1e-12
@@ -153,7 +164,7 @@ class KnownFree:
         # surface lies on either side, else to the horizon (or, for a bare point list,
         # only within the body at the origin)
         open_lim: float | np.ndarray = h if self.nothing_beyond else self._body_range(x / r, y / r)
-        side = np.where(bounded, r + _TOL, open_lim)
+        side = np.where(face, r + _TOL, np.where(jump, self.reach, open_lim))
         lim = np.minimum(side, _prev(side))
         if not self.nothing_beyond:
             lim = np.maximum(lim, open_lim)
@@ -162,7 +173,7 @@ class KnownFree:
         with np.errstate(invalid="ignore", divide="ignore"):
             tau = -(x * dx + y * dy) / (chord * chord)
         open_near = h if self.nothing_beyond else min(body)
-        sector = np.where(bounded, np.where((tau > 0) & (tau < 1), c, np.minimum(r, _next(r))), open_near)
+        sector = np.where(face, np.where((tau > 0) & (tau < 1), c, np.minimum(r, _next(r))), np.where(jump, self.reach, open_near))
         near = self.near = np.minimum(np.minimum(lim, open_near), np.minimum(sector, _prev(sector)))
         self._near2 = np.concatenate((near, near))
         # the returns whose own ray is known short of the horizon, doubled round the circle
@@ -204,8 +215,10 @@ class KnownFree:
         if not self.m:
             return self.nothing_beyond
         k = int(np.searchsorted(self.b, math.atan2(y, x), side="right")) - 1
-        if self.bounded[k]:
+        if self.surface[k]:
             return float(self.nx[k]) * x + float(self.ny[k]) * y <= float(self.c[k]) + _TOL
+        if self.jump[k]:
+            return math.hypot(x, y) <= float(self.reach[k])
         return self.nothing_beyond
 
     def _in_body(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
@@ -219,7 +232,8 @@ class KnownFree:
         else:
             k = np.searchsorted(self.b, np.arctan2(y, x), side="right") - 1
             chord_ok = self.nx[k] * x + self.ny[k] * y <= self.c[k] + _TOL
-            ok = inside & np.where(self.bounded[k], chord_ok, self.nothing_beyond)
+            near = x * x + y * y <= self.reach[k] ** 2
+            ok = inside & np.where(self.surface[k], chord_ok, np.where(self.jump[k], near, self.nothing_beyond))
         out: np.ndarray = ok | self._in_body(x, y)
         return out
 
@@ -295,7 +309,7 @@ class KnownFree:
         ux, uy, lim = rays
         # where each ray leaves the rectangle (its frame: the ray from (ox, oy) along (du, dv))
         du, dv = ux * c + uy * s, uy * c - ux * s
-        with np.errstate(invalid="ignore", divide="ignore"):
+        with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
             t1, t2 = (-rear - ox) / du, (front - ox) / du
             t3, t4 = (-half - oy) / dv, (half - oy) / dv
         out = np.minimum(np.fmax(t1, t2), np.fmax(t3, t4))
@@ -343,7 +357,7 @@ class KnownFree:
         ux, uy, lim = (v[:, None] for v in rays)
         ex, ey = bx - ax, by - ay
         den = ux * ey - uy * ex
-        with np.errstate(invalid="ignore", divide="ignore"):
+        with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
             rho = (ax * ey - ay * ex) / den  # where the segment's line meets the ray
             t = (ax * uy - ay * ux) / den  # and where along the segment
         return not bool(((t >= 0) & (t <= 1) & (rho > lim)).any())
