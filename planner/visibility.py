@@ -106,7 +106,7 @@ class KnownFree:
 
     __slots__ = (
         "horizon", "nothing_beyond", "body", "m", "b", "r", "surface", "jump", "reach", "nx", "ny", "c", "lim", "near",
-        "_near2", "_sb2", "_sl", "_sc", "_ss",
+        "_home2", "_near2", "_sb2", "_sl", "_sc", "_ss",
     )
 
     def __init__(
@@ -117,6 +117,7 @@ class KnownFree:
         h = self.horizon = float(horizon)
         self.nothing_beyond = bool(nothing_beyond)
         self.body = body
+        self._home2 = max(body[0], body[1]) ** 2 + body[2] ** 2  # the body at the origin lies within
         x, y = pts[:, 0], pts[:, 1]
         r = np.hypot(x, y)
         keep = (r > 1e-6) & (r <= h)
@@ -146,7 +147,6 @@ class KnownFree:
         narrow = gap < math.pi / 2
         face = self.surface = narrow & (chord <= surface)
         jump = self.jump = narrow & ~face & (gap <= beam_gap)
-        bounded = face | jump
         self.reach = np.maximum(r, _next(r)) + _TOL
         # each chord's line n·p = c with n a unit normal pointing away from the sensor
         # (a chord of no length: the radial line through its return)
@@ -208,7 +208,7 @@ class KnownFree:
     # -- queries -----------------------------------------------------------------------
     def contains(self, x: float, y: float) -> bool:
         """True when the point (x, y) (sensor frame) is known free."""
-        if inside(x, abs(y), self.body):
+        if x * x + y * y <= self._home2 and inside(np.array(x), np.array(abs(y)), self.body):
             return True
         if x * x + y * y > self.horizon * self.horizon:
             return False
@@ -293,7 +293,9 @@ class KnownFree:
         far = max(math.hypot(a, b) for a, b in zip(xs, ys))
         # the sensor inside the swept rectangle: every bearing is spanned
         ox, oy = -start.x * c - start.y * s, start.x * s - start.y * c
-        if inside(ox, abs(oy), (rear, front, half)):
+        if ox * ox + oy * oy <= rear * rear + front * front + half * half and inside(
+            np.array(ox), np.array(abs(oy)), (rear, front, half)
+        ):
             lo, hi = -math.pi, math.pi
         else:
             b0 = math.atan2(ys[0], xs[0])
