@@ -32,7 +32,7 @@ def _plain_storm(path: Path, formula: str) -> float:
 # -- DRN declares every label (plain Storm) --------------------------------------------------
 def test_plain_storm_checks_collision_on_a_collision_free_supervised_model(scenario_map, tmp_path):
     """Before: the DRN named only carried labels; Storm refused "unknown label collision"."""
-    cmap = scenario_map("overtaking")
+    cmap = scenario_map("overtaking@0.8,-0.3")  # a goal the scan sees (the scenario's own stands in the box's shadow)
     assert not export_model(cmap, "dtmc").labels["collision"]
     write_drn(cmap, tmp_path / "s.drn", "dtmc")
     assert _plain_storm(tmp_path / "s.drn", 'P=? [F "collision"]') == 0.0
@@ -116,7 +116,7 @@ def test_explicit_reward_files_name_their_structure(scenario_map):
 @pytest.mark.parametrize("kind", ["mdp", "dtmc"])
 def test_prism_evaluates_named_rewards_from_the_explicit_files(scenario_map, kind):
     """Before: ``R{"distance"}`` failed in PRISM: "Invalid reward structure index"."""
-    cmap = scenario_map("overtaking")
+    cmap = scenario_map("overtaking@0.8,-0.3")  # a goal the scan sees, so that the rewards are finite
     q = "min" if kind == "mdp" else ""
     got = check_with_prism(cmap, [f'R{{"distance"}}{q}=? [F "goal"]', f'R{{"time"}}{q}=? [F "goal"]'], kind, via="explicit")
     # the figures of the map itself (not of one planner version): the plan's distance and
