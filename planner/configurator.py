@@ -497,7 +497,9 @@ class _Search:
             return cmap[known], False
         d_i = self.reset.after(parent)  # R(q1, q2) = D_G, undefined (raises) when q1 was interrupted
         out = simulate(kind, p, d_i, self.obstacles, self.robot, self.worlds)
-        if out.d_n is None and (out.reached_goal or not out.frontier) and not self.known.clear(out, self.robot):
+        # (the body at the task's start is known: the root's stands there, any other's ended
+        # the task before, which passed this test)
+        if out.d_n is None and (out.reached_goal or not out.frontier) and not self.known.clear(out, self.robot, True):
             # the body would pass through space no ray crossed (a shadow): like the rim of
             # the disc, a STRAIGHT ends the way there (a frontier end, never a goal), a
             # turn is not available

@@ -280,10 +280,16 @@ class KnownFree:
             return None
         return self._sc[i0:i1].take(sel), self._ss[i0:i1].take(sel), lim.take(sel)
 
-    def straight_clear(self, start: Pose, distance: float, robot: RobotModel) -> bool:
+    def straight_clear(self, start: Pose, distance: float, robot: RobotModel, start_known: bool = False) -> bool:
         """True when the real body, driven ``distance`` metres straight from ``start``,
-        stays in known-free space."""
-        rear, front = robot.rear_offset, robot.front_offset + max(distance, 0.0)
+        stays in known-free space. ``start_known``: the body at ``start`` is known to be
+        (the task before it ended there, checked): only the strip ahead of its front,
+        which the body sweeps, is tested."""
+        if start_known and distance <= 0.0:
+            return True
+        # the swept rectangle from u = -rear (or the front edge) to the front edge moved on
+        rear = -robot.front_offset if start_known else robot.rear_offset
+        front = robot.front_offset + max(distance, 0.0)
         half = robot.width / 2
         c, s = math.cos(start.theta), math.sin(start.theta)
         us = (-rear, front, front, -rear)
@@ -364,10 +370,11 @@ class KnownFree:
             t = (ax * uy - ay * ux) / den  # and where along the segment
         return not bool(((t >= 0) & (t <= 1) & (rho > lim)).any())
 
-    def clear(self, out: Outcome, robot: RobotModel) -> bool:
-        """True when the body stays in known-free space over the task ``out`` rolled out."""
+    def clear(self, out: Outcome, robot: RobotModel, start_known: bool = False) -> bool:
+        """True when the body stays in known-free space over the task ``out`` rolled out
+        (``start_known``: its body at the start is known, see :meth:`straight_clear`)."""
         if out.task is TaskKind.STRAIGHT:
-            return self.straight_clear(out.start, out.distance, robot)
+            return self.straight_clear(out.start, out.distance, robot, start_known)
         turned = wrap_angle(out.end.theta - out.start.theta)
         if out.task is TaskKind.LEFT and turned < 0:
             turned += 2 * math.pi
