@@ -22,8 +22,9 @@ task whose swept body leaves it is treated as one that meets the rim — a STRAI
 frontier state (kept as a candidate end, not expanded, never a goal), a turn is not
 available. So a plan's body never passes through space no ray crossed before its last
 task, and ``reached_goal`` holds only for a plan wholly inside known-free space. A goal
-in a shadow is searched for as any goal inside the disc (the plan then ends at a
-frontier, typically a straight into the shadow beside the goal).
+in a shadow is treated as one beyond the disc: no way inside known-free space reaches it,
+and the first frontier state popped ends the search (searching on to the budget cost
+more and, in the closed loop, reached the goal in 20 of 28 seeded runs against 21).
 
 γ ∈ [1, 2] on an interrupted state and χ ∈ [0, 1) everywhere, so a hit is popped only
 when no free state is left: with the default cost the maps and plans are those of a
@@ -407,10 +408,9 @@ class _Search:
         self.routes, self.max_states = conf.routes, conf.max_states
         # what the rays crossed (:mod:`clomp.planner.visibility`): a task whose body leaves it is a frontier end
         self.known = KnownFree.from_points(obstacles.points, robot.sensor_range, robot=robot)
-        # inside the sensed disc: a way to it may lie inside too (for a goal in a shadow, a
-        # way to the frontier nearest it: the search goes on past frontier ends, as for any
-        # goal inside the disc)
-        self.goal_seen = ctx.start_distance <= robot.sensor_range
+        # inside the sensed disc and where the rays went: a way to it may lie inside too (a
+        # goal in a shadow, like one beyond the disc, has none: the first frontier popped ends it)
+        self.goal_seen = ctx.start_distance <= robot.sensor_range and self.known.contains(g.x, g.y)
         self.horizon = max(conf.horizon, abs(g.x) + robot.length, abs(g.y) + robot.length)
         self.cmap = CognitiveMap(goal=g)
         self.reset = Reset(self.cmap)  # R, the one reset of formal

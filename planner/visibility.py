@@ -24,8 +24,8 @@ known-free space is like a step that meets the rim of the sensed disc — a STRA
 kept as a frontier end (never expanded, never a goal: the closed loop drives there and
 looks again), a turn is not available. So a plan's body never passes through unknown
 space before its last task, and ``reached_goal`` is claimed only for a plan wholly inside
-known-free space. A goal in a shadow is searched for as any goal inside the disc (frontier
-ends are kept and the search goes on; the plan ends at argmin φ).
+known-free space. A goal in a shadow is treated as one beyond the disc: no way inside
+known-free space reaches it, and the first frontier state popped ends the search.
 
 The test is exact on straight edges: the swept region (a STRAIGHT's rectangle; a turn's
 start and end bodies with its corners' arcs as circumscribed polylines, 0.2 rad a
