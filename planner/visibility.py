@@ -27,10 +27,10 @@ space before its last task, and ``reached_goal`` is claimed only for a plan whol
 known-free space. A goal in a shadow is treated as one beyond the disc: no way inside
 known-free space reaches it, and the first frontier state popped ends the search.
 
-The test is exact on straight edges: the swept region (a STRAIGHT's rectangle; a turn's
-start and end bodies with its corners' arcs as circumscribed polylines, 0.2 rad a
-segment) is star-shaped about the sensor's known space, so its outline decides; an
-outline edge is cut where it crosses the ray through a return, so that every piece lies
+The test is exact on straight edges. Known-free space is star-shaped about the sensor, so
+a region lies in it when its outline does: the swept region's outline (a STRAIGHT's
+rectangle; a turn's start and end bodies with its corners' arcs as circumscribed
+polylines, 0.2 rad a segment, at most 1 mm off the arc) is tested, an outline edge is cut where it crosses the ray through a return, so that every piece lies
 within one sector, whose free set is convex, and both ends of each piece are tested. Per
 return, how far its own ray is known and a range within which the sectors beside it are
 wholly known let most tasks pass at once (no array operation).
