@@ -17,6 +17,15 @@ state (ending it there, as before, gave up on ways round inside the disc: record
 state popped ends the search. States beyond the planning
 horizon (a box of half-size ``horizon`` around the start) are kept but not expanded.
 
+Known-free space is what the scan's rays crossed (:mod:`clomp.planner.visibility`): a
+task whose swept body leaves it is treated as one that meets the rim — a STRAIGHT is a
+frontier state (kept as a candidate end, not expanded, never a goal), a turn is not
+available. So a plan's body never passes through space no ray crossed before its last
+task, and ``reached_goal`` holds only for a plan wholly inside known-free space. A goal
+in a shadow is treated as one beyond the disc: no way inside known-free space reaches it,
+and the first frontier state popped ends the search (searching on to the budget cost
+more and, in the closed loop, reached the goal in 20 of 28 seeded runs against 21).
+
 γ ∈ [1, 2] on an interrupted state and χ ∈ [0, 1) everywhere, so a hit is popped only
 when no free state is left: with the default cost the maps and plans are those of a
 search that never queued hits (the same on the 7 scenarios and 20 recorded scans), and
@@ -57,6 +66,7 @@ from clomp.planner import footprint
 from clomp.planner.perception import Obstacles, load_scan, perceive
 from clomp.planner.rollout import Outcome, simulate
 from clomp.planner.robot_model import RobotModel
+from clomp.planner.visibility import KnownFree
 
 __all__ = [
     "CostContext",
@@ -401,7 +411,11 @@ class _Search:
         self.priced = next((f for f in _ROLLOUT_COSTS if f is cost), None)
         self.obstacles, self.robot, self.goal = obstacles, robot, g
         self.routes, self.max_states = conf.routes, conf.max_states
-        self.goal_seen = ctx.start_distance <= robot.sensor_range  # inside the sensed disc: a way to it may lie inside too
+        # what the rays crossed (:mod:`clomp.planner.visibility`): a task whose body leaves it is a frontier end
+        self.known = KnownFree.from_points(obstacles.points, robot.sensor_range, robot=robot)
+        # inside the sensed disc and where the rays went: a way to it may lie inside too (a
+        # goal in a shadow, like one beyond the disc, has none: the first frontier popped ends it)
+        self.goal_seen = ctx.start_distance <= robot.sensor_range and self.known.contains(g.x, g.y)
         self.horizon = max(conf.horizon, abs(g.x) + robot.length, abs(g.y) + robot.length)
         self.cmap = CognitiveMap(goal=g)
         self.reset = Reset(self.cmap)  # R, the one reset of formal
@@ -488,6 +502,13 @@ class _Search:
             return cmap[known], False
         d_i = self.reset.after(parent)  # R(q1, q2) = D_G, undefined (raises) when q1 was interrupted
         out = simulate(kind, p, d_i, self.obstacles, self.robot, self.worlds)
+        # (the body at the task's start is known: the root's stands there, any other's ended
+        # the task before, which passed this test)
+        if out.d_n is None and (out.reached_goal or not out.frontier) and not self.known.clear(out, self.robot, True):
+            # the body would pass through space no ray crossed (a shadow): like the rim of
+            # the disc, a STRAIGHT ends the way there (a frontier end, never a goal), a
+            # turn is not available
+            out = Outcome(out.task, out.start, out.end, out.distance, out.duration, out.ticks, None, False, True)
         if out.frontier and kind is not _STRAIGHT:
             self.index[k] = -1
             return None, False

@@ -59,6 +59,7 @@ from clomp.planner.hazard import HazardRule, hazard_stop
 from clomp.planner.noise import NoiseError, RolloutNoise, preset_names
 from clomp.planner.perception import Obstacles, load_scan, perceive
 from clomp.planner.rollout import Outcome, World, frontier_distance, in_the_way, make_task
+from clomp.planner.visibility import KnownFree
 from clomp.planner.robot_model import RobotModel
 from clomp.formal.geometry import polar_to_xy, wrap_angle
 from clomp.planner.tasks import Task
@@ -323,6 +324,8 @@ def sample_map(
     t0, c0 = time.perf_counter(), time.thread_time()
     points = load_scan(scan)
     nominal = conf.plan(points, goal)
+    # the shadow rule (clomp.planner.visibility): a goal is claimed only through space the scan's rays crossed
+    known = KnownFree.from_points(nominal.obstacles.points, robot.sensor_range, robot=robot)
     rng = np.random.default_rng(seed)
     worlds = []
     for _ in range(samples):
@@ -350,6 +353,8 @@ def sample_map(
         for i, w in enumerate(worlds):
             begin = here.get(i, pool[i % len(pool)] if pool else start) if carry else start
             out, stopped = _rollout_stop(kind, begin, nominal.goal, w, robot, nz, hazard, aim)
+            if out.reached_goal and not known.clear(out, robot):
+                out = replace(out, reached_goal=False)
             if carry:
                 out = replace(out, start=start)  # the map's states start where their source ends
             ident = b.group(source, kind, target, out, nominal.goal, stopped)
@@ -358,7 +363,7 @@ def sample_map(
                 arrivals.setdefault(ident, {}).setdefault(i, out.end)
         for ident, k in sorted(counts.items()):
             b.map.add_transition(source, ident, kind, Fraction(k, samples))
-    _complete_turns(b, nominal, conf)
+    _complete_turns(b, nominal, conf, known)
     b.map = _reachable_part(b.map)
     plan = extract_plan(b.map)
     b.map.metadata.update({"plan": list(plan.states), "samples": samples, "noise": nz.to_dict(), "seed": seed, "nominal_plan": list(nominal.plan.states),
@@ -410,7 +415,7 @@ def _reachable_part(cmap: CognitiveMap) -> CognitiveMap:
     return out
 
 
-def _complete_turns(b: _Builder, nominal: PlanResult, conf: Configurator) -> None:
+def _complete_turns(b: _Builder, nominal: PlanResult, conf: Configurator, known: KnownFree) -> None:
     """A new uninterrupted turn gets its nominal STRAIGHT (Algorithm 1's frontier rule)."""
     from clomp.planner.rollout import simulate
 
@@ -418,6 +423,8 @@ def _complete_turns(b: _Builder, nominal: PlanResult, conf: Configurator) -> Non
         s = b.map[ident]
         if s.task.is_turn and not s.interrupted and not b.map.out_transitions(ident):
             out = simulate(TaskKind.STRAIGHT, s.end, nominal.goal, nominal.obstacles, conf.robot)
+            if out.reached_goal and not known.clear(out, conf.robot):
+                out = replace(out, reached_goal=False)
             target = b.group(ident, TaskKind.STRAIGHT, None, out, nominal.goal)
             b.map.add_transition(ident, target, TaskKind.STRAIGHT)
 
@@ -474,7 +481,7 @@ def learn_from_scans(
         total = sum(c.values())
         for ident, k in sorted(c.items()):
             b.map.add_transition(source, ident, kind, Fraction(k, total))
-    _complete_turns(b, first, conf)
+    _complete_turns(b, first, conf, KnownFree.from_points(first.obstacles.points, conf.robot.sensor_range, robot=conf.robot))
     b.map = _reachable_part(b.map)
     plan = extract_plan(b.map)
     b.map.metadata.update({"plan": list(plan.states), "observations": len(maps)})

@@ -35,10 +35,10 @@ out of the disc ends where the body touches its rim (``Outcome.frontier``); a tu
 sweep would leave it is not available (it comes back with ``frontier`` set and is not
 added to the map). When the goal lies inside the disc, a step that would reach the rim
 ends instead where the body can still spin in place inside it (a way to the goal may
-turn round the end of a wall there), unless that leaves less than 3 cm to drive. LiDAR shadows (the space behind a sensed surface) lie inside the disc
-and are treated as free: to reach one the body has to go round the surface that casts
-it, past its sensed end, and the next scan, taken from there, sees into it before the
-robot drives in.
+turn round the end of a wall there), unless that leaves less than 3 cm to drive. LiDAR
+shadows (the space behind a sensed surface) lie inside the disc and are unknown too: the
+rollouts do not test them, the Configurator does (:mod:`clomp.planner.visibility`: a task
+whose body leaves what the rays crossed is a frontier end, like one at the rim).
 
 :class:`clomp.planner.engine.World` is the pymunk engine the closed forms are tested against;
 rollouts are deterministic: the same inputs give bit-identical outcomes.

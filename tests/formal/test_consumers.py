@@ -32,7 +32,7 @@ def _plain_storm(path: Path, formula: str) -> float:
 # -- DRN declares every label (plain Storm) --------------------------------------------------
 def test_plain_storm_checks_collision_on_a_collision_free_supervised_model(scenario_map, tmp_path):
     """Before: the DRN named only carried labels; Storm refused "unknown label collision"."""
-    cmap = scenario_map("overtaking")
+    cmap = scenario_map("overtaking@0.8,-0.3")  # a goal the scan sees (the scenario's own stands in the box's shadow)
     assert not export_model(cmap, "dtmc").labels["collision"]
     write_drn(cmap, tmp_path / "s.drn", "dtmc")
     assert _plain_storm(tmp_path / "s.drn", 'P=? [F "collision"]') == 0.0
@@ -116,7 +116,7 @@ def test_explicit_reward_files_name_their_structure(scenario_map):
 @pytest.mark.parametrize("kind", ["mdp", "dtmc"])
 def test_prism_evaluates_named_rewards_from_the_explicit_files(scenario_map, kind):
     """Before: ``R{"distance"}`` failed in PRISM: "Invalid reward structure index"."""
-    cmap = scenario_map("overtaking")
+    cmap = scenario_map("overtaking@0.8,-0.3")  # a goal the scan sees, so that the rewards are finite
     q = "min" if kind == "mdp" else ""
     got = check_with_prism(cmap, [f'R{{"distance"}}{q}=? [F "goal"]', f'R{{"time"}}{q}=? [F "goal"]'], kind, via="explicit")
     # the figures of the map itself (not of one planner version): the plan's distance and
@@ -352,6 +352,11 @@ def _judge(name: str, specs: list, loads: dict[str, list]) -> list[str]:
     return problems
 
 
+# a goal the scan sees, right of the box: the scenario's own stands in the box's shadow, no
+# plan claims it, and Storm's scheduler for a goal it cannot reach may choose any task
+SEEN = ("--goal", "0.8,-0.3")
+
+
 def _walk(folder: Path, prism: bool) -> tuple[list[str], int]:
     """Write every model the commands write for the overtaking scenario into ``folder``,
     check them; returns the problems and how many (model, load) pairs were checked."""
@@ -365,7 +370,7 @@ def _walk(folder: Path, prism: bool) -> tuple[list[str], int]:
         stem = folder / f"ov-{kind}{'-' + extra[-1] if extra else ''}"
         for fmt, path in (("prism", stem.with_suffix(".prism")), ("drn", stem.with_suffix(".drn")),
                           ("prism-explicit", stem), ("dot", stem.with_suffix(".dot"))):
-            assert _cli("export", "--scenario", "overtaking", "-f", fmt, "--model", kind, *extra, "-o", str(path)) == 0, (fmt, kind, extra)
+            assert _cli("export", "--scenario", "overtaking", *SEEN, "-f", fmt, "--model", kind, *extra, "-o", str(path)) == 0, (fmt, kind, extra)
         written.append((stem.name, kind, stem.with_suffix(".prism"), stem.with_suffix(".drn"), stem))
         # DOT is a picture, not a model checker's input: it must draw the model's states
         nodes = re.findall(r"^\s*\d+ \[label=", stem.with_suffix(".dot").read_text(), re.M)
@@ -374,7 +379,7 @@ def _walk(folder: Path, prism: bool) -> tuple[list[str], int]:
             problems.append(f"{stem.name}.dot draws {len(nodes)} states, the model has {len(states)}")
     induced = folder / "induced"  # `clomp check --induced`: Storm's scheduler's DTMC, the format from the name
     for path in (induced.with_suffix(".prism"), induced.with_suffix(".drn"), induced):
-        assert _cli("check", "--scenario", "overtaking", "--induced", str(path)) == 0, path
+        assert _cli("check", "--scenario", "overtaking", *SEEN, "--induced", str(path)) == 0, path
     written.append(("check --induced", "dtmc", induced.with_suffix(".prism"), induced.with_suffix(".drn"), induced))
     sup = folder / "supervisor.prism"  # what `clomp demo` writes beside the map
     sup.write_text(supervisor_closed_loop_prism())

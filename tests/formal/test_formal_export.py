@@ -84,7 +84,7 @@ def test_storm_builds_scan_maps_with_the_same_states_and_transitions(scan_maps, 
 
 
 def test_drn_round_trip_state_labels_match_by_label(scenario_map, tmp_path):
-    cmap = scenario_map("overtaking")
+    cmap = scenario_map("overtaking@0.8,-0.3")  # a map with a goal state (no label-holder state)
     path = tmp_path / "ov.drn"
     write_drn(cmap, path)
     sm = load_storm_model(path)

@@ -166,15 +166,16 @@ def test_a_target_replaces_the_goal_label_and_the_policy_stops_there(risky_map):
     assert plan_probability(risky_map, map_plan(risky_map), target={4}) == 0.0
 
 
-@pytest.mark.parametrize("name", ["doorway", "overtaking"])
-def test_a_search_for_more_routes_extends_algorithm_1s_map_with_alternatives(name):
+@pytest.mark.parametrize("goal", [(0.8, -0.3), (0.8, 0.3)])
+def test_a_search_for_more_routes_extends_algorithm_1s_map_with_alternatives(goal):
     """routes=1 is Algorithm 1 (the first goal state ends the search); more routes go on
     from the same queue, so the best-first map is a prefix of the larger one and the
     larger one holds more ends (goal states or frontiers) for Storm to choose among."""
     from clomp.planner import Configurator, load_scenario
 
-    scene = load_scenario(name)
-    scan, goal = scene.scan(max_range=1.1), tuple(scene.goal_in_robot_frame())
+    # round the overtaking box to goals the scan sees (the scenario's own, and the
+    # doorway's, stand in a shadow: no plan claims them)
+    scan = load_scenario("overtaking").scan(max_range=1.1)
     one = Configurator().plan(scan, goal)
     three = Configurator(max_states=100, routes=3).plan(scan, goal)
     assert set(one.map.transitions()) <= set(three.map.transitions())

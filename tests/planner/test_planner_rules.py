@@ -124,20 +124,22 @@ def test_a_point_just_ahead_of_the_body_stops_a_straight():
 def test_the_papers_overtaking_plan_still_goes_round_the_box():
     """The paper's map of about 30 states (32.9 ± 1.8) is what the authors' quarter turns
     build: every turn π/2, so going round the box takes a detour of steps and turns
-    back (28 states here; on the shared scans with something ahead the C++ stores a
-    median 24 states, clomp with quarter turns 28). Free turns end the turn after the
-    box facing the goal, and one straight reaches it: the same search, fewer states."""
+    back (28 states, before the shadow rule; on the shared scans with something ahead
+    the C++ stores a median 24 states, clomp with quarter turns 28). Free turns end the
+    turn after the box facing the goal, and one straight reaches it. The goal stands in
+    the box's shadow: that last straight drives through space no ray crossed, so the plan
+    ends there as a frontier (not a claim), and the search, finding no goal, goes on to
+    its budget (hence no state counts here)."""
     scene = load_scenario("overtaking")
     scan, goal = scene.scan(), tuple(scene.goal_in_robot_frame())
     quarter = Configurator(robot=RobotModel(free_turns=False)).plan(scan, goal)
     free = Configurator().plan(scan, goal)
     for r in (quarter, free):
-        assert r.reached_goal and r.collision_free
+        assert r.collision_free and not r.reached_goal and r.stop_reason == "frontier"
         tasks = [s.task.value for s in r.steps]
         assert "LEFT" in tasks and "RIGHT" in tasks  # round the box, not through it
         assert any(s.interrupted for s in r.map.states())  # the map keeps the hits it explored
-    assert 25 <= quarter.n_states <= 40  # the paper: 32.9 ± 1.8 states
-    assert 10 <= free.n_states < quarter.n_states
+    assert free.steps[-1].end.distance_to(*goal) <= free.robot.goal_tolerance  # at the goal, unclaimed
     assert len(free.steps) < len(quarter.steps)
 
 
@@ -145,7 +147,9 @@ def test_a_turn_may_end_short_of_the_goals_bearing_where_the_way_is_free() -> No
     """Overtaking between side walls (a layout of the experiment's family): after going
     left of the box the way to the goal is blocked by the box's corner, but a turn back
     by turn_angle/2, short of the goal's bearing, has the way ahead clear. Without that
-    candidate the search ran dry after 13 states and the robot halted UNREACHABLE."""
+    candidate the search ran dry after 13 states and the robot halted UNREACHABLE. The
+    goal stands in the box's shadow: the plan ends, after that turn, with a straight that
+    enters it (a frontier end), where the closed loop looks again."""
     scene = parse_scenario(
         {
             "start": [0.0, 0.0, 0.0],
@@ -160,7 +164,11 @@ def test_a_turn_may_end_short_of_the_goals_bearing_where_the_way_is_free() -> No
     conf = Configurator()
     scan = scene.scan(max_range=conf.robot.sensor_range)
     result = conf.plan(scan, scene.goal_in_robot_frame())
-    assert result.reached_goal, [(s.task.value, s.end) for s in result.steps]
+    steps = [(s.task.value, s.end) for s in result.steps]
+    assert result.stop_reason == "frontier", steps
+    # left of the box, then back by turn_angle/2 to heading 0, short of the goal's bearing
+    assert [s.task.value for s in result.steps][:3] == ["LEFT", "STRAIGHT", "RIGHT"], steps
+    assert result.steps[2].end.theta == pytest.approx(0.0, abs=1e-9)
     assert check_states(scan, result.steps, conf.robot).ok
 
 
@@ -171,13 +179,18 @@ def test_a_turn_away_from_the_goal_may_go_past_a_quarter_turn_to_leave_a_nook(sc
     goal behind it. A quarter turn right faces the flank wall (the next straight is
     stopped at once), a straight ahead meets the wall ahead: the way out is a right turn
     past π/2, then round the wall's lower end. With marks only up to π/2 the search ran
-    dry (0131: exhausted after 5 states; 0126: ended at the frontier)."""
+    dry (0131: exhausted after 5 states; 0126: ended at the frontier). The goal stands
+    in the wall's shadow, so the search ends at the first frontier state it pops (no plan
+    claims the goal); the turn past π/2 is in the map, and 0131's plan takes it."""
     scan = load_scan(scans_dir / name)
     r = Configurator().plan(scan, (1.0, 0.0))
-    assert r.reached_goal, (r.stop_reason, [(s.task.value, s.end) for s in r.steps])
+    where = (r.stop_reason, [(s.task.value, s.end) for s in r.steps])
+    assert r.stop_reason == "frontier" and not r.reached_goal, where
     assert check_states(scan, r.steps, r.robot).ok
-    first = r.steps[0]
-    assert first.task.value == "RIGHT" and first.start.theta - first.end.theta > math.pi / 2 + 1e-6
+    root = [s for s in r.map.states() if s.task.value == "RIGHT" and s.start.as_list() == [0.0, 0.0, 0.0]]
+    assert root and root[0].start.theta - root[0].end.theta > math.pi / 2 + 1e-6
+    if name == "map0131.dat":
+        assert r.steps[0].ident == root[0].ident
 
 
 def test_a_turn_towards_the_goal_stops_at_a_quarter_turn() -> None:
@@ -222,17 +235,33 @@ def test_a_step_towards_a_wall_ends_where_the_body_can_still_spin() -> None:
             assert step.distance == pytest.approx(0.27) and turn.collided
 
 
-@pytest.mark.parametrize("name", ["map0043.dat", "map0117.dat"])
+@pytest.mark.parametrize("name", ["map0043.dat"])
 def test_a_state_on_the_rim_does_not_end_the_search(scans_dir: Path, name: str) -> None:
     """Recorded scans where the least-φ state once lay on the rim of the sensed disc and
     ended the search ('frontier'), though a way to the goal inside the disc exists: the
-    rim state is kept but not expanded, and the search goes on to the goal."""
+    rim state is kept but not expanded, and the search goes on (to the goal before the
+    shadow rule; the ways it found pass a shadow before their last task, and it now goes
+    on to its budget, ending at a frontier state within 9 cm of the goal). Scan 117 was
+    the other such scan: its goal now stands in a shadow (see the next test)."""
     scan = load_scan(scans_dir / name)
     r = Configurator().plan(scan, (1.0, 0.0))
-    assert r.reached_goal and r.stop_reason == "goal"
+    assert r.stop_reason != "goal" and r.n_states >= Configurator().max_states - 2  # went on to the budget
+    assert r.steps[-1].end.distance_to(1.0, 0.0) < 0.09
     assert check_states(scan, r.steps, r.robot).ok
     rim = [s for s in r.map.states() if dict(s.extra).get("frontier") == 1.0]
-    assert rim and all(not r.map.successors(s.ident) for s in rim)  # kept, never expanded
+    assert len(rim) > 1 and all(not r.map.successors(s.ident) for s in rim)  # kept, never expanded
+
+
+def test_a_goal_in_a_shadow_ends_the_search_at_the_first_frontier_state(scans_dir: Path) -> None:
+    """Recorded scan 117: the goal stands behind a wall, in its shadow. No way inside
+    known-free space reaches it, so, as for a goal beyond the disc, the first frontier
+    state popped ends the search."""
+    scan = load_scan(scans_dir / "map0117.dat")
+    r = Configurator().plan(scan, (1.0, 0.0))
+    frontier = [s for s in r.map.states() if dict(s.extra).get("frontier") == 1.0]
+    assert r.stop_reason == "frontier" and not r.reached_goal and len(frontier) == 1
+    assert r.n_states < Configurator().max_states
+    assert check_states(scan, r.steps, r.robot).ok
 
 
 def test_a_goal_beyond_the_disc_ends_the_search_at_the_first_rim_state() -> None:
@@ -272,10 +301,13 @@ def test_a_goal_round_a_wall_end_near_the_rim_is_reached(scans_dir: Path) -> Non
     """Recorded scan 138: a corridor whose right wall ends 0.2 m short of the rim, the goal
     beyond its end. Steps ran to the rim, where no turn stays inside the disc, and the
     search spent its 50 states (53 were needed); stopping where the body can spin, the
-    plan turns round the wall's end inside the disc."""
+    plan turns round the wall's end inside the disc. The goal stands in the wall's
+    shadow: the search ends at the first frontier state, the straight along the corridor
+    towards the wall's end (within 0.2 m of the goal), where the closed loop looks again."""
     scan = load_scan(scans_dir / "map0138.dat")
     r = Configurator().plan(scan, (1.0, 0.0))
-    assert r.reached_goal and r.stop_reason == "goal", (r.stop_reason, [(s.task.value, s.end) for s in r.steps])
+    where = (r.stop_reason, [(s.task.value, s.end) for s in r.steps])
+    assert r.stop_reason == "frontier" and r.steps[-1].end.distance_to(1.0, 0.0) < 0.2, where
     assert check_states(scan, r.steps, r.robot).ok
 
 
@@ -284,10 +316,10 @@ def test_a_turn_away_from_the_goal_past_a_quarter_turn_may_end_between_the_pi_8_
     is down the corridor and out through the gap below that wall, which the first turn
     (away from the goal, which lies ahead) finds at 9π/16; with marks
     only every π/8 past the quarter turn it ended at 5π/8, and the search spent its 50
-    states (79 were needed)."""
+    states (79 were needed). That way passes the wall's shadow before its last task, so
+    no plan takes it now; the turn is still found (the map's right turn from the origin)."""
     scan = load_scan(scans_dir / "map0121.dat")
     r = Configurator().plan(scan, (1.0, 0.0))
-    assert r.reached_goal and r.stop_reason == "goal", (r.stop_reason, [(s.task.value, s.end) for s in r.steps])
     assert check_states(scan, r.steps, r.robot).ok
-    first = r.steps[0]
-    assert first.task.value == "RIGHT" and first.end.theta == pytest.approx(-9 * math.pi / 16)
+    root = [s for s in r.map.states() if s.task.value == "RIGHT" and s.start.as_list() == [0.0, 0.0, 0.0]]
+    assert [s.end.theta for s in root] == [pytest.approx(-9 * math.pi / 16)]

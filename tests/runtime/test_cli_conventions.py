@@ -32,7 +32,8 @@ def _rc(capsys: pytest.CaptureFixture[str], *argv: str) -> tuple[int, str, str]:
 @pytest.mark.parametrize(
     ("argv", "status"),
     [
-        (["--scenario", "overtaking"], 0),  # the plan reaches the goal
+        (["--scenario", "corridor"], 0),  # the plan reaches the goal
+        (["--scenario", "overtaking"], 1),  # a partial plan: the goal stands in the box's shadow
         (["--scenario", "blocked"], 1),  # a partial plan: ran, goal not reached
         (["--scenario", "blocked", "--json"], 1),
         (["--scenario", "overtaking", "--goal", "0.5,0"], 2),  # the box's centre (only its face is seen)

@@ -20,9 +20,11 @@ def clomp(*args: str, cwd=None) -> subprocess.CompletedProcess[str]:
 
 def test_plan_overtaking_json():
     p = clomp("plan", "--scenario", "overtaking", "--json")
-    assert p.returncode == 0, p.stderr
+    # a partial plan: the goal stands in the box's shadow (no ray crossed it), so the plan
+    # goes round the box and ends at the frontier beside it, unclaimed
+    assert p.returncode == 1, p.stderr
     d = json.loads(p.stdout)
-    assert d["reached_goal"] is True and d["collision_free"] is True
+    assert d["reached_goal"] is False and d["collision_free"] is True and d["stop_reason"] == "frontier"
     assert 10 <= d["states"] <= 200 and d["transitions"] >= d["states"] - 1
     assert isinstance(d["planning_time_s"], float)
     assert {s["task"] for s in d["plan"]} >= {"STRAIGHT"}
