@@ -37,12 +37,12 @@ def test_a_scan_in_millimetres_is_refused_with_the_hint(scans_dir: Path, tmp_pat
 
 def test_units_mm_gives_the_plan_of_the_scan_in_metres(scans_dir: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     metres, mm = _mm(scans_dir, tmp_path)
-    code, out, _ = _run(capsys, "plan", "--scan", str(metres), "--goal", "1,0", "--json", "--map", str(tmp_path / "m.json"))
-    assert code == 0
+    code_m, out, _ = _run(capsys, "plan", "--scan", str(metres), "--goal", "1,0", "--json", "--map", str(tmp_path / "m.json"))
+    assert code_m in (0, 1)  # a plan (to the goal, or to the frontier when the goal lies in a shadow)
     want = json.loads(out)
     code, out, _ = _run(capsys, "plan", "--scan", str(mm), "--goal", "1,0", "--json", "--units", "mm",
                         "--map", str(tmp_path / "mm.json"))
-    assert code == 0
+    assert code == code_m
     got = json.loads(out)
     assert want["obstacles"] > 10 and want["plan"]  # a scan with something in it
     for key in ("plan", "reached_goal", "collision_free", "states", "transitions", "obstacles", "stop_reason"):
@@ -52,7 +52,7 @@ def test_units_mm_gives_the_plan_of_the_scan_in_metres(scans_dir: Path, tmp_path
     assert maps[0]["states"] == maps[1]["states"] and maps[0]["metadata"]["obstacles"] == maps[1]["metadata"]["obstacles"]
     # said to be metres, the millimetre scan is planned as it is: every return beyond the horizon
     code, out, _ = _run(capsys, "plan", "--scan", str(mm), "--goal", "1,0", "--json", "--units", "m")
-    assert code == 0 and json.loads(out)["obstacles"] == 0
+    assert code in (0, 1) and json.loads(out)["obstacles"] == 0
 
 
 def test_a_folder_in_millimetres_is_refused_and_converted(scans_dir: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
