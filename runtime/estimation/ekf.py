@@ -127,6 +127,9 @@ class OdometryFilter:
         rate_noise: float = 0.0025,
         rate_offset_sd: float = 0.05,
         rate_offset_walk: float = 0.0005,
+        slip_noise: float = 0.0,
+        turn_noise: float = 0.0,
+        path_heading_noise: float = 0.0,
     ) -> None:
         if not (math.isfinite(wheel_base) and wheel_base > 0):
             raise ValueError(f"wheel_base must be positive, got {wheel_base!r}")
@@ -140,6 +143,9 @@ class OdometryFilter:
         self.rate_noise = float(rate_noise)
         self.rate_offset_sd = float(rate_offset_sd)
         self.rate_offset_walk = float(rate_offset_walk)
+        self.slip_noise = float(slip_noise)
+        self.turn_noise = float(turn_noise)
+        self.path_heading_noise = float(path_heading_noise)
         self.match_floor = np.square(np.asarray(match_floor, dtype=float))
         # no learnt term beyond three prior standard deviations: a wrong association must
         # not teach the filter wheels no robot has
@@ -223,6 +229,24 @@ class OdometryFilter:
             m[:2, :2] += np.outer(d, d)
             m[2, 2] += heading**2
 
+    def admit(self, error: Sequence[float]) -> None:
+        """The evidence showed the estimate off by ``error`` (dx, dy, dtheta): :attr:`honest`
+        holds at least that much along it from now on (what the estimate can vouch for
+        never again forgets a disagreement its matches showed; ``P``, the gain's, is left).
+
+        >>> f = OdometryFilter(0.15)
+        >>> f.admit((0.1, 0.0, 0.05)); round(f.honest_sigma_xy, 3), round(math.sqrt(f.honest[2, 2]), 3)
+        (0.1, 0.05)
+        """
+        d = np.asarray(error, dtype=float).reshape(3)
+        n = float(math.hypot(d[0], d[1]))
+        if n > 0:
+            u = d[:2] / n
+            have = float(u @ self.honest[:2, :2] @ u)
+            if have < n * n:
+                self.honest[:2, :2] += (n * n - have) * np.outer(u, u)
+        self.honest[2, 2] = max(float(self.honest[2, 2]), float(d[2]) ** 2)
+
     def shift(self, pose: Pose) -> None:
         """Move the pose estimate to ``pose`` (an outside correction), keeping the covariance."""
         self.x[:3] = (pose.x, pose.y, pose.theta)
@@ -270,6 +294,13 @@ class OdometryFilter:
         g = np.array([[cs, 0.0], [sn, 0.0], [0.0, 1.0]])
         q = np.zeros((_N, _N))
         q[:3, :3] = g @ np.array([[var_d, cov_dth], [cov_dth, var_th]]) @ g.T
+        # what the model does not hold (slip events, a bias that wanders, a gain that differs
+        # by direction): a random walk of the position per metre driven and of the heading
+        # per radian turned and per metre driven
+        dist, rot = abs(vt) * dt, abs(dth)
+        q[0, 0] += self.slip_noise**2 * dist
+        q[1, 1] += self.slip_noise**2 * dist
+        q[2, 2] += self.turn_noise**2 * rot + self.path_heading_noise**2 * dist
         if floor is not None:  # never less than the base says its own odometry is uncertain
             q[:3, :3] = psd_max(q[:3, :3], rotate_covariance(np.asarray(floor, dtype=float).reshape(3, 3), th))
         q[3:7, 3:7] = np.diag(np.square(self.calibration_walk)) * dt * m

@@ -60,6 +60,7 @@ from clomp.formal.geometry import (
 )
 from clomp.formal.model import Pose
 from clomp.runtime.devices.frame import ScanFrame
+from clomp.runtime.estimation.confirm import Ambiguity, ambiguity
 from clomp.runtime.estimation.ekf import OdometryFilter
 from clomp.runtime.estimation.faces import FaceCompass
 from clomp.runtime.estimation.fusion import fuse_revolutions, range_spread
@@ -166,6 +167,7 @@ class ScanOdometry:
         still_after: float = 0.5,
         relocalise_after: int = 0,
         agree: tuple[float, float] = (0.05, 0.1),
+        admit_after: int = 0,
     ) -> None:
         if not (math.isfinite(wheel_base) and wheel_base > 0):
             raise ValueError(f"wheel_base must be positive, got {wheel_base!r}")
@@ -199,6 +201,7 @@ class ScanOdometry:
         self.still_after = float(still_after)
         self.relocalise_after = int(relocalise_after)
         self.agree = agree
+        self.admit_after = int(admit_after)
         self.records: list[FeedbackRecord] = []
         self.last_points = np.zeros((0, 2))
         self._moved_since = 0.0  # m (or wheel-base radians) driven since the last accepted match
@@ -442,11 +445,35 @@ class ScanOdometry:
             <= self.agree[0] and abs(wrap_angle(d[2] - prev[2])) <= self.agree[1]
         self.rejected_in_a_row = self.rejected_in_a_row + 1 if same else 1
         self.disagreement = d
+        if self.admit_after and self.rejected_in_a_row >= self.admit_after:
+            self.filter.admit(d)  # shown off by this much: what it can vouch for remembers it
         if self.relocalise_after and self.rejected_in_a_row >= self.relocalise_after:
             self.filter.inflate(d[:2], math.hypot(d[2], self.agree[1]))
             self.filter.P[:2, :2] += np.eye(2) * self.agree[0] ** 2
             self.relocalised += 1
             self.rejected_in_a_row = 0
+
+    def ambiguity(self, points: np.ndarray) -> Ambiguity:
+        """How far from the estimate a revolution ``points`` seen standing here (robot frame)
+        matches the map as well (:func:`~clomp.runtime.estimation.confirm.ambiguity`); not
+        ``matched`` before there is a map."""
+        if self._map is None:
+            return Ambiguity(math.inf, 0.0, 0, False)
+        sd = max(2 * self.match_sd, self.noise_factor * (self.range_sd or 0.0))  # the map's own errors too
+        return ambiguity(self._map, points, self.pose, min_points=self.min_points, sd=sd, correlation=self.correlation)
+
+    def relocate(self, pose: Pose) -> None:
+        """The revolutions say the robot is at ``pose``, not where the estimate puts it (a wider
+        search found it, :meth:`ambiguity`): the estimate moves there and its uncertainty,
+        the gain's and the vouching one, grows by the jump (and the jump is admitted)."""
+        here = self.pose
+        d = (pose.x - here.x, pose.y - here.y, wrap_angle(pose.theta - here.theta))
+        self.filter.shift(pose)
+        self.filter.inflate(d[:2], abs(d[2]))
+        self.filter.admit(d)
+        self.pose = pose
+        self._history = deque([(self._t, pose)])
+        self.relocalised += 1
 
     def position_sd(self) -> float:
         """How well the position is known (m, one standard deviation, the larger axis): the

@@ -77,6 +77,11 @@ class SupervisorConfig:
       estimate.
     - ``vouch_sigmas``: standard deviations in the bound; 2.45 is the 95 % radius of a
       2-D normal (the square root of chi-square's 95 % point with 2 degrees of freedom).
+    - ``relocate_at_goal``: with scan feedback, at the goal by the estimate, the revolutions
+      seen standing are matched against the map from several guesses around the estimate;
+      when they fit clearly better elsewhere the estimate moves there and the robot plans on
+      (issue #36: a push or a slip the matcher's few centimetres of reach could not follow),
+      at most this many times a run (0: never).
 
     >>> SupervisorConfig(confirm=0)
     Traceback (most recent call last):
@@ -104,6 +109,7 @@ class SupervisorConfig:
     deepen: int = DEEPEN
     vouch_radius: float | None = 0.1
     vouch_sigmas: float = 2.45
+    relocate_at_goal: int = 0
 
     def __post_init__(self) -> None:
         if self.feedback not in FEEDBACK:
@@ -113,6 +119,7 @@ class SupervisorConfig:
             _positive_int(name, getattr(self, name))
         _positive_int("max_recalls", self.max_recalls, least=0)
         _positive_int("settle_scans", self.settle_scans, least=0)
+        _positive_int("relocate_at_goal", self.relocate_at_goal, least=0)
         if self.goal_radius is not None:
             _non_negative("goal_radius", self.goal_radius, positive=True)
         if self.vouch_radius is not None:

@@ -172,6 +172,21 @@ class Sensing:
         """
         return None if self.estimator is None else sigmas * self.estimator.position_sd()
 
+    def better_pose(self) -> Pose | None:
+        """Where the revolutions seen standing here say the robot is when they fit the map
+        clearly better there than at the estimate (a wider search from several guesses:
+        :meth:`~clomp.runtime.estimation.odometry.ScanOdometry.ambiguity`); None when they
+        do not, or without scan feedback."""
+        if self.estimator is None or self.scan is None:
+            return None
+        return self.estimator.ambiguity(self.planning_scan()).better
+
+    def relocate(self, pose: Pose) -> None:
+        """Move the estimate to ``pose`` (:meth:`better_pose`), its uncertainty raised by the jump."""
+        assert self.estimator is not None
+        self.estimator.relocate(pose)
+        self.pose = self.estimator.pose
+
     def drove(self, cmd: tuple[float, float]) -> None:
         """The wheels were commanded ``cmd``: a turn smears the revolution under way."""
         self.turned = self.turned or turning(cmd)

@@ -158,6 +158,7 @@ class Supervisor:
         self._plan: PlanRecord | None = None
         self.fresh_plans: list[TimedRecord] = []
         self._check_due = False
+        self._relocations = 0  # times the estimate moved at the goal (_relocated_at_goal)
         self._goal_end: tuple[float, float | None] | None = None  # (distance, 95 % bound) when it ended at the goal
         self.watch = PlanWatch(self.model, self._log)  # hazard test, plan check, recall (clomp.runtime.supervision.planwatch)
         self.alarms = self.watch.alarms
@@ -357,12 +358,32 @@ class Supervisor:
             return  # let driving settle, then take ``fuse_scans`` revolutions (at the start, ``start_scans``: the map's seed)
         g = relative(self.pose, self.goal)
         dist = math.hypot(g.x, g.y)
+        if dist <= self.goal_radius and self._relocated_at_goal(now):
+            g = relative(self.pose, self.goal)
+            dist = math.hypot(g.x, g.y)
         if self._ends_before_planning(dist):
             return
         scan = self.sensing.planning_scan()
         if self.state is S.REPLANNING and self._recall(scan, now):
             return
         self._fresh_plan(scan, (g.x, g.y), dist, now)
+
+    def _relocated_at_goal(self, now: float) -> bool:
+        """At the goal by the estimate: before it vouches, a wider search (several starting
+        guesses) asks whether the revolutions seen standing here fit the map clearly better
+        elsewhere; if so the estimate moves there (at most ``relocate_at_goal`` times a run)
+        and the robot plans on from it. True when it moved."""
+        if self._relocations >= self.config.relocate_at_goal:
+            return False
+        better = self.sensing.better_pose()
+        if better is None:
+            return False
+        was = self.pose
+        self.sensing.relocate(better)
+        self.pose = self.sensing.pose
+        self._relocations += 1
+        self._log("relocated", before=was.as_list(), pose=self.pose.as_list())
+        return True
 
     def _ends_before_planning(self, dist: float) -> bool:
         """At the goal, out of plans, or stuck: fire the end and say so."""

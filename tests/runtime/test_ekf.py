@@ -165,3 +165,22 @@ def test_learnt_terms_stay_within_three_prior_deviations() -> None:
     cal = np.asarray(f.calibration)
     assert np.all(np.abs(cal) <= bound + 1e-12), cal
     assert cal[2] == pytest.approx(bound[2]), cal  # the curvature learnt as far as it may go
+
+
+def test_what_the_model_does_not_hold_grows_the_uncertainty_by_distance_and_turn():
+    """slip_noise (m/√m) on the position per metre driven, turn_noise (rad/√rad) on the heading
+    per radian turned (issue #36's knobs; 0 by default: the filter as before)."""
+    from clomp.runtime.estimation.ekf import OdometryFilter
+
+    def driven(**kw):
+        f = OdometryFilter(0.15, **kw)
+        for _ in range(10):
+            f.predict(0.1, 0.0, 0.1)  # 0.1 m straight
+        for _ in range(10):
+            f.predict(0.0, 1.0, 0.1, turned=0.1)  # 1 rad turned, the gyro's
+        return f
+
+    base, slip, turn = driven(), driven(slip_noise=0.1), driven(turn_noise=0.1)
+    assert slip.P[1, 1] - base.P[1, 1] > 0.9 * 0.1**2 * 0.1  # 0.1 m at (0.1 m/√m)² across the path
+    assert turn.P[2, 2] - base.P[2, 2] > 0.9 * 0.1**2 * 1.0  # 1 rad at (0.1 rad/√rad)²
+    assert slip.honest[1, 1] == slip.P[1, 1] and OdometryFilter(0.15).slip_noise == 0.0

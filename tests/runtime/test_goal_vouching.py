@@ -11,6 +11,7 @@ import dataclasses
 import json
 import math
 
+import numpy as np
 import pytest
 
 from clomp.planner import Configurator, load_scenario
@@ -174,3 +175,43 @@ def test_the_honest_covariance_counts_the_map_s_own_error():
         g.predict(0.1, 0.0, 0.1)
     g.correct((0.0, 0.0, 0.0), info)  # the same match against exact surfaces
     assert f.sigma_xy == g.sigma_xy and f.honest_sigma_xy > 1.5 * g.honest_sigma_xy  # the gain alike; honest counts the map
+
+
+# -- the wider search at the goal (clomp.runtime.estimation.confirm) ---------------------------------
+def _room() -> np.ndarray:
+    wall = np.linspace(-0.6, 0.6, 61)
+    return np.array([[0.8, y] for y in wall] + [[x, 0.6] for x in wall] + [[x, -0.6] for x in wall[:40]])
+
+
+def _seeded_odometry():
+    from clomp.formal.model import Pose
+    from clomp.runtime.devices.frame import ScanFrame
+
+    odo = ScanOdometry(wheel_base=0.15)
+    odo.reset(Pose(0.0, 0.0, 0.0), 0.0)
+    odo.update(ScanFrame(_room(), 0.0))
+    return odo
+
+
+def test_a_robot_pushed_beyond_the_matchers_reach_is_found_by_the_wider_search():
+    from clomp.formal.model import Pose
+
+    odo = _seeded_odometry()
+    odo.filter.shift(Pose(0.2, 0.1, 0.0))  # believes itself 0.22 m from where it stands (a push it did not see)
+    odo.pose = odo.filter.pose
+    amb = odo.ambiguity(_room())  # what it sees standing at the origin
+    assert amb.better is not None and math.hypot(amb.better.x, amb.better.y) < 0.02, amb
+    odo.relocate(amb.better)
+    assert math.hypot(odo.pose.x, odo.pose.y) < 0.02 and odo.relocalised == 1
+    assert odo.position_sd() > 0.2  # the jump is what it can vouch for now, not its old 1 mm
+
+
+def test_where_the_estimate_is_right_the_wider_search_finds_nothing_better():
+    amb = _seeded_odometry().ambiguity(_room())
+    assert amb.matched and amb.better is None and amb.distance == 0.0, amb
+
+
+def test_relocation_at_the_goal_is_a_setting_off_by_default():
+    assert SupervisorConfig().relocate_at_goal == 0
+    with pytest.raises(ValueError, match="relocate_at_goal"):
+        SupervisorConfig(relocate_at_goal=-1)
