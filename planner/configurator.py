@@ -264,6 +264,7 @@ class Configurator:
         max_states: int = 50,
         horizon: float = 1.2,
         routes: int = 1,
+        recovery: bool = False,
     ) -> None:
         if max_states < 1:
             raise ValueError("max_states must be at least 1")
@@ -276,6 +277,9 @@ class Configurator:
         self.max_states = int(max_states)
         self.horizon = float(horizon)
         self.routes = routes
+        self.recovery = bool(recovery)
+        """Plan with WAIT and REVERSE too (issue #42; off by default: static worlds plan as
+        before): :mod:`clomp.planner.recovery` says when they are offered."""
         """How many ends the search collects before it stops: 1 (Algorithm 1) stops at the
         first goal state (a popped frontier state is kept, not expanded, and the search
         goes on when the goal lies inside the sensed disc, else it ends there); more keep searching for alternative routes (a goal state or popped
