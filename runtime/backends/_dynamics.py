@@ -22,7 +22,6 @@ import pymunk
 
 from clomp.planner.noise import NoiseTerms
 from clomp.runtime.backends._movers import Movers
-from clomp.runtime.backends._movers import Movers
 from clomp.runtime.backends._world_body import BodySpec
 
 __all__ = ["Contacts", "Drive", "WorldContact", "WorldPush", "push_speed", "term_stream"]

@@ -12,7 +12,10 @@ A path is a list of ``(t, x, y)`` waypoints (s, m, world frame): the body is abs
 the first time, moves linearly between waypoints, and after the last one stays there
 (``stays``) or leaves the world. A box with ``ahead`` set appears at ``appear`` s that far
 (m) ahead of the robot's front edge, across its heading, wherever the robot then is (the
-issue's "a box appearing 5 cm ahead").
+issue's "a box appearing 5 cm ahead"); a person with ``ahead`` set appears at ``appear`` s
+``lateral`` m to the side (positive: left) of that point and walks there at ``speed`` m/s,
+and stops (the issue's "a person walks in and stops ahead"): the point is reckoned with
+the robot driving on at ``drive_speed`` while the person walks.
 
 >>> m = Mover.from_dict({"kind": "person", "path": [[0, 0.5, -1.0], [2, 0.5, 1.0]], "stays": False})
 >>> m.position(1.0), m.present(3.0), m.radius
@@ -55,6 +58,9 @@ class Mover:
     stays: bool = True
     appear: float | None = None
     ahead: float | None = None
+    lateral: float = 0.0
+    speed: float = 0.5
+    drive_speed: float = 0.1
 
     @classmethod
     def from_dict(cls, raw: Mapping[str, Any]) -> "Mover":
@@ -78,8 +84,23 @@ class Mover:
             raise ValueError("mover: needs a path, or 'ahead' and 'appear' (a box that appears ahead of the robot)")
         if ahead is not None and appear is None:
             raise ValueError("mover: 'ahead' needs 'appear' (when the box appears)")
+        lateral, speed = float(raw.get("lateral", 0.0)), float(raw.get("speed", 0.5))
+        if not (math.isfinite(lateral) and math.isfinite(speed) and speed > 0):
+            raise ValueError(f"mover: lateral must be finite and speed positive, got {lateral!r}, {speed!r}")
         return cls(kind, radius, path, bool(raw.get("stays", True)), None if appear is None else float(appear),
-                   None if ahead is None else float(ahead))
+                   None if ahead is None else float(ahead), lateral, speed)
+
+    def placed(self, t: float, robot: tuple[float, float, float], front: float) -> tuple[tuple[float, float, float], ...]:
+        """The path of a mover with ``ahead``, placed at ``t`` for the robot at ``robot`` (x, y,
+        theta) with its front edge ``front`` m ahead of its centre."""
+        x, y, th = robot
+        c, s = math.cos(th), math.sin(th)
+        walk = abs(self.lateral) / self.speed
+        d = front + float(self.ahead or 0.0) + self.radius + self.drive_speed * walk
+        tx, ty = x + d * c, y + d * s
+        if not self.lateral:
+            return ((t, tx, ty),)
+        return ((t, tx - self.lateral * s, ty + self.lateral * c), (t + walk, tx, ty))
 
     def start_time(self) -> float:
         """When the body enters the world (s)."""
@@ -120,7 +141,9 @@ class Movers:
         self.space, self.movers = space, tuple(movers)
         self.bodies: list[pymunk.Body] = []
         self.shapes: list[pymunk.Shape] = []
-        self.placed: list[tuple[float, float] | None] = [None] * len(self.movers)  # where an 'ahead' box appeared
+        # each mover's path; one with 'ahead' gets it when it appears
+        self.paths: list[tuple[tuple[float, float, float], ...] | None] = [
+            None if m.ahead is not None else m.path for m in self.movers]
         self.inside = [False] * len(self.movers)
         self.drive = (0.0, 0.0, 0.0)
         for m in self.movers:
@@ -137,10 +160,10 @@ class Movers:
             self.shapes.append(shape)
 
     def _where(self, k: int, t: float) -> tuple[float, float] | None:
-        m = self.movers[k]
-        if m.ahead is not None:
-            return self.placed[k] if t >= m.start_time() else None
-        return m.position(t) if m.present(t) else None
+        m, path = self.movers[k], self.paths[k]
+        if path is None or not m.present(t):
+            return None
+        return m.position(t) if path is m.path else Mover(m.kind, m.radius, path).position(t)
 
     def step(self, t: float, dt: float, robot: tuple[float, float, float], front: float,
              drive: tuple[float, float, float] = (0.0, 0.0, 0.0)) -> None:
@@ -151,10 +174,8 @@ class Movers:
         stopped the body)."""
         self.drive = drive
         for k, m in enumerate(self.movers):
-            if m.ahead is not None and self.placed[k] is None and t >= m.start_time():
-                x, y, th = robot
-                d = front + m.ahead + m.radius
-                self.placed[k] = (x + d * math.cos(th), y + d * math.sin(th))
+            if self.paths[k] is None and t >= m.start_time():
+                self.paths[k] = m.placed(t, robot, front)
             now = self._where(k, t)
             body = self.bodies[k]
             if now is None:

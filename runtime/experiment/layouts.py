@@ -32,11 +32,14 @@ cul-de-sac    a dead-end corridor 0.5–0.8 m wide ending 0.6–0.9 m ahead; bey
 crossing      a room (side walls 0.7 m either side, from 0.5 m behind the start to 0.45 m
               past the goal, closed at both ends), goal 1.2–1.4 m ahead, ±0.1 m; one or
               two people (discs of 0.12 m) cross the lane through side doors (0.4 m wide)
-              at 0.45–1.0 m ahead, 0.2–1.0 m/s, either way, the lane's centre at 1–8 s,
-              from 1.3 m on one side to 1.3 m on the other, then leave
-stopper       the same room, goal 1.1–1.3 m ahead, ±0.1 m; a person walks in through a
-              side door at 0.3–0.8 m/s and stops in the lane 0.35–0.7 m ahead, ±0.05 m,
-              at 2–6 s, and stays (a way round it stays open)
+              ahead of the robot, 0.2–1.0 m/s, either way, the lane's centre at 1–6 s, from
+              1.3 m on one side to 1.3 m on the other, then leave; a crossing at t s lies
+              0.36–0.66 m (centre) beyond where a robot that set off at 2 s at 0.1 m/s
+              would be then, and at least 0.45 m ahead of the start
+stopper       the same room without doors, goal 1.2–1.4 m ahead, ±0.1 m; at 2–6 s a person
+              appears 0.55 m to one side of the lane and walks at 0.3–0.8 m/s into the
+              lane, where it stops 0.03–0.25 m ahead of the robot's front edge (reckoned
+              with the robot driving on at 0.1 m/s meanwhile), and stays
 appearing     the same room without doors, goal 1.2–1.4 m ahead, ±0.1 m; a box (0.16 m)
               appears in the lane 0.05–0.25 m ahead of the robot's front edge, wherever
               the robot then is, at 2.5–6 s (after the first plan), and stays
@@ -214,7 +217,8 @@ def _crossing(rng: np.random.Generator) -> tuple[_Raw, dict[str, Any]]:
     gx, gy = rng.uniform(1.2, 1.4), rng.uniform(-0.1, 0.1)
     people = []
     for _ in range(int(rng.integers(1, 3))):
-        x, v, tc = rng.uniform(0.45, 1.0), rng.uniform(0.2, 1.0), rng.uniform(1.0, 8.0)
+        v, tc, gap = rng.uniform(0.2, 1.0), rng.uniform(1.0, 6.0), rng.uniform(0.15, 0.45)
+        x = max(0.45, 0.09 + 0.1 * max(tc - 2.0, 0.0) + 0.12 + gap)
         side = 1.0 if rng.random() < 0.5 else -1.0
         half = 1.3 / v
         people.append({"kind": "person", "stays": False,
@@ -224,14 +228,13 @@ def _crossing(rng: np.random.Generator) -> tuple[_Raw, dict[str, Any]]:
 
 
 def _stopper(rng: np.random.Generator) -> tuple[_Raw, dict[str, Any]]:
-    gx, gy = rng.uniform(1.1, 1.3), rng.uniform(-0.1, 0.1)
-    xs, ys, v, ts = rng.uniform(0.35, 0.7), rng.uniform(-0.05, 0.05), rng.uniform(0.3, 0.8), rng.uniform(2.0, 6.0)
+    gx, gy = rng.uniform(1.2, 1.4), rng.uniform(-0.1, 0.1)
+    ahead, v, ts = rng.uniform(0.03, 0.25), rng.uniform(0.3, 0.8), rng.uniform(2.0, 6.0)
     side = 1.0 if rng.random() < 0.5 else -1.0
-    t0 = ts - abs(1.2 * side - ys) / v
-    person = {"kind": "person", "stays": True,
-              "path": [[round(t0, 4), round(xs, 4), 1.2 * side], [round(ts, 4), round(xs, 4), round(ys, 4)]]}
-    p = {"stop_x": xs, "stop_y": ys, "stop_time": ts, "speed": v, "goal_x": gx}
-    return {"goal": [round(gx, 4), round(gy, 4)], "obstacles": _room(gx, [xs]), "movers": [person]}, p
+    person = {"kind": "person", "appear": round(ts, 4), "ahead": round(ahead, 4), "lateral": 0.55 * side,
+              "speed": round(v, 4)}
+    p = {"ahead": ahead, "appear": ts, "speed": v, "side": side, "goal_x": gx}
+    return {"goal": [round(gx, 4), round(gy, 4)], "obstacles": _room(gx, []), "movers": [person]}, p
 
 
 def _appearing(rng: np.random.Generator) -> tuple[_Raw, dict[str, Any]]:
