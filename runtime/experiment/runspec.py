@@ -21,6 +21,7 @@ import numpy as np
 
 from clomp.planner.scenarios import Scene, load_scenario
 from clomp.runtime.experiment.groundtruth import NOISE_PRESETS
+from clomp.runtime.backends.world import parse_movers
 from clomp.runtime.experiment.layouts import ALL_FAMILIES, MOVING_FAMILIES, make_layout
 
 __all__ = ["CONDITIONS", "DEFAULT_CONDITIONS", "RunSpec", "check_condition", "experiment_specs", "movers_for", "noise_seed", "scene_for"]
@@ -103,14 +104,17 @@ def scene_for(spec: RunSpec) -> tuple[Scene, str]:
 
 def movers_for(spec: RunSpec) -> tuple[Any, ...]:
     """The moving and appearing bodies of a run's world (issue #42): a moving family's
-    :attr:`~clomp.runtime.experiment.layouts.Layout.movers`, else none.
+    :attr:`~clomp.runtime.experiment.layouts.Layout.movers`, a scenario file's ``movers``
+    list (the JSON forms of :class:`~clomp.runtime.backends.world.Mover`), else none.
 
     >>> len(movers_for(RunSpec("appearing", 0, 0, "planning"))), movers_for(RunSpec("overtaking", 0, 0, "planning"))
     (1, ())
     """
     if spec.family in MOVING_FAMILIES:
         return make_layout(spec.family, spec.seed, spec.run).movers
-    return ()
+    if spec.family in ALL_FAMILIES:
+        return ()
+    return parse_movers(load_scenario(spec.family).raw.get("movers") or ())
 
 
 def experiment_specs(family: str, runs: int, seed: int = 0, *, noise: str = "paper",

@@ -120,3 +120,16 @@ def test_old_records_without_the_moving_counts_still_summarise():
     assert s["conditions"]["planning"]["robot_caused_collisions"] == 1
     assert "moving_collisions" not in summarise([old])["conditions"]["planning"]
     assert {"static_collisions", "moving_collisions", "robot_caused_collisions"} <= set(CSV_COLUMNS)
+
+
+def test_a_scenario_file_may_carry_movers(tmp_path):
+    import json
+
+    from clomp.runtime.experiment.runspec import RunSpec, movers_for
+
+    f = tmp_path / "room.json"
+    f.write_text(json.dumps({"name": "room", "goal": [1.0, 0.0], "obstacles": [],
+                             "movers": [{"kind": "box", "appear": 2.0, "ahead": 0.05}]}))
+    (m,) = movers_for(RunSpec(str(f), 0, 0, "planning"))
+    assert (m.kind, m.appear, m.ahead) == ("box", 2.0, 0.05)
+    assert movers_for(RunSpec("open", 0, 0, "planning")) == ()
