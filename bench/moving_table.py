@@ -35,7 +35,7 @@ def rows(folder: Path) -> list[str]:
         n, ok = len(rs), sum(int(r["success"]) for r in rs)
         lo, hi = wilson(ok, n)
 
-        def total(k: str) -> int:
+        def total(k: str, rs: list[dict] = rs) -> int:
             return sum(int(r.get(k) or 0) for r in rs)
 
         out.append(f"| {rs[0]['family']} | {rs[0]['noise']} | {cond} | {n} | {ok}/{n} [{lo:.2f}, {hi:.2f}] | "
