@@ -7,7 +7,7 @@ if __name__ != "clomp.formal":  # the repository keeps formal/ at the top; it is
     raise ImportError(f"{__name__} is part of clomp: import clomp.formal, not {__name__}")
 
 from clomp.formal.lts import FORMAT_VERSION, CognitiveMap, MapError, Transition
-from clomp.formal.model import Disturbance, DisturbanceKind, Pose, State, TaskKind
+from clomp.formal.model import PAPER_TASKS, Disturbance, DisturbanceKind, Pose, State, TaskKind
 from clomp.formal.invariants import Invariant, InvariantError, Violation, assert_map_valid, check_map
 from clomp.formal.supervisory import Guard, Plan, Reset, ResetUndefined, extract_plan, plan_end
 
@@ -26,6 +26,7 @@ __all__ = [
     "ResetUndefined",
     "State",
     "TaskKind",
+    "PAPER_TASKS",
     "Transition",
     "Violation",
     "assert_map_valid",

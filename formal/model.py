@@ -13,6 +13,7 @@ from typing import Any
 
 __all__ = [
     "TaskKind",
+    "PAPER_TASKS",
     "DisturbanceKind",
     "Pose",
     "Disturbance",
@@ -23,20 +24,30 @@ __all__ = [
 
 
 class TaskKind(str, enum.Enum):
-    """The task space **T**: the three closed-loop controllers of the paper.
+    """The task space **T**: the three closed-loop controllers of the paper, and the two a
+    world that moves needs (issue #42): WAIT (stand still, watching, until the way ahead
+    clears or a time-out; its disturbance is something that moves) and REVERSE (back off a
+    short straight distance, checked against the scan behind). Maps of static worlds hold
+    only the paper's three (:data:`PAPER_TASKS`).
 
-    >>> TaskKind.LEFT.is_turn, TaskKind("STRAIGHT") is TaskKind.STRAIGHT
-    (True, True)
+    >>> TaskKind.LEFT.is_turn, TaskKind("STRAIGHT") is TaskKind.STRAIGHT, TaskKind.WAIT.is_turn
+    (True, True, False)
     """
 
     STRAIGHT = "STRAIGHT"
     LEFT = "LEFT"
     RIGHT = "RIGHT"
+    WAIT = "WAIT"
+    REVERSE = "REVERSE"
 
     @property
     def is_turn(self) -> bool:
         """True for LEFT and RIGHT (turns in place)."""
-        return self is not TaskKind.STRAIGHT
+        return self is TaskKind.LEFT or self is TaskKind.RIGHT
+
+
+PAPER_TASKS: tuple[TaskKind, ...] = (TaskKind.STRAIGHT, TaskKind.LEFT, TaskKind.RIGHT)
+"""The paper's task space: the tasks of every map of a static world."""
 
 
 class DisturbanceKind(str, enum.Enum):

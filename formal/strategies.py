@@ -22,7 +22,7 @@ from fractions import Fraction
 from hypothesis import strategies as st
 
 from clomp.formal.lts import CognitiveMap
-from clomp.formal.model import Disturbance, DisturbanceKind, Pose, State, TaskKind
+from clomp.formal.model import PAPER_TASKS, Disturbance, DisturbanceKind, Pose, State, TaskKind
 
 __all__ = ["GOAL", "OBSTACLE", "cognitive_maps"]
 
@@ -63,7 +63,7 @@ def cognitive_maps(draw: st.DrawFn, probabilistic: bool = False, max_expansions:
         if not frontier:
             break
         e = frontier.pop(draw(st.integers(0, len(frontier) - 1)))
-        for kind in draw(st.lists(st.sampled_from(list(TaskKind)), min_size=1, max_size=3, unique=True)):
+        for kind in draw(st.lists(st.sampled_from(PAPER_TASKS), min_size=1, max_size=3, unique=True)):
             n = draw(st.integers(1, 3)) if probabilistic else 1
             weights = draw(st.lists(st.integers(1, 5), min_size=n, max_size=n))
             for w in weights:

@@ -53,6 +53,7 @@ import functools
 import heapq
 import math
 import time
+import warnings
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any, Protocol
@@ -64,6 +65,7 @@ from clomp.formal.model import Disturbance, Pose, State, TaskKind, new_state
 from clomp.formal.supervisory import Guard, Plan, Reset, extract_plan
 from clomp.planner import footprint
 from clomp.planner.perception import Obstacles, load_scan, perceive
+from clomp.planner.recovery import RECOVERY_TASKS, Recovery, cleared_points
 from clomp.planner.rollout import Outcome, simulate
 from clomp.planner.robot_model import RobotModel
 from clomp.planner.visibility import KnownFree
@@ -279,6 +281,7 @@ class Configurator:
         max_states: int = 50,
         horizon: float = 1.2,
         routes: int = 1,
+        recovery: bool = False,
     ) -> None:
         if max_states < 1:
             raise ValueError("max_states must be at least 1")
@@ -291,6 +294,14 @@ class Configurator:
         self.max_states = int(max_states)
         self.horizon = float(horizon)
         self.routes = routes
+        self.recovery = bool(recovery)
+        """Plan with WAIT and REVERSE too (issue #42; off by default: static worlds plan as
+        before): :mod:`clomp.planner.recovery` says when they are offered."""
+        self.transient: np.ndarray | None = None
+        """With ``recovery``: a boolean mask over the next scan :meth:`plan` is given, True
+        on the points that appeared where earlier scans saw free space (possibly moving;
+        set by the supervisor, used once by :meth:`plan`): a WAIT is offered, and the world
+        after it has none of them."""
         """How many ends the search collects before it stops: 1 (Algorithm 1) stops at the
         first goal state (a popped frontier state is kept, not expanded, and the search
         goes on when the goal lies inside the sensed disc, else it ends there); more keep searching for alternative routes (a goal state or popped
@@ -320,7 +331,8 @@ class Configurator:
         return g, obstacles.contains_point(g.x, g.y) is not None
 
     # -- Algorithm 1 ------------------------------------------------------------------
-    def build(self, obstacles: Obstacles, goal: Disturbance | tuple[float, float]) -> PlanResult:
+    def build(self, obstacles: Obstacles, goal: Disturbance | tuple[float, float],
+              cleared: Obstacles | None = None) -> PlanResult:
         """Construct the cognitive map for ``goal`` among ``obstacles`` and extract ρ.
 
         ``stop_reason`` is ``goal`` (a state reached D_G), ``frontier`` (the plan ends at
@@ -328,11 +340,12 @@ class Configurator:
         unseen space, and the closed loop drives there and replans), ``budget``
         (``max_states`` spent) or ``exhausted`` (no obstacle-free transition left). ``goal_blocked`` is True when
         the goal lies inside a perceived obstacle: the plan then ends at the reachable
-        state closest to it and ``reached_goal`` is False.
+        state closest to it and ``reached_goal`` is False. ``cleared`` (with ``recovery``):
+        the obstacles once what is transient has gone, the world after a WAIT.
         """
         t0 = time.perf_counter()
         g, blocked = self._goal(goal, obstacles)
-        search = _Search(self, obstacles, g)
+        search = _Search(self, obstacles, g, cleared)
         stop = search.run()
         cmap = search.cmap
         p = extract_plan(cmap)
@@ -369,7 +382,14 @@ class Configurator:
         pts = load_scan(scan)
         r = self.robot
         obstacles = perceive(pts, r.sensor_range, r.cluster_distance, body=footprint.body_box(r))
-        result = self.build(obstacles, goal)
+        cleared = None
+        if self.recovery:  # the world after a WAIT: the scan without what appeared (issue #42)
+            kept, self.transient = cleared_points(pts, self.transient), None
+            if kept is not None:
+                with warnings.catch_warnings():  # the scan's warnings were given once, above
+                    warnings.simplefilter("ignore")
+                    cleared = perceive(kept, r.sensor_range, r.cluster_distance, body=footprint.body_box(r))
+        result = self.build(obstacles, goal, cleared)
         result.planning_time_s = time.perf_counter() - t0
         return result
 
@@ -402,7 +422,7 @@ class _Search:
     states already simulated (by task and start pose), the priority queue on φ and the
     ends found so far."""
 
-    def __init__(self, conf: Configurator, obstacles: Obstacles, g: Disturbance) -> None:
+    def __init__(self, conf: Configurator, obstacles: Obstacles, g: Disturbance, cleared: Obstacles | None = None) -> None:
         robot = conf.robot
         origin = Pose(0.0, 0.0, 0.0)
         self.ctx = ctx = CostContext(g, origin, robot)
@@ -422,12 +442,17 @@ class _Search:
         q0 = new_state(0, _STRAIGHT, g, None, origin, origin, 0.0, 0.0, 0.0, False, ())
         q0 = new_state(0, _STRAIGHT, g, None, origin, origin, 0.0, 0.0, cost(q0, ctx), False, ())
         self.cmap.add_state(q0)
-        self.index: dict[tuple[TaskKind, int, int, int], int] = {}
+        self.index: dict[tuple[Any, ...], int] = {}
         self.frontier_ids: set[int] = set()
         self.worlds: dict[Any, Any] = {}
         self.pq: list[tuple[float, int]] = [(q0.cost, 0)]
         self.ends = 0  # popped frontier states, and with goal_ids the routes found (``routes``)
         self.goal_ids: set[int] = set()
+        self.recovery = Recovery(cleared) if conf.recovery else None  # WAIT and REVERSE (issue #42)
+
+    def push(self, s: State) -> None:
+        """Queue ``s`` for expansion: by φ, a WAIT first (look past the wait before a detour)."""
+        heapq.heappush(self.pq, (0.0 if s.task is TaskKind.WAIT else s.cost, s.ident))
 
     def run(self) -> str:
         """Pop least-φ states and expand them until the search ends; the stop reason
@@ -465,6 +490,7 @@ class _Search:
         STRAIGHT) and queue the fresh frontier states; ``budget`` or ``goal`` when the
         search ends here, else None."""
         cmap = self.cmap
+        free = False  # some option from qe ends collision-free (else a REVERSE is offered)
         for kind in _KINDS:
             turn = kind is not _STRAIGHT
             if len(cmap) + (2 if turn else 1) > self.max_states:
@@ -477,6 +503,7 @@ class _Search:
                 second, fresh = self._child(first, _STRAIGHT)
                 assert second is not None
                 end = second
+            free = free or end.d_n is None
             if end.reached_goal:
                 self.goal_ids.add(end.ident)
                 if self.ends + len(self.goal_ids) >= self.routes:
@@ -486,14 +513,18 @@ class _Search:
             # one beyond the planning horizon is kept but not queued
             if fresh and (end.interrupted or (abs(end.end.x) <= self.horizon and abs(end.end.y) <= self.horizon)):
                 heapq.heappush(self.pq, (end.cost, end.ident))
-        return None
+        return None if self.recovery is None else self.recovery.expand(self, qe, free)
 
     def _child(self, parent: State, kind: TaskKind) -> tuple[State | None, bool]:
         """The state of ``kind`` started where ``parent`` ended (simulated once), and whether
         it is new; None when the task is not available (a turn that would leave the sensed disc)."""
         p = parent.end
-        k = (kind, round(p.x * 1e6), round(p.y * 1e6), round(p.theta * 1e6))
+        k: tuple[Any, ...] = (kind, round(p.x * 1e6), round(p.y * 1e6), round(p.theta * 1e6))
         cmap = self.cmap
+        rec, obstacles, worlds, layer = self.recovery, self.obstacles, self.worlds, False
+        if rec is not None:
+            obstacles, worlds, layer = rec.world(self, parent)
+            k = k + (1,) if layer else k
         known = self.index.get(k)
         if known is not None:
             if known < 0:
@@ -501,14 +532,21 @@ class _Search:
             cmap.add_transition(parent.ident, known, kind)
             return cmap[known], False
         d_i = self.reset.after(parent)  # R(q1, q2) = D_G, undefined (raises) when q1 was interrupted
-        out = simulate(kind, p, d_i, self.obstacles, self.robot, self.worlds)
-        # (the body at the task's start is known: the root's stands there, any other's ended
-        # the task before, which passed this test)
-        if out.d_n is None and (out.reached_goal or not out.frontier) and not self.known.clear(out, self.robot, True):
-            # the body would pass through space no ray crossed (a shadow): like the rim of
-            # the disc, a STRAIGHT ends the way there (a frontier end, never a goal), a
-            # turn is not available
-            out = Outcome(out.task, out.start, out.end, out.distance, out.duration, out.ticks, None, False, True)
+        if rec is not None and kind in RECOVERY_TASKS:
+            got = rec.outcome(kind, p, d_i, obstacles, self.robot)
+            if got is None:  # a REVERSE whose end leaves the sensed disc: not available
+                self.index[k] = -1
+                return None, False
+            out = got
+        else:
+            out = simulate(kind, p, d_i, obstacles, self.robot, worlds)
+            # (the body at the task's start is known: the root's stands there, any other's ended
+            # the task before, which passed this test)
+            if out.d_n is None and (out.reached_goal or not out.frontier) and not self.known.clear(out, self.robot, True):
+                # the body would pass through space no ray crossed (a shadow): like the rim of
+                # the disc, a STRAIGHT ends the way there (a frontier end, never a goal), a
+                # turn is not available
+                out = Outcome(out.task, out.start, out.end, out.distance, out.duration, out.ticks, None, False, True)
         if out.frontier and kind is not _STRAIGHT:
             self.index[k] = -1
             return None, False
@@ -519,6 +557,8 @@ class _Search:
         cmap.add_state(s)
         cmap.add_transition(parent.ident, ident, kind)
         self.index[k] = ident
+        if layer:
+            rec.after_wait.add(ident)  # type: ignore[union-attr]
         if out.frontier:
             self.frontier_ids.add(ident)
         return s, True

@@ -1,4 +1,5 @@
-"""Tasks: the temporary closed-loop controllers STRAIGHT, LEFT and RIGHT.
+"""Tasks: the temporary closed-loop controllers STRAIGHT, LEFT and RIGHT (and, for a world
+that moves, WAIT and REVERSE).
 
 A task is contingent on a disturbance D_I (here the goal D_G). At every control tick it
 computes an error signal E from the robot's pose and its disturbance, maps E to wheel
@@ -13,12 +14,17 @@ both, the task ends by its own criterion measured on the (simulated or estimated
   reached). Speed ramps down in the last tick so that it stops exactly on E = 0.
 - LEFT / RIGHT: spin in place (wheels opposite). E is the heading change still to make
   towards the commanded turn angle.
+- WAIT (issue #42): both wheels stopped. E is the time still to stand (s): ``limit`` less
+  what the executor counted in :attr:`Task.waited`; the supervisor ends it sooner when the
+  way ahead clears.
+- REVERSE (issue #42): both wheels equal and backwards, holding the heading as a STRAIGHT
+  does. E is the distance still to back off (m).
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 from clomp.formal.geometry import wrap_angle
 from clomp.formal.model import Disturbance, Pose, TaskKind
@@ -53,6 +59,27 @@ class Task:
     limit: float
     goal: Disturbance | None = None
     goal_ahead: bool = False
+    waited: float = field(default=0.0, kw_only=True)  # a WAIT's time stood so far (s), counted by whoever runs it
+
+    @classmethod
+    def wait(cls, robot: RobotModel, start: Pose, goal: Disturbance | None, duration: float) -> "Task":
+        """A WAIT: stand still for at most ``duration`` s (its error is the time left).
+
+        >>> t = Task.wait(RobotModel(), Pose(0.0, 0.0), None, 2.0)
+        >>> t.wheel_speeds(t.error(t.start)), t.max_ticks()
+        ((0.0, 0.0), 22)
+        """
+        return cls(TaskKind.WAIT, robot, start, float(duration), goal)
+
+    @classmethod
+    def reverse(cls, robot: RobotModel, start: Pose, goal: Disturbance | None, distance: float) -> "Task":
+        """A REVERSE: back off ``distance`` metres along the start heading.
+
+        >>> t = Task.reverse(RobotModel(), Pose(0.0, 0.0), None, 0.15)
+        >>> t.wheel_speeds(t.error(t.start)), round(t.error(Pose(-0.1, 0.0)), 3)
+        ((-0.1, -0.1), 0.05)
+        """
+        return cls(TaskKind.REVERSE, robot, start, float(distance), goal)
 
     @classmethod
     def straight(cls, robot: RobotModel, start: Pose, goal: Disturbance | None, limit: float) -> "Task":
@@ -85,6 +112,8 @@ class Task:
                 g = self.goal
                 e = min(e, (g.x - x) * math.cos(theta) + (g.y - y) * math.sin(theta))
             return max(e, 0.0)
+        if not self.kind.is_turn:
+            return self._recovery_error(x, y)
         turned = wrap_angle(theta - s.theta)
         if self.kind is TaskKind.RIGHT:
             turned = -turned
@@ -92,6 +121,13 @@ class Task:
         if turned < -math.pi / 2 and self.limit > math.pi / 2:
             turned += 2 * math.pi
         return max(self.limit - turned, 0.0)
+
+    def _recovery_error(self, x: float, y: float) -> float:
+        """:meth:`error_at` of a WAIT (time left) or a REVERSE (distance left)."""
+        if self.kind is TaskKind.WAIT:
+            return max(self.limit - self.waited, 0.0)
+        s = self.start
+        return max(self.limit + (x - s.x) * math.cos(s.theta) + (y - s.y) * math.sin(s.theta), 0.0)
 
     def start_error(self) -> float:
         """:meth:`error_at` the start pose, where a rollout begins, without the terms that are
@@ -129,12 +165,16 @@ class Task:
         True
         """
         r = self.robot
-        if self.kind is TaskKind.STRAIGHT:
+        if self.kind is TaskKind.STRAIGHT or self.kind is TaskKind.REVERSE:
             v = min(r.straight_speed, error / r.tick)
-            if turned and v > 0:
+            if self.kind is TaskKind.REVERSE:
+                v = -v  # backwards: the same hold of the heading (a turn rate is a turn rate)
+            if turned and v:
                 w = max(-HOLD_LIMIT, min(HOLD_LIMIT, -HOLD_GAIN * turned))
                 return v - w * r.wheel_base / 2, v + w * r.wheel_base / 2
             return v, v
+        if self.kind is TaskKind.WAIT:
+            return 0.0, 0.0
         w = min(r.turn_rate, error / r.tick)
         wheel = w * r.wheel_base / 2
         return (-wheel, wheel) if self.kind is TaskKind.LEFT else (wheel, -wheel)
@@ -142,7 +182,9 @@ class Task:
     def max_ticks(self) -> int:
         """An upper bound on the ticks the task can take (for loops that must end)."""
         r = self.robot
-        rate = r.straight_speed if self.kind is TaskKind.STRAIGHT else r.turn_rate
+        if self.kind is TaskKind.WAIT:
+            return int(math.ceil(self.limit / r.tick - 1e-9)) + 2
+        rate = r.turn_rate if self.kind.is_turn else r.straight_speed
         return int(math.ceil(self.limit / (rate * r.tick))) + 2
 
 

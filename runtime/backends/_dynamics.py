@@ -21,6 +21,7 @@ import numpy as np
 import pymunk
 
 from clomp.planner.noise import NoiseTerms
+from clomp.runtime.backends._movers import Movers
 from clomp.runtime.backends._world_body import BodySpec
 
 __all__ = ["Contacts", "Drive", "WorldContact", "WorldPush", "push_speed", "term_stream"]
@@ -175,20 +176,38 @@ class Contacts:
         self.trace: list[tuple[float, float]] = []
         self.touching = False
         self._ended = -math.inf
+        # with moving bodies (issue #42): the samples apart, static and moving; a moving
+        # sample carries who hit whom (True: the robot drove into the body)
+        self.static_trace: list[tuple[float, float]] = []
+        self.moving_trace: list[tuple[float, float, bool]] = []
 
-    def update(self, t: float, body: pymunk.Body) -> None:
-        """Record the step ending at ``t``: the deepest penetration and a new collision."""
+    def update(self, t: float, body: pymunk.Body, movers: Movers | None = None) -> None:
+        """Record the step ending at ``t``: the deepest penetration and a new collision
+        (with ``movers``, the static and the moving contacts apart as well)."""
         deepest = -1.0
         where: tuple[float, float] | None = None
+        split = {"static": -1.0, "moving": -1.0}
+        caused = False
 
         def visit(arb: pymunk.Arbiter) -> None:
-            nonlocal deepest, where
+            nonlocal deepest, where, caused
             for p in arb.contact_point_set.points:
                 if -p.distance > deepest:
                     deepest = -p.distance
                     where = (float(p.point_a.x), float(p.point_a.y))
+            if movers is not None and arb.contact_point_set.points:
+                d = max(-p.distance for p in arb.contact_point_set.points)
+                who = movers.robot_caused(arb, body)
+                key = "static" if who is None else "moving"
+                split[key] = max(split[key], d)
+                caused = caused or bool(who)
 
         body.each_arbiter(visit)
+        if movers is not None:
+            if split["static"] >= -0.5:
+                self.static_trace.append((t, max(0.0, split["static"])))
+            if split["moving"] >= -0.5:
+                self.moving_trace.append((t, max(0.0, split["moving"]), caused))
         if where is not None:
             self.trace.append((t, max(0.0, deepest)))
             if not self.touching and t - self._ended >= _CONTACT_GAP:

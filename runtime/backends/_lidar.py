@@ -27,6 +27,7 @@ import numpy as np
 from clomp.formal.geometry import polar_to_xy
 from clomp.planner.noise import NoiseTerms
 from clomp.planner.scenarios import Scene
+from clomp.runtime.backends._movers import Movers
 from clomp.runtime.backends._raycast import first_hits
 from clomp.runtime.devices.frame import ScanFrame
 
@@ -71,6 +72,7 @@ class Lidar:
         self._next_ray = 0
         self._rev_start = 0.0
         self._pending: list[tuple[Any, ...]] = []
+        self.movers: Movers | None = None  # bodies that move or appear (issue #42): cast at each ray's time
 
     def cast(self, x: float | np.ndarray, y: float | np.ndarray, angles: np.ndarray) -> np.ndarray:
         """Distance along each world angle to the first obstacle within reach, inf when none.
@@ -81,6 +83,17 @@ class Lidar:
         """
         return first_hits(x, y, angles, self.edges, self.circles, self.reach * 1.2)
 
+    def cast_at(self, x: float | np.ndarray, y: float | np.ndarray, angles: np.ndarray, t: float) -> np.ndarray:
+        """:meth:`cast`, the movers included where they are at ``t`` (s)."""
+        dist = self.cast(x, y, angles)
+        if self.movers is None:
+            return dist
+        edges, circles = self.movers.outlines(t)
+        if not (len(edges) or len(circles)):
+            return dist
+        out: np.ndarray = np.minimum(dist, first_hits(x, y, angles, edges, circles, self.reach * 1.2))
+        return out
+
     def origin(self, pose: Pose3) -> Pose3:
         """Where the rays start and the LiDAR's heading, the body at ``pose`` (world frame)."""
         mx, my, mth = self.mount
@@ -90,10 +103,11 @@ class Lidar:
         c, s = math.cos(th), math.sin(th)
         return x + c * mx - s * my, y + s * mx + c * my, th + mth
 
-    def scan_now(self, x: float, y: float, th: float) -> np.ndarray:
-        """A complete revolution from the body at (x, y, th), taken instantly, noise-free (LiDAR frame)."""
+    def scan_now(self, x: float, y: float, th: float, t: float = 0.0) -> np.ndarray:
+        """A complete revolution from the body at (x, y, th), taken instantly, noise-free (LiDAR
+        frame; movers where they are at ``t``)."""
         x, y, th = self.origin((x, y, th))
-        r = self.cast(x, y, th + self.angles)
+        r = self.cast_at(x, y, th + self.angles, t)
         ok = np.isfinite(r)
         a = self.angles[ok]
         return polar_to_xy(r[ok], a)
@@ -127,7 +141,7 @@ class Lidar:
         kept = self._rng.random(k) >= n.dropout if n.dropout else None
         batch: tuple[Any, ...] = (x, y, th + beam, nominal, noise, kept, t)
         if self.streaming is not None:  # cast now: the emulator sends these samples now
-            dist = self.cast(x, y, th + beam)
+            dist = self.cast_at(x, y, th + beam, t)
             if noise is not None:
                 dist = dist + noise
             self.streaming.append((nominal, np.where(self._returned(dist, kept), dist, np.inf), t, i0 == 0))
@@ -144,10 +158,13 @@ class Lidar:
         rays = self._pending
         if all(len(r) > 7 for r in rays):  # cast step by step for the stream (noise added)
             return np.concatenate([r[7] for r in rays])
-        counts = [len(r[3]) for r in rays]
-        x = np.repeat([r[0] for r in rays], counts)[:, None]
-        y = np.repeat([r[1] for r in rays], counts)[:, None]
-        dist = self.cast(x, y, np.concatenate([r[2] for r in rays]))
+        if self.movers is not None:  # each step's rays against the movers where they were then
+            dist = np.concatenate([self.cast_at(r[0], r[1], r[2], r[6]) for r in rays])
+        else:
+            counts = [len(r[3]) for r in rays]
+            x = np.repeat([r[0] for r in rays], counts)[:, None]
+            y = np.repeat([r[1] for r in rays], counts)[:, None]
+            dist = self.cast(x, y, np.concatenate([r[2] for r in rays]))
         if self.noise.range_sd:
             dist = dist + np.concatenate([r[4] for r in rays])
         return dist

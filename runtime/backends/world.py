@@ -39,6 +39,10 @@ modelled*): a wheel bias that walks and slip events (``_dynamics.py``), the LiDA
 points to the robot frame by ``told_mount``, the mount it was told), a gyro scale asymmetry
 (``_gyro.py``) and pushes (:meth:`WorldRobot.push`, at ``push_rate``; :attr:`WorldRobot.pushes`).
 
+A world may move (issue #42): ``movers`` are people walking seeded paths and boxes that
+appear (``_movers.py``), kinematic bodies the LiDAR sees at each ray's time; their contacts
+are counted apart from the static ones, with who hit whom (:meth:`WorldRobot.contact_traces`).
+
 Ground truth for experiments: :meth:`WorldRobot.ground_truth_pose` (world frame) and
 :meth:`WorldRobot.contact_trace` — one ``(time_s, penetration_m)`` sample per physics
 step (``dt``, default 0.01 s) during which the body touches an obstacle, with the deepest
@@ -56,6 +60,7 @@ for one seed.
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable, Mapping
 from typing import Any
 
 import numpy as np
@@ -70,10 +75,11 @@ from clomp.runtime.devices.frame import ScanFrame
 from clomp.runtime.backends._dynamics import Contacts, Drive, WorldContact, WorldPush, push_speed, term_stream
 from clomp.runtime.backends._gyro import RateGyro
 from clomp.runtime.backends._lidar import Lidar
+from clomp.runtime.backends._movers import Mover, Movers, parse_movers
 from clomp.runtime.backends._simulated import SimulatedBackend
 from clomp.runtime.backends._world_body import BodySpec, build_physics
 
-__all__ = ["BodySpec", "WorldNoise", "WorldRobot", "WorldContact", "WorldPush", "make_world_robot"]
+__all__ = ["BodySpec", "Mover", "WorldNoise", "WorldRobot", "WorldContact", "WorldPush", "make_world_robot", "parse_movers"]
 
 WorldNoise = NoiseTerms
 """The world's noise: every term of a preset (:class:`clomp.planner.noise.NoiseTerms`)."""
@@ -131,7 +137,9 @@ class WorldRobot(SimulatedBackend):
     (:meth:`rotation`; ``gyro=False`` takes it off). ``mount`` is the LiDAR's pose on the body
     (x, y, theta; default ``(noise.lidar_x, 0, 0)``), ``told_mount`` the pose the backend
     converts its points to the robot frame by (default: ``mount``; another models a
-    mis-measured mount).
+    mis-measured mount). ``movers``: people and boxes that move or appear
+    (:class:`~clomp.runtime.backends._movers.Mover` or their JSON forms; issue #42), kinematic
+    bodies the LiDAR sees beam by beam; :meth:`contact_traces` keeps their contacts apart.
 
     >>> from clomp.planner.scenarios import load_scenario
     >>> WorldRobot(load_scenario("open"), body=BodySpec(width=0.2)).body.width
@@ -159,6 +167,7 @@ class WorldRobot(SimulatedBackend):
         rounding: str = "range",
         mount: Mount | None = None,
         told_mount: Mount | None = None,
+        movers: Iterable[Mover | Mapping[str, Any]] | None = None,
     ) -> None:
         _check_options(rays, scan_rate, max_range, resolution, dt, control_tick, sweep, rounding)
         self.scene = scene
@@ -189,6 +198,9 @@ class WorldRobot(SimulatedBackend):
                             resolution=self.resolution, rounding=rounding, sweep=sweep, mount=self.mount)
         self._latest: ScanFrame | None = None
         self._delivered = True
+        moving = parse_movers(movers)
+        self.movers: Movers | None = Movers(self._space, moving, self.body.wall_friction) if moving else None
+        self._lidar.movers = self.movers
 
     def _xyth(self) -> tuple[float, float, float]:
         p = self._body.position
@@ -284,6 +296,15 @@ class WorldRobot(SimulatedBackend):
         """``(time_s, penetration_m)``: one sample per physics step in contact (see the module)."""
         return list(self._contacts.trace)
 
+    def contact_traces(self) -> tuple[list[tuple[float, float]], list[tuple[float, float, bool]]]:
+        """With movers (issue #42): the contact samples with the static obstacles, ``(time_s,
+        penetration_m)``, and with the moving bodies, ``(time_s, penetration_m, robot_caused)``
+        (True: the robot drove into the body; False: the body walked into the robot); without
+        movers, :meth:`contact_trace` and no moving samples."""
+        if self.movers is None:
+            return self.contact_trace(), []
+        return list(self._contacts.static_trace), list(self._contacts.moving_trace)
+
     @property
     def collisions(self) -> int:
         """Collisions counted so far (a contact that lasts counts once)."""
@@ -342,7 +363,7 @@ class WorldRobot(SimulatedBackend):
     def scan_now(self) -> np.ndarray:
         """A complete revolution from the current pose, taken instantly, noise-free (robot
         frame, by the told mount)."""
-        return _to_robot(self._lidar.scan_now(*self._xyth()), self.told_mount)
+        return _to_robot(self._lidar.scan_now(*self._xyth(), self._t), self.told_mount)
 
     # -- the physics step ---------------------------------------------------------------------------
     def _advance(self, dt: float) -> None:
@@ -355,11 +376,13 @@ class WorldRobot(SimulatedBackend):
         _set_velocity(control, (v * math.cos(th), v * math.sin(th)))
         _set_angular_velocity(control, w)
         _set_position(control, body.position)
+        if self.movers is not None:
+            self.movers.step(self._t, dt, self._xyth(), self.body.front_offset, (v * math.cos(th), v * math.sin(th), w))
         self._space.step(dt)
         if self._gyro is not None:
             self._gyro.step((body.angle - th) / dt, dt)
         self._t += dt
-        self._contacts.update(self._t, body)
+        self._contacts.update(self._t, body, self.movers)
         pose = self._xyth()
         self.trajectory.append((self._t, *pose))
         frame = self._lidar.step(self._t, pose)

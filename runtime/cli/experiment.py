@@ -22,7 +22,7 @@ from clomp.planner.scenarios import ScenarioError
 from clomp.runtime.cli._common import output_folder
 from clomp.runtime.cli._args import seed_arg
 from clomp.runtime.cli import CliError
-from clomp.runtime.experiment.layouts import FAMILIES
+from clomp.runtime.experiment.layouts import ALL_FAMILIES as FAMILIES
 from clomp.runtime.experiment.policy import PolicyError
 from clomp.runtime.experiment.runspec import CONDITIONS
 

@@ -20,7 +20,7 @@ from typing import Any
 
 from clomp.runtime.cli import CliError
 from clomp.runtime.cli._common import output_folder
-from clomp.runtime.experiment.layouts import FAMILIES
+from clomp.runtime.experiment.layouts import ALL_FAMILIES as FAMILIES
 from clomp.runtime.experiment.runspec import CONDITIONS, DEFAULT_CONDITIONS
 
 __all__ = ["parse_seeds", "register", "run"]

@@ -115,13 +115,17 @@ def world_name() -> str:
 
 
 def make_robot(scene: Scene, *, noise: str = "paper", noise_scale: float = 1.0, seed: int = 0,
-               model: RobotModel | None = None, gyro: bool = True) -> WorldRobot:
+               model: RobotModel | None = None, gyro: bool = True, movers: tuple[Any, ...] = ()) -> WorldRobot:
     """A fresh robot at the scene's start; see the module docstring. ``gyro`` False takes the
-    execution world's rate gyro off (the paper's robot; the fallback world has none)."""
+    execution world's rate gyro off (the paper's robot; the fallback world has none). ``movers``:
+    bodies that move or appear (:mod:`clomp.runtime.backends._movers`; the execution world only)."""
     if noise not in NOISE_PRESETS:
         raise ValueError(f"unknown noise preset {noise!r} (known: {', '.join(NOISE_PRESETS)})")
     factory = _factory()
     if factory is not None:
-        robot: WorldRobot = factory(scene, noise=noise, noise_scale=noise_scale, seed=seed, robot=model, gyro=gyro)
+        extra = {"movers": movers} if movers else {}
+        robot: WorldRobot = factory(scene, noise=noise, noise_scale=noise_scale, seed=seed, robot=model, gyro=gyro, **extra)
         return robot
+    if movers:
+        raise ValueError("moving bodies need the execution world (clomp.runtime.backends.make_world_robot)")
     return _TracedSimRobot(scene, model, noise=sim_noise(noise, noise_scale), seed=seed)

@@ -29,7 +29,24 @@ u-trap        a U of three walls open towards the robot: back 0.55–0.75 m ahea
 cul-de-sac    a dead-end corridor 0.5–0.8 m wide ending 0.6–0.9 m ahead; beyond its end a
               closed room 0.5–0.8 m deep, 0.8–1.2 m across holding the goal. Unreachable:
               success is stopping safely and saying so (``expect == "unreachable"``)
+crossing      a room (side walls 0.7 m either side, from 0.5 m behind the start to 0.45 m
+              past the goal, closed at both ends), goal 1.2–1.4 m ahead, ±0.1 m; one or
+              two people (discs of 0.12 m) cross the lane through side doors (0.4 m wide)
+              ahead of the robot, 0.2–1.0 m/s, either way, the lane's centre at 1–6 s, from
+              1.3 m on one side to 1.3 m on the other, then leave; a crossing at t s lies
+              0.36–0.66 m (centre) beyond where a robot that set off at 2 s at 0.1 m/s
+              would be then, and at least 0.45 m ahead of the start
+stopper       the same room without doors, goal 1.2–1.4 m ahead, ±0.1 m; at 2–6 s a person
+              appears 0.55 m to one side of the lane and walks at 0.3–0.8 m/s into the
+              lane, where it stops 0.03–0.25 m ahead of the robot's front edge (reckoned
+              with the robot driving on at 0.1 m/s meanwhile), and stays
+appearing     the same room without doors, goal 1.2–1.4 m ahead, ±0.1 m; a box (0.16 m)
+              appears in the lane 0.05–0.25 m ahead of the robot's front edge, wherever
+              the robot then is, at 2.5–6 s (after the first plan), and stays
 ============  ===========================================================================
+
+The last three families move (issue #42): their :attr:`Layout.movers` are the people and
+boxes of :mod:`clomp.runtime.backends._movers` (the scene holds the static obstacles only).
 
 >>> a = make_layout("overtaking", seed=0, index=3)
 >>> a.scene == make_layout("overtaking", seed=0, index=3).scene
@@ -48,8 +65,9 @@ from typing import Any
 import numpy as np
 
 from clomp.planner.scenarios import Scene, Shape, parse_scenario
+from clomp.runtime.backends.world import Mover, parse_movers
 
-__all__ = ["FAMILIES", "GOAL_CLEARANCE", "Layout", "make_layout", "shape_distance"]
+__all__ = ["ALL_FAMILIES", "FAMILIES", "GOAL_CLEARANCE", "MOVING_FAMILIES", "Layout", "make_layout", "shape_distance"]
 
 GOAL_CLEARANCE = 0.2
 """Every obstacle stays at least this far (m) from the goal, so the robot's body fits there."""
@@ -71,6 +89,7 @@ class Layout:
     scene: Scene
     params: dict[str, Any] = field(default_factory=dict, compare=False)
     expect: str = "reach"
+    movers: tuple[Mover, ...] = ()
 
 
 def _wall(a: tuple[float, float], b: tuple[float, float], t: float = 0.02) -> _Raw:
@@ -178,6 +197,54 @@ def _cul_de_sac(rng: np.random.Generator) -> tuple[_Raw, dict[str, Any]]:
     return {"goal": [round(gx, 4), round(gy, 4)], "obstacles": obstacles}, p
 
 
+def _room(gx: float, doors: list[float], half: float = 0.7, door: float = 0.4) -> list[_Raw]:
+    """A closed room round the lane (the scan matcher needs walls), with side doors (gaps of
+    ``door`` m in both side walls) centred at the x of ``doors``."""
+    x0, x1 = -0.5, gx + 0.45
+    cuts = sorted((max(x0, d - door / 2), min(x1, d + door / 2)) for d in doors)
+    spans, a = [], x0
+    for lo, hi in cuts:
+        if lo > a:
+            spans.append((a, lo))
+        a = max(a, hi)
+    if a < x1:
+        spans.append((a, x1))
+    walls = [_wall((lo, s * half), (hi, s * half)) for lo, hi in spans for s in (1.0, -1.0)]
+    return walls + [_wall((x0, -half), (x0, half)), _wall((x1, -half), (x1, half))]
+
+
+def _crossing(rng: np.random.Generator) -> tuple[_Raw, dict[str, Any]]:
+    gx, gy = rng.uniform(1.2, 1.4), rng.uniform(-0.1, 0.1)
+    people = []
+    for _ in range(int(rng.integers(1, 3))):
+        v, tc, gap = rng.uniform(0.2, 1.0), rng.uniform(1.0, 6.0), rng.uniform(0.15, 0.45)
+        x = max(0.45, 0.09 + 0.1 * max(tc - 2.0, 0.0) + 0.12 + gap)
+        side = 1.0 if rng.random() < 0.5 else -1.0
+        half = 1.3 / v
+        people.append({"kind": "person", "stays": False,
+                       "path": [[round(tc - half, 4), round(x, 4), -1.3 * side], [round(tc + half, 4), round(x, 4), 1.3 * side]]})
+    room = _room(gx, [p["path"][0][1] for p in people])  # type: ignore[index]
+    return {"goal": [round(gx, 4), round(gy, 4)], "obstacles": room, "movers": people}, {"people": len(people), "goal_x": gx}
+
+
+def _stopper(rng: np.random.Generator) -> tuple[_Raw, dict[str, Any]]:
+    gx, gy = rng.uniform(1.2, 1.4), rng.uniform(-0.1, 0.1)
+    ahead, v, ts = rng.uniform(0.03, 0.25), rng.uniform(0.3, 0.8), rng.uniform(2.0, 6.0)
+    side = 1.0 if rng.random() < 0.5 else -1.0
+    person = {"kind": "person", "appear": round(ts, 4), "ahead": round(ahead, 4), "lateral": 0.55 * side,
+              "speed": round(v, 4)}
+    p = {"ahead": ahead, "appear": ts, "speed": v, "side": side, "goal_x": gx}
+    return {"goal": [round(gx, 4), round(gy, 4)], "obstacles": _room(gx, []), "movers": [person]}, p
+
+
+def _appearing(rng: np.random.Generator) -> tuple[_Raw, dict[str, Any]]:
+    gx, gy = rng.uniform(1.2, 1.4), rng.uniform(-0.1, 0.1)
+    ahead, t = rng.uniform(0.05, 0.25), rng.uniform(2.5, 6.0)
+    box = {"kind": "box", "appear": round(t, 4), "ahead": round(ahead, 4)}
+    return ({"goal": [round(gx, 4), round(gy, 4)], "obstacles": _room(gx, []), "movers": [box]},
+            {"ahead": ahead, "time": t, "goal_x": gx})
+
+
 _FAMILIES: dict[str, tuple[Callable[[np.random.Generator], tuple[_Raw, dict[str, Any]]], str, str]] = {
     "overtaking": (_overtaking, "reach", "one box between the robot and a goal 1 m ahead (the paper's scenario)"),
     "corridor": (_corridor, "reach", "a corridor of varying width, goal anywhere along it"),
@@ -186,10 +253,18 @@ _FAMILIES: dict[str, tuple[Callable[[np.random.Generator], tuple[_Raw, dict[str,
     "clutter": (_clutter, "reach", "scattered round posts"),
     "u-trap": (_u_trap, "reach", "a U open towards the robot, the goal behind it"),
     "cul-de-sac": (_cul_de_sac, "unreachable", "a dead end; the goal is in a closed room beyond it"),
+    "crossing": (_crossing, "reach", "people crossing the lane ahead"),
+    "stopper": (_stopper, "reach", "a person walks in and stops ahead"),
+    "appearing": (_appearing, "reach", "a box appears in the lane after the first plan"),
 }
 
-FAMILIES: tuple[str, ...] = tuple(_FAMILIES)
-"""The family names, in the order tables list them."""
+MOVING_FAMILIES: tuple[str, ...] = ("crossing", "stopper", "appearing")
+"""The families whose worlds move (issue #42): their robots plan with WAIT and REVERSE."""
+FAMILIES: tuple[str, ...] = tuple(f for f in _FAMILIES if f not in MOVING_FAMILIES)
+"""The static families' names, in the order tables list them (what the gallery, the gym and the
+behaviour digest iterate)."""
+ALL_FAMILIES: tuple[str, ...] = FAMILIES + MOVING_FAMILIES
+"""Every family :func:`make_layout` draws and ``clomp experiment`` runs: the static, then the moving."""
 
 
 def shape_distance(shape: Shape, x: float, y: float) -> float:
@@ -221,15 +296,16 @@ def make_layout(family: str, seed: int, index: int = 0) -> Layout:
     >>> make_layout("maze", 0)
     Traceback (most recent call last):
     ...
-    ValueError: unknown layout family 'maze' (known: overtaking, corridor, doorway, slalom, clutter, u-trap, cul-de-sac)
+    ValueError: unknown layout family 'maze' (known: overtaking, corridor, doorway, slalom, clutter, u-trap, cul-de-sac, crossing, stopper, appearing)
     """
     if family not in _FAMILIES:
-        raise ValueError(f"unknown layout family {family!r} (known: {', '.join(FAMILIES)})")
+        raise ValueError(f"unknown layout family {family!r} (known: {', '.join(ALL_FAMILIES)})")
     for what, v in (("seed", seed), ("index", index)):
         if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 0:
             raise ValueError(f"layout {what} must be a non-negative integer, got {v!r}")
     draw, expect, description = _FAMILIES[family]
     raw, params = draw(np.random.default_rng([int(seed), int(index)]))
+    movers = parse_movers(raw.pop("movers", ()))
     raw = {"name": f"{family}-{seed}-{index}", "description": description, **raw}
     scene = parse_scenario(raw, raw["name"])
-    return Layout(family, int(seed), int(index), scene, params, expect)
+    return Layout(family, int(seed), int(index), scene, params, expect, movers)

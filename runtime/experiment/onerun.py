@@ -40,7 +40,7 @@ from clomp.runtime.experiment.runspec import check_condition
 from clomp.runtime.records.runlog import RunLog
 from clomp.runtime.supervision.supervisor import Supervisor, SupervisorConfig
 
-__all__ = ["SUCCESS_RADIUS", "RunResult", "run_once"]
+__all__ = ["SUCCESS_RADIUS", "RunResult", "moving_counts", "run_once"]
 
 SUCCESS_RADIUS = 0.1
 """Ground-truth distance (m) to the goal within which a run reached it: twice the planner's
@@ -83,6 +83,9 @@ class RunResult:
     report: Any = field(default=None, repr=False)
     times: list[float] = field(default_factory=list, repr=False)  # the time (s) of each point of ``path``
     headings: list[float] = field(default_factory=list, repr=False)  # the true heading (rad) at each point of ``path``
+    moving: dict[str, int] | None = None
+    """With moving bodies (issue #42): ``static_collisions``, ``moving_collisions``,
+    ``moving_brushes`` and ``robot_caused_collisions`` (:func:`moving_counts`); else None."""
 
     @property
     def collisions(self) -> int:
@@ -111,6 +114,30 @@ class RunResult:
             label = "scan points the planner saw"
         return RunTrace(self.scene, title, self.path, self.contacts, self.planned, self.estimate, poses,
                         self.reached_goal, tone, scan, label, list(self.times), list(self.headings))
+
+
+def moving_counts(robot: Any) -> dict[str, int]:
+    """The contacts of a world with moving bodies counted apart (issue #42): collisions with the
+    static obstacles, collisions and brushes with the moving bodies, and of those collisions the
+    ones the robot caused (in some sample of the episode its wheels drove it into the body).
+
+    >>> from clomp.planner.scenarios import load_scenario
+    >>> from clomp.runtime.backends.world import make_world_robot
+    >>> w = make_world_robot(load_scenario("open"), "ideal", seed=0, movers=[{"kind": "person", "path": [[0, 0.5, 0.0]]}])
+    >>> w.set_wheel_speeds(0.1, 0.1); w.sleep(4.0)
+    >>> moving_counts(w)
+    {'static_collisions': 0, 'moving_collisions': 1, 'moving_brushes': 0, 'robot_caused_collisions': 1}
+    """
+    static, moving = robot.contact_traces()
+    stat = ContactCount(tuple(contact_episodes(static)))
+    eps = contact_episodes([(t, d) for t, d, _ in moving])
+    caused = 0
+    for e in eps:
+        if not e.brush and any(c for t, _, c in moving if e.start_s <= t <= e.end_s):
+            caused += 1
+    count = ContactCount(tuple(eps))
+    return {"static_collisions": stat.collisions, "moving_collisions": count.collisions,
+            "moving_brushes": count.brushes, "robot_caused_collisions": caused}
 
 
 def _world(start: Pose, p: Pose) -> tuple[float, float]:
@@ -208,6 +235,7 @@ def run_once(
     reactive: dict[str, Any] | None = None,
     gyro: bool = True,
     supervisor: SupervisorConfig | None = None,
+    movers: tuple[Any, ...] = (),
 ) -> RunResult:
     """Run one condition in ``scene`` on a fresh robot; see the module docstring.
 
@@ -223,6 +251,9 @@ def run_once(
     or its dwa/rl subclass (``{"policy": path}`` for ``rl``).
     ``gyro`` False: the execution world's robot without its rate gyro (the paper's robot).
     ``supervisor``: the planning condition's settings (default: ``SupervisorConfig(feedback=feedback)``).
+    ``movers``: bodies that move or appear in the world (issue #42; a preset ``noise`` only); the
+    planning condition then plans with WAIT and REVERSE (``Configurator(recovery=True)``,
+    ``SupervisorConfig(moving=True)``) unless ``configurator`` / ``supervisor`` say otherwise.
 
     >>> from clomp.planner import load_scenario
     >>> r = run_once(load_scenario("open"), "reactive", 0, noise="ideal")
@@ -232,11 +263,14 @@ def run_once(
     check_condition(condition)
     if not (math.isfinite(max_time) and max_time > 0):  # a simulated run needs an end
         raise ValueError(f"max_time must be a finite positive number of seconds, got {max_time!r}")
-    conf = configurator or Configurator()
+    conf = configurator or (Configurator(recovery=True) if movers else Configurator())
     seed_ = 0 if seed is None else int(seed)
     robot: Any
     if isinstance(noise, str):
-        robot = make_robot(scene, noise=noise, noise_scale=noise_scale, seed=seed_, model=conf.robot, gyro=gyro)
+        robot = make_robot(scene, noise=noise, noise_scale=noise_scale, seed=seed_, model=conf.robot, gyro=gyro,
+                           movers=movers)
+    elif movers:
+        raise ValueError("moving bodies need a noise preset's execution world (noise='paper', ...)")
     elif isinstance(noise, WorldNoise):
         robot = make_world_robot(scene, noise, seed=seed_, robot=conf.robot, gyro=gyro)
     else:
@@ -253,7 +287,7 @@ def run_once(
     if condition == "planning":
         runlog = _open_log(log, robot, scene, condition, seed_, noise, goal) if log is not None else None
         try:
-            cfg = supervisor if supervisor is not None else SupervisorConfig(feedback=feedback)
+            cfg = supervisor if supervisor is not None else SupervisorConfig(feedback=feedback, moving=bool(movers))
             sup = Supervisor(robot, goal, conf, config=cfg,  # type: ignore[arg-type]
                              log=None if runlog is None else _TruthLog(runlog, robot, start))
             report = sup.run(max_time=max_time)
@@ -294,5 +328,5 @@ def run_once(
         condition, run, seed_, scene, end_state, reason, reached, believed, dist, episodes, contacts,
         report.time_s, report.time_s if reached and expect == "reach" else None, plan_time, states, plans, path,
         estimate, planned, wall, cpu, (true.x, true.y, true.theta), counters, report if keep_report else None, times,
-        headings,
+        headings, moving_counts(robot) if movers else None,
     )

@@ -72,11 +72,20 @@ CSV_COLUMNS: dict[str, tuple[str, str]] = {
     "checks": ("count", "plan checks against new scans (when the supervisor reports them)"),
     "recalls": ("count", "plans recalled from the map (when reported)"),
     "fresh_plans": ("count", "plans explored afresh (when reported)"),
+    "static_collisions": ("count", "moving families only (issue #42): collisions with the static obstacles"),
+    "moving_collisions": ("count", "moving families only: collisions with moving or appearing bodies (people, boxes)"),
+    "moving_brushes": ("count", "moving families only: brushes with moving or appearing bodies"),
+    "robot_caused_collisions": ("count", "moving families only: collisions with moving bodies the robot drove into "
+                                         "(the rest: a body walked into the robot)"),
     "wall_s": ("s", "wall-clock time of the run on its worker"),
     "cpu_s": ("s", "thread CPU time of the run on its worker"),
     "reason": ("", "why the run ended, in words"),
 }
 """CSV column → (unit, meaning)."""
+
+MOVING_COUNTS = ("static_collisions", "moving_collisions", "moving_brushes", "robot_caused_collisions")
+"""The record fields of a moving family's run (issue #42); absent from older and static runs'
+records, summed per condition when present."""
 
 COLUMN_TYPES: dict[str, str] = {
     k: ("int" if u in ("0/1", "count") or k in ("seed", "run") else "float" if u in ("m", "s", "×") else "str")
@@ -197,7 +206,7 @@ def _condition(rs: list[dict[str, Any]]) -> dict[str, Any]:
         "wall_s": sum(float(r["wall_s"]) for r in rs),
         "cpu_s": sum(float(r.get("cpu_s") or 0.0) for r in rs),
     }
-    for k in ("checks", "recalls", "fresh_plans"):
+    for k in ("checks", "recalls", "fresh_plans") + MOVING_COUNTS:
         vals = [int(r[k]) for r in rs if r.get(k) is not None]
         if vals:
             out[k] = sum(vals)

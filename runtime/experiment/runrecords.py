@@ -13,7 +13,7 @@ from typing import Any
 
 from clomp.runtime.experiment.groundtruth import world_name
 from clomp.runtime.experiment.onerun import SUCCESS_RADIUS, run_once
-from clomp.runtime.experiment.runspec import RunSpec, noise_seed, scene_for
+from clomp.runtime.experiment.runspec import RunSpec, movers_for, noise_seed, scene_for
 
 __all__ = ["PLOTTED_RUNS", "TRACE_FIELDS", "load_records", "run_spec", "summary_record"]
 
@@ -37,7 +37,15 @@ def run_spec(spec: RunSpec) -> dict[str, Any]:
     scene, expect = scene_for(spec)
     r = run_once(scene, spec.condition, noise_seed(spec.seed, spec.run), run=spec.run, noise=spec.noise,
                  noise_scale=spec.noise_scale, max_time=spec.max_time, expect=expect, feedback=spec.feedback,
-                 gyro=spec.gyro, reactive={"policy": spec.policy} if spec.condition == "rl" else None)
+                 gyro=spec.gyro, movers=movers_for(spec),
+                 reactive={"policy": spec.policy} if spec.condition == "rl" else None)
+    rec = _record(spec, scene, expect, r)
+    if r.moving is not None:  # a moving family (issue #42): its contacts counted apart
+        rec.update(r.moving)
+    return rec
+
+
+def _record(spec: RunSpec, scene: Any, expect: str, r: Any) -> dict[str, Any]:
     return {
         "key": spec.key,
         "family": spec.family,

@@ -15,15 +15,17 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
 from clomp.planner.scenarios import Scene, load_scenario
 from clomp.runtime.experiment.groundtruth import NOISE_PRESETS
-from clomp.runtime.experiment.layouts import FAMILIES, make_layout
+from clomp.runtime.backends.world import parse_movers
+from clomp.runtime.experiment.layouts import ALL_FAMILIES, MOVING_FAMILIES, make_layout
 from clomp.runtime.experiment.policy import load_policy, policy_id
 
-__all__ = ["CONDITIONS", "DEFAULT_CONDITIONS", "RunSpec", "check_condition", "experiment_specs", "noise_seed", "scene_for"]
+__all__ = ["CONDITIONS", "DEFAULT_CONDITIONS", "RunSpec", "check_condition", "experiment_specs", "movers_for", "noise_seed", "scene_for"]
 
 CONDITIONS = ("planning", "reactive", "dwa", "rl")
 """The experiment's conditions: the planner, the authors' one-loop reactive controller, the
@@ -97,12 +99,27 @@ def scene_for(spec: RunSpec) -> tuple[Scene, str]:
     >>> scene == scene_for(RunSpec("overtaking", 0, 3, "reactive", "harsh"))[0], expect
     (True, 'reach')
     """
-    if spec.family in FAMILIES:
+    if spec.family in ALL_FAMILIES:
         lay = make_layout(spec.family, spec.seed, spec.run)
         return lay.scene, lay.expect
     scene = load_scenario(spec.family)
     expect = "unreachable" if scene.raw.get("expect") == "unreachable" else "reach"
     return scene, expect
+
+
+def movers_for(spec: RunSpec) -> tuple[Any, ...]:
+    """The moving and appearing bodies of a run's world (issue #42): a moving family's
+    :attr:`~clomp.runtime.experiment.layouts.Layout.movers`, a scenario file's ``movers``
+    list (the JSON forms of :class:`~clomp.runtime.backends.world.Mover`), else none.
+
+    >>> len(movers_for(RunSpec("appearing", 0, 0, "planning"))), movers_for(RunSpec("overtaking", 0, 0, "planning"))
+    (1, ())
+    """
+    if spec.family in MOVING_FAMILIES:
+        return make_layout(spec.family, spec.seed, spec.run).movers
+    if spec.family in ALL_FAMILIES:
+        return ()
+    return parse_movers(load_scenario(spec.family).raw.get("movers") or ())
 
 
 def experiment_specs(family: str, runs: int, seed: int = 0, *, noise: str = "paper",
@@ -125,7 +142,7 @@ def experiment_specs(family: str, runs: int, seed: int = 0, *, noise: str = "pap
     for s in noise_scales:
         if not (math.isfinite(s) and s >= 0):
             raise ValueError(f"noise scale must be a finite number >= 0, got {s!r}")
-    if family not in FAMILIES:
+    if family not in ALL_FAMILIES:
         load_scenario(family)  # a clear ScenarioError now rather than in every worker
     if feedback not in ("scan", "none"):
         raise ValueError(f"feedback must be 'scan' or 'none', got {feedback!r}")

@@ -102,7 +102,7 @@ def hazard_hits(points: np.ndarray, kind: TaskKind, error: float, m: RobotModel,
         pts = pts[~own]
     if len(pts) == 0:
         return 0, 0
-    rate = m.straight_speed if kind is TaskKind.STRAIGHT else m.turn_rate
+    rate = m.turn_rate if kind.is_turn else m.straight_speed
     soon = hits(pts, sweep(kind, min(error, rate * lookahead)), m, allowance)
     return soon, hits(pts, sweep(kind, error), m, allowance)
 

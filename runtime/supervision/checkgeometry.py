@@ -26,6 +26,7 @@ from clomp.runtime.jit import interruptible
 from clomp.runtime.supervision._contacts_core import straight_gaps, turn_first_ticks
 
 _STRAIGHT, _LEFT = TaskKind.STRAIGHT, TaskKind.LEFT  # looked up once: a member lookup is a descriptor call
+_REVERSE, _WAIT = TaskKind.REVERSE, TaskKind.WAIT
 
 
 class _Leg(NamedTuple):
@@ -53,17 +54,21 @@ def _legs(states: list[State], frame: Pose, running: bool) -> list[_Leg]:
         e = q.end
         end = (fx + fc * e.x - fs * e.y, fy + fs * e.x + fc * e.y, fth + e.theta)  # the map's end, robot frame
         c, sn = math.cos(th), math.sin(th)
-        if q.task is _STRAIGHT:
+        if q.task is _STRAIGHT or q.task is _REVERSE:
             if k == 0 and running:
-                amount = (end[0] - x) * c + (end[1] - y) * sn
+                amount = ((end[0] - x) * c + (end[1] - y) * sn) * (1.0 if q.task is _STRAIGHT else -1.0)
             else:
                 amount = math.hypot(e.x - q.start.x, e.y - q.start.y)
+        elif q.task is _WAIT:
+            amount = 0.0  # it stands where the map says
         else:
             amount = abs(wrap_angle(end[2] - th))
         if amount <= 1e-3:
             reached = end  # nothing left of it: the next task starts where the map says
         elif q.task is _STRAIGHT:
             reached = (x + c * amount, y + sn * amount, th)
+        elif q.task is _REVERSE:  # backwards along the heading (its contacts: the hazard test's, every tick)
+            reached = (x - c * amount, y - sn * amount, th)
         else:
             reached = (x, y, th + (amount if q.task is _LEFT else -amount))
         legs.append(_Leg(k, q.task, (x, y, th), amount, end, reached))

@@ -82,6 +82,13 @@ class SupervisorConfig:
       when they fit clearly better elsewhere the estimate moves there and the robot plans on
       (issue #36: a push or a slip the matcher's few centimetres of reach could not follow),
       at most this many times a run (0: never).
+    - ``moving``: a world that moves (issue #42; off by default, so static worlds behave as
+      before): what appears between revolutions where the map saw free space is marked
+      possibly moving and handed to the planner (WAIT before a detour), WAIT and REVERSE
+      tasks run (:mod:`clomp.runtime.supervision.moving`). Needs a configurator planning with
+      them (``Configurator(recovery=True)``).
+    - ``wait_timeout`` (s): the longest a WAIT stands watching before the plan is made anew
+      around what stayed.
 
     >>> SupervisorConfig(confirm=0)
     Traceback (most recent call last):
@@ -110,6 +117,8 @@ class SupervisorConfig:
     vouch_radius: float | None = 0.1
     vouch_sigmas: float = 2.45
     relocate_at_goal: int = 0
+    moving: bool = False
+    wait_timeout: float = 4.0
 
     def __post_init__(self) -> None:
         if self.feedback not in FEEDBACK:
@@ -128,6 +137,7 @@ class SupervisorConfig:
         _non_negative("scan_timeout", self.scan_timeout, positive=True)
         _non_negative("min_progress", self.min_progress)
         _non_negative("lookahead", self.lookahead)
+        _non_negative("wait_timeout", self.wait_timeout, positive=True)
         if not (isinstance(self.end_tolerance, tuple) and len(self.end_tolerance) == 2):
             raise ValueError(f"end_tolerance must be (metres, radians), got {self.end_tolerance!r}")
         for name, x in zip(("end_tolerance[0]", "end_tolerance[1]"), self.end_tolerance):

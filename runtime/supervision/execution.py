@@ -49,12 +49,15 @@ def guard(result: PlanResult, step: tuple[int, int]) -> int:
     return psi
 
 
-def task_for(q: State, result: PlanResult, predicted_end: Pose, model: RobotModel, pose: Pose, goal: Pose) -> Task:
+def task_for(q: State, result: PlanResult, predicted_end: Pose, model: RobotModel, pose: Pose, goal: Pose,
+             wait: float = 5.0) -> Task:
     """The closed loop that runs the map's state ``q`` from the estimate ``pose`` (``goal`` and
     ``predicted_end``, where the map says the task ends, in the supervisor's frame).
 
     A STRAIGHT drives what the map planned: a straight cut at the rim of the sensed disc (a
-    frontier) must not run on into unseen space. A turn turns to the predicted heading.
+    frontier) must not run on into unseen space. A turn turns to the predicted heading. A
+    REVERSE backs off what the map planned; a WAIT stands at most ``wait`` s (the supervisor
+    ends it sooner, :mod:`clomp.runtime.supervision.moving`).
 
     >>> from clomp.planner import Configurator, load_scenario
     >>> scene = load_scenario("open")
@@ -64,6 +67,10 @@ def task_for(q: State, result: PlanResult, predicted_end: Pose, model: RobotMode
     True
     """
     goal_d = Disturbance.goal(goal.x, goal.y)
+    if q.task is TaskKind.WAIT:
+        return Task.wait(model, pose, goal_d, wait)
+    if q.task is TaskKind.REVERSE:
+        return Task.reverse(model, pose, goal_d, q.distance)
     if q.task is TaskKind.STRAIGHT:
         limit = q.distance if q.distance > 0 else make_task(q.task, result.obstacles, model, q.start, result.goal).limit
         return Task.straight(model, pose, goal_d, limit)

@@ -46,6 +46,7 @@ from clomp.planner.robot_model import RobotModel
 from clomp.runtime.supervision.checkgeometry import _ends_off, _Leg, _legs, _points, _straight_contacts, _turn_contacts
 
 _STRAIGHT = TaskKind.STRAIGHT  # looked up once: a member lookup is a descriptor call
+_REVERSE = TaskKind.REVERSE
 
 __all__ = [
     "CheckResult",
@@ -154,7 +155,10 @@ def _check(states: list[State], frame: Pose, z: np.ndarray, robot: RobotModel, t
     turns: list[_Leg] = []
     for g in legs:
         if g.amount > 1e-3:
-            (straights if g.kind is _STRAIGHT else turns).append(g)
+            if g.kind is _STRAIGHT:
+                straights.append(g)
+            elif g.kind is not _REVERSE:  # a REVERSE's way back is the hazard test's (every tick)
+                turns.append(g)
             off = offs[g.k] = _ends_off(g, tolerance)
             if off is not None:  # the verdict: this task at the latest, so none after it needs testing
                 break
@@ -224,6 +228,9 @@ def resimulate_plan(
         end = compose(frame, q.end)  # where the map predicted it ends, robot frame
         planned_start = compose(frame, q.start)
         first = k == 0 and running
+        if q.task is TaskKind.WAIT or q.task is TaskKind.REVERSE:  # stands / backs off as the map says
+            start = end
+            continue
         if q.task is TaskKind.STRAIGHT:
             along = (end.x - start.x) * math.cos(start.theta) + (end.y - start.y) * math.sin(start.theta)
             length = along if first else math.hypot(end.x - planned_start.x, end.y - planned_start.y)

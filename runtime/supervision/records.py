@@ -119,10 +119,13 @@ class SupervisorReport:
 
 
 def sweep(kind: TaskKind, amount: float) -> np.ndarray:
-    """Sample poses (x, y, theta; current robot frame) of the remaining motion of a task."""
-    if kind is TaskKind.STRAIGHT:
+    """Sample poses (x, y, theta; current robot frame) of the remaining motion of a task (a
+    REVERSE's backwards, a WAIT's where the body stands)."""
+    if kind is TaskKind.WAIT:
+        amount = 0.0
+    if not kind.is_turn:
         n = max(2, int(math.ceil(amount / 0.02)) + 1)
-        xs = np.linspace(0.0, max(amount, 0.0), n)
+        xs = np.linspace(0.0, max(amount, 0.0), n) * (-1.0 if kind is TaskKind.REVERSE else 1.0)
         line: np.ndarray = np.c_[xs, np.zeros(n), np.zeros(n)]
         return line
     n = max(2, int(math.ceil(amount / math.radians(5))) + 1)

@@ -76,7 +76,7 @@ from typing import Any
 
 import numpy as np
 
-from clomp.formal.model import Pose, State
+from clomp.formal.model import Pose, State, TaskKind
 from clomp.planner.configurator import Configurator, PlanningError
 from clomp.planner.robot_model import RobotModel
 from clomp.formal.geometry import compose, relative, wrap_angle
@@ -86,6 +86,7 @@ from clomp.runtime.estimation.odometry import ScanOdometry
 from clomp.runtime.supervision.config import SupervisorConfig
 from clomp.runtime.supervision.execution import GuardViolation, end_error, guard, task_for
 from clomp.planner.deepening import plan_deepening
+from clomp.runtime.supervision.moving import Appearance, wait_tick
 from clomp.runtime.supervision.planwatch import PlanWatch
 from clomp.runtime.supervision.progress import Progress
 from clomp.runtime.supervision.records import PlanRecord, SupervisorReport, TaskRecord, TimedRecord
@@ -163,6 +164,7 @@ class Supervisor:
         self.watch = PlanWatch(self.model, self._log)  # hazard test, plan check, recall (clomp.runtime.supervision.planwatch)
         self.alarms = self.watch.alarms
         self.checks, self.recalls = self.watch.checks, self.watch.recalls
+        self.appearance = Appearance(self.model)  # what appeared since the last plan (``moving`` only)
 
     # -- public -------------------------------------------------------------------------------
     @property
@@ -364,7 +366,8 @@ class Supervisor:
         if self._ends_before_planning(dist):
             return
         scan = self.sensing.planning_scan()
-        if self.state is S.REPLANNING and self._recall(scan, now):
+        waited_out = self.config.moving and self.appearance.stale  # a WAIT timed out: plan round what stayed
+        if self.state is S.REPLANNING and not waited_out and self._recall(scan, now):
             return
         self._fresh_plan(scan, (g.x, g.y), dist, now)
 
@@ -404,11 +407,21 @@ class Supervisor:
     def _fresh_plan(self, scan: np.ndarray, goal: tuple[float, float], dist: float, now: float) -> None:
         """Explore anew from ``scan`` to ``goal`` (robot frame, ``dist`` m away) and run the plan."""
         c0 = time.thread_time()
+        moving = self.config.moving
+        if moving:  # what appeared where the last plan's scan saw free space: possibly moving (a WAIT first)
+            if self.appearance.stale:
+                self.appearance.renew(scan, self.pose)
+            self.configurator.transient = self.appearance.transient(scan, self.pose)
         try:
             result = plan_deepening(self.configurator, scan, goal, self.config.deepen)
         except PlanningError as exc:
             self._fire(E.NO_PLAN, f"goal unreachable: {exc}")
             return
+        finally:
+            if moving:
+                transient, self.configurator.transient = self.configurator.transient, None
+                if transient is None:
+                    self.appearance.renew(scan, self.pose)
         took = result.planning_time_s + self.watch.planned(result)  # indexing the map for recall is part of making it
         self.fresh_plans.append(TimedRecord(now - (self._t0 or 0.0), took, True, f"{result.n_states} states", time.thread_time() - c0))
         self._log("fresh_plan", duration_s=took, states=result.n_states)
@@ -440,7 +453,7 @@ class Supervisor:
         q, step = self._queue.popleft()
         psi = guard(self._plan.result, step)
         predicted_end = self._plan.to_frame(q.end)
-        task = task_for(q, self._plan.result, predicted_end, self.model, self.pose, self.goal)
+        task = task_for(q, self._plan.result, predicted_end, self.model, self.pose, self.goal, self.config.wait_timeout + 1.0)
         self._task = task
         self._task_ticks = 0
         self._record = TaskRecord(len(self.plans) - 1, q, step, psi, now - (self._t0 or 0.0), self.pose, predicted_end)
@@ -529,7 +542,11 @@ class Supervisor:
                                            f"cannot vouch for {cfg.vouch_radius:g} m: unconfirmed")
 
     def _hazard(self, task: Task, error: float) -> str | None:
-        """A reason to interrupt: the newest scan has points in the body's remaining path."""
+        """A reason to interrupt: the newest scan has points in the body's remaining path (a
+        WAIT: it waited out its time with the way ahead still blocked)."""
+        if task.kind is TaskKind.WAIT:  # stands, watching the way ahead (clomp.runtime.supervision.moving)
+            self._check_due = False
+            return wait_tick(self, task)
         s, cfg = self.sensing, self.config
         return self.watch.hazard(s.clean_scan, s.scan_pose, self.pose, task, error, cfg.lookahead, cfg.hazard_points)
 

@@ -29,6 +29,10 @@ def test_start_error_is_the_error_at_the_start(kind, x, y, theta, limit, goal):
     g = None if goal is None else Disturbance.goal(*goal)
     if kind is TaskKind.STRAIGHT:
         task = Task.straight(robot, start, g, limit)
+    elif kind is TaskKind.WAIT:
+        task = Task.wait(robot, start, g, limit)
+    elif kind is TaskKind.REVERSE:
+        task = Task.reverse(robot, start, g, limit)
     else:
         task = Task.turn(robot, kind, start, g, min(limit, math.pi))
     assert task.start_error() == task.error_at(x, y, theta)

@@ -277,3 +277,22 @@ def test_config_rejects_nonsense() -> None:
         HardwareConfig(byte_timeout=0)
     with pytest.raises(ValueError, match="garbage_fraction"):
         HardwareConfig(garbage_fraction=1.5)
+
+
+def test_reverse_drives_both_servos_backwards_and_wait_holds_them_stopped(devices) -> None:
+    """The motor law of a REVERSE (negative wheel speeds) and of a WAIT (zero) reach the
+    Maestro as they are (issue #42)."""
+    from clomp.formal.model import Disturbance
+    from clomp.planner.robot_model import RobotModel
+    from clomp.planner.tasks import Task
+
+    lidar, maestro = devices
+    model, start, goal = RobotModel(), Pose(0.0, 0.0), Disturbance.goal(1.0, 0.0)
+    back = Task.reverse(model, start, goal, 0.15)
+    wait = Task.wait(model, start, goal, 2.0)
+    with open_robot(lidar, maestro) as robot:
+        robot.set_wheel_speeds(*back.wheel_speeds(back.error(start)))
+        assert maestro.wait_for(lambda e: e.speeds != (0.0, 0.0), 10.0)
+        assert maestro.speeds == pytest.approx((-0.5, -0.5), abs=0.01)
+        robot.set_wheel_speeds(*wait.wheel_speeds(wait.error(start)))
+        assert maestro.wait_for(stopped, 10.0)
