@@ -59,6 +59,19 @@ class Progress:
         self.best = min(self.best, dist)
         return None
 
+    def world_changed(self) -> None:
+        """What stood in the way turned out to stay (a WAIT timed out, issue #42): the plans
+        before were made for another world, so their lack of progress no longer counts.
+
+        >>> from clomp.runtime.supervision.config import SupervisorConfig
+        >>> p = Progress(SupervisorConfig(patience=2))
+        >>> p.planned(False, 1.0), p.planned(False, 1.0)
+        (None, 'goal unreachable: 2 plans in a row brought it no closer')
+        >>> p.world_changed(); p.planned(False, 1.0) is None
+        True
+        """
+        self.stalled = 0
+
     def recalled(self) -> None:
         """A recalled plan runs: an earlier empty one no longer counts towards ``confirm``."""
         self.empty = 0

@@ -367,6 +367,8 @@ class Supervisor:
             return
         scan = self.sensing.planning_scan()
         waited_out = self.config.moving and self.appearance.stale  # a WAIT timed out: plan round what stayed
+        if waited_out:
+            self.progress.world_changed()
         if self.state is S.REPLANNING and not waited_out and self._recall(scan, now):
             return
         self._fresh_plan(scan, (g.x, g.y), dist, now)
