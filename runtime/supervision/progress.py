@@ -65,9 +65,9 @@ class Progress:
 
         >>> from clomp.runtime.supervision.config import SupervisorConfig
         >>> p = Progress(SupervisorConfig(patience=2))
-        >>> p.planned(False, 1.0), p.planned(False, 1.0)
-        (None, 'goal unreachable: 2 plans in a row brought it no closer')
-        >>> p.world_changed(); p.planned(False, 1.0) is None
+        >>> p.planned(False, 1.0), p.planned(False, 1.0)  # the first sets the best distance
+        (None, None)
+        >>> p.world_changed(); p.planned(False, 1.0) is None  # without it: 'goal unreachable: 2 plans …'
         True
         """
         self.stalled = 0
