@@ -16,9 +16,11 @@ users need are here too:
 
 >>> import clomp
 >>> scene = clomp.load_scenario("overtaking")
->>> result = clomp.plan(scene.scan(), goal=scene.goal_in_robot_frame())
+>>> result = clomp.plan(scene.scan(), goal=(0.8, -0.3))  # beside the box: seen, so it may be reached
 >>> result.reached_goal, clomp.check_map(result.map)
 (True, [])
+>>> clomp.plan(scene.scan(), goal=scene.goal_in_robot_frame()).stop_reason  # behind it: in its shadow
+'frontier'
 """
 
 from __future__ import annotations
