@@ -473,6 +473,11 @@ class _Search:
                 self.ends += 1
                 if (self.routes == 1 and self.goal_seen) or self.ends + len(self.goal_ids) < self.routes:
                     continue
+                if cmap[qe_id].cost >= cmap[0].cost:
+                    # a frontier no better than where the robot stands would leave the plan
+                    # empty (it ends at argmin φ, q0): search on for a better end, as far as
+                    # the budget goes (a shadowed goal behind a U or a box just ahead)
+                    continue
                 return "frontier"
             qe = cmap[qe_id]
             if qe.interrupted:

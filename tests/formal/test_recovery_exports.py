@@ -46,9 +46,7 @@ def _wait_map(free_turns: bool):
 def test_prism_and_storm_agree_on_maps_with_wait_and_reverse(make, label, free_turns):
     r = make(free_turns)
     assert label in {t.label for t in r.map.transitions()}
-    # the plan starts with it — except REVERSE with free turns, whose plan is empty since the
-    # known-free rule (tests/planner/test_recovery.py's strict xfail says why)
-    assert r.steps[0].task is label if r.steps else (label, free_turns) == (TaskKind.REVERSE, True)
+    assert r.steps[0].task is label
     for out in (write_prism, write_drn, write_dot):
         buf = io.StringIO()
         out(r.map, buf)

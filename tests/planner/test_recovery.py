@@ -39,10 +39,6 @@ def _labels(r) -> set[TaskKind]:
     return {t.label for t in r.map.transitions()}
 
 
-@pytest.mark.xfail(strict=True, reason="since the known-free rule (issue #39) the goal behind the box stands in its "
-                   "shadow: the search ends at the first frontier popped, but the plan ends at argmin φ, which is q0 "
-                   "(the REVERSE backed off, every state is farther from the goal): an empty plan. With quarter turns "
-                   "the plan still backs off and goes round (next test).")
 def test_without_recovery_a_blocked_robot_has_no_plan_and_with_it_backs_off_and_goes_round():
     assert Configurator().plan(nook(), (1.0, 0.0)).steps == []
     r = Configurator(recovery=True).plan(nook(), (1.0, 0.0))
