@@ -31,7 +31,7 @@ from collections.abc import Iterable, Sequence
 from pathlib import Path
 from typing import Any
 
-from clomp.runtime.experiment.results import PAPER, summarise
+from clomp.runtime.experiment.results import BASELINES, PAPER, summarise
 
 __all__ = ["block_key", "write_report"]
 
@@ -92,7 +92,7 @@ def _summary_table(summary: dict[str, Any]) -> str:
 
 def _tests(summary: dict[str, Any]) -> str:
     out = []
-    for other, suffix in (("reactive", ""), ("dwa", "_dwa"), ("rl", "_rl")):
+    for other, suffix in BASELINES:
         m, t = summary.get("mcnemar_success" + suffix), summary.get("ttest_collisions" + suffix)
         if m:
             out.append(f"<li>planning vs {other}: McNemar on success — only planning {m['b10']}, only {other} "

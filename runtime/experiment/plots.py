@@ -27,6 +27,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
+from clomp.runtime.experiment.runspec import CONDITIONS
 from clomp.planner.robot_model import RobotModel
 from clomp.planner.scenarios import Scene
 
@@ -397,7 +398,7 @@ def plot_collisions(per_run: dict[str, list[tuple[int, int]]], path: str | os.Pa
     ``per_run``: condition → [(collisions, brushes)] in run order.
     """
     plt = _pyplot()
-    names = [n for n in ("planning", "reactive", "dwa", "rl") if n in per_run]
+    names = [n for n in CONDITIONS if n in per_run]
     n = max((len(v) for v in per_run.values()), default=0)
     fig, ax = plt.subplots(figsize=(max(6.0, 0.35 * n + 2), 3.6))
     try:

@@ -11,6 +11,7 @@ import os
 from pathlib import Path
 from typing import Any
 
+from clomp.runtime.experiment.runspec import CONDITIONS
 from clomp.planner.scenarios import Scene, parse_scenario
 from clomp.runtime.experiment.plots import (
     RunTrace,
@@ -58,7 +59,7 @@ def write_plots(records: list[dict[str, Any]], folder: str | os.PathLike[str], m
     noise = records[0].get("noise", "")
     at = [r for r in records if float(r.get("noise_scale", 1.0)) == base]
     per_run: dict[str, list[tuple[int, int]]] = {}
-    for name in ("planning", "reactive", "dwa", "rl"):
+    for name in CONDITIONS:
         rs = sorted((r for r in at if r["condition"] == name), key=lambda r: r["run"])
         if not rs:
             continue
@@ -79,7 +80,7 @@ def write_plots(records: list[dict[str, Any]], folder: str | os.PathLike[str], m
         written.append(p)
     if len(scales) > 1:
         points: dict[str, list[tuple[float, int, int]]] = {}
-        for name in ("planning", "reactive", "dwa", "rl"):
+        for name in CONDITIONS:
             for s in scales:
                 rs = [r for r in records if r["condition"] == name and float(r.get("noise_scale", 1.0)) == s]
                 if rs:

@@ -27,9 +27,10 @@ from collections.abc import Iterable, Sequence
 from pathlib import Path
 from typing import Any
 
+from clomp.runtime.experiment.runspec import CONDITIONS
 from clomp.runtime.experiment.stats import mcnemar, mean_ci, paired_ttest, wilson
 
-__all__ = ["COLUMN_TYPES", "CSV_COLUMNS", "MARKDOWN_HEADER", "PAPER", "markdown_rows", "summarise", "table", "write_csv",
+__all__ = ["BASELINES", "COLUMN_TYPES", "CSV_COLUMNS", "MARKDOWN_HEADER", "PAPER", "markdown_rows", "summarise", "table", "write_csv",
            "write_parquet", "write_schema"]
 
 PAPER: dict[str, dict[str, Any]] = {
@@ -235,10 +236,12 @@ def summarise(records: Iterable[dict[str, Any]]) -> dict[str, Any]:
     return out
 
 
-_NAMES = ("planning", "reactive", "dwa", "rl")  # the conditions, in the table's order (runspec.CONDITIONS)
+_NAMES = CONDITIONS  # the conditions, in the table's order
 
 
-_BASELINES = (("reactive", ""), ("dwa", "_dwa"), ("rl", "_rl"))  # each baseline paired against planning
+BASELINES: tuple[tuple[str, str], ...] = tuple((n, "" if n == "reactive" else f"_{n}") for n in CONDITIONS if n != "planning")
+"""Each baseline paired against planning, with the suffix of its tests' keys in a summary
+(``mcnemar_success_dwa``; the paper's reactive has none)."""
 
 
 def _pair_key(r: dict[str, Any]) -> tuple[float, int]:
@@ -254,7 +257,7 @@ def _block(recs: list[dict[str, Any]]) -> dict[str, Any]:
         if name in by:
             conds[name] = _condition(by[name])
     out: dict[str, Any] = {"conditions": conds}
-    for other, suffix in _BASELINES:  # each baseline paired against planning
+    for other, suffix in BASELINES:  # each baseline paired against planning
         if "planning" in by and other in by:
             p = {_pair_key(r): r for r in by["planning"]}
             q = {_pair_key(r): r for r in by[other]}
@@ -319,7 +322,7 @@ def table(summary: dict[str, Any], paper: dict[str, Any] | None = None) -> str:
         }
     for label, vals in rows:
         lines.append(f"{label:<{w0}}" + "".join(f"{v:<{w1}}" for v in vals) + paper_col.get(label, ""))
-    for other, suffix in _BASELINES:
+    for other, suffix in BASELINES:
         t = summary.get("ttest_collisions" + suffix)
         if t:
             mine = f"T = {t['t']:.3f}, p = {t['p']:.3g}" if t["t"] is not None else t["note"]
