@@ -25,6 +25,8 @@ def test_a_policy_trained_in_the_environment_drives_an_experiment(tmp_path: Path
                                  noise="ideal", init=LinearPolicy.goal_seeker())
     assert [p["iteration"] for p in curve] == [1, 2] and curve[-1]["steps"] > curve[0]["steps"]
     assert policy.trained["layout_runs_from"] == TRAIN_RUN_BASE  # disjoint from the scored runs 0..N-1
+    assert not np.allclose(policy.weights, LinearPolicy.goal_seeker().weights)  # the search moved from where it began
+    assert curve[-1]["elite_return"] >= curve[-1]["mean_return"]  # the elite is the best of what was tried
     path = policy.save(tmp_path / "p.json")
     out = tmp_path / "out"
     code = main(["experiment", "overtaking", "--runs", "2", "--condition", "rl", "--policy", str(path),
