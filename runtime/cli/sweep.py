@@ -115,6 +115,8 @@ def run(args: argparse.Namespace) -> int:
 
     print(f"clomp sweep: {len(specs)} runs ({len(families)} families × {len(presets)} presets × {len(seeds)} seeds × "
           f"{args.runs} runs × {len(conditions)} conditions{' × 2 gyro settings' if len(gyros) > 1 else ''})", flush=True)
+    wanted = {s.key for s in specs}
+    kept = len({r["key"] for r in load_records(out / "runs.jsonl") if r["key"] in wanted}) if args.resume else 0
     w0, c0 = time.perf_counter(), time.thread_time()
     try:
         with interrupts_raise():
@@ -145,9 +147,10 @@ def run(args: argparse.Namespace) -> int:
             f"{c[n].get('false_successes', 0)} false" for n in c))
     write_csv(whole, out / "runs.csv")
     (out / "summary.json").write_text(json.dumps({"cells": summaries, "runs": len(whole), "wall_s": round(wall, 1),
-                                                  "runs_per_s": round(len(records) / wall, 3) if wall > 0 else None},
+                                                  "runs_per_s": round((len(records) - kept) / wall, 3) if wall > 0 else None},
                                                  indent=1, allow_nan=False) + "\n", encoding="utf-8")
     page = write_report(whole, out / "report.html", f"clomp sweep: {len(whole)} runs")
-    print(f"{len(records)} runs in {wall:.0f} s wall ({len(records) / max(wall, 1e-9):.2f} runs/s), this process "
+    ran = len(records) - kept  # runs/s counts what this call ran, not the runs a --resume kept
+    print(f"{ran} runs in {wall:.0f} s wall ({ran / max(wall, 1e-9):.2f} runs/s{f'; {kept} kept from before' if kept else ''}), this process "
           f"{cpu:.1f} s thread CPU; wrote {out}{os.sep}: runs.jsonl, runs.csv, summary.json, {page.name}")
     return 0
