@@ -1,5 +1,5 @@
 """Bodies that move or appear in the execution world: people (discs) walking seeded paths,
-a person who walks in and stops, a box that appears in the lane (issue #42).
+a person who walks in and stops, a box that appears in the lane, a door that closes (issue #42).
 
 A :class:`Mover` is kinematic: it follows its path whatever touches it (a person does not
 yield to a robot), so a contact with one is either the robot driving into it or it walking
@@ -15,7 +15,11 @@ the first time, moves linearly between waypoints, and after the last one stays t
 issue's "a box appearing 5 cm ahead"); a person with ``ahead`` set appears at ``appear`` s
 ``lateral`` m to the side (positive: left) of that point and walks there at ``speed`` m/s,
 and stops (the issue's "a person walks in and stops ahead"): the point is reckoned with
-the robot driving on at ``drive_speed`` while the person walks.
+the robot driving on at ``drive_speed`` while the person walks. A ``door`` is a sliding
+panel (a rectangle ``size`` = [length, thickness] m, its long side at ``angle`` rad from the
+x axis, by default across the x axis): it enters the world at its path's first time, slides
+along the path into the doorway and stays (a door that closes; hidden in the wall before, as
+the wall is as thick as the panel).
 
 >>> m = Mover.from_dict({"kind": "person", "path": [[0, 0.5, -1.0], [2, 0.5, 1.0]], "stays": False})
 >>> m.position(1.0), m.present(3.0), m.radius
@@ -32,7 +36,7 @@ from typing import Any
 import numpy as np
 import pymunk
 
-__all__ = ["MOVER", "PERSON_RADIUS", "BOX_SIZE", "Mover", "Movers", "parse_movers"]
+__all__ = ["MOVER", "PERSON_RADIUS", "BOX_SIZE", "DOOR_THICKNESS", "Mover", "Movers", "parse_movers"]
 
 MOVER = 3
 """The pymunk collision type (and filter category) of a moving body."""
@@ -40,16 +44,21 @@ PERSON_RADIUS = 0.12
 """A person's radius (m), the issue's kinematic person."""
 BOX_SIZE = 0.16
 """The side of a box that appears (m)."""
+DOOR_THICKNESS = 0.02
+"""A door panel's thickness by default (m): the layouts' wall thickness."""
 
 
 @dataclass(frozen=True)
 class Mover:
     """One moving or appearing body (see the module): ``kind`` ``"person"`` (a disc of
-    ``radius``) or ``"box"`` (a square of side ``2 * radius``), its waypoints ``path``,
-    whether it ``stays`` at the last one, and for a box ``ahead`` / ``appear``.
+    ``radius``), ``"box"`` (a square of side ``2 * radius``) or ``"door"`` (a panel of
+    ``size`` at ``angle``), its waypoints ``path``, whether it ``stays`` at the last one,
+    and for a box or a person ``ahead`` / ``appear``.
 
     >>> Mover.from_dict({"kind": "box", "appear": 4.0, "ahead": 0.05}).radius
     0.08
+    >>> Mover.from_dict({"kind": "door", "size": [0.5, 0.02], "path": [[3, 0.6, 0.5], [4, 0.6, 0.0]]}).corners((0.6, 0.0))[0]
+    (0.61, -0.25)
     """
 
     kind: str
@@ -61,13 +70,17 @@ class Mover:
     lateral: float = 0.0
     speed: float = 0.5
     drive_speed: float = 0.1
+    size: tuple[float, float] = (0.0, 0.0)
+    angle: float = math.pi / 2
 
     @classmethod
     def from_dict(cls, raw: Mapping[str, Any]) -> "Mover":
         """A mover from its JSON form; ValueError naming what is wrong."""
         kind = raw.get("kind")
-        if kind not in ("person", "box"):
-            raise ValueError(f"mover kind must be 'person' or 'box', got {kind!r}")
+        if kind not in ("person", "box", "door"):
+            raise ValueError(f"mover kind must be 'person', 'box' or 'door', got {kind!r}")
+        if kind == "door":
+            return cls._door(raw)
         radius = float(raw.get("radius", PERSON_RADIUS if kind == "person" else BOX_SIZE / 2))
         try:
             path = tuple((float(t), float(x), float(y)) for t, x, y in raw.get("path", ()))
@@ -89,6 +102,37 @@ class Mover:
             raise ValueError(f"mover: lateral must be finite and speed positive, got {lateral!r}, {speed!r}")
         return cls(kind, radius, path, bool(raw.get("stays", True)), None if appear is None else float(appear),
                    None if ahead is None else float(ahead), lateral, speed)
+
+    @classmethod
+    def _door(cls, raw: Mapping[str, Any]) -> "Mover":
+        """A door from its JSON form: ``size``, ``angle`` and a ``path`` (it stays)."""
+        try:
+            size = tuple(float(v) for v in raw.get("size", ()))
+            path = tuple((float(t), float(x), float(y)) for t, x, y in raw.get("path", ()))
+            angle = float(raw.get("angle", math.pi / 2))
+        except (TypeError, ValueError):
+            raise ValueError(f"door: expected size [length, thickness], a path of [t, x, y] and an angle, got {dict(raw)!r}") from None
+        if len(size) == 1:
+            size = (size[0], DOOR_THICKNESS)
+        if len(size) != 2 or not all(math.isfinite(v) and v > 0 for v in size) or not path:
+            raise ValueError(f"door: needs a size [length, thickness] of positive numbers and a path, got {dict(raw)!r}")
+        if not all(math.isfinite(v) for p in path for v in p) or not math.isfinite(angle):
+            raise ValueError(f"door: expected finite numbers, got {dict(raw)!r}")
+        if any(b[0] < a[0] for a, b in zip(path, path[1:])):
+            raise ValueError("mover path: waypoint times must not decrease")
+        if "ahead" in raw:
+            raise ValueError("door: 'ahead' is for a box or a person (a door slides along its path)")
+        return cls("door", max(size) / 2, path, True, size=(size[0], size[1]), angle=angle)
+
+    def corners(self, c: tuple[float, float]) -> list[tuple[float, float]]:
+        """The outline of a box or a door centred at ``c`` (world frame, counter-clockwise)."""
+        if self.kind == "door":
+            hl, ht = self.size[0] / 2, self.size[1] / 2
+            a, b = math.cos(self.angle), math.sin(self.angle)
+            local = [(-hl, -ht), (hl, -ht), (hl, ht), (-hl, ht)]
+            return [(round(c[0] + u * a - v * b, 12), round(c[1] + u * b + v * a, 12)) for u, v in local]
+        r = self.radius
+        return [(c[0] - r, c[1] - r), (c[0] + r, c[1] - r), (c[0] + r, c[1] + r), (c[0] - r, c[1] + r)]
 
     def placed(self, t: float, robot: tuple[float, float, float], front: float) -> tuple[tuple[float, float, float], ...]:
         """The path of a mover with ``ahead``, placed at ``t`` for the robot at ``robot`` (x, y,
@@ -151,8 +195,7 @@ class Movers:
             if m.kind == "person":
                 shape: pymunk.Shape = pymunk.Circle(body, m.radius)
             else:
-                r = m.radius
-                shape = pymunk.Poly(body, [(-r, -r), (r, -r), (r, r), (-r, r)])
+                shape = pymunk.Poly(body, m.corners((0.0, 0.0)))
             shape.friction = friction
             shape.collision_type = MOVER
             shape.filter = pymunk.ShapeFilter(categories=MOVER)
@@ -202,8 +245,7 @@ class Movers:
             if m.kind == "person":
                 circles.append((c[0], c[1], m.radius))
             else:
-                r = m.radius
-                v = [(c[0] - r, c[1] - r), (c[0] + r, c[1] - r), (c[0] + r, c[1] + r), (c[0] - r, c[1] + r)]
+                v = m.corners(c)
                 edges += [(v[i][0], v[i][1], v[(i + 1) % 4][0] - v[i][0], v[(i + 1) % 4][1] - v[i][1]) for i in range(4)]
         return np.array(edges, dtype=float).reshape(-1, 4), np.array(circles, dtype=float).reshape(-1, 3)
 

@@ -68,7 +68,9 @@ class EmulatedWorld:
     ``imu_options`` are laid over the IMU emulator's arguments the preset gives
     (:func:`~clomp.runtime.backends._imu.imu_terms`; e.g. ``{"drop_rate": 0.0}``).
     ``serial_timeout`` is the Maestro's own fail-safe (off by default, as on a new
-    board): no byte for that long sends the wheels home (stopped).
+    board): no byte for that long sends the wheels home (stopped). ``movers``: bodies that
+    move or appear (people, boxes, a door that closes; :mod:`clomp.runtime.backends._movers`),
+    in the execution world only (a preset or WorldNoise ``noise``; issue #42).
 
     >>> with EmulatedWorld("open") as world:
     ...     world.lidar_port.startswith("/dev/"), world.motor_port.startswith("/dev/"), world.collisions
@@ -93,6 +95,7 @@ class EmulatedWorld:
         imu_options: dict[str, Any] | None = None,
         serial_timeout: float | None = None,
         clock: Clock | None = None,
+        movers: tuple[Any, ...] = (),
     ) -> None:
         if not (math.isfinite(time_scale) and time_scale > 0):
             raise ValueError(f"time_scale must be a positive number, got {time_scale!r}")
@@ -101,8 +104,11 @@ class EmulatedWorld:
         self.scene = scenario if isinstance(scenario, Scene) else load_scenario(scenario)
         self.model = model or RobotModel()
         self.sim: SimRobot | WorldRobot
+        self.movers = tuple(movers)
         if isinstance(noise, (str, WorldNoise)):  # the A1 turns clockwise: so does the world's LiDAR
-            self.sim = make_world_robot(self.scene, noise, seed=seed, robot=self.model, sweep=-1)
+            self.sim = make_world_robot(self.scene, noise, seed=seed, robot=self.model, sweep=-1, movers=self.movers)
+        elif self.movers:
+            raise ValueError("bodies that move or appear need the execution world (a noise preset or a WorldNoise)")
         else:
             self.sim = SimRobot(self.scene, self.model, noise=noise, seed=seed)
         self.time_scale = float(time_scale)

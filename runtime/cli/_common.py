@@ -39,8 +39,8 @@ from clomp.planner.scenarios import Scene, ScenarioError, load_scenario
 from clomp.runtime.cli import CliError, plural
 from clomp.runtime.records.runlog import LogError
 
-__all__ = ["Notes", "add_units_option", "folder_scans", "load_scene", "log_records", "many_summary", "output_folder", "output_path",
-           "path_kind", "read_points", "scan_outcomes", "summary_line"]
+__all__ = ["Notes", "add_mover_options", "add_units_option", "folder_scans", "load_scene", "log_records", "many_summary", "output_folder", "output_path",
+           "path_kind", "read_points", "scan_outcomes", "scene_movers", "summary_line"]
 
 T = TypeVar("T")
 
@@ -59,6 +59,51 @@ def load_scene(scenario: str) -> Scene:
         return load_scenario(scenario)
     except ScenarioError as exc:
         raise CliError(str(exc)) from None
+
+
+def add_mover_options(p: Any, movers: bool = True) -> None:
+    """``--moving`` (WAIT and REVERSE on: a world that moves, issue #42) and, with ``movers``,
+    ``--mover JSON`` (a body that moves or appears, added to the scenario's own ``movers``)."""
+    p.add_argument("--moving", action="store_true",
+                   help="a world that moves (issue #42): plan and run with WAIT and REVERSE, and treat what appears "
+                        "between revolutions as possibly moving (on by itself when the world has movers)")
+    if movers:
+        p.add_argument("--mover", action="append", default=[], metavar="JSON",
+                       help="a body that moves or appears, as in a scenario file's 'movers' (a person, a box, a door "
+                            "that closes; docs/experiment-room.md); repeatable")
+
+
+def scene_movers(scene: Scene, extra: Iterable[str] = ()) -> tuple[Any, ...]:
+    """The movers of ``scene`` (its file's ``movers``) and the ``--mover`` JSON texts ``extra``;
+    one CliError line naming what is wrong.
+
+    >>> scene_movers(load_scenario("open"), ['{"kind": "box", "appear": 2, "ahead": 0.05}'])[0].kind
+    'box'
+    >>> scene_movers(load_scenario("open"), ['{"kind": "cat"}'])
+    Traceback (most recent call last):
+    clomp.runtime.cli.CliError: --mover: mover kind must be 'person', 'box' or 'door', got 'cat'
+    """
+    import json
+
+    from clomp.runtime.backends.world import parse_movers
+
+    try:
+        own = parse_movers(scene.raw.get("movers") or ())
+    except (TypeError, ValueError) as exc:
+        raise CliError(f"{scene.name}: movers: {exc}") from None
+    added: list[Any] = []
+    for text in extra:
+        try:
+            raw = json.loads(text)
+        except json.JSONDecodeError as exc:
+            raise CliError(f"--mover: not JSON ({exc.msg}): {text!r}") from None
+        if not isinstance(raw, dict):
+            raise CliError(f"--mover: expected a JSON object, got {text!r}")
+        try:
+            added += parse_movers([raw])
+        except (TypeError, ValueError) as exc:
+            raise CliError(f"--mover: {exc}") from None
+    return own + tuple(added)
 
 
 def log_records(read: Callable[[Path], Iterable[T]], path: Path, what: str) -> Iterator[T]:

@@ -12,7 +12,7 @@ from typing import Any
 from clomp.planner.scenarios import ScenarioError
 from clomp.runtime.cli._args import seed_arg
 from clomp.runtime.cli import CliError
-from clomp.runtime.cli._common import load_scene, output_folder
+from clomp.runtime.cli._common import load_scene, output_folder, scene_movers
 from clomp.runtime.experiment.onerun import run_once
 from clomp.runtime.experiment.plots import plot_run
 from clomp.runtime.experiment.tasktree import plot_task_tree
@@ -89,9 +89,10 @@ def run(args: argparse.Namespace) -> int:
     except OSError as exc:
         raise CliError(f"--out: cannot create {out}: {exc}") from None
     seed = args.seed if args.seed is not None else scene.raw.get("seed", 0)
+    movers = scene_movers(scene, args.mover)
     try:
         r = run_once(scene, "planning", seed, noise=world_noise(args, scene), keep_report=True, feedback=args.feedback,
-                     gyro=not args.no_gyro)
+                     gyro=not args.no_gyro, movers=movers, moving=args.moving or bool(movers))
     except ScenarioError as exc:
         raise CliError(str(exc)) from None
     print_summary(r)

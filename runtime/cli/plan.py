@@ -107,10 +107,12 @@ def add_planner_options(p: argparse.ArgumentParser) -> None:
 
 
 def configurator_from_args(args: argparse.Namespace) -> Configurator:
-    """A Configurator from the shared planner options."""
+    """A Configurator from the shared planner options (with WAIT and REVERSE when the command
+    has ``--moving`` and it is given)."""
     try:
         step = None if args.step_length == 0 else args.step_length
-        return Configurator(RobotModel(step_length=step), max_states=args.max_states, horizon=args.horizon)
+        return Configurator(RobotModel(step_length=step), max_states=args.max_states, horizon=args.horizon,
+                            recovery=bool(getattr(args, "moving", False)))
     except ValueError as exc:
         raise CliError(str(exc)) from None
 

@@ -15,7 +15,9 @@ is) and commands nothing; it ends at ``--max-time``, on Ctrl-C or when the scans
 ``clomp ros sim`` serves a scenario (or a layout of a family) of the execution world
 with a noise preset and seed: ``/scan``, ``/odom``, ``/imu``, ``/ground_truth``, and it
 drives by ``/cmd_vel``. Together: ``clomp ros sim --scenario overtaking &`` then
-``clomp ros node --goal 1,0``. ROS 2 needs ``pip install 'clomp[ros2]'``.
+``clomp ros node --goal 1,0``. A world that moves (a moving family's layout, a scenario
+with ``movers``) needs ``clomp ros node --moving`` (WAIT and REVERSE; the sim prints it).
+ROS 2 needs ``pip install 'clomp[ros2]'``.
 """
 
 from __future__ import annotations
@@ -31,6 +33,7 @@ from typing import Any
 
 from clomp.runtime.cli import EXIT_NOT_REACHED, CliError
 from clomp.runtime.cli._signals import interrupts_raise
+from clomp.runtime.cli._common import add_mover_options, scene_movers
 from clomp.runtime.cli.plan import add_planner_options, parse_goal
 
 __all__ = ["register", "make_supervisor", "parse_parameter", "run_loop"]
@@ -54,6 +57,7 @@ def register(sub: Any) -> None:
     n.add_argument("-p", "--param", action="append", default=[], metavar="NAME:=VALUE",
                    help="set a node parameter, e.g. -p body_length:=0.3 (repeatable; see docs/run.md for the list)")
     add_planner_options(n)
+    add_mover_options(n, movers=False)
     n.set_defaults(func=_node)
     s = ros.add_parser("sim", help="the execution world as a ROS 2 robot (/scan, /odom, /imu; drives by /cmd_vel)",
                        description=__doc__)
@@ -129,6 +133,8 @@ def _overrides(args: argparse.Namespace) -> dict[str, Any]:
         out["use_odom"] = False
     if args.no_imu:
         out["use_imu"] = False
+    if args.moving:
+        out["moving"] = True
     for text in args.param:
         name, value = parse_parameter(text, PARAMETERS)
         out[name] = value
@@ -189,32 +195,39 @@ def _node(args: argparse.Namespace) -> int:
 
 
 def make_supervisor(robot: Any, goal: tuple[float, float], conf: Any, log: Any = None) -> Any:
-    """The supervisor of ``clomp run`` for the node (the one place the node builds one).
+    """The supervisor of ``clomp run`` for the node (the one place the node builds one): in a
+    world that moves (``conf`` plans with WAIT and REVERSE: the ``moving`` parameter) it runs them.
 
     >>> from clomp.planner import Configurator, load_scenario
     >>> from clomp.runtime.backends.sim import SimRobot
     >>> make_supervisor(SimRobot(load_scenario("open"), seed=0), (1.0, 0.0), Configurator()).state.value
     'IDLE'
+    >>> make_supervisor(SimRobot(load_scenario("open"), seed=0), (1.0, 0.0), Configurator(recovery=True)).config.moving
+    True
     """
-    from clomp.runtime.supervision import Supervisor
+    from clomp.runtime.supervision import Supervisor, SupervisorConfig
 
-    return Supervisor(robot, goal, conf, log=log)
+    return Supervisor(robot, goal, conf, log=log, config=SupervisorConfig(moving=conf.recovery))
 
 
-def _scene(args: argparse.Namespace) -> Any:
+def _scene(args: argparse.Namespace) -> tuple[Any, tuple[Any, ...]]:
+    """The scene ``--layout`` or ``--scenario`` names and its movers (a moving family's, or the
+    scenario file's ``movers``)."""
     from clomp.planner.scenarios import ScenarioError, load_scenario
 
     if args.layout is not None:
         from clomp.runtime.experiment.layouts import make_layout
 
         try:
-            return make_layout(args.layout, args.seed, args.index).scene
+            lay = make_layout(args.layout, args.seed, args.index)
         except ValueError as exc:
             raise CliError(str(exc)) from None
+        return lay.scene, lay.movers
     try:
-        return load_scenario(args.scenario or "overtaking")
+        scene = load_scenario(args.scenario or "overtaking")
     except (OSError, ScenarioError, ValueError) as exc:
         raise CliError(f"cannot load scenario {args.scenario!r}: {exc}") from None
+    return scene, scene_movers(scene)
 
 
 def _sim(args: argparse.Namespace) -> int:
@@ -224,10 +237,11 @@ def _sim(args: argparse.Namespace) -> int:
     from clomp.runtime.ros.session import RosSession
     from clomp.runtime.ros.sim import SimNode
 
-    scene = _scene(args)
+    scene, movers = _scene(args)
     model = RobotModel()
     try:
-        world = make_world_robot(scene, args.noise, seed=args.seed, robot=model, scan_rate=args.scan_rate, rays=args.rays)
+        world = make_world_robot(scene, args.noise, seed=args.seed, robot=model, scan_rate=args.scan_rate, rays=args.rays,
+                                 movers=movers)
     except ValueError as exc:
         raise CliError(str(exc)) from None
     if args.max_time is not None and not (math.isfinite(args.max_time) and args.max_time > 0):
@@ -239,7 +253,7 @@ def _sim(args: argparse.Namespace) -> int:
             raise CliError(str(exc)) from None
         gx, gy = scene.goal_in_robot_frame()
         print(f"sim: {scene.name}, noise {args.noise}, seed {args.seed}", flush=True)
-        print(f"run: clomp ros node --goal {gx:g},{gy:g}", flush=True)
+        print(f"run: clomp ros node --goal {gx:g},{gy:g}{' --moving' if movers else ''}", flush=True)
         end = math.inf if args.max_time is None else time.monotonic() + args.max_time
         with interrupts_raise():
             try:
@@ -275,11 +289,15 @@ def run_loop(scenario: str, noise: str = "harsh", seed: int = 0, *, layout: bool
     if layout:
         from clomp.runtime.experiment.layouts import make_layout
 
-        scene = make_layout(scenario, seed).scene
+        lay = make_layout(scenario, seed)
+        scene, movers = lay.scene, lay.movers
     else:
         scene = load_scenario(scenario)
+        movers = scene_movers(scene)
     model = RobotModel()
-    world = make_world_robot(scene, noise, seed=seed, robot=model, scan_rate=scan_rate)
+    world = make_world_robot(scene, noise, seed=seed, robot=model, scan_rate=scan_rate, movers=movers)
+    if movers and "--moving" not in node_args:  # a world that moves: the node plans and runs WAIT and REVERSE
+        node_args = (*node_args, "--moving")
     gx, gy = scene.goal_in_robot_frame()
     log_path = Path(log) if log is not None else Path("clomp-runs") / f"ros-{scene.name}-{noise}-{seed}.jsonl"
     with RosSession("clomp_sim") as session:

@@ -42,7 +42,7 @@ from typing import Any
 from clomp.runtime.cli._args import seed_arg
 from clomp.runtime.cli.plan import add_planner_options, configurator_from_args, parse_goal
 from clomp.runtime.cli import EXIT_DEVICE_FAULT, EXIT_INTERRUPTED, EXIT_NOT_REACHED, EXIT_OK, CliError
-from clomp.runtime.cli._common import load_scene, output_path, path_kind
+from clomp.runtime.cli._common import add_mover_options, load_scene, output_path, path_kind, scene_movers
 from clomp.runtime.cli._signals import interrupts_raise
 from clomp.runtime.cli._status import StatusLine
 
@@ -90,6 +90,7 @@ def register(sub: Any) -> None:
     d.add_argument("--watchdog", type=float, default=0.3, metavar="S",
                    help="stop the wheels when no command came for S seconds (default 0.3; 0 disables)")
     add_planner_options(p)
+    add_mover_options(p, movers=False)
     p.set_defaults(func=run)
 
 
@@ -178,7 +179,7 @@ def run(args: argparse.Namespace) -> int:
 def _run(args: argparse.Namespace, scheduling: str) -> int:
     from clomp.runtime.backends.hardware import HardwareRobot
     from clomp.runtime.clock import ScaledClock, WallClock
-    from clomp.runtime.supervision import Supervisor
+    from clomp.runtime.supervision import Supervisor, SupervisorConfig
 
     goal = parse_goal(args.goal)
     config = _config(args)
@@ -189,13 +190,15 @@ def _run(args: argparse.Namespace, scheduling: str) -> int:
     clock = WallClock() if args.time_scale == 1.0 else ScaledClock(args.time_scale)
     log.write("run", argv=sys.argv[1:], lidar=args.lidar, motors=args.motors, imu=args.imu, dry_run=args.dry_run,
               goal=list(goal), max_time=args.max_time, time_scale=args.time_scale,
-              config=config.to_dict(), monotonic=time.monotonic(), wall=time.time(), scheduling=scheduling)
+              config=config.to_dict(), monotonic=time.monotonic(), wall=time.time(), scheduling=scheduling,
+              **({"moving": True} if args.moving else {}))
 
     def work(robot: Any, hold: Callable[[Any], None]) -> Any:
         if args.dry_run:
             _say("dry run: planning on every scan, the wheels are held stopped")
             return _dry_run(robot, conf, goal, clock, log, args.max_time, path)
-        sup = Supervisor(robot, goal, conf, clock=clock, log=_SharedLog(runlog, lock, frozenset({"motor"})))
+        sup = Supervisor(robot, goal, conf, clock=clock, log=_SharedLog(runlog, lock, frozenset({"motor"})),
+                         config=SupervisorConfig(moving=args.moving))
         hold(sup)
         with StatusLine(sup, robot):
             return sup.run(max_time=args.max_time)
@@ -375,6 +378,10 @@ def add_emulate_world(devices: Any) -> None:
                    help="run the world K times faster than real time (pass the same to clomp run)")
     w.add_argument("--serial-timeout", type=float, metavar="S",
                    help="the Maestro's own fail-safe: wheels home after S s without a byte (default off, as on a new board)")
+    w.add_argument("--mover", action="append", default=[], metavar="JSON",
+                   help="a body that moves or appears (a person, a box, a door that closes), as in a scenario file's "
+                        "'movers', added to the scenario's own; a world with movers runs the execution world "
+                        "(--noise paper unless given) and prints the clomp run command with --moving; repeatable")
     w.set_defaults(func=_run_world)
 
 
@@ -386,12 +393,14 @@ def _run_world(args: argparse.Namespace) -> int:
     if args.serial_timeout is not None and not (math.isfinite(args.serial_timeout) and args.serial_timeout > 0):
         raise CliError(f"--serial-timeout must be a positive number of seconds, got {args.serial_timeout}")
     scene = load_scene(args.scenario)
+    movers = scene_movers(scene, args.mover)
     try:
         from clomp.runtime.backends.world import WorldNoise
 
-        noise = None if args.noise is None else WorldNoise.preset(args.noise, args.noise_scale)
+        preset = args.noise or ("paper" if movers else None)  # bodies that move live in the execution world
+        noise = None if preset is None else WorldNoise.preset(preset, args.noise_scale)
         world = EmulatedWorld(scene, seed=args.seed, time_scale=args.time_scale, noise=noise,
-                              serial_timeout=args.serial_timeout)
+                              serial_timeout=args.serial_timeout, movers=movers)
     except (OSError, ScenarioError, ValueError) as exc:
         raise CliError(f"cannot simulate scenario {args.scenario!r}: {exc}") from None
     favour_this_thread(realtime=True)  # before the world's threads start: they inherit it
@@ -421,7 +430,8 @@ def _serve_world(world: Any, args: argparse.Namespace) -> None:
     print(f"motors: {world.motor_port}", flush=True)
     print(f"imu: {world.imu_port}", flush=True)
     scale = f" --time-scale {args.time_scale:g}" if args.time_scale != 1.0 else ""
+    moving = " --moving" if world.movers else ""
     print(f"run: clomp run --lidar {world.lidar_port} --motors {world.motor_port} --imu {world.imu_port} "
-          f"--goal {gx:g},{gy:g}{scale}", flush=True)
+          f"--goal {gx:g},{gy:g}{scale}{moving}", flush=True)
     while world.lidar.running and world.maestro.running and world.error is None:
         time.sleep(0.1)

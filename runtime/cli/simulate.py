@@ -12,7 +12,7 @@ from clomp.planner.inputs import safe_name
 from clomp.planner.scenarios import ScenarioError
 from clomp.runtime.cli._args import seed_arg
 from clomp.runtime.cli import EXIT_NOT_REACHED, EXIT_OK, CliError
-from clomp.runtime.cli._common import load_scene, output_folder, output_path
+from clomp.runtime.cli._common import add_mover_options, load_scene, output_folder, output_path, scene_movers
 from clomp.runtime.experiment.onerun import SUCCESS_RADIUS, RunResult, run_once
 from clomp.runtime.experiment.plots import plot_run
 from clomp.runtime.backends.world import WorldNoise
@@ -21,7 +21,8 @@ __all__ = ["add_world_options", "check_world_options", "exit_status", "world_noi
 
 
 def add_world_options(p: Any) -> None:
-    """``--noise``, ``--noise-scale``, ``--feedback`` and ``--no-gyro`` (shared by simulate and demo)."""
+    """``--noise``, ``--noise-scale``, ``--feedback``, ``--no-gyro``, ``--moving`` and ``--mover``
+    (shared by simulate and demo)."""
     p.add_argument("--noise", choices=("ideal", "paper", "harsh", "unmodelled"), default=None,
                    help="noise preset of the execution world (specs/noise_presets.json; default paper, with "
                         "the scenario file's own 'noise' object laid over it)")
@@ -30,6 +31,7 @@ def add_world_options(p: Any) -> None:
                    help="pose estimate: scan matching against a local map (default) or dead reckoning only")
     p.add_argument("--no-gyro", action="store_true",
                    help="the robot without its rate gyro, as the paper's robot and clomp run without an IMU")
+    add_mover_options(p)
 
 
 def check_world_options(args: argparse.Namespace) -> None:
@@ -75,6 +77,10 @@ def print_summary(r: RunResult) -> None:
           f"({r.end_state}: {r.reason})")
     print(f"  {r.time_s:.1f} s simulated in {r.wall_s:.2f} s ({r.time_s / max(r.wall_s, 1e-9):.0f}× real time); "
           f"collisions {r.collisions}; ends {r.final_distance:.3f} m from the goal (success within {SUCCESS_RADIUS} m)")
+    if r.moving is not None:
+        m = r.moving
+        print(f"  moving bodies: {m['moving_collisions']} collision(s), {m['robot_caused_collisions']} caused by the robot, "
+              f"{m['moving_brushes']} brush(es); {m['static_collisions']} collision(s) with static obstacles")
     if r.condition == "planning" and rep is not None:
         print(f"  {len(rep.plans)} plan(s), {len(rep.tasks)} task(s) run; first plan: {r.n_states} states in "
               f"{(r.planning_time_s or 0) * 1e3:.1f} ms")
@@ -111,6 +117,7 @@ def _summary_dict(r: RunResult, png: Path) -> dict[str, Any]:
         "planning_time_s": r.planning_time_s,
         "states": r.n_states,
         "png": str(png),
+        **({"moving": r.moving} if r.moving is not None else {}),
     }
 
 
@@ -163,8 +170,10 @@ def run(args: argparse.Namespace) -> int:
         except OSError as exc:
             raise CliError(f"--log: cannot write {args.log}: {exc.strerror or exc}") from None
     try:
+        movers = scene_movers(scene, args.mover)
         r = run_once(scene, cond, seed, noise=noise, noise_scale=args.noise_scale, max_time=args.max_time,
-                     keep_report=True, log=args.log, feedback=args.feedback, gyro=not args.no_gyro)
+                     keep_report=True, log=args.log, feedback=args.feedback, gyro=not args.no_gyro,
+                     movers=movers, moving=args.moving or bool(movers))
     except ScenarioError as exc:  # the scene's noise settings are checked when its robot is built
         raise CliError(str(exc)) from None
     except OSError as exc:

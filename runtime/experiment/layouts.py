@@ -43,9 +43,16 @@ stopper       the same room without doors, goal 1.2–1.4 m ahead, ±0.1 m; at 2
 appearing     the same room without doors, goal 1.2–1.4 m ahead, ±0.1 m; a box (0.16 m)
               appears in the lane 0.05–0.25 m ahead of the robot's front edge, wherever
               the robot then is, at 2.5–6 s (after the first plan), and stays
+closing       the same room, crossed 0.55–0.75 m ahead by a wall with two doorways 0.36 m
+              wide: one ahead (centre ±0.08 m), one 0.48 m to the side; goal 0.35–0.5 m
+              past the wall, ±0.1 m. At 1.5–4 s the doorway ahead starts to close: a
+              sliding door (a panel 0.4 m long, as thick as the wall) comes out of the wall
+              at 0.2–0.4 m/s and stays shut; the way round is through the other doorway
+shut          as ``closing`` without the side doorway: when the door has closed no way is
+              left. Unreachable: success is stopping safely and saying so
 ============  ===========================================================================
 
-The last three families move (issue #42): their :attr:`Layout.movers` are the people and
+The last five families move (issue #42): their :attr:`Layout.movers` are the people and
 boxes of :mod:`clomp.runtime.backends._movers` (the scene holds the static obstacles only).
 
 >>> a = make_layout("overtaking", seed=0, index=3)
@@ -245,6 +252,35 @@ def _appearing(rng: np.random.Generator) -> tuple[_Raw, dict[str, Any]]:
             {"ahead": ahead, "time": t, "goal_x": gx})
 
 
+def _door_room(rng: np.random.Generator, side_door: bool) -> tuple[_Raw, dict[str, Any]]:
+    """``closing`` (``side_door``) and ``shut``: a room crossed by a wall whose doorway ahead closes."""
+    xw, ya, t0, v = rng.uniform(0.55, 0.75), rng.uniform(-0.08, 0.08), rng.uniform(1.5, 4.0), rng.uniform(0.2, 0.4)
+    gx, gy = xw + rng.uniform(0.35, 0.5), rng.uniform(-0.1, 0.1)
+    side = 1.0 if rng.random() < 0.5 else -1.0  # the door slides in from this side; the side doorway is on the other
+    w, half = 0.36, 0.7
+    gaps = [(ya - w / 2, ya + w / 2)] + ([(-side * 0.48 - w / 2, -side * 0.48 + w / 2)] if side_door else [])
+    cuts = sorted(gaps)
+    spans, a = [], -half
+    for lo, hi in cuts:
+        spans.append((a, lo))
+        a = hi
+    spans.append((a, half))
+    walls = _room(gx, []) + [_wall((xw, lo), (xw, hi)) for lo, hi in spans]
+    hidden = ya + side * (w / 2 + 0.2)
+    door = {"kind": "door", "size": [w + 0.04, 0.02],
+            "path": [[round(t0, 4), round(xw, 4), round(hidden, 4)], [round(t0 + (w / 2 + 0.2) / v, 4), round(xw, 4), round(ya, 4)]]}
+    p = {"wall_x": xw, "door_y": ya, "closes": t0, "speed": v, "side": side, "side_door": side_door, "goal_x": gx}
+    return {"goal": [round(gx, 4), round(gy, 4)], "obstacles": walls, "movers": [door]}, p
+
+
+def _closing(rng: np.random.Generator) -> tuple[_Raw, dict[str, Any]]:
+    return _door_room(rng, True)
+
+
+def _shut(rng: np.random.Generator) -> tuple[_Raw, dict[str, Any]]:
+    return _door_room(rng, False)
+
+
 _FAMILIES: dict[str, tuple[Callable[[np.random.Generator], tuple[_Raw, dict[str, Any]]], str, str]] = {
     "overtaking": (_overtaking, "reach", "one box between the robot and a goal 1 m ahead (the paper's scenario)"),
     "corridor": (_corridor, "reach", "a corridor of varying width, goal anywhere along it"),
@@ -256,9 +292,11 @@ _FAMILIES: dict[str, tuple[Callable[[np.random.Generator], tuple[_Raw, dict[str,
     "crossing": (_crossing, "reach", "people crossing the lane ahead"),
     "stopper": (_stopper, "reach", "a person walks in and stops ahead"),
     "appearing": (_appearing, "reach", "a box appears in the lane after the first plan"),
+    "closing": (_closing, "reach", "the doorway ahead closes; another doorway is open"),
+    "shut": (_shut, "unreachable", "the only doorway closes: no way is left"),
 }
 
-MOVING_FAMILIES: tuple[str, ...] = ("crossing", "stopper", "appearing")
+MOVING_FAMILIES: tuple[str, ...] = ("crossing", "stopper", "appearing", "closing", "shut")
 """The families whose worlds move (issue #42): their robots plan with WAIT and REVERSE."""
 FAMILIES: tuple[str, ...] = tuple(f for f in _FAMILIES if f not in MOVING_FAMILIES)
 """The static families' names, in the order tables list them (what the gallery, the gym and the
@@ -296,7 +334,7 @@ def make_layout(family: str, seed: int, index: int = 0) -> Layout:
     >>> make_layout("maze", 0)
     Traceback (most recent call last):
     ...
-    ValueError: unknown layout family 'maze' (known: overtaking, corridor, doorway, slalom, clutter, u-trap, cul-de-sac, crossing, stopper, appearing)
+    ValueError: unknown layout family 'maze' (known: overtaking, corridor, doorway, slalom, clutter, u-trap, cul-de-sac, crossing, stopper, appearing, closing, shut)
     """
     if family not in _FAMILIES:
         raise ValueError(f"unknown layout family {family!r} (known: {', '.join(ALL_FAMILIES)})")

@@ -236,6 +236,7 @@ def run_once(
     gyro: bool = True,
     supervisor: SupervisorConfig | None = None,
     movers: tuple[Any, ...] = (),
+    moving: bool | None = None,
 ) -> RunResult:
     """Run one condition in ``scene`` on a fresh robot; see the module docstring.
 
@@ -251,8 +252,9 @@ def run_once(
     or its dwa/rl subclass (``{"policy": path}`` for ``rl``).
     ``gyro`` False: the execution world's robot without its rate gyro (the paper's robot).
     ``supervisor``: the planning condition's settings (default: ``SupervisorConfig(feedback=feedback)``).
-    ``movers``: bodies that move or appear in the world (issue #42; a preset ``noise`` only); the
-    planning condition then plans with WAIT and REVERSE (``Configurator(recovery=True)``,
+    ``movers``: bodies that move or appear in the world (issue #42; the execution world's
+    ``noise`` only: a preset or a WorldNoise). ``moving`` (default: whether there are movers):
+    the planning condition plans with WAIT and REVERSE (``Configurator(recovery=True)``,
     ``SupervisorConfig(moving=True)``) unless ``configurator`` / ``supervisor`` say otherwise.
 
     >>> from clomp.planner import load_scenario
@@ -263,16 +265,17 @@ def run_once(
     check_condition(condition)
     if not (math.isfinite(max_time) and max_time > 0):  # a simulated run needs an end
         raise ValueError(f"max_time must be a finite positive number of seconds, got {max_time!r}")
-    conf = configurator or (Configurator(recovery=True) if movers else Configurator())
+    moving = bool(movers) if moving is None else bool(moving)
+    conf = configurator or (Configurator(recovery=True) if moving else Configurator())
     seed_ = 0 if seed is None else int(seed)
     robot: Any
     if isinstance(noise, str):
         robot = make_robot(scene, noise=noise, noise_scale=noise_scale, seed=seed_, model=conf.robot, gyro=gyro,
                            movers=movers)
-    elif movers:
-        raise ValueError("moving bodies need a noise preset's execution world (noise='paper', ...)")
     elif isinstance(noise, WorldNoise):
-        robot = make_world_robot(scene, noise, seed=seed_, robot=conf.robot, gyro=gyro)
+        robot = make_world_robot(scene, noise, seed=seed_, robot=conf.robot, gyro=gyro, movers=movers)
+    elif movers:
+        raise ValueError("moving bodies need the execution world (noise='paper', ... or a WorldNoise)")
     else:
         from clomp.runtime.experiment.groundtruth import _TracedSimRobot
 
@@ -287,7 +290,7 @@ def run_once(
     if condition == "planning":
         runlog = _open_log(log, robot, scene, condition, seed_, noise, goal) if log is not None else None
         try:
-            cfg = supervisor if supervisor is not None else SupervisorConfig(feedback=feedback, moving=bool(movers))
+            cfg = supervisor if supervisor is not None else SupervisorConfig(feedback=feedback, moving=moving)
             sup = Supervisor(robot, goal, conf, config=cfg,  # type: ignore[arg-type]
                              log=None if runlog is None else _TruthLog(runlog, robot, start))
             report = sup.run(max_time=max_time)

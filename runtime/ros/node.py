@@ -2,7 +2,9 @@
 
 The node is the supervisor of ``clomp run`` on a :class:`~clomp.runtime.ros.robot.RosRobot`.
 Parameters (:data:`PARAMETERS`) give the robot model (the paper's robot by default), the
-planner's budget and the topics' frames. Outputs (:class:`NodeOutputs`): ``/plan``
+planner's budget, the topics' frames and ``moving`` (a world that moves, issue #42: the
+planner and the supervisor with WAIT and REVERSE; a REVERSE goes out as a negative
+``linear.x``, a WAIT as a zero Twist). Outputs (:class:`NodeOutputs`): ``/plan``
 (``nav_msgs/Path``), ``/cognitive_map`` (``visualization_msgs/MarkerArray``), the pose
 estimate on ``/clomp/estimate`` (``nav_msgs/Odometry``) and the supervisor's state on
 ``/clomp/state`` (``std_msgs/String``, latched) on every change. Goals
@@ -52,7 +54,7 @@ def _defaults() -> dict[str, Any]:
     c = RosRobotConfig()
     return {**robot, "horizon": 1.2, "max_states": 50, "step_length": 0.27,
             "lidar_offset": [0.0, 0.0, 0.0], "sensor_timeout": c.sensor_timeout, "startup_timeout": c.startup_timeout,
-            "odom_frame": c.odom_frame, "base_frame": c.base_frame, "use_odom": True, "use_imu": True}
+            "odom_frame": c.odom_frame, "base_frame": c.base_frame, "use_odom": True, "use_imu": True, "moving": False}
 
 
 #: every parameter of the node and its default
@@ -77,7 +79,8 @@ def configure(node: Any, dry_run: bool = False) -> tuple[Configurator, RosRobotC
         step = float(values["step_length"])
         model = RobotModel().with_(**{f: float(values[p]) for p, f in ROBOT_PARAMETERS.items()},
                                    step_length=None if step == 0 else step)
-        conf = Configurator(model, max_states=int(values["max_states"]), horizon=float(values["horizon"]))
+        conf = Configurator(model, max_states=int(values["max_states"]), horizon=float(values["horizon"]),
+                            recovery=bool(values["moving"]))  # a world that moves: WAIT and REVERSE (issue #42)
         offset = tuple(float(v) for v in values["lidar_offset"])
         if len(offset) != 3:
             raise ValueError(f"lidar_offset: expected [x, y, theta], got {values['lidar_offset']!r}")
