@@ -299,7 +299,7 @@ _FAMILIES: dict[str, tuple[Callable[[np.random.Generator], tuple[_Raw, dict[str,
 MOVING_FAMILIES: tuple[str, ...] = ("crossing", "stopper", "appearing", "closing", "shut")
 """The families whose worlds move (issue #42): their robots plan with WAIT and REVERSE."""
 FAMILIES: tuple[str, ...] = tuple(f for f in _FAMILIES if f not in MOVING_FAMILIES)
-"""The static families' names, in the order tables list them (what the gallery, the gym and the
+"""The static families' names, in the order tables list them (what the gallery and the
 behaviour digest iterate)."""
 ALL_FAMILIES: tuple[str, ...] = FAMILIES + MOVING_FAMILIES
 """Every family :func:`make_layout` draws and ``clomp experiment`` runs: the static, then the moving."""

@@ -2,7 +2,7 @@
 
 Each episode draws one layout of a family (:func:`~clomp.runtime.experiment.layouts.make_layout`)
 and drops a fresh robot of the execution world (:func:`~clomp.runtime.backends.world.make_world_robot`,
-a noise preset) at its start, where it stands until its LiDAR has delivered a first revolution. Everything is drawn from the environment's ``np_random``, so
+a noise preset; a moving family's people, boxes or door move in it, issue #42) at its start, where it stands until its LiDAR has delivered a first revolution. Everything is drawn from the environment's ``np_random``, so
 ``reset(seed=s)`` makes the episode reproducible bit for bit (the world's time is simulated).
 
 - **Observation** (``Box``, float32, ``bins + 2`` values): the newest LiDAR revolution the robot
@@ -47,7 +47,7 @@ from clomp.planner.robot_model import RobotModel
 from clomp.planner.scenarios import Scene
 from clomp.runtime.backends.world import WorldRobot, make_world_robot
 from clomp.runtime.experiment.groundtruth import NOISE_PRESETS
-from clomp.runtime.experiment.layouts import FAMILIES, make_layout
+from clomp.runtime.experiment.layouts import ALL_FAMILIES, make_layout
 from clomp.runtime.experiment.policy import ACTION_TASKS, scan_ranges
 
 __all__ = ["ACTIONS", "GOAL_RADIUS", "GOAL_LIMIT", "MAX_STEPS", "ClompEnv"]
@@ -75,8 +75,8 @@ class ClompEnv(gym.Env[np.ndarray, Any]):
     def __init__(self, family: str = "overtaking", *, noise: str = "paper", action: str = "discrete",
                  bins: int = 64, step_time: float = 0.5, render_mode: str | None = None,
                  model: RobotModel | None = None) -> None:
-        if family not in FAMILIES:
-            raise ValueError(f"unknown layout family {family!r} (known: {', '.join(FAMILIES)})")
+        if family not in ALL_FAMILIES:
+            raise ValueError(f"unknown layout family {family!r} (known: {', '.join(ALL_FAMILIES)})")
         if noise not in NOISE_PRESETS:
             raise ValueError(f"unknown noise preset {noise!r} (known: {', '.join(NOISE_PRESETS)})")
         if action not in ("discrete", "continuous"):
@@ -113,8 +113,9 @@ class ClompEnv(gym.Env[np.ndarray, Any]):
         layout_run = 0
         if options and "layout" in options:  # a chosen layout (seed, run) of the family, as an experiment draws it
             layout_seed, layout_run = (int(v) for v in options["layout"])
-        self.scene = make_layout(self.family, layout_seed, layout_run).scene
-        self.robot = make_world_robot(self.scene, self.noise, seed=world_seed, robot=self.model)
+        layout = make_layout(self.family, layout_seed, layout_run)
+        self.scene = layout.scene
+        self.robot = make_world_robot(self.scene, self.noise, seed=world_seed, robot=self.model, movers=layout.movers)
         self._points = np.zeros((0, 2))
         first = self.robot.read_scan(timeout=1.0)  # stand until the first revolution (under 0.2 s simulated)
         if first is not None:

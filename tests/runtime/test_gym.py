@@ -9,13 +9,24 @@ gymnasium = pytest.importorskip("gymnasium")
 
 from gymnasium.utils.env_checker import check_env  # noqa: E402
 
-from clomp.runtime.experiment.layouts import FAMILIES  # noqa: E402
+from clomp.runtime.experiment.layouts import ALL_FAMILIES, MOVING_FAMILIES  # noqa: E402
 from clomp.runtime.gym import ENV_IDS, GOAL_RADIUS, ClompEnv, env_id  # noqa: E402
 
 
 def test_one_id_per_layout_family() -> None:
-    assert ENV_IDS == tuple(env_id(f) for f in FAMILIES)
+    assert ENV_IDS == tuple(env_id(f) for f in ALL_FAMILIES)
     assert set(ENV_IDS) <= set(gymnasium.registry)
+    assert {"clomp/Crossing-v0", "clomp/Stopper-v0", "clomp/Appearing-v0", "clomp/Closing-v0", "clomp/Shut-v0"} <= set(ENV_IDS)
+
+
+@pytest.mark.parametrize("family", MOVING_FAMILIES)
+def test_a_moving_familys_bodies_move_in_its_environment(family: str) -> None:
+    """The people, boxes and doors of a moving family are in its episodes' world (issue #42)."""
+    env = gymnasium.make(env_id(family), noise="ideal")
+    env.reset(seed=0, options={"layout": (0, 0)})
+    world = env.unwrapped.robot
+    assert world.movers is not None and len(world.movers.movers) >= 1
+    env.close()
 
 
 @pytest.mark.parametrize("action", ["discrete", "continuous"])

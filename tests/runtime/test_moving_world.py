@@ -101,7 +101,7 @@ def test_a_malformed_mover_is_refused_with_a_clear_error(raw):
 
 
 def test_the_moving_families_are_reproducible_and_apart_from_the_static_ones():
-    assert set(MOVING_FAMILIES) == {"crossing", "stopper", "appearing"}
+    assert set(MOVING_FAMILIES) == {"crossing", "stopper", "appearing", "closing", "shut"}
     assert ALL_FAMILIES == FAMILIES + MOVING_FAMILIES and not set(FAMILIES) & set(MOVING_FAMILIES)
     for fam in MOVING_FAMILIES:
         a, b = make_layout(fam, 3, 7), make_layout(fam, 3, 7)
