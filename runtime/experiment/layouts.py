@@ -43,11 +43,12 @@ stopper       the same room without doors, goal 1.2–1.4 m ahead, ±0.1 m; at 2
 appearing     the same room without doors, goal 1.2–1.4 m ahead, ±0.1 m; a box (0.16 m)
               appears in the lane 0.05–0.25 m ahead of the robot's front edge, wherever
               the robot then is, at 2.5–6 s (after the first plan), and stays
-closing       the same room, crossed 0.55–0.75 m ahead by a wall with two doorways 0.36 m
-              wide: one ahead (centre ±0.08 m), one 0.48 m to the side; goal 0.35–0.5 m
-              past the wall, ±0.1 m. At 1.5–4 s the doorway ahead starts to close: a
-              sliding door (a panel 0.4 m long, as thick as the wall) comes out of the wall
-              at 0.2–0.4 m/s and stays shut; the way round is through the other doorway
+closing       a room as ``appearing``'s but 2 m wide, crossed 0.55–0.75 m ahead by a wall
+              with two doorways 0.36 m wide: one ahead (centre ±0.08 m), one 0.55 m to
+              the side; goal 0.35–0.5 m past the wall, ±0.1 m. At 1.5–4 s the doorway
+              ahead starts to close: a sliding door (a panel 0.4 m long, as thick as the
+              wall) comes out of the wall at 0.2–0.4 m/s and stays shut; the way round
+              is through the other doorway
 shut          as ``closing`` without the side doorway: when the door has closed no way is
               left. Unreachable: success is stopping safely and saying so
 ============  ===========================================================================
@@ -257,15 +258,15 @@ def _door_room(rng: np.random.Generator, side_door: bool) -> tuple[_Raw, dict[st
     xw, ya, t0, v = rng.uniform(0.55, 0.75), rng.uniform(-0.08, 0.08), rng.uniform(1.5, 4.0), rng.uniform(0.2, 0.4)
     gx, gy = xw + rng.uniform(0.35, 0.5), rng.uniform(-0.1, 0.1)
     side = 1.0 if rng.random() < 0.5 else -1.0  # the door slides in from this side; the side doorway is on the other
-    w, half = 0.36, 0.7
-    gaps = [(ya - w / 2, ya + w / 2)] + ([(-side * 0.48 - w / 2, -side * 0.48 + w / 2)] if side_door else [])
+    w, half = 0.36, 1.0  # wide enough to turn past the side doorway (a body turning sweeps 0.2 m round its axle)
+    gaps = [(ya - w / 2, ya + w / 2)] + ([(-side * 0.55 - w / 2, -side * 0.55 + w / 2)] if side_door else [])
     cuts = sorted(gaps)
     spans, a = [], -half
     for lo, hi in cuts:
         spans.append((a, lo))
         a = hi
     spans.append((a, half))
-    walls = _room(gx, []) + [_wall((xw, lo), (xw, hi)) for lo, hi in spans]
+    walls = _room(gx, [], half) + [_wall((xw, lo), (xw, hi)) for lo, hi in spans]
     hidden = ya + side * (w / 2 + 0.2)
     door = {"kind": "door", "size": [w + 0.04, 0.02],
             "path": [[round(t0, 4), round(xw, 4), round(hidden, 4)], [round(t0 + (w / 2 + 0.2) / v, 4), round(xw, 4), round(ya, 4)]]}

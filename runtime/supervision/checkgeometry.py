@@ -67,7 +67,7 @@ def _legs(states: list[State], frame: Pose, running: bool) -> list[_Leg]:
             reached = end  # nothing left of it: the next task starts where the map says
         elif q.task is _STRAIGHT:
             reached = (x + c * amount, y + sn * amount, th)
-        elif q.task is _REVERSE:  # backwards along the heading (its contacts: the hazard test's, every tick)
+        elif q.task is _REVERSE:  # backwards along the heading, checked against the points behind
             reached = (x - c * amount, y - sn * amount, th)
         else:
             reached = (x, y, th + (amount if q.task is _LEFT else -amount))
@@ -99,20 +99,25 @@ def _points(seen: Obstacles | np.ndarray, robot: RobotModel) -> np.ndarray:
 _SUM, _MIN, _MAX = np.add.reduce, np.minimum.reduce, np.maximum.reduce
 
 
-def _straight_contacts(z: np.ndarray, legs: list[_Leg], robot: RobotModel, allowance: float) -> list[float]:
+def _straight_contacts(z: np.ndarray, legs: list[_Leg], robot: RobotModel, allowance: float,
+                       backwards: bool = False) -> list[float]:
     """Per straight leg: how far the body drives before it meets a point (inf: never), to
     the last control tick before the contact (the planner's rule, :mod:`clomp.planner.rollout`:
     the inflated footprint translated along the leg; a point already inside it at the
     start is held to the real body). ``allowance`` (m) shrinks the body a point must
-    enter to count (sensor noise). The points are tested by a compiled loop
+    enter to count (sensor noise). ``backwards``: REVERSE legs, the body driven rear first
+    against the points behind it (the same test with the heading turned round and the
+    body's front and rear swapped). The points are tested by a compiled loop
     (:func:`~clomp.runtime.supervision._contacts_core.straight_gaps`)."""
     c = robot.clearance
-    rear, front, half = robot.rear_offset + c, robot.front_offset + c, robot.width / 2 + c - allowance
+    ahead, behind = (robot.rear_offset, robot.front_offset) if backwards else (robot.front_offset, robot.rear_offset)
+    rear, front, half = behind + c, ahead + c, robot.width / 2 + c - allowance
+    sign = -1.0 if backwards else 1.0
     out = np.empty(len(legs))
     interruptible(straight_gaps, np.ascontiguousarray(z.real), np.ascontiguousarray(z.imag), np.array([g.start[0] for g in legs]),
-                  np.array([g.start[1] for g in legs]), np.array([math.cos(g.start[2]) for g in legs]),
-                  np.array([math.sin(g.start[2]) for g in legs]), rear, half, front - allowance, allowance,
-                  robot.front_offset - allowance, robot.width / 2 - allowance, out)
+                  np.array([g.start[1] for g in legs]), np.array([sign * math.cos(g.start[2]) for g in legs]),
+                  np.array([sign * math.sin(g.start[2]) for g in legs]), rear, half, front - allowance, allowance,
+                  ahead - allowance, robot.width / 2 - allowance, out)
     per_tick = robot.straight_speed * robot.tick
     # the task ends at the last control tick before the contact, as the planner's rollout
     return [(max(math.ceil(x / per_tick - 1e-12), 1) - 1) * per_tick if math.isfinite(x) else math.inf for x in out.tolist()]

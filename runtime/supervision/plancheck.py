@@ -2,7 +2,7 @@
 
 :func:`check_plan` tests the tasks a plan still has to run against the newest scan, from
 the estimated pose: each task must still be free of the scan's points and end where the
-map predicted (within ``tolerance``). The test is the planner's own geometry in closed
+map predicted (within ``tolerance``); a REVERSE is checked against the points behind it. The test is the planner's own geometry in closed
 form (:mod:`clomp.planner.rollout`: the footprint inflated by the robot's ``clearance``
 translated along a straight, spun through every tick heading of a turn, the
 start-touching rule; :mod:`clomp.runtime.supervision.checkgeometry`), done for all remaining
@@ -41,6 +41,7 @@ from clomp.formal.supervisory import Guard, Plan
 from clomp.planner import footprint
 from clomp.planner.configurator import PlanResult
 from clomp.planner.perception import Obstacles, perceive
+from clomp.planner.recovery import simulate_reverse
 from clomp.planner.rollout import simulate
 from clomp.planner.robot_model import RobotModel
 from clomp.runtime.supervision.checkgeometry import _ends_off, _Leg, _legs, _points, _straight_contacts, _turn_contacts
@@ -152,22 +153,26 @@ def _check(states: list[State], frame: Pose, z: np.ndarray, robot: RobotModel, t
     legs = _legs(states, frame, running)
     offs: list[tuple[float, float] | None] = [None] * len(legs)
     straights: list[_Leg] = []
+    reverses: list[_Leg] = []
     turns: list[_Leg] = []
     for g in legs:
         if g.amount > 1e-3:
             if g.kind is _STRAIGHT:
                 straights.append(g)
-            elif g.kind is not _REVERSE:  # a REVERSE's way back is the hazard test's (every tick)
+            elif g.kind is _REVERSE:  # backwards: against the points behind (the A1 sees all round)
+                reverses.append(g)
+            else:
                 turns.append(g)
             off = offs[g.k] = _ends_off(g, tolerance)
             if off is not None:  # the verdict: this task at the latest, so none after it needs testing
                 break
     blocked: dict[int, float] = {}
     if z.size:
-        if straights:
-            for g, d in zip(straights, _straight_contacts(z, straights, robot, allowance)):
-                if d < g.amount - tolerance[0]:
-                    blocked[g.k] = d
+        for legs_, back in ((straights, False), (reverses, True)):
+            if legs_:
+                for g, d in zip(legs_, _straight_contacts(z, legs_, robot, allowance, backwards=back)):
+                    if d < g.amount - tolerance[0]:
+                        blocked[g.k] = d
         first = min(blocked, default=len(legs))
         turns = [g for g in turns if g.k < first]
         if turns:
@@ -188,8 +193,9 @@ def _verdict(legs: list[_Leg], blocked: dict[int, float], n: int, offs: list[tup
             continue
         name = f"task {k + 1} ({g.kind.value})"
         if k in blocked:
-            if g.kind is _STRAIGHT:
-                why = f"{name} now meets an obstacle after {max(blocked[k], 0.0):.2f} of {g.amount:.2f} m"
+            if g.kind is _STRAIGHT or g.kind is _REVERSE:
+                behind = " behind" if g.kind is _REVERSE else ""
+                why = f"{name} now meets an obstacle{behind} after {max(blocked[k], 0.0):.2f} of {g.amount:.2f} m"
             else:
                 why = f"{name} now meets an obstacle"
             return CheckResult(False, why, k + 1, time.perf_counter() - t0)
@@ -228,8 +234,18 @@ def resimulate_plan(
         end = compose(frame, q.end)  # where the map predicted it ends, robot frame
         planned_start = compose(frame, q.start)
         first = k == 0 and running
-        if q.task is TaskKind.WAIT or q.task is TaskKind.REVERSE:  # stands / backs off as the map says
+        if q.task is TaskKind.WAIT:  # stands where the map says
             start = end
+            continue
+        if q.task is TaskKind.REVERSE:  # backs off against what is behind: the planner's REVERSE rollout
+            behind = (start.x - end.x) * math.cos(start.theta) + (start.y - end.y) * math.sin(start.theta)
+            length = behind if first else math.hypot(end.x - planned_start.x, end.y - planned_start.y)
+            back = simulate_reverse(start, goal_d, obstacles, robot, distance=length) if length > 1e-3 else None
+            if back is not None and back.d_n is not None and back.distance < length - tolerance[0]:
+                return CheckResult(False, f"task {k + 1} ({q.task.value}) now meets an obstacle behind after "
+                                          f"{back.distance:.2f} of {length:.2f} m", k + 1, time.perf_counter() - t0)
+            c, s = math.cos(start.theta), math.sin(start.theta)
+            start = Pose(start.x - c * length, start.y - s * length, start.theta)
             continue
         if q.task is TaskKind.STRAIGHT:
             along = (end.x - start.x) * math.cos(start.theta) + (end.y - start.y) * math.sin(start.theta)

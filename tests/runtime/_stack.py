@@ -22,7 +22,7 @@ from clomp.planner import Configurator
 from clomp.runtime.devices.maestro_emulator import MaestroEmulator
 from clomp.runtime.backends.emulated import EmulatedWorld
 from clomp.runtime.backends.hardware import HardwareConfig, HardwareRobot
-from clomp.runtime.supervision import Supervisor, SupervisorReport
+from clomp.runtime.supervision import Supervisor, SupervisorConfig, SupervisorReport
 from tests.runtime._simline import LockstepClock, SimLine
 
 __all__ = ["NEUTRAL", "StackRun", "at", "driving", "run_stack", "wheels_stopped_at"]
@@ -59,13 +59,14 @@ class _HookedClock:
         self._hook(self._clock.now())
 
 
-def run_stack(scenario: str, *, max_time: float = 80.0, seed: int = 0, conf: Configurator | None = None,
+def run_stack(scenario: Any, *, max_time: float = 80.0, seed: int = 0, conf: Configurator | None = None,
               hook: Callable[[float, StackRun], None] | None = None, clock: LockstepClock | None = None,
-              imu: bool = False, **world_options: Any) -> StackRun:
+              imu: bool = False, supervisor: SupervisorConfig | None = None, **world_options: Any) -> StackRun:
     """Plan and execute ``scenario``'s goal through the real drivers, in simulated time (the
     world's noise drawn from ``seed``: the same run every time). Whatever the supervisor's
     ``run`` raises (a KeyboardInterrupt a hook raised, say) is kept in ``raised``, with
-    ``report`` left None, as clomp run would catch it."""
+    ``report`` left None, as clomp run would catch it. ``supervisor``: the supervisor's settings
+    (``SupervisorConfig(moving=True)`` with ``movers=`` in ``world_options``: a world that moves)."""
     clock, lock = clock or LockstepClock(100.0), threading.RLock()
     world = EmulatedWorld(scenario, clock=clock, seed=seed, **world_options)  # not started: no pty, no thread
     run = StackRun(world, clock)
@@ -86,7 +87,8 @@ def run_stack(scenario: str, *, max_time: float = 80.0, seed: int = 0, conf: Con
             run.robot = robot
             # a tripped robot's reader reads no more (nor a failed IMU's)
             clock.free_when = lambda: robot.fault is not None or (robot.imu is not None and robot.imu.fault is not None)
-            run.supervisor = Supervisor(robot, world.scene.goal_in_robot_frame(), conf, clock=sup_clock)
+            run.supervisor = Supervisor(robot, world.scene.goal_in_robot_frame(), conf, clock=sup_clock,
+                                        **({"config": supervisor} if supervisor is not None else {}))
             try:
                 run.report = run.supervisor.run(max_time=max_time)
             except BaseException as exc:  # noqa: BLE001 -- the test inspects it

@@ -64,7 +64,7 @@ def test_when_the_doorway_ahead_closes_the_robot_goes_round_through_the_other():
     assert r.reached_goal and r.final_distance <= SUCCESS_RADIUS and r.end_state == "GOAL_REACHED", r.reason
     assert r.collisions == 0 and r.moving["moving_collisions"] == 0
     p = lay.params
-    side_y = -p["side"] * 0.48
+    side_y = -p["side"] * 0.55
     crossing = [(x, y) for x, y in r.path if abs(x - p["wall_x"]) < 0.05]
     assert crossing and all(abs(y - side_y) < 0.18 for _, y in crossing), crossing  # through the side doorway
 
