@@ -20,6 +20,13 @@ retry it as the supervisor does (:mod:`clomp.formal.retry`). With
 that touches an obstacle is a stop too when a revolution before the contact sees it
 coming; only a contact the test cannot foresee stays a collision.
 
+WAIT and REVERSE (issue #42, a ``Configurator(recovery=True)``) are sampled too: a WAIT
+stands (probability 1 of its nominal outcome), a REVERSE backs off its planned length off
+by a straight's relative error, cut by what is behind it in each noisy world
+(:func:`clomp.planner.recovery.noisy_recovery`); the choices after a WAIT are rolled out
+in each noisy world without the returns the configurator was told are ``transient``, as
+the nominal map simulated them.
+
 :func:`learn_from_scans` learns the same kind of map from repeated *observation*:
 consecutive scans of a recorded run (or the scans of a run log) each give a map; states
 are matched across scans by the tasks that lead to them from q0, and each observation
@@ -58,6 +65,7 @@ from clomp.planner.configurator import Configurator, CostContext, PlanResult
 from clomp.planner.hazard import HazardRule, hazard_stop
 from clomp.planner.noise import NoiseError, RolloutNoise, preset_names
 from clomp.planner.perception import Obstacles, load_scan, perceive
+from clomp.planner.recovery import RECOVERY_TASKS, after_wait, noisy_recovery
 from clomp.planner.rollout import Outcome, World, frontier_distance, in_the_way, make_task
 from clomp.planner.visibility import KnownFree
 from clomp.planner.robot_model import RobotModel
@@ -127,16 +135,17 @@ class _NoisyTask(Task):
         return vl * (1 + self.bias_l + el) - dv, vr * (1 + self.bias_r + er) + dv
 
 
-def _perturb(points: np.ndarray, noise: RolloutNoise, rng: np.random.Generator) -> np.ndarray:
+def _perturb(points: np.ndarray, noise: RolloutNoise, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+    """The scan's returns perturbed by ``noise``, and which of them were kept (a mask over ``points``)."""
     if len(points) == 0:
-        return points
+        return points, np.zeros(0, dtype=bool)
     keep = rng.random(len(points)) >= noise.dropout
     pts = points[keep]
     r = np.hypot(pts[:, 0], pts[:, 1])
     a = np.arctan2(pts[:, 1], pts[:, 0]) + (rng.normal(0.0, noise.angle_sd, len(pts)) if noise.angle_sd else 0.0)
     r2 = np.clip(r + rng.normal(0.0, noise.range_sd, len(pts)), 0.0, None) if noise.range_sd else r
     out: np.ndarray = polar_to_xy(r2, a)
-    return out
+    return out, keep
 
 
 def _rollout(kind: TaskKind, start: Pose, goal: Disturbance, world: _World, robot: RobotModel, noise: RolloutNoise,
@@ -168,6 +177,13 @@ def _rollout_stop(kind: TaskKind, start: Pose, goal: Disturbance, world: _World,
     ``aim``: the state the plan means the task to end in; the task is then given the
     supervisor's limit for it from ``start`` (:func:`_aimed_limit`), as when the robot
     starts it from where the task before truly ended."""
+    if kind in RECOVERY_TASKS:  # a WAIT stands; a REVERSE backs off, its length off as a straight's
+        back = aim.distance if aim is not None and not aim.interrupted and aim.distance > 0 else None
+        got = noisy_recovery(kind, start, goal, world.obstacles, robot, world.rng, noise.straight_sd,
+                             noise.straight_mean, back)
+        if got.d_n is None and got.end.distance_to(goal.x, goal.y) <= robot.goal_tolerance:
+            got = replace(got, reached_goal=True)
+        return got, False
     base = make_task(kind, world.obstacles, robot, start, goal)
     limit = base.limit
     aimed = None if aim is None else _aimed_limit(kind, start, aim)
@@ -323,20 +339,29 @@ def sample_map(
     robot = conf.robot
     t0, c0 = time.perf_counter(), time.thread_time()
     points = load_scan(scan)
+    transient = conf.transient if conf.recovery else None  # what may move away: plan() takes it
     nominal = conf.plan(points, goal)
+    waited = after_wait(nominal.map) if conf.recovery else set()  # the states the search simulated after a WAIT
+    gone = None if transient is None or not waited else np.asarray(transient, dtype=bool).reshape(-1)
     # the shadow rule (clomp.planner.visibility): a goal is claimed only through space the scan's rays crossed
     known = KnownFree.from_points(nominal.obstacles.points, robot.sensor_range, robot=robot)
     rng = np.random.default_rng(seed)
-    worlds = []
+    worlds, cleared = [], []
     for _ in range(samples):
         r = np.random.default_rng(rng.integers(2**63))
-        pts = _perturb(points, nz, r)
+        pts, held = _perturb(points, nz, r)
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")  # noise pushes a few returns past the range: cropped, as meant
             obstacles = perceive(pts, robot.sensor_range, robot.cluster_distance)
         bl, br = r.normal(0.0, nz.wheel_bias, 2) if nz.wheel_bias else (0.0, 0.0)
         worlds.append(_World(obstacles, float(bl), float(br), float(r.normal(0.0, nz.drift)) if nz.drift else 0.0, r,
                              scan=points if hazard is not None else None))
+        if gone is not None and gone.shape == (len(points),):  # the same noisy world once what appeared has gone
+            w = worlds[-1]
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                clear = perceive(pts[~gone[held]], robot.sensor_range, robot.cluster_distance)
+            cleared.append(_World(clear, w.bias_l, w.bias_r, w.drift, r, scan=points[~gone] if hazard is not None else None))
     b = _Builder(nominal.map, nominal.goal, robot, conf.cost, tolerance)
     choices: dict[tuple[int, TaskKind], int] = {}
     for t in nominal.map.transitions():
@@ -351,6 +376,8 @@ def sample_map(
         aim = nominal.map[target] if carry else None
         counts: dict[int, int] = {}
         for i, w in enumerate(worlds):
+            if cleared and source in waited:  # after a WAIT: the world without what appeared (as planned)
+                w = cleared[i]
             begin = here.get(i, pool[i % len(pool)] if pool else start) if carry else start
             out, stopped = _rollout_stop(kind, begin, nominal.goal, w, robot, nz, hazard, aim)
             if out.reached_goal and not known.clear(out, robot):

@@ -44,7 +44,8 @@ from clomp.planner.robot_model import RobotModel
 if TYPE_CHECKING:  # pragma: no cover
     from clomp.planner.configurator import _Search
 
-__all__ = ["REVERSE_STEP", "WAIT_TIME", "RECOVERY_TASKS", "simulate_reverse", "simulate_wait", "cleared_points"]
+__all__ = ["REVERSE_STEP", "WAIT_TIME", "RECOVERY_TASKS", "simulate_reverse", "simulate_wait", "cleared_points",
+           "noisy_recovery", "after_wait"]
 
 REVERSE_STEP = 0.15
 """How far (m) a REVERSE backs off: room for the body's front to turn clear of what is ahead
@@ -127,6 +128,53 @@ def cleared_points(points: np.ndarray, transient: np.ndarray | None) -> np.ndarr
         return None
     kept: np.ndarray = np.asarray(points)[~mask]
     return kept
+
+
+def noisy_recovery(kind: TaskKind, start: Pose, goal: Disturbance | None, obstacles: Obstacles, robot: RobotModel,
+                   rng: np.random.Generator, straight_sd: float = 0.0, straight_mean: float = 0.0,
+                   distance: float | None = None) -> Outcome:
+    """One noisy rollout of a WAIT or a REVERSE for the probabilistic map
+    (:func:`clomp.planner.probabilistic.sample_map`), among a noisy world's ``obstacles``: a
+    WAIT stands (no noise moves a robot whose wheels are stopped); a REVERSE backs off the
+    planned ``distance`` (default :data:`REVERSE_STEP`) off by the straight's relative error
+    (``straight_mean`` + N(0, ``straight_sd``), as a STRAIGHT's length), cut by what is behind
+    it in that world. A REVERSE whose end would leave the sensed disc stands (its rollout
+    is not available there: the robot does not move).
+
+    >>> import numpy as np
+    >>> from clomp.planner.perception import perceive
+    >>> out = noisy_recovery(TaskKind.REVERSE, Pose(0.0, 0.0, 0.0), None, perceive(np.zeros((0, 2))), RobotModel(),
+    ...                      np.random.default_rng(0), straight_sd=0.05)
+    >>> out.task.value, -0.17 < out.end.x < -0.13
+    ('REVERSE', True)
+    """
+    if kind is TaskKind.WAIT:
+        return simulate_wait(start, goal, robot)
+    length = REVERSE_STEP if distance is None else distance
+    if straight_sd or straight_mean:
+        length *= 1 + straight_mean + (float(rng.normal(0.0, straight_sd)) if straight_sd else 0.0)
+    out = simulate_reverse(start, goal, obstacles, robot, max(length, 0.0))
+    return out if out is not None else Outcome(TaskKind.REVERSE, start, start, 0.0, 0.0, 0, None, False)
+
+
+def after_wait(cmap: Any) -> set[int]:
+    """The states of ``cmap`` the search simulated in the world after a WAIT: the WAIT
+    states' descendants (a WAIT is offered from the origin only, and the states after it
+    are never shared with the others: :class:`Recovery`).
+
+    >>> from clomp.formal.lts import CognitiveMap
+    >>> after_wait(CognitiveMap())
+    set()
+    """
+    out: set[int] = set()
+    todo = [t.target for t in cmap.transitions() if t.label is TaskKind.WAIT]
+    while todo:
+        q = todo.pop()
+        if q in out:
+            continue
+        out.add(q)
+        todo += [t.target for t in cmap.out_transitions(q)]
+    return out
 
 
 class Recovery:
