@@ -54,7 +54,7 @@ def test_a_reverse_is_sampled_as_a_choice_whose_outcomes_sum_to_one(free_turns):
     assert rev, "no REVERSE choice in the sampled map"
     for _, ts in _choices(m).items():
         assert sum((t.probability for t in ts), Fraction(0)) == 1
-    for (src, _), ts in rev:
+    for _, ts in rev:
         for t in ts:  # backed off, not forward: the body's centre ends behind where it started
             q = m[t.target]
             c, s = math.cos(q.start.theta), math.sin(q.start.theta)

@@ -39,7 +39,7 @@ def _sweeps(pts: np.ndarray, legs, m: RobotModel, tol: float) -> bool:
         x0, y0, th = g.start
         c, s = math.cos(th), math.sin(th)
 
-        def under(x: float, y: float) -> np.ndarray:
+        def under(x: float, y: float, c: float = c, s: float = s) -> np.ndarray:
             dx, dy = pts[:, 0] - x, pts[:, 1] - y
             u, v = dx * c + dy * s, -dx * s + dy * c
             return (u > -m.rear_offset) & (u < m.front_offset) & (np.abs(v) < m.width / 2)
