@@ -125,3 +125,14 @@ def test_moving_turns_on_wait_and_reverse_in_run_and_the_ros_node(commands):
     conf, _, _ = configure(M(declare_parameter=lambda name, value: M(value=overrides.get(name, value))))
     assert conf.recovery
     assert make_supervisor(SimRobot(load_scenario("open"), seed=0), (1.0, 0.0), conf).config.moving
+
+
+def test_bodies_that_move_need_the_execution_world():
+    from clomp.planner import load_scenario
+    from clomp.runtime.backends.emulated import EmulatedWorld
+    from clomp.runtime.experiment.onerun import run_once
+
+    with pytest.raises(ValueError, match="execution world"):
+        EmulatedWorld("open", movers=(BOX,))  # the older simulated robot has no movers
+    with pytest.raises(ValueError, match="execution world"):
+        run_once(load_scenario("open"), "planning", 0, noise=None, movers=(BOX,))
