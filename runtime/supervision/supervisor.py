@@ -95,6 +95,9 @@ from clomp.runtime.interface import Robot, RobotFault, ScanFrame, finite_goal
 from clomp.runtime.supervision.sensing import Sensing
 from clomp.runtime.supervision.states import MOTOR_STATES, TERMINAL, TRANSITIONS, Event, SupervisorState, TransitionRecord
 
+_DOUBT_RELOCATIONS = 2
+"""Times a run's estimate may move at the goal where the wider search of a doubted estimate puts it."""
+
 __all__ = ["GuardViolation", "PlanRecord", "Supervisor", "SupervisorConfig", "SupervisorReport", "TaskRecord", "TimedRecord"]
 
 
@@ -378,9 +381,13 @@ class Supervisor:
         guesses) asks whether the revolutions seen standing here fit the map clearly better
         elsewhere; if so the estimate moves there (at most ``relocate_at_goal`` times a run)
         and the robot plans on from it. True when it moved."""
-        if self._relocations >= self.config.relocate_at_goal:
+        better = self.sensing.confirm_doubt()  # in doubt: searched widely against the map drawn before it
+        if better is not None and self._relocations >= _DOUBT_RELOCATIONS:
             return False
-        better = self.sensing.better_pose()
+        if better is None:
+            if self._relocations >= self.config.relocate_at_goal:
+                return False
+            better = self.sensing.better_pose()
         if better is None:
             return False
         was = self.pose
