@@ -61,7 +61,7 @@ from clomp.formal.geometry import (
 from clomp.formal.model import Pose
 from clomp.runtime.devices.frame import ScanFrame
 from clomp.runtime.estimation.confirm import Ambiguity, ambiguity
-from clomp.runtime.estimation.doubt import Doubt, trusted_check
+from clomp.runtime.estimation.doubt import Doubt, see_through, trusted_check
 from clomp.runtime.estimation.ekf import OdometryFilter
 from clomp.runtime.estimation.faces import FaceCompass
 from clomp.runtime.estimation.fusion import fuse_revolutions, range_spread
@@ -405,7 +405,11 @@ class ScanOdometry:
             self.filter.honest[:2, :2] += np.eye(2) * self.gate[0] ** 2
             self.filter.honest[2, 2] += self.gate[1] ** 2
             self.doubt.raise_to(self.gate[0], stamp, "re-seeded")
-        added = self._add(points, corrected, reseed=lost) if (match.ok or lost) else False
+        bad, moved = self.doubt.seen(*see_through(self._map_points, points, corrected), stamp) \
+            if self._map_points is not None else (False, False)
+        if moved:  # it stands elsewhere than the estimate: the gain opened as after a kick
+            self.filter.P[:2, :2] += np.eye(2) * self.doubt.kick_sd ** 2
+        added = self._add(points, corrected, reseed=lost) if (match.ok or lost) and not bad else False
         if self.compass is not None and self.compass.seeded:
             corrected, reason = self._steer(points, corrected, frame.timestamp, reason)
         d = (corrected.x - at.x, corrected.y - at.y, wrap_angle(corrected.theta - at.theta))

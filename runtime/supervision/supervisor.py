@@ -95,9 +95,6 @@ from clomp.runtime.interface import Robot, RobotFault, ScanFrame, finite_goal
 from clomp.runtime.supervision.sensing import Sensing
 from clomp.runtime.supervision.states import MOTOR_STATES, TERMINAL, TRANSITIONS, Event, SupervisorState, TransitionRecord
 
-_DOUBT_RELOCATIONS = 2
-"""Times a run's estimate may move at the goal where the wider search of a doubted estimate puts it."""
-
 __all__ = ["GuardViolation", "PlanRecord", "Supervisor", "SupervisorConfig", "SupervisorReport", "TaskRecord", "TimedRecord"]
 
 
@@ -382,13 +379,9 @@ class Supervisor:
         elsewhere; if so the estimate moves there (at most ``relocate_at_goal`` times a run)
         and the robot plans on from it. True when it moved."""
         better = self.sensing.confirm_doubt()  # in doubt: searched widely against the map drawn before it
-        if better is not None and self._relocations >= _DOUBT_RELOCATIONS:
-            return False
-        if better is None:
-            if self._relocations >= self.config.relocate_at_goal:
-                return False
+        if better is None and self._relocations < self.config.relocate_at_goal:
             better = self.sensing.better_pose()
-        if better is None:
+        if better is None or self._relocations >= self.config.relocate_at_goal:
             return False
         was = self.pose
         self.sensing.relocate(better)
