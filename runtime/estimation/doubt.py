@@ -26,6 +26,8 @@ floor), so they are not trusted for it.
 >>> d = Doubt()
 >>> d.shock(1.2, 3.0)                     # a drive's own acceleration: nothing
 (0.0, False)
+>>> d.shock(7.9, 6.0)                     # a jolt (a slip's stop): 5 cm
+(0.05, True)
 >>> d.shock(120.0, 10.4)                  # a kick: the floor, and the gain opened as wide
 (0.15, True)
 >>> d.sd, d.events[-1]
@@ -56,9 +58,10 @@ class Doubt:
     ``jolt`` (m/s²): a peak acceleration above this is a shock (3: three times what the
     drive does; the world's drive peaks at 1.9 in normal driving, a slip event at 7.9, a
     kick at 100–200). ``kick`` (m/s²): a shock above this slid the body by up to a push's
-    size, ``kick_sd`` (m, one standard deviation; the floor); a smaller one (a slip, a
-    bump) by up to ``jolt_sd`` (the filter's uncertainty opened by it, no floor: the
-    matches that follow may close it). ``trust`` (m): surfaces drawn at most this
+    size, ``kick_sd`` (m, one standard deviation); a smaller one (a slip, a bump) by up
+    to ``jolt_sd`` (a slip event of 0.5 s at 0.1 m/s). Either opens the filter's
+    uncertainty as wide and is a floor (without it a slipped ``u-trap`` run ended
+    GOAL_REACHED 0.105 m off, believing 1 cm). ``trust`` (m): surfaces drawn at most this
     uncertain count as drawn before the doubt. ``through_least``, ``through_share``,
     ``through_after``: when a revolution contradicts the map, and after how many in a row
     the robot is taken to stand elsewhere (:meth:`seen`; 10 bearings and a fifth: the
@@ -85,8 +88,8 @@ class Doubt:
 
     def shock(self, peak: float, t: float) -> tuple[float, bool]:
         """The accelerometer peaked at ``peak`` m/s² at time ``t``: how far (m, one standard
-        deviation) the body may have been moved unseen (0: not a shock), and whether that
-        is a floor (a kick) rather than an uncertainty the matches may close (a jolt)."""
+        deviation) the body may have been moved unseen (0: not a shock; the floor rises to
+        it), and whether it was a shock."""
         if not (math.isfinite(peak) and peak > self.jolt):
             return 0.0, False
         if peak >= self.kick:
@@ -94,7 +97,8 @@ class Doubt:
             self.sd = max(self.sd, self.kick_sd)
             return self.kick_sd, True
         self.events.append((t, "jolt", round(float(peak), 1)))
-        return self.jolt_sd, False
+        self.sd = max(self.sd, self.jolt_sd)
+        return self.jolt_sd, True
 
     def seen(self, through: int, both: int, t: float) -> tuple[bool, bool]:
         """A revolution saw past ``through`` of the ``both`` bearings where the map holds a

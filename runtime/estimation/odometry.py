@@ -430,8 +430,8 @@ class ScanOdometry:
     def shock(self, peak: float) -> None:
         """The IMU's accelerometer peaked at ``peak`` m/s² (:class:`~clomp.runtime.estimation.doubt.Doubt`):
         a shock opens the filter's position uncertainty by how far it may have moved the body
-        (so the next matches may pull the estimate there) and, a kick, keeps it as a floor."""
-        sd, _floor = self.doubt.shock(peak, self._t)
+        (so the next matches may pull the estimate there) and keeps it as a floor."""
+        sd, _shocked = self.doubt.shock(peak, self._t)
         if sd > 0:
             for m in (self.filter.P, self.filter.honest):
                 m[:2, :2] += np.eye(2) * sd * sd

@@ -70,10 +70,12 @@ def test_a_kick_leaves_a_floor_that_matches_do_not_lower():
     assert odo.filter.honest_sigma_xy < 0.05 and odo.position_sd() >= 0.15
 
 
-def test_a_jolt_opens_the_filter_but_leaves_no_floor():
+def test_a_jolt_leaves_a_smaller_floor_than_a_kick():
     odo = _seeded()
-    odo.shock(8.0)  # a slip's stop: 5 cm at most
-    assert odo.doubt.sd == 0.0 and odo.filter.sigma_xy >= 0.05 and odo.doubt.events[-1][1] == "jolt"
+    odo.shock(8.0)  # a slip's stop, a bump: 5 cm
+    assert odo.doubt.sd == 0.05 and odo.filter.sigma_xy >= 0.05 and odo.doubt.events[-1][1] == "jolt"
+    odo.shock(120.0)
+    assert odo.doubt.sd == 0.15 and odo.doubt.events[-1][1] == "kick"
 
 
 def test_surfaces_drawn_in_doubt_carry_it_and_are_not_trusted():
