@@ -19,7 +19,9 @@ each new revolution it
    scene pins it down, and carries the correction through the kept history to now;
 4. adds the matched revolution to the map (a face seen from a new side joins the faces
    seen before, so the estimate stays tied to the first scan instead of drifting from
-   scan to scan). A revolution that matches nothing the map holds re-seeds it.
+   scan to scan), unless it sees past the surfaces the map holds
+   (:func:`~clomp.runtime.estimation.doubt.see_through`: the robot is not where the
+   estimate puts it). A revolution that matches nothing the map holds re-seeds it.
 
 When nothing matches, the estimate stays dead reckoning; the record says why.
 

@@ -132,3 +132,24 @@ def test_where_the_estimate_is_right_nothing_is_seen_past(x, y, th):
 def test_the_doubt_s_settings_are_checked():
     with pytest.raises(ValueError, match="kick_sd"):
         Doubt(kick_sd=0.0)
+
+
+def test_the_supervisor_s_estimator_hears_a_kick_and_only_a_kick():
+    from clomp.planner import Configurator
+    from clomp.runtime.supervision.supervisor import Supervisor
+
+    scene = load_scenario("overtaking")
+    conf = Configurator()
+    robot = make_world_robot(scene, "paper", seed=0, robot=conf.robot)
+    sup = Supervisor(robot, scene.goal_in_robot_frame(), conf)
+    sup.start()
+    while robot.now() < 6.0:  # standing for the seed, then driving the first plan
+        sup.step()
+        robot.sleep(conf.robot.tick)
+    odo = sup.sensing.estimator
+    assert odo is not None and not odo.doubt.events and odo.position_sd() < 0.05
+    robot.push(0.2, math.pi / 2)
+    for _ in range(3):
+        sup.step()
+        robot.sleep(conf.robot.tick)
+    assert [e[1] for e in odo.doubt.events][:1] == ["kick"] and odo.position_sd() >= 0.15
