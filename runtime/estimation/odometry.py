@@ -197,7 +197,7 @@ class ScanOdometry:
         self._map: ReferenceScan | None = None
         self._map_points: np.ndarray | None = None
         self._map_tree: cKDTree | None = None  # of _map_points, built when first asked after a change
-        self._map_sds: np.ndarray | None = None  # per map point: (m, rad) how wrong the estimate drawing it may have been
+        self._map_sds: np.ndarray | None = None  # per map point: (m, rad) how wrong its drawing estimate was; the bearing it was seen along
         self._odo: Pose | None = None
         self._rot: float | None = None  # the gyro's reading at the last advance
         self._still_since: float | None = 0.0  # since when the wheels are commanded still
@@ -557,9 +557,10 @@ class ScanOdometry:
         pos_var = max(float(np.linalg.eigvalsh(hon[:2, :2])[-1]), self.doubt.sd ** 2)  # in doubt, the doubt
         th_var = max(float(hon[2, 2]), 0.0)
         rng2 = np.einsum("ij,ij->i", points, points)
-        sds = np.c_[np.sqrt(pos_var + rng2 * th_var), np.full(len(points), math.sqrt(th_var))]
+        sds = np.c_[np.sqrt(pos_var + rng2 * th_var), np.full(len(points), math.sqrt(th_var)),
+                    np.arctan2(world[:, 1] - pose.y, world[:, 0] - pose.x)]  # seen from this side
         old = self._map_points if (self._map_points is not None and not reseed) else np.zeros((0, 2))
-        old_sds = self._map_sds if (self._map_sds is not None and not reseed) else np.zeros((0, 2))
+        old_sds = self._map_sds if (self._map_sds is not None and not reseed) else np.zeros((0, 3))
         if len(old) and self._map is not None and len(self._map):
             # only surfaces the map does not hold yet: re-adding known ones would smear them
             # along the robot's estimation error and let the estimate drift with them
