@@ -153,3 +153,18 @@ def test_the_supervisor_s_estimator_hears_a_kick_and_only_a_kick():
         sup.step()
         robot.sleep(conf.robot.tick)
     assert [e[1] for e in odo.doubt.events][:1] == ["kick"] and odo.position_sd() >= 0.15
+
+
+def test_the_wide_search_ignores_surfaces_seen_from_the_other_side():
+    from clomp.runtime.estimation.doubt import trusted_check
+
+    front = np.array([[0.5, y] for y in np.linspace(-0.3, 0.3, 31)])  # a face seen from the start, along +x
+    sds = np.c_[np.zeros(len(front)), np.zeros(len(front)), np.arctan2(front[:, 1], front[:, 0])]
+    d = Doubt(sd=0.15)
+    # from beyond it, facing back, the robot sees the face's other side 10 cm nearer than the front
+    # (a box's back face): that is no evidence for where it stands
+    back = np.array([[0.4, -y] for y in np.linspace(-0.3, 0.3, 31)])
+    assert trusted_check(d, front, sds, back, Pose(1.0, 0.0, math.pi)) is None and d.sd == 0.15
+    d2 = Doubt(sd=0.15)  # the same surfaces without the side they were seen from: vouched for
+    trusted_check(d2, front, sds[:, :2], back, Pose(1.0, 0.0, math.pi))
+    assert d2.sd < 0.15
