@@ -20,7 +20,7 @@ import numpy as np
 from clomp.formal.model import Pose
 from clomp.runtime.devices.frame import ScanFrame
 
-__all__ = ["ScanFrame", "Robot", "RobotFault", "TurnSensing", "OdometryUncertainty", "finite_goal"]
+__all__ = ["ScanFrame", "Robot", "RobotFault", "TurnSensing", "ShockSensing", "OdometryUncertainty", "finite_goal"]
 
 
 class RobotFault(RuntimeError):
@@ -84,6 +84,25 @@ class TurnSensing(Protocol):
     def rotation(self) -> float | None:
         """The heading turned since start-up (rad, counter-clockwise), as the sensor
         integrates it; None when the sensor has nothing (yet)."""
+        ...
+
+
+@runtime_checkable
+class ShockSensing(Protocol):
+    """A backend whose IMU's accelerometer reports shocks: an outside force (a kick, a
+    collision, a body stopping dead while its wheels spin) shows as an acceleration no
+    drive makes. Optional: the supervisor's estimator then doubts what it cannot vouch for
+    (:mod:`clomp.runtime.estimation.doubt`).
+
+    >>> from clomp.planner import load_scenario
+    >>> from clomp.runtime.backends import make_world_robot
+    >>> isinstance(make_world_robot(load_scenario("open"), "paper", seed=0), ShockSensing)
+    True
+    """
+
+    def peak_acceleration(self) -> float | None:
+        """The largest horizontal acceleration (m/s²) since the last call; None when the
+        sensor has nothing."""
         ...
 
 

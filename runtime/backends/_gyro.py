@@ -29,7 +29,7 @@ import math
 
 import numpy as np
 
-__all__ = ["RateGyro"]
+__all__ = ["RateGyro", "ShockSensor"]
 
 _BLOCK = 1024  # white-noise draws taken at once (one draw per physics step)
 
@@ -62,3 +62,36 @@ class RateGyro:
             walk = self.sd * math.sqrt(dt) * float(self._noise[self._k])
             self._k += 1
         self.angle += ((self._ccw if rate > 0 else self._cw) * rate + self.offset) * dt + walk
+
+
+class ShockSensor:
+    """The IMU's accelerometer read as a shock sensor: the largest horizontal acceleration of
+    the body (m/s², the change of its velocity over a physics step) since the last
+    :meth:`read`, plus the sensor's noise (``sd`` × |N(0, 1)|, from a stream of its own).
+
+    A differential drive accelerates its body at most at its wheels' limit (1 m/s²) plus
+    the centripetal v·ω; a kick, a collision or a body that stops dead while its wheels spin
+    (a slip event) shows as several times that (docs/closed-loop.md, *Shocks*).
+
+    >>> s = ShockSensor(sd=0.0, seed=0)
+    >>> s.step((0.0, 0.0), (0.01, 0.0), 0.01); s.step((0.01, 0.0), (1.01, 0.0), 0.01)
+    >>> s.read(), s.read()                  # a kick of 1 m/s within a step, then nothing
+    (100.0, 0.0)
+    """
+
+    def __init__(self, *, sd: float, seed: int | None) -> None:
+        self._rng = np.random.default_rng(None if seed is None else [int(seed), 0x73686B])  # "shk": its own stream
+        self.sd = float(sd)
+        self.peak = 0.0
+
+    def step(self, before: tuple[float, float], after: tuple[float, float], dt: float) -> None:
+        """The body's velocity (world frame, m/s) went from ``before`` to ``after`` over ``dt`` s."""
+        a = math.hypot(after[0] - before[0], after[1] - before[1]) / dt
+        if a > self.peak:
+            self.peak = a
+
+    def read(self) -> float:
+        """The peak since the last read (m/s²), and start a new one."""
+        out = self.peak + (self.sd * abs(float(self._rng.standard_normal())) if self.sd else 0.0)
+        self.peak = 0.0
+        return round(out, 6)

@@ -41,6 +41,7 @@ import math
 import threading
 import time
 from collections import deque
+from collections.abc import Callable
 from dataclasses import asdict, dataclass, field
 from typing import Any, Literal
 
@@ -457,14 +458,22 @@ class HardwareRobot:
             return self._pose
 
     def rotation(self) -> float | None:
-        """The heading the IMU turned since its first report (rad, counter-clockwise), None
-        without an IMU (:class:`~clomp.runtime.interface.TurnSensing`). Raises RobotFault once
-        the robot has tripped (the IMU's own faults trip it)."""
+        """The heading the IMU turned since its first report (rad, counter-clockwise), None without
+        an IMU (:class:`~clomp.runtime.interface.TurnSensing`); RobotFault once tripped (its faults trip it)."""
+        return self._from_imu(Bno08xRvc.rotation)
+
+    def peak_acceleration(self) -> float | None:
+        """The largest horizontal acceleration the IMU reported since the last call (m/s²),
+        None without an IMU or a new report (:class:`~clomp.runtime.interface.ShockSensing`)."""
+        return self._from_imu(Bno08xRvc.peak_acceleration)
+
+    def _from_imu(self, read: Callable[[Bno08xRvc], float | None]) -> float | None:
+        """``read`` of the IMU (None without one); its faults trip the robot (RobotFault)."""
         if self.imu is None:
             return None
         self._check()
         try:
-            return self.imu.rotation()
+            return read(self.imu)
         except ImuError as exc:
             self._trip(f"IMU on {self.imu.port_name} failed: {_describe(exc)}", source="imu")
             raise RobotFault(self._fault or str(exc)) from exc

@@ -73,7 +73,7 @@ from clomp.planner.robot_model import Body
 from clomp.planner.scenarios import Scene
 from clomp.runtime.devices.frame import ScanFrame
 from clomp.runtime.backends._dynamics import Contacts, Drive, WorldContact, WorldPush, push_speed, term_stream
-from clomp.runtime.backends._gyro import RateGyro
+from clomp.runtime.backends._gyro import RateGyro, ShockSensor
 from clomp.runtime.backends._lidar import Lidar
 from clomp.runtime.backends._movers import Mover, Movers, parse_movers
 from clomp.runtime.backends._simulated import SimulatedBackend
@@ -88,6 +88,8 @@ WorldNoise = NoiseTerms
 _set_velocity = pymunk.Body.velocity.fset  # type: ignore[attr-defined]
 _set_angular_velocity = pymunk.Body.angular_velocity.fset  # type: ignore[attr-defined]
 _set_position = pymunk.Body.position.fset  # type: ignore[attr-defined]
+SHOCK_SD = 0.05
+"""The accelerometer's noise on a peak (m/s²): a hobby IMU's (a BNO08x's 0.3 % of 8 g) and a little vibration."""
 Mount = tuple[float, float, float]
 """A LiDAR's pose on the body: x ahead of the rotation centre, y to the left (m), theta (rad)."""
 
@@ -184,6 +186,9 @@ class WorldRobot(SimulatedBackend):
         self._drive = Drive(n, self.body, self._rng, control_tick=self.control_tick, seed=seed)
         self._gyro = RateGyro(sd=n.rate_sd, bias=n.rate_bias, scale=n.rate_scale, seed=seed,
                               asymmetry=n.rate_asymmetry) if gyro else None
+        # the IMU's accelerometer, read as a shock sensor (with the gyro: one device)
+        self._shock = ShockSensor(sd=SHOCK_SD, seed=seed) if gyro else None
+        self._velocity = (0.0, 0.0)  # the body's at the end of the last physics step
         self.mount: Mount = _mount("mount", mount) if mount is not None else (n.lidar_x, 0.0, 0.0)
         self.told_mount: Mount = self.mount if told_mount is None else _mount("told_mount", told_mount)
         self._pushes: list[WorldPush] = []
@@ -236,6 +241,12 @@ class WorldRobot(SimulatedBackend):
         """The heading turned since start-up as the rate gyro integrates it (rad; see
         :class:`~clomp.runtime.backends._gyro.RateGyro`), or None when built with ``gyro=False``."""
         return None if self._gyro is None else self._gyro.angle
+
+    def peak_acceleration(self) -> float | None:
+        """The largest horizontal acceleration of the body since the last call (m/s², the
+        IMU's accelerometer; :class:`~clomp.runtime.backends._gyro.ShockSensor`), or None when
+        built with ``gyro=False`` (no IMU)."""
+        return None if self._shock is None else self._shock.read()
 
     # -- ground truth ----------------------------------------------------------------------------
     def ground_truth_pose(self) -> Pose:
@@ -381,6 +392,11 @@ class WorldRobot(SimulatedBackend):
         self._space.step(dt)
         if self._gyro is not None:
             self._gyro.step((body.angle - th) / dt, dt)
+        if self._shock is not None:
+            vel = body.velocity
+            after = (float(vel.x), float(vel.y))
+            self._shock.step(self._velocity, after, dt)
+            self._velocity = after
         self._t += dt
         self._contacts.update(self._t, body, self.movers)
         pose = self._xyth()

@@ -22,6 +22,7 @@ on :mod:`clomp.runtime.devices.bno08x_codec` (whose names are re-exported here).
 from __future__ import annotations
 
 import collections
+import math
 import threading
 import time
 from collections.abc import Callable
@@ -139,6 +140,7 @@ class Bno08xRvc:
         self.callback_error: BaseException | None = None
         self._fault: ImuError | None = None
         self._first: ImuSample | None = None
+        self._peak: float | None = None  # the largest horizontal acceleration since peak_acceleration (m/s²)
         self._recent: collections.deque[ImuSample] = collections.deque(maxlen=history)
         self._cond = threading.Condition()
         self._closing = threading.Event()
@@ -195,6 +197,15 @@ class Bno08xRvc:
             if not self._recent or self._first is None:
                 return None
             return self._recent[-1].yaw - self._first.yaw
+
+    def peak_acceleration(self) -> float | None:
+        """The largest horizontal acceleration (m/s², the report's x and y: the device mounted
+        level) among the reports since the last call, None when none came (as
+        :class:`clomp.runtime.interface.ShockSensing` asks); raises the latched :class:`ImuError`."""
+        with self._cond:
+            self.check()
+            peak, self._peak = self._peak, None
+            return peak
 
     def wait_for(self, predicate: Callable[[Self], bool], timeout: float) -> bool:
         """Wait (wall time, at most ``timeout`` s) until ``predicate(self)`` holds, re-checked
@@ -265,6 +276,8 @@ class Bno08xRvc:
                 else:
                     sample = ImuSample(r, max(t, prev.timestamp), unwrap(prev.yaw, r.yaw))
                 self._recent.append(sample)
+                ax, ay, _az = r.accel
+                self._peak = max(self._peak or 0.0, math.hypot(ax, ay))
                 fault = fault or self._rate_fault()
         return True, fault
 

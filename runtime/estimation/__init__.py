@@ -2,7 +2,9 @@
 
 ``clomp.runtime.estimation.icp`` matches two scans (point-to-line ICP with a dead-reckoning
 prior, gating and degeneracy detection); ``clomp.runtime.estimation.odometry`` fuses those
-matches with dead reckoning into the pose the supervisor's tasks run on.
+matches with dead reckoning into the pose the supervisor's tasks run on;
+``clomp.runtime.estimation.doubt`` keeps what that pose may not be vouched for after a shock
+the IMU felt or a revolution that saw past the map.
 """
 
 from __future__ import annotations

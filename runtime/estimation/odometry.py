@@ -19,7 +19,9 @@ each new revolution it
    scene pins it down, and carries the correction through the kept history to now;
 4. adds the matched revolution to the map (a face seen from a new side joins the faces
    seen before, so the estimate stays tied to the first scan instead of drifting from
-   scan to scan). A revolution that matches nothing the map holds re-seeds it.
+   scan to scan), unless it sees past the surfaces the map holds
+   (:func:`~clomp.runtime.estimation.doubt.see_through`: the robot is not where the
+   estimate puts it). A revolution that matches nothing the map holds re-seeds it.
 
 When nothing matches, the estimate stays dead reckoning; the record says why.
 
@@ -61,6 +63,7 @@ from clomp.formal.geometry import (
 from clomp.formal.model import Pose
 from clomp.runtime.devices.frame import ScanFrame
 from clomp.runtime.estimation.confirm import Ambiguity, ambiguity
+from clomp.runtime.estimation.doubt import Doubt, see_through, trusted_check
 from clomp.runtime.estimation.ekf import OdometryFilter
 from clomp.runtime.estimation.faces import FaceCompass
 from clomp.runtime.estimation.fusion import fuse_revolutions, range_spread
@@ -194,7 +197,7 @@ class ScanOdometry:
         self._map: ReferenceScan | None = None
         self._map_points: np.ndarray | None = None
         self._map_tree: cKDTree | None = None  # of _map_points, built when first asked after a change
-        self._map_sds: np.ndarray | None = None  # per map point: (m, rad) how wrong the estimate drawing it may have been
+        self._map_sds: np.ndarray | None = None  # per map point: (m, rad) how wrong its drawing estimate was; the bearing it was seen along
         self._odo: Pose | None = None
         self._rot: float | None = None  # the gyro's reading at the last advance
         self._still_since: float | None = 0.0  # since when the wheels are commanded still
@@ -403,7 +406,12 @@ class ScanOdometry:
             self.reseeds += 1
             self.filter.honest[:2, :2] += np.eye(2) * self.gate[0] ** 2
             self.filter.honest[2, 2] += self.gate[1] ** 2
-        added = self._add(points, corrected, reseed=lost) if (match.ok or lost) else False
+            self.doubt.raise_to(self.gate[0], stamp, "re-seeded")
+        bad, moved = self.doubt.seen(*see_through(self._map_points, points, corrected), stamp) \
+            if self._map_points is not None else (False, False)
+        if moved:  # it stands elsewhere than the estimate: the gain opened as after a kick
+            self.filter.P[:2, :2] += np.eye(2) * self.doubt.kick_sd ** 2
+        added = self._add(points, corrected, reseed=lost) if (match.ok or lost) and not bad else False
         if self.compass is not None and self.compass.seeded:
             corrected, reason = self._steer(points, corrected, frame.timestamp, reason)
         d = (corrected.x - at.x, corrected.y - at.y, wrap_angle(corrected.theta - at.theta))
@@ -419,6 +427,28 @@ class ScanOdometry:
         self.relocalised = 0  # times the estimate gave way to such a run of matches
         self.reseeds = 0  # times a revolution matching nothing re-seeded the map
         self.last_map_sd = (0.0, 0.0)  # how wrong the surfaces the last match met may be (m, rad)
+        self.doubt = Doubt()  # the floor under position_sd that only a wider search lowers
+
+    def shock(self, peak: float) -> None:
+        """The IMU's accelerometer peaked at ``peak`` m/s² (:class:`~clomp.runtime.estimation.doubt.Doubt`):
+        a shock opens the filter's position uncertainty by how far it may have moved the body
+        (so the next matches may pull the estimate there) and keeps it as a floor."""
+        sd, _shocked = self.doubt.shock(peak, self._t)
+        if sd > 0:
+            for m in (self.filter.P, self.filter.honest):
+                m[:2, :2] += np.eye(2) * sd * sd
+
+    def confirm_doubt(self, points: np.ndarray) -> Pose | None:
+        """In doubt (:attr:`doubt`), a revolution ``points`` seen standing here is searched
+        for widely against the surfaces drawn before the doubt
+        (:func:`~clomp.runtime.estimation.doubt.trusted_check`): the pose they put the robot
+        at when clearly elsewhere (to relocate to), else None, the doubt lowered to how far
+        from the estimate they leave the position."""
+        if self.doubt.sd <= 0 or self._map_points is None or self._map_sds is None:
+            return None
+        sd = max(2 * self.match_sd, self.noise_factor * (self.range_sd or 0.0))
+        return trusted_check(self.doubt, self._map_points, self._map_sds, points, self.pose, min_points=self.min_points,
+                             sd=sd, correlation=self.correlation)
 
     def _gated(self, match: ScanMatch, prior: Pose, gate: tuple[float, float]) -> ScanMatch:
         """The matcher's gate, applied here so that a well-matched revolution it rejects is kept
@@ -445,6 +475,8 @@ class ScanOdometry:
             <= self.agree[0] and abs(wrap_angle(d[2] - prev[2])) <= self.agree[1]
         self.rejected_in_a_row = self.rejected_in_a_row + 1 if same else 1
         self.disagreement = d
+        if self.rejected_in_a_row >= 3:  # shown three times: the estimate may be that far off
+            self.doubt.raise_to(math.hypot(d[0], d[1]), self._t, "disagreed")
         if self.admit_after and self.rejected_in_a_row >= self.admit_after:
             self.filter.admit(d)  # shown off by this much: what it can vouch for remembers it
         if self.relocalise_after and self.rejected_in_a_row >= self.relocalise_after:
@@ -485,7 +517,7 @@ class ScanOdometry:
         >>> odo.position_sd() < 1e-4
         True
         """
-        var = self.filter.honest_sigma_xy ** 2
+        var = max(self.filter.honest_sigma_xy ** 2, self.doubt.sd ** 2)
         if self.rejected_in_a_row > 0 and self.disagreement is not None:
             var += self.disagreement[0] ** 2 + self.disagreement[1] ** 2
         return math.sqrt(var)
@@ -522,12 +554,13 @@ class ScanOdometry:
         world = points_from_frame(points, pose)
         # how wrong each new point may be: the honest position sd and the heading's at its range
         hon = self.filter.honest
-        pos_var = max(float(np.linalg.eigvalsh(hon[:2, :2])[-1]), 0.0)
+        pos_var = max(float(np.linalg.eigvalsh(hon[:2, :2])[-1]), self.doubt.sd ** 2)  # in doubt, the doubt
         th_var = max(float(hon[2, 2]), 0.0)
         rng2 = np.einsum("ij,ij->i", points, points)
-        sds = np.c_[np.sqrt(pos_var + rng2 * th_var), np.full(len(points), math.sqrt(th_var))]
+        sds = np.c_[np.sqrt(pos_var + rng2 * th_var), np.full(len(points), math.sqrt(th_var)),
+                    np.arctan2(world[:, 1] - pose.y, world[:, 0] - pose.x)]  # seen from this side
         old = self._map_points if (self._map_points is not None and not reseed) else np.zeros((0, 2))
-        old_sds = self._map_sds if (self._map_sds is not None and not reseed) else np.zeros((0, 2))
+        old_sds = self._map_sds if (self._map_sds is not None and not reseed) else np.zeros((0, 3))
         if len(old) and self._map is not None and len(self._map):
             # only surfaces the map does not hold yet: re-adding known ones would smear them
             # along the robot's estimation error and let the estimate drift with them

@@ -32,7 +32,7 @@ from clomp.planner.perception import validate_scan
 from clomp.planner.robot_model import RobotModel
 from clomp.runtime.estimation.fusion import fuse_revolutions
 from clomp.runtime.estimation.odometry import FeedbackRecord, ScanOdometry
-from clomp.runtime.interface import OdometryUncertainty, Robot, ScanFrame, TurnSensing
+from clomp.runtime.interface import OdometryUncertainty, Robot, ScanFrame, ShockSensing, TurnSensing
 from clomp.runtime.supervision.config import SupervisorConfig
 
 __all__ = ["Sensing", "crop_far", "turning"]
@@ -93,6 +93,7 @@ class Sensing:
         self._rotation = robot.rotation if isinstance(robot, TurnSensing) else lambda: None  # a gyro, when it has one
         # the odometry's own covariance, when the backend reports one (a ROS base's /odom)
         self._odo_cov = robot.odometry_covariance if isinstance(robot, OdometryUncertainty) else lambda: None
+        self._shock = robot.peak_acceleration if isinstance(robot, ShockSensing) else lambda: None  # an accelerometer
         self.config = config
         self.wheel_base = model.wheel_base
         self.estimator: ScanOdometry | None = ScanOdometry(model.wheel_base) if config.feedback == "scan" else None
@@ -126,6 +127,9 @@ class Sensing:
         odo = self.robot.odometry()
         if self.estimator is not None:
             self.estimator.advance(now, cmd, odo, self._rotation(), self._odo_cov())
+            peak = self._shock()
+            if peak is not None:
+                self.estimator.shock(peak)  # an outside force: what it moved the body by is doubted
             self.pose = self.estimator.pose
             return
         self.pose = odo if odo is not None else dead_reckon(self.pose, *cmd, self.wheel_base, dt)
@@ -180,6 +184,14 @@ class Sensing:
         if self.estimator is None or self.scan is None:
             return None
         return self.estimator.ambiguity(self.planning_scan()).better
+
+    def confirm_doubt(self) -> Pose | None:
+        """In doubt, the revolutions seen standing here searched for widely against the map
+        drawn before it (:meth:`~clomp.runtime.estimation.odometry.ScanOdometry.confirm_doubt`):
+        where they put the robot when clearly elsewhere, else None."""
+        if self.estimator is None or self.scan is None:
+            return None
+        return self.estimator.confirm_doubt(self.planning_scan())
 
     def relocate(self, pose: Pose) -> None:
         """Move the estimate to ``pose`` (:meth:`better_pose`), its uncertainty raised by the jump."""

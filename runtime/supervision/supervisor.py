@@ -34,7 +34,10 @@ reckoning alone. The goal, the remaining plan and every task's error signal come
   filter's covariance with what it cannot see of itself) is within ``vouch_radius``
   (0.1 m); otherwise the run ends GOAL_UNCONFIRMED, the distance and the bound in its
   reason, its report and the log's ``stop`` record (``distance``, ``bound``). Runs ended
-  GOAL_REACHED while truly 0.1-1.35 m off before (harsh, no gyro: 19 %).
+  GOAL_REACHED while truly 0.1-1.35 m off before (harsh, no gyro: 19 %). The bound has a
+  floor after evidence that the robot moved unlike its model — a shock the IMU felt, a
+  revolution that saw past the map's surfaces (:mod:`clomp.runtime.estimation.doubt`) —
+  which only a wide search against the map drawn before it lowers, at the goal.
 - REPLANNING: after the wheels settled, from ``fuse_scans`` revolutions fused into one
   (median range per bearing), first *recall*: match the situation to a state of the map
   it already has and continue the map's plan from there if the new scan agrees
@@ -376,12 +379,14 @@ class Supervisor:
     def _relocated_at_goal(self, now: float) -> bool:
         """At the goal by the estimate: before it vouches, a wider search (several starting
         guesses) asks whether the revolutions seen standing here fit the map clearly better
-        elsewhere; if so the estimate moves there (at most ``relocate_at_goal`` times a run)
+        elsewhere — in doubt, the map drawn before the doubt, which lowers the doubt when
+        they do not (:meth:`~clomp.runtime.supervision.sensing.Sensing.confirm_doubt`); if
+        so the estimate moves there (at most ``relocate_at_goal`` times a run, 0 by default)
         and the robot plans on from it. True when it moved."""
-        if self._relocations >= self.config.relocate_at_goal:
-            return False
-        better = self.sensing.better_pose()
-        if better is None:
+        better = self.sensing.confirm_doubt()  # in doubt: searched widely against the map drawn before it
+        if better is None and self._relocations < self.config.relocate_at_goal:
+            better = self.sensing.better_pose()
+        if better is None or self._relocations >= self.config.relocate_at_goal:
             return False
         was = self.pose
         self.sensing.relocate(better)

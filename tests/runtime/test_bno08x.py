@@ -325,3 +325,17 @@ def test_a_held_up_reader_still_finds_a_device_that_fell_silent() -> None:
     with Bno08xRvc(port, clock=clock.now) as imu:
         assert imu.wait_for(lambda i: i.fault is not None, WAIT)
         assert isinstance(imu.fault, ImuTimeout)
+
+
+def test_the_peak_horizontal_acceleration_is_read_once_and_gravity_is_not_a_shock() -> None:
+    from clomp.runtime.devices.bno08x_codec import STANDARD_GRAVITY, RvcReport
+
+    clock = ManualClock(0.0)
+    emu = Bno08xEmulator(lambda: 0.0, clock=clock.now)  # level and still: gravity alone
+    with _on_simline(emu, clock) as imu:
+        _wait(imu, lambda i: i.latest() is not None)
+        still = imu.peak_acceleration()
+        assert still is not None and still < 0.05
+        imu._take([RvcReport.of(7, yaw=0.0, accel=(3.0, -4.0, STANDARD_GRAVITY))], clock.now())  # a kick's report
+        assert abs((imu.peak_acceleration() or 0.0) - 5.0) < 0.02
+        assert (imu.peak_acceleration() or 0.0) < 0.05  # read once: the next peak is a new one
