@@ -62,7 +62,7 @@ import numpy as np
 
 from clomp.formal.lts import CognitiveMap
 from clomp.formal.model import Disturbance, Pose, State, TaskKind, new_state
-from clomp.formal.supervisory import Guard, Plan, Reset, extract_plan
+from clomp.formal.supervisory import FRONTIER, Guard, Plan, Reset, argmin_phi, extract_plan
 from clomp.planner import footprint
 from clomp.planner.perception import Obstacles, load_scan, perceive
 from clomp.planner.recovery import RECOVERY_TASKS, Recovery, cleared_points
@@ -349,7 +349,12 @@ class Configurator:
         stop = search.run()
         cmap = search.cmap
         p = extract_plan(cmap)
-        if not cmap[p.end].reached_goal and p.end in search.frontier_ids:
+        # a plan that ends at the frontier: ``frontier`` — unless the search spent its budget
+        # and the plan explores (it ends at a frontier, not at argmin φ): still ``budget``, so
+        # that a deeper search (:mod:`clomp.planner.deepening`) may find a way closer first
+        if not cmap[p.end].reached_goal and p.end in search.frontier_ids and not (
+            stop == "budget" and p.end != argmin_phi(cmap).ident
+        ):
             stop = "frontier"
         psi = Guard(cmap, p).table()
         cmap.metadata.update(
@@ -394,7 +399,7 @@ class Configurator:
         return result
 
 
-_FRONTIER = (("frontier", 1.0),)
+_FRONTIER = ((FRONTIER, 1.0),)
 #: the cost functions that read only what a :class:`Rollout` has (priced before the state is built)
 _ROLLOUT_COSTS: tuple[Callable[[Rollout, CostContext], float], ...] = (default_cost, gamma, chi)
 _STRAIGHT = TaskKind.STRAIGHT
