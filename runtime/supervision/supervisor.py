@@ -415,7 +415,7 @@ class Supervisor:
                 self.appearance.renew(scan, self.pose)
             self.configurator.transient = self.appearance.transient(scan, self.pose)
         try:
-            result = plan_deepening(self.configurator, scan, goal, self.config.deepen)
+            result = plan_deepening(self.configurator, scan, goal, self.config.deepen, self.config.back_off)
         except PlanningError as exc:
             self._fire(E.NO_PLAN, f"goal unreachable: {exc}")
             return
