@@ -11,7 +11,8 @@ property fails and *where*, not just that something is wrong. The invariants are
    path from q0 that ends at the plan end of :func:`clomp.formal.supervisory.plan_end`,
    restated here: q* = argmin φ over the uninterrupted reachable states, ties → lowest
    ident; but when q* is no goal, has successors (the search looked past it) and is q0
-   or the cheapest open state (uninterrupted, reachable, no goal, no successor) is a
+   or — in a map whose search its budget did not cut short (``metadata["stop_reason"]``)
+   — the cheapest open state (uninterrupted, reachable, no goal, no successor) is a
    frontier state, the frontier state of least goal distance + metres driven, ties →
    lowest ident (the plan explores rather than stand still or stop in a local minimum);
 5. ``TURN_THEN_STRAIGHT`` — every uninterrupted turn is followed by a straight, and only
@@ -243,7 +244,8 @@ def _plan_end(cmap: CognitiveMap, q0: int) -> tuple[int, str]:
     leaves = [s for s in cmap.states() if s.ident in reach and s.ident != q0 and not s.interrupted and not s.reached_goal
               and not cmap.out_transitions(s.ident)]
     frontiers = [s for s in leaves if is_frontier(s)]
-    if frontiers and (best.ident == q0 or is_frontier(min(leaves, key=key))):
+    cut_short = cmap.metadata.get("stop_reason") == "budget"  # the search did not look past its open states
+    if frontiers and (best.ident == q0 or (not cut_short and is_frontier(min(leaves, key=key)))):
         return min(frontiers, key=lambda s: (exploring_score(cmap, s), s.ident)).ident, "the exploring frontier"
     return best.ident, "argmin φ"
 

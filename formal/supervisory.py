@@ -127,7 +127,7 @@ def exploring_score(cmap: CognitiveMap, state: State) -> float:
     return ahead + sum(cmap[i].distance for i in cmap.path(state.ident)[1:])
 
 
-def plan_end(cmap: CognitiveMap) -> State:
+def plan_end(cmap: CognitiveMap, cut_short: bool | None = None) -> State:
     """The state a plan ends in: argmin φ over the states a plan may end in (reachable
     from q0, not interrupted), unless that state gains the robot nothing, then the best
     frontier state. Ties → lowest ident.
@@ -142,20 +142,21 @@ def plan_end(cmap: CognitiveMap) -> State:
        the goal than q0 — when the map has a frontier state and
 
        a. q* is q0: the robot would otherwise stand still (an empty plan); or
-       b. the cheapest state the search left open (reachable, not interrupted, not a
-          goal, without successors) is a frontier state: the search looked past every
-          state cheaper than the frontier, so no way inside known-free space leads below
-          it, and q* is a local minimum of φ there (the inside of a U). Driving to q*
-          gains no distance, and the next plan from there searches the same known-free
-          space and stops in it (``clomp experiment u-trap``: the robot drove into the U
-          and stood there).
+       b. the search was not cut short by its budget (``cut_short``; None: the map's
+          ``metadata["stop_reason"]`` is not ``budget``) and the cheapest state it left
+          open (reachable, not interrupted, not a goal, without successors) is a frontier
+          state: the search looked past every state cheaper than the frontier, so no way
+          inside known-free space leads below it, and q* is a local minimum of φ there
+          (the inside of a U). Driving to q* gains no distance, and the next plan from
+          there searches the same known-free space and stops in it (``clomp experiment
+          u-trap``: the robot drove into the U and stood there).
 
        The closed loop drives to the frontier and looks round the shadow, as the paper's
        robot, whose map is rebuilt every revolution, would. A frontier state is
        uninterrupted (the simulated body met no sensed obstacle), so what lies ahead of it
        is unknown, not known to be blocked: a way to the goal may lie there. Otherwise
-       (no frontier state, or a budget spent with a cheaper open state that is not a
-       frontier: more search may find a way closer, :mod:`clomp.planner.deepening`) the
+       (no frontier state, or a search its budget cut short, which has not looked past its
+       open states: more search may find a way closer, :mod:`clomp.planner.deepening`) the
        plan ends at q*.
 
     That the runtime cannot shuttle between frontiers for ever is the supervisor's to
@@ -201,13 +202,15 @@ def plan_end(cmap: CognitiveMap) -> State:
     ends = [s for s in open_ if is_frontier(s)]
     if not ends:
         return best
-    if best.ident != q0 and not is_frontier(min(open_, key=lambda s: (s.cost, s.ident))):
-        return best  # the search stopped short (its budget): a way closer may lie past its cheapest open state
+    if cut_short is None:
+        cut_short = cmap.metadata.get("stop_reason") == "budget"
+    if best.ident != q0 and (cut_short or not is_frontier(min(open_, key=lambda s: (s.cost, s.ident)))):
+        return best  # a way closer may lie past the cheapest open state
     return min(ends, key=lambda s: (exploring_score(cmap, s), s.ident))
 
 
-def extract_plan(cmap: CognitiveMap) -> Plan:
-    """ρ: the shortest path from q0 to :func:`plan_end` through uninterrupted states.
+def extract_plan(cmap: CognitiveMap, cut_short: bool | None = None) -> Plan:
+    """ρ: the shortest path from q0 to :func:`plan_end` (``cut_short`` as there) through uninterrupted states.
 
     >>> from clomp.formal.model import Disturbance, Pose, TaskKind
     >>> g = Disturbance.goal(1.0, 0.0)
@@ -218,7 +221,7 @@ def extract_plan(cmap: CognitiveMap) -> Plan:
     >>> extract_plan(m)
     Plan(states=(0, 1, 2))
     """
-    end = plan_end(cmap)
+    end = plan_end(cmap, cut_short)
     return Plan(tuple(cmap.path(end.ident)))
 
 

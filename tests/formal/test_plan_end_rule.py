@@ -4,7 +4,8 @@ over hand-grown maps with frontier states (:func:`clomp.formal.strategies.cognit
 Stated here once more, apart from both :func:`clomp.formal.supervisory.plan_end` and the
 checker: the plan ends at argmin φ (ties: the lowest ident) unless that state gains the
 robot nothing — it is q0, or the search looked past it while its cheapest open state is a
-frontier — and the map has a frontier state; then at the frontier state of least goal
+frontier (in a map whose search its budget did not cut short) — and the map has a
+frontier state; then at the frontier state of least goal
 distance + metres driven (ties: the lowest ident). So a plan never stands still while it
 could explore. Break ``plan_end`` (never explore from q0, or from a local minimum, or
 send ties to the highest ident) and these tests fail; break the checker's restatement and
@@ -32,7 +33,8 @@ def _expected(m: CognitiveMap) -> int:
         return least.ident
     open_ = [s for s in usable if s.ident != 0 and not s.reached_goal and not m.successors(s.ident)]
     ends = [s for s in open_ if is_frontier(s)]
-    if ends and (least.ident == 0 or is_frontier(min(open_, key=lambda s: (s.cost, s.ident)))):
+    cut_short = m.metadata.get("stop_reason") == "budget"
+    if ends and (least.ident == 0 or (not cut_short and is_frontier(min(open_, key=lambda s: (s.cost, s.ident))))):
         return min(ends, key=lambda s: (exploring_score(m, s), s.ident)).ident
     return least.ident
 
@@ -44,6 +46,18 @@ def test_the_plan_ends_where_the_rule_says(m: CognitiveMap) -> None:
     assert end.ident == _expected(m)
     assert not end.interrupted
     assert check_map(m) == []  # the checker's restatement agrees
+
+
+@SETTINGS
+@given(cognitive_maps(frontiers=True))
+def test_a_search_cut_short_by_its_budget_ends_in_its_local_minimum(m: CognitiveMap) -> None:
+    """The same maps, recorded as cut short by the budget: only q0 explores."""
+    m.metadata["stop_reason"] = "budget"
+    end, least = plan_end(m), min((s for s in m.states() if not s.interrupted and s.ident in m.reachable()),
+                                  key=lambda s: (s.cost, s.ident))
+    assert end.ident == _expected(m)
+    assert end.ident == least.ident or least.ident == 0
+    assert check_map(m) == []
 
 
 @SETTINGS
