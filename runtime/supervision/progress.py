@@ -1,8 +1,9 @@
 """Whether the supervisor's plans still get the robot anywhere: :class:`Progress`.
 
 The counts behind UNREACHABLE (see :mod:`clomp.runtime.supervision.supervisor`): plans in
-a row that found no safe task (``confirm``), plans in a row that brought the robot no
-closer to the goal (``patience``), and the recalled continuations already taken (the same
+a row that found no safe task (``confirm``), plans that backed off with none between that
+found a task without (``confirm`` too), plans in a row that brought the robot no closer to
+the goal (``patience``), and the recalled continuations already taken (the same
 one again, after tasks of it ran and no closer than before, is a loop).
 
 >>> from clomp.runtime.supervision.config import SupervisorConfig
@@ -32,9 +33,25 @@ class Progress:
     def __init__(self, config: SupervisorConfig) -> None:
         self.config = config
         self.empty = 0  # plans in a row, each from fresh revolutions at this stop, that found no safe task
+        self.backoffs = 0  # plans that backed off since the last plan that found a task without
         self.best = math.inf  # the closest to the goal (m) a plan started from
         self.stalled = 0  # plans in a row that started no closer than ``best``
         self._recalled: dict[tuple[int, int], tuple[float, int]] = {}  # (map, state) -> distance, tasks done
+
+    def backed_off(self) -> str | None:
+        """A plan found no safe task of the paper's three and backs off (``back_off``: it
+        begins with REVERSE): the reason to give up after ``confirm`` such plans with no plan
+        between that found a task without backing off, else None. So a robot cannot back
+        off and come back for ever (in a cul-de-sac it did until the time limit).
+
+        >>> p = Progress(SupervisorConfig(confirm=2))
+        >>> p.backed_off(), p.backed_off()
+        (None, 'goal unreachable: no safe task leads closer to the goal (backed off 2 times in a row)')
+        """
+        self.backoffs += 1
+        if self.backoffs < self.config.confirm:
+            return None
+        return f"goal unreachable: no safe task leads closer to the goal (backed off {self.backoffs} times in a row)"
 
     def no_safe_task(self) -> str | None:
         """A plan found no safe task: the reason to give up after ``confirm`` in a row, else
@@ -49,7 +66,7 @@ class Progress:
         """A plan with tasks, made ``dist`` m from the goal (``reached_goal``: it ends there):
         the reason to give up after ``patience`` plans in a row that came no closer, else None.
         Progress is what the robot achieved, not what a plan to the disc's rim promised."""
-        self.empty = 0
+        self.empty = self.backoffs = 0
         if reached_goal or dist < self.best - self.config.min_progress:
             self.stalled = 0
         else:

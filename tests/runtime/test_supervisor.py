@@ -423,3 +423,16 @@ def test_plans_that_never_reach_the_goal_end_in_a_bounded_number(dists: list[flo
     p = Progress(cfg)
     verdict_at = next((i for i, d in enumerate((dists * bound)[:bound]) if p.planned(False, d) is not None), None)
     assert verdict_at is not None and verdict_at < bound
+
+
+def test_a_robot_that_backs_off_again_and_again_gives_up_after_confirm() -> None:
+    """Plans that back off count towards ``confirm`` until a plan finds a task without
+    backing off (a recall in between does not reset them: in a cul-de-sac the robot backed
+    off and came back until the time limit)."""
+    p = Progress(SupervisorConfig(confirm=3))
+    assert p.backed_off() is None and p.backed_off() is None
+    p.recalled()
+    assert "backed off 3 times" in str(p.backed_off())
+    p = Progress(SupervisorConfig(confirm=3))
+    p.backed_off(), p.backed_off(), p.planned(False, 1.0)
+    assert p.backed_off() is None
