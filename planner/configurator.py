@@ -337,9 +337,10 @@ class Configurator:
               cleared: Obstacles | None = None) -> PlanResult:
         """Construct the cognitive map for ``goal`` among ``obstacles`` and extract ρ.
 
-        ``stop_reason`` is ``goal`` (a state reached D_G), ``frontier`` (the plan ends at
-        argmin φ, a state where the body meets the rim of the sensed disc: the goal needs
-        unseen space, and the closed loop drives there and replans), ``budget``
+        ``stop_reason`` is ``goal`` (a state reached D_G), ``frontier`` (the plan ends at a
+        frontier state, argmin φ or an exploring end of :func:`~clomp.formal.supervisory.plan_end`,
+        where the body leaves the space the scan showed free: the goal needs unseen space,
+        and the closed loop drives there and replans), ``budget``
         (``max_states`` spent) or ``exhausted`` (no obstacle-free transition left). ``goal_blocked`` is True when
         the goal lies inside a perceived obstacle: the plan then ends at the reachable
         state closest to it and ``reached_goal`` is False. ``cleared`` (with ``recovery``):
@@ -481,9 +482,9 @@ class _Search:
                 if (self.routes == 1 and self.goal_seen) or self.ends + len(self.goal_ids) < self.routes:
                     continue
                 if cmap[qe_id].cost >= cmap[0].cost:
-                    # a frontier no better than where the robot stands would leave the plan
-                    # empty (it ends at argmin φ, q0): search on for a better end, as far as
-                    # the budget goes (a shadowed goal behind a U or a box just ahead)
+                    # a frontier no better than where the robot stands: search on for a better
+                    # end, as far as the budget goes (a shadowed goal behind a U or a box just
+                    # ahead); if none, the plan explores to the best frontier (plan_end)
                     continue
                 return "frontier"
             qe = cmap[qe_id]

@@ -38,16 +38,24 @@ class Progress:
         self.stalled = 0  # plans in a row that started no closer than ``best``
         self._recalled: dict[tuple[int, int], tuple[float, int]] = {}  # (map, state) -> distance, tasks done
 
-    def backed_off(self) -> str | None:
-        """A plan found no safe task of the paper's three and backs off (``back_off``: it
-        begins with REVERSE): the reason to give up after ``confirm`` such plans with no plan
-        between that found a task without backing off, else None. So a robot cannot back
-        off and come back for ever (in a cul-de-sac it did until the time limit).
+    def backed_off(self, dist: float) -> str | None:
+        """A plan made ``dist`` m from the goal found no safe task of the paper's three and
+        backs off (``back_off``: it begins with REVERSE) without reaching the goal (one that
+        reaches it is progress, :meth:`planned`): the reason to give up after
+        ``confirm`` such plans with no progress between (no plan that found a task without
+        backing off, none begun closer to the goal by ``min_progress``), else None. So a
+        robot cannot back off and come back for ever (in a cul-de-sac it did until the time
+        limit).
 
         >>> p = Progress(SupervisorConfig(confirm=2))
-        >>> p.backed_off(), p.backed_off()
+        >>> p.backed_off(1.0), p.backed_off(0.99)
         (None, 'goal unreachable: no safe task leads closer to the goal (backed off 2 times in a row)')
+        >>> p.backed_off(0.5) is None  # closer: the count begins again
+        True
         """
+        if dist < self.best - self.config.min_progress:
+            self.backoffs = 0
+        self.best = min(self.best, dist)
         self.backoffs += 1
         if self.backoffs < self.config.confirm:
             return None

@@ -431,8 +431,8 @@ class Supervisor:
         self.plans.append(rec)
         if self.log is not None:
             self._log("plan", **plan_fields(result, rec.origin))
-        if not self.configurator.recovery and result.steps and result.steps[0].task is TaskKind.REVERSE:
-            why = self.progress.backed_off()  # ``back_off``: no task of the paper's three was free
+        if not (self.configurator.recovery or result.reached_goal) and result.steps and result.steps[0].task is TaskKind.REVERSE:
+            why = self.progress.backed_off(dist)  # ``back_off``, and not to the goal: no task of the paper's three was free
         else:
             why = self.progress.no_safe_task() if not result.steps else self.progress.planned(result.reached_goal, dist)
         if why is not None:

@@ -427,12 +427,15 @@ def test_plans_that_never_reach_the_goal_end_in_a_bounded_number(dists: list[flo
 
 def test_a_robot_that_backs_off_again_and_again_gives_up_after_confirm() -> None:
     """Plans that back off count towards ``confirm`` until a plan finds a task without
-    backing off (a recall in between does not reset them: in a cul-de-sac the robot backed
-    off and came back until the time limit)."""
+    backing off or one begins closer to the goal (a recall in between does not reset them: in
+    a cul-de-sac the robot backed off and came back until the time limit)."""
     p = Progress(SupervisorConfig(confirm=3))
-    assert p.backed_off() is None and p.backed_off() is None
+    assert p.backed_off(1.0) is None and p.backed_off(1.1) is None
     p.recalled()
-    assert "backed off 3 times" in str(p.backed_off())
+    assert "backed off 3 times" in str(p.backed_off(1.0))
     p = Progress(SupervisorConfig(confirm=3))
-    p.backed_off(), p.backed_off(), p.planned(False, 1.0)
-    assert p.backed_off() is None
+    p.backed_off(1.0), p.backed_off(1.0), p.planned(False, 1.0)
+    assert p.backed_off(1.0) is None
+    p = Progress(SupervisorConfig(confirm=3))
+    p.backed_off(1.0), p.backed_off(1.0)
+    assert p.backed_off(0.9) is None  # it came closer since: the count begins again
