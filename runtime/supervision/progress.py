@@ -15,10 +15,12 @@ one again, after tasks of it ran and no closer than before, is a loop).
 from __future__ import annotations
 
 import math
+from typing import Any
 
+from clomp.formal.model import TaskKind
 from clomp.runtime.supervision.config import SupervisorConfig
 
-__all__ = ["Progress"]
+__all__ = ["Progress", "backs_off"]
 
 
 class Progress:
@@ -115,3 +117,18 @@ class Progress:
             return True
         self._recalled[key] = (dist, done)
         return False
+
+
+def backs_off(result: Any, recovery: bool) -> bool:
+    """True when ``result`` (a plan result) is ``back_off``'s plan, not to the goal: its first
+    task is a REVERSE though the configurator plans without (``recovery`` False), because no
+    task of the paper's three was free. :meth:`Progress.backed_off` counts such plans, fresh
+    or recalled.
+
+    >>> import numpy as np
+    >>> from clomp.planner import Configurator
+    >>> backs_off(Configurator().plan(np.zeros((0, 2)), (1.0, 0.0)), False)
+    False
+    """
+    steps = result.plan.states
+    return not (recovery or result.reached_goal) and len(steps) > 1 and result.map[steps[1]].task is TaskKind.REVERSE
