@@ -439,3 +439,15 @@ def test_a_robot_that_backs_off_again_and_again_gives_up_after_confirm() -> None
     p = Progress(SupervisorConfig(confirm=3))
     p.backed_off(1.0), p.backed_off(1.0)
     assert p.backed_off(0.9) is None  # it came closer since: the count begins again
+
+
+def test_in_a_closed_pen_backing_off_ends_unreachable_not_at_the_time_limit() -> None:
+    """The ``blocked`` scenario (a closed pen): with ``back_off`` the robot backs off, and the
+    supervisor recalled that map's continuation and wandered until the time limit (60 s); a
+    recalled back-off counts towards ``confirm`` as a fresh one does, and the search with
+    REVERSE is not deepened, so the run ends UNREACHABLE (at 41 s, 33 s without back_off)."""
+    from clomp.runtime.experiment.runner import run_once
+
+    r = run_once(load_scenario("blocked"), "planning", 0, max_time=60.0)
+    assert r.end_state == "UNREACHABLE" and "no safe task" in r.reason, r.reason
+    assert r.collisions == 0
