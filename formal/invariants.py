@@ -8,7 +8,13 @@ property fails and *where*, not just that something is wrong. The invariants are
 2. ``INTERRUPTED_ABSORBING`` — no transition leaves an interrupted state (D_N ≠ ∅);
 3. ``RESET`` — R: every successor of an uninterrupted state is contingent on D_G (D_I = D_G);
 4. ``GUARD`` — Ψ is 1 exactly on the plan's transitions, and the guarded map is a single
-   path from q0 that ends at argmin φ (over the uninterrupted reachable states);
+   path from q0 that ends at the plan end of :func:`clomp.formal.supervisory.plan_end`,
+   restated here: q* = argmin φ over the uninterrupted reachable states, ties → lowest
+   ident; but when q* is no goal, has successors (the search looked past it) and is q0
+   or — in a map whose search its budget did not cut short (``metadata["stop_reason"]``)
+   — the cheapest open state (uninterrupted, reachable, no goal, no successor) is a
+   frontier state, the frontier state of least goal distance + metres driven, ties →
+   lowest ident (the plan explores rather than stand still or stop in a local minimum);
 5. ``TURN_THEN_STRAIGHT`` — every uninterrupted turn is followed by a straight, and only
    by straights (Algorithm 1's frontier rule: a frontier state is STRAIGHT or interrupted);
 6. ``PROBABILITY`` — for every (state, task) the outgoing probabilities are in (0, 1] and
@@ -34,7 +40,7 @@ from fractions import Fraction
 
 from clomp.formal.lts import CognitiveMap, MapError, Transition
 from clomp.formal.model import TaskKind
-from clomp.formal.supervisory import Guard, Plan, extract_plan
+from clomp.formal.supervisory import Guard, Plan, exploring_score, extract_plan, is_frontier
 
 __all__ = [
     "Invariant",
@@ -220,20 +226,28 @@ def _guard(cmap: CognitiveMap, plan: Plan | None, psi: Mapping[Transition, int] 
     if stray:
         out.append(Violation(Invariant.GUARD, stray, "Ψ enables transitions off the path from q0"))
     end = path[-1]
-    reach = cmap.reachable()
-    candidates = [s for s in cmap.states() if s.ident in reach and not s.interrupted]
-    if candidates:
-        best = min(s.cost for s in candidates)
-        if cmap[end].interrupted or cmap[end].cost > best:
-            argmin = tuple(s.ident for s in candidates if s.cost == best)
-            out.append(
-                Violation(
-                    Invariant.GUARD,
-                    (end, *argmin),
-                    f"the guarded path ends at q{end} (φ={cmap[end].cost:.6g}), not at argmin φ = {best:.6g}",
-                )
-            )
+    want, why = _plan_end(cmap, q0)
+    if end != want:
+        out.append(Violation(Invariant.GUARD, (end, want), f"the guarded path ends at q{end} (φ={cmap[end].cost:.6g}), "
+                                                          f"not at {why} q{want} (φ={cmap[want].cost:.6g})"))
     return out
+
+
+def _plan_end(cmap: CognitiveMap, q0: int) -> tuple[int, str]:
+    """The end the plan-end rule names (invariant 4, stated apart from ``plan_end``'s code) and what it is."""
+    reach = cmap.reachable()
+    key = lambda s: (s.cost, s.ident)  # noqa: E731 - ties: the lowest ident
+    best = min((s for s in cmap.states() if s.ident in reach and not s.interrupted), key=key, default=cmap[q0])
+    looked_past = bool(cmap.out_transitions(best.ident))
+    if best.reached_goal or cmap.goal is None or (best.ident != q0 and not looked_past):
+        return best.ident, "argmin φ"
+    leaves = [s for s in cmap.states() if s.ident in reach and s.ident != q0 and not s.interrupted and not s.reached_goal
+              and not cmap.out_transitions(s.ident)]
+    frontiers = [s for s in leaves if is_frontier(s)]
+    cut_short = cmap.metadata.get("stop_reason") == "budget"  # the search did not look past its open states
+    if frontiers and (best.ident == q0 or (not cut_short and is_frontier(min(leaves, key=key)))):
+        return min(frontiers, key=lambda s: (exploring_score(cmap, s), s.ident)).ident, "the exploring frontier"
+    return best.ident, "argmin φ"
 
 
 def _turn_then_straight(cmap: CognitiveMap) -> list[Violation]:

@@ -17,12 +17,14 @@ are :func:`clomp.planner.strategies.planned_maps`. Requires ``hypothesis``.
 
 from __future__ import annotations
 
+from dataclasses import replace
 from fractions import Fraction
 
 from hypothesis import strategies as st
 
 from clomp.formal.lts import CognitiveMap
 from clomp.formal.model import PAPER_TASKS, Disturbance, DisturbanceKind, Pose, State, TaskKind
+from clomp.formal.supervisory import FRONTIER
 
 __all__ = ["GOAL", "OBSTACLE", "cognitive_maps"]
 
@@ -37,14 +39,19 @@ def _state(ident: int, task: TaskKind, interrupted: bool, cost: float) -> State:
 
 
 @st.composite
-def cognitive_maps(draw: st.DrawFn, probabilistic: bool = False, max_expansions: int = 5) -> CognitiveMap:
+def cognitive_maps(
+    draw: st.DrawFn, probabilistic: bool = False, max_expansions: int = 5, frontiers: bool = False
+) -> CognitiveMap:
     """A map grown like Algorithm 1 grows one.
 
     From q0 (an uninterrupted STRAIGHT), up to ``max_expansions`` times an uninterrupted
     frontier state is expanded with one to three options: STRAIGHT, or a turn followed by a
     STRAIGHT unless the turn was interrupted; any task may be interrupted (D_N =
     :data:`OBSTACLE`, cost ≥ 1, so a plan never ends there). With ``probabilistic`` each
-    option has one to three outcomes with rational probabilities summing to 1.
+    option has one to three outcomes with rational probabilities summing to 1. With
+    ``frontiers`` some STRAIGHT states left unexpanded are labelled frontier states
+    (:data:`clomp.formal.supervisory.FRONTIER`: the body left known-free space), so the
+    plan may end at one (the exploring end of :func:`clomp.formal.supervisory.plan_end`).
 
     >>> from hypothesis import find
     >>> len(find(cognitive_maps(), lambda m: len(m) >= 4)) >= 4
@@ -75,4 +82,9 @@ def cognitive_maps(draw: st.DrawFn, probabilistic: bool = False, max_expansions:
                     m.add_transition(first.ident, last.ident)
                 if not last.interrupted:
                     frontier.append(last.ident)
+    if frontiers:
+        for i in frontier:
+            s = m[i]
+            if i != 0 and s.task is TaskKind.STRAIGHT and draw(st.booleans()):
+                m.replace_state(replace(s, extra=((FRONTIER, 1.0),)))
     return m

@@ -1,7 +1,9 @@
 """The Configurator's supervisory functions over a cognitive map: plan ρ, guard Ψ, reset R.
 
 - ρ, the plan: a path q0 … qn of the map whose last state has the least cost φ among
-  the states the plan may end in (those not interrupted, D_N = ∅).
+  the states the plan may end in (those not interrupted, D_N = ∅) — or, when that
+  state gains the robot nothing (it is q0, or a local minimum the search looked past),
+  the frontier state of least goal distance plus metres driven (:func:`plan_end`).
 - Ψ: ↪ → {1, 0}, the guard: 1 on the transitions of ρ, 0 elsewhere (the supervisory
   control pattern of Ramadge & Wonham: which events the supervisor enables).
 - R: ↪ → **D**, the reset: the disturbance injected as D_I of the target of a
@@ -22,7 +24,7 @@ from typing import Any
 from clomp.formal.lts import CognitiveMap, MapError, Transition
 from clomp.formal.model import Disturbance, State
 
-__all__ = ["Plan", "ResetUndefined", "Guard", "Reset", "plan_end", "extract_plan"]
+__all__ = ["Plan", "ResetUndefined", "Guard", "Reset", "FRONTIER", "is_frontier", "argmin_phi", "exploring_score", "plan_end", "extract_plan"]
 
 
 class ResetUndefined(MapError):
@@ -72,30 +74,33 @@ class Plan:
         return {"states": list(self.states)}
 
 
-def plan_end(cmap: CognitiveMap) -> State:
-    """argmin φ over the states a plan may end in (not interrupted); ties → lowest ident.
+FRONTIER = "frontier"
+"""The label (a key of :attr:`~clomp.formal.model.State.extra`) of a frontier state: one
+whose task's body leaves the space the scan showed free (the sensed disc's rim, or space
+no ray crossed); it is never expanded and never a goal (see :func:`plan_end`)."""
 
-    Only states reachable from q0 count. When every reachable state but q0 is
-    interrupted, the plan ends at q0 (the empty plan).
 
-    The tie rule: of states of equal φ the first created (the lowest ident, the first
-    explored) ends the plan. So no plan ends on a turn that changes nothing: a final
-    LEFT or RIGHT turns in place, its end is as far from the goal as its parent's and,
-    uninterrupted, its φ equals the parent's; the parent, created before it, wins the
-    tie and the useless turn is dropped. (Sending ties to the highest ident instead
-    appends such a turn to the plans of the ``blocked`` and ``cul-de-sac`` scenarios;
-    ``tests/planner/test_plan_end.py`` holds the rule.)
+def is_frontier(state: State) -> bool:
+    """True when ``state`` is a frontier state (labelled :data:`FRONTIER`).
 
-    >>> from clomp.formal.model import Disturbance, Pose, TaskKind
-    >>> g = Disturbance.goal(1.0, 0.0)
-    >>> m = CognitiveMap(goal=g)
-    >>> for i, cost in enumerate((0.9, 0.4, 0.2)):
-    ...     _ = m.add_state(State(i, TaskKind.STRAIGHT, g, None, Pose(0, 0), Pose(0.1 * i, 0), cost=cost))
-    >>> _ = m.add_transition(0, 1); _ = m.add_transition(1, 2)
-    >>> plan_end(m).ident
-    2
+    >>> from clomp.formal.model import Pose, TaskKind
+    >>> q = State(1, TaskKind.STRAIGHT, None, None, Pose(0, 0), Pose(0.3, 0), extra=((FRONTIER, 1.0),))
+    >>> is_frontier(q), is_frontier(State(2, TaskKind.STRAIGHT, None, None, Pose(0, 0), Pose(0.3, 0)))
+    (True, False)
     """
-    reach = cmap.reachable()
+    return any(k == FRONTIER for k, _ in state.extra)
+
+
+def argmin_phi(cmap: CognitiveMap, reach: set[int] | None = None) -> State:
+    """argmin φ over the uninterrupted states reachable from q0 (``reach``: those idents,
+    when known); ties → lowest ident; q0 when there is none.
+
+    >>> from clomp.formal.model import Pose, TaskKind
+    >>> m = CognitiveMap.from_parts([State(0, TaskKind.STRAIGHT, None, None, Pose(0, 0), Pose(0, 0), cost=0.5)], [])
+    >>> argmin_phi(m).ident
+    0
+    """
+    reach = cmap.reachable() if reach is None else reach
     best: State | None = None
     for s in cmap.states():  # by ident: the first of equal cost is the lowest ident
         if s.d_n is None and s.ident in reach and (best is None or s.cost < best.cost):
@@ -103,8 +108,109 @@ def plan_end(cmap: CognitiveMap) -> State:
     return cmap.initial if best is None else best
 
 
-def extract_plan(cmap: CognitiveMap) -> Plan:
-    """ρ: the shortest path from q0 to :func:`plan_end` through uninterrupted states.
+def exploring_score(cmap: CognitiveMap, state: State) -> float:
+    """What the plan-end rule ranks frontier states by when it explores (:func:`plan_end`):
+    the distance (m) from the state's end to the goal plus the metres driven along the
+    shortest path from q0 to it (A*'s f = g + h in metres: the frontier nearest the goal
+    that is cheapest to reach).
+
+    >>> from clomp.formal.model import Pose, TaskKind
+    >>> g = Disturbance.goal(1.0, 0.0)
+    >>> m = CognitiveMap.from_parts(
+    ...     [State(0, TaskKind.STRAIGHT, g, None, Pose(0, 0), Pose(0, 0)),
+    ...      State(1, TaskKind.STRAIGHT, g, None, Pose(0, 0), Pose(0.0, 0.3), distance=0.3)], [(0, 1)], goal=g)
+    >>> round(exploring_score(m, m[1]), 4)   # 1.044 to the goal + 0.3 driven
+    1.344
+    """
+    goal = cmap.goal
+    ahead = 0.0 if goal is None else state.end.distance_to(goal.x, goal.y)
+    return ahead + sum(cmap[i].distance for i in cmap.path(state.ident)[1:])
+
+
+def plan_end(cmap: CognitiveMap, cut_short: bool | None = None) -> State:
+    """The state a plan ends in: argmin φ over the states a plan may end in (reachable
+    from q0, not interrupted), unless that state gains the robot nothing, then the best
+    frontier state. Ties → lowest ident.
+
+    **The rule.** Let q* be argmin φ (q0 when every other reachable state is interrupted).
+
+    1. q* reached the goal, or the search did not look past it (it has no successor: a
+       frontier state, or one the budget left unexpanded): the plan ends at q*.
+    2. Otherwise q* is q0 or a state the search expanded, and every task from it led no
+       closer by φ. The plan *explores* — it ends at the frontier state of least
+       :func:`exploring_score` (goal distance plus metres driven), even one farther from
+       the goal than q0 — when the map has a frontier state and
+
+       a. q* is q0: the robot would otherwise stand still (an empty plan); or
+       b. the search was not cut short by its budget (``cut_short``; None: the map's
+          ``metadata["stop_reason"]`` is not ``budget``) and the cheapest state it left
+          open (reachable, not interrupted, not a goal, without successors) is a frontier
+          state: the search looked past every state cheaper than the frontier, so no way
+          inside known-free space leads below it, and q* is a local minimum of φ there
+          (the inside of a U). Driving to q* gains no distance, and the next plan from
+          there searches the same known-free space and stops in it (``clomp experiment
+          u-trap``: the robot drove into the U and stood there).
+
+       The closed loop drives to the frontier and looks round the shadow, as the paper's
+       robot, whose map is rebuilt every revolution, would. A frontier state is
+       uninterrupted (the simulated body met no sensed obstacle), so what lies ahead of it
+       is unknown, not known to be blocked: a way to the goal may lie there. Otherwise
+       (no frontier state, or a search its budget cut short, which has not looked past its
+       open states: more search may find a way closer, :mod:`clomp.planner.deepening`) the
+       plan ends at q*.
+
+    That the runtime cannot shuttle between frontiers for ever is the supervisor's to
+    bound (:class:`clomp.runtime.supervision.progress.Progress`: plans that bring the robot
+    no closer, and an exploring plan back to where one ended before).
+
+    **The tie rule.** Of states of equal φ (or of equal score) the first created, the
+    lowest ident, ends the plan. So no plan ends on a turn that changes nothing: a final
+    LEFT or RIGHT turns in place, its end is as far from the goal as its parent's and,
+    uninterrupted, its φ equals the parent's; the parent, created before it, wins the
+    tie and the useless turn is dropped. (Sending ties to the highest ident instead
+    appends such a turn to the plans of the ``blocked`` and ``cul-de-sac`` scenarios;
+    ``tests/planner/test_plan_end.py`` holds the rule.) A frontier state is a STRAIGHT
+    (a turn that would leave known-free space is not available), so an exploring end is
+    never a turn either.
+
+    >>> from clomp.formal.model import Pose, TaskKind
+    >>> g = Disturbance.goal(1.0, 0.0)
+    >>> m = CognitiveMap(goal=g)
+    >>> for i, cost in enumerate((0.9, 0.4, 0.2)):
+    ...     _ = m.add_state(State(i, TaskKind.STRAIGHT, g, None, Pose(0, 0), Pose(0.1 * i, 0), cost=cost))
+    >>> _ = m.add_transition(0, 1); _ = m.add_transition(1, 2)
+    >>> plan_end(m).ident
+    2
+
+    Every task from q0 leads farther; one of them reaches a frontier: the plan explores.
+
+    >>> m = CognitiveMap.from_parts(
+    ...     [State(0, TaskKind.STRAIGHT, g, None, Pose(0, 0), Pose(0, 0), cost=0.5),
+    ...      State(1, TaskKind.STRAIGHT, g, None, Pose(0, 0), Pose(-0.3, 0), distance=0.3, cost=0.57),
+    ...      State(2, TaskKind.STRAIGHT, g, None, Pose(0, 0), Pose(0, 0.3), distance=0.3, cost=0.51,
+    ...            extra=((FRONTIER, 1.0),))], [(0, 1), (0, 2)], goal=g)
+    >>> plan_end(m).ident
+    2
+    """
+    reach = cmap.reachable()
+    best = argmin_phi(cmap, reach)
+    q0 = cmap.initial_id
+    if best.reached_goal or cmap.goal is None or (best.ident != q0 and not cmap.out_transitions(best.ident)):
+        return best
+    open_ = [s for s in cmap.states() if s.ident in reach and s.ident != q0 and s.d_n is None
+             and not s.reached_goal and not cmap.out_transitions(s.ident)]
+    ends = [s for s in open_ if is_frontier(s)]
+    if not ends:
+        return best
+    if cut_short is None:
+        cut_short = cmap.metadata.get("stop_reason") == "budget"
+    if best.ident != q0 and (cut_short or not is_frontier(min(open_, key=lambda s: (s.cost, s.ident)))):
+        return best  # a way closer may lie past the cheapest open state
+    return min(ends, key=lambda s: (exploring_score(cmap, s), s.ident))
+
+
+def extract_plan(cmap: CognitiveMap, cut_short: bool | None = None) -> Plan:
+    """ρ: the shortest path from q0 to :func:`plan_end` (``cut_short`` as there) through uninterrupted states.
 
     >>> from clomp.formal.model import Disturbance, Pose, TaskKind
     >>> g = Disturbance.goal(1.0, 0.0)
@@ -115,7 +221,7 @@ def extract_plan(cmap: CognitiveMap) -> Plan:
     >>> extract_plan(m)
     Plan(states=(0, 1, 2))
     """
-    end = plan_end(cmap)
+    end = plan_end(cmap, cut_short)
     return Plan(tuple(cmap.path(end.ident)))
 
 

@@ -33,7 +33,9 @@ search that never queued hits (the same on the 7 scenarios and 20 recorded scans
 (``cost=chi``) changes 24 of those 27 maps: a hit near the goal becomes the least-φ
 state and ends the search, and none of the 20 recorded scans reaches the goal.
 
-The plan ends at argmin φ over the uninterrupted states (:func:`clomp.formal.supervisory.plan_end`).
+The plan ends at argmin φ over the uninterrupted states, or explores: when that state is
+q0 or a local minimum the search looked past (its cheapest open state a frontier), at the
+frontier state of least goal distance + metres driven (:func:`clomp.formal.supervisory.plan_end`).
 The tie rule: of states of equal φ the first created (the lowest ident) wins, so a plan
 never ends on a turn in place, whose end is as far from the goal as its parent's (created
 before it). No turn turns by nothing: a turn whose chosen angle is below
@@ -62,7 +64,7 @@ import numpy as np
 
 from clomp.formal.lts import CognitiveMap
 from clomp.formal.model import Disturbance, Pose, State, TaskKind, new_state
-from clomp.formal.supervisory import Guard, Plan, Reset, extract_plan
+from clomp.formal.supervisory import FRONTIER, Guard, Plan, Reset, argmin_phi, extract_plan
 from clomp.planner import footprint
 from clomp.planner.perception import Obstacles, load_scan, perceive
 from clomp.planner.recovery import RECOVERY_TASKS, Recovery, cleared_points
@@ -335,9 +337,10 @@ class Configurator:
               cleared: Obstacles | None = None) -> PlanResult:
         """Construct the cognitive map for ``goal`` among ``obstacles`` and extract ρ.
 
-        ``stop_reason`` is ``goal`` (a state reached D_G), ``frontier`` (the plan ends at
-        argmin φ, a state where the body meets the rim of the sensed disc: the goal needs
-        unseen space, and the closed loop drives there and replans), ``budget``
+        ``stop_reason`` is ``goal`` (a state reached D_G), ``frontier`` (the plan ends at a
+        frontier state, argmin φ or an exploring end of :func:`~clomp.formal.supervisory.plan_end`,
+        where the body leaves the space the scan showed free: the goal needs unseen space,
+        and the closed loop drives there and replans), ``budget``
         (``max_states`` spent) or ``exhausted`` (no obstacle-free transition left). ``goal_blocked`` is True when
         the goal lies inside a perceived obstacle: the plan then ends at the reachable
         state closest to it and ``reached_goal`` is False. ``cleared`` (with ``recovery``):
@@ -348,8 +351,13 @@ class Configurator:
         search = _Search(self, obstacles, g, cleared)
         stop = search.run()
         cmap = search.cmap
-        p = extract_plan(cmap)
-        if not cmap[p.end].reached_goal and p.end in search.frontier_ids:
+        p = extract_plan(cmap, stop == "budget")
+        # a plan that ends at the frontier: ``frontier`` — unless the search spent its budget
+        # and the plan explores (it ends at a frontier, not at argmin φ): still ``budget``, so
+        # that a deeper search (:mod:`clomp.planner.deepening`) may find a way closer first
+        if not cmap[p.end].reached_goal and p.end in search.frontier_ids and not (
+            stop == "budget" and p.end != argmin_phi(cmap).ident
+        ):
             stop = "frontier"
         psi = Guard(cmap, p).table()
         cmap.metadata.update(
@@ -394,7 +402,7 @@ class Configurator:
         return result
 
 
-_FRONTIER = (("frontier", 1.0),)
+_FRONTIER = ((FRONTIER, 1.0),)
 #: the cost functions that read only what a :class:`Rollout` has (priced before the state is built)
 _ROLLOUT_COSTS: tuple[Callable[[Rollout, CostContext], float], ...] = (default_cost, gamma, chi)
 _STRAIGHT = TaskKind.STRAIGHT
@@ -474,9 +482,9 @@ class _Search:
                 if (self.routes == 1 and self.goal_seen) or self.ends + len(self.goal_ids) < self.routes:
                     continue
                 if cmap[qe_id].cost >= cmap[0].cost:
-                    # a frontier no better than where the robot stands would leave the plan
-                    # empty (it ends at argmin φ, q0): search on for a better end, as far as
-                    # the budget goes (a shadowed goal behind a U or a box just ahead)
+                    # a frontier no better than where the robot stands: search on for a better
+                    # end, as far as the budget goes (a shadowed goal behind a U or a box just
+                    # ahead); if none, the plan explores to the best frontier (plan_end)
                     continue
                 return "frontier"
             qe = cmap[qe_id]

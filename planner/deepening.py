@@ -19,7 +19,7 @@ DEEPEN = 4
 ``deepen``): 50 → 200 states."""
 
 
-def plan_deepening(configurator: Configurator, scan: Any, goal: Any, deepen: int = DEEPEN) -> PlanResult:
+def plan_deepening(configurator: Configurator, scan: Any, goal: Any, deepen: int = DEEPEN, back_off: bool = False) -> PlanResult:
     """``configurator.plan(scan, goal)``; when that search spends its budget short of both the
     goal and the frontier (stop reason ``budget``), the same scan is searched again with
     ``deepen`` times the budget (once; ``deepen=1``: never). ``planning_time_s`` covers both
@@ -34,10 +34,37 @@ def plan_deepening(configurator: Configurator, scan: Any, goal: Any, deepen: int
     the deeper search begins as the first one did. A search that reached the goal, or ended
     at the frontier, returns unchanged.
 
+    ``back_off`` (the supervisor's, :class:`~clomp.runtime.supervision.config.SupervisorConfig`):
+    when the plan is empty — no task leads closer and no frontier is in reach, the robot
+    would stand — and the configurator plans without REVERSE, the same scan is searched
+    again with it offered (``recovery``, :mod:`clomp.planner.recovery`: only from a state
+    none of whose tasks is collision-free). Why: a plan that ends at a frontier drives its
+    last task into space no ray crossed, and what stood there can leave the robot where no
+    turn and no straight is free (``clomp experiment slalom``: beside the first box, facing
+    the second). The paper's three tasks cannot get it out; backing off can. The search
+    with REVERSE is not deepened: it is to get out of a jam, and deepened it made plans of
+    twenty tasks and more that ran half a minute each in a dead end, until the time limit.
+
     >>> import numpy as np
     >>> plan_deepening(Configurator(), np.zeros((0, 2)), (1.0, 0.0)).stop_reason
     'goal'
+    >>> box = np.array([[0.1, y] for y in np.linspace(-0.3, 0.3, 61)] + [[x, s * 0.3] for x in np.linspace(-0.05, 0.1, 16) for s in (-1, 1)])
+    >>> plan_deepening(Configurator(), box, (1.0, 0.0)).steps
+    []
+    >>> [s.task.value for s in plan_deepening(Configurator(), box, (1.0, 0.0), back_off=True).steps][0]
+    'REVERSE'
     """
+    result = _deepened(configurator, scan, goal, deepen)
+    if back_off and not result.steps and not configurator.recovery:
+        backing = copy.copy(configurator)
+        backing.recovery = True
+        spent = result.planning_time_s
+        result = backing.plan(scan, goal)
+        result.planning_time_s += spent
+    return result
+
+
+def _deepened(configurator: Configurator, scan: Any, goal: Any, deepen: int) -> PlanResult:
     result = configurator.plan(scan, goal)
     if result.stop_reason != "budget" or deepen <= 1:
         return result

@@ -65,6 +65,10 @@ class SupervisorConfig:
       before UNREACHABLE (one fused scan at ``harsh`` can put a surface 2-4 cm into the way).
     - ``deepen``: a search that spent the configurator's budget runs again with this many
       times the budget (:func:`clomp.planner.deepening.plan_deepening`).
+    - ``back_off``: a plan that finds no safe task (not even a frontier to explore) is
+      searched again with REVERSE offered before the robot stands
+      (:func:`clomp.planner.deepening.plan_deepening`'s ``back_off``): a frontier plan's last
+      task can leave the robot where nothing but backing off is free.
     - ``vouch_radius`` (m): with scan feedback, the goal is *reached* (GOAL_REACHED) only
       when the estimated distance plus the 95 % bound of the position
       (``vouch_sigmas`` standard deviations of
@@ -114,6 +118,7 @@ class SupervisorConfig:
     start_scans: int = 10
     confirm: int = 3
     deepen: int = DEEPEN
+    back_off: bool = True
     vouch_radius: float | None = 0.1
     vouch_sigmas: float = 2.45
     relocate_at_goal: int = 0

@@ -1,8 +1,9 @@
 """Whether the supervisor's plans still get the robot anywhere: :class:`Progress`.
 
 The counts behind UNREACHABLE (see :mod:`clomp.runtime.supervision.supervisor`): plans in
-a row that found no safe task (``confirm``), plans in a row that brought the robot no
-closer to the goal (``patience``), and the recalled continuations already taken (the same
+a row that found no safe task (``confirm``), plans that backed off with none between that
+found a task without (``confirm`` too), plans in a row that brought the robot no closer to
+the goal (``patience``), and the recalled continuations already taken (the same
 one again, after tasks of it ran and no closer than before, is a loop).
 
 >>> from clomp.runtime.supervision.config import SupervisorConfig
@@ -14,10 +15,12 @@ one again, after tasks of it ran and no closer than before, is a loop).
 from __future__ import annotations
 
 import math
+from typing import Any
 
+from clomp.formal.model import TaskKind
 from clomp.runtime.supervision.config import SupervisorConfig
 
-__all__ = ["Progress"]
+__all__ = ["Progress", "backs_off"]
 
 
 class Progress:
@@ -32,9 +35,33 @@ class Progress:
     def __init__(self, config: SupervisorConfig) -> None:
         self.config = config
         self.empty = 0  # plans in a row, each from fresh revolutions at this stop, that found no safe task
+        self.backoffs = 0  # plans that backed off since the last plan that found a task without
         self.best = math.inf  # the closest to the goal (m) a plan started from
         self.stalled = 0  # plans in a row that started no closer than ``best``
         self._recalled: dict[tuple[int, int], tuple[float, int]] = {}  # (map, state) -> distance, tasks done
+
+    def backed_off(self, dist: float) -> str | None:
+        """A plan made ``dist`` m from the goal found no safe task of the paper's three and
+        backs off (``back_off``: it begins with REVERSE) without reaching the goal (one that
+        reaches it is progress, :meth:`planned`): the reason to give up after
+        ``confirm`` such plans with no progress between (no plan that found a task without
+        backing off, none begun closer to the goal by ``min_progress``), else None. So a
+        robot cannot back off and come back for ever (in a cul-de-sac it did until the time
+        limit).
+
+        >>> p = Progress(SupervisorConfig(confirm=2))
+        >>> p.backed_off(1.0), p.backed_off(0.99)
+        (None, 'goal unreachable: no safe task leads closer to the goal (backed off 2 times in a row)')
+        >>> p.backed_off(0.5) is None  # closer: the count begins again
+        True
+        """
+        if dist < self.best - self.config.min_progress:
+            self.backoffs = 0
+        self.best = min(self.best, dist)
+        self.backoffs += 1
+        if self.backoffs < self.config.confirm:
+            return None
+        return f"goal unreachable: no safe task leads closer to the goal (backed off {self.backoffs} times in a row)"
 
     def no_safe_task(self) -> str | None:
         """A plan found no safe task: the reason to give up after ``confirm`` in a row, else
@@ -49,7 +76,7 @@ class Progress:
         """A plan with tasks, made ``dist`` m from the goal (``reached_goal``: it ends there):
         the reason to give up after ``patience`` plans in a row that came no closer, else None.
         Progress is what the robot achieved, not what a plan to the disc's rim promised."""
-        self.empty = 0
+        self.empty = self.backoffs = 0
         if reached_goal or dist < self.best - self.config.min_progress:
             self.stalled = 0
         else:
@@ -90,3 +117,18 @@ class Progress:
             return True
         self._recalled[key] = (dist, done)
         return False
+
+
+def backs_off(result: Any, recovery: bool) -> bool:
+    """True when ``result`` (a plan result) is ``back_off``'s plan, not to the goal: its first
+    task is a REVERSE though the configurator plans without (``recovery`` False), because no
+    task of the paper's three was free. :meth:`Progress.backed_off` counts such plans, fresh
+    or recalled.
+
+    >>> import numpy as np
+    >>> from clomp.planner import Configurator
+    >>> backs_off(Configurator().plan(np.zeros((0, 2)), (1.0, 0.0)), False)
+    False
+    """
+    steps = result.plan.states
+    return not (recovery or result.reached_goal) and len(steps) > 1 and result.map[steps[1]].task is TaskKind.REVERSE

@@ -91,7 +91,7 @@ from clomp.runtime.supervision.execution import GuardViolation, end_error, guard
 from clomp.planner.deepening import plan_deepening
 from clomp.runtime.supervision.moving import Appearance, wait_tick
 from clomp.runtime.supervision.planwatch import PlanWatch
-from clomp.runtime.supervision.progress import Progress
+from clomp.runtime.supervision.progress import Progress, backs_off
 from clomp.runtime.supervision.records import PlanRecord, SupervisorReport, TaskRecord, TimedRecord
 from clomp.runtime.records.runlog import RunLogLike, plan_fields
 from clomp.runtime.interface import Robot, RobotFault, ScanFrame, finite_goal
@@ -420,7 +420,7 @@ class Supervisor:
                 self.appearance.renew(scan, self.pose)
             self.configurator.transient = self.appearance.transient(scan, self.pose)
         try:
-            result = plan_deepening(self.configurator, scan, goal, self.config.deepen)
+            result = plan_deepening(self.configurator, scan, goal, self.config.deepen, self.config.back_off)
         except PlanningError as exc:
             self._fire(E.NO_PLAN, f"goal unreachable: {exc}")
             return
@@ -436,7 +436,10 @@ class Supervisor:
         self.plans.append(rec)
         if self.log is not None:
             self._log("plan", **plan_fields(result, rec.origin))
-        why = self.progress.no_safe_task() if not result.steps else self.progress.planned(result.reached_goal, dist)
+        if backs_off(result, self.configurator.recovery):
+            why = self.progress.backed_off(dist)
+        else:
+            why = self.progress.no_safe_task() if not result.steps else self.progress.planned(result.reached_goal, dist)
         if why is not None:
             self._fire(E.NO_PLAN, why)
             return
@@ -583,6 +586,9 @@ class Supervisor:
             self.watch.recalls[-1] = dataclasses.replace(self.watch.recalls[-1], ok=False, reason="refused: a loop")
             self.watch.recalls_in_a_row -= 1
             return False
+        if backs_off(found.result, self.configurator.recovery) and (why := self.progress.backed_off(dist)) is not None:
+            self._fire(E.NO_PLAN, why)  # a recalled back-off counts as one (a pen: backed off, recalled, for ever)
+            return True
         rec = self._plan = PlanRecord(now - (self._t0 or 0.0), last.origin, found.result, recalled=True)
         self.plans.append(rec)
         states = rec.result.plan.states

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import math
 from typing import Any
 
@@ -10,9 +11,10 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from clomp.formal.model import Pose
+from clomp.formal.model import Pose, TaskKind
 from clomp.planner import Configurator, load_scenario
 from clomp.runtime.interface import ScanFrame
+from clomp.runtime.supervision.progress import Progress
 from clomp.runtime.backends.faults import FaultyRobot
 from clomp.runtime.backends import make_world_robot
 from clomp.runtime.backends.sim import SimRobot
@@ -287,10 +289,13 @@ class _OnceBlind(Configurator):
     def __init__(self, blind: int) -> None:
         super().__init__()
         self.blind = blind
+        self.seen: Any = None  # the last scan made blind: searched again (with REVERSE, ``back_off``), blind again
 
     def plan(self, scan: Any, goal: Any) -> Any:
-        if self.blind > 0:
-            self.blind -= 1
+        if self.blind > 0 or scan is self.seen:
+            if scan is not self.seen:
+                self.blind -= 1
+                self.seen = scan
             a = np.radians(np.arange(0.0, 360.0, 2.0))
             scan = np.c_[0.21 * np.cos(a), 0.21 * np.sin(a)]
         return super().plan(scan, goal)
@@ -366,3 +371,83 @@ def test_with_scan_feedback_the_robot_looks_before_it_moves(feedback: str, start
     expected = start if feedback == "scan" else 1
     assert seen["first_drive"] is not None and seen["first_drive"] >= expected, seen
     assert seen["first_drive"] <= expected + 2, seen  # and then it does move
+
+
+_JAM = {
+    "name": "jam", "description": "a box 3 cm ahead of the front, walls 3 cm beside the body, open behind",
+    "start": [0.0, 0.0, 0.0], "goal": [0.9, 0.0],
+    "obstacles": [
+        {"type": "box", "center": [0.16, 0.0], "size": [0.06, 0.5]},
+        {"type": "wall", "from": [0.03, 0.12], "to": [0.13, 0.12], "thickness": 0.02},
+        {"type": "wall", "from": [0.03, -0.12], "to": [0.13, -0.12], "thickness": 0.02},
+    ],
+}
+
+
+@pytest.mark.parametrize("back_off", [True, False])
+def test_a_robot_with_no_free_task_backs_off_before_it_gives_up(tmp_path, back_off: bool) -> None:
+    """No straight and no turn is free where the robot stands (as after an exploring plan's
+    last task met what stood in the shadow): the plan is searched again with REVERSE, which
+    backs off and goes round (``back_off``); without it the robot stands and gives up."""
+    path = tmp_path / "jam.json"
+    path.write_text(json.dumps(_JAM))
+    scene = load_scenario(path)
+    sup = Supervisor(SimRobot(scene, seed=0), scene.goal_in_robot_frame(),
+                     config=SupervisorConfig(back_off=back_off, feedback="none"))
+    rep = sup.run(max_time=90)
+    if back_off:
+        assert rep.state is S.GOAL_REACHED, rep.reason
+        assert rep.plans[0].result.steps[0].task is TaskKind.REVERSE
+    else:
+        assert rep.state is S.UNREACHABLE and "no safe task" in rep.reason
+
+
+def test_shuttling_between_two_frontiers_ends_unreachable_after_patience_plans() -> None:
+    """Exploring plans that bring the robot no closer (A, B, A, B, … at 1.0 and 1.2 m) are
+    bounded by the supervisor's ``patience``: the verdict comes on the plan after it."""
+    p = Progress(SupervisorConfig(patience=6))
+    verdicts = [p.planned(False, 1.0 if i % 2 == 0 else 1.2) for i in range(20)]
+    first = next(i for i, v in enumerate(verdicts) if v is not None)
+    assert first == 6 and "no closer" in str(verdicts[first])
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.lists(st.floats(0.0, 2.0), min_size=1, max_size=400), st.integers(1, 8))
+def test_plans_that_never_reach_the_goal_end_in_a_bounded_number(dists: list[float], patience: int) -> None:
+    """Whatever the plans' start distances, a run that never reaches the goal gets the
+    verdict within ``patience`` × (⌊d0 / min_progress⌋ + 1) + 1 plans: each plan that counts
+    as progress brings the robot more than ``min_progress`` closer, the rest count towards
+    ``patience``. So exploring cannot go on for ever (the supervisor also stops at ``max_plans``)."""
+    cfg = SupervisorConfig(patience=patience)
+    bound = patience * (math.floor(dists[0] / cfg.min_progress) + 1) + 1
+    p = Progress(cfg)
+    verdict_at = next((i for i, d in enumerate((dists * bound)[:bound]) if p.planned(False, d) is not None), None)
+    assert verdict_at is not None and verdict_at < bound
+
+
+def test_a_robot_that_backs_off_again_and_again_gives_up_after_confirm() -> None:
+    """Plans that back off count towards ``confirm`` until a plan finds a task without
+    backing off or one begins closer to the goal (a recall in between does not reset them: in
+    a cul-de-sac the robot backed off and came back until the time limit)."""
+    p = Progress(SupervisorConfig(confirm=3))
+    assert p.backed_off(1.0) is None and p.backed_off(1.1) is None
+    p.recalled()
+    assert "backed off 3 times" in str(p.backed_off(1.0))
+    p = Progress(SupervisorConfig(confirm=3))
+    p.backed_off(1.0), p.backed_off(1.0), p.planned(False, 1.0)
+    assert p.backed_off(1.0) is None
+    p = Progress(SupervisorConfig(confirm=3))
+    p.backed_off(1.0), p.backed_off(1.0)
+    assert p.backed_off(0.9) is None  # it came closer since: the count begins again
+
+
+def test_in_a_closed_pen_backing_off_ends_unreachable_not_at_the_time_limit() -> None:
+    """The ``blocked`` scenario (a closed pen): with ``back_off`` the robot backs off, and the
+    supervisor recalled that map's continuation and wandered until the time limit (60 s); a
+    recalled back-off counts towards ``confirm`` as a fresh one does, and the search with
+    REVERSE is not deepened, so the run ends UNREACHABLE (at 41 s, 33 s without back_off)."""
+    from clomp.runtime.experiment.runner import run_once
+
+    r = run_once(load_scenario("blocked"), "planning", 0, max_time=60.0)
+    assert r.end_state == "UNREACHABLE" and "no safe task" in r.reason, r.reason
+    assert r.collisions == 0
