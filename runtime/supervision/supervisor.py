@@ -33,11 +33,10 @@ reckoning alone. The goal, the remaining plan and every task's error signal come
   deviations of :meth:`~clomp.runtime.estimation.odometry.ScanOdometry.position_sd`: the
   filter's covariance with what it cannot see of itself) is within ``vouch_radius``
   (0.1 m); otherwise the run ends GOAL_UNCONFIRMED, the distance and the bound in its
-  reason, its report and the log's ``stop`` record (``distance``, ``bound``). Runs ended
-  GOAL_REACHED while truly 0.1-1.35 m off before (harsh, no gyro: 19 %). The bound has a
-  floor after evidence that the robot moved unlike its model — a shock the IMU felt, a
-  revolution that saw past the map's surfaces (:mod:`clomp.runtime.estimation.doubt`) —
-  which only a wide search against the map drawn before it lowers, at the goal.
+  reason, its report and the log's ``stop`` record (``distance``, ``bound``). The bound has a
+  floor after evidence that the robot moved unlike its model (an IMU shock, a revolution
+  seeing past the map: :mod:`clomp.runtime.estimation.doubt`) that only a wide search at
+  the goal, against the map drawn before it, lowers.
 - REPLANNING: after the wheels settled, from ``fuse_scans`` revolutions fused into one
   (median range per bearing), first *recall*: match the situation to a state of the map
   it already has and continue the map's plan from there if the new scan agrees
