@@ -33,7 +33,7 @@ import numpy as np
 from numba import njit, types
 from numba.extending import intrinsic
 
-__all__ = ["ROUNDS_AS_NUMPY", "lane_gap", "near_boxes", "surfaces_and_boxes"]
+__all__ = ["ROUNDS_AS_NUMPY", "boxes_of", "kept_points", "lane_gap", "near_boxes", "surfaces_and_boxes"]
 
 
 def _rounds_as_these_loops() -> bool:
@@ -247,6 +247,63 @@ def _swept(
                 uniq[0] = True
             sr, si, step = sr[uniq], si[uniq], step[uniq]
     return _kernel(sr, si, step, cluster_distance, pad, per_piece, thin)
+
+
+@_compiled
+def kept_points(
+    pts: np.ndarray, range2: float, own2: float, body: tuple[float, float, float], exempting: bool, dedupe: bool
+) -> tuple[np.ndarray, int, int, float]:  # pragma: no cover - compiled
+    """:func:`clomp.planner.perception._kept` and the first half of :func:`surfaces_and_boxes`
+    in one pass over a float N×2 scan: the kept points (2×K: x, y; within ``range2``, the
+    squared horizon, not at the sensor, and with ``exempting`` not strictly inside the
+    ``body`` (rear, front, half width) when nearer than ``own2``; with ``dedupe`` less each
+    one bit-equal to the point before it in the scan), how many were kept before that,
+    how many the body exempted, and the largest squared range (nan with a nan).
+
+    >>> z, kept, exempt, far2 = kept_points(np.array([[0.5, 0.0], [0.05, 0.0], [3.0, 0.0]]), 1.21, 0.0405, (0.18, 0.09, 0.09), True, False)
+    >>> z.tolist(), kept, exempt, far2
+    ([[0.5], [0.0]], 1, 1, 9.0)
+    """
+    n = pts.shape[0]
+    rear, front, half = body
+    keep = np.empty(n, dtype=np.bool_)
+    kept = exempt = 0
+    far2 = -math.inf
+    for i in range(n):
+        x, y = pts[i, 0], pts[i, 1]
+        r2 = x * x + y * y  # as numpy: one product over the array, then the sum
+        far2 = r2 if r2 > far2 or r2 != r2 else far2
+        k = r2 <= range2 and r2 > 1e-6
+        # clomp.planner.footprint.inside(x, |y|, body, strict=True) for the returns within own2
+        if k and exempting and r2 < own2 and x > -rear and x < front and abs(y) < half:
+            k = False
+            exempt += 1
+        keep[i] = k
+        kept += k
+    if dedupe:
+        bits = pts.view(np.int64)
+        for i in range(n - 1, 0, -1):
+            if bits[i, 0] == bits[i - 1, 0] and bits[i, 1] == bits[i - 1, 1]:
+                keep[i] = False
+    m = 0
+    for i in range(n):
+        m += keep[i]
+    z = np.empty((2, m))
+    j = 0
+    for i in range(n):
+        if keep[i]:
+            z[0, j], z[1, j] = pts[i, 0], pts[i, 1]
+            j += 1
+    return z, kept, exempt, far2
+
+
+def boxes_of(
+    zr: np.ndarray, zi: np.ndarray, cluster_distance: float, pad: float, piece: float, thin: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`surfaces_and_boxes` of points already kept (:func:`kept_points`' rows)."""
+    out: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]
+    out = _swept(zr, zi, np.arctan2(zi, zr), float(cluster_distance), float(pad), 1.0 / piece, float(thin))
+    return out
 
 
 def surfaces_and_boxes(

@@ -238,14 +238,19 @@ def perceive(
     >>> round(float((obs.boxes[:, :, 0].max(axis=1) - obs.boxes[:, :, 0].min(axis=1)).max()), 3)  # 4 mm thin
     0.004
     """
+    kernels = _compiled() if pad > 0 else None
+    if kernels is not None:
+        # the compiled loops of _kept, _along_surfaces, _cut and _boxes (the same arithmetic, to the bit)
+        got = _kept_compiled(kernels, points, sensor_range, body)
+        if isinstance(got, Obstacles):
+            return got
+        z, exempt = got
+        pts, bounds, boxes, centres, radii = kernels.boxes_of(z[0], z[1], cluster_distance, pad, _PIECE, _THIN)
+        return _built(boxes, centres, radii, pts, bounds, exempt)
     kept = _kept(points, sensor_range, body)
     if isinstance(kept, Obstacles):
         return kept
     pts, keep, exempt = kept
-    compiled = _compiled() if pad > 0 else None
-    if compiled is not None:  # the compiled loops of _along_surfaces, _cut and _boxes (the same arithmetic, to the bit)
-        pts, bounds, boxes, centres, radii = compiled(pts, keep, len(pts) > _DEDUPE_FROM, cluster_distance, pad, _PIECE, _THIN)
-        return _built(boxes, centres, radii, pts, bounds, exempt)
     z, step = _along_surfaces(pts, keep)
     z, cut = _cut(z, step, cluster_distance)
     return _boxes(z, cut, pad, exempt)
@@ -261,15 +266,47 @@ def _near_boxes() -> Any:
 
 @functools.cache
 def _compiled() -> Any:
-    """:func:`clomp.planner._kernels.surfaces_and_boxes`, imported at the first scan that needs
-    it: numba's import (about half a second) is paid by a process that perceives, not by
-    every import of the planner. Its first call in a process loads the cached machine code
-    (about a second on a busy 2-core machine: numba's start-up, once per process). None
-    where numpy rounds otherwise than the compiled loops (``_kernels.ROUNDS_AS_NUMPY``):
-    the numpy statements then run."""
+    """:mod:`clomp.planner._kernels` (``kept_points`` and ``boxes_of``), imported at the first
+    scan that needs it: numba's import (about half a second) is paid by a process that
+    perceives, not by every import of the planner. Its first call in a process loads the
+    cached machine code (about a second on a busy 2-core machine: numba's start-up, once
+    per process). None where numpy rounds otherwise than the compiled loops
+    (``_kernels.ROUNDS_AS_NUMPY``): the numpy statements then run."""
     from clomp.planner import _kernels
 
-    return _kernels.surfaces_and_boxes if _kernels.ROUNDS_AS_NUMPY else None
+    return _kernels if _kernels.ROUNDS_AS_NUMPY else None
+
+
+def _kept_compiled(
+    kernels: Any, points: np.ndarray, sensor_range: float, body: tuple[float, float, float] | None
+) -> tuple[np.ndarray, int] | Obstacles:
+    """:func:`_kept` and the selection of the kept points in one compiled pass
+    (``_kernels.kept_points``): the kept points (2×K, repeats dropped from a long scan) and
+    how many the body exempted; when none is kept, the (empty) obstacles instead. The same
+    checks and warnings as :func:`_kept`."""
+    if type(points) is np.ndarray and points.ndim == 2 and points.shape[1] == 2 and points.dtype == np.float64:
+        pts, checked = points, False
+        if len(pts) > MAX_SCAN_POINTS:
+            pts, checked = validate_scan(points), True
+    else:
+        pts, checked = validate_scan(points), True
+    if not len(pts):
+        return _NONE
+    rear, front, half = body if body is not None else (0.0, 0.0, 0.0)
+    z, kept, exempt, far2 = kernels.kept_points(
+        np.ascontiguousarray(pts), sensor_range * sensor_range, rear * rear + half * half,
+        (float(rear), float(front), float(half)), body is not None, len(pts) > _DEDUPE_FROM,
+    )
+    if kept < len(pts):
+        if not checked:
+            validate_scan(pts)  # a ScanError naming the first point that is not finite
+        if far2 > _UNITS_R2:  # returns beyond 20 m: perhaps not metres (the horizon's crop is silent)
+            warning = range_warning(pts, sensor_range)
+            if warning:
+                warnings.warn(ScanWarning(warning), stacklevel=3)  # at perceive's caller
+        if not kept:
+            return _NONE if not exempt else Obstacles(_NONE.boxes, _NONE.centres, _NONE.radii, exempt=exempt)
+    return z, exempt
 
 
 def _kept(

@@ -142,8 +142,8 @@ def test_where_numpy_rounds_otherwise_the_numpy_statements_run(monkeypatch):
     def not_called(*args: object) -> None:
         raise AssertionError("a compiled loop ran where numpy rounds otherwise")
 
-    monkeypatch.setattr(_kernels, "surfaces_and_boxes", not_called)
-    monkeypatch.setattr(_kernels, "lane_gap", not_called)
+    for name in ("surfaces_and_boxes", "kept_points", "boxes_of", "lane_gap"):
+        monkeypatch.setattr(_kernels, name, not_called)
     for cached in (perception._compiled, contact._lane_gap):
         cached.cache_clear()
     try:
