@@ -30,7 +30,7 @@ import numpy as np
 
 from clomp.planner._kernels import _compiled
 
-__all__ = ["BEAM_GAP", "SURFACE", "ROWS", "crop", "table", "straight_clear"]
+__all__ = ["BEAM_GAP", "SURFACE", "ROWS", "TRIG_AS_NUMPY", "crop", "table", "straight_clear", "turn_clear"]
 
 #: as :data:`clomp.planner.visibility.BEAM_GAP` and ``SURFACE`` (repeated: visibility imports this module)
 BEAM_GAP = math.radians(2.0)
@@ -336,3 +336,142 @@ def _nanmax(a: float, b: float) -> float:  # pragma: no cover
     if a != a or b != b:
         return math.nan
     return a if a >= b else b
+
+
+@_compiled
+def _near_min(f: np.ndarray, near2: np.ndarray, horizon: float, lo: float, hi: float) -> float:  # pragma: no cover
+    # the range within which the sectors over bearings [lo, hi] are wholly known (KnownFree._quick's bound)
+    m = f.shape[1]
+    if not m:
+        return horizon
+    if hi - lo >= 2 * math.pi - 1e-9:
+        return float(near2[:m].min())
+    if lo < -math.pi:
+        lo, hi = lo + 2 * math.pi, hi + 2 * math.pi
+    b = f[ROW_B]
+    i0 = np.searchsorted(b, lo, side="left") - 1
+    i1 = np.searchsorted(b, hi if hi <= math.pi else hi - 2 * math.pi, side="left")
+    if hi > math.pi:
+        i1 += m
+    if i0 < 0:
+        i0 += m
+        i1 += m
+    return float(near2[i0 : i1 + 1].min())
+
+
+@_compiled
+def _free_at(f: np.ndarray, flags: np.ndarray, horizon: float, body: tuple[float, float, float], x: float, y: float) -> int:  # pragma: no cover
+    # KnownFree._free for one point (nothing_beyond): 1, 0, or -1 where its bearing lies
+    # within 1e-12 rad of a return's (numpy's arctan2 there, the C library's here)
+    if _inside(x, abs(y), body[0], body[1], body[2]):
+        return 1
+    if not x * x + y * y <= horizon * horizon:
+        return 0
+    m = f.shape[1]
+    if not m:
+        return 1
+    b = f[ROW_B]
+    a = math.atan2(y, x)
+    k = np.searchsorted(b, a, side="right") - 1
+    if (k >= 0 and a - b[k] <= 1e-12) or (k + 1 < m and b[k + 1] - a <= 1e-12):
+        return -1
+    if k < 0:
+        k += m
+    if flags[0, k]:
+        return 1 if f[ROW_NX, k] * x + f[ROW_NY, k] * y <= f[ROW_C, k] + _TOL else 0
+    if flags[1, k]:
+        return 1 if x * x + y * y <= f[ROW_REACH, k] * f[ROW_REACH, k] else 0
+    return 1
+
+
+@_compiled
+def turn_clear(
+    f: np.ndarray, flags: np.ndarray, near2: np.ndarray, s: np.ndarray, horizon: float,
+    body: tuple[float, float, float], x: float, y: float, theta: float, angle: float, d: float, rad: float,
+    rc: np.ndarray, phi: np.ndarray, arc_step: float,
+) -> int:  # pragma: no cover
+    """``KnownFree.turn_clear`` (``nothing_beyond``) of a turn by ``angle`` at (``x``, ``y``,
+    ``theta``), ``d`` = ``math.hypot(x, y)`` (CPython's, as the method's), ``rad`` the body's
+    radius, ``rc`` and ``phi`` its corners' distances and angles from the rotation centre:
+    1 (it lies in known-free space) or 0; -1 where an outline point's bearing lies within
+    1e-12 rad of a return's (the caller asks the method)."""
+    if d > rad:
+        half = math.asin(rad / d)
+        bc = math.atan2(y, x)
+        lo, hi = bc - half, bc + half
+    else:
+        lo, hi = -math.pi, math.pi
+    far = d + rad
+    if far <= _near_min(f, near2, horizon, lo, hi):
+        return 1
+    n = max(1, int(math.ceil(abs(angle) / arc_step)))
+    step = angle / n
+    grow = 1.0 / math.cos(step / 2)
+    # per corner its arc's circumscribed polyline (start, n midpoints grown, end), as polar_to_xy
+    px, py = np.empty((4, n + 2)), np.empty((4, n + 2))
+    undecided = False
+    for c in range(4):
+        base = theta + phi[c]
+        for j in range(n + 2):
+            off = 0.0 if j == 0 else (angle if j == n + 1 else step * ((j - 1) + 0.5))
+            rr = rc[c] * (1.0 if j == 0 or j == n + 1 else grow)
+            a = base + off
+            px[c, j] = x + rr * math.cos(a)
+            py[c, j] = y + rr * math.sin(a)
+            inner = _free_at(f, flags, horizon, body, px[c, j], py[c, j])
+            if inner == 0:
+                return 0
+            undecided = undecided or inner < 0
+    if undecided:
+        return -1
+    ns = s.shape[1] // 2
+    if hi - lo >= 2 * math.pi - 1e-9:
+        i0, i1 = 0, ns
+    else:
+        if lo < -math.pi:
+            lo, hi = lo + 2 * math.pi, hi + 2 * math.pi
+        i0 = int(np.searchsorted(s[0], lo, side="left"))
+        i1 = int(np.searchsorted(s[0], hi, side="left"))
+    for k in range(i0, i1):
+        lim = s[1, k]
+        if not lim < far:
+            continue
+        ux, uy = s[2, k], s[3, k]
+        # the segments: each arc's, then the body's outline at the start and at the end
+        for q in range(4 * (n + 1) + 8):
+            if q < 4 * (n + 1):
+                c, j = q // (n + 1), q % (n + 1)
+                ax, ay, bx, by = px[c, j], py[c, j], px[c, j + 1], py[c, j + 1]
+            else:
+                c = (q - 4 * (n + 1)) % 4
+                j = 0 if q < 4 * (n + 1) + 4 else n + 1
+                e = (c + 1) % 4
+                ax, ay, bx, by = px[c, j], py[c, j], px[e, j], py[e, j]
+            ex, ey = bx - ax, by - ay
+            den = ux * ey - uy * ex
+            rho = _div(ax * ey - ay * ex, den)  # where the segment's line meets the ray
+            t = _div(ax * uy - ay * ux, den)  # and where along the segment
+            if t >= 0 and t <= 1 and rho > lim:
+                return 0
+    return 1
+
+
+@_compiled
+def _trig(a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:  # pragma: no cover
+    c, s = np.empty_like(a), np.empty_like(a)
+    for i in range(a.shape[0]):
+        c[i], s[i] = math.cos(a[i]), math.sin(a[i])
+    return c, s
+
+
+def _trig_as_numpy() -> bool:
+    """True when numpy's cos and sin (``polar_to_xy``'s) give the C library's figures here,
+    as :func:`turn_clear`'s do, on a spread of angles (a SIMD loop that rounds otherwise
+    differs on some percent of them): else the method's numpy statements run."""
+    a = np.concatenate((np.linspace(-4 * math.pi, 4 * math.pi, 4099), np.random.default_rng(0).uniform(-7.0, 7.0, 4096)))
+    c, s = _trig(a)
+    return bool((c == np.cos(a)).all() and (s == np.sin(a)).all())
+
+
+#: whether :func:`turn_clear`'s cos and sin are numpy's on this host (see :func:`_trig_as_numpy`)
+TRIG_AS_NUMPY = _trig_as_numpy()

@@ -373,6 +373,20 @@ class KnownFree:
         rad = robot.body_radius
         x, y = start.x, start.y
         d = math.hypot(x, y)
+        table = self._table
+        if table is not None and _free().TRIG_AS_NUMPY:
+            # the compiled test (the same answer; -1 where an outline point's bearing lies
+            # within 1e-12 rad of a return's, where numpy's arctan2 and C's might part)
+            rc, phi = _corners_polar(robot)
+            got = _free().turn_clear(*table, self.horizon, self.body, x, y, start.theta, angle, d, rad, rc, phi, _ARC_STEP)
+            if got >= 0:
+                return bool(got == 1)
+        return self._turn_clear(start, angle, robot, d)
+
+    def _turn_clear(self, start: Pose, angle: float, robot: RobotModel, d: float) -> bool:
+        """:meth:`turn_clear` as Python and numpy statements (``d``: the start's distance from the sensor)."""
+        rad = robot.body_radius
+        x, y = start.x, start.y
         if d > rad:
             half = math.asin(rad / d)
             bc = math.atan2(y, x)

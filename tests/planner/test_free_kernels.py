@@ -1,6 +1,6 @@
 """The known-free space's compiled loops (:mod:`clomp.planner._free_kernels`) against
 :class:`clomp.planner.visibility.KnownFree`'s numpy and Python statements: the same table,
-bit for bit, and the same answer to every straight asked; and perception's compiled pass
+bit for bit, and the same answer to every straight and turn asked; and perception's compiled pass
 (:func:`clomp.planner._kernels.kept_points`) against its numpy statements."""
 
 from __future__ import annotations
@@ -56,6 +56,13 @@ def _assert_same_straights(free: KnownFree, poses: list[tuple[float, float, floa
         assert got == ref, (x, y, theta, distance, start_known)
 
 
+def _assert_same_turns(free: KnownFree, turns: list[tuple[float, float, float, float]]) -> None:
+    for x, y, theta, angle in turns:
+        start = Pose(x, y, theta)
+        got, ref = free.turn_clear(start, angle, ROBOT), free._turn_clear(start, angle, ROBOT, math.hypot(x, y))
+        assert got == ref, (x, y, theta, angle)
+
+
 # scenes: posts and wall pieces at random, rounded to the centimetre as recorded scans are
 _piece = st.tuples(st.floats(-3.2, 3.2), st.floats(0.0, 1.5), st.floats(0.05, 1.3), st.integers(1, 60), st.booleans())
 _pose = st.tuples(st.floats(-0.9, 0.9), st.floats(-0.9, 0.9), st.floats(-3.2, 3.2), st.sampled_from([0.0, 0.05, 0.27, 0.8]), st.booleans())
@@ -70,17 +77,24 @@ def _scene(pieces: list[tuple[float, float, float, int, bool]]) -> np.ndarray:
     return np.concatenate(parts)
 
 
+_turn = st.tuples(
+    st.floats(-0.9, 0.9), st.floats(-0.9, 0.9), st.floats(-3.2, 3.2),
+    st.sampled_from([1.0, -1.0]).flatmap(lambda sign: st.sampled_from([0.39, 0.79, 1.18, 1.57, 3.14]).map(lambda a: sign * a)),
+)
+
+
 @settings(max_examples=150, deadline=None)
-@given(st.lists(_piece, min_size=0, max_size=6), st.lists(_pose, min_size=1, max_size=12))
-def test_the_compiled_table_and_straight_test_are_the_numpy_ones(pieces, poses):
+@given(st.lists(_piece, min_size=0, max_size=6), st.lists(_pose, min_size=1, max_size=12), st.lists(_turn, min_size=1, max_size=8))
+def test_the_compiled_table_and_tests_are_the_numpy_ones(pieces, poses, turns):
     with pytest.MonkeyPatch.context() as monkeypatch:
         points = _scene(pieces) if pieces else np.zeros((0, 2))
         free = _assert_same_table(points, monkeypatch)
         _assert_same_straights(free, [(0.0, 0.0, 0.0, 1.0, True), *poses])
+        _assert_same_turns(free, [(0.0, 0.0, 0.0, 1.57), (0.27, 0.0, 0.0, -0.79), *turns])
 
 
 @pytest.mark.skipif(not SCANS.is_dir(), reason="the shared recorded scans are not here")
-def test_the_compiled_table_and_straight_test_match_on_the_shared_scans(monkeypatch):
+def test_the_compiled_table_and_tests_match_on_the_shared_scans(monkeypatch):
     rng = np.random.default_rng(5)
     files = sorted(SCANS.glob("*/*.dat"))[::9]
     assert files
@@ -93,6 +107,8 @@ def test_the_compiled_table_and_straight_test_match_on_the_shared_scans(monkeypa
             free = _assert_same_table(points, monkeypatch)
             poses = [(*rng.uniform(-0.8, 0.8, 2), rng.uniform(-math.pi, math.pi), rng.choice([0.0, 0.27, 0.6]), bool(rng.integers(2))) for _ in range(40)]
             _assert_same_straights(free, [(0.0, 0.0, 0.0, 1.0, True), *poses])
+            turns = [(*rng.uniform(-0.8, 0.8, 2), rng.uniform(-math.pi, math.pi), rng.choice([-1, 1]) * rng.uniform(0.02, math.pi)) for _ in range(30)]
+            _assert_same_turns(free, turns)
 
 
 def test_a_body_given_in_whole_numbers_keeps_the_numpy_table():
