@@ -1,24 +1,27 @@
-"""The compiled loops of :mod:`clomp.planner.visibility` (numba): the known-free table and a straight's test.
+"""The compiled loops of :mod:`clomp.planner.visibility` (numba): the known-free table and its tests.
 
-:class:`clomp.planner.visibility.KnownFree` states its rules with numpy: the returns
-within the horizon by bearing, per gap between adjacent returns whether a surface, a
-jump in depth or open, each chord's line, how far each return's own ray is known and a
-range within which the sectors beside it are wholly known. On a scan of a few hundred
-points that is some sixty small array calls (60 µs, most of a plan where nothing is
-ahead); :func:`table` computes the same figures in two loops (12 µs less than… see
-``bench/planning.py``), with the same floating-point operations in the same order: the
-ranges are ``hypot`` (numpy's is the C library's, as numba's), the bearings numpy's own
-``arctan2`` (its SIMD loop), computed between two compiled calls.
+:class:`clomp.planner.visibility.KnownFree` states its rules with numpy and Python: the
+returns within the horizon by bearing, per gap between adjacent returns whether a
+surface, a jump in depth or open, each chord's line, how far each return's own ray is
+known and a range within which the sectors beside it are wholly known; then whether a
+point, a straight's swept rectangle or a turn's swept outline lies in known-free space.
+On a scan of a few hundred points the table was some sixty small array calls (40–60 µs,
+most of a plan where nothing is ahead) and a turn's test some forty (90 µs, a third of a
+50-state plan). :func:`table` computes the same figures in a few loops with the same
+floating-point operations in the same order: the ranges are ``hypot`` (numpy's is the C
+library's, as numba's), the bearings numpy's own ``arctan2`` (its SIMD loop), computed
+before the compiled call.
 
-:func:`straight_clear` is :meth:`~clomp.planner.visibility.KnownFree.straight_clear`'s
-test after the swept rectangle's bearings are known: the quick acceptance, the corners
-and the rays that could enter the rectangle, in scalar arithmetic (the Python method's
-own: ``math`` is the C library, as numba's). ``tests/planner/test_free_kernels.py``
-holds both to the numpy and Python statements, bit for bit and answer for answer.
+:func:`contains`, :func:`straight_clear` and :func:`turn_clear` answer as the methods do,
+in their scalar arithmetic (``math`` is the C library, as numba's; numpy's cos and sin
+are too where :data:`TRIG_AS_NUMPY`). Where the methods use a function the C library
+computes otherwise — CPython's own ``math.hypot``, numpy's ``arctan2`` — and the figure
+lies within 1e-14 (relative) or 1e-12 rad of what it is compared with, the loops answer
+-1 and the method's statements decide. ``tests/planner/test_free_kernels.py`` holds the
+table to the numpy statements bit for bit and the tests to the methods answer for answer.
 
->>> x, y = np.array([0.5, 0.5, 0.5]), np.array([-0.01, 0.0, 0.01])
->>> xs, ys, r = crop(x, y, 1.1)
->>> f, flags, near2, shadow = table(xs, ys, r, np.arctan2(ys, xs), 1.1, BEAM_GAP, SURFACE, _TOL)
+>>> x, y = np.array([0.5, 0.5, 0.5, 3.0]), np.array([-0.01, 0.0, 0.01, 0.0])
+>>> f, flags, shadow = table(x, y, np.arctan2(y, x), 1.1, BEAM_GAP, SURFACE, _TOL)
 >>> flags[0].tolist(), [round(v, 3) for v in f[ROW_LIM].tolist()]   # two chords of one surface, then the open rest
 ([True, True, False], [0.501, 0.501, 0.501])
 """
@@ -26,11 +29,12 @@ holds both to the numpy and Python statements, bit for bit and answer for answer
 from __future__ import annotations
 
 import math
+
 import numpy as np
 
 from clomp.planner._kernels import _compiled
 
-__all__ = ["BEAM_GAP", "SURFACE", "ROWS", "TRIG_AS_NUMPY", "crop", "table", "straight_clear", "turn_clear"]
+__all__ = ["BEAM_GAP", "SURFACE", "ROWS", "TRIG_AS_NUMPY", "contains", "table", "straight_clear", "turn_clear"]
 
 #: as :data:`clomp.planner.visibility.BEAM_GAP` and ``SURFACE`` (repeated: visibility imports this module)
 BEAM_GAP = math.radians(2.0)
@@ -40,27 +44,6 @@ _TOL = 0.001
 ROWS = ("b", "r", "reach", "nx", "ny", "c", "lim", "near")
 ROW_B, ROW_R, ROW_REACH, ROW_NX, ROW_NY, ROW_C, ROW_LIM, ROW_NEAR = range(8)
 _TWO_PI = 2 * math.pi
-
-
-@_compiled
-def crop(x: np.ndarray, y: np.ndarray, horizon: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:  # pragma: no cover
-    """The returns within ``horizon`` (and not at the sensor): x, y and range (``hypot``)."""
-    n = x.shape[0]
-    r = np.empty(n)
-    m = 0
-    for i in range(n):
-        r[i] = np.hypot(x[i], y[i])
-        if r[i] > 1e-6 and r[i] <= horizon:
-            m += 1
-    if m == n:
-        return x.copy(), y.copy(), r
-    xs, ys, rs = np.empty(m), np.empty(m), np.empty(m)
-    j = 0
-    for i in range(n):
-        if r[i] > 1e-6 and r[i] <= horizon:
-            xs[j], ys[j], rs[j] = x[i], y[i], r[i]
-            j += 1
-    return xs, ys, rs
 
 
 @_compiled
@@ -88,22 +71,46 @@ def _order(b: np.ndarray) -> np.ndarray:  # pragma: no cover
 
 
 @_compiled
-def table(
-    x0: np.ndarray, y0: np.ndarray, r0: np.ndarray, b0: np.ndarray, horizon: float, beam_gap: float, surface: float,
-    tol: float,
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:  # pragma: no cover
-    """``KnownFree``'s figures (``nothing_beyond``) of the cropped returns ``x0, y0`` at
-    ranges ``r0`` and bearings ``b0``: the rows :data:`ROWS` (8×m), the flags (2×m:
-    surface, jump), the near ranges doubled round the circle (2m) and the shadow returns
-    doubled (4×2s: bearing, known range, cosine, sine)."""
-    idx = _order(b0)
-    m = idx.shape[0]
-    f = np.empty((8, m))
-    flags = np.zeros((2, m), dtype=np.bool_)
-    x, y = x0[idx], y0[idx]
-    b, r = f[ROW_B], f[ROW_R]
+def _by_bearing(xa: np.ndarray, ya: np.ndarray, ba: np.ndarray, horizon: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:  # pragma: no cover
+    # the returns within the horizon by bearing: the table (10×m) with its rows b and r
+    # filled, and their x and y
+    n = xa.shape[0]
+    ra = np.empty(n)
+    m = 0
+    for i in range(n):
+        ra[i] = np.hypot(xa[i], ya[i])
+        m += ra[i] > 1e-6 and ra[i] <= horizon
+    kept = np.empty(m, dtype=np.int64)
+    j = 0
+    for i in range(n):
+        if ra[i] > 1e-6 and ra[i] <= horizon:
+            kept[j] = i
+            j += 1
+    b0 = np.empty(m)
     for i in range(m):
-        b[i], r[i] = b0[idx[i]], r0[idx[i]]
+        b0[i] = ba[kept[i]]
+    order = _order(b0)
+    f = np.empty((10, m))
+    x, y = np.empty(m), np.empty(m)
+    for i in range(m):
+        k = kept[order[i]]
+        f[ROW_B, i], f[ROW_R, i], x[i], y[i] = ba[k], ra[k], xa[k], ya[k]
+    return f, x, y
+
+
+@_compiled
+def table(
+    xa: np.ndarray, ya: np.ndarray, ba: np.ndarray, horizon: float, beam_gap: float, surface: float, tol: float,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:  # pragma: no cover
+    """``KnownFree``'s figures (``nothing_beyond``) of the returns ``xa, ya`` at bearings
+    ``ba`` (numpy's ``arctan2``), those within ``horizon`` (and not at the sensor) kept:
+    the rows :data:`ROWS` and the near ranges again twice (10×m: rows 8 and 9 are the near
+    ranges doubled round the circle), the flags (2×m: surface, jump) and the shadow
+    returns doubled (4×2s: bearing, known range, cosine, sine)."""
+    f, x, y = _by_bearing(xa, ya, ba, horizon)
+    m = x.shape[0]
+    flags = np.zeros((2, m), dtype=np.bool_)
+    b, r = f[ROW_B], f[ROW_R]
     dxs, dys, chords = np.empty(m), np.empty(m), np.empty(m)
     flipped = False
     for i in range(m):
@@ -138,14 +145,13 @@ def table(
             sector[i] = f[ROW_C, i] if tau > 0 and tau < 1 else min(r[i], r[j])
         else:
             sector[i] = f[ROW_REACH, i] if flags[1, i] else horizon
-    near2 = np.empty(2 * m)
     shadows = 0
     for i in range(m):
         p = i - 1 if i else m - 1
         lim = min(side[i], side[p])
         f[ROW_LIM, i] = lim
         near = min(min(lim, horizon), min(sector[i], sector[p]))
-        f[ROW_NEAR, i] = near2[i] = near2[i + m] = near
+        f[ROW_NEAR, i] = f[8, i] = f[9, i] = near
         shadows += lim < horizon
     s = np.empty((4, 2 * shadows))
     k = 0
@@ -156,7 +162,17 @@ def table(
             s[2, k] = s[2, k + shadows] = x[i] / r[i]
             s[3, k] = s[3, k + shadows] = y[i] / r[i]
             k += 1
-    return f, flags, near2, s
+    return f, flags, s
+
+
+@_compiled
+def _min_near(f: np.ndarray, i0: int, i1: int) -> float:  # pragma: no cover
+    # the least near range of returns i0 … i1 round the circle (KnownFree._near2[i0 : i1 + 1].min())
+    m = f.shape[1]
+    out = math.inf
+    for i in range(i0, i1 + 1):
+        out = min(out, f[ROW_NEAR, i % m])
+    return out
 
 
 @_compiled
@@ -176,10 +192,11 @@ def _le(a: float, b: float) -> int:  # pragma: no cover
 
 
 @_compiled
-def _contains(
+def contains(
     f: np.ndarray, flags: np.ndarray, horizon: float, home2: float, body: tuple[float, float, float], x: float, y: float
 ) -> int:  # pragma: no cover
-    # KnownFree.contains (nothing_beyond): 1, 0 or -1 (undecided, see _le)
+    """``KnownFree.contains`` (``nothing_beyond``) of the point (``x``, ``y``): 1, 0 or -1
+    (undecided: its range lies within 1e-14 of the bound it is compared with)."""
     if x * x + y * y <= home2 and _inside(x, abs(y), body[0], body[1], body[2]):
         return 1
     if x * x + y * y > horizon * horizon:
@@ -208,13 +225,13 @@ def _wrap(a: float) -> float:  # pragma: no cover
 
 
 @_compiled
-def _quick(f: np.ndarray, near2: np.ndarray, horizon: float, lo: float, hi: float, far: float) -> int:  # pragma: no cover
+def _quick(f: np.ndarray, horizon: float, lo: float, hi: float, far: float) -> int:  # pragma: no cover
     # KnownFree._quick (nothing_beyond): 1, 0 or -1 (undecided, see _le)
     m = f.shape[1]
     if not m:
         return int(_le(far, horizon))
     if hi - lo >= 2 * math.pi - 1e-9:
-        return int(_le(far, near2[:m].min()))
+        return int(_le(far, f[ROW_NEAR].min()))
     if lo < -math.pi:
         lo, hi = lo + 2 * math.pi, hi + 2 * math.pi
     b = f[ROW_B]
@@ -225,12 +242,12 @@ def _quick(f: np.ndarray, near2: np.ndarray, horizon: float, lo: float, hi: floa
     if i0 < 0:
         i0 += m
         i1 += m
-    return int(_le(far, near2[i0 : i1 + 1].min()))
+    return int(_le(far, _min_near(f, i0, i1)))
 
 
 @_compiled
 def straight_clear(
-    f: np.ndarray, flags: np.ndarray, near2: np.ndarray, s: np.ndarray, horizon: float, home2: float,
+    f: np.ndarray, flags: np.ndarray, s: np.ndarray, horizon: float, home2: float,
     body: tuple[float, float, float], sx: float, sy: float, theta: float, rear: float, front: float, half: float,
 ) -> int:  # pragma: no cover
     """``KnownFree.straight_clear`` (``nothing_beyond``) of the rectangle from ``-rear`` to
@@ -257,12 +274,12 @@ def straight_clear(
             rel = _wrap(math.atan2(ys[i], xs[i]) - b0)
             rlo, rhi = min(rlo, rel), max(rhi, rel)
         lo, hi = b0 + rlo, b0 + rhi
-    quick = _quick(f, near2, horizon, lo, hi, far)
+    quick = _quick(f, horizon, lo, hi, far)
     if quick:
         return int(quick)
     undecided = False
     for i in range(4):
-        inner = _contains(f, flags, horizon, home2, body, xs[i], ys[i])
+        inner = contains(f, flags, horizon, home2, body, xs[i], ys[i])
         if inner == 0:
             return 0
         undecided = undecided or inner < 0
@@ -339,13 +356,13 @@ def _nanmax(a: float, b: float) -> float:  # pragma: no cover
 
 
 @_compiled
-def _near_min(f: np.ndarray, near2: np.ndarray, horizon: float, lo: float, hi: float) -> float:  # pragma: no cover
+def _near_min(f: np.ndarray, horizon: float, lo: float, hi: float) -> float:  # pragma: no cover
     # the range within which the sectors over bearings [lo, hi] are wholly known (KnownFree._quick's bound)
     m = f.shape[1]
     if not m:
         return horizon
     if hi - lo >= 2 * math.pi - 1e-9:
-        return float(near2[:m].min())
+        return float(f[ROW_NEAR].min())
     if lo < -math.pi:
         lo, hi = lo + 2 * math.pi, hi + 2 * math.pi
     b = f[ROW_B]
@@ -356,7 +373,7 @@ def _near_min(f: np.ndarray, near2: np.ndarray, horizon: float, lo: float, hi: f
     if i0 < 0:
         i0 += m
         i1 += m
-    return float(near2[i0 : i1 + 1].min())
+    return float(_min_near(f, i0, i1))
 
 
 @_compiled
@@ -386,7 +403,7 @@ def _free_at(f: np.ndarray, flags: np.ndarray, horizon: float, body: tuple[float
 
 @_compiled
 def turn_clear(
-    f: np.ndarray, flags: np.ndarray, near2: np.ndarray, s: np.ndarray, horizon: float,
+    f: np.ndarray, flags: np.ndarray, s: np.ndarray, horizon: float,
     body: tuple[float, float, float], x: float, y: float, theta: float, angle: float, d: float, rad: float,
     rc: np.ndarray, phi: np.ndarray, arc_step: float,
 ) -> int:  # pragma: no cover
@@ -402,7 +419,7 @@ def turn_clear(
     else:
         lo, hi = -math.pi, math.pi
     far = d + rad
-    if far <= _near_min(f, near2, horizon, lo, hi):
+    if far <= _near_min(f, horizon, lo, hi):
         return 1
     n = max(1, int(math.ceil(abs(angle) / arc_step)))
     step = angle / n

@@ -225,14 +225,52 @@ def _select(zf: np.ndarray, bits: np.ndarray, keep: np.ndarray, dedupe: bool) ->
 
 
 @_compiled
+def _stable_order(bearing: np.ndarray) -> np.ndarray:  # pragma: no cover
+    # np.argsort(bearing, kind="stable"), the one order by (bearing, index): a scan's
+    # bearings rise (or fall: the A1 sweeps clockwise) from where the sensor's revolution
+    # began, up to the jitter of rounded points, so from that order turned at its deepest
+    # drop an insertion sort on (bearing, index) moves few points; past a budget of
+    # moves, numba's merge sort
+    n = bearing.shape[0]
+    falls = 0
+    for k in range(n - 1):
+        falls += bearing[k + 1] < bearing[k]
+    order = np.empty(n, dtype=np.int64)
+    for k in range(n):
+        order[k] = n - 1 - k if 2 * falls > n else k
+    first, deepest = 0, 0.0
+    for k in range(n - 1):
+        drop = bearing[order[k + 1]] - bearing[order[k]]
+        if drop < deepest:
+            first, deepest = k + 1, drop
+    if first:
+        order = np.concatenate((order[first:], order[:first]))
+    budget = 8 * n
+    for i in range(1, n):
+        o = order[i]
+        v = bearing[o]
+        j = i - 1
+        while j >= 0 and (bearing[order[j]] > v or (bearing[order[j]] == v and order[j] > o)):
+            order[j + 1] = order[j]
+            j -= 1
+            budget -= 1
+        order[j + 1] = o
+        if budget < 0:
+            return np.argsort(bearing, kind="mergesort")
+    return order
+
+
+@_compiled
 def _swept(
     zr: np.ndarray, zi: np.ndarray, bearing: np.ndarray, cluster_distance: float, pad: float, per_piece: float, thin: float
 ) -> Any:  # pragma: no cover - compiled: the five arrays of surfaces_and_boxes
     # perception._along_surfaces's second half (in bearing order, each point's step from
     # the one before, repeats dropped), then the pieces and boxes
-    order = np.argsort(bearing, kind="mergesort")  # stable, as numpy's
+    order = _stable_order(bearing)
     n = order.shape[0]
-    sr, si = zr[order], zi[order]
+    sr, si = np.empty(n), np.empty(n)
+    for k in range(n):
+        sr[k], si[k] = zr[order[k]], zi[order[k]]
     step = np.empty(n)
     step[0] = np.hypot(sr[0] - sr[n - 1], si[0] - si[n - 1])
     for k in range(1, n):
@@ -245,7 +283,14 @@ def _swept(
         if distinct < n:
             if not distinct:
                 uniq[0] = True
-            sr, si, step = sr[uniq], si[uniq], step[uniq]
+                distinct = 1
+            tr, ti, ts = np.empty(distinct), np.empty(distinct), np.empty(distinct)
+            j = 0
+            for k in range(n):
+                if uniq[k]:
+                    tr[j], ti[j], ts[j] = sr[k], si[k], step[k]
+                    j += 1
+            sr, si, step = tr, ti, ts
     return _kernel(sr, si, step, cluster_distance, pad, per_piece, thin)
 
 
@@ -258,7 +303,8 @@ def kept_points(
     squared horizon, not at the sensor, and with ``exempting`` not strictly inside the
     ``body`` (rear, front, half width) when nearer than ``own2``; with ``dedupe`` less each
     one bit-equal to the point before it in the scan), how many were kept before that,
-    how many the body exempted, and the largest squared range (nan with a nan).
+    how many the body exempted, and the largest squared range (nan with a nan; inf
+    with an inf, or a coordinate whose square overflows: a scan with neither is finite).
 
     >>> z, kept, exempt, far2 = kept_points(np.array([[0.5, 0.0], [0.05, 0.0], [3.0, 0.0]]), 1.21, 0.0405, (0.18, 0.09, 0.09), True, False)
     >>> z.tolist(), kept, exempt, far2

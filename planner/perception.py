@@ -298,7 +298,7 @@ def _kept_compiled(
         (float(rear), float(front), float(half)), body is not None, len(pts) > _DEDUPE_FROM,
     )
     if kept < len(pts):
-        if not checked:
+        if not checked and not far2 < math.inf:  # (a finite far2: every coordinate is finite)
             validate_scan(pts)  # a ScanError naming the first point that is not finite
         if far2 > _UNITS_R2:  # returns beyond 20 m: perhaps not metres (the horizon's crop is silent)
             warning = range_warning(pts, sensor_range)

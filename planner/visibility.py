@@ -129,16 +129,17 @@ class KnownFree:
         self.body = body
         self._home2 = max(body[0], body[1]) ** 2 + body[2] ** 2  # the body at the origin lies within
         kernels = _free() if self.nothing_beyond else None
-        self._table: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None = None
+        self._table: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
         if kernels is None or not all(type(v) is float for v in body):
             self._build(pts, beam_gap, surface)
             return
         # the compiled loops of _build (the same figures, to the bit): the table's rows are
         # the attributes
-        x, y, r = kernels.crop(pts[:, 0], pts[:, 1], self.horizon)
-        table = self._table = kernels.table(x, y, r, np.arctan2(y, x), self.horizon, beam_gap, surface, _TOL)
-        f, flags, self._near2, shadow = table
-        self.b, self.r, self.reach, self.nx, self.ny, self.c, self.lim, self.near = f
+        x, y = pts[:, 0], pts[:, 1]
+        table = self._table = kernels.table(x, y, np.arctan2(y, x), self.horizon, beam_gap, surface, _TOL)
+        f, flags, shadow = table
+        self.b, self.r, self.reach, self.nx, self.ny, self.c, self.lim, self.near = f[:8]
+        self._near2 = f[8:].reshape(-1)
         self.surface, self.jump = flags
         self.m = f.shape[1]
         self._sb2, self._sl, self._sc, self._ss = shadow
@@ -237,6 +238,17 @@ class KnownFree:
     # -- queries -----------------------------------------------------------------------
     def contains(self, x: float, y: float) -> bool:
         """True when the point (x, y) (sensor frame) is known free."""
+        table = self._table
+        if table is not None:
+            # the compiled test (the same answer; -1 where its range lies within 1e-14 of
+            # the bound, where C's hypot and CPython's might part: asked below)
+            got = _free().contains(table[0], table[1], self.horizon, self._home2, self.body, float(x), float(y))
+            if got >= 0:
+                return bool(got == 1)
+        return self._contains(x, y)
+
+    def _contains(self, x: float, y: float) -> bool:
+        """:meth:`contains` as Python statements."""
         if x * x + y * y <= self._home2 and inside(np.array(x), np.array(abs(y)), self.body):
             return True
         if x * x + y * y > self.horizon * self.horizon:

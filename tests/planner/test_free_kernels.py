@@ -56,6 +56,11 @@ def _assert_same_straights(free: KnownFree, poses: list[tuple[float, float, floa
         assert got == ref, (x, y, theta, distance, start_known)
 
 
+def _assert_same_points(free: KnownFree, points: np.ndarray) -> None:
+    for x, y in points.tolist():
+        assert free.contains(x, y) == free._contains(x, y), (x, y)
+
+
 def _assert_same_turns(free: KnownFree, turns: list[tuple[float, float, float, float]]) -> None:
     for x, y, theta, angle in turns:
         start = Pose(x, y, theta)
@@ -91,6 +96,9 @@ def test_the_compiled_table_and_tests_are_the_numpy_ones(pieces, poses, turns):
         free = _assert_same_table(points, monkeypatch)
         _assert_same_straights(free, [(0.0, 0.0, 0.0, 1.0, True), *poses])
         _assert_same_turns(free, [(0.0, 0.0, 0.0, 1.57), (0.27, 0.0, 0.0, -0.79), *turns])
+        _assert_same_points(free, np.array([(x, y) for x, y, *_ in poses] + [(1.0, 0.0), (0.0, 0.0)]))
+        if len(points):  # on and just behind the returns
+            _assert_same_points(free, np.concatenate((points[:20], points[:20] * 1.001)))
 
 
 @pytest.mark.skipif(not SCANS.is_dir(), reason="the shared recorded scans are not here")
@@ -109,6 +117,7 @@ def test_the_compiled_table_and_tests_match_on_the_shared_scans(monkeypatch):
             _assert_same_straights(free, [(0.0, 0.0, 0.0, 1.0, True), *poses])
             turns = [(*rng.uniform(-0.8, 0.8, 2), rng.uniform(-math.pi, math.pi), rng.choice([-1, 1]) * rng.uniform(0.02, math.pi)) for _ in range(30)]
             _assert_same_turns(free, turns)
+            _assert_same_points(free, np.concatenate((rng.uniform(-1.2, 1.2, (200, 2)), points[::7], points[::7] * 1.001)))
 
 
 def test_a_body_given_in_whole_numbers_keeps_the_numpy_table():
