@@ -87,6 +87,10 @@ def _prev(a: np.ndarray) -> np.ndarray:
     return np.concatenate((a[-1:], a[:-1]))
 
 
+#: the attributes the compiled table holds as rows (set at their first use)
+_ROWS = frozenset(("b", "r", "reach", "nx", "ny", "c", "lim", "near", "_near2", "surface", "jump", "m", "_sb2", "_sl", "_sc", "_ss"))
+
+
 @functools.cache
 def _free() -> Any:
     """:mod:`clomp.planner._free_kernels`, imported at the first table (numba's import is
@@ -133,16 +137,24 @@ class KnownFree:
         if kernels is None or not all(type(v) is float for v in body):
             self._build(pts, beam_gap, surface)
             return
-        # the compiled loops of _build (the same figures, to the bit): the table's rows are
-        # the attributes
+        # the compiled loops of _build (the same figures, to the bit); the compiled tests
+        # read the table itself, and its rows become the attributes at their first use
+        # (:meth:`__getattr__`: most plans never read them)
         x, y = pts[:, 0], pts[:, 1]
-        table = self._table = kernels.table(x, y, np.arctan2(y, x), self.horizon, beam_gap, surface, _TOL)
+        self._table = kernels.table(x, y, np.arctan2(y, x), self.horizon, beam_gap, surface, _TOL)
+
+    def __getattr__(self, name: str) -> Any:
+        """A table attribute not yet set (the compiled table's rows: set here at first use)."""
+        table = object.__getattribute__(self, "_table") if name in _ROWS else None
+        if table is None:
+            raise AttributeError(f"{type(self).__name__!r} object has no attribute {name!r}")
         f, flags, shadow = table
         self.b, self.r, self.reach, self.nx, self.ny, self.c, self.lim, self.near = f[:8]
         self._near2 = f[8:].reshape(-1)
         self.surface, self.jump = flags
         self.m = f.shape[1]
         self._sb2, self._sl, self._sc, self._ss = shadow
+        return getattr(self, name)
 
     def _build(self, pts: np.ndarray, beam_gap: float, surface: float) -> None:
         """The table as numpy statements (the rules; :mod:`clomp.planner._free_kernels` computes
