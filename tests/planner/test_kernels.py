@@ -142,17 +142,52 @@ def test_where_numpy_rounds_otherwise_the_numpy_statements_run(monkeypatch):
     def not_called(*args: object) -> None:
         raise AssertionError("a compiled loop ran where numpy rounds otherwise")
 
-    for name in ("surfaces_and_boxes", "kept_points", "boxes_of", "lane_gap"):
+    for name in ("surfaces_and_boxes", "kept_points", "boxes_of", "lane_gap", "lane_gaps"):
         monkeypatch.setattr(_kernels, name, not_called)
-    for cached in (perception._compiled, contact._lane_gap):
+    for cached in (perception._compiled, contact._lane_gap, contact._lane_gaps):
         cached.cache_clear()
     try:
         plain = perception.perceive(wall)
         scene = Scene(plain, RobotModel())
         assert scene._straight_gap(Pose(0.0, 0.0, 0.0)) == scene._straight_gap_numpy(Pose(0.0, 0.0, 0.0))
     finally:
-        for cached in (perception._compiled, contact._lane_gap):
+        for cached in (perception._compiled, contact._lane_gap, contact._lane_gaps):
             cached.cache_clear()
     for f in FIELDS:
         assert np.asarray(getattr(plain, f)).tobytes() == np.asarray(getattr(compiled, f)).tobytes()
 
+
+
+def _assert_least_gaps_agree(scene: Scene, poses: list[Pose], monkeypatch: pytest.MonkeyPatch) -> None:
+    heads = [float(h) for h in np.linspace(-np.pi, np.pi, 13)]
+    for pose in poses:
+        near, dz, body = scene.near(pose.x, pose.y)
+        if not len(near):
+            continue
+        got = scene._least_gaps(dz, heads, body)
+        with monkeypatch.context() as m:
+            m.setattr(contact, "_lane_gaps", lambda: None)
+            ref = scene._least_gaps(dz, heads, body)
+        assert np.array(got[0]).tobytes() == np.array(ref[0]).tobytes()
+        # the point met, where one is (a heading with none in its lane has no column to name)
+        assert [k for k, d in zip(got[1], got[0]) if np.isfinite(d)] == [k for k, d in zip(ref[1], ref[0]) if np.isfinite(d)]
+
+
+@same_rounding
+@settings(max_examples=60, deadline=None)
+@given(st.lists(_surface, min_size=1, max_size=5), st.integers(0, 2**32 - 1),
+       st.lists(st.tuples(st.floats(-0.6, 0.6), st.floats(-0.6, 0.6), st.floats(-3.2, 3.2)), min_size=1, max_size=6))
+def test_the_compiled_gaps_of_many_headings_are_numpys_to_the_bit(surfaces, seed, poses):
+    scene = _scene(np.round(_scan(surfaces, seed), 2))
+    if scene is not None:
+        with pytest.MonkeyPatch.context() as monkeypatch:
+            _assert_least_gaps_agree(scene, [Pose(0.0, 0.0, 0.0), *(Pose(x, y, t) for x, y, t in poses)], monkeypatch)
+
+
+@same_rounding
+@pytest.mark.skipif(not SCANS.is_dir(), reason="the shared recorded scans are not here")
+def test_the_compiled_gaps_of_many_headings_match_on_the_shared_scans(monkeypatch):
+    for f in sorted(SCANS.glob("*/*.dat"))[::13]:
+        scene = _scene(load_scan(f))
+        if scene is not None:
+            _assert_least_gaps_agree(scene, [Pose(x, y, 0.0) for x in (0.0, 0.27) for y in (0.0, -0.1)], monkeypatch)
