@@ -390,10 +390,22 @@ def _free_at(f: np.ndarray, flags: np.ndarray, horizon: float, body: tuple[float
     b = f[ROW_B]
     a = math.atan2(y, x)
     k = np.searchsorted(b, a, side="right") - 1
-    if (k >= 0 and a - b[k] <= 1e-12) or (k + 1 < m and b[k + 1] - a <= 1e-12):
+    free = _sector_free(f, flags, k, x, y)
+    # a bearing on (or within 1e-12 rad of) a return's: numpy's arctan2 may put the point
+    # in the sector on the other side; decided when both sectors answer alike
+    if k >= 0 and a - b[k] <= 1e-12 and _sector_free(f, flags, k - 1, x, y) != free:
         return -1
+    if k + 1 < m and b[k + 1] - a <= 1e-12 and _sector_free(f, flags, k + 1, x, y) != free:
+        return -1
+    return free
+
+
+@_compiled
+def _sector_free(f: np.ndarray, flags: np.ndarray, k: int, x: float, y: float) -> int:  # pragma: no cover
+    # KnownFree._free's answer for a point within the horizon in the sector from return k
+    # (k = -1: the last, round the circle)
     if k < 0:
-        k += m
+        k += f.shape[1]
     if flags[0, k]:
         return 1 if f[ROW_NX, k] * x + f[ROW_NY, k] * y <= f[ROW_C, k] + _TOL else 0
     if flags[1, k]:
