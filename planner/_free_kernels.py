@@ -397,7 +397,7 @@ def _free_at(f: np.ndarray, flags: np.ndarray, horizon: float, body: tuple[float
         return -1
     if k + 1 < m and b[k + 1] - a <= 1e-12 and _sector_free(f, flags, k + 1, x, y) != free:
         return -1
-    return free
+    return int(free)
 
 
 @_compiled

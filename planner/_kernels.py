@@ -33,7 +33,7 @@ import numpy as np
 from numba import njit, types
 from numba.extending import intrinsic
 
-__all__ = ["ROUNDS_AS_NUMPY", "boxes_of", "kept_points", "lane_gap", "lane_gaps", "near_boxes", "surfaces_and_boxes"]
+__all__ = ["ROUNDS_AS_NUMPY", "boxes_of", "kept_points", "lane_gap", "lane_gaps", "near_boxes", "surfaces_and_boxes", "turn_hits"]
 
 
 def _rounds_as_these_loops() -> bool:
@@ -429,6 +429,96 @@ def lane_gaps(
     for q in range(k):
         gaps[q], idx[q] = lane_gap(zr, zi, 0.0, 0.0, cr[q], ci[q], infl, real, body)
     return gaps, idx
+
+
+@_compiled
+def _inside_body(u: float, v: float, box: tuple[float, float, float], strict: bool) -> bool:  # pragma: no cover
+    # clomp.planner.footprint.inside for one point at (u, |v|)
+    if strict:
+        return u > -box[0] and u < box[1] and v < box[2]
+    return u >= -box[0] and u <= box[1] and v <= box[2]
+
+
+@_compiled
+def _waived_tick(
+    dx: np.ndarray, dy: np.ndarray, waived: np.ndarray, theta: float, sign: float, per_tick: float, e0: float, ticks: int,
+    real: tuple[float, float, float],
+) -> int:  # pragma: no cover
+    # Scene._waived_turn: the first tick at or after which the real body meets a waived point
+    # strictly outside it at the start, eight headings per tick
+    c0, s0 = math.cos(theta), math.sin(theta)
+    step = per_tick / 8
+    for i in range(8 * ticks):
+        th = theta + sign * min((i + 1) * step, e0)
+        c, sn = np.cos(th), np.sin(th)
+        for p in range(dx.shape[0]):
+            if not waived[p]:
+                continue
+            if _inside_body(dx[p] * c0 + dy[p] * s0, abs(dy[p] * c0 - dx[p] * s0), real, True):
+                continue
+            if _inside_body(dx[p] * c + dy[p] * sn, abs(dy[p] * c - dx[p] * sn), real, False):
+                return i // 8 + 1
+    return ticks + 1
+
+
+@_compiled
+def _met_at(
+    dx: np.ndarray, dy: np.ndarray, th: float, waived: np.ndarray, exempt: np.ndarray, any_waived: bool,
+    infl: tuple[float, float, float], real: tuple[float, float, float],
+) -> int:  # pragma: no cover
+    # the first point the body at heading th meets (-1: none): the inflated body, the real
+    # one for a waived point, none for an exempt one
+    c, sn = np.cos(th), np.sin(th)
+    for p in range(dx.shape[0]):
+        if any_waived and exempt[p]:
+            continue
+        u, v = dx[p] * c + dy[p] * sn, abs(dy[p] * c - dx[p] * sn)
+        if _inside_body(u, v, real if any_waived and waived[p] else infl, False):
+            return p
+    return -1
+
+
+@_compiled
+def turn_hits(
+    dx: np.ndarray, dy: np.ndarray, theta: float, signs: np.ndarray, e0s: np.ndarray, ticks: np.ndarray, per_tick: float,
+    infl: tuple[float, float, float], real: tuple[float, float, float],
+) -> np.ndarray:  # pragma: no cover - compiled
+    """:meth:`clomp.planner.contact.Scene._turns` for turns from one heading ``theta`` among
+    the points at offsets (``dx``, ``dy``): per turn (sign, error ``e0s``, ``ticks``) the
+    first tick in contact (``ticks + 1``: none), the point met (its column, -1: none) and
+    the heading at the tick before (3×T, as floats). The start-touching rule as there: a
+    point inside the inflated body at the start is held to the real body, tested at eight
+    headings per tick; one strictly inside the real body at the start is exempt.
+
+    >>> turn_hits(np.array([0.3]), np.array([0.0]), 0.0, np.array([1.0]), np.array([1.5]), np.array([26]), 0.058, (0.19, 0.1, 0.1), (0.18, 0.09, 0.09))[0].tolist()
+    [27.0]
+    """
+    n, t = dx.shape[0], signs.shape[0]
+    out = np.empty((3, t))
+    c, sn = np.cos(theta), np.sin(theta)
+    waived = np.empty(n, dtype=np.bool_)
+    exempt = np.empty(n, dtype=np.bool_)
+    any_waived = False
+    for p in range(n):
+        u, v = dx[p] * c + dy[p] * sn, abs(dy[p] * c - dx[p] * sn)
+        waived[p] = _inside_body(u, v, infl, False)
+        exempt[p] = _inside_body(u, v, real, True)
+        any_waived = any_waived or waived[p]
+    for q in range(t):
+        k, j = ticks[q] + 1, -1
+        for tick in range(1, ticks[q] + 1):
+            j = _met_at(dx, dy, theta + signs[q] * min(tick * per_tick, e0s[q]), waived, exempt, any_waived, infl, real)
+            if j >= 0:
+                k = tick
+                break
+        if any_waived:
+            w = _waived_tick(dx, dy, waived, theta, signs[q], per_tick, e0s[q], ticks[q], real)
+            if w < k:
+                # between ticks: no point is met at tick w (k was the first), so the first waived one
+                k, j = w, int(np.argmax(waived))
+        out[0, q], out[1, q] = k, j
+        out[2, q] = theta + signs[q] * min((k - 1) * per_tick, e0s[q])
+    return out
 
 
 @_compiled

@@ -52,6 +52,15 @@ def _lane_gaps() -> Any:
     return _kernels.lane_gaps if _kernels.ROUNDS_AS_NUMPY else None
 
 
+@functools.cache
+def _turn_hits() -> Any:
+    """:func:`clomp.planner._kernels.turn_hits`, or None where numpy rounds otherwise or its
+    cos and sin are not the C library's (``_free_kernels.TRIG_AS_NUMPY``)."""
+    from clomp.planner import _free_kernels, _kernels
+
+    return _kernels.turn_hits if _kernels.ROUNDS_AS_NUMPY and _free_kernels.TRIG_AS_NUMPY else None
+
+
 class Scene:
     """The run's sensed points as flat arrays, and the body's extents: what every
     rollout of one planning run shares (built once per run, nothing per query)."""
@@ -308,6 +317,30 @@ class Scene:
         k = gk.tolist()
         return [gap.item(q, kq) for q, kq in enumerate(k)], k
 
+    def _turns_compiled(
+        self, hits: Any, tasks: list[Task], near: np.ndarray, dx: np.ndarray, dy: np.ndarray, per_tick: float
+    ) -> list[Outcome]:
+        """:meth:`_turns` by ``_kernels.turn_hits`` (the same ticks, points and headings)."""
+        s = tasks[0].start
+        e0s = [t.start_error() for t in tasks]
+        ticks = [math.ceil(e0 / per_tick - 1e-9) if e0 > 1e-9 else 0 for e0 in e0s]
+        if not any(ticks):
+            return [unobstructed(t) for t in tasks]
+        signs = [1.0 if t.kind is TaskKind.LEFT else -1.0 for t in tasks]
+        got = hits(dx, dy, s.theta, np.array(signs), np.array(e0s), np.array(ticks, dtype=np.int64), per_tick, self.infl, self.real)
+        outs = []
+        tick = tasks[0].robot.tick
+        for t, n, k, j, head in zip(tasks, ticks, *got.tolist()):
+            if not n or k > n:
+                outs.append(unobstructed(t))
+                continue
+            done = int(k) - 1
+            end = new_pose(s.x, s.y, wrap_angle(head)) if done else s
+            i = int(near[int(j)])
+            d_n = _obstacle_disturbance(self.obstacles, (int(self.owner[i]), float(self.x[i]), float(self.y[i])))
+            outs.append(Outcome(t.kind, s, end, 0.0, done * tick, done, d_n, False))
+        return outs
+
     def _waived_turn(self, dx: np.ndarray, dy: np.ndarray, theta: float, sign: float, per_tick: float, e0: float, ticks: int) -> int:
         """The first tick at or after which the real body meets one of these points
         (strictly outside it at the start), sampled at eight headings per tick."""
@@ -350,6 +383,9 @@ class Scene:
         s = tasks[0].start
         r = tasks[0].robot
         per_tick = r.turn_rate * r.tick
+        hits = _turn_hits()
+        if hits is not None:
+            return self._turns_compiled(hits, tasks, near, dx, dy, per_tick)
         blocks = []  # per task: (sign, e0, ticks, first row)
         ths = []
         row = 0
