@@ -227,22 +227,17 @@ def _wrap(a: float) -> float:  # pragma: no cover
 @_compiled
 def _quick(f: np.ndarray, horizon: float, lo: float, hi: float, far: float) -> int:  # pragma: no cover
     # KnownFree._quick (nothing_beyond): 1, 0 or -1 (undecided, see _le)
-    m = f.shape[1]
-    if not m:
-        return int(_le(far, horizon))
+    return int(_le(far, _near_min(f, horizon, lo, hi)))
+
+
+@_compiled
+def _shadow_span(s: np.ndarray, lo: float, hi: float) -> tuple[int, int]:  # pragma: no cover
+    # KnownFree._rays' window: the shadow returns (columns of the doubled s) with bearings in [lo, hi]
     if hi - lo >= 2 * math.pi - 1e-9:
-        return int(_le(far, f[ROW_NEAR].min()))
+        return 0, s.shape[1] // 2
     if lo < -math.pi:
         lo, hi = lo + 2 * math.pi, hi + 2 * math.pi
-    b = f[ROW_B]
-    i0 = np.searchsorted(b, lo, side="left") - 1
-    i1 = np.searchsorted(b, hi if hi <= math.pi else hi - 2 * math.pi, side="left")
-    if hi > math.pi:
-        i1 += m
-    if i0 < 0:
-        i0 += m
-        i1 += m
-    return int(_le(far, _min_near(f, i0, i1)))
+    return int(np.searchsorted(s[0], lo, side="left")), int(np.searchsorted(s[0], hi, side="left"))
 
 
 @_compiled
@@ -285,14 +280,7 @@ def straight_clear(
         undecided = undecided or inner < 0
     if undecided:
         return -1
-    n = s.shape[1] // 2
-    if hi - lo >= 2 * math.pi - 1e-9:
-        i0, i1 = 0, n
-    else:
-        if lo < -math.pi:
-            lo, hi = lo + 2 * math.pi, hi + 2 * math.pi
-        i0 = int(np.searchsorted(s[0], lo, side="left"))
-        i1 = int(np.searchsorted(s[0], hi, side="left"))
+    i0, i1 = _shadow_span(s, lo, hi)
     for k in range(i0, i1):
         lim = s[1, k]
         if _le(far, lim) < 0:
@@ -453,14 +441,7 @@ def turn_clear(
             undecided = undecided or inner < 0
     if undecided:
         return -1
-    ns = s.shape[1] // 2
-    if hi - lo >= 2 * math.pi - 1e-9:
-        i0, i1 = 0, ns
-    else:
-        if lo < -math.pi:
-            lo, hi = lo + 2 * math.pi, hi + 2 * math.pi
-        i0 = int(np.searchsorted(s[0], lo, side="left"))
-        i1 = int(np.searchsorted(s[0], hi, side="left"))
+    i0, i1 = _shadow_span(s, lo, hi)
     for k in range(i0, i1):
         lim = s[1, k]
         if not lim < far:

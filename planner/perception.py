@@ -277,6 +277,17 @@ def _compiled() -> Any:
     return _kernels if _kernels.ROUNDS_AS_NUMPY else None
 
 
+def _as_scan(points: np.ndarray) -> tuple[np.ndarray, bool]:
+    """The scan as a float N×2 array, and whether it was validated: the common case, a float
+    array (from a driver or a file), is not yet; its finiteness is checked only when some
+    point is not kept (a NaN or inf never is)."""
+    if type(points) is np.ndarray and points.ndim == 2 and points.shape[1] == 2 and points.dtype == np.float64:
+        if len(points) > MAX_SCAN_POINTS:
+            return validate_scan(points), True
+        return points, False
+    return validate_scan(points), True
+
+
 def _kept_compiled(
     kernels: Any, points: np.ndarray, sensor_range: float, body: tuple[float, float, float] | None
 ) -> tuple[np.ndarray, int] | Obstacles:
@@ -284,12 +295,7 @@ def _kept_compiled(
     (``_kernels.kept_points``): the kept points (2×K, repeats dropped from a long scan) and
     how many the body exempted; when none is kept, the (empty) obstacles instead. The same
     checks and warnings as :func:`_kept`."""
-    if type(points) is np.ndarray and points.ndim == 2 and points.shape[1] == 2 and points.dtype == np.float64:
-        pts, checked = points, False
-        if len(pts) > MAX_SCAN_POINTS:
-            pts, checked = validate_scan(points), True
-    else:
-        pts, checked = validate_scan(points), True
+    pts, checked = _as_scan(points)
     if not len(pts):
         return _NONE
     rear, front, half = body if body is not None else (0.0, 0.0, 0.0)
@@ -315,14 +321,7 @@ def _kept(
     """The scan as a float array, which of its points perception keeps (within range, not
     at the sensor, not the body's own) and how many the body exempted; when none is
     kept, the (empty) obstacles instead. Warns (:class:`ScanWarning`) of a scan in millimetres."""
-    if type(points) is np.ndarray and points.ndim == 2 and points.shape[1] == 2 and points.dtype == np.float64:
-        # the common case: a float array (from a driver or a file). Its finiteness is
-        # checked below only when some point is not kept (a NaN or inf never is)
-        pts, checked = points, False
-        if len(pts) > MAX_SCAN_POINTS:
-            pts, checked = validate_scan(points), True
-    else:
-        pts, checked = validate_scan(points), True
+    pts, checked = _as_scan(points)
     exempt = 0
     if not len(pts):
         return _NONE
