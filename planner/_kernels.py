@@ -33,7 +33,7 @@ import numpy as np
 from numba import njit, types
 from numba.extending import intrinsic
 
-__all__ = ["ROUNDS_AS_NUMPY", "lane_gap", "near_boxes", "surfaces_and_boxes"]
+__all__ = ["ROUNDS_AS_NUMPY", "boxes_of", "kept_points", "lane_gap", "lane_gaps", "near_boxes", "surfaces_and_boxes", "turn_hits"]
 
 
 def _rounds_as_these_loops() -> bool:
@@ -225,14 +225,52 @@ def _select(zf: np.ndarray, bits: np.ndarray, keep: np.ndarray, dedupe: bool) ->
 
 
 @_compiled
+def _stable_order(bearing: np.ndarray) -> np.ndarray:  # pragma: no cover
+    # np.argsort(bearing, kind="stable"), the one order by (bearing, index): a scan's
+    # bearings rise (or fall: the A1 sweeps clockwise) from where the sensor's revolution
+    # began, up to the jitter of rounded points, so from that order turned at its deepest
+    # drop an insertion sort on (bearing, index) moves few points; past a budget of
+    # moves, numba's merge sort
+    n = bearing.shape[0]
+    falls = 0
+    for k in range(n - 1):
+        falls += bearing[k + 1] < bearing[k]
+    order = np.empty(n, dtype=np.int64)
+    for k in range(n):
+        order[k] = n - 1 - k if 2 * falls > n else k
+    first, deepest = 0, 0.0
+    for k in range(n - 1):
+        drop = bearing[order[k + 1]] - bearing[order[k]]
+        if drop < deepest:
+            first, deepest = k + 1, drop
+    if first:
+        order = np.concatenate((order[first:], order[:first]))
+    budget = 8 * n
+    for i in range(1, n):
+        o = order[i]
+        v = bearing[o]
+        j = i - 1
+        while j >= 0 and (bearing[order[j]] > v or (bearing[order[j]] == v and order[j] > o)):
+            order[j + 1] = order[j]
+            j -= 1
+            budget -= 1
+        order[j + 1] = o
+        if budget < 0:
+            return np.argsort(bearing, kind="mergesort")
+    return order
+
+
+@_compiled
 def _swept(
     zr: np.ndarray, zi: np.ndarray, bearing: np.ndarray, cluster_distance: float, pad: float, per_piece: float, thin: float
 ) -> Any:  # pragma: no cover - compiled: the five arrays of surfaces_and_boxes
     # perception._along_surfaces's second half (in bearing order, each point's step from
     # the one before, repeats dropped), then the pieces and boxes
-    order = np.argsort(bearing, kind="mergesort")  # stable, as numpy's
+    order = _stable_order(bearing)
     n = order.shape[0]
-    sr, si = zr[order], zi[order]
+    sr, si = np.empty(n), np.empty(n)
+    for k in range(n):
+        sr[k], si[k] = zr[order[k]], zi[order[k]]
     step = np.empty(n)
     step[0] = np.hypot(sr[0] - sr[n - 1], si[0] - si[n - 1])
     for k in range(1, n):
@@ -245,8 +283,73 @@ def _swept(
         if distinct < n:
             if not distinct:
                 uniq[0] = True
-            sr, si, step = sr[uniq], si[uniq], step[uniq]
+                distinct = 1
+            tr, ti, ts = np.empty(distinct), np.empty(distinct), np.empty(distinct)
+            j = 0
+            for k in range(n):
+                if uniq[k]:
+                    tr[j], ti[j], ts[j] = sr[k], si[k], step[k]
+                    j += 1
+            sr, si, step = tr, ti, ts
     return _kernel(sr, si, step, cluster_distance, pad, per_piece, thin)
+
+
+@_compiled
+def kept_points(
+    pts: np.ndarray, range2: float, own2: float, body: tuple[float, float, float], exempting: bool, dedupe: bool
+) -> tuple[np.ndarray, int, int, float]:  # pragma: no cover - compiled
+    """:func:`clomp.planner.perception._kept` and the first half of :func:`surfaces_and_boxes`
+    in one pass over a float N×2 scan: the kept points (2×K: x, y; within ``range2``, the
+    squared horizon, not at the sensor, and with ``exempting`` not strictly inside the
+    ``body`` (rear, front, half width) when nearer than ``own2``; with ``dedupe`` less each
+    one bit-equal to the point before it in the scan), how many were kept before that,
+    how many the body exempted, and the largest squared range (nan with a nan; inf
+    with an inf, or a coordinate whose square overflows: a scan with neither is finite).
+
+    >>> z, kept, exempt, far2 = kept_points(np.array([[0.5, 0.0], [0.05, 0.0], [3.0, 0.0]]), 1.21, 0.0405, (0.18, 0.09, 0.09), True, False)
+    >>> z.tolist(), kept, exempt, far2
+    ([[0.5], [0.0]], 1, 1, 9.0)
+    """
+    n = pts.shape[0]
+    rear, front, half = body
+    keep = np.empty(n, dtype=np.bool_)
+    kept = exempt = 0
+    far2 = -math.inf
+    for i in range(n):
+        x, y = pts[i, 0], pts[i, 1]
+        r2 = x * x + y * y  # as numpy: one product over the array, then the sum
+        far2 = r2 if r2 > far2 or r2 != r2 else far2
+        k = r2 <= range2 and r2 > 1e-6
+        # clomp.planner.footprint.inside(x, |y|, body, strict=True) for the returns within own2
+        if k and exempting and r2 < own2 and x > -rear and x < front and abs(y) < half:
+            k = False
+            exempt += 1
+        keep[i] = k
+        kept += k
+    if dedupe:
+        bits = pts.view(np.int64)
+        for i in range(n - 1, 0, -1):
+            if bits[i, 0] == bits[i - 1, 0] and bits[i, 1] == bits[i - 1, 1]:
+                keep[i] = False
+    m = 0
+    for i in range(n):
+        m += keep[i]
+    z = np.empty((2, m))
+    j = 0
+    for i in range(n):
+        if keep[i]:
+            z[0, j], z[1, j] = pts[i, 0], pts[i, 1]
+            j += 1
+    return z, kept, exempt, far2
+
+
+def boxes_of(
+    zr: np.ndarray, zi: np.ndarray, cluster_distance: float, pad: float, piece: float, thin: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`surfaces_and_boxes` of points already kept (:func:`kept_points`' rows)."""
+    out: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]
+    out = _swept(zr, zi, np.arctan2(zi, zr), float(cluster_distance), float(pad), 1.0 / piece, float(thin))
+    return out
 
 
 def surfaces_and_boxes(
@@ -306,6 +409,116 @@ def lane_gap(
         if gap < best:
             best, k = gap, j
     return (best, k) if k >= 0 else (math.inf, -1)
+
+
+@_compiled
+def lane_gaps(
+    zr: np.ndarray, zi: np.ndarray, cr: np.ndarray, ci: np.ndarray,
+    infl: tuple[float, float, float], real: tuple[float, float, float], body: bool,
+) -> tuple[np.ndarray, np.ndarray]:  # pragma: no cover - compiled
+    """:func:`lane_gap` from the origin for every heading ``cr[q] + i·ci[q]`` (cos θ − i sin θ)
+    at once: :meth:`clomp.planner.contact.Scene._gaps`' least gap per heading and the first
+    point that has it (-1 where none is in the lane).
+
+    >>> gaps, idx = lane_gaps(np.array([0.5]), np.array([0.0]), np.array([1.0, 0.0]), np.array([-0.0, -1.0]), (0.1, 0.2, 0.1), (0.1, 0.19, 0.09), True)
+    >>> gaps.tolist(), idx.tolist()
+    ([0.3, inf], [0, -1])
+    """
+    k = cr.shape[0]
+    gaps, idx = np.empty(k), np.empty(k, dtype=np.int64)
+    for q in range(k):
+        gaps[q], idx[q] = lane_gap(zr, zi, 0.0, 0.0, cr[q], ci[q], infl, real, body)
+    return gaps, idx
+
+
+@_compiled
+def _inside_body(u: float, v: float, box: tuple[float, float, float], strict: bool) -> bool:  # pragma: no cover
+    # clomp.planner.footprint.inside for one point at (u, |v|)
+    if strict:
+        return u > -box[0] and u < box[1] and v < box[2]
+    return u >= -box[0] and u <= box[1] and v <= box[2]
+
+
+@_compiled
+def _waived_tick(
+    dx: np.ndarray, dy: np.ndarray, waived: np.ndarray, theta: float, sign: float, per_tick: float, e0: float, ticks: int,
+    real: tuple[float, float, float],
+) -> int:  # pragma: no cover
+    # Scene._waived_turn: the first tick at or after which the real body meets a waived point
+    # strictly outside it at the start, eight headings per tick
+    c0, s0 = math.cos(theta), math.sin(theta)
+    step = per_tick / 8
+    for i in range(8 * ticks):
+        th = theta + sign * min((i + 1) * step, e0)
+        c, sn = np.cos(th), np.sin(th)
+        for p in range(dx.shape[0]):
+            if not waived[p]:
+                continue
+            if _inside_body(dx[p] * c0 + dy[p] * s0, abs(dy[p] * c0 - dx[p] * s0), real, True):
+                continue
+            if _inside_body(dx[p] * c + dy[p] * sn, abs(dy[p] * c - dx[p] * sn), real, False):
+                return i // 8 + 1
+    return ticks + 1
+
+
+@_compiled
+def _met_at(
+    dx: np.ndarray, dy: np.ndarray, th: float, waived: np.ndarray, exempt: np.ndarray, any_waived: bool,
+    infl: tuple[float, float, float], real: tuple[float, float, float],
+) -> int:  # pragma: no cover
+    # the first point the body at heading th meets (-1: none): the inflated body, the real
+    # one for a waived point, none for an exempt one
+    c, sn = np.cos(th), np.sin(th)
+    for p in range(dx.shape[0]):
+        if any_waived and exempt[p]:
+            continue
+        u, v = dx[p] * c + dy[p] * sn, abs(dy[p] * c - dx[p] * sn)
+        if _inside_body(u, v, real if any_waived and waived[p] else infl, False):
+            return p
+    return -1
+
+
+@_compiled
+def turn_hits(
+    dx: np.ndarray, dy: np.ndarray, theta: float, signs: np.ndarray, e0s: np.ndarray, ticks: np.ndarray, per_tick: float,
+    infl: tuple[float, float, float], real: tuple[float, float, float],
+) -> np.ndarray:  # pragma: no cover - compiled
+    """:meth:`clomp.planner.contact.Scene._turns` for turns from one heading ``theta`` among
+    the points at offsets (``dx``, ``dy``): per turn (sign, error ``e0s``, ``ticks``) the
+    first tick in contact (``ticks + 1``: none), the point met (its column, -1: none) and
+    the heading at the tick before (3×T, as floats). The start-touching rule as there: a
+    point inside the inflated body at the start is held to the real body, tested at eight
+    headings per tick; one strictly inside the real body at the start is exempt.
+
+    >>> turn_hits(np.array([0.3]), np.array([0.0]), 0.0, np.array([1.0]), np.array([1.5]), np.array([26]), 0.058, (0.19, 0.1, 0.1), (0.18, 0.09, 0.09))[0].tolist()
+    [27.0]
+    """
+    n, t = dx.shape[0], signs.shape[0]
+    out = np.empty((3, t))
+    c, sn = np.cos(theta), np.sin(theta)
+    waived = np.empty(n, dtype=np.bool_)
+    exempt = np.empty(n, dtype=np.bool_)
+    any_waived = False
+    for p in range(n):
+        u, v = dx[p] * c + dy[p] * sn, abs(dy[p] * c - dx[p] * sn)
+        waived[p] = _inside_body(u, v, infl, False)
+        exempt[p] = _inside_body(u, v, real, True)
+        any_waived = any_waived or waived[p]
+    for q in range(t):
+        k, j = ticks[q] + 1, -1
+        for tick in range(1, ticks[q] + 1):
+            j = _met_at(dx, dy, theta + signs[q] * min(tick * per_tick, e0s[q]), waived, exempt, any_waived, infl, real)
+            if j >= 0:
+                k = tick
+                break
+        if any_waived:
+            w = _waived_tick(dx, dy, waived, theta, signs[q], per_tick, e0s[q], ticks[q], real)
+            if w < k:
+                # between ticks: no point is met at tick w (k was the first), so the first waived one
+                k, j = w, int(np.argmax(waived))
+        out[0, q], out[1, q] = k, j
+        out[2, q] = theta + signs[q] * min((k - 1) * per_tick, e0s[q])
+    return out
 
 
 @_compiled

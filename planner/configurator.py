@@ -387,7 +387,12 @@ class Configurator:
         ``planning_time_s`` covers perception and map construction.
         """
         t0 = time.perf_counter()
-        pts = load_scan(scan)
+        # a float N×2 array goes to perception as it is: perception validates it where it
+        # must (some point not kept: a nan or inf never is), with the same ScanError
+        if type(scan) is np.ndarray and scan.dtype == np.float64 and scan.ndim == 2 and scan.shape[1] == 2:
+            pts: np.ndarray = scan
+        else:
+            pts = load_scan(scan)
         r = self.robot
         obstacles = perceive(pts, r.sensor_range, r.cluster_distance, body=footprint.body_box(r))
         cleared = None

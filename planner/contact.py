@@ -44,6 +44,23 @@ def _lane_gap() -> Any:
     return _kernels.lane_gap if _kernels.ROUNDS_AS_NUMPY else None
 
 
+@functools.cache
+def _lane_gaps() -> Any:
+    """:func:`clomp.planner._kernels.lane_gaps` (as :func:`_lane_gap`), or None where numpy rounds otherwise."""
+    from clomp.planner import _kernels
+
+    return _kernels.lane_gaps if _kernels.ROUNDS_AS_NUMPY else None
+
+
+@functools.cache
+def _turn_hits() -> Any:
+    """:func:`clomp.planner._kernels.turn_hits`, or None where numpy rounds otherwise or its
+    cos and sin are not the C library's (``_free_kernels.TRIG_AS_NUMPY``)."""
+    from clomp.planner import _free_kernels, _kernels
+
+    return _kernels.turn_hits if _kernels.ROUNDS_AS_NUMPY and _free_kernels.TRIG_AS_NUMPY else None
+
+
 class Scene:
     """The run's sensed points as flat arrays, and the body's extents: what every
     rollout of one planning run shares (built once per run, nothing per query)."""
@@ -251,18 +268,10 @@ class Scene:
         kx, ky = s.x, s.y
         found = len(near) > 0
         if found:
-            cos, sin = math.cos, math.sin
-            rots = [complex(cos(h), -sin(h)) for h in heads]
-            if straight is not None:
-                rots.append(complex(cos(s.theta), -sin(s.theta)))  # as _straight_gap
-            gap, gk = self._gaps(dz, np.array(rots), body)
-            # each heading's least gap read where argmin found it (gap.item(row, k[row])),
-            # only for the headings looked at: a min over every row costs more
-            k = gk.tolist()
-            item = gap.item
+            least, k = self._least_gaps(dz, heads if straight is None else [*heads, s.theta], body)
         if straight is not None:
             key = (kx, ky, s.theta)
-            ds = item(len(k) - 1, k[-1]) if found else math.inf
+            ds = least[-1] if found else math.inf
             if ds <= far:
                 self.gaps.setdefault(key, (ds, int(near[k[-1]])))
             else:
@@ -278,13 +287,13 @@ class Scene:
                 # array of the needs is built for the rest)
                 i = -1
                 for q in range(base, base + m):
-                    if item(q, k[q]) >= needs[q] - _EPS:
+                    if least[q] >= needs[q] - _EPS:
                         i = q - base
                         break
             j = i if i >= 0 else fallback
             if j >= 0:
                 key = (kx, ky, headings[j])
-                dj = item(base + j, k[base + j]) if found else math.inf
+                dj = least[base + j] if found else math.inf
                 if dj <= far:
                     self.gaps.setdefault(key, (dj, int(near[k[base + j]])))
                 else:
@@ -292,6 +301,45 @@ class Scene:
             out.append(i)
             base += m
         return out
+
+    def _least_gaps(self, dz: np.ndarray, heads: list[float], body: bool) -> tuple[list[float], list[int]]:
+        """Per heading (rad), the least gap over the points at offsets ``dz`` and the column
+        of the first point that has it: :meth:`_gaps` by rows, in one compiled loop
+        (``_kernels.lane_gaps``, the same arithmetic to the bit) where numpy rounds as it does."""
+        cos, sin = math.cos, math.sin
+        lanes = _lane_gaps()
+        if lanes is not None:
+            gaps, idx = lanes(dz.real, dz.imag, np.array([cos(h) for h in heads]), np.array([-sin(h) for h in heads]),
+                              self.infl, self.real, body)
+            return gaps.tolist(), idx.tolist()
+        gap, gk = self._gaps(dz, np.array([complex(cos(h), -sin(h)) for h in heads]), body)
+        # each heading's least gap read where argmin found it (gap.item(row, k[row]))
+        k = gk.tolist()
+        return [gap.item(q, kq) for q, kq in enumerate(k)], k
+
+    def _turns_compiled(
+        self, hits: Any, tasks: list[Task], near: np.ndarray, dx: np.ndarray, dy: np.ndarray, per_tick: float
+    ) -> list[Outcome]:
+        """:meth:`_turns` by ``_kernels.turn_hits`` (the same ticks, points and headings)."""
+        s = tasks[0].start
+        e0s = [t.start_error() for t in tasks]
+        ticks = [math.ceil(e0 / per_tick - 1e-9) if e0 > 1e-9 else 0 for e0 in e0s]
+        if not any(ticks):
+            return [unobstructed(t) for t in tasks]
+        signs = [1.0 if t.kind is TaskKind.LEFT else -1.0 for t in tasks]
+        got = hits(dx, dy, s.theta, np.array(signs), np.array(e0s), np.array(ticks, dtype=np.int64), per_tick, self.infl, self.real)
+        outs = []
+        tick = tasks[0].robot.tick
+        for t, n, k, j, head in zip(tasks, ticks, *got.tolist()):
+            if not n or k > n:
+                outs.append(unobstructed(t))
+                continue
+            done = int(k) - 1
+            end = new_pose(s.x, s.y, wrap_angle(head)) if done else s
+            i = int(near[int(j)])
+            d_n = _obstacle_disturbance(self.obstacles, (int(self.owner[i]), float(self.x[i]), float(self.y[i])))
+            outs.append(Outcome(t.kind, s, end, 0.0, done * tick, done, d_n, False))
+        return outs
 
     def _waived_turn(self, dx: np.ndarray, dy: np.ndarray, theta: float, sign: float, per_tick: float, e0: float, ticks: int) -> int:
         """The first tick at or after which the real body meets one of these points
@@ -335,6 +383,9 @@ class Scene:
         s = tasks[0].start
         r = tasks[0].robot
         per_tick = r.turn_rate * r.tick
+        hits = _turn_hits()
+        if hits is not None:
+            return self._turns_compiled(hits, tasks, near, dx, dy, per_tick)
         blocks = []  # per task: (sign, e0, ticks, first row)
         ths = []
         row = 0

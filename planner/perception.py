@@ -238,14 +238,19 @@ def perceive(
     >>> round(float((obs.boxes[:, :, 0].max(axis=1) - obs.boxes[:, :, 0].min(axis=1)).max()), 3)  # 4 mm thin
     0.004
     """
+    kernels = _compiled() if pad > 0 else None
+    if kernels is not None:
+        # the compiled loops of _kept, _along_surfaces, _cut and _boxes (the same arithmetic, to the bit)
+        got = _kept_compiled(kernels, points, sensor_range, body)
+        if isinstance(got, Obstacles):
+            return got
+        z, exempt = got
+        pts, bounds, boxes, centres, radii = kernels.boxes_of(z[0], z[1], cluster_distance, pad, _PIECE, _THIN)
+        return _built(boxes, centres, radii, pts, bounds, exempt)
     kept = _kept(points, sensor_range, body)
     if isinstance(kept, Obstacles):
         return kept
     pts, keep, exempt = kept
-    compiled = _compiled() if pad > 0 else None
-    if compiled is not None:  # the compiled loops of _along_surfaces, _cut and _boxes (the same arithmetic, to the bit)
-        pts, bounds, boxes, centres, radii = compiled(pts, keep, len(pts) > _DEDUPE_FROM, cluster_distance, pad, _PIECE, _THIN)
-        return _built(boxes, centres, radii, pts, bounds, exempt)
     z, step = _along_surfaces(pts, keep)
     z, cut = _cut(z, step, cluster_distance)
     return _boxes(z, cut, pad, exempt)
@@ -261,15 +266,53 @@ def _near_boxes() -> Any:
 
 @functools.cache
 def _compiled() -> Any:
-    """:func:`clomp.planner._kernels.surfaces_and_boxes`, imported at the first scan that needs
-    it: numba's import (about half a second) is paid by a process that perceives, not by
-    every import of the planner. Its first call in a process loads the cached machine code
-    (about a second on a busy 2-core machine: numba's start-up, once per process). None
-    where numpy rounds otherwise than the compiled loops (``_kernels.ROUNDS_AS_NUMPY``):
-    the numpy statements then run."""
+    """:mod:`clomp.planner._kernels` (``kept_points`` and ``boxes_of``), imported at the first
+    scan that needs it: numba's import (about half a second) is paid by a process that
+    perceives, not by every import of the planner. Its first call in a process loads the
+    cached machine code (about a second on a busy 2-core machine: numba's start-up, once
+    per process). None where numpy rounds otherwise than the compiled loops
+    (``_kernels.ROUNDS_AS_NUMPY``): the numpy statements then run."""
     from clomp.planner import _kernels
 
-    return _kernels.surfaces_and_boxes if _kernels.ROUNDS_AS_NUMPY else None
+    return _kernels if _kernels.ROUNDS_AS_NUMPY else None
+
+
+def _as_scan(points: np.ndarray) -> tuple[np.ndarray, bool]:
+    """The scan as a float N×2 array, and whether it was validated: the common case, a float
+    array (from a driver or a file), is not yet; its finiteness is checked only when some
+    point is not kept (a NaN or inf never is)."""
+    if type(points) is np.ndarray and points.ndim == 2 and points.shape[1] == 2 and points.dtype == np.float64:
+        if len(points) > MAX_SCAN_POINTS:
+            return validate_scan(points), True
+        return points, False
+    return validate_scan(points), True
+
+
+def _kept_compiled(
+    kernels: Any, points: np.ndarray, sensor_range: float, body: tuple[float, float, float] | None
+) -> tuple[np.ndarray, int] | Obstacles:
+    """:func:`_kept` and the selection of the kept points in one compiled pass
+    (``_kernels.kept_points``): the kept points (2×K, repeats dropped from a long scan) and
+    how many the body exempted; when none is kept, the (empty) obstacles instead. The same
+    checks and warnings as :func:`_kept`."""
+    pts, checked = _as_scan(points)
+    if not len(pts):
+        return _NONE
+    rear, front, half = body if body is not None else (0.0, 0.0, 0.0)
+    z, kept, exempt, far2 = kernels.kept_points(
+        np.ascontiguousarray(pts), sensor_range * sensor_range, rear * rear + half * half,
+        (float(rear), float(front), float(half)), body is not None, len(pts) > _DEDUPE_FROM,
+    )
+    if kept < len(pts):
+        if not checked and not far2 < math.inf:  # (a finite far2: every coordinate is finite)
+            validate_scan(pts)  # a ScanError naming the first point that is not finite
+        if far2 > _UNITS_R2:  # returns beyond 20 m: perhaps not metres (the horizon's crop is silent)
+            warning = range_warning(pts, sensor_range)
+            if warning:
+                warnings.warn(ScanWarning(warning), stacklevel=3)  # at perceive's caller
+        if not kept:
+            return _NONE if not exempt else Obstacles(_NONE.boxes, _NONE.centres, _NONE.radii, exempt=exempt)
+    return z, exempt
 
 
 def _kept(
@@ -278,14 +321,7 @@ def _kept(
     """The scan as a float array, which of its points perception keeps (within range, not
     at the sensor, not the body's own) and how many the body exempted; when none is
     kept, the (empty) obstacles instead. Warns (:class:`ScanWarning`) of a scan in millimetres."""
-    if type(points) is np.ndarray and points.ndim == 2 and points.shape[1] == 2 and points.dtype == np.float64:
-        # the common case: a float array (from a driver or a file). Its finiteness is
-        # checked below only when some point is not kept (a NaN or inf never is)
-        pts, checked = points, False
-        if len(pts) > MAX_SCAN_POINTS:
-            pts, checked = validate_scan(points), True
-    else:
-        pts, checked = validate_scan(points), True
+    pts, checked = _as_scan(points)
     exempt = 0
     if not len(pts):
         return _NONE

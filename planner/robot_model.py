@@ -176,6 +176,11 @@ class RobotModel(Body):
         >>> RobotModel(**RobotModel(max_range=30.0).to_dict()).max_range
         30.0
         """
+        return dict(self._as_dict)  # a copy: the caller may change it
+
+    @functools.cached_property
+    def _as_dict(self) -> dict[str, Any]:
+        # built once per model (the dataclass is frozen): a plan writes it into its map
         d = {f.name: getattr(self, f.name) for f in fields(self)}
         if d.get("max_range") == _MAX_RANGE:
             del d["max_range"]

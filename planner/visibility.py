@@ -49,6 +49,7 @@ from __future__ import annotations
 
 import functools
 import math
+from typing import Any
 
 import numpy as np
 
@@ -86,6 +87,19 @@ def _prev(a: np.ndarray) -> np.ndarray:
     return np.concatenate((a[-1:], a[:-1]))
 
 
+#: the attributes the compiled table holds as rows (set at their first use)
+_ROWS = frozenset(("b", "r", "reach", "nx", "ny", "c", "lim", "near", "_near2", "surface", "jump", "m", "_sb2", "_sl", "_sc", "_ss"))
+
+
+@functools.cache
+def _free() -> Any:
+    """:mod:`clomp.planner._free_kernels`, imported at the first table (numba's import is
+    paid by a process that plans, as perception's loops)."""
+    from clomp.planner import _free_kernels
+
+    return _free_kernels
+
+
 @functools.lru_cache(maxsize=8)
 def _corners_polar(robot: RobotModel) -> tuple[np.ndarray, np.ndarray]:
     """The body's corners as distances and angles from the rotation centre."""
@@ -106,7 +120,7 @@ class KnownFree:
 
     __slots__ = (
         "horizon", "nothing_beyond", "body", "m", "b", "r", "surface", "jump", "reach", "nx", "ny", "c", "lim", "near",
-        "_home2", "_near2", "_sb2", "_sl", "_sc", "_ss",
+        "_home2", "_near2", "_sb2", "_sl", "_sc", "_ss", "_table",
     )
 
     def __init__(
@@ -114,10 +128,38 @@ class KnownFree:
         body: tuple[float, float, float] = (0.18, 0.09, 0.09), beam_gap: float = BEAM_GAP, surface: float = SURFACE,
     ) -> None:
         pts = np.asarray(points, dtype=np.float64).reshape(-1, 2)
-        h = self.horizon = float(horizon)
+        self.horizon = float(horizon)
         self.nothing_beyond = bool(nothing_beyond)
         self.body = body
         self._home2 = max(body[0], body[1]) ** 2 + body[2] ** 2  # the body at the origin lies within
+        kernels = _free() if self.nothing_beyond else None
+        self._table: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+        if kernels is None or not all(type(v) is float for v in body):
+            self._build(pts, beam_gap, surface)
+            return
+        # the compiled loops of _build (the same figures, to the bit); the compiled tests
+        # read the table itself, and its rows become the attributes at their first use
+        # (:meth:`__getattr__`: most plans never read them)
+        x, y = pts[:, 0], pts[:, 1]
+        self._table = kernels.table(x, y, np.arctan2(y, x), self.horizon, beam_gap, surface, _TOL)
+
+    def __getattr__(self, name: str) -> Any:
+        """A table attribute not yet set (the compiled table's rows: set here at first use)."""
+        table = object.__getattribute__(self, "_table") if name in _ROWS else None
+        if table is None:
+            raise AttributeError(f"{type(self).__name__!r} object has no attribute {name!r}")
+        f, flags, shadow = table
+        self.b, self.r, self.reach, self.nx, self.ny, self.c, self.lim, self.near = f[:8]
+        self._near2 = f[8:].reshape(-1)
+        self.surface, self.jump = flags
+        self.m = f.shape[1]
+        self._sb2, self._sl, self._sc, self._ss = shadow
+        return getattr(self, name)
+
+    def _build(self, pts: np.ndarray, beam_gap: float, surface: float) -> None:
+        """The table as numpy statements (the rules; :mod:`clomp.planner._free_kernels` computes
+        the same figures in compiled loops for a scan cropped at the horizon)."""
+        h = self.horizon
         x, y = pts[:, 0], pts[:, 1]
         r = np.hypot(x, y)
         keep = (r > 1e-6) & (r <= h)
@@ -172,7 +214,7 @@ class KnownFree:
         # per return, a range within which everything in the sectors beside it is known free
         with np.errstate(invalid="ignore", divide="ignore"):
             tau = -(x * dx + y * dy) / (chord * chord)
-        open_near = h if self.nothing_beyond else min(body)
+        open_near = h if self.nothing_beyond else min(self.body)
         sector = np.where(face, np.where((tau > 0) & (tau < 1), c, np.minimum(r, _next(r))), np.where(jump, self.reach, open_near))
         near = self.near = np.minimum(np.minimum(lim, open_near), np.minimum(sector, _prev(sector)))
         self._near2 = np.concatenate((near, near))
@@ -208,6 +250,17 @@ class KnownFree:
     # -- queries -----------------------------------------------------------------------
     def contains(self, x: float, y: float) -> bool:
         """True when the point (x, y) (sensor frame) is known free."""
+        table = self._table
+        if table is not None:
+            # the compiled test (the same answer; -1 where its range lies within 1e-14 of
+            # the bound, where C's hypot and CPython's might part: asked below)
+            got = _free().contains(table[0], table[1], self.horizon, self._home2, self.body, float(x), float(y))
+            if got >= 0:
+                return bool(got == 1)
+        return self._contains(x, y)
+
+    def _contains(self, x: float, y: float) -> bool:
+        """:meth:`contains` as Python statements."""
         if x * x + y * y <= self._home2 and inside(np.array(x), np.array(abs(y)), self.body):
             return True
         if x * x + y * y > self.horizon * self.horizon:
@@ -291,6 +344,19 @@ class KnownFree:
         rear = -robot.front_offset if start_known else robot.rear_offset
         front = robot.front_offset + max(distance, 0.0)
         half = robot.width / 2
+        table = self._table
+        if table is not None:
+            # the compiled test (the same answer; -1 where a range compared lies within
+            # 1e-14 of its bound, where C's hypot and CPython's might part: asked below)
+            got = _free().straight_clear(
+                *table, self.horizon, self._home2, self.body, start.x, start.y, start.theta, rear, front, half
+            )
+            if got >= 0:
+                return bool(got == 1)
+        return self._straight_clear(start, rear, front, half)
+
+    def _straight_clear(self, start: Pose, rear: float, front: float, half: float) -> bool:
+        """:meth:`straight_clear` of the rectangle ``(rear, front, half)`` as Python and numpy statements."""
         c, s = math.cos(start.theta), math.sin(start.theta)
         us = (-rear, front, front, -rear)
         vs = (-half, -half, half, half)
@@ -331,6 +397,20 @@ class KnownFree:
         rad = robot.body_radius
         x, y = start.x, start.y
         d = math.hypot(x, y)
+        table = self._table
+        if table is not None and _free().TRIG_AS_NUMPY:
+            # the compiled test (the same answer; -1 where an outline point's bearing lies
+            # within 1e-12 rad of a return's, where numpy's arctan2 and C's might part)
+            rc, phi = _corners_polar(robot)
+            got = _free().turn_clear(*table, self.horizon, self.body, x, y, start.theta, angle, d, rad, rc, phi, _ARC_STEP)
+            if got >= 0:
+                return bool(got == 1)
+        return self._turn_clear(start, angle, robot, d)
+
+    def _turn_clear(self, start: Pose, angle: float, robot: RobotModel, d: float) -> bool:
+        """:meth:`turn_clear` as Python and numpy statements (``d``: the start's distance from the sensor)."""
+        rad = robot.body_radius
+        x, y = start.x, start.y
         if d > rad:
             half = math.asin(rad / d)
             bc = math.atan2(y, x)

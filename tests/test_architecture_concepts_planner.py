@@ -35,6 +35,11 @@ FOOTPRINT_EXCEPTIONS = {
     # numba-compiled scalar loops: the same test point by point, held bit-equal to the
     # array form by tests/runtime/test_plancheck*.py
     Path("runtime/supervision/_contacts_core.py"): "compiled loops",
+    # the planner's compiled loops (perception's own returns, the known-free test), held
+    # to perception's and visibility's numpy statements by tests/planner/test_kernels.py
+    # and tests/planner/test_free_kernels.py
+    Path("planner/_kernels.py"): "compiled loops",
+    Path("planner/_free_kernels.py"): "compiled loops",
 }
 
 

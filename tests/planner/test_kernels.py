@@ -11,11 +11,12 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from clomp.formal.model import Pose
+from clomp.formal.model import Pose, TaskKind
 from clomp.planner import _kernels, contact, footprint, load_scan, perception
 from clomp.planner._kernels import near_boxes, surfaces_and_boxes
 from clomp.planner.contact import Scene
 from clomp.planner.robot_model import RobotModel
+from clomp.planner.tasks import Task
 
 SCANS = Path(__file__).resolve().parents[2].parent / "shared" / "data" / "scans"
 FIELDS = ("points", "starts", "boxes", "centres", "radii")
@@ -142,17 +143,91 @@ def test_where_numpy_rounds_otherwise_the_numpy_statements_run(monkeypatch):
     def not_called(*args: object) -> None:
         raise AssertionError("a compiled loop ran where numpy rounds otherwise")
 
-    monkeypatch.setattr(_kernels, "surfaces_and_boxes", not_called)
-    monkeypatch.setattr(_kernels, "lane_gap", not_called)
-    for cached in (perception._compiled, contact._lane_gap):
+    for name in ("surfaces_and_boxes", "kept_points", "boxes_of", "lane_gap", "lane_gaps", "turn_hits"):
+        monkeypatch.setattr(_kernels, name, not_called)
+    for cached in (perception._compiled, contact._lane_gap, contact._lane_gaps, contact._turn_hits):
         cached.cache_clear()
     try:
         plain = perception.perceive(wall)
         scene = Scene(plain, RobotModel())
         assert scene._straight_gap(Pose(0.0, 0.0, 0.0)) == scene._straight_gap_numpy(Pose(0.0, 0.0, 0.0))
     finally:
-        for cached in (perception._compiled, contact._lane_gap):
+        for cached in (perception._compiled, contact._lane_gap, contact._lane_gaps, contact._turn_hits):
             cached.cache_clear()
     for f in FIELDS:
         assert np.asarray(getattr(plain, f)).tobytes() == np.asarray(getattr(compiled, f)).tobytes()
 
+
+
+def _assert_least_gaps_agree(scene: Scene, poses: list[Pose], monkeypatch: pytest.MonkeyPatch) -> None:
+    heads = [float(h) for h in np.linspace(-np.pi, np.pi, 13)]
+    for pose in poses:
+        near, dz, body = scene.near(pose.x, pose.y)
+        if not len(near):
+            continue
+        got = scene._least_gaps(dz, heads, body)
+        with monkeypatch.context() as m:
+            m.setattr(contact, "_lane_gaps", lambda: None)
+            ref = scene._least_gaps(dz, heads, body)
+        assert np.array(got[0]).tobytes() == np.array(ref[0]).tobytes()
+        # the point met, where one is (a heading with none in its lane has no column to name)
+        assert [k for k, d in zip(got[1], got[0]) if np.isfinite(d)] == [k for k, d in zip(ref[1], ref[0]) if np.isfinite(d)]
+
+
+@same_rounding
+@settings(max_examples=60, deadline=None)
+@given(st.lists(_surface, min_size=1, max_size=5), st.integers(0, 2**32 - 1),
+       st.lists(st.tuples(st.floats(-0.6, 0.6), st.floats(-0.6, 0.6), st.floats(-3.2, 3.2)), min_size=1, max_size=6))
+def test_the_compiled_gaps_of_many_headings_are_numpys_to_the_bit(surfaces, seed, poses):
+    scene = _scene(np.round(_scan(surfaces, seed), 2))
+    if scene is not None:
+        with pytest.MonkeyPatch.context() as monkeypatch:
+            _assert_least_gaps_agree(scene, [Pose(0.0, 0.0, 0.0), *(Pose(x, y, t) for x, y, t in poses)], monkeypatch)
+
+
+@same_rounding
+@pytest.mark.skipif(not SCANS.is_dir(), reason="the shared recorded scans are not here")
+def test_the_compiled_gaps_of_many_headings_match_on_the_shared_scans(monkeypatch):
+    for f in sorted(SCANS.glob("*/*.dat"))[::13]:
+        scene = _scene(load_scan(f))
+        if scene is not None:
+            _assert_least_gaps_agree(scene, [Pose(x, y, 0.0) for x in (0.0, 0.27) for y in (0.0, -0.1)], monkeypatch)
+
+
+def _assert_turns_agree(scene: Scene, poses: list[Pose], monkeypatch: pytest.MonkeyPatch) -> None:
+    robot = RobotModel()
+    for pose in poses:
+        near, dz, body = scene.near(pose.x, pose.y)
+        dx, dy = dz.real.copy(), dz.imag.copy()
+        sel = (dx * dx + dy * dy <= scene.radius2).nonzero()[0]
+        if not len(sel):
+            continue
+        tasks = [Task.turn(robot, kind, pose, None, angle) for kind, angle in
+                 ((TaskKind.LEFT, np.pi / 2), (TaskKind.RIGHT, 3 * np.pi / 8), (TaskKind.LEFT, 0.0), (TaskKind.RIGHT, np.pi))]
+        got = scene._turns(tasks, near.take(sel), dx.take(sel), dy.take(sel))
+        with monkeypatch.context() as m:
+            m.setattr(contact, "_turn_hits", lambda: None)
+            ref = scene._turns(tasks, near.take(sel), dx.take(sel), dy.take(sel))
+        assert got == ref, pose
+
+
+@same_rounding
+@settings(max_examples=80, deadline=None)
+@given(st.lists(_surface, min_size=1, max_size=5), st.integers(0, 2**32 - 1),
+       st.lists(st.tuples(st.floats(-0.6, 0.6), st.floats(-0.6, 0.6), st.floats(-3.2, 3.2)), min_size=1, max_size=6))
+def test_the_compiled_turn_contacts_are_numpys(surfaces, seed, poses):
+    # points near the body: the start-touching rule (held to the real body, tested between ticks) is exercised
+    scan = np.round(_scan(surfaces, seed), 2) * 0.35
+    scene = _scene(scan)
+    if scene is not None:
+        with pytest.MonkeyPatch.context() as monkeypatch:
+            _assert_turns_agree(scene, [Pose(0.0, 0.0, 0.0), *(Pose(x * 0.3, y * 0.3, t) for x, y, t in poses)], monkeypatch)
+
+
+@same_rounding
+@pytest.mark.skipif(not SCANS.is_dir(), reason="the shared recorded scans are not here")
+def test_the_compiled_turn_contacts_match_on_the_shared_scans(monkeypatch):
+    for f in sorted(SCANS.glob("*/*.dat"))[::13]:
+        scene = _scene(load_scan(f))
+        if scene is not None:
+            _assert_turns_agree(scene, [Pose(x, y, t) for x in (0.0, 0.27) for y in (0.0, -0.1) for t in (0.0, 1.0, -2.0)], monkeypatch)
