@@ -79,7 +79,28 @@ def _optimum(cmap: Any, plan: Any, target: set[int]) -> float:
     return robust_plan(cmap, target, retries=1).probability
 
 
+def _before(cmap: Any, plan: Any, target: set[int]) -> float:
+    """1 replan, on the target rule before the fix (:func:`leaf_target`)."""
+    from clomp.formal.scheduler import plan_probability
+
+    return plan_probability(cmap, plan, leaf_target(cmap), 1)
+
+
+def leaf_target(cmap: Any) -> set[int]:
+    """The target rule :func:`clomp.planner.robust.plan_target` had before it was fixed, for
+    comparison: the goal (within 0.1 m) whenever one outcome ends there, else the free
+    *leaves* as close as the best-first plan's end (0.03 m slack)."""
+    goal = cmap.goal
+    end = cmap[cmap.metadata["nominal_plan"][-1]].end
+    reach, q0 = cmap.reachable(), cmap.initial.ident
+    free = [s for s in cmap.states() if s.ident in reach and s.ident != q0 and not s.interrupted]
+    near = {s.ident for s in free if s.end.distance_to(goal.x, goal.y) <= 0.1}
+    d = end.distance_to(goal.x, goal.y) + 0.03
+    return near or {s.ident for s in free if not cmap.out_transitions(s.ident) and s.end.distance_to(goal.x, goal.y) <= d}
+
+
 PREDICTIONS: dict[str, Callable[[Any, Any, set[int]], float]] = {
+    "closed loop, 1 replan, the target rule before the fix (leaves only; the goal once one outcome gets there)": _before,
     "closed loop, 1 replan (the robust planner's objective)": _plan_p(1),
     "closed loop, 3 replans": _plan_p(3),
     f"closed loop, {PATIENCE} replans (the supervisor's patience)": _plan_p(PATIENCE),
@@ -235,8 +256,17 @@ def predictions(rec: dict[str, Any]) -> dict[str, float]:
     from clomp.formal.supervisory import Plan
 
     cmap = CognitiveMap.from_dict(rec["map"])
-    plan, target = Plan(tuple(rec["plan"])), set(rec["target"])
-    return {name: f(cmap, plan, target) for name, f in PREDICTIONS.items()}
+    plan = Plan(tuple(rec["plan"]))
+    return {name: f(cmap, plan, target_of(rec, cmap)) for name, f in PREDICTIONS.items()}
+
+
+def target_of(rec: dict[str, Any], cmap: Any) -> set[int]:
+    """The first plan's target, :func:`clomp.planner.robust.plan_target` computed anew on
+    the stored map (the best-first plan's end is the last state of its ``nominal_plan``)."""
+    from clomp.formal.model import Disturbance
+    from clomp.planner.robust import plan_target
+
+    return plan_target(cmap, cmap[cmap.metadata["nominal_plan"][-1]].end, Disturbance.goal(*rec["goal"]))
 
 
 def _conditions_table(fp: list[dict[str, Any]], fam: str) -> None:
