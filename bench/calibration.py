@@ -185,7 +185,7 @@ def run_pair(family: str, k: int, noise: str, samples: int, max_time: float, con
                                "collisions": r.collisions, "end": r.end_state, "distance": r.final_distance,
                                "plans": r.plans, "cpu": time.thread_time() - c1, "wall": time.perf_counter() - w1}
         if isinstance(conf, FirstPlanPredicted):
-            rec.update(conf.first)
+            rec.update(conf.first or {"closed": math.nan})  # no plan at all: no prediction
         else:
             rec["closed"] = conf.predictions[0][0] if conf.predictions else math.nan
             rec["decisions"] = list(conf.decisions)
@@ -323,6 +323,11 @@ def read_records(paths: list[str]) -> list[dict[str, Any]]:
 
 def summarise(pairs: list[dict[str, Any]]) -> None:
     """Print the tables of the records ``pairs`` (the predictions computed anew)."""
+    unplanned = [p for p in pairs if "greedy" in p and "map" not in p["greedy"]]
+    if unplanned:
+        print(f"{len(unplanned)} greedy runs made no plan (no prediction): "
+              + ", ".join(f"{p['noise']} {p['family']} {p['run']} ({p['greedy']['end']})" for p in unplanned))
+    pairs = [p for p in pairs if p not in unplanned]
     for p in pairs:
         if "greedy" in p:
             p["greedy"]["pred"] = predictions(p["greedy"])

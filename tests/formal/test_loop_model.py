@@ -220,3 +220,31 @@ def test_a_model_file_is_checked_against_the_files_meant_for_it(tmp_path, capsys
     plain = {name for _, name in _table(capsys.readouterr().out)}
     assert loop == {p.name for p in _loop_files()["mdp"].properties}  # type: ignore[attr-defined]
     assert "goal_possible" in plain and not plain & loop
+
+
+def test_a_plans_stop_whose_reentry_lies_off_the_plan_ends_the_run():
+    """Before: ExportError ("the retry of q2 re-enters q3, which the model does not hold"),
+    and the robust planner's run HALTED on it (calibration bench, clutter 18). The plan's
+    DTMC has no task at a re-entry off its plan: the stop is the run's end (gave_up, not a
+    collision). The MDP holds every state: a re-entry it lacks is still an error."""
+    from clomp.formal.export import ExportError
+
+    g = Disturbance.goal(1.0, 0.0)
+    box = Disturbance(DisturbanceKind.OBSTACLE, 0.5, 0.0)
+    o = Pose(0, 0)
+    m = CognitiveMap.from_parts([
+        State(0, TaskKind.STRAIGHT, g, None, o, o),
+        State(1, TaskKind.STRAIGHT, g, None, o, Pose(1, 0), reached_goal=True),
+        State(2, TaskKind.STRAIGHT, g, box, o, Pose(0.2, 0)),
+        State(3, TaskKind.LEFT, g, None, o, Pose(0, 0, 0.5)),
+    ], [], goal=g)
+    m.add_transition(0, 1, TaskKind.STRAIGHT, Fraction(1, 2))
+    m.add_transition(0, 2, TaskKind.STRAIGHT, Fraction(1, 2))
+    m.add_transition(0, 3, TaskKind.LEFT)
+    m.metadata.update({"plan": [0, 1], "stops": {"2": 3}})
+    r = loop_model(export_model(m, "dtmc"), map_stops(m.metadata), 1)
+    name = {k: s.ident for k, s in enumerate(r.states)}
+    assert sorted(name[k] for k in r.labels[INTERRUPTED]) == [2] == sorted(name[k] for k in r.labels[GAVE_UP])
+    assert not r.labels["collision"] and all(c.action != RETRY for row in r.choices for c in row)
+    with pytest.raises(ExportError, match="re-enters q9"):
+        loop_model(export_model(m, "mdp"), {2: 9}, 1)
