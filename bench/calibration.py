@@ -83,20 +83,19 @@ def _before(cmap: Any, plan: Any, target: set[int]) -> float:
     """1 replan, on the target rule before the fix (:func:`leaf_target`)."""
     from clomp.formal.scheduler import plan_probability
 
-    return plan_probability(cmap, plan, leaf_target(cmap), 1)
+    return plan_probability(cmap, plan, leaf_target(cmap, target), 1)
 
 
-def leaf_target(cmap: Any) -> set[int]:
+def leaf_target(cmap: Any, target: set[int]) -> set[int]:
     """The target rule :func:`clomp.planner.robust.plan_target` had before it was fixed, for
     comparison: the goal (within 0.1 m) whenever one outcome ends there, else the free
-    *leaves* as close as the best-first plan's end (0.03 m slack)."""
+    *leaves* as close as the best-first plan's end (0.03 m slack): the leaves of the
+    present rule's ``target`` when it is a frontier's."""
     goal = cmap.goal
-    end = cmap[cmap.metadata["nominal_plan"][-1]].end
     reach, q0 = cmap.reachable(), cmap.initial.ident
     free = [s for s in cmap.states() if s.ident in reach and s.ident != q0 and not s.interrupted]
     near = {s.ident for s in free if s.end.distance_to(goal.x, goal.y) <= 0.1}
-    d = end.distance_to(goal.x, goal.y) + 0.03
-    return near or {s.ident for s in free if not cmap.out_transitions(s.ident) and s.end.distance_to(goal.x, goal.y) <= d}
+    return near or {q for q in target if not cmap.out_transitions(q)}
 
 
 PREDICTIONS: dict[str, Callable[[Any, Any, set[int]], float]] = {
@@ -129,6 +128,7 @@ class FirstPlanPredicted(RobustConfigurator):
         self.first = {"closed": c.p_greedy, "goal_in_map": bool(c.greedy_result.reached_goal),
                       "target_is_goal": _goal_target(c), "map": c.pm.map.to_dict(), "plan": list(c.greedy.states),
                       "target": sorted(c.target), "goal": [c.greedy_result.goal.x, c.greedy_result.goal.y],
+                      "nominal_end": c.greedy_result.map[c.greedy_result.plan.end].end.as_list(),
                       "scan": [[round(float(x), 5), round(float(y), 5)] for x, y in scan]}
         if self.open_loop:
             o = RobustConfigurator(self.robot, samples=self.samples, noise=self.noise, seed=self.seed,
@@ -262,11 +262,28 @@ def predictions(rec: dict[str, Any]) -> dict[str, float]:
 
 def target_of(rec: dict[str, Any], cmap: Any) -> set[int]:
     """The first plan's target, :func:`clomp.planner.robust.plan_target` computed anew on
-    the stored map (the best-first plan's end is the last state of its ``nominal_plan``)."""
+    the stored map and the best-first plan's end (:func:`nominal_end`)."""
     from clomp.formal.model import Disturbance
     from clomp.planner.robust import plan_target
 
-    return plan_target(cmap, cmap[cmap.metadata["nominal_plan"][-1]].end, Disturbance.goal(*rec["goal"]))
+    return plan_target(cmap, nominal_end(rec, cmap), Disturbance.goal(*rec["goal"]))
+
+
+def nominal_end(rec: dict[str, Any], cmap: Any) -> Any:
+    """Where the first best-first plan ends: as recorded, else its last state on the
+    stored map, else (a carried plan whose nominal end no rollout reached) planned again
+    on the stored scan (the Configurator is deterministic)."""
+    from clomp.formal.model import Pose
+
+    if "nominal_end" in rec:
+        return Pose.from_list(rec["nominal_end"])
+    last = cmap.metadata["nominal_plan"][-1]
+    if last in cmap:
+        return cmap[last].end
+    import numpy as np
+
+    g = RobustConfigurator()._plain().plan(np.asarray(rec["scan"], dtype=float), tuple(rec["goal"]))
+    return g.map[g.plan.end].end
 
 
 def _conditions_table(fp: list[dict[str, Any]], fam: str) -> None:
