@@ -276,7 +276,7 @@ def meant_for(pf: PropertyFile, kind: str, labels: set[str]) -> bool:
     kind, every label it names declared, and the closed loop's files (``closed_loop/``)
     for exactly the closed loop's models (those declaring ``interrupted``).
 
-    >>> pf = parse_properties('// @model dtmc\n"p": P=? [F "goal"]', "specs/properties/closed_loop/plan.pctl")
+    >>> pf = parse_properties('// @model dtmc\\n"p": P=? [F "goal"]', "specs/properties/closed_loop/plan.pctl")
     >>> meant_for(pf, "dtmc", {"goal", "interrupted"}), meant_for(pf, "dtmc", {"goal"}), meant_for(pf, "mdp", {"goal", "interrupted"})
     (True, False, False)
     """
