@@ -1,31 +1,41 @@
 """Calibration of Storm's predictions against the execution world, with the closed-loop model.
 
 Run: ``python bench/calibration.py [--layouts 100] [--families doorway clutter]
-[--noise paper harsh] [--samples 30] [--workers K] [--out FILE.json]``. For every layout
-(family, seed 0, index k; :func:`clomp.runtime.experiment.layouts.make_layout`, the layouts of
-``clomp experiment``) and noise preset, the supervisor drives the layout in the execution
-world twice, paired (the same layout, world and noise seeds): with the Configurator's
-best-first plans (greedy) and with :class:`clomp.planner.robust.RobustConfigurator` (robust).
+[--noise paper harsh] [--samples 30] [--conditions greedy robust] [--workers K]
+[--out FILE.jsonl]``, and ``python bench/calibration.py --summary FILE.jsonl …`` for the
+tables of runs already made. For every layout (family, seed 0, index k;
+:func:`clomp.runtime.experiment.layouts.make_layout`, the layouts of ``clomp experiment``)
+and noise preset, the supervisor drives the layout in the execution world with the
+Configurator's best-first plans (greedy) and, paired (the same layout, world and noise
+seeds), with :class:`clomp.planner.robust.RobustConfigurator` (robust).
 
-Storm's prediction of a run is ``P[!collision U target]`` of its **first plan** on the
-probabilistic map of the first scan, in the **closed-loop model**
+Storm's prediction of a greedy run is ``P[!collision U target]`` of its **first plan** on
+the probabilistic map of the first scan sampled as the closed loop
 (:data:`clomp.planner.robust.CLOSED_LOOP_HAZARD`: a rollout the supervisor's check would
-interrupt before a contact is a stop, replanned once, not a collision; the robust
-planner's objective), beside the same plan's value in the **open-loop model** (the
-default map: every contact a collision). The target is
-:func:`clomp.planner.robust.plan_target`: the goal within 0.1 m, or, when the goal lies
-beyond the sensed disc, a frontier as close as the best-first plan gets; ``goal in
-map`` marks the runs whose first best-first plan reaches the goal (only there is the
-prediction one of the run's own success; elsewhere it is the chance of the first
-plan's progress). Also recorded for the greedy plan: its closed-loop value with 3
-replans, and Storm's optimum on the same map (Pmax, 1 replan).
+interrupt before a contact is a stop, not a collision), in several models of what the
+loop does after an interruption (:data:`PREDICTIONS`: the replans the robust planner
+assumes, the supervisor's patience, Storm's optimum on the same map, …). The map, the
+plan and the target are stored with each run, so the predictions are computed again
+from the records (``--summary``) when a model changes, without driving the world again.
+The target is :func:`clomp.planner.robust.plan_target`: the goal within 0.1 m, or, when
+the goal lies beyond the sensed disc, a frontier as close as the best-first plan gets;
+``goal_in_map`` marks the runs whose first best-first plan reaches the goal (only there
+is the prediction one of the run's own success).
+
+Cost: a robust run samples a map at every plan (about ten times a greedy run's cost),
+so the calibration (greedy runs) and the paired comparison (robust runs) can be run
+apart (``--conditions``) and merged by ``--summary``; a robust run paired with a greedy
+one in the same process reuses the greedy run's first map (the same scan and seed).
+Each run's record is appended to ``--out`` as one JSON line as soon as it is done, and
+the layouts are taken in the order k = 0, 1, … across families and noise presets, so a
+run stopped early leaves balanced samples.
 
 Observed: success = the robot truly ends within the experiment's 0.1 m of the goal with
 no collision episode (ground truth); false successes (the supervisor believed the goal
-reached, the truth is farther) are counted beside. Prints a calibration table per
-noise (bins of the predicted P: n, mean predicted, observed success with a 95 % Wilson
-interval, whether the mean lies in it), over every run and over the runs whose goal is
-in the first map, and robust vs greedy with the exact McNemar test. Asserts nothing.
+reached, the truth is farther) are counted beside. Prints a calibration table per noise
+and prediction (bins of the predicted P: n, mean predicted, observed success with a 95 %
+Wilson interval, whether the mean lies in it), and robust vs greedy with the exact
+McNemar test. Asserts nothing.
 """
 
 from __future__ import annotations
@@ -35,13 +45,14 @@ import json
 import math
 import multiprocessing
 import statistics
+import sys
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from concurrent.futures import ProcessPoolExecutor
 from typing import Any
 
 from clomp.planner.configurator import Configurator, PlanResult
-from clomp.planner.robust import CLOSED_LOOP_HAZARD, SUPERVISOR_HAZARD, RobustConfigurator
+from clomp.planner.robust import CLOSED_LOOP_HAZARD, SUPERVISOR_HAZARD, RobustChoice, RobustConfigurator
 from clomp.planner.noise import preset_names
 from clomp.runtime.experiment.layouts import FAMILIES, make_layout
 from clomp.runtime.experiment.runner import run_once
@@ -49,30 +60,102 @@ from clomp.runtime.experiment.stats import mcnemar, wilson
 
 NAMES = ("greedy", "robust")
 BINS = (0.0, 0.2, 0.4, 0.6, 0.8, 1.0 + 1e-9)
+PATIENCE = 6
+"""The supervisor's patience (:class:`clomp.runtime.supervision.config.SupervisorConfig`):
+plans in a row that come no closer before it gives up."""
+
+
+def _plan_p(replans: int) -> Callable[[Any, Any, set[int]], float]:
+    def p(cmap: Any, plan: Any, target: set[int]) -> float:
+        from clomp.formal.scheduler import plan_probability
+
+        return plan_probability(cmap, plan, target, replans)
+    return p
+
+
+def _optimum(cmap: Any, plan: Any, target: set[int]) -> float:
+    from clomp.formal.scheduler import robust_plan
+
+    return robust_plan(cmap, target, retries=1).probability
+
+
+def _before(cmap: Any, plan: Any, target: set[int]) -> float:
+    """1 replan, on the target rule before the fix (:func:`leaf_target`)."""
+    from clomp.formal.scheduler import plan_probability
+
+    return plan_probability(cmap, plan, leaf_target(cmap, target), 1)
+
+
+def leaf_target(cmap: Any, target: set[int]) -> set[int]:
+    """The target rule :func:`clomp.planner.robust.plan_target` had before it was fixed, for
+    comparison: the goal (within 0.1 m) whenever one outcome ends there, else the free
+    *leaves* as close as the best-first plan's end (0.03 m slack): the leaves of the
+    present rule's ``target`` when it is a frontier's."""
+    goal = cmap.goal
+    reach, q0 = cmap.reachable(), cmap.initial.ident
+    free = [s for s in cmap.states() if s.ident in reach and s.ident != q0 and not s.interrupted]
+    near = {s.ident for s in free if s.end.distance_to(goal.x, goal.y) <= 0.1}
+    return near or {q for q in target if not cmap.out_transitions(q)}
+
+
+PREDICTIONS: dict[str, Callable[[Any, Any, set[int]], float]] = {
+    "closed loop, 1 replan, the target rule before the fix (leaves only; the goal once one outcome gets there)": _before,
+    "closed loop, 1 replan (the robust planner's objective)": _plan_p(1),
+    "closed loop, 3 replans": _plan_p(3),
+    f"closed loop, {PATIENCE} replans (the supervisor's patience)": _plan_p(PATIENCE),
+    "Storm's optimum on the same map (1 replan)": _optimum,
+}
+"""The predictions of a greedy run's first plan, from its stored map, plan and target."""
 
 
 class FirstPlanPredicted(RobustConfigurator):
-    """The best-first plans, unchanged; the first one predicted on the closed-loop map
-    (this configurator's hazard) and on the open-loop map (the default's), same seeds."""
+    """The best-first plans, unchanged; the first plan's map sampled as the closed loop
+    (this configurator's hazard) and kept (``first``, ``choice``), with the open-loop
+    map's prediction beside it when ``open_loop``."""
 
-    def __init__(self, **kw: Any) -> None:
+    def __init__(self, open_loop: bool = False, **kw: Any) -> None:
         super().__init__(**kw)
+        self.open_loop = open_loop
         self.first: dict[str, Any] = {}
+        self.choice: RobustChoice | None = None
+        self.scan: Any = None
 
     def plan(self, scan: Any, goal: Any) -> PlanResult:
         if self.first:
             return Configurator(self.robot, self.cost, self.max_states, self.horizon).plan(scan, goal)
-        from clomp.formal.scheduler import plan_probability, robust_plan
-
         c = self.sample(scan, goal)
-        open_loop = RobustConfigurator(self.robot, samples=self.samples, noise=self.noise, seed=self.seed,
-                                       hazard=SUPERVISOR_HAZARD, retries=self.retries)
-        o = open_loop.sample(scan, goal)
-        self.first = {"closed": c.p_greedy, "open": o.p_greedy, "goal_in_map": bool(c.greedy_result.reached_goal),
-                      "closed_3": plan_probability(c.pm.map, c.greedy, c.target, 3),
-                      "closed_max": robust_plan(c.pm.map, c.target, retries=self.retries).probability,
-                      "target_is_goal": _goal_target(c)}
+        self.choice, self.scan = c, scan
+        self.first = {"closed": c.p_greedy, "goal_in_map": bool(c.greedy_result.reached_goal),
+                      "target_is_goal": _goal_target(c), "map": c.pm.map.to_dict(), "plan": list(c.greedy.states),
+                      "target": sorted(c.target), "goal": [c.greedy_result.goal.x, c.greedy_result.goal.y],
+                      "nominal_end": c.greedy_result.map[c.greedy_result.plan.end].end.as_list(),
+                      "scan": [[round(float(x), 5), round(float(y), 5)] for x, y in scan]}
+        if self.open_loop:
+            o = RobustConfigurator(self.robot, samples=self.samples, noise=self.noise, seed=self.seed,
+                                   hazard=SUPERVISOR_HAZARD, retries=self.retries).sample(scan, goal)
+            self.first["open"] = o.p_greedy
         return c.greedy_result
+
+
+class Reusing(RobustConfigurator):
+    """The robust planner, whose first map is ``first``'s when its first scan is the one
+    ``first`` sampled (the same seed and settings: the same map, sampled once)."""
+
+    def __init__(self, first: FirstPlanPredicted | None, **kw: Any) -> None:
+        super().__init__(**kw)
+        self.reuse = first
+
+    def sample(self, scan: Any, goal: Any) -> RobustChoice:
+        import numpy as np
+
+        f = self.reuse
+        self.reuse = None
+        if f is not None and f.choice is not None and self._calls == 0 and np.array_equal(np.asarray(scan), np.asarray(f.scan)):
+            self._calls += 1
+            self.last_probabilities = (f.choice.robust.probability, f.choice.p_greedy)
+            self.predictions.append(self.last_probabilities)
+            return f.choice
+        return super().sample(scan, goal)
 
 
 def _goal_target(c: Any) -> bool:
@@ -81,24 +164,28 @@ def _goal_target(c: Any) -> bool:
     return any(c.pm.map[i].end.distance_to(g.x, g.y) <= 0.1 + 1e-9 for i in c.target)
 
 
-def run_pair(family: str, k: int, noise: str, samples: int, max_time: float) -> dict[str, Any]:
-    """Layout ``k`` of ``family`` at ``noise`` in both conditions (paired); plain data."""
+def run_pair(family: str, k: int, noise: str, samples: int, max_time: float, conditions: tuple[str, ...] = NAMES,
+             open_loop: bool = False) -> dict[str, Any]:
+    """Layout ``k`` of ``family`` at ``noise`` in each of ``conditions`` (paired); plain data."""
     layout = make_layout(family, 0, k)
-    out: dict[str, Any] = {"family": family, "run": k, "noise": noise}
-    for name in NAMES:
+    out: dict[str, Any] = {"family": family, "run": k, "noise": noise, "samples": samples}
+    first: FirstPlanPredicted | None = None
+    for name in conditions:
+        kw = dict(samples=samples, noise=noise, seed=1000 * k, hazard=CLOSED_LOOP_HAZARD)
         conf: RobustConfigurator
         if name == "greedy":
-            conf = FirstPlanPredicted(samples=samples, noise=noise, seed=1000 * k, hazard=CLOSED_LOOP_HAZARD)
+            conf = first = FirstPlanPredicted(open_loop=open_loop, **kw)
         else:
-            conf = RobustConfigurator(samples=samples, noise=noise, seed=1000 * k, hazard=CLOSED_LOOP_HAZARD)
+            conf = Reusing(first, **kw)
         c1 = time.thread_time()
+        w1 = time.perf_counter()
         r = run_once(layout.scene, "planning", seed=k, run=k, noise=noise, configurator=conf, max_time=max_time,
                      expect=layout.expect)
         rec: dict[str, Any] = {"ok": int(r.reached_goal and r.collisions == 0), "false_success": int(r.believed_goal and not r.reached_goal),
                                "collisions": r.collisions, "end": r.end_state, "distance": r.final_distance,
-                               "plans": r.plans, "cpu": time.thread_time() - c1}
+                               "plans": r.plans, "cpu": time.thread_time() - c1, "wall": time.perf_counter() - w1}
         if isinstance(conf, FirstPlanPredicted):
-            rec.update(conf.first)
+            rec.update(conf.first or {"closed": math.nan})  # no plan at all: no prediction
         else:
             rec["closed"] = conf.predictions[0][0] if conf.predictions else math.nan
             rec["decisions"] = list(conf.decisions)
@@ -106,16 +193,23 @@ def run_pair(family: str, k: int, noise: str, samples: int, max_time: float) -> 
     return out
 
 
+def _todo(args: argparse.Namespace) -> list[tuple[str, int, str]]:
+    """(family, k, noise) in the order k = first, first + 1, …: a run stopped early is balanced."""
+    return [(f, k, nz) for k in range(args.first, args.first + args.layouts) for nz in args.noise for f in args.families]
+
+
 def _pairs(args: argparse.Namespace) -> Iterator[dict[str, Any]]:
-    todo = [(f, k, nz) for nz in args.noise for f in args.families for k in range(args.first, args.first + args.layouts)]
-    fn = [args.samples] * len(todo), [args.max_time] * len(todo)
+    todo = _todo(args)
+    conds = tuple(args.conditions)
     if args.workers <= 1:
         for f, k, nz in todo:
-            yield run_pair(f, k, nz, args.samples, args.max_time)
+            yield run_pair(f, k, nz, args.samples, args.max_time, conds, args.open_loop)
         return
+    n = len(todo)
     ctx = multiprocessing.get_context("spawn")  # no fork of a parent that may hold Storm's threads
     with ProcessPoolExecutor(max_workers=args.workers, mp_context=ctx) as pool:
-        yield from pool.map(run_pair, [t[0] for t in todo], [t[1] for t in todo], [t[2] for t in todo], *fn)
+        yield from pool.map(run_pair, [t[0] for t in todo], [t[1] for t in todo], [t[2] for t in todo], [args.samples] * n,
+                            [args.max_time] * n, [conds] * n, [args.open_loop] * n)
 
 
 def calibration_rows(pred: list[float], ok: list[int]) -> list[dict[str, Any]]:
@@ -155,46 +249,126 @@ def _print_table(title: str, pred: list[float], ok: list[int]) -> None:
         print(f"    mean predicted {statistics.fmean(pred):.3f}, observed {sum(ok) / len(ok):.3f}, Brier score {brier:.3f}")
 
 
+def predictions(rec: dict[str, Any]) -> dict[str, float]:
+    """Every prediction of :data:`PREDICTIONS` for a greedy run's record (its stored first
+    map, plan and target), computed with Storm."""
+    from clomp.formal.lts import CognitiveMap
+    from clomp.formal.supervisory import Plan
+
+    cmap = CognitiveMap.from_dict(rec["map"])
+    plan = Plan(tuple(rec["plan"]))
+    return {name: f(cmap, plan, target_of(rec, cmap)) for name, f in PREDICTIONS.items()}
+
+
+def target_of(rec: dict[str, Any], cmap: Any) -> set[int]:
+    """The first plan's target, :func:`clomp.planner.robust.plan_target` computed anew on
+    the stored map and the best-first plan's end (:func:`nominal_end`)."""
+    from clomp.formal.model import Disturbance
+    from clomp.planner.robust import plan_target
+
+    return plan_target(cmap, nominal_end(rec, cmap), Disturbance.goal(*rec["goal"]))
+
+
+def nominal_end(rec: dict[str, Any], cmap: Any) -> Any:
+    """Where the first best-first plan ends: as recorded, else its last state on the
+    stored map, else (a carried plan whose nominal end no rollout reached) planned again
+    on the stored scan (the Configurator is deterministic)."""
+    from clomp.formal.model import Pose
+
+    if "nominal_end" in rec:
+        return Pose.from_list(rec["nominal_end"])
+    last = cmap.metadata["nominal_plan"][-1]
+    if last in cmap:
+        return cmap[last].end
+    import numpy as np
+
+    g = RobustConfigurator()._plain().plan(np.asarray(rec["scan"], dtype=float), tuple(rec["goal"]))
+    return g.map[g.plan.end].end
+
+
+def _conditions_table(fp: list[dict[str, Any]], fam: str) -> None:
+    for name in NAMES:
+        runs = [p[name] for p in fp if name in p]
+        if not runs:
+            continue
+        s, n = sum(r["ok"] for r in runs), len(runs)
+        lo, hi = wilson(s, n)
+        false = sum(r["false_success"] for r in runs)
+        coll = sum(1 for r in runs if r["collisions"])
+        ends = {e: sum(1 for r in runs if r["end"] == e) for e in sorted({r["end"] for r in runs})}
+        print(f"  {fam:<9} {name:<7} success {s}/{n} = {s / n:.0%} [{lo:.0%}, {hi:.0%}], false successes {false}, "
+              f"runs with a collision {coll}; ends {ends}")
+    both = [p for p in fp if all(name in p for name in NAMES)]
+    if both:
+        t = mcnemar([p["greedy"]["ok"] for p in both], [p["robust"]["ok"] for p in both])
+        dev = sum(1 for p in both if any(d == "confirmed" for d in p["robust"]["decisions"]))
+        print(f"  {fam:<9} paired ({len(both)} layouts): only greedy {t['b10']}, only robust {t['b01']}, McNemar p = {t['p']:.3g}; "
+              f"robust runs with a confirmed deviation: {dev}")
+
+
 def _summary(pairs: list[dict[str, Any]], noise: str) -> None:
     print(f"\nnoise {noise}:")
     for fam in sorted({p["family"] for p in pairs}):
-        fp = [p for p in pairs if p["family"] == fam]
-        for name in NAMES:
-            s, n = sum(p[name]["ok"] for p in fp), len(fp)
-            lo, hi = wilson(s, n)
-            false = sum(p[name]["false_success"] for p in fp)
-            coll = sum(1 for p in fp if p[name]["collisions"])
-            print(f"  {fam:<9} {name:<7} success {s}/{n} = {s / n:.0%} [{lo:.0%}, {hi:.0%}], false successes {false}, "
-                  f"runs with a collision {coll}, mean Storm P of the 1st plan (closed loop) "
-                  f"{statistics.fmean(p[name]['closed'] for p in fp):.3f}")
-        t = mcnemar([p["greedy"]["ok"] for p in fp], [p["robust"]["ok"] for p in fp])
-        dev = sum(1 for p in fp if any(d == "confirmed" for d in p["robust"]["decisions"]))
-        print(f"  {fam:<9} paired: only greedy {t['b10']}, only robust {t['b01']}, McNemar p = {t['p']:.3g}; "
-              f"robust runs with a confirmed deviation: {dev}")
-    g = [p["greedy"] for p in pairs]
+        _conditions_table([p for p in pairs if p["family"] == fam], fam)
+    g = [p["greedy"] for p in pairs if "greedy" in p]
     ok = [r["ok"] for r in g]
-    _print_table("greedy runs, Storm P of the first plan, closed-loop model", [r["closed"] for r in g], ok)
-    _print_table("greedy runs, the same plan, closed-loop model with 3 replans", [r["closed_3"] for r in g], ok)
-    _print_table("greedy runs, Storm's optimum on the first map (Pmax, closed loop, 1 replan)", [r["closed_max"] for r in g], ok)
-    _print_table("greedy runs, the same plan, open-loop model (every contact a collision)", [r["open"] for r in g], ok)
     inmap = [r for r in g if r["goal_in_map"]]
-    _print_table("greedy runs whose first (best-first) plan reaches the goal, closed-loop model", [r["closed"] for r in inmap],
-                 [r["ok"] for r in inmap])
-    _print_table("the same runs, open-loop model", [r["open"] for r in inmap], [r["ok"] for r in inmap])
-    rb = [p["robust"] for p in pairs]
-    _print_table("robust runs, Storm P of the first plan, closed-loop model", [r["closed"] for r in rb], [r["ok"] for r in rb])
+    for name in PREDICTIONS:
+        _print_table(f"greedy runs, first plan: {name}", [r["pred"][name] for r in g], ok)
+        _print_table("  the same, runs whose first (best-first) plan reaches the goal", [r["pred"][name] for r in inmap],
+                     [r["ok"] for r in inmap])
+    if any("open" in r for r in g):
+        op = [r for r in g if "open" in r]
+        _print_table("greedy runs, first plan, open-loop model (every contact a collision)", [r["open"] for r in op], [r["ok"] for r in op])
+    rb = [p["robust"] for p in pairs if "robust" in p]
+    if rb:
+        _print_table("robust runs, Storm P of the first plan, closed-loop model", [r["closed"] for r in rb], [r["ok"] for r in rb])
 
 
-def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__)
+def read_records(paths: list[str]) -> list[dict[str, Any]]:
+    """The runs of JSON-lines files written by ``--out``, merged per (noise, family, layout):
+    a layout's greedy and robust runs may come from different files."""
+    merged: dict[tuple[str, str, int], dict[str, Any]] = {}
+    for path in paths:
+        with open(path, encoding="utf-8") as fh:
+            for line in fh:
+                if line.strip():
+                    rec = json.loads(line)
+                    merged.setdefault((rec["noise"], rec["family"], rec["run"]), {}).update(rec)
+    return [merged[key] for key in sorted(merged)]
+
+
+def summarise(pairs: list[dict[str, Any]]) -> None:
+    """Print the tables of the records ``pairs`` (the predictions computed anew)."""
+    unplanned = [p for p in pairs if "greedy" in p and "map" not in p["greedy"]]
+    if unplanned:
+        print(f"{len(unplanned)} greedy runs made no plan (no prediction): "
+              + ", ".join(f"{p['noise']} {p['family']} {p['run']} ({p['greedy']['end']})" for p in unplanned))
+    pairs = [p for p in pairs if p not in unplanned]
+    for p in pairs:
+        if "greedy" in p:
+            p["greedy"]["pred"] = predictions(p["greedy"])
+    layouts = sorted({(p["family"], p["run"]) for p in pairs})
+    print(f"{len(pairs)} layout records ({len(layouts)} layouts of {', '.join(sorted({f for f, _ in layouts}))}); "
+          f"greedy runs {sum('greedy' in p for p in pairs)}, robust runs {sum('robust' in p for p in pairs)}")
+    for nz in sorted({p["noise"] for p in pairs}, key=lambda n: (n != "paper", n)):
+        _summary([p for p in pairs if p["noise"] == nz], nz)
+
+
+def _parse(argv: list[str] | None) -> argparse.Namespace:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--layouts", type=int, default=100, help="layouts per family and noise (default 100)")
     ap.add_argument("--first", type=int, default=0, help="first layout index (default 0)")
     ap.add_argument("--families", nargs="+", default=["doorway", "clutter"])
     ap.add_argument("--noise", nargs="+", default=["paper", "harsh"])
     ap.add_argument("--samples", type=int, default=30)
+    ap.add_argument("--conditions", nargs="+", default=list(NAMES), choices=NAMES,
+                    help="greedy (the calibration), robust (paired with greedy runs of the same layouts), or both (default)")
+    ap.add_argument("--open-loop", action="store_true", help="also predict the greedy runs' first plan on the open-loop map")
     ap.add_argument("--max-time", type=float, default=120.0)
     ap.add_argument("--workers", type=int, default=1)
-    ap.add_argument("--out", help="also write every run's record as JSON to this file")
+    ap.add_argument("--out", help="append every run's record as a JSON line to this file as it is done")
+    ap.add_argument("--summary", nargs="+", metavar="FILE", help="print the tables of records already written (no runs)")
     args = ap.parse_args(argv)
     if args.layouts < 1 or args.first < 0 or args.samples < 1:
         ap.error("--layouts and --samples must be >= 1, --first >= 0")
@@ -202,22 +376,36 @@ def main(argv: list[str] | None = None) -> int:
     if unknown:
         ap.error(f"unknown family or noise preset: {', '.join(unknown)} (families: {', '.join(FAMILIES)}; "
                  f"noise: {', '.join(preset_names())})")
+    return args
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = _parse(argv)
+    if args.summary:
+        try:
+            summarise(read_records(args.summary))
+        except (OSError, ValueError, KeyError) as exc:
+            print(f"calibration.py: error: {exc}", file=sys.stderr)
+            return 2
+        return 0
     w0 = time.perf_counter()
     pairs: list[dict[str, Any]] = []
-    for p in _pairs(args):
-        pairs.append(p)
-        g, r = p["greedy"], p["robust"]
-        print(f"{p['noise']} {p['family']} {p['run']}: greedy {'ok  ' if g['ok'] else 'FAIL'} P {g['closed']:.2f} "
-              f"(open {g['open']:.2f}, 3 replans {g['closed_3']:.2f}, max {g['closed_max']:.2f}{', goal in map' if g['goal_in_map'] else ''}), robust {'ok  ' if r['ok'] else 'FAIL'} "
-              f"P {r['closed']:.2f}", flush=True)
-    if args.out:
-        with open(args.out, "w", encoding="utf-8") as fh:
-            json.dump(pairs, fh, indent=1)
+    out = open(args.out, "a", encoding="utf-8") if args.out else None
+    try:
+        for p in _pairs(args):
+            pairs.append(p)
+            if out is not None:
+                out.write(json.dumps(p) + "\n")
+                out.flush()
+            print(f"{p['noise']} {p['family']} {p['run']}: " + ", ".join(
+                f"{n} {'ok  ' if p[n]['ok'] else 'FAIL'} P {p[n]['closed']:.2f} ({p[n]['wall']:.0f} s)" for n in NAMES if n in p), flush=True)
+    finally:
+        if out is not None:
+            out.close()
     print(f"\nexecution world, layouts {args.first}..{args.first + args.layouts - 1} of {', '.join(args.families)}, seed 0, "
-          f"{args.samples} samples per choice, a stop replanned once; wall {time.perf_counter() - w0:.0f} s, "
-          f"CPU of the runs {sum(p[n]['cpu'] for p in pairs for n in NAMES):.0f} s")
-    for nz in args.noise:
-        _summary([p for p in pairs if p["noise"] == nz], nz)
+          f"{args.samples} samples per choice; wall {time.perf_counter() - w0:.0f} s, "
+          f"thread CPU of the runs {sum(p[n]['cpu'] for p in pairs for n in NAMES if n in p):.0f} s")
+    summarise(pairs)
     return 0
 
 

@@ -51,6 +51,8 @@ __all__ = [
     "read_properties",
     "default_property_files",
     "shipped_property_files",
+    "closed_loop_property_files",
+    "meant_for",
     "property_labels",
     "file_labels",
     "require_stormpy",
@@ -262,6 +264,26 @@ def shipped_property_files() -> list[Path]:
     (``supervisor/machine.pctl``) included."""
     from clomp import specs
     return sorted((Path(specs.__file__).resolve().parent / "properties").rglob("*.pctl"))
+
+
+def closed_loop_property_files() -> list[Path]:
+    """The property files of the closed loop's model (``specs/properties/closed_loop/``)."""
+    return [p for p in shipped_property_files() if p.parent.name == "closed_loop"]
+
+
+def meant_for(pf: PropertyFile, kind: str, labels: set[str]) -> bool:
+    """Whether the shipped file ``pf`` is about a ``kind`` model declaring ``labels``: its
+    kind, every label it names declared, and the closed loop's files (``closed_loop/``)
+    for exactly the closed loop's models (those declaring ``interrupted``).
+
+    >>> pf = parse_properties('// @model dtmc\\n"p": P=? [F "goal"]', "specs/properties/closed_loop/plan.pctl")
+    >>> meant_for(pf, "dtmc", {"goal", "interrupted"}), meant_for(pf, "dtmc", {"goal"}), meant_for(pf, "mdp", {"goal", "interrupted"})
+    (True, False, False)
+    """
+    from clomp.formal.retry import INTERRUPTED
+
+    closed = Path(pf.source).parent.name == "closed_loop"
+    return pf.model == kind and property_labels(pf) <= labels and closed == (INTERRUPTED in labels)
 
 
 _LABEL_REF = re.compile(r'(?<!\{)"([A-Za-z_][A-Za-z0-9_]*)"')

@@ -111,20 +111,26 @@ def retry_model(m: ExportModel, stops: Mapping[int, int], retries: int = 1,
     """The product of ``m`` with ``retries`` retries: ``stops`` maps each stop state's
     ident to the ident of the state its retry re-enters (see the module docstring).
     Stops that ``m`` does not hold are ignored (e.g. off the plan of a DTMC); a re-entry
-    state it does not hold is an :class:`ExportError`. ``offs``: free leaves where a
+    state an MDP does not hold is an :class:`ExportError`, while a DTMC's stop whose
+    re-entry lies off its plan (e.g. an outcome aimed at a nominal state the rollouts of
+    a carried plan never reached) is not retried: the plan has no task there, the run
+    ends at the stop (before, an ExportError: a robust run HALTED on it, clutter 18).
+    ``offs``: free leaves where a
     task ended off the map's prediction (:data:`OFFS_KEY`), each with the state the
     task aimed at; their retry (the supervisor's replan from near there) re-enters that
     state, and they are labelled :data:`OFF_LABEL` (given ``offs`` only)."""
     if isinstance(retries, bool) or not isinstance(retries, int) or retries < 0:
         raise ExportError(f"retries must be a whole number >= 0, got {retries!r}")
     index = {s.ident: k for k, s in enumerate(m.states)}
-    back = _reentries(index, stops, lambda k: m.states[k].interrupted, "a stop but was not interrupted")
-    ends = _reentries(index, offs or {}, lambda k: not m.states[k].interrupted and [c.action for c in m.choices[k]] == [STAY],
-                      "an outcome off the map's prediction but is not a free leaf")
+    held = m.kind == "dtmc"  # a DTMC holds only its plan's states: a re-entry off it is no retry
+    back, stopped = _reentries(index, stops, lambda k: m.states[k].interrupted, "a stop but was not interrupted", held)
+    ends, ended = _reentries(index, offs or {}, lambda k: not m.states[k].interrupted and [c.action for c in m.choices[k]] == [STAY],
+                             "an outcome off the map's prediction but is not a free leaf", held)
     back.update(ends)
-    off_label = {} if offs is None else {OFF_LABEL: frozenset(ends)}
+    stop_set, off_set = (set(back) - set(ends)) | stopped, set(ends) | ended
+    off_label = {} if offs is None else {OFF_LABEL: frozenset(off_set)}
     if retries == 0 or not back:
-        return replace(m, labels={**m.labels, STOP_LABEL: frozenset(back) - set(ends), **off_label})
+        return replace(m, labels={**m.labels, STOP_LABEL: frozenset(stop_set), **off_label})
     span = max(s.ident for s in m.states) + 1
     # product states (index in m, layer): layer 0 first, in m's order, then the copies
     # reachable from it, breadth-first (the product's root leads to layer 0, in order)
@@ -146,27 +152,34 @@ def retry_model(m: ExportModel, stops: Mapping[int, int], retries: int = 1,
             labels[name] = frozenset(p for p, (k, _) in enumerate(order) if k in members)
     labels["collision"] = frozenset(p for p in labels.get("collision", frozenset())
                                     if not (order[p][0] in back and order[p][1] < retries))
-    labels[STOP_LABEL] = frozenset(p for p, (k, _) in enumerate(order) if k in back and k not in ends)
+    labels[STOP_LABEL] = frozenset(p for p, (k, _) in enumerate(order) if k in stop_set)
     if offs is not None:
-        labels[OFF_LABEL] = frozenset(p for p, (k, _) in enumerate(order) if k in ends)
+        labels[OFF_LABEL] = frozenset(p for p, (k, _) in enumerate(order) if k in off_set)
     loops = tuple(p for p, row in enumerate(choices) if len(row) == 1 and row[0].action == STAY)
     return replace(m, states=states, choices=tuple(choices), labels=labels, self_loops=loops)
 
 
-def _reentries(index: Mapping[int, int], named: Mapping[int, int], fits: Callable[[int], bool], what: str) -> dict[int, int]:
-    """``named`` (ident -> the ident its retry re-enters) as indices (``index``); those the
-    model does not hold are ignored; one whose re-entry it does not hold, or that does not
-    ``fits`` (``what`` it is named), is an :class:`ExportError`."""
+def _reentries(index: Mapping[int, int], named: Mapping[int, int], fits: Callable[[int], bool], what: str,
+               partial: bool = False) -> tuple[dict[int, int], set[int]]:
+    """``named`` (ident -> the ident its retry re-enters) as indices (``index``), and the
+    indices of those whose re-entry the model does not hold when it may not (``partial``:
+    a DTMC, which holds its plan's states only); those the model does not hold are
+    ignored; a re-entry it does not hold (not ``partial``), or one that does not ``fits``
+    (``what`` it is named), is an :class:`ExportError`."""
     out: dict[int, int] = {}
+    unheld: set[int] = set()
     for q, back in named.items():
         if q not in index:
             continue
-        if back not in index:
-            raise ExportError(f"the retry of q{q} re-enters q{back}, which the model does not hold")
         if not fits(index[q]):
             raise ExportError(f"q{q} is named {what}")
-        out[index[q]] = index[back]
-    return out
+        if back in index:
+            out[index[q]] = index[back]
+        elif partial:
+            unheld.add(index[q])
+        else:
+            raise ExportError(f"the retry of q{q} re-enters q{back}, which the model does not hold")
+    return out, unheld
 
 
 def loop_model(m: ExportModel, stops: Mapping[int, int], replans: int = 1,

@@ -4,7 +4,10 @@ with Storm, PRISM or both.
 Checks every property of the property files (default: specs/properties/*.pctl), prints a
 table of property, result and verdict, and exits with status 1 when a required property
 fails, naming a path of map states that violates it (Storm finds the path), or, with
-``--tool both``, when the two tools disagree (by more than 1e-9).
+``--tool both``, when the two tools disagree (by more than 1e-9). With ``--samples N
+--closed-loop [--replans N]`` the properties are checked on the closed loop's model of
+the probabilistic map, as ``clomp export --closed-loop`` writes it (default files:
+specs/properties/closed_loop/).
 """
 
 from __future__ import annotations
@@ -23,20 +26,28 @@ from clomp.formal.checking import (
     SpecError,
     StormMissing,
     build_storm_model,
+    closed_loop_property_files,
     compare_distance,
     default_property_files,
     file_labels,
     load_storm_model,
+    meant_for,
     parse_properties,
-    property_labels,
     shipped_property_files,
 )
 from clomp.formal.crosscheck import values_agree
-from clomp.formal.export import ExportError
+from clomp.formal.export import ExportError, ExportModel, ModelKind, export_model
 from clomp.formal.scheduler import SAFE_GOAL
 from clomp.formal.prism import PrismError, PrismMissing, check_with_prism, run_prism
 from clomp.formal.lts import CognitiveMap, MapError
-from clomp.runtime.cli.export import add_source_options, map_from_args
+from clomp.runtime.cli.export import (
+    add_closed_loop_options,
+    add_source_options,
+    check_closed_loop_options,
+    closed_loop_model,
+    map_from_args,
+    replans_of,
+)
 from clomp.runtime.cli.plan import add_planner_options
 from clomp.runtime.cli import CliError
 from clomp.runtime.cli._common import path_kind
@@ -70,6 +81,7 @@ def register(sub: Any) -> None:
     p.add_argument("--induced", metavar="FILE", help="write the DTMC that scheduler induces: FILE.drn, FILE.prism (or .pm), "
                    "or PRISM's explicit files for a name without suffix")
     p.add_argument("--witness", metavar="FILE", help="write the violating path of each failed property as JSON (states, actions, labels)")
+    add_closed_loop_options(p)
     add_planner_options(p)
     p.set_defaults(func=run)
 
@@ -126,7 +138,12 @@ def _spec_files(args: argparse.Namespace) -> list[PropertyFile]:
     (the supervisor's too: :func:`_matching` keeps those whose labels the file has); else
     the cognitive maps' files."""
     model_file = bool(args.file) and Path(args.file).suffix != ".json"
-    paths = [Path(p) for p in args.specs] if args.specs else shipped_property_files() if model_file else default_property_files()
+    if args.specs:
+        paths = [Path(p) for p in args.specs]
+    elif args.closed_loop:
+        paths = closed_loop_property_files()
+    else:
+        paths = shipped_property_files() if model_file else default_property_files()
     try:
         # the input layer: a FIFO, device or oversized file is refused before it is read
         files = [parse_properties(read_text(p, "property file", MAX_SPEC_BYTES, SpecError), str(p)) for p in paths]
@@ -151,8 +168,15 @@ def _check_sources(args: argparse.Namespace) -> None:
     sources = [x for x in (args.scenario, args.scan, args.map, args.file) if x]
     if len(sources) != 1:
         raise CliError("give exactly one of --scenario, --scan, --map or a model FILE")
-    if args.file and Path(args.file).suffix != ".json" and path_kind(Path(args.file), "FILE") == "other":
+    model_file = bool(args.file) and Path(args.file).suffix != ".json"
+    if model_file and path_kind(Path(args.file), "FILE") == "other":
         raise CliError(f"{args.file}: not a regular file (a FIFO, device or socket)")
+    if args.closed_loop and model_file:
+        raise CliError(f"--closed-loop builds the closed loop's model of a map; {args.file} is a model already "
+                       "(write one with 'clomp export --samples N --closed-loop')")
+    if args.closed_loop and (args.scheduler or args.induced):
+        raise CliError("--scheduler/--induced are Storm's scheduler of the map's own MDP; they do not apply to --closed-loop")
+    check_closed_loop_options(args, from_map=bool(args.map or args.file))
 
 
 #: a property file holds at most this many bytes
@@ -176,7 +200,9 @@ def run(args: argparse.Namespace) -> int:
             if args.file:
                 args.map = args.file
             cmap, title = map_from_args(args)
-            storm, prism = _check_map(cmap, files, args.via, use_storm, use_prism)
+            if args.closed_loop:
+                title += f" (closed loop, {replans_of(args)} replan{'' if replans_of(args) == 1 else 's'})"
+            storm, prism = _check_map(_models(cmap, args), files, args.via, use_storm, use_prism)
         _write_policy(args, cmap)
     except (StormMissing, PrismMissing) as exc:
         raise CliError(str(exc)) from None
@@ -184,7 +210,7 @@ def run(args: argparse.Namespace) -> int:
         raise CliError(str(exc)) from None
     results = storm or prism
     _print_table(title, results, prism if storm and prism else None, args.tool)
-    if cmap is not None and use_storm:
+    if cmap is not None and use_storm and args.samples is None:  # a sampled map's Rmin[F goal] is infinite unless sure
         _print_distance(cmap, args.via)
     failed = [r for r in results if r.passed is False]
     if storm and prism:
@@ -194,18 +220,33 @@ def run(args: argparse.Namespace) -> int:
     return 1 if _report(failed, storm, prism) else 0
 
 
-def _check_map(cmap: CognitiveMap, files: list[PropertyFile], via: str, use_storm: bool, use_prism: bool) -> tuple[list[CheckResult], list[CheckResult]]:
-    """Storm's and PRISM's results for every property file on the map's export of its kind."""
+def _models(cmap: CognitiveMap, args: argparse.Namespace) -> Any:
+    """The model of each kind that the map's properties are checked on: the map's export,
+    or with ``--closed-loop`` the closed loop's model of it (``--replans``)."""
+    made: dict[str, ExportModel] = {}
+
+    def model(kind: ModelKind) -> ExportModel:
+        if kind not in made:
+            m = export_model(cmap, kind)
+            made[kind] = closed_loop_model(m, cmap, replans_of(args)) if args.closed_loop else m
+        return made[kind]
+
+    return model
+
+
+def _check_map(model: Any, files: list[PropertyFile], via: str, use_storm: bool, use_prism: bool) -> tuple[list[CheckResult], list[CheckResult]]:
+    """Storm's and PRISM's results for every property file on ``model(kind)``, the model
+    of its kind (:func:`_models`)."""
     storm: list[CheckResult] = []
     prism: list[CheckResult] = []
     built: dict[str, Any] = {}
     for pf in files:
         if use_storm:
             if pf.model not in built:
-                built[pf.model] = build_storm_model(cmap, pf.model, via)
+                built[pf.model] = build_storm_model(model(pf.model), pf.model, via)
             storm += _check(built[pf.model], pf)
         if use_prism:
-            prism += _prism_results(check_with_prism(cmap, _named(pf), pf.model), pf, pf.model)
+            prism += _prism_results(check_with_prism(model(pf.model), _named(pf), pf.model), pf, pf.model)
     return storm, prism
 
 
@@ -231,10 +272,11 @@ def _named(pf: PropertyFile) -> list[str]:
 
 def _matching(path: Path, kind: str, files: list[PropertyFile], chosen: bool) -> list[PropertyFile]:
     """The property files about a ``kind`` model; unless the user chose them (``--specs``),
-    only those whose labels the model file declares (a map's files for a map, the
+    only those meant for the labels the model file declares (:func:`~clomp.formal.checking.meant_for`:
+    a map's files for a map, the closed loop's for the closed loop's model, the
     supervisor's for the supervisor)."""
     labels = file_labels(path)
-    matching = [pf for pf in files if pf.model == kind and (chosen or pf.source == "--require-safe" or property_labels(pf) <= labels)]
+    matching = [pf for pf in files if pf.model == kind and (chosen or pf.source == "--require-safe" or meant_for(pf, kind, labels))]
     if not any(pf.source != "--require-safe" for pf in matching):
         raise CliError(f"{path} is a {kind.upper()}, and no property file is about a {kind} with its labels ({', '.join(sorted(labels))}): give one with --specs")
     return matching

@@ -27,7 +27,8 @@ from clomp.runtime.cli.plan import (
 from clomp.runtime.cli import EXIT_OK, CliError, plural
 from clomp.runtime.cli._common import add_units_option, output_path, path_kind, read_points
 
-__all__ = ["register", "add_source_options", "map_from_args", "export_for", "storm_policy"]
+__all__ = ["register", "add_source_options", "map_from_args", "export_for", "storm_policy", "add_closed_loop_options",
+           "check_closed_loop_options", "replans_of", "closed_loop_model"]
 
 
 MAX_REPLANS = 20
@@ -172,6 +173,13 @@ def register(sub: Any) -> None:
         'Pmax=? [!"collision" U "goal"] on the map\'s MDP, a task in every state it reaches)',
     )
     p.add_argument("-o", "--output", required=True, metavar="FILE", help="output file ('-' for standard output; a path stem for prism-explicit)")
+    add_closed_loop_options(p)
+    add_planner_options(p)
+    p.set_defaults(func=run)
+
+
+def add_closed_loop_options(p: argparse.ArgumentParser) -> None:
+    """--closed-loop and --replans: the model of the closed loop (``export`` and ``check``)."""
     p.add_argument(
         "--closed-loop",
         action="store_true",
@@ -181,8 +189,30 @@ def register(sub: Any) -> None:
     )
     p.add_argument("--replans", type=int, metavar="N", default=None,
                    help="with --closed-loop: replans after an interruption before the run gives up (default 1, as the robust planner's objective)")
-    add_planner_options(p)
-    p.set_defaults(func=run)
+
+
+def check_closed_loop_options(args: argparse.Namespace, from_map: bool = False) -> None:
+    """--closed-loop needs a probabilistic map (--samples, or with ``from_map`` a map
+    file, whose stops and offs are its metadata's); --replans needs --closed-loop and
+    lies in 0 … :data:`MAX_REPLANS`."""
+    if args.closed_loop and args.samples is None and not from_map:
+        raise CliError("--closed-loop models the rollouts of a probabilistic map: give --samples N")
+    if args.replans is not None:
+        if not args.closed_loop:
+            raise CliError("--replans applies to --closed-loop (the replans after an interruption)")
+        if not 0 <= args.replans <= MAX_REPLANS:
+            raise CliError(f"--replans: expected a whole number from 0 to {MAX_REPLANS}, got {args.replans}")
+
+
+def replans_of(args: argparse.Namespace) -> int:
+    """The replans of the closed loop's model: ``--replans``, default 1."""
+    return 1 if args.replans is None else int(args.replans)
+
+
+def closed_loop_model(m: ExportModel, cmap: CognitiveMap, replans: int) -> ExportModel:
+    """The closed loop's model of the export ``m`` of ``cmap``: its stops and offs (the
+    map's metadata) replanned from ``replans`` times (:func:`clomp.formal.retry.loop_model`)."""
+    return loop_model(m, map_stops(cmap.metadata), replans, map_offs(cmap.metadata))
 
 
 def _check_model_options(args: argparse.Namespace) -> None:
@@ -192,15 +222,9 @@ def _check_model_options(args: argparse.Namespace) -> None:
         raise CliError(f"{given} does not apply to -f json: JSON is the map itself (export a model with -f prism, drn, prism-explicit, dot or svg)")
     if args.policy is not None and args.model != "dtmc":
         raise CliError("--policy applies to --model dtmc (an MDP leaves every choice to the model checker)")
-    if args.closed_loop and args.samples is None:
-        raise CliError("--closed-loop models the rollouts of a probabilistic map: give --samples N")
-    if args.replans is not None:
-        if not args.closed_loop:
-            raise CliError("--replans applies to --closed-loop (the replans after an interruption)")
-        if args.format == "json":
-            raise CliError("--replans does not apply to -f json: JSON is the map itself (its stops named in its metadata)")
-        if not 0 <= args.replans <= MAX_REPLANS:
-            raise CliError(f"--replans: expected a whole number from 0 to {MAX_REPLANS}, got {args.replans}")
+    check_closed_loop_options(args)
+    if args.replans is not None and args.format == "json":
+        raise CliError("--replans does not apply to -f json: JSON is the map itself (its stops named in its metadata)")
     if args.closed_loop and args.policy == "storm":
         raise CliError("--closed-loop with --policy storm is not supported: export the MDP (--model mdp) and let the "
                        "model checker choose, or the plan's DTMC (--model dtmc)")
@@ -262,7 +286,7 @@ def run(args: argparse.Namespace) -> int:
         else:
             m = export_for(cmap, kind, args.policy)
             if args.closed_loop:
-                m = loop_model(m, map_stops(cmap.metadata), 1 if args.replans is None else args.replans, map_offs(cmap.metadata))
+                m = closed_loop_model(m, cmap, replans_of(args))
             FORMATS[args.format](m, dest, kind)
     except (ExportError, MapError) as exc:  # MapError: a map file whose metadata is inconsistent
         raise CliError(str(exc)) from None
@@ -277,6 +301,6 @@ def run(args: argparse.Namespace) -> int:
             files = [str(dest)]
         what = "the map" if m is None else kind if m.policy == "plan" else f"{kind} under {m.policy}"
         if args.closed_loop:
-            what += ", closed loop" if m is None else f", closed loop with {plural(1 if args.replans is None else args.replans, 'replan')}"
+            what += ", closed loop" if m is None else f", closed loop with {plural(replans_of(args), 'replan')}"
         print(f"wrote {', '.join(files)} ({args.format}, {what}, {_states_written(m, cmap, args.format)})")
     return EXIT_OK

@@ -32,3 +32,17 @@ def test_bad_options_are_refused_before_any_run(argv, capsys):
     with pytest.raises(SystemExit) as exc:
         _bench().main(argv)
     assert exc.value.code == 2 and "error:" in capsys.readouterr().err
+
+
+def test_greedy_and_robust_runs_written_apart_merge_per_layout(tmp_path, capsys):
+    """The calibration's greedy runs and the paired robust runs come from separate runs
+    of the bench (``--conditions``); ``--summary`` pairs them by noise, family and layout."""
+    import json
+
+    a, b = tmp_path / "greedy.jsonl", tmp_path / "robust.jsonl"
+    key = {"family": "doorway", "run": 3, "noise": "paper"}
+    a.write_text(json.dumps({**key, "greedy": {"ok": 1}}) + "\n" + json.dumps({**key, "run": 4, "greedy": {"ok": 0}}) + "\n")
+    b.write_text(json.dumps({**key, "robust": {"ok": 0}}) + "\n")
+    merged = _bench().read_records([str(a), str(b)])
+    assert [(p["run"], sorted(k for k in p if k in ("greedy", "robust"))) for p in merged] == [(3, ["greedy", "robust"]), (4, ["greedy"])]
+    assert _bench().main(["--summary", str(tmp_path / "missing.jsonl")]) == 2 and "error:" in capsys.readouterr().err

@@ -302,10 +302,10 @@ def test_check_with_both_tools_reports_prisms_refusal(tmp_path, capfd):
 # JSON map through ``clomp check --tool both``. Every load must give the same values
 # (<= 1e-9) and pass every required property.
 EXPORTS = (("mdp", ()), ("dtmc", ()), ("dtmc", ("--policy", "storm")),
-           # the closed loop's model (docs/calibration.md); ideal noise: the map's own "sure"
-           # requirements hold, the closed-loop files' labels are declared on a model without stops
-           ("mdp", ("--samples", "3", "--noise", "ideal", "--closed-loop")),
-           ("dtmc", ("--samples", "3", "--noise", "ideal", "--closed-loop")))
+           # the closed loop's model (docs/calibration.md) at harsh noise: stops, outcomes off
+           # the map's prediction and replans in the model; checked against closed_loop/ only
+           ("mdp", ("--samples", "5", "--noise", "harsh", "--seed", "1", "--closed-loop")),
+           ("dtmc", ("--samples", "5", "--noise", "harsh", "--seed", "1", "--closed-loop", "--replans", "2")))
 
 
 def _cli(*argv: str) -> int:
@@ -315,11 +315,11 @@ def _cli(*argv: str) -> int:
 
 
 def _properties_for(path: Path, kind: str) -> list:
-    from clomp.formal.checking import file_labels, property_labels, shipped_property_files
+    from clomp.formal.checking import file_labels, meant_for, shipped_property_files
 
     labels = file_labels(path)
     files = [read_properties(p) for p in shipped_property_files()]
-    chosen = [pf for pf in files if pf.model == kind and property_labels(pf) <= labels]
+    chosen = [pf for pf in files if meant_for(pf, kind, labels)]
     assert chosen, f"no shipped property file for {path}"
     return [p for pf in chosen for p in pf.properties]
 
@@ -367,7 +367,7 @@ def _walk(folder: Path, prism: bool) -> tuple[list[str], int]:
     checked = 0
     written: list[tuple[str, str, Path, Path | None, Path | None]] = []  # name, kind, .prism, .drn, explicit stem
     for kind, extra in EXPORTS:
-        stem = folder / f"ov-{kind}{'-' + extra[-1] if extra else ''}"
+        stem = folder / f"ov-{kind}{'-closed-loop' if '--closed-loop' in extra else '-' + extra[-1] if extra else ''}"
         for fmt, path in (("prism", stem.with_suffix(".prism")), ("drn", stem.with_suffix(".drn")),
                           ("prism-explicit", stem), ("dot", stem.with_suffix(".dot"))):
             assert _cli("export", "--scenario", "overtaking", *SEEN, "-f", fmt, "--model", kind, *extra, "-o", str(path)) == 0, (fmt, kind, extra)
@@ -413,10 +413,11 @@ def test_every_written_model_passes_its_property_files_in_both_tools(tmp_path, c
         pytest.skip(f"PRISM not found (set CLOMP_PRISM): checked the {checked} Storm loads only")
 
 
-@pytest.mark.parametrize("where", ["map", "supervisor"])
+@pytest.mark.parametrize("where", ["map", "supervisor", "closed-loop"])
 def test_the_walk_fails_when_a_label_is_made_constant(tmp_path, capsys, monkeypatch, where):
-    """The walk is not blind: ``goal`` constant false in a map's exports, or ``driving``
-    in the supervisor's (the demo's old export), makes it report failures (Storm only)."""
+    """The walk is not blind: ``goal`` constant false in a map's exports, ``driving``
+    in the supervisor's (the demo's old export), or ``interrupted`` in the closed loop's
+    models makes it report failures there (Storm only)."""
     from dataclasses import replace
 
     import clomp.formal.control as control
@@ -425,11 +426,18 @@ def test_the_walk_fails_when_a_label_is_made_constant(tmp_path, capsys, monkeypa
     if where == "map":
         real = export_cli.export_for
         monkeypatch.setattr(export_cli, "export_for", lambda *a: replace(m := real(*a), labels={**m.labels, "goal": frozenset()}))
+    elif where == "closed-loop":
+        real_loop = export_cli.loop_model
+        monkeypatch.setattr(export_cli, "loop_model", lambda *a: replace(m := real_loop(*a), labels={**m.labels, "interrupted": frozenset()}))
     else:
         real_m = control.machine_model
         monkeypatch.setattr(control, "machine_model", lambda *a: replace(m := real_m(*a), labels={**m.labels, "driving": frozenset()}))
     problems, _ = _walk(tmp_path, prism=False)
-    assert any(("supervisor" in p) == (where == "supervisor") for p in problems), problems
+    assert problems
+    if where == "closed-loop":  # only the closed loop's models, both kinds
+        assert all("closed-loop" in p for p in problems) and {p.split("-")[1] for p in problems} == {"mdp", "dtmc"}, problems
+    else:
+        assert any(("supervisor" in p) == (where == "supervisor") for p in problems), problems
 
 
 @pytest.mark.slow

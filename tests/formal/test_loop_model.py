@@ -12,7 +12,7 @@ import pytest
 from clomp.formal import CognitiveMap, Disturbance, DisturbanceKind, Pose, State, TaskKind
 from clomp.formal.checking import read_properties, shipped_property_files
 from clomp.formal.export import export_model
-from clomp.formal.prism import find_prism
+from clomp.formal.prism import find_prism, run_prism
 from clomp.formal.retry import GAVE_UP, INTERRUPTED, OFF_LABEL, RETRY, loop_model, map_offs, map_stops
 
 stormpy = pytest.importorskip("stormpy", reason="stormpy not installed: pip install -e '.[verify]'")
@@ -142,3 +142,109 @@ def test_the_closed_loop_files_are_shipped_for_both_kinds():
     files = _loop_files()
     assert set(files) == {"mdp", "dtmc"}
     assert all(Path(pf.source).parent.name == "closed_loop" for pf in files.values())  # type: ignore[attr-defined]
+
+
+def _table(out: str) -> dict[tuple[str, str], list[str]]:
+    """``clomp check``'s table: (model, property) -> the values and the verdict."""
+    rows = {}
+    for line in out.splitlines():
+        parts = line.split()
+        if len(parts) >= 4 and parts[0] in ("mdp", "dtmc"):
+            rows[(parts[0], parts[1])] = parts[2:]
+    return rows
+
+
+def test_check_closed_loop_gives_the_values_of_the_export_in_plain_storm_and_prism(tmp_path, capsys):
+    """``clomp check --samples N --closed-loop --replans 2`` checks the shipped closed-loop
+    files on the model ``clomp export`` writes for the same options: each value it prints
+    (Storm's and, when found, PRISM's) is what plain stormpy gives on the exported DRN and
+    PRISM on the exported PRISM file; every requirement passes."""
+    opts = ["--scenario", "overtaking", "--goal", "0.8,-0.3", "--samples", "6", "--noise", "harsh", "--seed", "2",
+            "--closed-loop", "--replans", "2"]
+    both = find_prism() is not None
+    assert _cli("check", *opts, "--tool", "both" if both else "storm") == 0
+    out = capsys.readouterr().out
+    assert "(closed loop, 2 replans)" in out and "distance:" not in out
+    rows = _table(out)
+    files = _loop_files()
+    assert {(k, p.name) for k, pf in files.items() for p in pf.properties} == set(rows)  # type: ignore[attr-defined]
+    for kind, pf in files.items():
+        stem = tmp_path / f"loop-{kind}"
+        for fmt in ("drn", "prism"):
+            assert _cli("export", *opts, "--model", kind, "-f", fmt, "-o", str(stem.with_suffix(f".{fmt}"))) == 0
+        model = stormpy.build_model_from_drn(str(stem.with_suffix(".drn")))
+        named = [f'"{p.name}": {p.formula}' for p in pf.properties]  # type: ignore[attr-defined]
+        prism = run_prism([str(stem.with_suffix(".prism"))], named).values if both else None
+        for k, p in enumerate(pf.properties):  # type: ignore[attr-defined]
+            result = stormpy.model_checking(model, stormpy.parse_properties(p.formula)[0])
+            init = model.initial_states[0]
+            value = result.at(init) if hasattr(result, "at") else result[init]
+            printed = rows[(kind, p.name)]
+            assert _same(printed[0], value), (kind, p.name, printed, value)
+            if prism is not None:
+                assert _same(printed[1], prism[k]), (kind, p.name, printed, prism[k])
+            assert printed[-1] in ("pass", "-"), (kind, p.name, printed)
+
+
+def _same(text: str, value: object) -> bool:
+    if isinstance(value, bool):
+        return text == str(value).lower()
+    return abs(float(text) - float(value)) <= 1e-5  # type: ignore[arg-type]  # the table prints 6 significant digits
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["--scenario", "overtaking", "--closed-loop"], "give --samples N"),
+    (["--scenario", "overtaking", "--samples", "3", "--replans", "1"], "--replans applies to --closed-loop"),
+    (["--scenario", "overtaking", "--samples", "3", "--closed-loop", "--replans", "21"], "from 0 to 20"),
+    (["--scenario", "overtaking", "--samples", "3", "--closed-loop", "--induced", "x.drn"], "do not apply to --closed-loop"),
+    (["MODEL", "--closed-loop"], "is a model already"),
+])
+def test_check_closed_loop_options_that_do_not_apply_are_refused(argv, message, tmp_path, capsys):
+    model = tmp_path / "m.prism"
+    model.write_text("dtmc\nmodule m q : [0..1] init 0; [] q=0 -> (q'=1); endmodule\n")
+    code = _cli("check", *[str(model) if a == "MODEL" else a for a in argv])
+    assert code == 2 and message in capsys.readouterr().err
+
+
+def test_a_model_file_is_checked_against_the_files_meant_for_it(tmp_path, capsys):
+    """``clomp check FILE`` without --specs: the closed loop's export gets the closed
+    loop's files only (the map's "sure" requirements are not about it), a map's plain
+    export the map's files only."""
+    base = ["--scenario", "overtaking", "--goal", "0.8,-0.3", "--samples", "4", "--noise", "harsh", "--seed", "1", "-f", "prism"]
+    assert _cli("export", *base, "--closed-loop", "-o", str(tmp_path / "loop.prism")) == 0
+    assert _cli("export", *base, "-o", str(tmp_path / "open.prism")) == 0
+    capsys.readouterr()
+    _cli("check", str(tmp_path / "loop.prism"))
+    loop = {name for _, name in _table(capsys.readouterr().out)}
+    _cli("check", str(tmp_path / "open.prism"))
+    plain = {name for _, name in _table(capsys.readouterr().out)}
+    assert loop == {p.name for p in _loop_files()["mdp"].properties}  # type: ignore[attr-defined]
+    assert "goal_possible" in plain and not plain & loop
+
+
+def test_a_plans_stop_whose_reentry_lies_off_the_plan_ends_the_run():
+    """Before: ExportError ("the retry of q2 re-enters q3, which the model does not hold"),
+    and the robust planner's run HALTED on it (calibration bench, clutter 18). The plan's
+    DTMC has no task at a re-entry off its plan: the stop is the run's end (gave_up, not a
+    collision). The MDP holds every state: a re-entry it lacks is still an error."""
+    from clomp.formal.export import ExportError
+
+    g = Disturbance.goal(1.0, 0.0)
+    box = Disturbance(DisturbanceKind.OBSTACLE, 0.5, 0.0)
+    o = Pose(0, 0)
+    m = CognitiveMap.from_parts([
+        State(0, TaskKind.STRAIGHT, g, None, o, o),
+        State(1, TaskKind.STRAIGHT, g, None, o, Pose(1, 0), reached_goal=True),
+        State(2, TaskKind.STRAIGHT, g, box, o, Pose(0.2, 0)),
+        State(3, TaskKind.LEFT, g, None, o, Pose(0, 0, 0.5)),
+    ], [], goal=g)
+    m.add_transition(0, 1, TaskKind.STRAIGHT, Fraction(1, 2))
+    m.add_transition(0, 2, TaskKind.STRAIGHT, Fraction(1, 2))
+    m.add_transition(0, 3, TaskKind.LEFT)
+    m.metadata.update({"plan": [0, 1], "stops": {"2": 3}})
+    r = loop_model(export_model(m, "dtmc"), map_stops(m.metadata), 1)
+    name = {k: s.ident for k, s in enumerate(r.states)}
+    assert sorted(name[k] for k in r.labels[INTERRUPTED]) == [2] == sorted(name[k] for k in r.labels[GAVE_UP])
+    assert not r.labels["collision"] and all(c.action != RETRY for row in r.choices for c in row)
+    with pytest.raises(ExportError, match="re-enters q9"):
+        loop_model(export_model(m, "mdp"), {2: 9}, 1)

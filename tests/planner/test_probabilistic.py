@@ -9,7 +9,7 @@ from fractions import Fraction
 import numpy as np
 import pytest
 
-from clomp.formal import check_map
+from clomp.formal import CognitiveMap, check_map
 from clomp.formal.model import TaskKind
 from clomp.planner import Configurator, load_scenario
 from clomp.planner.probabilistic import NoiseError, RolloutNoise, learn_from_scans, preset_names, sample_map
@@ -218,7 +218,25 @@ def test_a_plans_target_is_the_goal_or_else_the_progress_of_the_best_first_plan(
     frontier = plan_target(pm.map, n.map[n.plan.end].end, n.goal)
     d = n.map[n.plan.end].end.distance_to(*far_goal)
     assert n.plan.end in frontier
-    assert all(pm.map[q].end.distance_to(*far_goal) <= d + 0.03 and not pm.map.out_transitions(q) for q in frontier)
+    assert all(pm.map[q].end.distance_to(*far_goal) <= d + 0.03 and not pm.map[q].interrupted for q in frontier)
+
+
+def test_a_best_first_plans_own_end_is_its_target_when_the_search_expanded_it():
+    """A search that spent its budget ends its plan at argmin φ, which it may have
+    expanded: that end is progress the plan surely makes (before, only leaves were
+    targets, and the plan's P was 0; calibration bench, paper doorway 1)."""
+    from clomp.formal.model import Disturbance, Pose, State
+    from clomp.planner.robust import plan_target
+
+    g = Disturbance.goal(3.0, 0.0)
+    o = Pose(0, 0)
+    cmap = CognitiveMap.from_parts([
+        State(0, TaskKind.STRAIGHT, g, None, o, o),
+        State(1, TaskKind.STRAIGHT, g, None, o, Pose(1.0, 0)),          # the plan's end, expanded
+        State(2, TaskKind.LEFT, g, None, Pose(1.0, 0), Pose(1.0, 0, 0.5)),  # a turn in place there
+        State(3, TaskKind.STRAIGHT, g, None, Pose(1.0, 0), Pose(0.6, 0.5)),  # a leaf that falls back
+    ], [(0, 1), (1, 2), (1, 3)], goal=g)
+    assert plan_target(cmap, Pose(1.0, 0), g) == {1, 2}
 
 
 @pytest.mark.parametrize("name", ["overtaking", "doorway"])
