@@ -43,6 +43,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from clomp.formal.geometry import points_to_frame
 from clomp.formal.model import Pose
 from clomp.runtime.estimation.confirm import ambiguity
 from clomp.runtime.estimation.icp import ReferenceScan, match_scans
@@ -182,9 +183,8 @@ def see_through(map_points: np.ndarray, points: np.ndarray, pose: Pose, *, margi
     """
     if not len(map_points) or not len(points):
         return 0, 0
-    c, s = math.cos(pose.theta), math.sin(pose.theta)
-    q = np.asarray(map_points, dtype=float) - (pose.x, pose.y)
-    mx, my = c * q[:, 0] + s * q[:, 1], -s * q[:, 0] + c * q[:, 1]  # the map in the robot frame
+    local = points_to_frame(np.asarray(map_points, dtype=float).reshape(-1, 2), pose)  # the map in the robot frame
+    mx, my = local[:, 0], local[:, 1]
     mr = np.hypot(mx, my)
     near = mr <= reach
     width = 2 * math.pi / bins
