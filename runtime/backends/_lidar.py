@@ -72,6 +72,7 @@ class Lidar:
         self._next_ray = 0
         self._rev_start = 0.0
         self._pending: list[tuple[Any, ...]] = []
+        self._raw: list[tuple[Any, ...]] = []  # rays not streamed: origin, draws, time (see _measure)
         self.movers: Movers | None = None  # bodies that move or appear (issue #42): cast at each ray's time
 
     def cast(self, x: float | np.ndarray, y: float | np.ndarray, angles: np.ndarray) -> np.ndarray:
@@ -131,22 +132,50 @@ class Lidar:
         """The rays due in this step: their origin (the LiDAR's pose now) and noise draws.
 
         Casting waits for the revolution's end (:meth:`_revolution`), where every ray of
-        the revolution is cast from its own origin at once, unless the rays are streamed.
+        the revolution is cast from its own origin at once, unless the rays are streamed;
+        so does the arithmetic on the draws (the same operations on each ray, once per
+        revolution instead of once per physics step).
         """
         n, k = self.noise, i1 - i0
-        nominal = self.angles[i0:i1]
-        beam = nominal + n.angle_sd * self._rng.standard_normal(k) if n.angle_sd else nominal
+        angle = self._rng.standard_normal(k) if n.angle_sd else None
         x, y, th = self.origin(pose)
-        noise = n.range_sd * self._rng.standard_normal(k) if n.range_sd else None
-        kept = self._rng.random(k) >= n.dropout if n.dropout else None
+        rng = self._rng.standard_normal(k) if n.range_sd else None
+        drop = self._rng.random(k) if n.dropout else None
+        if self.streaming is None:
+            self._raw.append((x, y, th, k, angle, rng, drop, t))
+            return
+        nominal = self.angles[i0:i1]
+        beam = nominal + n.angle_sd * angle if angle is not None else nominal
+        noise = n.range_sd * rng if rng is not None else None
+        kept = drop >= n.dropout if drop is not None else None
         batch: tuple[Any, ...] = (x, y, th + beam, nominal, noise, kept, t)
-        if self.streaming is not None:  # cast now: the emulator sends these samples now
-            dist = self.cast_at(x, y, th + beam, t)
-            if noise is not None:
-                dist = dist + noise
-            self.streaming.append((nominal, np.where(self._returned(dist, kept), dist, np.inf), t, i0 == 0))
-            batch += (dist,)
-        self._pending.append(batch)
+        # cast now: the emulator sends these samples now
+        dist = self.cast_at(x, y, th + beam, t)
+        if noise is not None:
+            dist = dist + noise
+        self.streaming.append((nominal, np.where(self._returned(dist, kept), dist, np.inf), t, i0 == 0))
+        self._pending.append(batch + (dist,))
+
+    def _raw_arrays(self) -> tuple[Any, ...]:
+        """The revolution's rays not streamed, each ray's (x, y, angle, nominal angle, range
+        noise, kept, time) as arrays, their draws turned into angles and noise all at once:
+        element by element the operations :meth:`_measure` does on a streamed step's rays."""
+        raw, n = self._raw, self.noise
+        counts = [r[3] for r in raw]
+        nominal = self.angles[:sum(counts)]  # a revolution's rays in order, from its first
+        beam = nominal + n.angle_sd * np.concatenate([r[4] for r in raw]) if n.angle_sd else nominal
+        angles = np.repeat([r[2] for r in raw], counts) + beam
+        noise = n.range_sd * np.concatenate([r[5] for r in raw]) if n.range_sd else None
+        kept = np.concatenate([r[6] for r in raw]) >= n.dropout if n.dropout else None
+        each = [np.repeat([r[k] for r in raw], counts) for k in (0, 1, 7)]
+        return each[0], each[1], angles, nominal, noise, kept, each[2], counts
+
+    def _raw_rays(self) -> list[tuple[Any, ...]]:
+        """:meth:`_raw_arrays` split back into steps, as :attr:`_pending` holds streamed ones."""
+        x, y, angles, nominal, noise, kept, t, counts = self._raw_arrays()
+        bounds = np.cumsum(counts)[:-1]
+        parts = [np.split(v, bounds) if v is not None else [None] * len(counts) for v in (angles, nominal, noise, kept)]
+        return [(r[0], r[1], a, nom, z, keep, r[7]) for r, a, nom, z, keep in zip(self._raw, *parts)]
 
     def _returned(self, dist: np.ndarray, kept: np.ndarray | None) -> np.ndarray:
         """Which rays gave a return: a range above 0 within ``reach``, not dropped."""
@@ -171,14 +200,26 @@ class Lidar:
 
     def _revolution(self) -> tuple[np.ndarray, np.ndarray]:
         """Cast the revolution's rays; its points (LiDAR frame at each ray's time) and times."""
+        if self._raw and not self._pending and self.movers is None:  # none streamed: all at once
+            x, y, angles, nominal, noise, kept, t, _ = self._raw_arrays()
+            self._raw = []
+            dist = self.cast(x, y, angles)
+            return self._points(dist + noise if noise is not None else dist, nominal, kept, t)
+        if self._raw:  # movers (cast step by step), or streaming began mid-revolution: these came first
+            self._pending[:0] = self._raw_rays()
+            self._raw = []
         rays = self._pending
         if not rays:
             return np.zeros((0, 2)), np.zeros(0)
         counts = [len(r[3]) for r in rays]
-        nominal = np.concatenate([r[3] for r in rays])
-        t = np.repeat([r[6] for r in rays], counts)
-        dist = self._distances()
-        keep = self._returned(dist, np.concatenate([r[5] for r in rays]) if self.noise.dropout else None)
+        return self._points(self._distances(), np.concatenate([r[3] for r in rays]),
+                            np.concatenate([r[5] for r in rays]) if self.noise.dropout else None,
+                            np.repeat([r[6] for r in rays], counts))
+
+    def _points(self, dist: np.ndarray, nominal: np.ndarray, kept: np.ndarray | None,
+                t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The rays' returns as points (LiDAR frame) and their times: ranges rounded as an A1 does."""
+        keep = self._returned(dist, kept)
         dist, a = dist[keep], nominal[keep]
         grid = self.resolution > 0 and self.rounding == "grid"
         if self.resolution > 0 and not grid:  # the range as an A1 reports it, along the beam it names

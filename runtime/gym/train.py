@@ -23,15 +23,43 @@ import time
 from collections.abc import Callable, Sequence
 from typing import Any
 
+import gymnasium as gym
 import numpy as np
 
 from clomp.runtime.experiment.policy import FEATURES, LinearPolicy
 from clomp.runtime.gym.env import ClompEnv
 
-__all__ = ["TRAIN_RUN_BASE", "episode_return", "train_linear"]
+__all__ = ["TRAIN_RUN_BASE", "TrainingLayouts", "episode_return", "train_linear"]
 
 TRAIN_RUN_BASE = 1_000_000
 """The first layout run index training draws from (scored layouts are runs 0 … N−1)."""
+
+
+class TrainingLayouts(gym.Wrapper[np.ndarray, Any, np.ndarray, Any]):
+    """``env`` whose every reset takes the next training layout: runs ``first``, ``first`` + 1, …
+    of the family's seed ``seed`` (from :data:`TRAIN_RUN_BASE`: never a scored layout), the world
+    seeded from a generator seeded by ``seed``, so a library's training loop (stable-baselines3's
+    auto-reset) sees only training layouts, in a reproducible order.
+
+    >>> env = TrainingLayouts(ClompEnv("overtaking", noise="ideal"), seed=3)
+    >>> _ = env.reset(); _ = env.reset()
+    >>> env.layouts
+    [(3, 1000000), (3, 1000001)]
+    """
+
+    def __init__(self, env: ClompEnv, seed: int = 0, first: int = TRAIN_RUN_BASE) -> None:
+        super().__init__(env)
+        self._seed, self._next = int(seed), int(first)
+        self._rng = np.random.default_rng([int(seed), 2])
+        self.layouts: list[tuple[int, int]] = []
+
+    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None) -> tuple[np.ndarray, dict[str, Any]]:
+        """The next training layout (``options`` may not name another)."""
+        layout = (self._seed, self._next)
+        self._next += 1
+        self.layouts.append(layout)
+        world = int(self._rng.integers(2**31)) if seed is None else seed
+        return self.env.reset(seed=world, options={**(options or {}), "layout": layout})
 
 
 def episode_return(env: ClompEnv, policy: LinearPolicy, layout: tuple[int, int], world_seed: int,

@@ -366,3 +366,18 @@ def test_both_conditions_take_the_same_estimate():
         est = compose(scene.start, Pose(x, y, th))
         errors[fb] = math.hypot(est.x - r.final_pose[0], est.y - r.final_pose[1])
     assert errors["scan"] < 0.02 < 0.1 < errors["none"]
+
+
+def test_a_run_that_raises_in_a_dask_batch_does_not_cost_its_batch():
+    from clomp.runtime.experiment.driver import _run_batch
+
+    specs = [RunSpec("open", 0, k, "reactive", "ideal") for k in range(3)]
+
+    def second_breaks(spec):
+        if spec.run == 1:
+            raise ZeroDivisionError("a bug")
+        return {"key": spec.key}
+
+    got = _run_batch(second_breaks, specs)
+    assert [(k, r is not None, e) for k, r, e in got] == [
+        (specs[0].key, True, None), (specs[1].key, False, "ZeroDivisionError: a bug"), (specs[2].key, True, None)]

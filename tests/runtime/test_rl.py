@@ -69,3 +69,16 @@ def test_a_bad_policy_file_is_a_usage_error_not_a_traceback(tmp_path: Path, caps
                  "--out", str(tmp_path / "o"), "--no-plots"])
     assert code == 2
     assert "--policy" in capsys.readouterr().err
+
+
+def test_training_layouts_are_never_scored_ones_and_repeat_by_seed() -> None:
+    """What a library's training loop (stable-baselines3's auto-reset) sees: the next training
+    layout at every reset, from run 1,000,000 on, the same episodes for the same seed."""
+    from clomp.runtime.gym.env import ClompEnv
+    from clomp.runtime.gym.train import TRAIN_RUN_BASE, TrainingLayouts
+
+    a, b = (TrainingLayouts(ClompEnv("doorway", noise="paper"), seed=4) for _ in range(2))
+    firsts = [a.reset()[0] for _ in range(3)]
+    assert a.layouts == [(4, TRAIN_RUN_BASE), (4, TRAIN_RUN_BASE + 1), (4, TRAIN_RUN_BASE + 2)]
+    assert all(np.array_equal(x, b.reset()[0]) for x in firsts)
+    assert a.unwrapped.scene is not None and a.unwrapped.scene.name == f"doorway-4-{TRAIN_RUN_BASE + 2}"
