@@ -244,8 +244,11 @@ BASELINES: tuple[tuple[str, str], ...] = tuple((n, "" if n == "reactive" else f"
 (``mcnemar_success_dwa``; the paper's reactive has none)."""
 
 
-def _pair_key(r: dict[str, Any]) -> tuple[float, int]:
-    return (float(r.get("noise_scale", 1.0)), int(r["run"]))
+def _pair_key(r: dict[str, Any]) -> tuple[float, str, int, str]:
+    # a run is paired with the same layout under the other condition: same noise scale, seed,
+    # run and gyro setting (a sweep's cell spans seeds; keyed by run alone, seed 1's run 0
+    # overwrote seed 0's and the tests saw one pair per run index)
+    return (float(r.get("noise_scale", 1.0)), str(r.get("seed")), int(r["run"]), str(r.get("gyro")))
 
 
 def _block(recs: list[dict[str, Any]]) -> dict[str, Any]:

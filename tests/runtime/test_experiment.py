@@ -59,6 +59,19 @@ def test_mcnemar_counts_discordant_pairs_only():
     assert mcnemar([1, 0], [1, 0])["p"] == 1.0
 
 
+def test_a_sweep_cell_pairs_each_run_with_its_own_seed():
+    """A sweep's cell spans seeds, whose run indices repeat: seed 0's run 0 pairs with seed 0's
+    run 0 only. Planning succeeds wherever the baseline fails, so every pair is discordant."""
+    def rec(seed, run, condition, ok):
+        return {"family": "doorway", "noise": "paper", "seed": seed, "run": run, "condition": condition,
+                "success": ok, "reached_goal": ok, "believed_goal": ok, "collisions": 0, "brushes": 0,
+                "final_error_m": 0.0, "time_s": 1.0, "wall_s": 0.0}
+    recs = [rec(seed, run, c, int((c == "planning") == (seed == 0)))
+            for seed in (0, 1) for run in range(3) for c in ("planning", "reactive")]
+    m = summarise(recs)["mcnemar_success"]
+    assert (m["n"], m["b10"], m["b01"]) == (6, 3, 3)
+
+
 def test_run_once_measures_on_ground_truth():
     scene = load_scenario("overtaking")
     r = run_once(scene, "planning", 1, noise="paper")
