@@ -64,22 +64,21 @@ the state machine (:mod:`~clomp.runtime.supervision.states`), the settings
 (:mod:`~clomp.runtime.supervision.sensing`), the counts behind UNREACHABLE
 (:mod:`~clomp.runtime.supervision.progress`), one task's start and end
 (:mod:`~clomp.runtime.supervision.execution`), the hazard test, plan check and recall
-(:mod:`~clomp.runtime.supervision.planwatch`) and what is recorded
+(:mod:`~clomp.runtime.supervision.planwatch`), REPLANNING's recall and fresh plan
+(:mod:`~clomp.runtime.supervision.replanning`), the end at the goal
+(:mod:`~clomp.runtime.supervision.goal`) and what is recorded
 (:mod:`~clomp.runtime.supervision.records`); this module drives them tick by tick.
 """
 
 from __future__ import annotations
 
-import dataclasses
 import math
-import time
 from collections import deque
 from typing import Any
 
-import numpy as np
 
 from clomp.formal.model import Pose, State, TaskKind
-from clomp.planner.configurator import Configurator, PlanningError
+from clomp.planner.configurator import Configurator
 from clomp.planner.robot_model import RobotModel
 from clomp.formal.geometry import compose, relative, wrap_angle
 from clomp.planner.tasks import Task
@@ -87,12 +86,13 @@ from clomp.runtime.clock import Clock, clock_for
 from clomp.runtime.estimation.odometry import ScanOdometry
 from clomp.runtime.supervision.config import SupervisorConfig
 from clomp.runtime.supervision.execution import GuardViolation, end_error, guard, task_for
-from clomp.planner.deepening import plan_deepening
+from clomp.runtime.supervision.goal import at_goal, relocated_at_goal
 from clomp.runtime.supervision.moving import Appearance, wait_tick
 from clomp.runtime.supervision.planwatch import PlanWatch
-from clomp.runtime.supervision.progress import Progress, backs_off
+from clomp.runtime.supervision.replanning import fresh_plan, recall
+from clomp.runtime.supervision.progress import Progress
 from clomp.runtime.supervision.records import PlanRecord, SupervisorReport, TaskRecord, TimedRecord
-from clomp.runtime.records.runlog import RunLogLike, plan_fields
+from clomp.runtime.records.runlog import RunLogLike
 from clomp.runtime.interface import Robot, RobotFault, ScanFrame, finite_goal
 from clomp.runtime.supervision.sensing import Sensing
 from clomp.runtime.supervision.states import MOTOR_STATES, TERMINAL, TRANSITIONS, Event, SupervisorState, TransitionRecord
@@ -362,7 +362,7 @@ class Supervisor:
             return  # let driving settle, then take ``fuse_scans`` revolutions (at the start, ``start_scans``: the map's seed)
         g = relative(self.pose, self.goal)
         dist = math.hypot(g.x, g.y)
-        if dist <= self.goal_radius and self._relocated_at_goal(now):
+        if dist <= self.goal_radius and relocated_at_goal(self, now):
             g = relative(self.pose, self.goal)
             dist = math.hypot(g.x, g.y)
         if self._ends_before_planning(dist):
@@ -371,34 +371,15 @@ class Supervisor:
         waited_out = self.config.moving and self.appearance.stale  # a WAIT timed out: plan round what stayed
         if waited_out:
             self.progress.world_changed()
-        if self.state is S.REPLANNING and not waited_out and self._recall(scan, now):
+        if self.state is S.REPLANNING and not waited_out and recall(self, scan, now):
             return
-        self._fresh_plan(scan, (g.x, g.y), dist, now)
-
-    def _relocated_at_goal(self, now: float) -> bool:
-        """At the goal by the estimate: before it vouches, a wider search (several starting
-        guesses) asks whether the revolutions seen standing here fit the map clearly better
-        elsewhere — in doubt, the map drawn before the doubt, which lowers the doubt when
-        they do not (:meth:`~clomp.runtime.supervision.sensing.Sensing.confirm_doubt`); if
-        so the estimate moves there (at most ``relocate_at_goal`` times a run, 0 by default)
-        and the robot plans on from it. True when it moved."""
-        better = self.sensing.confirm_doubt()  # in doubt: searched widely against the map drawn before it
-        if better is None and self._relocations < self.config.relocate_at_goal:
-            better = self.sensing.better_pose()
-        if better is None or self._relocations >= self.config.relocate_at_goal:
-            return False
-        was = self.pose
-        self.sensing.relocate(better)
-        self.pose = self.sensing.pose
-        self._relocations += 1
-        self._log("relocated", before=was.as_list(), pose=self.pose.as_list())
-        return True
+        fresh_plan(self, scan, (g.x, g.y), dist, now)
 
     def _ends_before_planning(self, dist: float) -> bool:
         """At the goal, out of plans, or stuck: fire the end and say so."""
         cfg = self.config
         if dist <= self.goal_radius:
-            self._at_goal(dist, "at the goal")
+            at_goal(self, dist, "at the goal")
             return True
         if len(self.fresh_plans) >= cfg.max_plans:
             self._fire(E.NO_PLAN, f"gave up after {len(self.fresh_plans)} plans")
@@ -409,50 +390,6 @@ class Supervisor:
                                   f"{cfg.min_progress:g} m (last: {self.reason})")
             return True
         return False
-
-    def _fresh_plan(self, scan: np.ndarray, goal: tuple[float, float], dist: float, now: float) -> None:
-        """Explore anew from ``scan`` to ``goal`` (robot frame, ``dist`` m away) and run the plan."""
-        c0 = time.thread_time()
-        moving = self.config.moving
-        if moving:  # what appeared where the last plan's scan saw free space: possibly moving (a WAIT first)
-            if self.appearance.stale:
-                self.appearance.renew(scan, self.pose)
-            self.configurator.transient = self.appearance.transient(scan, self.pose)
-        try:
-            result = plan_deepening(self.configurator, scan, goal, self.config.deepen, self.config.back_off)
-        except PlanningError as exc:
-            self._fire(E.NO_PLAN, f"goal unreachable: {exc}")
-            return
-        finally:
-            if moving:
-                transient, self.configurator.transient = self.configurator.transient, None
-                if transient is None:
-                    self.appearance.renew(scan, self.pose)
-        took = result.planning_time_s + self.watch.planned(result)  # indexing the map for recall is part of making it
-        self.fresh_plans.append(TimedRecord(now - (self._t0 or 0.0), took, True, f"{result.n_states} states", time.thread_time() - c0))
-        self._log("fresh_plan", duration_s=took, states=result.n_states)
-        rec = PlanRecord(now - (self._t0 or 0.0), self.pose, result)
-        self.plans.append(rec)
-        if self.log is not None:
-            self._log("plan", **plan_fields(result, rec.origin))
-        if backs_off(result, self.configurator.recovery):
-            why = self.progress.backed_off(dist)
-        else:
-            why = self.progress.no_safe_task() if not result.steps else self.progress.planned(result.reached_goal, dist)
-        if why is not None:
-            self._fire(E.NO_PLAN, why)
-            return
-        if not result.steps:
-            # a verdict from one fused scan: range noise puts points of a surface beside
-            # the body into the way. Stand, take fresh revolutions and plan again.
-            self.sensing.stopped()
-            return
-        self._plan = rec
-        states = result.plan.states
-        self._queue = deque((result.map[t], (s, t)) for s, t in zip(states, states[1:]))
-        self._fire(E.PLANNED, f"plan {len(self.plans)}: {len(result.steps)} tasks, {result.n_states} states")
-        self.watch.started(self.pose)
-        self._execute_tick(now)
 
     # -- execution ----------------------------------------------------------------------------------
     def _start_next(self, now: float) -> bool:
@@ -527,28 +464,13 @@ class Supervisor:
         g = relative(self.pose, self.goal)
         dist = math.hypot(g.x, g.y)
         if dist <= self.goal_radius and self.estimator is None:
-            self._at_goal(dist, "plan done at the goal")
+            at_goal(self, dist, "plan done at the goal")
         elif dist <= self.goal_radius:
             # the estimate taken while driving: stand, let the still revolutions correct it,
             # and decide on the settled pose (REPLANNING ends at the goal or approaches anew)
             self._fire(E.PLAN_SHORT, f"plan done at the goal by the moving estimate ({dist:.3f} m): settling")
         else:
             self._fire(E.PLAN_SHORT, f"plan done {dist:.3f} m short of the goal")
-
-    def _at_goal(self, dist: float, what: str) -> None:
-        """The estimate is ``dist`` m from the goal, within ``goal_radius``: GOAL_REACHED when
-        the distance plus the position's 95 % bound is within ``vouch_radius`` (or no bound
-        is asked for or known), else GOAL_UNCONFIRMED; both say the distance and the bound."""
-        cfg = self.config
-        bound = self.sensing.position_bound(cfg.vouch_sigmas)
-        self._goal_end = (dist, bound)
-        if bound is None or cfg.vouch_radius is None:
-            self._fire(E.AT_GOAL, f"{what} ({dist:.3f} m)")
-        elif dist + bound <= cfg.vouch_radius:
-            self._fire(E.AT_GOAL, f"{what} ({dist:.3f} m, 95 % bound {bound:.3f} m)")
-        else:
-            self._fire(E.GOAL_UNCONFIRMED, f"{what} by the estimate ({dist:.3f} m), but its 95 % bound {bound:.3f} m "
-                                           f"cannot vouch for {cfg.vouch_radius:g} m: unconfirmed")
 
     def _hazard(self, task: Task, error: float) -> str | None:
         """A reason to interrupt: the newest scan has points in the body's remaining path (a
@@ -567,34 +489,3 @@ class Supervisor:
         states = [self._record.state] + [q for q, _ in self._queue]
         return self.watch.check(states, self._plan, s.scan_pose, self.goal, s.clean_scan, self.config.end_tolerance,
                                 self._now())
-
-    def _recall(self, scan: np.ndarray, now: float) -> bool:
-        """REPLANNING's first try: continue a plan from a state of the map the robot has."""
-        last = self._plan
-        found = self.watch.recall(last, self.pose, self.goal, scan, self.config.end_tolerance, self.config.max_recalls,
-                                  now - (self._t0 or 0.0))
-        if found is None or last is None:
-            return False
-        # the same continuation again, after the robot finished tasks of it, and no closer than
-        # when it took it: a loop (a cul-de-sac's zig-zag, recalled five times over 90 s, ran
-        # into the time limit). Explore anew instead, where ``patience`` judges progress
-        g = relative(self.pose, self.goal)
-        dist, key = math.hypot(g.x, g.y), (id(found.result.map), found.state)
-        done = sum(1 for t in self.tasks if t.outcome == "done")
-        if self.progress.loops(key, dist, done):
-            self.watch.recalls[-1] = dataclasses.replace(self.watch.recalls[-1], ok=False, reason="refused: a loop")
-            self.watch.recalls_in_a_row -= 1
-            return False
-        if backs_off(found.result, self.configurator.recovery) and (why := self.progress.backed_off(dist)) is not None:
-            self._fire(E.NO_PLAN, why)  # a recalled back-off counts as one (a pen: backed off, recalled, for ever)
-            return True
-        rec = self._plan = PlanRecord(now - (self._t0 or 0.0), last.origin, found.result, recalled=True)
-        self.plans.append(rec)
-        states = rec.result.plan.states
-        k = states.index(found.state)
-        self._queue = deque((rec.result.map[t], (s, t)) for s, t in zip(states[k:], states[k + 1:]))
-        self.progress.recalled()
-        self._fire(E.PLANNED, f"plan {len(self.plans)} recalled from q{found.state} of the map: {len(self._queue)} tasks")
-        self.watch.started(self.pose)
-        self._execute_tick(now)
-        return True
