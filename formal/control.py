@@ -164,6 +164,8 @@ _EVENTS = (
     MachineEvent("at_goal", False, "a scan or a task's end puts the robot within the goal tolerance"),
     MachineEvent("goal_unconfirmed", False, "the estimate puts the robot within the goal tolerance, but its "
                                             "uncertainty cannot vouch for it"),
+    MachineEvent("approach", True, "confirming, the settled estimate put the robot off the goal: the supervisor "
+                                   "plans to it again"),
     MachineEvent("plan_short", False, "the plan's last task ended short of the goal"),
     MachineEvent("disagree", False, "a scan or a task's end disagrees with the map (hazard, off prediction, overrun)"),
     MachineEvent("fault", False, "a device fails (motor controller, LiDAR, a robot fault)"),
@@ -173,6 +175,10 @@ _GUARDS = {
     "plan_found": "the Configurator returned a plan with at least one safe task",
     "within_goal_tolerance": "the estimated pose, with its 95 % position bound, is within the goal tolerance of D_G",
     "goal_not_vouched": "the estimated pose is within the goal tolerance of D_G, its 95 % position bound is not",
+    "confirm_spent": "confirming, the revolutions seen standing (and the approaches) are spent and the bound still "
+                     "cannot vouch for the goal",
+    "estimate_left_goal": "confirming, the settled (or re-localised) estimate is farther than the goal tolerance, "
+                          "and an approach is left",
     "no_safe_task": "the plan is empty, the goal is unreachable, or plans stopped bringing it closer",
     "task_done_as_predicted": "the task's error reached zero near the map's predicted end, and the plan has another task",
     "plan_done_short": "the plan's last task is done and the goal is farther than the tolerance",
@@ -181,7 +187,7 @@ _GUARDS = {
 }
 
 _T = MachineTransition
-_NON_TERMINAL = ("IDLE", "PLANNING", "EXECUTING", "REPLANNING")
+_NON_TERMINAL = ("IDLE", "PLANNING", "EXECUTING", "REPLANNING", "CONFIRMING")
 _TERMINAL = ("GOAL_REACHED", "GOAL_UNCONFIRMED", "UNREACHABLE", "HALTED")
 
 SUPERVISOR = Machine(
@@ -196,17 +202,22 @@ SUPERVISOR = Machine(
         _T("IDLE", "start", "PLANNING"),
         _T("PLANNING", "planned", "EXECUTING", "plan_found"),
         _T("PLANNING", "at_goal", "GOAL_REACHED", "within_goal_tolerance"),
-        _T("PLANNING", "goal_unconfirmed", "GOAL_UNCONFIRMED", "goal_not_vouched"),
+        _T("PLANNING", "goal_unconfirmed", "CONFIRMING", "goal_not_vouched"),
         _T("PLANNING", "no_plan", "UNREACHABLE", "no_safe_task"),
         _T("REPLANNING", "planned", "EXECUTING", "plan_found"),
         _T("REPLANNING", "at_goal", "GOAL_REACHED", "within_goal_tolerance"),
-        _T("REPLANNING", "goal_unconfirmed", "GOAL_UNCONFIRMED", "goal_not_vouched"),
+        _T("REPLANNING", "goal_unconfirmed", "CONFIRMING", "goal_not_vouched"),
         _T("REPLANNING", "no_plan", "UNREACHABLE", "no_safe_task"),
         _T("EXECUTING", "next_task", "EXECUTING", "task_done_as_predicted"),
         _T("EXECUTING", "at_goal", "GOAL_REACHED", "within_goal_tolerance"),
-        _T("EXECUTING", "goal_unconfirmed", "GOAL_UNCONFIRMED", "goal_not_vouched"),
+        _T("EXECUTING", "goal_unconfirmed", "CONFIRMING", "goal_not_vouched"),
         _T("EXECUTING", "plan_short", "REPLANNING", "plan_done_short"),
         _T("EXECUTING", "disagree", "REPLANNING", "map_disagrees"),
+        # at the goal by the estimate, not vouched: stand and look (and approach again) first
+        _T("CONFIRMING", "at_goal", "GOAL_REACHED", "within_goal_tolerance"),
+        _T("CONFIRMING", "goal_unconfirmed", "GOAL_UNCONFIRMED", "confirm_spent"),
+        _T("CONFIRMING", "approach", "REPLANNING", "estimate_left_goal"),
+        _T("CONFIRMING", "no_plan", "UNREACHABLE", "no_safe_task"),
         *(_T(s, "fault", "HALTED", "device_failed") for s in _NON_TERMINAL),
         *(_T(s, "abort", "HALTED") for s in _NON_TERMINAL),
         # a terminal state ignores what the world still does (the wheels stay stopped)
@@ -229,6 +240,7 @@ PLANT = Machine(
         _T("STOPPED", "no_plan", "STOPPED"),
         _T("STOPPED", "at_goal", "STOPPED"),
         _T("STOPPED", "goal_unconfirmed", "STOPPED"),
+        _T("STOPPED", "approach", "STOPPED"),
         _T("STOPPED", "abort", "STOPPED"),
         _T("STOPPED", "fault", "FAILED"),
         _T("DRIVING", "next_task", "DRIVING"),
@@ -245,7 +257,8 @@ PLANT = Machine(
 """The plant: the robot over the same events. Stopped, it plans (a plan, none, or the goal
 already reached: uncontrollable outcomes) or starts a task; driving, a task ends (as
 predicted: the next task; at the goal, short of it, or off the map) or the wheels are
-stopped; a fault can happen at any time."""
+stopped; a fault can happen at any time. Confirming a doubtful goal it stands (``approach``:
+the supervisor's choice to plan again, the robot still stopped)."""
 
 
 @dataclass(frozen=True)
@@ -370,7 +383,7 @@ def machine_model(sup: Machine = SUPERVISOR, plant: Machine | None = PLANT, reme
 
     >>> m = machine_model(SUPERVISOR, None)
     >>> m.n_states, sorted(m.states[k].name for k in m.labels["motors"])
-    (8, ['EXECUTING'])
+    (9, ['EXECUTING'])
     """
     from clomp.formal.export import STAY, Choice, ExportModel
     from clomp.formal.supervisory import Plan

@@ -81,6 +81,12 @@ class SupervisorConfig:
       estimate.
     - ``vouch_sigmas``: standard deviations in the bound; 2.45 is the 95 % radius of a
       2-D normal (the square root of chi-square's 95 % point with 2 degrees of freedom).
+    - ``confirm_looks``: at the goal by the estimate but not vouched, the revolutions the
+      supervisor stands and looks (CONFIRMING) before it ends GOAL_UNCONFIRMED; it declares
+      the goal as soon as the settled estimate vouches for it
+      (:mod:`clomp.runtime.supervision.goal`). 0: give up at once.
+    - ``confirm_approaches``: confirming, times a run the supervisor plans to the goal again
+      when the settled (or re-localised) estimate has left it.
     - ``relocate_at_goal``: with scan feedback, at the goal by the estimate, the revolutions
       seen standing are matched against the map from several guesses around the estimate;
       when they fit clearly better elsewhere the estimate moves there and the robot plans on
@@ -121,6 +127,8 @@ class SupervisorConfig:
     back_off: bool = True
     vouch_radius: float | None = 0.1
     vouch_sigmas: float = 2.45
+    confirm_looks: int = 20
+    confirm_approaches: int = 2
     relocate_at_goal: int = 0
     moving: bool = False
     wait_timeout: float = 4.0
@@ -134,6 +142,8 @@ class SupervisorConfig:
         _positive_int("max_recalls", self.max_recalls, least=0)
         _positive_int("settle_scans", self.settle_scans, least=0)
         _positive_int("relocate_at_goal", self.relocate_at_goal, least=0)
+        _positive_int("confirm_looks", self.confirm_looks, least=0)
+        _positive_int("confirm_approaches", self.confirm_approaches, least=0)
         if self.goal_radius is not None:
             _non_negative("goal_radius", self.goal_radius, positive=True)
         if self.vouch_radius is not None:

@@ -1,9 +1,22 @@
 """At the goal by the estimate: whether the estimate can vouch for it (issue #36).
 
 The supervisor (:mod:`clomp.runtime.supervision.supervisor`) calls :func:`relocated_at_goal`
-before it declares the goal on a settled estimate, and :func:`at_goal` to end the run:
-GOAL_REACHED when the distance plus the position's 95 % bound is within ``vouch_radius``,
-else GOAL_UNCONFIRMED, both with the distance and the bound in the reason and the log.
+before it declares the goal on a settled estimate, and :func:`at_goal` to decide: GOAL_REACHED
+when the distance plus the position's 95 % bound is within ``vouch_radius``; otherwise it
+does not give up at once but *confirms* (CONFIRMING, wheels stopped, :func:`confirm_tick`):
+
+- it stands and looks: each revolution the estimator corrects the estimate, and in doubt
+  (an IMU shock, a revolution seeing past the map) the wide search against the map drawn
+  before the doubt may clear the doubt's floor (:func:`relocated_at_goal`);
+- the goal is declared as soon as the settled estimate vouches for it, by the same rule with
+  one more term: standing, the same surfaces are matched again and again, and their own error
+  does not average out, so the bound is at least ``vouch_sigmas`` times how wrong the map the
+  revolutions meet may be (:attr:`~clomp.runtime.estimation.odometry.ScanOdometry.last_map_sd`);
+- when the settled (or re-localised) estimate has left the goal, it approaches again
+  (``approach`` → REPLANNING: a plan to the goal from there), at most ``confirm_approaches``
+  times a run;
+- after ``confirm_looks`` revolutions standing still not vouched, the run ends
+  GOAL_UNCONFIRMED, the distance and the bound in its reason and the log.
 
 >>> from clomp.planner import load_scenario
 >>> from clomp.runtime.backends.sim import SimRobot
@@ -16,14 +29,16 @@ False
 
 from __future__ import annotations
 
+import math
 from typing import TYPE_CHECKING
 
+from clomp.formal.geometry import relative
 from clomp.runtime.supervision.states import Event as E
 
 if TYPE_CHECKING:  # pragma: no cover
     from clomp.runtime.supervision.supervisor import Supervisor
 
-__all__ = ["at_goal", "relocated_at_goal"]
+__all__ = ["at_goal", "confirm_tick", "relocated_at_goal", "standing_bound"]
 
 
 def relocated_at_goal(sup: Supervisor, now: float) -> bool:
@@ -49,7 +64,8 @@ def relocated_at_goal(sup: Supervisor, now: float) -> bool:
 def at_goal(sup: Supervisor, dist: float, what: str) -> None:
     """The estimate is ``dist`` m from the goal, within ``goal_radius``: GOAL_REACHED when
     the distance plus the position's 95 % bound is within ``vouch_radius`` (or no bound
-    is asked for or known), else GOAL_UNCONFIRMED; both say the distance and the bound."""
+    is asked for or known), else CONFIRMING (stand and look, :func:`confirm_tick`); both
+    say the distance and the bound."""
     cfg = sup.config
     bound = sup.sensing.position_bound(cfg.vouch_sigmas)
     sup._goal_end = (dist, bound)
@@ -58,5 +74,53 @@ def at_goal(sup: Supervisor, dist: float, what: str) -> None:
     elif dist + bound <= cfg.vouch_radius:
         sup._fire(E.AT_GOAL, f"{what} ({dist:.3f} m, 95 % bound {bound:.3f} m)")
     else:
-        sup._fire(E.GOAL_UNCONFIRMED, f"{what} by the estimate ({dist:.3f} m), but its 95 % bound {bound:.3f} m "
-                                       f"cannot vouch for {cfg.vouch_radius:g} m: unconfirmed")
+        sup.sensing.stopped()  # the revolutions seen standing are counted from here
+        sup._confirm_seen = 0
+        why = f"{what} by the estimate ({dist:.3f} m), but its 95 % bound {bound:.3f} m cannot vouch for {cfg.vouch_radius:g} m"
+        sup._fire(E.GOAL_UNCONFIRMED, f"{why}: confirming")
+        if cfg.confirm_looks == 0:  # no looking asked for: unconfirmed at once
+            sup._fire(E.GOAL_UNCONFIRMED, f"{why}: unconfirmed")
+
+
+def standing_bound(sup: Supervisor) -> float | None:
+    """The 95 % bound a decision taken standing uses: the estimate's
+    (:meth:`~clomp.runtime.supervision.sensing.Sensing.position_bound`), at least
+    ``vouch_sigmas`` times how wrong the surfaces the last revolution met may be (matched
+    again and again, their error does not average out); None without scan feedback."""
+    bound = sup.sensing.position_bound(sup.config.vouch_sigmas)
+    est = sup.estimator
+    if bound is None or est is None:
+        return bound
+    return max(bound, sup.config.vouch_sigmas * float(est.last_map_sd[0]))
+
+
+def confirm_tick(sup: Supervisor, now: float) -> None:
+    """CONFIRMING, one tick (wheels stopped): on each new revolution after the fused ones,
+    search in doubt (:func:`relocated_at_goal`), then declare the goal when the settled
+    estimate vouches for it, approach again when it left the goal, and give up
+    (GOAL_UNCONFIRMED) after ``confirm_looks`` revolutions (see the module docstring)."""
+    s, cfg = sup.sensing, sup.config
+    if s.since_stop == sup._confirm_seen:
+        return  # no new revolution
+    sup._confirm_seen = s.since_stop
+    looked = s.since_stop
+    if looked < min(cfg.fused_revolutions, cfg.confirm_looks):
+        return  # the wide search and the decision read the revolutions fused
+    relocated_at_goal(sup, now)
+    g = relative(sup.pose, sup.goal)
+    dist = math.hypot(g.x, g.y)
+    bound = standing_bound(sup)
+    sup._goal_end = (dist, bound)
+    b = math.inf if bound is None else bound
+    radius = math.inf if cfg.vouch_radius is None else cfg.vouch_radius
+    if dist <= sup.goal_radius and dist + b <= radius:
+        sup._fire(E.AT_GOAL, f"at the goal, confirmed after {looked} revolutions standing ({dist:.3f} m, "
+                             f"95 % bound {b:.3f} m)")
+    elif dist > sup.goal_radius and sup._approaches < cfg.confirm_approaches:
+        sup._approaches += 1
+        sup._fire(E.APPROACH, f"confirming: the settled estimate puts the goal {dist:.3f} m away (95 % bound "
+                              f"{b:.3f} m): approach {sup._approaches} of {cfg.confirm_approaches}")
+    elif dist > sup.goal_radius or looked >= cfg.confirm_looks:
+        where = "at the goal" if dist <= sup.goal_radius else f"{dist:.3f} m from the goal, no approach left,"
+        sup._fire(E.GOAL_UNCONFIRMED, f"{where} by the estimate ({dist:.3f} m) after {looked} revolutions standing, "
+                                      f"but its 95 % bound {b:.3f} m cannot vouch for {radius:g} m: unconfirmed")

@@ -4,10 +4,15 @@
 
     IDLE ─start→ PLANNING ─planned→ EXECUTING ─next_task→ EXECUTING
                  PLANNING ─at_goal→ GOAL_REACHED      EXECUTING ─at_goal→ GOAL_REACHED
-                 PLANNING ─goal_unconfirmed→ GOAL_UNCONFIRMED (also from EXECUTING, REPLANNING)
+                 PLANNING ─goal_unconfirmed→ CONFIRMING (also from EXECUTING, REPLANNING)
                  PLANNING ─no_plan→ UNREACHABLE       EXECUTING ─plan_short / disagree→ REPLANNING
-                 REPLANNING ─planned / at_goal / no_plan→ (as from PLANNING)
+                 REPLANNING ─planned / at_goal / goal_unconfirmed / no_plan→ (as from PLANNING)
+                 CONFIRMING ─at_goal→ GOAL_REACHED    CONFIRMING ─approach→ REPLANNING
+                 CONFIRMING ─goal_unconfirmed→ GOAL_UNCONFIRMED
     any non-terminal state ─fault / abort→ HALTED
+
+CONFIRMING (wheels stopped): the estimate put the robot at the goal but could not vouch for
+it; the supervisor stands and looks before it gives up (:mod:`clomp.runtime.supervision.goal`).
 
 The machine is described once, as data, in :data:`clomp.formal.control.SUPERVISOR` (states,
 events with their controllability, guards, where the wheels may turn); this module
@@ -56,6 +61,7 @@ class SupervisorState(str, enum.Enum):
     PLANNING = "PLANNING"
     EXECUTING = "EXECUTING"
     REPLANNING = "REPLANNING"
+    CONFIRMING = "CONFIRMING"
     GOAL_REACHED = "GOAL_REACHED"
     GOAL_UNCONFIRMED = "GOAL_UNCONFIRMED"
     UNREACHABLE = "UNREACHABLE"
@@ -73,6 +79,7 @@ class Event(str, enum.Enum):
     PLANNED = "planned"
     AT_GOAL = "at_goal"
     GOAL_UNCONFIRMED = "goal_unconfirmed"
+    APPROACH = "approach"
     NO_PLAN = "no_plan"
     NEXT_TASK = "next_task"
     PLAN_SHORT = "plan_short"

@@ -86,7 +86,7 @@ from clomp.runtime.clock import Clock, clock_for
 from clomp.runtime.estimation.odometry import ScanOdometry
 from clomp.runtime.supervision.config import SupervisorConfig
 from clomp.runtime.supervision.execution import GuardViolation, end_error, guard, task_for
-from clomp.runtime.supervision.goal import at_goal, relocated_at_goal
+from clomp.runtime.supervision.goal import at_goal, confirm_tick, relocated_at_goal
 from clomp.runtime.supervision.moving import Appearance, wait_tick
 from clomp.runtime.supervision.planwatch import PlanWatch
 from clomp.runtime.supervision.replanning import fresh_plan, recall
@@ -163,6 +163,8 @@ class Supervisor:
         self._check_due = False
         self._relocations = 0  # times the estimate moved at the goal (_relocated_at_goal)
         self._goal_end: tuple[float, float | None] | None = None  # (distance, 95 % bound) when it ended at the goal
+        self._approaches = 0  # times CONFIRMING sent it to the goal again (clomp.runtime.supervision.goal)
+        self._confirm_seen = 0  # revolutions standing CONFIRMING has judged
         self.watch = PlanWatch(self.model, self._log)  # hazard test, plan check, recall (clomp.runtime.supervision.planwatch)
         self.alarms = self.watch.alarms
         self.checks, self.recalls = self.watch.checks, self.watch.recalls
@@ -340,6 +342,8 @@ class Supervisor:
             self._plan_tick(now)
         elif self.state is S.EXECUTING:
             self._execute_tick(now)
+        elif self.state is S.CONFIRMING:
+            confirm_tick(self, now)
         self.trajectory.append((now - (self._t0 or 0.0), self.pose.x, self.pose.y, self.pose.theta))
 
     def _take(self, frame: ScanFrame, now: float) -> None:
