@@ -19,7 +19,7 @@ def _verdicts(machine: Machine) -> dict[str, tuple[bool | None, list[str]]]:
 def test_the_shipped_machine_satisfies_every_property():
     v = _verdicts(SUPERVISOR)
     assert set(v) == {"wheels_only_on_a_task", "fault_stops_the_wheels", "terminal_is_still", "nonblocking", "goal_possible",
-                      "unconfirmed_stays_unconfirmed"}
+                      "unconfirmed_stays_unconfirmed", "unconfirmed_only_after_confirming", "confirming_is_still"}
     assert all(passed for passed, _ in v.values()), v
 
 
@@ -40,7 +40,7 @@ def test_wheels_on_in_replanning_fails_in_storm():
 
 
 def test_events_are_split_into_controllable_and_uncontrollable():
-    assert SUPERVISOR.controllable == {"start", "planned", "next_task", "abort"}
+    assert SUPERVISOR.controllable == {"start", "planned", "next_task", "abort", "approach"}
     assert SUPERVISOR.uncontrollable == {"no_plan", "at_goal", "goal_unconfirmed", "plan_short", "disagree", "fault"}
     assert all(t.guard is None or t.guard in SUPERVISOR.guards for t in SUPERVISOR.transitions)
 
@@ -89,11 +89,29 @@ def test_the_machine_renders_through_the_exporters_and_both_tools_agree():
 
 def test_goal_unconfirmed_is_a_terminal_end_the_checks_keep():
     """Issue #36: an end at the goal the estimate cannot vouch for. Terminal, reached on the
-    uncontrollable ``goal_unconfirmed`` wherever ``at_goal`` can happen; the machine stays
-    controllable and non-blocking, and leaving the event out of EXECUTING breaks it."""
+    uncontrollable ``goal_unconfirmed`` from CONFIRMING, which every state where ``at_goal``
+    can happen enters on it first; the machine stays controllable and non-blocking, and
+    leaving the event out of EXECUTING or CONFIRMING breaks it."""
     assert "GOAL_UNCONFIRMED" in SUPERVISOR.terminal and "goal_unconfirmed" in SUPERVISOR.uncontrollable
     for s in ("PLANNING", "EXECUTING", "REPLANNING"):
-        assert SUPERVISOR.target(s, "goal_unconfirmed") == "GOAL_UNCONFIRMED"
+        assert SUPERVISOR.target(s, "goal_unconfirmed") == "CONFIRMING"
+    assert SUPERVISOR.target("CONFIRMING", "goal_unconfirmed") == "GOAL_UNCONFIRMED"
     assert controllability(SUPERVISOR, PLANT).ok and nonblocking(SUPERVISOR, PLANT).ok
-    broken = SUPERVISOR.with_transition("EXECUTING", "goal_unconfirmed", None)
-    assert not controllability(broken, PLANT).ok
+    for s in ("EXECUTING", "CONFIRMING"):
+        broken = SUPERVISOR.with_transition(s, "goal_unconfirmed", None)
+        assert not controllability(broken, PLANT).ok, s
+
+
+def test_confirming_stands_and_is_the_only_way_to_unconfirmed():
+    """CONFIRMING: the wheels stay stopped, and GOAL_UNCONFIRMED is reached only through it.
+    A machine that gives up straight from REPLANNING, or lets the wheels turn while
+    confirming, fails the property that says so (in Storm)."""
+    assert "CONFIRMING" not in SUPERVISOR.wheels and "CONFIRMING" not in SUPERVISOR.terminal
+    assert SUPERVISOR.target("CONFIRMING", "approach") == "REPLANNING"
+    assert SUPERVISOR.target("CONFIRMING", "at_goal") == "GOAL_REACHED"
+    skip = SUPERVISOR.with_transition("REPLANNING", "goal_unconfirmed", "GOAL_UNCONFIRMED")
+    assert controllability(skip, PLANT).ok  # the R-W checks cannot tell: the property does
+    v = _verdicts(skip)
+    assert v["unconfirmed_only_after_confirming"][0] is False and v["confirming_is_still"][0] is True
+    v = _verdicts(SUPERVISOR.with_wheels({"EXECUTING", "CONFIRMING"}))
+    assert v["confirming_is_still"][0] is False
