@@ -83,15 +83,32 @@ class ShockSensor:
         self._rng = np.random.default_rng(None if seed is None else [int(seed), 0x73686B])  # "shk": its own stream
         self.sd = float(sd)
         self.peak = 0.0
+        self._vector = (0.0, 0.0)  # the largest acceleration since read_vector (world frame, m/s²)
+        self._vector_peak = 0.0
 
     def step(self, before: tuple[float, float], after: tuple[float, float], dt: float) -> None:
         """The body's velocity (world frame, m/s) went from ``before`` to ``after`` over ``dt`` s."""
+        ax, ay = (after[0] - before[0]) / dt, (after[1] - before[1]) / dt
         a = math.hypot(after[0] - before[0], after[1] - before[1]) / dt
         if a > self.peak:
             self.peak = a
+        if a > self._vector_peak:
+            self._vector, self._vector_peak = (ax, ay), a
 
     def read(self) -> float:
         """The peak since the last read (m/s²), and start a new one."""
         out = self.peak + (self.sd * abs(float(self._rng.standard_normal())) if self.sd else 0.0)
         self.peak = 0.0
         return round(out, 6)
+
+    def read_vector(self) -> tuple[float, float]:
+        """The largest acceleration since the last call as a vector (world frame, m/s², no
+        noise: an emulated IMU adds its own), and start a new one; apart from :meth:`read`,
+        so an emulated IMU and the world's own reader do not take each other's peaks.
+
+        >>> s = ShockSensor(sd=0.0, seed=0)
+        >>> s.step((0.0, 0.0), (0.0, -0.5), 0.01); s.read_vector(), s.read_vector()
+        ((0.0, -50.0), (0.0, 0.0))
+        """
+        out, self._vector, self._vector_peak = self._vector, (0.0, 0.0), 0.0
+        return out

@@ -37,7 +37,7 @@ from typing import Any, Self
 
 import numpy as np
 
-from clomp.formal.geometry import polar_to_xy
+from clomp.formal.geometry import polar_to_xy, relative
 from clomp.formal.model import Pose
 from clomp.planner.robot_model import RobotModel
 from clomp.planner.scenarios import Scene, load_scenario
@@ -135,8 +135,9 @@ class EmulatedWorld:
             clock=now,
         )
         world_noise = self.sim.noise if isinstance(self.sim, WorldRobot) else None
-        self.imu = Bno08xEmulator(self._heading, clock=now,
-                                  **{**imu_terms(world_noise, seed, self.time_scale), **(imu_options or {})})
+        felt = self._acceleration if isinstance(self.sim, WorldRobot) else None  # the older robot: gravity alone
+        self.imu = Bno08xEmulator(self._heading, clock=now, **{"acceleration": felt,
+                                  **imu_terms(world_noise, seed, self.time_scale), **(imu_options or {})})
 
     # -- wiring -----------------------------------------------------------------------------
     def _on_speeds(self, left: float, right: float) -> None:
@@ -173,6 +174,20 @@ class EmulatedWorld:
         with self._lock:
             self._catch_up()
             return self.sim.pose.theta
+
+    def _acceleration(self) -> tuple[float, float]:
+        """The execution world's largest horizontal body acceleration since the last call, in
+        the body's frame (m/s², x forward, y left): what the IMU's accelerometer feels (a
+        kick, a collision), (0, 0) when the world has no IMU (``gyro=False``)."""
+        assert isinstance(self.sim, WorldRobot)
+        with self._lock:
+            self._catch_up()
+            vec = self.sim.peak_acceleration_vector()
+            theta = self.sim.pose.theta
+        if vec is None:
+            return (0.0, 0.0)
+        body = relative(Pose(0.0, 0.0, theta), Pose(vec[0], vec[1]))
+        return (body.x, body.y)
 
     def _samples(self) -> list[tuple[float, float, bool]]:
         """The execution world's LiDAR samples measured since the last call, as an A1 sends

@@ -248,6 +248,12 @@ class WorldRobot(SimulatedBackend):
         built with ``gyro=False`` (no IMU)."""
         return None if self._shock is None else self._shock.read()
 
+    def peak_acceleration_vector(self) -> tuple[float, float] | None:
+        """The largest horizontal acceleration of the body since the last call, as a vector
+        (m/s², world frame; the accelerometer's truth for an emulated IMU, read apart from
+        :meth:`peak_acceleration`), or None when built with ``gyro=False`` (no IMU)."""
+        return None if self._shock is None else self._shock.read_vector()
+
     # -- ground truth ----------------------------------------------------------------------------
     def ground_truth_pose(self) -> Pose:
         """The true pose of the robot frame's origin in the world frame."""

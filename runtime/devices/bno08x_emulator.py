@@ -1,7 +1,8 @@
 """An emulated BNO08x IMU in UART-RVC mode on a pseudo-terminal, beside the A1 and Maestro emulators.
 
 It streams :mod:`clomp.runtime.devices.bno08x_codec` reports at 100 Hz from a heading
-source (a callable giving the true yaw, e.g. a simulated world's), with the sensor's
+source (a callable giving the true yaw, e.g. a simulated world's) and, when given, an
+acceleration source (the body's true horizontal acceleration: a kick is felt), with the sensor's
 errors (drift, noise, scale error) and the line's (dropped reports, garbage bursts, bad
 checksums, silence, the device vanishing), seeded, so the driver can be tested without
 hardware.
@@ -20,10 +21,15 @@ from collections.abc import Callable
 from clomp.runtime.devices import bno08x_codec as _c
 from clomp.runtime.devices._pty import PtyEmulator
 
-__all__ = ["Bno08xEmulator", "HeadingSource"]
+__all__ = ["AccelerationSource", "Bno08xEmulator", "HeadingSource"]
 
 HeadingSource = Callable[[], float]
 """The true heading now (rad, counter-clockwise seen from above; wrapped or not)."""
+
+AccelerationSource = Callable[[], tuple[float, float]]
+"""The body's largest horizontal acceleration since the last call (m/s², the sensor's frame:
+x forward, y left), e.g. an execution world's
+(:meth:`~clomp.runtime.backends.world.WorldRobot.peak_acceleration_vector`, turned into the body frame)."""
 
 
 class Bno08xEmulator(PtyEmulator):
@@ -35,7 +41,10 @@ class Bno08xEmulator(PtyEmulator):
     where ``turned`` is the source's heading since the start followed through the wrap,
     ``t`` the time since the start, ``drift`` in rad/s, ``noise`` in rad, and ``W`` a random
     walk of ``walk`` rad/√s (a step of ``walk / √rate`` per report). Pitch and
-    roll are 0 and the acceleration is gravity, as on a level floor.
+    roll are 0, as on a level floor. The acceleration is gravity on z plus, on x and y,
+    what ``acceleration`` (an :data:`AccelerationSource`) says the body felt since the last
+    report (the peak, so that a kick shorter than a report is not lost; a report made in
+    the same pass after it carries it too); without one, gravity alone.
 
     Faults: ``drop_rate`` (probability per report of not sending it: its index is used,
     so the driver counts it lost), ``garbage_rate`` (probability per report of 1-32
@@ -55,6 +64,7 @@ class Bno08xEmulator(PtyEmulator):
         self,
         heading: HeadingSource | None = None,
         *,
+        acceleration: AccelerationSource | None = None,
         rate: float = _c.REPORT_RATE,
         drift: float = 0.0,
         noise: float = 0.0,
@@ -77,6 +87,8 @@ class Bno08xEmulator(PtyEmulator):
             if not 0 <= p <= 1:
                 raise ValueError(f"{name} is a probability in [0, 1], got {p!r}")
         self.heading: HeadingSource = heading or (lambda: 0.0)
+        self.acceleration = acceleration
+        self._accel = (0.0, 0.0)  # what the source said at the last pass (m/s², x and y)
         self.rate, self.drift, self.noise, self.scale_error = rate, drift, noise, scale_error
         self.walk, self._walked = walk, 0.0
         self.drop_rate, self.garbage_rate, self.bad_checksum_rate = drop_rate, garbage_rate, bad_checksum_rate
@@ -129,6 +141,18 @@ class Bno08xEmulator(PtyEmulator):
         self._turned = _c.unwrap(self._turned, h - self._start_heading)
         return self._turned
 
+    def _felt(self) -> tuple[float, float]:
+        """The horizontal acceleration the source gives now ((0, 0) without one, or when it
+        fails or is not finite: a broken source must not kill the device)."""
+        if self.acceleration is None:
+            return (0.0, 0.0)
+        try:
+            ax, ay = (float(v) for v in self.acceleration())
+        except Exception as exc:
+            self.source_errors.append(exc)
+            return (0.0, 0.0)
+        return (ax, ay) if math.isfinite(ax) and math.isfinite(ay) else (0.0, 0.0)
+
     def _tick(self, now: float) -> None:
         with self._lock:
             if self._t0 is None:
@@ -143,6 +167,7 @@ class Bno08xEmulator(PtyEmulator):
                 self._emit_garbage(due * _c.REPORT_SIZE)
                 return
             turned = self._true_turned()
+            self._accel = self._felt()
             for _ in range(min(due, 10)):  # a long stall: the device does not catch up
                 if not self._emit(turned, now):
                     return
@@ -168,7 +193,7 @@ class Bno08xEmulator(PtyEmulator):
             yaw += self._walked
         if self.noise:
             yaw += rng.gauss(0.0, self.noise)
-        report = _c.RvcReport.of(self.index, yaw)
+        report = _c.RvcReport.of(self.index, yaw, accel=(*self._accel, _c.STANDARD_GRAVITY))
         self.truth[self.index] = turned
         self.index = (self.index + 1) & 0xFF
         self.sent += 1
