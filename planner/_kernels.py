@@ -229,8 +229,10 @@ def _stable_order(bearing: np.ndarray) -> np.ndarray:  # pragma: no cover
     # np.argsort(bearing, kind="stable"), the one order by (bearing, index): a scan's
     # bearings rise (or fall: the A1 sweeps clockwise) from where the sensor's revolution
     # began, up to the jitter of rounded points, so from that order turned at its deepest
-    # drop an insertion sort on (bearing, index) moves few points; past a budget of
-    # moves, numba's merge sort
+    # drop of more than π (the wrap from +π to −π; a scan that spans less than a turn
+    # has none and is not turned: turned at a jitter's drop, 0.02 rad, it needed some 17
+    # moves a point and fell back to the merge sort) an insertion sort on (bearing,
+    # index) moves few points; past a budget of moves, numba's merge sort
     n = bearing.shape[0]
     falls = 0
     for k in range(n - 1):
@@ -238,7 +240,7 @@ def _stable_order(bearing: np.ndarray) -> np.ndarray:  # pragma: no cover
     order = np.empty(n, dtype=np.int64)
     for k in range(n):
         order[k] = n - 1 - k if 2 * falls > n else k
-    first, deepest = 0, 0.0
+    first, deepest = 0, -math.pi
     for k in range(n - 1):
         drop = bearing[order[k + 1]] - bearing[order[k]]
         if drop < deepest:

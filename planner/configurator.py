@@ -51,27 +51,23 @@ map is a graph, and expansion never repeats a simulation.
 
 from __future__ import annotations
 
-import functools
-import heapq
 import math
 import time
 import warnings
-from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any, Protocol
+from typing import Any
 
 import numpy as np
 
 from clomp.formal.lts import CognitiveMap
-from clomp.formal.model import Disturbance, Pose, State, TaskKind, new_state
-from clomp.formal.supervisory import FRONTIER, Guard, Plan, Reset, argmin_phi, extract_plan
+from clomp.formal.model import Disturbance, State
+from clomp.formal.supervisory import Guard, Plan, argmin_phi, extract_plan
 from clomp.planner import footprint
+from clomp.planner._search import _Search
+from clomp.planner.cost import CostContext, CostFunction, Rollout, chi, default_cost, gamma
 from clomp.planner.perception import Obstacles, load_scan, perceive
-from clomp.planner.recovery import RECOVERY_TASKS, Recovery, cleared_points
-from clomp.planner.rollout import Outcome, simulate
+from clomp.planner.recovery import cleared_points
 from clomp.planner.robot_model import RobotModel
-from clomp.planner.visibility import KnownFree
-
 __all__ = [
     "CostContext",
     "CostFunction",
@@ -101,100 +97,6 @@ class PlanningError(ValueError):
     goal (0, 0) is at the robot's own position (within 0.05 m)
     """
 
-
-@dataclass(frozen=True)
-class CostContext:
-    """What a cost function may know besides the state: the goal, the start and the robot.
-
-    >>> ctx = CostContext(Disturbance.goal(3.0, 4.0), Pose(0.0, 0.0), RobotModel())
-    >>> ctx.start_distance
-    5.0
-    """
-
-    goal: Disturbance
-    origin: Pose
-    robot: RobotModel
-
-    @functools.cached_property
-    def start_distance(self) -> float:
-        """d0 = ‖D_G − start‖, the normaliser of χ (computed once per context)."""
-        return self.origin.distance_to(self.goal.x, self.goal.y)
-
-
-#: a cost function of the best-first search: (state, context) -> cost, lower explored first
-CostFunction = Callable[[State, CostContext], float]
-
-
-class Rollout(Protocol):
-    """What γ and χ read of a state: where its task started and ended, and what
-    interrupted it. A :class:`State` is one; so is the rollout a state is about to be
-    built from (:class:`clomp.planner.engine.Outcome`), which lets the Configurator price
-    a rollout with the very functions below before it builds the state.
-
-    >>> from clomp.planner.engine import Outcome
-    >>> ctx = CostContext(Disturbance.goal(1.0, 0.0), Pose(0.0, 0.0), RobotModel())
-    >>> out = Outcome(TaskKind.STRAIGHT, Pose(0.0, 0.0), Pose(0.5, 0.0), 0.5, 2.5, 25, None, False)
-    >>> default_cost(out, ctx) == default_cost(State(1, TaskKind.STRAIGHT, ctx.goal, None, out.start, out.end), ctx)
-    True
-    """
-
-    @property
-    def start(self) -> Pose: ...
-
-    @property
-    def end(self) -> Pose: ...
-
-    @property
-    def d_n(self) -> Disturbance | None: ...
-
-
-def gamma(state: Rollout, ctx: CostContext) -> float:
-    """γ(q), the past cost: 0 when the task was not interrupted; otherwise
-    ``2 − min(d_N, r)/r`` ∈ [1, 2], with d_N the distance from the start of the task to
-    the point where D_N interrupted it and r the sensor range (the paper's "normalised
-    distance from the start of the task to D_N": the sooner the hit, the dearer).
-
-    >>> ctx = CostContext(Disturbance.goal(1.0, 0.0), Pose(0.0, 0.0), RobotModel())
-    >>> clear = State(1, TaskKind.STRAIGHT, ctx.goal, None, Pose(0, 0), Pose(0.27, 0))
-    >>> gamma(clear, ctx)
-    0.0
-    >>> hit = State(2, TaskKind.STRAIGHT, ctx.goal, Disturbance.goal(0.0, 0.0), Pose(0, 0), Pose(0.0, 0))
-    >>> gamma(hit, ctx)   # hit at once: the dearest
-    2.0
-    """
-    if state.d_n is None:
-        return 0.0
-    r = ctx.robot.sensor_range
-    d = state.start.distance_to(state.d_n.x, state.d_n.y)
-    return 2.0 - min(d, r) / r
-
-
-def chi(state: Rollout, ctx: CostContext) -> float:
-    """χ(q), the heuristic future cost: ``d / (d + d0)`` ∈ [0, 1), with d the distance
-    from the end of the task to D_G and d0 that from the start of planning: 0 at the
-    goal, 1/2 where planning began, approaching 1 far away (normalised so that any
-    uninterrupted state costs less than any interrupted one).
-
-    >>> ctx = CostContext(Disturbance.goal(1.0, 0.0), Pose(0.0, 0.0), RobotModel())
-    >>> far = State(1, TaskKind.STRAIGHT, ctx.goal, None, Pose(0, 0), Pose(0.0, 0))
-    >>> near = State(2, TaskKind.STRAIGHT, ctx.goal, None, Pose(0, 0), Pose(0.9, 0))
-    >>> chi(near, ctx) < chi(far, ctx)
-    True
-    """
-    d = state.end.distance_to(ctx.goal.x, ctx.goal.y)
-    d0 = ctx.start_distance
-    return d / (d + d0) if d + d0 > 0 else 0.0
-
-
-def default_cost(state: Rollout, ctx: CostContext) -> float:
-    """φ(q) = γ(q) + χ(q) (Hart, Nilsson & Raphael 1968, in the paper's §2.2).
-
-    >>> ctx = CostContext(Disturbance.goal(1.0, 0.0), Pose(0.0, 0.0), RobotModel())
-    >>> q = State(1, TaskKind.STRAIGHT, ctx.goal, None, Pose(0, 0), Pose(0.5, 0))
-    >>> default_cost(q, ctx) == gamma(q, ctx) + chi(q, ctx)
-    True
-    """
-    return gamma(state, ctx) + chi(state, ctx)
 
 
 @dataclass
@@ -406,180 +308,6 @@ class Configurator:
         result.planning_time_s = time.perf_counter() - t0
         return result
 
-
-_FRONTIER = ((FRONTIER, 1.0),)
-#: the cost functions that read only what a :class:`Rollout` has (priced before the state is built)
-_ROLLOUT_COSTS: tuple[Callable[[Rollout, CostContext], float], ...] = (default_cost, gamma, chi)
-_STRAIGHT = TaskKind.STRAIGHT
-_KINDS = (TaskKind.STRAIGHT, TaskKind.LEFT, TaskKind.RIGHT)
-
-
-def _state(ident: int, out: Outcome, d_i: Disturbance, cost: float) -> State:
-    return new_state(
-        ident,
-        out.task,
-        d_i,
-        out.d_n,
-        out.start,
-        out.end,
-        out.distance,
-        out.duration,
-        cost,
-        out.reached_goal,
-        _FRONTIER if out.frontier else (),
-    )
-
-
-class _Search:
-    """One run of Algorithm 1 (:meth:`Configurator.build`): the map as it grows, the
-    states already simulated (by task and start pose), the priority queue on φ and the
-    ends found so far."""
-
-    def __init__(self, conf: Configurator, obstacles: Obstacles, g: Disturbance, cleared: Obstacles | None = None) -> None:
-        robot = conf.robot
-        origin = Pose(0.0, 0.0, 0.0)
-        self.ctx = ctx = CostContext(g, origin, robot)
-        self.cost = cost = conf.cost
-        # the cost as one that reads a Rollout: a rollout is priced before its state is built
-        self.priced = next((f for f in _ROLLOUT_COSTS if f is cost), None)
-        self.obstacles, self.robot, self.goal = obstacles, robot, g
-        self.routes, self.max_states = conf.routes, conf.max_states
-        # what the rays crossed (:mod:`clomp.planner.visibility`): a task whose body leaves it is a frontier end
-        self.known = KnownFree.from_points(obstacles.points, robot.sensor_range, robot=robot)
-        # inside the sensed disc and where the rays went: a way to it may lie inside too (a
-        # goal in a shadow, like one beyond the disc, has none: the first frontier popped ends it)
-        self.goal_seen = ctx.start_distance <= robot.sensor_range and self.known.contains(g.x, g.y)
-        self.horizon = max(conf.horizon, abs(g.x) + robot.length, abs(g.y) + robot.length)
-        self.cmap = CognitiveMap(goal=g)
-        self.reset = Reset(self.cmap)  # R, the one reset of formal
-        q0 = new_state(0, _STRAIGHT, g, None, origin, origin, 0.0, 0.0, 0.0, False, ())
-        q0 = new_state(0, _STRAIGHT, g, None, origin, origin, 0.0, 0.0, cost(q0, ctx), False, ())
-        self.cmap.add_state(q0)
-        self.index: dict[tuple[Any, ...], int] = {}
-        self.frontier_ids: set[int] = set()
-        self.worlds: dict[Any, Any] = {}
-        self.pq: list[tuple[float, int]] = [(q0.cost, 0)]
-        self.ends = 0  # popped frontier states, and with goal_ids the routes found (``routes``)
-        self.goal_ids: set[int] = set()
-        self.recovery = Recovery(cleared) if conf.recovery else None  # WAIT and REVERSE (issue #42)
-
-    def push(self, s: State) -> None:
-        """Queue ``s`` for expansion: by φ, a WAIT first (look past the wait before a detour)."""
-        heapq.heappush(self.pq, (0.0 if s.task is TaskKind.WAIT else s.cost, s.ident))
-
-    def run(self) -> str:
-        """Pop least-φ states and expand them until the search ends; the stop reason
-        (``goal`` whenever a goal state was found, even with fewer routes than asked for)."""
-        stop = self._loop()
-        return "goal" if self.goal_ids else stop
-
-    def _loop(self) -> str:
-        pq, cmap, frontier_ids = self.pq, self.cmap, self.frontier_ids
-        while pq:
-            _, qe_id = heapq.heappop(pq)
-            if qe_id in frontier_ids:
-                # the state lies on the rim of what the scan saw: what is beyond is unknown,
-                # so it is not expanded. With one route and the goal inside the disc it stays
-                # a candidate end of the plan (argmin φ, where the closed loop drives and
-                # replans) while the search goes on for a way to the goal inside the disc;
-                # a goal beyond the disc has none, and the search ends here
-                self.ends += 1
-                if (self.routes == 1 and self.goal_seen) or self.ends + len(self.goal_ids) < self.routes:
-                    continue
-                if cmap[qe_id].cost >= cmap[0].cost:
-                    # a frontier no better than where the robot stands: search on for a better
-                    # end, as far as the budget goes (a shadowed goal behind a U or a box just
-                    # ahead); if none, the plan explores to the best frontier (plan_end)
-                    continue
-                return "frontier"
-            qe = cmap[qe_id]
-            if qe.interrupted:
-                # Algorithm 1's end: the least-φ state has no obstacle-free transition
-                # (R is undefined after a hit), so nothing cheaper is left to expand
-                cmap.metadata["stopped_at"] = qe_id
-                return "exhausted"
-            stop = self._expand(qe)
-            if stop is not None:
-                return stop
-        return "exhausted"
-
-    def _expand(self, qe: State) -> str | None:
-        """Simulate every option from ``qe`` (STRAIGHT; LEFT then STRAIGHT; RIGHT then
-        STRAIGHT) and queue the fresh frontier states; ``budget`` or ``goal`` when the
-        search ends here, else None."""
-        cmap = self.cmap
-        free = False  # some option from qe ends collision-free (else a REVERSE is offered)
-        for kind in _KINDS:
-            turn = kind is not _STRAIGHT
-            if len(cmap) + (2 if turn else 1) > self.max_states:
-                return "budget"
-            first, fresh = self._child(qe, kind)
-            if first is None:
-                continue
-            end = first
-            if turn and first.d_n is None:
-                second, fresh = self._child(first, _STRAIGHT)
-                assert second is not None
-                end = second
-            free = free or end.d_n is None
-            if end.reached_goal:
-                self.goal_ids.add(end.ident)
-                if self.ends + len(self.goal_ids) >= self.routes:
-                    return "goal"
-                continue
-            # every frontier state enters PQ with φ = γ + χ, interrupted ones too; a free
-            # one beyond the planning horizon is kept but not queued
-            if fresh and (end.interrupted or (abs(end.end.x) <= self.horizon and abs(end.end.y) <= self.horizon)):
-                heapq.heappush(self.pq, (end.cost, end.ident))
-        return None if self.recovery is None else self.recovery.expand(self, qe, free)
-
-    def _child(self, parent: State, kind: TaskKind) -> tuple[State | None, bool]:
-        """The state of ``kind`` started where ``parent`` ended (simulated once), and whether
-        it is new; None when the task is not available (a turn that would leave the sensed disc)."""
-        p = parent.end
-        k: tuple[Any, ...] = (kind, round(p.x * 1e6), round(p.y * 1e6), round(p.theta * 1e6))
-        cmap = self.cmap
-        rec, obstacles, worlds, layer = self.recovery, self.obstacles, self.worlds, False
-        if rec is not None:
-            obstacles, worlds, layer = rec.world(self, parent)
-            k = k + (1,) if layer else k
-        known = self.index.get(k)
-        if known is not None:
-            if known < 0:
-                return None, False
-            cmap.add_transition(parent.ident, known, kind)
-            return cmap[known], False
-        d_i = self.reset.after(parent)  # R(q1, q2) = D_G, undefined (raises) when q1 was interrupted
-        if rec is not None and kind in RECOVERY_TASKS:
-            got = rec.outcome(kind, p, d_i, obstacles, self.robot)
-            if got is None:  # a REVERSE whose end leaves the sensed disc: not available
-                self.index[k] = -1
-                return None, False
-            out = got
-        else:
-            out = simulate(kind, p, d_i, obstacles, self.robot, worlds)
-            # (the body at the task's start is known: the root's stands there, any other's ended
-            # the task before, which passed this test)
-            if out.d_n is None and (out.reached_goal or not out.frontier) and not self.known.clear(out, self.robot, True):
-                # the body would pass through space no ray crossed (a shadow): like the rim of
-                # the disc, a STRAIGHT ends the way there (a frontier end, never a goal), a
-                # turn is not available
-                out = Outcome(out.task, out.start, out.end, out.distance, out.duration, out.ticks, None, False, True)
-        if out.frontier and kind is not _STRAIGHT:
-            self.index[k] = -1
-            return None, False
-        ident = len(cmap)
-        priced = self.priced
-        phi = priced(out, self.ctx) if priced is not None else self.cost(_state(ident, out, d_i, 0.0), self.ctx)
-        s = _state(ident, out, d_i, phi)
-        cmap.add_state(s)
-        cmap.add_transition(parent.ident, ident, kind)
-        self.index[k] = ident
-        if layer:
-            rec.after_wait.add(ident)  # type: ignore[union-attr]
-        if out.frontier:
-            self.frontier_ids.add(ident)
-        return s, True
 
 
 def plan(

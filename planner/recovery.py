@@ -42,7 +42,7 @@ from clomp.planner.perception import Obstacles
 from clomp.planner.robot_model import RobotModel
 
 if TYPE_CHECKING:  # pragma: no cover
-    from clomp.planner.configurator import _Search
+    from clomp.planner._search import _Search
 
 __all__ = ["REVERSE_STEP", "WAIT_TIME", "RECOVERY_TASKS", "simulate_reverse", "simulate_wait", "cleared_points",
            "noisy_recovery", "after_wait"]
@@ -178,7 +178,7 @@ def after_wait(cmap: Any) -> set[int]:
 
 
 class Recovery:
-    """The WAIT/REVERSE part of one search (:class:`clomp.planner.configurator._Search`): the
+    """The WAIT/REVERSE part of one search (:class:`clomp.planner._search._Search`): the
     world after a WAIT (``cleared``, None when nothing is transient) and the states in it."""
 
     def __init__(self, cleared: Obstacles | None) -> None:

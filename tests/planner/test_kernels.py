@@ -90,6 +90,24 @@ def test_the_compiled_loop_refuses_a_pad_that_is_not_positive(pad):
         surfaces_and_boxes(np.zeros((1, 2)), np.ones(1, dtype=bool), False, 0.1, pad, 0.08, 0.0075)
 
 
+@settings(max_examples=300, deadline=None)
+@given(st.integers(0, 2**32 - 1), st.integers(1, 400), st.floats(0.1, 2 * np.pi), st.floats(-np.pi, np.pi),
+       st.booleans(), st.sampled_from([0.0, 1e-3, 0.03]), st.sampled_from([None, 2]))
+def test_the_bearing_order_is_numpys_stable_argsort(seed, n, span, start, clockwise, jitter, rounded):
+    # a scan's bearings as a sensor sweeps them (either way round, over a whole turn or less,
+    # wrapping at ±π or not), with jitter and repeats (rounded points): the one order by
+    # (bearing, index) whichever way the loop finds it (turned at the wrap or not, insertion
+    # sort or merge sort)
+    rng = np.random.default_rng(seed)
+    a = start + np.linspace(0.0, span, n) * (-1.0 if clockwise else 1.0) + rng.normal(0.0, jitter + 1e-300, n)
+    r = rng.uniform(0.2, 1.1, n)
+    x, y = r * np.cos(a), r * np.sin(a)
+    if rounded is not None:
+        x, y = np.round(x, rounded), np.round(y, rounded)
+    bearing = np.arctan2(y, x)
+    assert _kernels._stable_order(bearing).tolist() == bearing.argsort(kind="stable").tolist()
+
+
 def _scene(points: np.ndarray) -> Scene | None:
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", perception.ScanWarning)
