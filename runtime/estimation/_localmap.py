@@ -20,6 +20,7 @@ from scipy.spatial import cKDTree
 
 from clomp.formal.geometry import points_from_frame
 from clomp.formal.model import Pose
+from clomp.runtime.estimation._exact import median
 from clomp.runtime.estimation.doubt import Doubt
 from clomp.runtime.estimation.ekf import OdometryFilter
 from clomp.runtime.estimation.icp import ReferenceScan
@@ -52,8 +53,8 @@ class LocalMap:
         pos_var = max(float(np.linalg.eigvalsh(hon[:2, :2])[-1]), self.doubt.sd ** 2)  # in doubt, the doubt
         th_var = max(float(hon[2, 2]), 0.0)
         rng2 = np.einsum("ij,ij->i", points, points)
-        sds = np.c_[np.sqrt(pos_var + rng2 * th_var), np.full(len(points), math.sqrt(th_var)),
-                    np.arctan2(world[:, 1] - pose.y, world[:, 0] - pose.x)]  # seen from this side
+        sds = np.column_stack((np.sqrt(pos_var + rng2 * th_var), np.full(len(points), math.sqrt(th_var)),
+                               np.arctan2(world[:, 1] - pose.y, world[:, 0] - pose.x)))  # seen from this side
         old = self._map_points if (self._map_points is not None and not reseed) else np.zeros((0, 2))
         old_sds = self._map_sds if (self._map_sds is not None and not reseed) else np.zeros((0, 3))
         if len(old) and self._map is not None and len(self._map):
@@ -89,4 +90,4 @@ class LocalMap:
         if not hit.any():
             return (0.0, 0.0)
         sds = self._map_sds[idx[hit]]
-        return (float(np.median(sds[:, 0])), float(np.median(sds[:, 1])))
+        return (median(sds[:, 0]), median(sds[:, 1]))  # float(np.median(...)), bit for bit

@@ -56,6 +56,7 @@ import numpy as np
 
 from clomp.formal.geometry import points_from_frame, points_to_frame, wrap_angle
 from clomp.formal.model import Pose
+from clomp.runtime.estimation._exact import median
 from clomp.runtime.estimation.fusion import fuse_revolutions
 
 __all__ = ["Face", "FaceCompass", "find_faces", "fit_line", "refine_line"]
@@ -347,7 +348,7 @@ class FaceCompass:
             cand = (np.abs(across) <= max(self.band, tol + reach)) & (along >= f.start + self.margin) & (along <= f.end - self.margin)
             if cand.sum() < 8:
                 continue
-            got = refine_line(world[cand], fc + float(np.median(across[cand])) * np.asarray(f.normal), fd, tol)
+            got = refine_line(world[cand], fc + median(across[cand]) * np.asarray(f.normal), fd, tol)
             if got is None:
                 continue
             c, d, sel, rms, sd_fit = got
