@@ -1,6 +1,6 @@
 """Cheaper, bit-identical stand-ins for numpy calls the estimator makes every revolution.
 
-``np.median`` and ``np.roll`` are general (any axis, any shape, masked arrays, out=)
+``np.median``, ``np.roll`` and ``np.unwrap`` are general (any axis, any shape, masked arrays, out=)
 and spend tens of microseconds in Python on the small 1-d arrays a revolution gives
 them; these do the same arithmetic on exactly that case. The tests in
 ``tests/runtime/test_exact_kernels.py`` hold each to its numpy reference, bit for bit.
@@ -18,7 +18,7 @@ import math
 
 import numpy as np
 
-__all__ = ["median", "ring_neighbours"]
+__all__ = ["median", "ring_neighbours", "unwrap"]
 
 
 def median(values: np.ndarray) -> float:
@@ -59,4 +59,22 @@ def ring_neighbours(a: np.ndarray, reach: int) -> list[np.ndarray]:
     for k in range(1, reach + 1):
         out.append(ext[reach - k:reach - k + n])  # np.roll(a, k)[i] = a[i - k]
         out.append(ext[reach + k:reach + k + n])  # np.roll(a, -k)[i] = a[i + k]
+    return out
+
+
+def unwrap(angles: np.ndarray) -> np.ndarray:
+    """``np.unwrap(angles)`` of a 1-d float array. Where no step reaches half a turn (a
+    heading history sampled every few milliseconds) numpy adds a zero correction to every
+    element after the first, which is all this does (``+ 0.0`` turns a -0.0 into 0.0, as
+    numpy's does); any other array goes to ``np.unwrap`` itself.
+
+    >>> unwrap(np.array([3.0, -3.0])).round(4).tolist(), unwrap(np.array([0.1, 0.2])).tolist()
+    ([3.0, 3.2832], [0.1, 0.2])
+    """
+    p = np.asarray(angles, dtype=float)
+    if p.ndim == 1 and bool((np.abs(p[1:] - p[:-1]) < math.pi).all()):
+        up = p.copy()
+        up[1:] = p[1:] + 0.0
+        return up
+    out: np.ndarray = np.unwrap(p)
     return out

@@ -66,6 +66,7 @@ from clomp.runtime.estimation.doubt import Doubt, see_through, trusted_check
 from clomp.runtime.estimation.ekf import OdometryFilter
 from clomp.runtime.estimation.faces import FaceCompass
 from clomp.runtime.estimation.fusion import fuse_revolutions, range_spread
+from clomp.runtime.estimation._exact import unwrap
 from clomp.runtime.estimation._icp_core import warm_up
 from clomp.runtime.estimation._localmap import LocalMap
 from clomp.runtime.estimation.icp import ReferenceScan, ScanMatch, match_scans
@@ -308,7 +309,7 @@ class ScanOdometry(LocalMap):
         t = np.fromiter((q[0] for q in h), float, len(h))
         hx = np.fromiter((q[1].x for q in h), float, len(h))
         hy = np.fromiter((q[1].y for q in h), float, len(h))
-        hth = np.unwrap(np.fromiter((q[1].theta for q in h), float, len(h)))
+        hth = unwrap(np.fromiter((q[1].theta for q in h), float, len(h)))  # np.unwrap's, bit for bit
         when = stamp + point_times
         x, y, th = np.interp(when, t, hx), np.interp(when, t, hy), np.interp(when, t, hth)
         x0, y0, th0 = float(np.interp(stamp, t, hx)), float(np.interp(stamp, t, hy)), float(np.interp(stamp, t, hth))

@@ -18,7 +18,7 @@ from hypothesis.extra import numpy as hnp
 
 from clomp.formal.geometry import points_to_frame
 from clomp.formal.model import Pose
-from clomp.runtime.estimation._exact import median, ring_neighbours
+from clomp.runtime.estimation._exact import median, ring_neighbours, unwrap
 from clomp.runtime.estimation.doubt import see_through
 
 _floats = st.floats(min_value=-1e3, max_value=1e3, allow_nan=False, allow_infinity=False)
@@ -56,6 +56,22 @@ def test_ring_neighbours_are_np_roll(a: np.ndarray, reach: int) -> None:
     assert len(got) == len(want)
     for g, w in zip(got, want):
         assert g.dtype == w.dtype and g.tobytes() == w.tobytes()
+
+
+@settings(max_examples=300, deadline=None)
+@given(hnp.arrays(np.float64, st.integers(0, 40),
+                  elements=st.floats(-20, 20) | st.sampled_from([0.0, -0.0, math.pi, -math.pi, 3.0, -3.0, math.nan])))
+def test_unwrap_is_numpys_bit_for_bit(p: np.ndarray) -> None:
+    """Small steps (the fast path), half-turn steps exactly (numpy's boundary case), wraps and NaN."""
+    assert unwrap(p).tobytes() == np.unwrap(p).tobytes()
+
+
+def test_unwrap_of_a_heading_history() -> None:
+    """A heading that turns through ±pi in small steps, with a -0.0 in it."""
+    th = np.concatenate(([-0.0, 0.0, -0.0], np.cumsum(np.full(400, 0.02)) - 1.0))
+    wrapped = np.arctan2(np.sin(th), np.cos(th))
+    for p in (th, wrapped, wrapped[::-1], th[:3]):
+        assert unwrap(p).tobytes() == np.unwrap(p).tobytes()
 
 
 def _see_through_reference(map_points: np.ndarray, points: np.ndarray, pose: Pose, *, margin: float = 0.1,
