@@ -48,13 +48,6 @@ class LocalMap:
         if len(points) < self.min_points:
             return False
         world = points_from_frame(points, pose)
-        # how wrong each new point may be: the honest position sd and the heading's at its range
-        hon = self.filter.honest
-        pos_var = max(float(np.linalg.eigvalsh(hon[:2, :2])[-1]), self.doubt.sd ** 2)  # in doubt, the doubt
-        th_var = max(float(hon[2, 2]), 0.0)
-        rng2 = np.einsum("ij,ij->i", points, points)
-        sds = np.column_stack((np.sqrt(pos_var + rng2 * th_var), np.full(len(points), math.sqrt(th_var)),
-                               np.arctan2(world[:, 1] - pose.y, world[:, 0] - pose.x)))  # seen from this side
         old = self._map_points if (self._map_points is not None and not reseed) else np.zeros((0, 2))
         old_sds = self._map_sds if (self._map_sds is not None and not reseed) else np.zeros((0, 3))
         if len(old) and self._map is not None and len(self._map):
@@ -63,9 +56,17 @@ class LocalMap:
             if self._map_tree is None:  # one tree per map, not one per revolution (a tenth of them change it)
                 self._map_tree = cKDTree(old)
             d, _ = self._map_tree.query(world, distance_upper_bound=self.new_surface)
-            world, sds = world[~np.isfinite(d)], sds[~np.isfinite(d)]
-            if len(world) == 0:
+            new = ~np.isfinite(d)
+            if not new.any():
                 return False
+            points, world = points[new], world[new]  # each point's uncertainty below is its own arithmetic
+        # how wrong each new point may be: the honest position sd and the heading's at its range
+        hon = self.filter.honest
+        pos_var = max(float(np.linalg.eigvalsh(hon[:2, :2])[-1]), self.doubt.sd ** 2)  # in doubt, the doubt
+        th_var = max(float(hon[2, 2]), 0.0)
+        rng2 = np.einsum("ij,ij->i", points, points)
+        sds = np.column_stack((np.sqrt(pos_var + rng2 * th_var), np.full(len(points), math.sqrt(th_var)),
+                               np.arctan2(world[:, 1] - pose.y, world[:, 0] - pose.x)))  # seen from this side
         cells, first = np.unique(np.round(np.r_[old, world] / self.map_resolution), axis=0, return_index=True)
         merged = cells * self.map_resolution
         merged_sds = np.r_[old_sds, sds][first]  # a cell the map held keeps its own

@@ -3,8 +3,10 @@ they replace (issue #41: throughput without a behaviour change).
 
 Each faster function is compared, bit for bit (``tobytes`` / float equality including
 NaN), with its numpy reference on generated inputs: ``_exact.median`` with ``np.median``,
-``_exact.ring_neighbours`` with ``np.roll``, and ``doubt.see_through`` (which now turns
-only the map points near the robot into its frame) with the whole-map version it had.
+``_exact.ring_neighbours`` with ``np.roll``, ``_exact.unwrap`` with ``np.unwrap``,
+``doubt.see_through`` (which now turns only the map points near the robot into its frame)
+with the whole-map version it had, and ``ScanOdometry._add`` (which now computes the
+uncertainty of the new points only) with its old self.
 """
 
 from __future__ import annotations
@@ -16,10 +18,14 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
 
-from clomp.formal.geometry import points_to_frame
+from scipy.spatial import cKDTree
+
+from clomp.formal.geometry import points_from_frame, points_to_frame
 from clomp.formal.model import Pose
 from clomp.runtime.estimation._exact import median, ring_neighbours, unwrap
 from clomp.runtime.estimation.doubt import see_through
+from clomp.runtime.estimation.icp import ReferenceScan
+from clomp.runtime.estimation.odometry import ScanOdometry
 
 _floats = st.floats(min_value=-1e3, max_value=1e3, allow_nan=False, allow_infinity=False)
 
@@ -139,3 +145,60 @@ def test_see_through_on_points_just_outside_the_square() -> None:
         world = ring + [0.3, -0.2]
         scan = points_to_frame(world * 1.05, pose)
         assert see_through(world, scan, pose, reach=reach) == _see_through_reference(world, scan, pose, reach=reach)
+
+
+def _add_reference(odo: ScanOdometry, points: np.ndarray, pose: Pose, reseed: bool) -> bool:
+    """``ScanOdometry._add`` as it was before issue #41 (every point's uncertainty computed,
+    then the known ones dropped)."""
+    if len(points) < odo.min_points:
+        return False
+    world = points_from_frame(points, pose)
+    hon = odo.filter.honest
+    pos_var = max(float(np.linalg.eigvalsh(hon[:2, :2])[-1]), odo.doubt.sd ** 2)
+    th_var = max(float(hon[2, 2]), 0.0)
+    rng2 = np.einsum("ij,ij->i", points, points)
+    sds = np.c_[np.sqrt(pos_var + rng2 * th_var), np.full(len(points), math.sqrt(th_var)),
+                np.arctan2(world[:, 1] - pose.y, world[:, 0] - pose.x)]
+    old = odo._map_points if (odo._map_points is not None and not reseed) else np.zeros((0, 2))
+    old_sds = odo._map_sds if (odo._map_sds is not None and not reseed) else np.zeros((0, 3))
+    if len(old) and odo._map is not None and len(odo._map):
+        if odo._map_tree is None:
+            odo._map_tree = cKDTree(old)
+        d, _ = odo._map_tree.query(world, distance_upper_bound=odo.new_surface)
+        world, sds = world[~np.isfinite(d)], sds[~np.isfinite(d)]
+        if len(world) == 0:
+            return False
+    cells, first = np.unique(np.round(np.r_[old, world] / odo.map_resolution), axis=0, return_index=True)
+    merged = cells * odo.map_resolution
+    merged_sds = np.r_[old_sds, sds][first]
+    near = np.hypot(merged[:, 0] - pose.x, merged[:, 1] - pose.y) <= odo.map_radius
+    merged, merged_sds = merged[near], merged_sds[near]
+    if odo._map_points is not None and not reseed and len(merged) == len(odo._map_points):
+        return False
+    odo._map_points, odo._map_tree, odo._map_sds = merged, None, merged_sds
+    odo._map = ReferenceScan(merged)
+    return True
+
+
+@settings(max_examples=25, deadline=None)
+@given(st.integers(0, 2**32 - 1))
+def test_the_map_grows_as_before(seed: int) -> None:
+    """A map grown by twelve revolutions from poses drifting through a room (some seeing
+    nothing new, some re-seeding, the filter's uncertainty growing): the same points, the
+    same per-point uncertainties, bit for bit, and the same answers."""
+    rng = np.random.default_rng(seed)
+    room = _room(rng, 1200)
+    new, ref = ScanOdometry(wheel_base=0.15, compass=False), ScanOdometry(wheel_base=0.15, compass=False)
+    pose = Pose(0.0, 0.0, 0.0)
+    for k in range(12):
+        pose = Pose(pose.x + rng.normal(0, 0.1), pose.y + rng.normal(0, 0.1), pose.theta + rng.normal(0, 0.2))
+        seen = points_to_frame(room, pose)
+        seen = seen[(np.hypot(seen[:, 0], seen[:, 1]) < 2.0) & (rng.random(len(seen)) < 0.5)]
+        seen = seen + rng.normal(0, 0.004, seen.shape)
+        for odo in (new, ref):
+            odo.filter.honest[:3, :3] = np.diag([1e-4 * k, 2e-4 * k, 1e-3 * k])
+        reseed = k == 0 or rng.random() < 0.1
+        assert new._add(seen, pose, reseed) == _add_reference(ref, seen, pose, reseed)
+        assert new._map_points is not None and ref._map_points is not None and ref._map_sds is not None
+        assert new._map_points.tobytes() == ref._map_points.tobytes()
+        assert new._map_sds is not None and new._map_sds.tobytes() == ref._map_sds.tobytes()
