@@ -45,6 +45,7 @@ import numpy as np
 
 from clomp.formal.geometry import points_to_frame
 from clomp.formal.model import Pose
+from clomp.runtime.estimation._exact import ring_neighbours
 from clomp.runtime.estimation.confirm import ambiguity
 from clomp.runtime.estimation.icp import ReferenceScan, match_scans
 
@@ -183,7 +184,13 @@ def see_through(map_points: np.ndarray, points: np.ndarray, pose: Pose, *, margi
     """
     if not len(map_points) or not len(points):
         return 0, 0
-    local = points_to_frame(np.asarray(map_points, dtype=float).reshape(-1, 2), pose)  # the map in the robot frame
+    every = np.asarray(map_points, dtype=float).reshape(-1, 2)
+    # only the map points in a square a little wider than ``reach`` can lie within it: the
+    # rest (most of a large map) need not be turned into the robot frame (each point's
+    # arithmetic is its own, so the ones kept come out as they did from the whole map)
+    box = reach + 1e-6
+    inside = (np.abs(every[:, 0] - pose.x) <= box) & (np.abs(every[:, 1] - pose.y) <= box)
+    local = points_to_frame(every[inside], pose)  # the map in the robot frame
     mx, my = local[:, 0], local[:, 1]
     mr = np.hypot(mx, my)
     near = mr <= reach
@@ -201,11 +208,13 @@ def see_through(map_points: np.ndarray, points: np.ndarray, pose: Pose, *, margi
     both = np.isfinite(seen) & np.isfinite(drawn)
     past = both & (seen > drawn + margin)
     # a bearing counts with both its neighbours: at a surface's edge one bearing sees past it
-    past &= np.roll(past, 1) & np.roll(past, -1)
+    after, before = ring_neighbours(past, 1)  # np.roll(past, 1), np.roll(past, -1)
+    past &= after & before
     # no return at all where the map's surface lies well within the LiDAR's range, five
     # bearings in a row (a small post drawn from many revolutions spans a few more
     # bearings than one revolution's rays hit)
     gone = ~np.isfinite(seen) & (drawn <= empty)
-    gone &= np.roll(gone, 1) & np.roll(gone, -1) & np.roll(gone, 2) & np.roll(gone, -2)
+    g1, g_1, g2, g_2 = ring_neighbours(gone, 2)
+    gone &= g1 & g_1 & g2 & g_2
     through = past | gone
     return int(through.sum()), int(np.isfinite(drawn).sum())

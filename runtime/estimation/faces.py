@@ -56,6 +56,7 @@ import numpy as np
 
 from clomp.formal.geometry import points_from_frame, points_to_frame, wrap_angle
 from clomp.formal.model import Pose
+from clomp.runtime.estimation._exact import median
 from clomp.runtime.estimation.fusion import fuse_revolutions
 
 __all__ = ["Face", "FaceCompass", "find_faces", "fit_line", "refine_line"]
@@ -333,12 +334,13 @@ class FaceCompass:
         tol = max(self.fit_band * sd_r, 0.02)
         spread = min(3.0 * prior_sd, math.radians(25.0))  # how far the heading may be off
         ray = pts / np.maximum(np.hypot(pts[:, 0], pts[:, 1]), 1e-9)[:, None]  # each point's beam (robot frame)
+        here = np.array([pose.x, pose.y])
         for f in self.faces:
-            fc, fd = np.asarray(f.centre), np.asarray(f.direction)
-            if float((np.array([pose.x, pose.y]) - fc) @ np.asarray(f.normal)) < self.behind:
+            fc, fd, fn = np.asarray(f.centre), np.asarray(f.direction), np.asarray(f.normal)
+            if float((here - fc) @ fn) < self.behind:
                 continue  # the robot is behind the face (or in its plane): it cannot see it
             q = world - fc
-            along, across = q @ fd, q @ np.asarray(f.normal)
+            along, across = q @ fd, q @ fn
             # the face's stretch, away from its ends (a corner's other face would tilt the
             # fit), and wide enough across for the face as it would lie were the heading off
             # by three standard deviations: a band only as wide as the noise would keep the
@@ -347,7 +349,8 @@ class FaceCompass:
             cand = (np.abs(across) <= max(self.band, tol + reach)) & (along >= f.start + self.margin) & (along <= f.end - self.margin)
             if cand.sum() < 8:
                 continue
-            got = refine_line(world[cand], fc + float(np.median(across[cand])) * np.asarray(f.normal), fd, tol)
+            wc = world[cand]
+            got = refine_line(wc, fc + median(across[cand]) * fn, fd, tol)
             if got is None:
                 continue
             c, d, sel, rms, sd_fit = got
@@ -359,13 +362,14 @@ class FaceCompass:
             if (sel & steep).sum() < 8:
                 continue
             if (sel & ~steep).any():  # refitted on the steep points alone
-                got = refine_line(world[cand][steep], c, d, tol)
+                ws = wc[steep]
+                got = refine_line(ws, c, d, tol)
                 if got is None or got[2].sum() < 8:
                     continue
                 c, d, sel, rms, sd_fit = got
-                used = world[cand][steep][sel]
+                used = ws[sel]
             else:
-                used = world[cand][sel]
+                used = wc[sel]
             s_ = (used - c) @ d
             if s_.max() - s_.min() < 0.08:
                 continue

@@ -53,7 +53,6 @@ from scipy.spatial import cKDTree
 from clomp.formal.geometry import (
     arc_offsets,
     compose,
-    points_from_frame,
     points_from_frames,
     points_to_frame,
     relative,
@@ -67,7 +66,9 @@ from clomp.runtime.estimation.doubt import Doubt, see_through, trusted_check
 from clomp.runtime.estimation.ekf import OdometryFilter
 from clomp.runtime.estimation.faces import FaceCompass
 from clomp.runtime.estimation.fusion import fuse_revolutions, range_spread
+from clomp.runtime.estimation._exact import unwrap
 from clomp.runtime.estimation._icp_core import warm_up
+from clomp.runtime.estimation._localmap import LocalMap
 from clomp.runtime.estimation.icp import ReferenceScan, ScanMatch, match_scans
 from clomp.runtime.estimation.reported import OdometryCovariance, step_noise_floor
 
@@ -109,7 +110,7 @@ def deskew(points: np.ndarray, point_times: np.ndarray | None, v: float, w: floa
     return points_from_frames(points, px, py, th)
 
 
-class ScanOdometry:
+class ScanOdometry(LocalMap):
     """The pose estimate (supervisor frame) from dead reckoning and scan matching.
 
     ``map_radius`` (m): how much of the map around the robot is kept; ``map_resolution``
@@ -308,7 +309,7 @@ class ScanOdometry:
         t = np.fromiter((q[0] for q in h), float, len(h))
         hx = np.fromiter((q[1].x for q in h), float, len(h))
         hy = np.fromiter((q[1].y for q in h), float, len(h))
-        hth = np.unwrap(np.fromiter((q[1].theta for q in h), float, len(h)))
+        hth = unwrap(np.fromiter((q[1].theta for q in h), float, len(h)))  # np.unwrap's, bit for bit
         when = stamp + point_times
         x, y, th = np.interp(when, t, hx), np.interp(when, t, hy), np.interp(when, t, hth)
         x0, y0, th0 = float(np.interp(stamp, t, hx)), float(np.interp(stamp, t, hy)), float(np.interp(stamp, t, hth))
@@ -546,52 +547,3 @@ class ScanOdometry:
                        f"(sd {math.degrees(sd):.1f}°){'' if ok else ', rejected'}")
         self.compass.grow(points, at, self.filter.sigma_theta, self.range_sd)
         return at, reason
-
-    def _add(self, points: np.ndarray, pose: Pose, reseed: bool) -> bool:
-        """Put a revolution seen from ``pose`` into the map (1 cm grid, within ``map_radius``)."""
-        if len(points) < self.min_points:
-            return False
-        world = points_from_frame(points, pose)
-        # how wrong each new point may be: the honest position sd and the heading's at its range
-        hon = self.filter.honest
-        pos_var = max(float(np.linalg.eigvalsh(hon[:2, :2])[-1]), self.doubt.sd ** 2)  # in doubt, the doubt
-        th_var = max(float(hon[2, 2]), 0.0)
-        rng2 = np.einsum("ij,ij->i", points, points)
-        sds = np.c_[np.sqrt(pos_var + rng2 * th_var), np.full(len(points), math.sqrt(th_var)),
-                    np.arctan2(world[:, 1] - pose.y, world[:, 0] - pose.x)]  # seen from this side
-        old = self._map_points if (self._map_points is not None and not reseed) else np.zeros((0, 2))
-        old_sds = self._map_sds if (self._map_sds is not None and not reseed) else np.zeros((0, 3))
-        if len(old) and self._map is not None and len(self._map):
-            # only surfaces the map does not hold yet: re-adding known ones would smear them
-            # along the robot's estimation error and let the estimate drift with them
-            if self._map_tree is None:  # one tree per map, not one per revolution (a tenth of them change it)
-                self._map_tree = cKDTree(old)
-            d, _ = self._map_tree.query(world, distance_upper_bound=self.new_surface)
-            world, sds = world[~np.isfinite(d)], sds[~np.isfinite(d)]
-            if len(world) == 0:
-                return False
-        cells, first = np.unique(np.round(np.r_[old, world] / self.map_resolution), axis=0, return_index=True)
-        merged = cells * self.map_resolution
-        merged_sds = np.r_[old_sds, sds][first]  # a cell the map held keeps its own
-        near = np.hypot(merged[:, 0] - pose.x, merged[:, 1] - pose.y) <= self.map_radius
-        merged, merged_sds = merged[near], merged_sds[near]
-        if self._map_points is not None and not reseed and len(merged) == len(self._map_points):
-            return False  # nothing new
-        self._map_points, self._map_tree, self._map_sds = merged, None, merged_sds
-        self._map = ReferenceScan(merged)
-        return True
-
-    def _map_sd(self, points: np.ndarray, pose: Pose) -> tuple[float, float]:
-        """How wrong the surfaces a revolution seen from ``pose`` meets may be (m, rad): the
-        median over its points of the map points they meet (within 5 cm), each as uncertain
-        as the estimate that drew it (0 for the start's seed)."""
-        if self._map_points is None or self._map_sds is None or not len(self._map_points) or not len(points):
-            return (0.0, 0.0)
-        if self._map_tree is None:
-            self._map_tree = cKDTree(self._map_points)
-        d, idx = self._map_tree.query(points_from_frame(points, pose), distance_upper_bound=0.05)
-        hit = np.isfinite(d)
-        if not hit.any():
-            return (0.0, 0.0)
-        sds = self._map_sds[idx[hit]]
-        return (float(np.median(sds[:, 0])), float(np.median(sds[:, 1])))

@@ -1,0 +1,80 @@
+"""Cheaper, bit-identical stand-ins for numpy calls the estimator makes every revolution.
+
+``np.median``, ``np.roll`` and ``np.unwrap`` are general (any axis, any shape, masked arrays, out=)
+and spend tens of microseconds in Python on the small 1-d arrays a revolution gives
+them; these do the same arithmetic on exactly that case. The tests in
+``tests/runtime/test_exact_kernels.py`` hold each to its numpy reference, bit for bit.
+
+>>> import numpy as np
+>>> median(np.array([3.0, 1.0, 2.0, 10.0])) == float(np.median([3.0, 1.0, 2.0, 10.0]))
+True
+>>> ring_neighbours(np.array([True, False, False]), 1)[0].tolist()   # np.roll(a, 1)
+[False, True, False]
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+__all__ = ["median", "ring_neighbours", "unwrap"]
+
+
+def median(values: np.ndarray) -> float:
+    """``float(np.median(values))`` of a 1-d float array: the middle value, or the two
+    middle ones' mean (summed from +0.0 and halved, as ``np.mean`` computes it); NaN when
+    any is NaN or there are none (numpy also warns then).
+
+    >>> median(np.array([2.0, 1.0])), median(np.array([1.0, np.nan]))
+    (1.5, nan)
+    """
+    v = np.asarray(values, dtype=float).reshape(-1)
+    n = len(v)
+    if n == 0 or bool(np.isnan(v).any()):
+        return math.nan
+    h = n // 2
+    # numpy's mean sums from +0.0 (so a median of -0.0 is 0.0), then divides by the count
+    if n % 2:
+        return float(0.0 + np.partition(v, h)[h])
+    part = np.partition(v, (h - 1, h))
+    return float((0.0 + part[h - 1] + part[h]) / 2)
+
+
+def ring_neighbours(a: np.ndarray, reach: int) -> list[np.ndarray]:
+    """The 1-d array ``a`` shifted round a ring by 1, -1, 2, -2, … up to ``reach``: element
+    for element ``[np.roll(a, 1), np.roll(a, -1), np.roll(a, 2), …]``, as views of one padded copy
+    (``np.roll`` itself where ``reach`` exceeds the length).
+
+    >>> [s.tolist() for s in ring_neighbours(np.array([1, 2, 3, 4]), 2)]
+    [[4, 1, 2, 3], [2, 3, 4, 1], [3, 4, 1, 2], [3, 4, 1, 2]]
+    """
+    n = len(a)
+    if reach < 0:
+        raise ValueError(f"reach must be >= 0, got {reach}")
+    if reach > n:  # shifts that wrap more than once (or an empty array): numpy's own
+        return [np.roll(a, s) for k in range(1, reach + 1) for s in (k, -k)]
+    ext = np.concatenate((a[n - reach:], a, a[:reach]))
+    out: list[np.ndarray] = []
+    for k in range(1, reach + 1):
+        out.append(ext[reach - k:reach - k + n])  # np.roll(a, k)[i] = a[i - k]
+        out.append(ext[reach + k:reach + k + n])  # np.roll(a, -k)[i] = a[i + k]
+    return out
+
+
+def unwrap(angles: np.ndarray) -> np.ndarray:
+    """``np.unwrap(angles)`` of a 1-d float array. Where no step reaches half a turn (a
+    heading history sampled every few milliseconds) numpy adds a zero correction to every
+    element after the first, which is all this does (``+ 0.0`` turns a -0.0 into 0.0, as
+    numpy's does); any other array goes to ``np.unwrap`` itself.
+
+    >>> unwrap(np.array([3.0, -3.0])).round(4).tolist(), unwrap(np.array([0.1, 0.2])).tolist()
+    ([3.0, 3.2832], [0.1, 0.2])
+    """
+    p = np.asarray(angles, dtype=float)
+    if p.ndim == 1 and bool((np.abs(p[1:] - p[:-1]) < math.pi).all()):
+        up = p.copy()
+        up[1:] = p[1:] + 0.0
+        return up
+    out: np.ndarray = np.unwrap(p)
+    return out
