@@ -35,7 +35,7 @@ from typing import Any
 import networkx as nx
 
 from clomp.formal.checking import require_stormpy
-from clomp.formal.export import ExportModel, ModelKind, export_model, write_drn
+from clomp.formal.export import STAY, ExportModel, ModelKind, export_model, write_drn
 from clomp.formal.invariants import map_plan
 from clomp.formal.lts import CognitiveMap, MapError
 from clomp.formal.model import TaskKind
@@ -57,6 +57,9 @@ __all__ = [
     "map_policy",
     "POLICY_KEY",
     "scheduler_record",
+    "ModelPolicy",
+    "model_policy",
+    "model_scheduler_record",
 ]
 
 POLICY_KEY = "scheduler"
@@ -372,3 +375,91 @@ def scheduler_record(cmap: CognitiveMap, best: RobustPlan) -> dict[str, Any]:
             for s in cmap.states() if s.ident in best.scheduler
         ],
     }
+
+
+@dataclass(frozen=True)
+class ModelPolicy:
+    """Storm's optimal scheduler of an exported MDP (e.g. the closed loop's model, whose
+    states are map states × replans used): its value at the initial state, the
+    property, and the chosen action per state ident (a task, or ``retry``)."""
+
+    probability: float
+    formula: str
+    choose: dict[int, str]
+
+
+def model_policy(m: ExportModel, formula: str = f"Pmax=? [{SAFE_GOAL}]") -> ModelPolicy:
+    """Storm's optimal scheduler for ``formula`` on the MDP ``m`` itself (not a map's
+    export: e.g. :func:`clomp.formal.retry.loop_model`'s product, where a stop's one
+    action is ``retry``). States whose one choice is ``stay`` choose nothing.
+
+    >>> from clomp.formal.model import Disturbance, Pose, State
+    >>> g = Disturbance.goal(1.0, 0.0)
+    >>> m = CognitiveMap.from_parts(
+    ...     [State(0, TaskKind.STRAIGHT, g, None, Pose(0, 0), Pose(0, 0)),
+    ...      State(1, TaskKind.STRAIGHT, g, None, Pose(0, 0), Pose(1, 0), reached_goal=True)], [(0, 1)], goal=g)
+    >>> p = model_policy(export_model(m, "mdp"))  # needs stormpy
+    >>> p.probability, p.choose
+    (1.0, {0: 'STRAIGHT'})
+    """
+    if m.kind != "mdp":
+        raise MapError("a scheduler resolves the choices of an MDP")
+    stormpy = require_stormpy()
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / "m.drn"
+        write_drn(m, path)
+        model = stormpy.build_model_from_drn(str(path))
+    result = stormpy.model_checking(model, stormpy.parse_properties(formula)[0], extract_scheduler=True)
+    sched = result.get_scheduler() if hasattr(result, "get_scheduler") else result.scheduler
+    choose: dict[int, str] = {}
+    for k, s in enumerate(m.states):  # a DRN keeps the file's state and choice order
+        action = m.choices[k][int(sched.get_choice(k).get_deterministic_choice())].action
+        if action != STAY:
+            choose[s.ident] = action
+    return ModelPolicy(_value_at(result, int(model.initial_states[0])), formula, choose)
+
+
+def model_scheduler_record(m: ExportModel, best: ModelPolicy, span: int | None = None) -> dict[str, Any]:
+    """:func:`model_policy`'s scheduler as a JSON-ready record, as :func:`scheduler_record`
+    writes a map's: the property, its value, the path it starts on (most likely
+    outcomes) and per state that chooses (the model's order) its valuation (``pose``
+    where its task ended, ``task`` that led there) and ``action``. With ``span`` (the
+    closed loop's ident offset per replan, :func:`clomp.formal.retry.retry_model`) each
+    state also names its ``map_state`` and ``replans_used``.
+
+    >>> from clomp.formal.model import Disturbance, Pose, State
+    >>> g = Disturbance.goal(1.0, 0.0)
+    >>> m = export_model(CognitiveMap.from_parts(
+    ...     [State(0, TaskKind.STRAIGHT, g, None, Pose(0, 0), Pose(0, 0)),
+    ...      State(1, TaskKind.STRAIGHT, g, None, Pose(0, 0), Pose(1, 0), reached_goal=True)], [(0, 1)], goal=g), "mdp")
+    >>> model_scheduler_record(m, ModelPolicy(1.0, "Pmax=? [F goal]", {0: "STRAIGHT"}), span=2)["states"]
+    [{'state': 'q0', 'ident': 0, 'map_state': 'q0', 'replans_used': 0, 'pose': [0.0, 0.0, 0.0], 'task': 'STRAIGHT', 'action': 'STRAIGHT'}]
+    """
+    states = []
+    for s in m.states:
+        if s.ident not in best.choose:
+            continue
+        row: dict[str, Any] = {"state": f"q{s.ident}", "ident": s.ident}
+        if span is not None:
+            row.update(map_state=f"q{s.ident % span}", replans_used=s.ident // span)
+        row.update(pose=[float(v) for v in s.end.as_list()], task=s.task.value, action=best.choose[s.ident])
+        states.append(row)
+    return {"property": best.formula, "probability": best.probability, "plan": [f"q{i}" for i in _model_path(m, best.choose)],
+            "states": states}
+
+
+def _model_path(m: ExportModel, choose: Mapping[int, str]) -> list[int]:
+    """The idents along the path ``choose`` starts on from ``m``'s initial state: the
+    chosen action's most likely branch (ties: the lower index), until a state that
+    chooses nothing or one seen before."""
+    k, path, seen = m.initial, [m.states[m.initial].ident], {m.initial}
+    while (action := choose.get(m.states[k].ident)) is not None:
+        ch = next((c for c in m.choices[k] if c.action == action), None)
+        if ch is None or not ch.branches:
+            break
+        k = max(ch.branches, key=lambda b: (b[1], -b[0]))[0]
+        if k in seen:
+            break
+        seen.add(k)
+        path.append(m.states[k].ident)
+    return path

@@ -7,7 +7,9 @@ fails, naming a path of map states that violates it (Storm finds the path), or, 
 ``--tool both``, when the two tools disagree (by more than 1e-9). With ``--samples N
 --closed-loop [--replans N]`` the properties are checked on the closed loop's model of
 the probabilistic map, as ``clomp export --closed-loop`` writes it (default files:
-specs/properties/closed_loop/).
+specs/properties/closed_loop/); ``--scheduler``/``--induced`` then write Storm's scheduler
+of that model (a task, or ``retry`` at a stop, per map state and replans used) and the
+DTMC it induces.
 """
 
 from __future__ import annotations
@@ -77,7 +79,8 @@ def register(sub: Any) -> None:
         help="model checker: Storm (stormpy), PRISM (the PRISM language; $CLOMP_PRISM or shared/tools) or both side by side (default storm)",
     )
     p.add_argument("--scheduler", metavar="FILE", help='write Storm\'s optimal scheduler for Pmax=? [!"collision" U "goal"] as JSON '
-                   "(per map state: pose, task, the chosen task); needs a map, not a model file")
+                   "(per map state: pose, task, the chosen task; with --closed-loop per state of the closed loop's model: "
+                   "its map state, replans used, pose, task, the chosen task or retry); needs a map, not a model file")
     p.add_argument("--induced", metavar="FILE", help="write the DTMC that scheduler induces: FILE.drn, FILE.prism (or .pm), "
                    "or PRISM's explicit files for a name without suffix")
     p.add_argument("--witness", metavar="FILE", help="write the violating path of each failed property as JSON (states, actions, labels)")
@@ -94,18 +97,18 @@ def _write_json(path: str, data: Any, option: str) -> None:
 
 
 def _write_policy(args: argparse.Namespace, cmap: CognitiveMap | None) -> None:
-    """``--scheduler`` and ``--induced``: Storm's scheduler of the map and its DTMC."""
+    """``--scheduler`` and ``--induced``: Storm's scheduler of the map (with
+    ``--closed-loop``: of the closed loop's model, a task or ``retry`` per map state ×
+    replans used) and the DTMC it induces."""
     if not (args.scheduler or args.induced):
         return
     if cmap is None:
         raise CliError("--scheduler/--induced need a map (--scenario, --scan, --map or a .json FILE): a model file has no poses or tasks")
     from clomp.formal.export import write_drn, write_prism, write_prism_explicit
-    from clomp.formal.scheduler import scheduler_record
-    from clomp.runtime.cli.export import storm_policy
 
-    best, induced = storm_policy(cmap)
+    record, induced = _closed_loop_policy(args, cmap) if args.closed_loop else _map_policy(cmap)
     if args.scheduler:
-        _write_json(args.scheduler, scheduler_record(cmap, best), "--scheduler")
+        _write_json(args.scheduler, record, "--scheduler")
     if args.induced:
         path = Path(args.induced)
         writer = {".drn": write_drn, ".prism": write_prism, ".pm": write_prism, "": write_prism_explicit}.get(path.suffix)
@@ -115,6 +118,29 @@ def _write_policy(args: argparse.Namespace, cmap: CognitiveMap | None) -> None:
             writer(induced, path)
         except OSError as exc:
             raise CliError(f"--induced: cannot write {path}: {exc.strerror or exc}") from None
+
+
+def _map_policy(cmap: CognitiveMap) -> tuple[dict[str, Any], ExportModel]:
+    from clomp.formal.scheduler import scheduler_record
+    from clomp.runtime.cli.export import storm_policy
+
+    best, induced = storm_policy(cmap)
+    return scheduler_record(cmap, best), induced
+
+
+def _closed_loop_policy(args: argparse.Namespace, cmap: CognitiveMap) -> tuple[dict[str, Any], ExportModel]:
+    """Storm's scheduler for ``Pmax=? [!"collision" U "goal"]`` on the closed loop's MDP
+    (the one the closed loop's properties are checked on) and its induced DTMC."""
+    from clomp.formal.export import induced_model
+    from clomp.formal.scheduler import model_policy, model_scheduler_record
+
+    base = export_model(cmap, "mdp")
+    replans = replans_of(args)
+    m = closed_loop_model(base, cmap, replans)
+    best = model_policy(m)
+    record = {"model": f"closed loop, {replans} replan{'' if replans == 1 else 's'}", "replans": replans,
+              **model_scheduler_record(m, best, span=max(s.ident for s in base.states) + 1)}
+    return record, induced_model(m, best.choose, f"Storm's scheduler for {best.formula} on the closed loop")
 
 
 def _witness_record(title: str, failed: list[CheckResult], cmap: CognitiveMap | None) -> dict[str, Any]:
@@ -174,8 +200,6 @@ def _check_sources(args: argparse.Namespace) -> None:
     if args.closed_loop and model_file:
         raise CliError(f"--closed-loop builds the closed loop's model of a map; {args.file} is a model already "
                        "(write one with 'clomp export --samples N --closed-loop')")
-    if args.closed_loop and (args.scheduler or args.induced):
-        raise CliError("--scheduler/--induced are Storm's scheduler of the map's own MDP; they do not apply to --closed-loop")
     check_closed_loop_options(args, from_map=bool(args.map or args.file))
 
 

@@ -352,6 +352,9 @@ def _judge(name: str, specs: list, loads: dict[str, list]) -> list[str]:
     return problems
 
 
+# the closed loop's model with replans at harsh noise, as `check --closed-loop` builds it
+CLOSED_LOOP = ("--samples", "5", "--noise", "harsh", "--seed", "1", "--closed-loop", "--replans", "2")
+
 # a goal the scan sees, right of the box: the scenario's own stands in the box's shadow, no
 # plan claims it, and Storm's scheduler for a goal it cannot reach may choose any task
 SEEN = ("--goal", "0.8,-0.3")
@@ -381,6 +384,14 @@ def _walk(folder: Path, prism: bool) -> tuple[list[str], int]:
     for path in (induced.with_suffix(".prism"), induced.with_suffix(".drn"), induced):
         assert _cli("check", "--scenario", "overtaking", *SEEN, "--induced", str(path)) == 0, path
     written.append(("check --induced", "dtmc", induced.with_suffix(".prism"), induced.with_suffix(".drn"), induced))
+    # `clomp check --closed-loop --induced`: Storm's scheduler of the closed loop's MDP (a task,
+    # or retry at a stop, per map state and replans used), its DTMC checked against closed_loop/
+    cl = folder / "ov-closed-loop-induced"
+    for path in (cl.with_suffix(".prism"), cl.with_suffix(".drn"), cl):
+        code = _cli("check", "--scenario", "overtaking", *SEEN, *CLOSED_LOOP, "--induced", str(path))
+        if code != 0:  # the closed loop's own properties failed (a label made constant)
+            problems.append(f"{cl.name}: clomp check --closed-loop exits {code}")
+    written.append((cl.name, "dtmc", cl.with_suffix(".prism"), cl.with_suffix(".drn"), cl))
     sup = folder / "supervisor.prism"  # what `clomp demo` writes beside the map
     sup.write_text(supervisor_closed_loop_prism())
     written.append(("demo supervisor.prism", "mdp", sup, None, None))
@@ -408,7 +419,7 @@ def test_every_written_model_passes_its_property_files_in_both_tools(tmp_path, c
     test that ran PRISM on each map property file with unnamed formulas.)"""
     problems, checked = _walk(tmp_path, prism=find_prism() is not None)
     assert not problems, problems
-    assert checked >= (19 if find_prism() is not None else 10)
+    assert checked >= (23 if find_prism() is not None else 12)
     if find_prism() is None:
         pytest.skip(f"PRISM not found (set CLOMP_PRISM): checked the {checked} Storm loads only")
 
@@ -434,8 +445,10 @@ def test_the_walk_fails_when_a_label_is_made_constant(tmp_path, capsys, monkeypa
         monkeypatch.setattr(control, "machine_model", lambda *a: replace(m := real_m(*a), labels={**m.labels, "driving": frozenset()}))
     problems, _ = _walk(tmp_path, prism=False)
     assert problems
-    if where == "closed-loop":  # only the closed loop's models, both kinds
-        assert all("closed-loop" in p for p in problems) and {p.split("-")[1] for p in problems} == {"mdp", "dtmc"}, problems
+    if where == "closed-loop":  # only the closed loop's models: both kinds of export and the scheduler's DTMC
+        names = ("ov-mdp-closed-loop", "ov-dtmc-closed-loop", "ov-closed-loop-induced")
+        assert all("closed-loop" in p for p in problems), problems
+        assert {n for n in names if any(p.startswith((n + " ", n + ":")) for p in problems)} == set(names), problems
     else:
         assert any(("supervisor" in p) == (where == "supervisor") for p in problems), problems
 
@@ -471,6 +484,47 @@ def test_check_writes_storms_scheduler_with_tasks_and_valuations(tmp_path, capsy
     assert all((s["ident"], s["action"]) in tasks for s in record["states"])
     assert _storm_values(tmp_path / "i.drn", [PropertySpec('P=? [!"collision" U "goal"]', "safe")]) == [1.0]
     assert _cli("check", str(tmp_path / "i.drn"), "--scheduler", str(tmp_path / "x.json")) == 2  # a model file has no poses
+
+
+@pytest.mark.parametrize("replans", [0, 1])
+def test_check_closed_loop_writes_storms_scheduler_and_its_dtmc(tmp_path, capsys, replans):
+    """Before: ``--scheduler``/``--induced`` were refused with ``--closed-loop``. The
+    scheduler of the closed loop's MDP chooses ``retry`` only at the interruptions (stops,
+    outcomes off the map's prediction) with a replan left, a task elsewhere; its value is the induced DTMC's, in Storm (DRN and
+    PRISM language) and PRISM (language and explicit files); here a replan lifts it
+    from 0.4 to 1 (seed 1: the stops are false alarms the next plan gets through)."""
+    import json
+
+    from clomp.formal.export import prism_import_args
+    from clomp.formal.model import TaskKind
+
+    argv = ["--scenario", "overtaking", *SEEN, "--samples", "5", "--noise", "harsh", "--seed", "1", "--closed-loop", "--replans", str(replans)]
+    stem = tmp_path / "cl"
+    for path in (stem.with_suffix(".drn"), stem.with_suffix(".prism"), stem):
+        assert _cli("check", *argv, "--scheduler", str(tmp_path / "s.json"), "--induced", str(path)) == 0
+    record = json.loads((tmp_path / "s.json").read_text())
+    assert record["replans"] == replans and record["probability"] == pytest.approx(0.4 if replans == 0 else 1.0)
+    assert record["plan"][0] == "q0" and record["property"] == 'Pmax=? [!"collision" U "goal"]'
+    cmap_json = tmp_path / "m.json"
+    assert _cli("export", "--scenario", "overtaking", *SEEN, *argv[4:-2], "-f", "json", "-o", str(cmap_json)) == 0
+    meta = json.loads(cmap_json.read_text())["metadata"]
+    stops = {int(k) for key in ("stops", "offs") for k in meta.get(key, {})}  # interrupted: a stop, or off the prediction
+    for st in record["states"]:
+        base = int(st["map_state"][1:])
+        assert 0 <= st["replans_used"] <= replans
+        if st["action"] == "retry":
+            assert base in stops and st["replans_used"] < replans, st
+        else:
+            assert st["action"] in TaskKind.__members__, st
+    assert any(st["action"] == "retry" for st in record["states"]) == (replans > 0)
+    safe = [PropertySpec('P=? [!"collision" U "goal"]', "safe")]
+    values = {"DRN in Storm": _storm_values(stem.with_suffix(".drn"), safe),
+              "PRISM language in Storm": _storm_values(stem.with_suffix(".prism"), safe)}
+    if find_prism() is not None:
+        values["PRISM language in PRISM"] = _prism_values([str(stem.with_suffix(".prism"))], safe)
+        values["explicit files in PRISM"] = _prism_values(prism_import_args(stem, "dtmc"), safe)
+    for load, (v,) in values.items():
+        assert v == pytest.approx(record["probability"], abs=1e-9), load
 
 
 @pytest.mark.parametrize("source", ["map", "prism", "drn"])

@@ -196,7 +196,8 @@ def _same(text: str, value: object) -> bool:
     (["--scenario", "overtaking", "--closed-loop"], "give --samples N"),
     (["--scenario", "overtaking", "--samples", "3", "--replans", "1"], "--replans applies to --closed-loop"),
     (["--scenario", "overtaking", "--samples", "3", "--closed-loop", "--replans", "21"], "from 0 to 20"),
-    (["--scenario", "overtaking", "--samples", "3", "--closed-loop", "--induced", "x.drn"], "do not apply to --closed-loop"),
+    # --induced applies to --closed-loop (the closed loop's scheduler); its format is the suffix's
+    (["--scenario", "overtaking", "--samples", "3", "--closed-loop", "--induced", "x.txt"], "give a .drn or .prism file"),
     (["MODEL", "--closed-loop"], "is a model already"),
 ])
 def test_check_closed_loop_options_that_do_not_apply_are_refused(argv, message, tmp_path, capsys):
