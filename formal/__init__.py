@@ -9,7 +9,7 @@ if __name__ != "clomp.formal":  # the repository keeps formal/ at the top; it is
 from clomp.formal.lts import FORMAT_VERSION, CognitiveMap, MapError, Transition
 from clomp.formal.model import PAPER_TASKS, Disturbance, DisturbanceKind, Pose, State, TaskKind
 from clomp.formal.invariants import Invariant, InvariantError, Violation, assert_map_valid, check_map
-from clomp.formal.supervisory import Guard, Plan, Reset, ResetUndefined, extract_plan, plan_end
+from clomp.formal.supervisory import Guard, Plan, Reset, ResetUndefined, extract_plan, frontier_end, plan_end
 
 __all__ = [
     "CognitiveMap",
@@ -32,5 +32,6 @@ __all__ = [
     "assert_map_valid",
     "check_map",
     "extract_plan",
+    "frontier_end",
     "plan_end",
 ]

@@ -10,11 +10,13 @@ property fails and *where*, not just that something is wrong. The invariants are
 4. ``GUARD`` — Ψ is 1 exactly on the plan's transitions, and the guarded map is a single
    path from q0 that ends at the plan end of :func:`clomp.formal.supervisory.plan_end`,
    restated here: q* = argmin φ over the uninterrupted reachable states, ties → lowest
-   ident; but when q* is no goal, has successors (the search looked past it) and is q0
-   or — in a map whose search its budget did not cut short (``metadata["stop_reason"]``)
-   — the cheapest open state (uninterrupted, reachable, no goal, no successor) is a
-   frontier state, the frontier state of least goal distance + metres driven, ties →
-   lowest ident (the plan explores rather than stand still or stop in a local minimum);
+   ident; but when q* is no goal, the map has a frontier state and q* is a frontier, or
+   q0, or a state the search looked past whose cheapest open state (uninterrupted,
+   reachable, no goal, no successor) is a frontier — the frontier state of least goal
+   distance + metres driven among those of lower φ than q0 (all when none is), ties →
+   lowest ident (a frontier end cheapest to reach and near the goal, not the nearest past
+   a detour; the plan explores rather than stand still or stop in a local minimum); the
+   budget does not enter;
 5. ``TURN_THEN_STRAIGHT`` — every uninterrupted turn is followed by a straight, and only
    by straights (Algorithm 1's frontier rule: a frontier state is STRAIGHT or interrupted);
 6. ``PROBABILITY`` — for every (state, task) the outgoing probabilities are in (0, 1] and
@@ -238,15 +240,16 @@ def _plan_end(cmap: CognitiveMap, q0: int) -> tuple[int, str]:
     reach = cmap.reachable()
     key = lambda s: (s.cost, s.ident)  # noqa: E731 - ties: the lowest ident
     best = min((s for s in cmap.states() if s.ident in reach and not s.interrupted), key=key, default=cmap[q0])
-    looked_past = bool(cmap.out_transitions(best.ident))
-    if best.reached_goal or cmap.goal is None or (best.ident != q0 and not looked_past):
+    if best.reached_goal or cmap.goal is None:
         return best.ident, "argmin φ"
     leaves = [s for s in cmap.states() if s.ident in reach and s.ident != q0 and not s.interrupted and not s.reached_goal
               and not cmap.out_transitions(s.ident)]
     frontiers = [s for s in leaves if is_frontier(s)]
-    cut_short = cmap.metadata.get("stop_reason") == "budget"  # the search did not look past its open states
-    if frontiers and (best.ident == q0 or (not cut_short and is_frontier(min(leaves, key=key)))):
-        return min(frontiers, key=lambda s: (exploring_score(cmap, s), s.ident)).ident, "the exploring frontier"
+    expanded = best.ident != q0 and bool(cmap.out_transitions(best.ident))
+    if frontiers and (is_frontier(best) or best.ident == q0 or (expanded and is_frontier(min(leaves, key=key)))):
+        gaining = [s for s in frontiers if s.cost < cmap[q0].cost]
+        pick = min(gaining or frontiers, key=lambda s: (exploring_score(cmap, s), s.ident))
+        return pick.ident, "the frontier end"
     return best.ident, "argmin φ"
 
 

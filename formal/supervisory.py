@@ -2,8 +2,9 @@
 
 - ρ, the plan: a path q0 … qn of the map whose last state has the least cost φ among
   the states the plan may end in (those not interrupted, D_N = ∅) — or, when that
-  state gains the robot nothing (it is q0, or a local minimum the search looked past),
-  the frontier state of least goal distance plus metres driven (:func:`plan_end`).
+  state is a frontier or gains the robot nothing (it is q0, or a local minimum the search
+  looked past), the frontier state of least goal distance plus metres driven among those
+  nearer the goal than q0 (:func:`plan_end`, :func:`frontier_end`).
 - Ψ: ↪ → {1, 0}, the guard: 1 on the transitions of ρ, 0 elsewhere (the supervisory
   control pattern of Ramadge & Wonham: which events the supervisor enables).
 - R: ↪ → **D**, the reset: the disturbance injected as D_I of the target of a
@@ -24,7 +25,7 @@ from typing import Any
 from clomp.formal.lts import CognitiveMap, MapError, Transition
 from clomp.formal.model import Disturbance, State
 
-__all__ = ["Plan", "ResetUndefined", "Guard", "Reset", "FRONTIER", "is_frontier", "argmin_phi", "exploring_score", "plan_end", "extract_plan"]
+__all__ = ["Plan", "ResetUndefined", "Guard", "Reset", "FRONTIER", "is_frontier", "argmin_phi", "exploring_score", "frontier_end", "plan_end", "extract_plan"]
 
 
 class ResetUndefined(MapError):
@@ -129,35 +130,46 @@ def exploring_score(cmap: CognitiveMap, state: State) -> float:
 
 def plan_end(cmap: CognitiveMap, cut_short: bool | None = None) -> State:
     """The state a plan ends in: argmin φ over the states a plan may end in (reachable
-    from q0, not interrupted), unless that state gains the robot nothing, then the best
-    frontier state. Ties → lowest ident.
+    from q0, not interrupted), unless that state is a frontier or gains the robot nothing;
+    then the frontier state of :func:`frontier_end`. Ties → lowest ident.
 
     **The rule.** Let q* be argmin φ (q0 when every other reachable state is interrupted).
 
-    1. q* reached the goal, or the search did not look past it (it has no successor: a
-       frontier state, or one the budget left unexpanded): the plan ends at q*.
-    2. Otherwise q* is q0 or a state the search expanded, and every task from it led no
-       closer by φ. The plan *explores* — it ends at the frontier state of least
-       :func:`exploring_score` (goal distance plus metres driven), even one farther from
-       the goal than q0 — when the map has a frontier state and
+    1. q* reached the goal, or the map has no frontier state, or the budget left q* (no
+       frontier) unexpanded: the plan ends at q*.
+    2. q* is a frontier state: the plan ends at a frontier, the one of :func:`frontier_end`
+       — of the frontier states nearer the goal by φ than q0, the one of least goal
+       distance plus metres driven (:func:`exploring_score`, A*'s f: the way on from a
+       frontier is unknown and at least its distance to the goal). φ alone counts only
+       the distance left, so the search's first frontier may lie past a long detour: in
+       ``clomp experiment clutter`` such plans began with a turn and straights away from
+       the goal, the closed loop replanned after the first of them, the gain was lost and
+       the robot ended farther off or wedged between posts (paper run 1).
+    3. Otherwise q* is q0 or a state the search expanded, and every task from it led no
+       closer by φ. The plan *explores* — it ends at the frontier of :func:`frontier_end`
+       (any frontier when none is nearer the goal than q0) — when
 
        a. q* is q0: the robot would otherwise stand still (an empty plan); or
-       b. the search was not cut short by its budget (``cut_short``; None: the map's
-          ``metadata["stop_reason"]`` is not ``budget``) and the cheapest state it left
-          open (reachable, not interrupted, not a goal, without successors) is a frontier
-          state: the search looked past every state cheaper than the frontier, so no way
-          inside known-free space leads below it, and q* is a local minimum of φ there
-          (the inside of a U). Driving to q* gains no distance, and the next plan from
-          there searches the same known-free space and stops in it (``clomp experiment
-          u-trap``: the robot drove into the U and stood there).
+       b. the cheapest state the search left open (reachable, not interrupted, not a goal,
+          without successors) is a frontier state: the search looked past every state
+          cheaper than the frontier, so no way inside known-free space leads below it,
+          and q* is a local minimum of φ there (the inside of a U). Driving to q* gains
+          no distance, and the next plan from there searches the same known-free space
+          and stops in it (``clomp experiment u-trap``: the robot drove into the U and
+          stood there).
 
-       The closed loop drives to the frontier and looks round the shadow, as the paper's
-       robot, whose map is rebuilt every revolution, would. A frontier state is
-       uninterrupted (the simulated body met no sensed obstacle), so what lies ahead of it
-       is unknown, not known to be blocked: a way to the goal may lie there. Otherwise
-       (no frontier state, or a search its budget cut short, which has not looked past its
-       open states: more search may find a way closer, :mod:`clomp.planner.deepening`) the
+       Otherwise (a cheaper open state is no frontier: a way closer may lie past it) the
        plan ends at q*.
+
+    A frontier state is uninterrupted (the simulated body met no sensed obstacle), so
+    what lies ahead of it is unknown, not known to be blocked: the closed loop drives
+    there and looks round the shadow, as the paper's robot, whose map is rebuilt every
+    revolution, would. The rule does not ask whether the search was cut short by its
+    budget (``cut_short`` is accepted and ignored): a search cut short whose plan does not
+    end at argmin φ keeps the stop reason ``budget``
+    (:meth:`clomp.planner.configurator.Configurator.build`), and the supervisor and the
+    one-shot commands search it again four times deeper (:mod:`clomp.planner.deepening`);
+    on the recorded corridor scan 43 the deeper search reaches the goal.
 
     That the runtime cannot shuttle between frontiers for ever is the supervisor's to
     bound (:class:`clomp.runtime.supervision.progress.Progress`: plans that bring the robot
@@ -170,7 +182,7 @@ def plan_end(cmap: CognitiveMap, cut_short: bool | None = None) -> State:
     tie and the useless turn is dropped. (Sending ties to the highest ident instead
     appends such a turn to the plans of the ``blocked`` and ``cul-de-sac`` scenarios;
     ``tests/planner/test_plan_end.py`` holds the rule.) A frontier state is a STRAIGHT
-    (a turn that would leave known-free space is not available), so an exploring end is
+    (a turn that would leave known-free space is not available), so a frontier end is
     never a turn either.
 
     >>> from clomp.formal.model import Pose, TaskKind
@@ -192,21 +204,53 @@ def plan_end(cmap: CognitiveMap, cut_short: bool | None = None) -> State:
     >>> plan_end(m).ident
     2
     """
+    del cut_short  # the end no longer depends on it: a search cut short is searched deeper (see above)
     reach = cmap.reachable()
     best = argmin_phi(cmap, reach)
     q0 = cmap.initial_id
-    if best.reached_goal or cmap.goal is None or (best.ident != q0 and not cmap.out_transitions(best.ident)):
+    if best.reached_goal or cmap.goal is None:
         return best
     open_ = [s for s in cmap.states() if s.ident in reach and s.ident != q0 and s.d_n is None
              and not s.reached_goal and not cmap.out_transitions(s.ident)]
     ends = [s for s in open_ if is_frontier(s)]
-    if not ends:
-        return best
-    if cut_short is None:
-        cut_short = cmap.metadata.get("stop_reason") == "budget"
-    if best.ident != q0 and (cut_short or not is_frontier(min(open_, key=lambda s: (s.cost, s.ident)))):
+    looked_past = best.ident == q0 or bool(cmap.out_transitions(best.ident))
+    if not ends or (not looked_past and not is_frontier(best)):
+        return best  # no frontier, or a state the budget left unexpanded (a deeper search looks past it)
+    if looked_past and best.ident != q0 and not is_frontier(min(open_, key=lambda s: (s.cost, s.ident))):
         return best  # a way closer may lie past the cheapest open state
-    return min(ends, key=lambda s: (exploring_score(cmap, s), s.ident))
+    return frontier_end(cmap, ends)
+
+
+def frontier_end(cmap: CognitiveMap, ends: list[State] | None = None) -> State:
+    """The frontier state a plan that ends at the frontier ends in (:func:`plan_end`): of the
+    frontier states nearer the goal by φ than q0 (all of them when none is), the one of least
+    :func:`exploring_score` (goal distance + metres driven: A*'s f), ties → lowest ident.
+    ``ends``: the map's frontier states, when known. ValueError when the map has none.
+
+    >>> from clomp.formal.model import Pose, TaskKind
+    >>> g = Disturbance.goal(1.0, 0.0)
+    >>> def frontier(i, x, y, driven, cost):
+    ...     return State(i, TaskKind.STRAIGHT, g, None, Pose(0, 0), Pose(x, y), distance=driven, cost=cost,
+    ...                  extra=((FRONTIER, 1.0),))
+    >>> q0 = State(0, TaskKind.STRAIGHT, g, None, Pose(0, 0), Pose(0, 0), cost=0.5)
+    >>> detour, back, ahead = frontier(1, 0.9, 0.5, 2.5, 0.34), frontier(2, -0.2, 0, 0.2, 0.55), frontier(3, 0.6, 0, 0.6, 0.29)
+    >>> frontier_end(CognitiveMap.from_parts([q0, detour, back, ahead], [(0, 1), (0, 2), (0, 3)], goal=g)).ident
+    3
+    >>> frontier_end(CognitiveMap.from_parts([q0, detour, back], [(0, 1), (0, 2)], goal=g)).ident
+    1
+
+    The first: 0.4 m to the goal + 0.6 m driven beats 0.51 + 2.5 (a detour). The second: the
+    detour still, not the frontier behind the robot (1.2 + 0.2), which gains nothing.
+    """
+    if ends is None:
+        reach = cmap.reachable()
+        ends = [s for s in cmap.states() if s.ident in reach and s.d_n is None and is_frontier(s)
+                and not cmap.out_transitions(s.ident)]
+    if not ends:
+        raise ValueError("the map has no frontier state")
+    q0 = cmap.initial.cost
+    gains = [s for s in ends if s.cost < q0] or ends
+    return min(gains, key=lambda s: (exploring_score(cmap, s), s.ident))
 
 
 def extract_plan(cmap: CognitiveMap, cut_short: bool | None = None) -> Plan:
