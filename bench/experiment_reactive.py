@@ -66,7 +66,7 @@ def main() -> int:
     ap.add_argument("--family", default="overtaking")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--runs", type=int, default=10)
-    ap.add_argument("--noise", default="paper", choices=("ideal", "paper", "harsh", "unmodelled"))
+    ap.add_argument("--noise", default="paper", choices=("ideal", "paper", "harsh", "harsh-modelled", "unmodelled"))
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--variants", default=",".join(VARIANTS))
     a = ap.parse_args()

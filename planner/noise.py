@@ -7,7 +7,8 @@ the field), whichever class holds it:
 
 - :class:`NoiseTerms`: every term of a preset; the execution world drives with these
   (``clomp.runtime.backends.world.WorldNoise`` is this type), among them the error
-  sources the estimator does not model (:data:`UNMODELLED_FIELDS`, on in ``harsh`` only);
+  sources the estimator does not model (:data:`UNMODELLED_FIELDS`, on in ``harsh`` (and its
+  old name ``unmodelled``), off in ``harsh-modelled``, the ``harsh`` of before session 5);
 - :class:`RolloutNoise`: the terms a rollout of :mod:`clomp.planner.probabilistic` applies
   (ranges, beam angles, dropout, wheel error, bias, drift, slip, a turn's angle), not
   ``latency`` nor the gyro's;
@@ -126,7 +127,7 @@ class NoiseTerms:
     rate_sd: float = 0.0
     rate_bias: float = 0.0
     rate_scale: float = 0.0
-    # the terms the estimator does not model (issue #36): 0 in ``ideal`` and ``paper``, on in ``harsh``
+    # the terms the estimator does not model (issue #36): 0 in ``ideal``, ``paper`` and ``harsh-modelled``, on in ``harsh``
     bias_walk: float = 0.0
     """Random walk of each wheel's speed bias (relative, per √s; a bias that changes during a
     run: battery sag, tyre temperature, another floor)."""
@@ -151,7 +152,7 @@ class NoiseTerms:
 
     @classmethod
     def preset(cls, name: str, scale: float = 1.0) -> "NoiseTerms":
-        """A named preset (``ideal``, ``paper``, ``harsh``) with every term × ``scale``."""
+        """A named preset (``ideal``, ``paper``, ``harsh``, ``harsh-modelled``) with every term × ``scale``."""
         return cls(**noise_preset(name, scale))
 
     def to_dict(self) -> dict[str, float]:
@@ -173,7 +174,7 @@ NOISE_FIELDS: tuple[str, ...] = tuple(f.name for f in fields(NoiseTerms))
 UNMODELLED_FIELDS: tuple[str, ...] = ("bias_walk", "slip_rate", "slip_duration", "lidar_x", "far_range",
                                       "rate_asymmetry", "push_rate", "push_size")
 """The execution world's error sources the estimator does not model (issue #36): 0 in
-``ideal`` and ``paper``, on in ``harsh``.
+``ideal``, ``paper`` and ``harsh-modelled``, on in ``harsh`` (and ``unmodelled``, its old name).
 
 >>> set(UNMODELLED_FIELDS) <= set(NOISE_FIELDS), NoiseTerms.preset("paper").push_rate
 (True, 0.0)
@@ -213,7 +214,7 @@ def noise_presets() -> dict[str, dict[str, float]]:
     Raises ValueError naming the preset and field when the file is malformed.
 
     >>> sorted(noise_presets())
-    ['harsh', 'ideal', 'paper', 'unmodelled']
+    ['harsh', 'harsh-modelled', 'ideal', 'paper', 'unmodelled']
     """
     return {name: terms.to_dict() for name, terms in _presets().items()}
 
@@ -307,6 +308,6 @@ def preset_names() -> list[str]:
     """The noise presets of ``specs/noise_presets.json``.
 
     >>> preset_names()
-    ['harsh', 'ideal', 'paper', 'unmodelled']
+    ['harsh', 'harsh-modelled', 'ideal', 'paper', 'unmodelled']
     """
     return sorted(_read_presets())

@@ -38,7 +38,7 @@ def register(sub: Any) -> None:
                         "(default overtaking)")
     p.add_argument("--runs", type=int, default=10, help="layouts, each run in both conditions (default 10)")
     p.add_argument("--seed", type=seed_arg, default=0, help="seed of the layouts and the noise (default 0)")
-    p.add_argument("--noise", choices=("ideal", "paper", "harsh", "unmodelled"), default="paper",
+    p.add_argument("--noise", choices=("ideal", "paper", "harsh", "harsh-modelled", "unmodelled"), default="paper",
                    help="noise preset of the execution world (default paper)")
     p.add_argument("--noise-scale", type=float, default=1.0, help="factor on every noise term (default 1)")
     p.add_argument("--feedback", choices=("scan", "none"), default="scan",

@@ -370,7 +370,7 @@ def add_emulate_world(devices: Any) -> None:
     )
     w.add_argument("--scenario", default="overtaking", help="scenario name or file (default overtaking)")
     w.add_argument("--seed", type=seed_arg, help="seed of the simulated robot's noise")
-    w.add_argument("--noise", choices=("ideal", "paper", "harsh", "unmodelled"), default=None,
+    w.add_argument("--noise", choices=("ideal", "paper", "harsh", "harsh-modelled", "unmodelled"), default=None,
                    help="run the execution world with this noise preset (default: the older simulated robot "
                         "with the scenario's noise)")
     w.add_argument("--noise-scale", type=float, default=1.0, help="factor on every term of --noise (default 1)")

@@ -36,7 +36,7 @@ from clomp.runtime.backends.sim import NoiseConfig, SimRobot
 
 __all__ = ["NOISE_PRESETS", "WorldRobot", "make_robot", "sim_noise", "world_name"]
 
-NOISE_PRESETS: tuple[str, ...] = ("ideal", "paper", "harsh", "unmodelled")  # the presets of specs/noise_presets.json
+NOISE_PRESETS: tuple[str, ...] = ("ideal", "paper", "harsh", "harsh-modelled", "unmodelled")  # the presets of specs/noise_presets.json
 
 
 class WorldRobot(Robot, Protocol):
@@ -70,7 +70,7 @@ def sim_noise(preset: str, scale: float = 1.0) -> NoiseConfig:
     if not (math.isfinite(scale) and scale >= 0):
         raise ValueError(f"noise scale must be a finite number >= 0, got {scale!r}")
     base = NoiseConfig.ideal() if preset == "ideal" else NoiseConfig()
-    factor = scale * (5.0 if preset in ("harsh", "unmodelled") else 1.0)
+    factor = scale * (5.0 if preset in ("harsh", "harsh-modelled", "unmodelled") else 1.0)
     values = {f.name: getattr(base, f.name) * factor for f in fields(NoiseConfig)}
     values["dropout"] = min(values["dropout"], 0.9)
     return NoiseConfig(**values)

@@ -99,8 +99,8 @@ def test_the_world_takes_its_body_from_the_model_unless_told_otherwise():
 def test_the_unmodelled_terms_are_named_validated_and_on_in_their_own_preset_only():
     """The execution world's error sources the estimator does not model (issue #36) are
     preset terms like any other: checked by the one validator, documented in the presets
-    file, 0 in ``ideal``, ``paper`` and (until the estimator copes) ``harsh``, on in
-    ``unmodelled``, scaled with the rest."""
+    file, 0 in ``ideal``, ``paper`` and ``harsh-modelled``, on in ``harsh`` (and
+    ``unmodelled``, its old name), scaled with the rest."""
     import json
 
     from clomp.specs import SPECS_DIR
@@ -111,6 +111,7 @@ def test_the_unmodelled_terms_are_named_validated_and_on_in_their_own_preset_onl
         with pytest.raises(NoiseError, match=rf"^noise\.{name}: "):
             NoiseTerms(**{name: -1.0})
         assert getattr(NoiseTerms.preset("paper"), name) == 0.0 == getattr(NoiseTerms.preset("ideal"), name)
-        assert getattr(NoiseTerms.preset("harsh"), name) == 0.0
-        assert getattr(NoiseTerms.preset("unmodelled"), name) > 0.0
-        assert getattr(NoiseTerms.preset("unmodelled", 2.0), name) == pytest.approx(2 * getattr(NoiseTerms.preset("unmodelled"), name))
+        assert getattr(NoiseTerms.preset("harsh-modelled"), name) == 0.0
+        assert getattr(NoiseTerms.preset("harsh"), name) > 0.0
+        assert getattr(NoiseTerms.preset("unmodelled"), name) == getattr(NoiseTerms.preset("harsh"), name)
+        assert getattr(NoiseTerms.preset("harsh", 2.0), name) == pytest.approx(2 * getattr(NoiseTerms.preset("harsh"), name))
