@@ -29,9 +29,12 @@ import math
 
 import numpy as np
 
-__all__ = ["RateGyro", "ShockSensor"]
+__all__ = ["RateGyro", "ShockSensor", "WINDOW"]
 
 _BLOCK = 1024  # white-noise draws taken at once (one draw per physics step)
+WINDOW = 0.01
+"""Seconds an acceleration *vector* (:meth:`ShockSensor.read_vector`) is averaged over: one
+physics step of the execution world, one 100 Hz report of a BNO08x."""
 
 
 class RateGyro:
@@ -85,6 +88,8 @@ class ShockSensor:
         self.peak = 0.0
         self._vector = (0.0, 0.0)  # the largest acceleration since read_vector (world frame, m/s²)
         self._vector_peak = 0.0
+        self._window: tuple[float, float] | None = None  # the velocity the averaging window began with
+        self._window_dt = 0.0
 
     def step(self, before: tuple[float, float], after: tuple[float, float], dt: float) -> None:
         """The body's velocity (world frame, m/s) went from ``before`` to ``after`` over ``dt`` s."""
@@ -92,8 +97,19 @@ class ShockSensor:
         a = math.hypot(after[0] - before[0], after[1] - before[1]) / dt
         if a > self.peak:
             self.peak = a
-        if a > self._vector_peak:
-            self._vector, self._vector_peak = (ax, ay), a
+        # the vector: averaged over at least WINDOW s, as a report's accelerometer reading is:
+        # a world advanced in slivers (an emulator catching up 2 ms at a time) must not divide
+        # a velocity step by a sliver's length
+        start = before if self._window is None else self._window
+        self._window_dt += dt
+        if self._window_dt >= WINDOW - 1e-12:
+            ax, ay = (after[0] - start[0]) / self._window_dt, (after[1] - start[1]) / self._window_dt
+            a = math.hypot(ax, ay)
+            if a > self._vector_peak:
+                self._vector, self._vector_peak = (ax, ay), a
+            self._window, self._window_dt = None, 0.0
+        else:
+            self._window = start
 
     def read(self) -> float:
         """The peak since the last read (m/s²), and start a new one."""
@@ -103,12 +119,19 @@ class ShockSensor:
 
     def read_vector(self) -> tuple[float, float]:
         """The largest acceleration since the last call as a vector (world frame, m/s², no
-        noise: an emulated IMU adds its own), and start a new one; apart from :meth:`read`,
-        so an emulated IMU and the world's own reader do not take each other's peaks.
+        noise), each averaged over :data:`WINDOW` s of steps (one physics step of the world;
+        one 100 Hz report), and start a new one; apart from :meth:`read`, so an emulated IMU
+        and the world's own reader do not take each other's peaks.
 
         >>> s = ShockSensor(sd=0.0, seed=0)
         >>> s.step((0.0, 0.0), (0.0, -0.5), 0.01); s.read_vector(), s.read_vector()
         ((0.0, -50.0), (0.0, 0.0))
+        >>> for _ in range(5): s.step((0.0, 0.0), (0.0, 0.0), 0.001)     # half a window: nothing yet
+        >>> s.step((0.0, 0.0), (0.01, 0.0), 0.001); s.read_vector()       # a step of 1 cm/s in a sliver
+        (0.0, 0.0)
+        >>> for _ in range(4): s.step((0.01, 0.0), (0.01, 0.0), 0.001)
+        >>> [round(v, 6) for v in s.read_vector()]                        # over the window: 1 m/s², not 10
+        [1.0, 0.0]
         """
         out, self._vector, self._vector_peak = self._vector, (0.0, 0.0), 0.0
         return out

@@ -146,15 +146,29 @@ class EmulatedWorld:
         new speeds would also drive the part of the tick before they arrived)."""
         vmax = self.model.max_speed
         with self._lock:
-            self._catch_up()
+            self._catch_up(exact=True)
             self.sim.set_wheel_speeds(left * vmax, right * vmax)
 
-    def _catch_up(self) -> None:
-        """Advance the world to the clock's time now (call with the lock held)."""
+    def _catch_up(self, exact: bool = False) -> None:
+        """Advance the world to the clock's time now (call with the lock held): in whole
+        physics steps (``quantum``), up to now ``exact``-ly only for a wheel command (which
+        drives the world from the moment it arrived). Stepped in slivers of a few ms, as the
+        devices' threads ask, the body's velocity jitters (an accelerometer read 135 m/s², a
+        kick, while the robot merely drove), where the execution world's own runs step whole quanta."""
         now = self.clock()
-        if self._last is not None and now > self._last:
-            self.sim.sleep((now - self._last) * self.time_scale)
-        self._last = now
+        if self._last is None:
+            self._last = now
+            return
+        if exact:
+            if now > self._last:
+                self.sim.sleep((now - self._last) * self.time_scale)
+                self._last = now
+            return
+        q = self.sim.quantum
+        steps = math.floor((now - self._last) * self.time_scale / q + 1e-9)
+        if steps > 0:
+            self.sim.sleep(steps * q)
+            self._last += steps * q / self.time_scale
 
     def _scan(self) -> np.ndarray:
         """One LiDAR revolution: the world seen from the simulated robot's pose now (rounded as
