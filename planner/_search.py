@@ -63,9 +63,10 @@ class _Search:
     def __init__(self, conf: "Configurator", obstacles: Obstacles, g: Disturbance, cleared: Obstacles | None = None) -> None:
         robot = conf.robot
         origin = new_pose(0.0, 0.0, 0.0)
-        # CostContext(g, origin, robot), built without the frozen dataclass's three object.__setattr__
+        # CostContext(g, origin, robot), built without the frozen dataclass's three object.__setattr__,
+        # its start_distance (a cached property, read by every χ) set as the property computes it
         self.ctx = ctx = object.__new__(CostContext)
-        ctx.__dict__.update(goal=g, origin=origin, robot=robot)
+        ctx.__dict__.update(goal=g, origin=origin, robot=robot, start_distance=origin.distance_to(g.x, g.y))
         self.cost = cost = conf.cost
         # the cost as one that reads a Rollout: a rollout is priced before its state is built
         self.priced = cost if cost is default_cost or cost is gamma or cost is chi else None
