@@ -5,17 +5,23 @@ search's state (the map as it grows, the states already simulated, the priority 
 
 from __future__ import annotations
 
+import functools
 import heapq
-from collections.abc import Callable
+import math
 from typing import TYPE_CHECKING, Any
 
+import numpy as np
+
 from clomp.formal.lts import CognitiveMap
-from clomp.formal.model import Disturbance, Pose, State, TaskKind, new_state
+from clomp.formal.model import Disturbance, State, TaskKind, new_pose, new_state
 from clomp.formal.supervisory import FRONTIER, Reset
-from clomp.planner.cost import CostContext, Rollout, chi, default_cost, gamma
+from clomp.planner.contact import _lane_gap, lane_reach, unobstructed
+from clomp.planner.cost import CostContext, chi, default_cost, gamma
+from clomp.planner.footprint import body_box
 from clomp.planner.perception import Obstacles
 from clomp.planner.recovery import RECOVERY_TASKS, Recovery
-from clomp.planner.rollout import Outcome, simulate
+from clomp.planner.rollout import _EPS, Outcome, _goal_dead_ahead, _inside_for, frontier_distance, simulate
+from clomp.planner.tasks import Task
 from clomp.planner.visibility import KnownFree
 
 if TYPE_CHECKING:
@@ -23,10 +29,12 @@ if TYPE_CHECKING:
 
 __all__: list[str] = []
 
+#: whether a search whose first task reaches the goal is built without the queue (:meth:`_Search._straight_to_goal`;
+#: the same map either way: the tests switch it off to compare)
+FAST_ROOT = True
+
 
 _FRONTIER = ((FRONTIER, 1.0),)
-#: the cost functions that read only what a :class:`Rollout` has (priced before the state is built)
-_ROLLOUT_COSTS: tuple[Callable[[Rollout, CostContext], float], ...] = (default_cost, gamma, chi)
 _STRAIGHT = TaskKind.STRAIGHT
 _KINDS = (TaskKind.STRAIGHT, TaskKind.LEFT, TaskKind.RIGHT)
 
@@ -54,18 +62,18 @@ class _Search:
 
     def __init__(self, conf: "Configurator", obstacles: Obstacles, g: Disturbance, cleared: Obstacles | None = None) -> None:
         robot = conf.robot
-        origin = Pose(0.0, 0.0, 0.0)
-        self.ctx = ctx = CostContext(g, origin, robot)
+        origin = new_pose(0.0, 0.0, 0.0)
+        # CostContext(g, origin, robot), built without the frozen dataclass's three object.__setattr__,
+        # its start_distance (a cached property, read by every χ) set as the property computes it
+        self.ctx = ctx = object.__new__(CostContext)
+        ctx.__dict__.update(goal=g, origin=origin, robot=robot, start_distance=origin.distance_to(g.x, g.y))
         self.cost = cost = conf.cost
         # the cost as one that reads a Rollout: a rollout is priced before its state is built
-        self.priced = next((f for f in _ROLLOUT_COSTS if f is cost), None)
+        self.priced = cost if cost is default_cost or cost is gamma or cost is chi else None
         self.obstacles, self.robot, self.goal = obstacles, robot, g
         self.routes, self.max_states = conf.routes, conf.max_states
         # what the rays crossed (:mod:`clomp.planner.visibility`): a task whose body leaves it is a frontier end
         self.known = KnownFree.from_points(obstacles.points, robot.sensor_range, robot=robot)
-        # inside the sensed disc and where the rays went: a way to it may lie inside too (a
-        # goal in a shadow, like one beyond the disc, has none: the first frontier popped ends it)
-        self.goal_seen = ctx.start_distance <= robot.sensor_range and self.known.contains(g.x, g.y)
         self.horizon = max(conf.horizon, abs(g.x) + robot.length, abs(g.y) + robot.length)
         self.cmap = CognitiveMap(goal=g)
         self.reset = Reset(self.cmap)  # R, the one reset of formal
@@ -87,8 +95,74 @@ class _Search:
     def run(self) -> str:
         """Pop least-φ states and expand them until the search ends; the stop reason
         (``goal`` whenever a goal state was found, even with fewer routes than asked for)."""
+        if FAST_ROOT and self._straight_to_goal():
+            return "goal"
         stop = self._loop()
         return "goal" if self.goal_ids else stop
+
+    def _straight_to_goal(self) -> bool:
+        """The search where the first task reaches the goal (most scans of a free way: the
+        goal dead ahead, nothing in the lane before it, the body inside known-free space):
+        q0's STRAIGHT, built as :meth:`_expand` builds it (the same rollout, to the bit:
+        :func:`clomp.planner.rollout.simulate`'s arithmetic on the same figures, one pass of
+        the compiled lane test over every point), without the queue, the index and the
+        rollout's scene. True when it reached the goal (the map then holds q0 and q1, and
+        the search is over); False, with nothing changed, when anything else holds, and the
+        search runs as ever. ``tests/planner/test_fast_root.py`` holds the two to the same
+        maps, plans and guards."""
+        robot, g = self.robot, self.goal
+        if self.recovery is not None or self.routes != 1 or self.priced is None or self.max_states < 2:
+            return False
+        cmap = self.cmap
+        q0 = cmap[0]
+        start = q0.end
+        along = _goal_dead_ahead(robot, start, g)
+        if along is None:
+            return False
+        # rollout._straight, for a goal dead ahead whose run is clear (else False)
+        step = robot.step_length if robot.step_length is not None else robot.sensor_range
+        sure = robot.sensor_range - math.hypot(start.x, start.y) - robot.body_radius
+        far = max(step, along)
+        room = (
+            frontier_distance(robot, start)
+            if far > sure - 1e-6 and not _inside_for(robot, start.x, start.y, start.theta, far + 1e-6)
+            else math.inf
+        )
+        run = min(along, room)
+        obstacles = self.obstacles
+        if len(obstacles):
+            gap = _lane_gap()
+            spin, local_gap = lane_reach(robot)
+            if gap is None or max(min(step, room) + spin, run) + 1e-6 <= local_gap:
+                return False  # (the scene's local points and the turns' choice: the general search)
+            z = np.ascontiguousarray(obstacles.points, dtype=np.float64).view(np.complex128).reshape(-1)
+            d, _ = gap(z.real, z.imag, start.x, start.y, math.cos(start.theta), -math.sin(start.theta),
+                       body_box(robot, robot.clearance), body_box(robot), True)
+            if not d >= run:
+                return False
+        # (a point in the lane beyond the run: contact.cut_straight gives unobstructed's outcome)
+        out = unobstructed(Task.straight(robot, start, g, run))
+        if run >= room - _EPS and out.distance >= room - 1e-6:
+            return False  # the rim of the sensed disc: a frontier
+        if not out.end.distance_to(g.x, g.y) <= robot.goal_tolerance or not self.known.clear(out, robot, True):
+            return False
+        d_i = self.reset.after(q0)
+        out = Outcome(out.task, out.start, out.end, out.distance, out.duration, out.ticks, None, True, False)
+        s = _state(1, out, d_i, self.priced(out, self.ctx))
+        cmap.add_state(s)
+        cmap.add_transition(0, 1, _STRAIGHT)
+        self.index[(_STRAIGHT, round(start.x * 1e6), round(start.y * 1e6), round(start.theta * 1e6))] = 1
+        self.goal_ids.add(1)
+        return True
+
+    @functools.cached_property
+    def goal_seen(self) -> bool:
+        """The goal lies inside the sensed disc and where the rays went: a way to it may lie
+        inside too (a goal in a shadow, like one beyond the disc, has none: the first frontier
+        popped ends the search). Asked when a frontier state is popped (a search that ends at
+        its first task never asks)."""
+        g = self.goal
+        return self.ctx.start_distance <= self.robot.sensor_range and self.known.contains(g.x, g.y)
 
     def _loop(self) -> str:
         pq, cmap, frontier_ids = self.pq, self.cmap, self.frontier_ids

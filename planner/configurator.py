@@ -46,7 +46,9 @@ A search that spends its budget is searched again deeper by
 
 A state is determined by its task and its start pose (rollouts are deterministic), so a
 task reached twice from the same pose is one state with two incoming transitions: the
-map is a graph, and expansion never repeats a simulation.
+map is a graph, and expansion never repeats a simulation. The search itself runs in
+:mod:`clomp.planner._search`; one whose first task, q0's STRAIGHT, reaches the goal (most scans
+of a free way) is built there without the queue, into the same map, plan and Ψ.
 """
 
 from __future__ import annotations

@@ -26,7 +26,7 @@ from clomp.planner.perception import Obstacles
 from clomp.planner.robot_model import RobotModel
 from clomp.planner.tasks import Task
 
-__all__ = ["Scene", "cut_straight", "unobstructed", "SPIN_SLACK"]
+__all__ = ["Scene", "cut_straight", "lane_reach", "unobstructed", "SPIN_SLACK"]
 
 # kept beyond the swept disc, so that a point ahead is not met on the sweep's very edge (m)
 SPIN_SLACK = 0.003
@@ -61,6 +61,19 @@ def _turn_hits() -> Any:
     return _kernels.turn_hits if _kernels.ROUNDS_AS_NUMPY and _free_kernels.TRIG_AS_NUMPY else None
 
 
+def lane_reach(robot: RobotModel) -> tuple[float, float]:
+    """How much farther than a step a point ahead must be for the step to run its length
+    (room to spin in place), and the gap up to which :class:`Scene` finds a straight's first
+    point among the points local to its start (``Scene.spin``, ``Scene.local_gap``).
+
+    >>> [round(v, 4) for v in lane_reach(RobotModel())]
+    [0.1177, 0.3878]
+    """
+    spin = robot.swept_radius - robot.front_offset - robot.clearance + SPIN_SLACK if robot.free_turns else 0.0
+    step = robot.step_length if robot.step_length is not None else robot.sensor_range
+    return spin, step + spin + 1e-4
+
+
 class Scene:
     """The run's sensed points as flat arrays, and the body's extents: what every
     rollout of one planning run shares (built once per run, nothing per query)."""
@@ -90,11 +103,9 @@ class Scene:
         # choice of angle found it, over the points within its reach)
         self.clear: dict[tuple[float, float, float], float] = {}
         # how much farther than a step a point ahead must be for the step to run its length
-        self.spin = robot.swept_radius - robot.front_offset - c + SPIN_SLACK if robot.free_turns else 0.0
+        self.spin, far = lane_reach(robot)
         # per position, the points within reach of a step and its turns (one pass over all
         # points per position; the straight, both turns and their choice of angle share it)
-        step = robot.step_length if robot.step_length is not None else robot.sensor_range
-        far = step + self.spin + 1e-4
         self.local2 = max(self.reach[0], math.hypot(front + far, half)) ** 2
         self.local_gap = far  # a gap up to this is found among the local points
         self.local: dict[tuple[float, float], tuple[np.ndarray, np.ndarray, bool]] = {}

@@ -134,7 +134,7 @@ class KnownFree:
         self._home2 = max(body[0], body[1]) ** 2 + body[2] ** 2  # the body at the origin lies within
         kernels = _free() if self.nothing_beyond else None
         self._table: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
-        if kernels is None or not all(type(v) is float for v in body):
+        if kernels is None or not (type(body[0]) is float and type(body[1]) is float and type(body[2]) is float):
             self._build(pts, beam_gap, surface)
             return
         # the compiled loops of _build (the same figures, to the bit); the compiled tests
