@@ -53,9 +53,7 @@ class LocalMap:
         if len(old) and self._map is not None and len(self._map):
             # only surfaces the map does not hold yet: re-adding known ones would smear them
             # along the robot's estimation error and let the estimate drift with them
-            if self._map_tree is None:  # one tree per map, not one per revolution (a tenth of them change it)
-                self._map_tree = cKDTree(old)
-            d, _ = self._map_tree.query(world, distance_upper_bound=self.new_surface)
+            d, _ = self._tree().query(world, distance_upper_bound=self.new_surface)
             new = ~np.isfinite(d)
             if not new.any():
                 return False
@@ -78,15 +76,30 @@ class LocalMap:
         self._map = ReferenceScan(merged)
         return True
 
+    def _tree(self) -> cKDTree:
+        """The k-d tree of the map's points, built when first asked after the map changed (one
+        per map, not one per revolution). Built unbalanced and without shrinking its nodes to
+        the points (scipy's ``balanced_tree`` and ``compact_nodes`` off), which costs half as
+        much: a nearest point found in it, and its distance, are those scipy's default tree
+        finds, but where two map points are exactly as near (:meth:`_map_sd` asks that tree then)."""
+        if self._map_tree is None:
+            self._map_tree = cKDTree(self._map_points, balanced_tree=False, compact_nodes=False)
+        return self._map_tree
+
     def _map_sd(self, points: np.ndarray, pose: Pose) -> tuple[float, float]:
         """How wrong the surfaces a revolution seen from ``pose`` meets may be (m, rad): the
         median over its points of the map points they meet (within 5 cm), each as uncertain
         as the estimate that drew it (0 for the start's seed)."""
         if self._map_points is None or self._map_sds is None or not len(self._map_points) or not len(points):
             return (0.0, 0.0)
-        if self._map_tree is None:
-            self._map_tree = cKDTree(self._map_points)
-        d, idx = self._map_tree.query(points_from_frame(points, pose), distance_upper_bound=0.05)
+        seen = points_from_frame(points, pose)
+        d2, idx2 = self._tree().query(seen, k=2, distance_upper_bound=0.05)
+        d, idx = d2[:, 0], idx2[:, 0]
+        if bool((np.isfinite(d) & (d == d2[:, 1])).any()):
+            # two map points equally near a point: which one counts is the tree's choice, and
+            # the map's tree was built balanced and compacted (scipy's default) until issue
+            # #41; that tree chooses here, so that the answer stays the one it gave
+            d, idx = cKDTree(self._map_points).query(seen, distance_upper_bound=0.05)
         hit = np.isfinite(d)
         if not hit.any():
             return (0.0, 0.0)

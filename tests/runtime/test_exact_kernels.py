@@ -202,3 +202,49 @@ def test_the_map_grows_as_before(seed: int) -> None:
         assert new._map_points is not None and ref._map_points is not None and ref._map_sds is not None
         assert new._map_points.tobytes() == ref._map_points.tobytes()
         assert new._map_sds is not None and new._map_sds.tobytes() == ref._map_sds.tobytes()
+
+
+def _map_sd_reference(odo: ScanOdometry, points: np.ndarray, pose: Pose) -> tuple[float, float]:
+    """``ScanOdometry._map_sd`` as it was before issue #41 (scipy's default tree, ``np.median``)."""
+    if odo._map_points is None or odo._map_sds is None or not len(odo._map_points) or not len(points):
+        return (0.0, 0.0)
+    d, idx = cKDTree(odo._map_points).query(points_from_frame(points, pose), distance_upper_bound=0.05)
+    hit = np.isfinite(d)
+    if not hit.any():
+        return (0.0, 0.0)
+    sds = odo._map_sds[idx[hit]]
+    return (float(np.median(sds[:, 0])), float(np.median(sds[:, 1])))
+
+
+def _odometry_with_map(points: np.ndarray, sds: np.ndarray) -> ScanOdometry:
+    odo = ScanOdometry(wheel_base=0.15, compass=False)
+    odo._map_points, odo._map_sds, odo._map_tree = points, sds, None
+    return odo
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.integers(0, 2**32 - 1), st.floats(-math.pi, math.pi))
+def test_map_sd_is_the_default_trees(seed: int, th: float) -> None:
+    """Random maps on the 1 cm grid, revolutions near them: the same medians, bit for bit."""
+    rng = np.random.default_rng(seed)
+    room = _room(rng, 1500)
+    odo = _odometry_with_map(room, rng.uniform(0, 0.1, (len(room), 3)))
+    pose = Pose(*rng.normal(0, 0.3, 2), th)
+    seen = points_to_frame(room[rng.random(len(room)) < 0.3], pose) + rng.normal(0, 0.01, (1, 2))
+    got, want = odo._map_sd(seen, pose), _map_sd_reference(odo, seen, pose)
+    assert all(_same_float(a, b) for a, b in zip(got, want))
+
+
+def test_map_sd_with_equidistant_map_points() -> None:
+    """Points exactly between two or four map points (binary fractions, so the distances tie
+    exactly), each map point with its own uncertainty: the one scipy's default tree picks."""
+    g = np.arange(-20, 21) * 0.0625
+    grid = np.array([(x, y) for x in g for y in g])
+    sds = np.column_stack((np.arange(len(grid)) * 1e-3, np.arange(len(grid))[::-1] * 1e-3, np.zeros(len(grid))))
+    odo = _odometry_with_map(grid, sds)
+    h = 0.03125
+    centres = np.array([(x + h, y + h) for x in g[:-1] for y in g[:-1]])  # four map points at the same distance
+    edges = np.array([(x + h, y) for x in g[:-1] for y in g])  # two
+    for pts in (centres, edges, np.r_[centres[::3], edges[::5]]):
+        got, want = odo._map_sd(pts, Pose(0.0, 0.0, 0.0)), _map_sd_reference(odo, pts, Pose(0.0, 0.0, 0.0))
+        assert all(_same_float(a, b) for a, b in zip(got, want))
