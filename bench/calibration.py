@@ -312,6 +312,16 @@ def _summary(pairs: list[dict[str, Any]], noise: str) -> None:
         _conditions_table([p for p in pairs if p["family"] == fam], fam)
     g = [p["greedy"] for p in pairs if "greedy" in p]
     ok = [r["ok"] for r in g]
+    main = "closed loop, 1 replan (the robust planner's objective)"
+    for fam in sorted({p["family"] for p in pairs}):
+        fg = [p["greedy"] for p in pairs if p["family"] == fam and "greedy" in p]
+        _print_table(f"{fam}: greedy runs, first plan: {main}", [r["pred"][main] for r in fg], [r["ok"] for r in fg])
+    missed = [(p["family"], p["run"], p["greedy"]) for p in pairs if "greedy" in p and p["greedy"]["pred"][main] >= BINS[-2]
+              and not p["greedy"]["ok"]]
+    print(f"  runs predicted >= {BINS[-2]} that failed ({len(missed)}; first plan reaches the goal / end / plans / final distance):")
+    for fam, k, r in missed:
+        print(f"    {fam} {k}: P {r['pred'][main]:.3f}, goal in the first map {r['goal_in_map']}, {r['end']}, "
+              f"{r['plans']} plans, {r['distance']:.2f} m, collisions {r['collisions']}, false success {r['false_success']}")
     inmap = [r for r in g if r["goal_in_map"]]
     for name in PREDICTIONS:
         _print_table(f"greedy runs, first plan: {name}", [r["pred"][name] for r in g], ok)
