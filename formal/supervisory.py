@@ -165,8 +165,8 @@ def plan_end(cmap: CognitiveMap, cut_short: bool | None = None) -> State:
     what lies ahead of it is unknown, not known to be blocked: the closed loop drives
     there and looks round the shadow, as the paper's robot, whose map is rebuilt every
     revolution, would. The rule does not ask whether the search was cut short by its
-    budget (``cut_short`` is accepted and ignored): a search cut short whose plan does not
-    end at argmin φ keeps the stop reason ``budget``
+    budget (``cut_short`` is accepted and ignored): a search cut short whose plan explores
+    (argmin φ is no frontier) keeps the stop reason ``budget``
     (:meth:`clomp.planner.configurator.Configurator.build`), and the supervisor and the
     one-shot commands search it again four times deeper (:mod:`clomp.planner.deepening`);
     on the recorded corridor scan 43 the deeper search reaches the goal.

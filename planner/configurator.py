@@ -257,10 +257,10 @@ class Configurator:
         cmap = search.cmap
         p = extract_plan(cmap, stop == "budget")
         # a plan that ends at the frontier: ``frontier`` — unless the search spent its budget
-        # and the plan explores (it ends at a frontier, not at argmin φ): still ``budget``, so
-        # that a deeper search (:mod:`clomp.planner.deepening`) may find a way closer first
+        # and the plan explores (argmin φ is no frontier): still ``budget``, so that a deeper
+        # search (:mod:`clomp.planner.deepening`) may find a way closer first
         if not cmap[p.end].reached_goal and p.end in search.frontier_ids and not (
-            stop == "budget" and p.end != argmin_phi(cmap).ident
+            stop == "budget" and p.end != (q := argmin_phi(cmap).ident) and q not in search.frontier_ids
         ):
             stop = "frontier"
         psi = Guard(cmap, p).table()

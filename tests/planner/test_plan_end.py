@@ -23,7 +23,7 @@ from hypothesis import strategies as st
 from clomp.formal.lts import CognitiveMap
 from clomp.formal.model import Disturbance, Pose, State, TaskKind
 from clomp.formal.supervisory import FRONTIER, argmin_phi, exploring_score, extract_plan, is_frontier, plan_end
-from clomp.planner import Configurator, PlanResult, builtin_scenarios, load_scenario
+from clomp.planner import Configurator, PlanResult, builtin_scenarios, load_scan, load_scenario
 from clomp.planner.deepening import plan_deepening
 from clomp.runtime.experiment.layouts import make_layout
 
@@ -166,3 +166,22 @@ def test_an_exploring_tie_goes_to_the_first_created_frontier() -> None:
     )
     assert exploring_score(m, m[1]) == exploring_score(m, m[2])
     assert plan_end(m).ident == 1
+
+
+@pytest.mark.parametrize("name", ["map0012.dat", "map0019.dat", "map0032.dat"])
+def test_a_search_cut_short_at_a_frontier_is_not_searched_again(scans_dir: Path, name: str) -> None:
+    """Recorded lab scans (2022-11-06) whose search spends its budget of 50 with argmin φ a
+    frontier state it would have popped next and stopped at: the plan ends at the frontier
+    end (plan_end) and the stop reason is ``frontier``, not ``budget``, so no deeper search
+    runs (clomp.planner.deepening deepens only a plan that explores: argmin φ no frontier).
+    Deepened, such searches went on to long ways round (clutter, harsh, seed 0, run 8: 143
+    states, 17 tasks, and a goal claimed 0.16 m off)."""
+    lab = scans_dir.parent / "lab-2022-11-06" / name
+    if not lab.is_file():
+        pytest.skip(f"recorded scan not found at {lab}")
+    scan = load_scan(lab)
+    r = Configurator().plan(scan, (1.0, 0.0))
+    assert r.n_states >= Configurator().max_states - 2  # went on to the budget
+    assert is_frontier(argmin_phi(r.map)) and is_frontier(r.map[r.plan.end])
+    assert r.stop_reason == "frontier"
+    assert plan_deepening(Configurator(), scan, (1.0, 0.0)).n_states == r.n_states

@@ -62,15 +62,15 @@ def test_map_invariants(scene, robot):
         if s.task.is_turn and not s.interrupted:
             assert [x.task.value for x in m.successors(s.ident)] == ["STRAIGHT"]
     # the plan is a path from q0 ending at argmin phi over the states a plan may end in, or
-    # it explores (clomp.formal.supervisory.plan_end): at a frontier state, when argmin phi
-    # is q0 or a state the search looked past; and it never stands still while a frontier
-    # state is in the map
+    # at a frontier end (clomp.formal.supervisory.plan_end): at a frontier state, when argmin
+    # phi is a frontier, q0 or a state the search looked past; and it never stands still
+    # while a frontier state is in the map
     p = r.plan.states
     assert p[0] == 0
     assert all(m.has_transition(a, b) for a, b in zip(p, p[1:]))
     least = min((s for s in m.states() if not s.interrupted), key=lambda s: (s.cost, s.ident))
     end = m[p[-1]]
-    assert end.ident == least.ident or (is_frontier(end) and m.successors(least.ident))
+    assert end.ident == least.ident or (is_frontier(end) and (is_frontier(least) or m.successors(least.ident)))
     frontiers = [s for s in m.states() if is_frontier(s) and not s.interrupted]
     assert len(p) > 1 or not frontiers
     assert r.collision_free
