@@ -49,7 +49,7 @@ from clomp.runtime.estimation._exact import ring_neighbours
 from clomp.runtime.estimation.confirm import ambiguity
 from clomp.runtime.estimation.icp import ReferenceScan, match_scans
 
-__all__ = ["Doubt", "seed_check", "trusted_check"]
+__all__ = ["Doubt", "trusted_check"]
 
 
 @dataclass
@@ -128,8 +128,7 @@ class Doubt:
 
 
 def trusted_check(doubt: Doubt, map_points: np.ndarray, map_sds: np.ndarray, points: np.ndarray, pose: Pose, *,
-                  min_points: int = 10, sd: float = 0.02, correlation: float = 4.0, sigmas: float = 2.45,
-                  t: float = 0.0) -> Pose | None:
+                  min_points: int = 10, sd: float = 0.02, correlation: float = 4.0, sigmas: float = 2.45) -> Pose | None:
     """A revolution ``points`` (robot frame) seen standing at the estimate ``pose``, searched
     for widely (:func:`~clomp.runtime.estimation.confirm.ambiguity`) against the map points
     drawn at most :attr:`Doubt.trust` uncertain (``map_sds[:, 0]``) and, when ``map_sds[:, 2]``
@@ -138,8 +137,8 @@ def trusted_check(doubt: Doubt, map_points: np.ndarray, map_sds: np.ndarray, poi
     the goal: 0.19 m off, vouched for within 1 cm): where they put the robot
     when they fit clearly better elsewhere (the caller relocates), else None; when they
     match at the estimate, ``doubt`` falls to the farther of the match's own offset and the
-    farthest pose explaining them as well, as a ``sigmas`` bound (``t`` is unused: the signature
-    of :func:`seed_check`). Too few trusted points, or no match: the doubt stays.
+    farthest pose explaining them as well, as a ``sigmas`` bound. Too few trusted points,
+    or no match: the doubt stays.
 
     >>> room = np.array([[0.8, y] for y in np.linspace(-0.6, 0.6, 61)] + [[x, 0.6] for x in np.linspace(-0.6, 0.6, 61)])
     >>> d = Doubt(sd=0.15)
@@ -163,51 +162,6 @@ def trusted_check(doubt: Doubt, map_points: np.ndarray, map_sds: np.ndarray, poi
     off = math.hypot(here.pose.x - pose.x, here.pose.y - pose.y)
     doubt.confirmed(max(off, amb.distance) / sigmas)
     return None
-
-
-def seed_check(doubt: Doubt, map_points: np.ndarray, map_sds: np.ndarray, points: np.ndarray, pose: Pose, *,
-               trust: float = 0.01, least: float = 0.03, min_points: int = 10, sd: float = 0.02,
-               correlation: float = 4.0, t: float = 0.0) -> Pose | None:
-    """Not in doubt, at the goal: a revolution ``points`` (robot frame) seen standing at the
-    estimate ``pose``, matched (and searched for widely) against only the surfaces drawn while
-    the estimate was known to ``trust`` m (the start's seed and the first metres), seen from the
-    side the robot faces them from now. An estimate that drifted with the map it drew (every
-    match agreeing with surfaces drawn where the wrong estimate put them, its covariance a few
-    millimetres; issue #36: 15 of 350 runs at ``harsh`` ended GOAL_REACHED 0.1-0.4 m off)
-    is off against these: when they put the robot more than ``least`` m from the estimate
-    (the match there, or a clearly better fit elsewhere), the doubt rises to that distance,
-    and only these surfaces may lower it again (its :attr:`Doubt.trust` falls to ``trust``).
-    ``t``: the time, for :attr:`Doubt.events`. Returns the better pose when one was found (as
-    :func:`trusted_check`), else None. Too few
-    such surfaces in view, or no match: nothing is said.
-
-    >>> room = np.array([[0.8, y] for y in np.linspace(-0.6, 0.6, 61)] + [[x, 0.6] for x in np.linspace(-0.6, 0.6, 61)])
-    >>> d = Doubt()
-    >>> seed_check(d, room, np.zeros((len(room), 2)), room, Pose(0.0, 0.0, 0.0)), d.sd   # it agrees: no doubt
-    (None, 0.0)
-    >>> seed_check(d, room, np.zeros((len(room), 2)), room, Pose(0.06, 0.0, 0.0)), round(d.sd, 2), d.trust
-    (None, 0.06, 0.01)
-    """
-    sds = np.asarray(map_sds)
-    keep = sds[:, 0] <= trust
-    if sds.shape[1] > 2:  # only surfaces seen from this side
-        toward = np.arctan2(np.asarray(map_points)[:, 1] - pose.y, np.asarray(map_points)[:, 0] - pose.x)
-        keep &= np.cos(toward - sds[:, 2]) > 0.0
-    if int(keep.sum()) < min_points:
-        return None
-    ref = ReferenceScan(np.asarray(map_points)[keep])
-    amb = ambiguity(ref, points, pose, min_points=min_points, sd=sd, correlation=correlation)
-    if amb.better is not None:
-        off = math.hypot(amb.better.x - pose.x, amb.better.y - pose.y)
-    elif amb.matched:
-        here = match_scans(ref, points, pose, gate=None, min_points=min_points)
-        off = math.hypot(here.pose.x - pose.x, here.pose.y - pose.y) if here.ok else 0.0
-    else:
-        return None
-    if off > least:
-        doubt.raise_to(off, t, "the seed disagrees")
-        doubt.trust = min(doubt.trust, trust)
-    return amb.better
 
 
 def see_through(map_points: np.ndarray, points: np.ndarray, pose: Pose, *, margin: float = 0.1,

@@ -62,7 +62,7 @@ from clomp.formal.geometry import (
 from clomp.formal.model import Pose
 from clomp.runtime.devices.frame import ScanFrame
 from clomp.runtime.estimation.confirm import Ambiguity, ambiguity
-from clomp.runtime.estimation.doubt import Doubt, see_through, seed_check, trusted_check
+from clomp.runtime.estimation.doubt import Doubt, see_through, trusted_check
 from clomp.runtime.estimation.ekf import OdometryFilter
 from clomp.runtime.estimation.faces import FaceCompass
 from clomp.runtime.estimation.fusion import fuse_revolutions, range_spread
@@ -444,12 +444,12 @@ class ScanOdometry(LocalMap):
         for widely against the surfaces drawn before the doubt
         (:func:`~clomp.runtime.estimation.doubt.trusted_check`): the pose they put the robot
         at when clearly elsewhere (to relocate to), else None, the doubt lowered to how far
-        from the estimate they leave the position. Not in doubt: :func:`~clomp.runtime.estimation.doubt.seed_check`."""
-        if self._map_points is None or self._map_sds is None:
+        from the estimate they leave the position."""
+        if self.doubt.sd <= 0 or self._map_points is None or self._map_sds is None:
             return None
-        sd, check = max(2 * self.match_sd, self.noise_factor * (self.range_sd or 0.0)), trusted_check if self.doubt.sd > 0 else seed_check
-        return check(self.doubt, self._map_points, self._map_sds, points, self.pose, min_points=self.min_points, sd=sd,
-                     correlation=self.correlation, t=self._t)
+        sd = max(2 * self.match_sd, self.noise_factor * (self.range_sd or 0.0))
+        return trusted_check(self.doubt, self._map_points, self._map_sds, points, self.pose, min_points=self.min_points,
+                             sd=sd, correlation=self.correlation)
 
     def _gated(self, match: ScanMatch, prior: Pose, gate: tuple[float, float]) -> ScanMatch:
         """The matcher's gate, applied here so that a well-matched revolution it rejects is kept
