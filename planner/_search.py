@@ -17,9 +17,10 @@ from clomp.formal.model import Disturbance, State, TaskKind, new_pose, new_state
 from clomp.formal.supervisory import FRONTIER, Reset
 from clomp.planner.contact import _lane_gap, lane_reach, unobstructed
 from clomp.planner.cost import CostContext, chi, default_cost, gamma
-from clomp.planner.footprint import body_box
+from clomp.planner.footprint import Box, body_box
 from clomp.planner.perception import Obstacles
 from clomp.planner.recovery import RECOVERY_TASKS, Recovery
+from clomp.planner.robot_model import RobotModel
 from clomp.planner.rollout import _EPS, Outcome, _goal_dead_ahead, _inside_for, frontier_distance, simulate
 from clomp.planner.tasks import Task
 from clomp.planner.visibility import KnownFree
@@ -53,6 +54,29 @@ def _state(ident: int, out: Outcome, d_i: Disturbance, cost: float) -> State:
         out.reached_goal,
         _FRONTIER if out.frontier else (),
     )
+
+
+#: per robot (kept alive here, so its id is not reused): :func:`_root_figures`
+_ROOT_FIGURES: dict[int, tuple[RobotModel, tuple[float, float, float, float, float, Box, Box]]] = {}
+
+
+def _root_figures(robot: RobotModel) -> tuple[float, float, float, float, float, Box, Box]:
+    """What q0's STRAIGHT (from the origin, heading 0) needs of ``robot`` (frozen), as
+    :func:`clomp.planner.rollout.simulate` and :class:`clomp.planner.contact.Scene` compute it:
+    the step, the range within which the rim cannot limit a straight, the room to the rim,
+    the room to spin and the local gap, the inflated and the real body."""
+    known = _ROOT_FIGURES.get(id(robot))
+    if known is not None and known[0] is robot:
+        return known[1]
+    origin = new_pose(0.0, 0.0, 0.0)
+    step = robot.step_length if robot.step_length is not None else robot.sensor_range
+    sure = robot.sensor_range - math.hypot(origin.x, origin.y) - robot.body_radius
+    spin, local_gap = lane_reach(robot)
+    figures = (step, sure, frontier_distance(robot, origin), spin, local_gap, body_box(robot, robot.clearance), body_box(robot))
+    if len(_ROOT_FIGURES) >= 16:
+        _ROOT_FIGURES.clear()
+    _ROOT_FIGURES[id(robot)] = (robot, figures)
+    return figures
 
 
 class _Search:
@@ -119,25 +143,19 @@ class _Search:
         along = _goal_dead_ahead(robot, start, g)
         if along is None:
             return False
-        # rollout._straight, for a goal dead ahead whose run is clear (else False)
-        step = robot.step_length if robot.step_length is not None else robot.sensor_range
-        sure = robot.sensor_range - math.hypot(start.x, start.y) - robot.body_radius
+        # rollout._straight, for a goal dead ahead whose run is clear (else False); what depends
+        # on the robot alone (q0 stands at the origin) is remembered per robot
+        step, sure, room0, spin, local_gap, infl, real = _root_figures(robot)
         far = max(step, along)
-        room = (
-            frontier_distance(robot, start)
-            if far > sure - 1e-6 and not _inside_for(robot, start.x, start.y, start.theta, far + 1e-6)
-            else math.inf
-        )
+        room = room0 if far > sure - 1e-6 and not _inside_for(robot, start.x, start.y, start.theta, far + 1e-6) else math.inf
         run = min(along, room)
         obstacles = self.obstacles
         if len(obstacles):
             gap = _lane_gap()
-            spin, local_gap = lane_reach(robot)
             if gap is None or max(min(step, room) + spin, run) + 1e-6 <= local_gap:
                 return False  # (the scene's local points and the turns' choice: the general search)
             z = np.ascontiguousarray(obstacles.points, dtype=np.float64).view(np.complex128).reshape(-1)
-            d, _ = gap(z.real, z.imag, start.x, start.y, math.cos(start.theta), -math.sin(start.theta),
-                       body_box(robot, robot.clearance), body_box(robot), True)
+            d, _ = gap(z.real, z.imag, start.x, start.y, math.cos(start.theta), -math.sin(start.theta), infl, real, True)
             if not d >= run:
                 return False
         # (a point in the lane beyond the run: contact.cut_straight gives unobstructed's outcome)
