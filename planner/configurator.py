@@ -33,9 +33,9 @@ search that never queued hits (the same on the 7 scenarios and 20 recorded scans
 (``cost=chi``) changes 24 of those 27 maps: a hit near the goal becomes the least-φ
 state and ends the search, and none of the 20 recorded scans reaches the goal.
 
-The plan ends at argmin φ over the uninterrupted states, or explores: when that state is
-q0 or a local minimum the search looked past (its cheapest open state a frontier), at the
-frontier state of least goal distance + metres driven (:func:`clomp.formal.supervisory.plan_end`).
+The plan ends at argmin φ over the uninterrupted states or, when that is a frontier, q0 or a
+local minimum the search looked past (its cheapest open state a frontier), at the frontier of
+least goal distance + metres driven, nearer the goal than q0 if one is (:func:`~clomp.formal.supervisory.plan_end`).
 The tie rule: of states of equal φ the first created (the lowest ident) wins, so a plan
 never ends on a turn in place, whose end is as far from the goal as its parent's (created
 before it). No turn turns by nothing: a turn whose chosen angle is below
