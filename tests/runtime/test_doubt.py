@@ -168,4 +168,3 @@ def test_the_wide_search_ignores_surfaces_seen_from_the_other_side():
     d2 = Doubt(sd=0.15)  # the same surfaces without the side they were seen from: vouched for
     trusted_check(d2, front, sds[:, :2], back, Pose(1.0, 0.0, math.pi))
     assert d2.sd < 0.15
-
