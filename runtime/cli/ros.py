@@ -65,7 +65,8 @@ def register(sub: Any) -> None:
     where.add_argument("--scenario", help="scenario name or file (default overtaking)")
     where.add_argument("--layout", metavar="FAMILY", help="a layout of this family (with --seed and --index)")
     s.add_argument("--index", type=int, default=0, help="which layout of the family (default 0)")
-    s.add_argument("--noise", choices=("ideal", "paper", "harsh"), default="paper", help="noise preset (default paper)")
+    s.add_argument("--noise", choices=("ideal", "paper", "harsh", "harsh-modelled", "unmodelled"), default="paper",
+                   help="noise preset (default paper; harsh carries the error sources the estimator does not model)")
     s.add_argument("--seed", type=int, default=0, help="seed of the noise (and the layout) (default 0)")
     s.add_argument("--scan-rate", type=float, default=5.5, metavar="HZ", help="LiDAR revolutions a second, 5.5-10 (default 5.5)")
     s.add_argument("--rays", type=int, default=360, help="LiDAR samples a revolution, 360-720 (default 360)")
