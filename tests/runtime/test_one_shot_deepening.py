@@ -45,10 +45,10 @@ def test_the_one_shot_plan_gets_out_of_the_u_as_the_runtime_does(tmp_path: Path,
     assert d["states"] > 50 and d["stop_reason"] == "frontier" and not d["reached_goal"], (d["states"], d["stop_reason"])
     # the runtime's own function gives the very same plan (one place)
     from clomp.planner.deepening import plan_deepening
-    from clomp.runtime.supervision import supervisor
+    from clomp.runtime.supervision import replanning
     from clomp.runtime.supervision.planwatch import plan_deepening as runtime_deepening
 
-    assert runtime_deepening is plan_deepening and supervisor.plan_deepening is plan_deepening
+    assert runtime_deepening is plan_deepening and replanning.plan_deepening is plan_deepening
     same = runtime_deepening(Configurator(), np.loadtxt(f), goal)
     assert [s["state"] for s in d["plan"]] == list(same.plan.states[1:])
 
