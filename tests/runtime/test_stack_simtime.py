@@ -37,25 +37,27 @@ def test_a_little_line_garbage_is_tolerated_and_the_run_still_works_in_simulated
     assert run.robot.fault is None
 
 
-@pytest.mark.parametrize("noise", ["harsh"])
-def test_the_hardware_stack_closes_the_loop_in_the_harsh_world_in_simulated_time(noise: str) -> None:
-    """Four harsh worlds (noise seeds 0-3) through the real drivers: every run ends at the
-    goal it believes in, without a collision and with the wheels stopped, and at least two
-    truly within 0.15 m. The emulated A1 sends each sample when the world measures it and
-    the driver times each point, so revolutions are de-skewed and matched as in the
-    experiment: measured on 16 seeds, 9 end within 0.15 m and 7 within 0.1 m (median
-    0.120 m; seeds 0-3: 0.054-0.123 m). The bound stays at two of four, what the 16 seeds
-    support, not what these four happen to give. One seed alone (this test's first form)
-    passed or failed by that seed's luck."""
+@pytest.mark.parametrize(("noise", "at_least"), [("harsh-modelled", 2), ("harsh", 1)])
+def test_the_hardware_stack_closes_the_loop_in_the_harsh_world_in_simulated_time(noise: str, at_least: int) -> None:
+    """Four harsh worlds (noise seeds 0-3) through the real drivers, with no IMU: every run
+    ends at the goal or honestly unconfirmed, never claims a goal it is truly more than 0.1 m
+    from, never collides, and stops the wheels; at least ``at_least`` end truly within 0.15 m.
+    Measured on 16 seeds (2026-12-06, with CONFIRMING): ``harsh-modelled`` (the world the
+    filter models) 7 within 0.15 m, median 0.157 m; ``harsh`` (with the error sources the
+    filter does not model: a wandering wheel bias, slip events, the LiDAR 5 cm ahead, pushes)
+    3 within 0.15 m, median 0.221 m, and one collision (seed 13). All 32 ended
+    GOAL_UNCONFIRMED: without a heading sensor this stack cannot vouch for the goal in these
+    worlds, and says so. The bounds are what the 16 seeds support, not what these four give."""
     near = 0
     for seed in range(4):
         run = run_stack("overtaking", noise=noise, max_time=90.0, seed=seed)
         assert run.report is not None and run.report.state.value in ("GOAL_REACHED", "GOAL_UNCONFIRMED"), (seed, run.report)
+        assert run.report.state.value != "GOAL_REACHED" or run.world.goal_distance <= 0.1, (seed, run.world.goal_distance)
         assert run.world.collisions == 0, seed
         last = {ch: t for _, ch, t in run.world.maestro.events if ch in (0, 1)}
         assert last and all(t in (0, NEUTRAL) for t in last.values()), (seed, last)
         near += run.world.goal_distance <= 0.15
-    assert near >= 2, near
+    assert near >= at_least, near
 
 
 def test_a_run_in_simulated_time_is_the_same_run_every_time() -> None:
