@@ -128,7 +128,7 @@ def exploring_score(cmap: CognitiveMap, state: State) -> float:
     return ahead + sum(cmap[i].distance for i in cmap.path(state.ident)[1:])
 
 
-def plan_end(cmap: CognitiveMap, cut_short: bool | None = None) -> State:
+def plan_end(cmap: CognitiveMap) -> State:
     """The state a plan ends in: argmin φ over the states a plan may end in (reachable
     from q0, not interrupted), unless that state is a frontier or gains the robot nothing;
     then the frontier state of :func:`frontier_end`. Ties → lowest ident.
@@ -165,7 +165,7 @@ def plan_end(cmap: CognitiveMap, cut_short: bool | None = None) -> State:
     what lies ahead of it is unknown, not known to be blocked: the closed loop drives
     there and looks round the shadow, as the paper's robot, whose map is rebuilt every
     revolution, would. The rule does not ask whether the search was cut short by its
-    budget (``cut_short`` is accepted and ignored): a search cut short whose plan explores
+    budget: a search cut short whose plan explores
     (argmin φ is no frontier) keeps the stop reason ``budget``
     (:meth:`clomp.planner.configurator.Configurator.build`), and the supervisor and the
     one-shot commands search it again four times deeper (:mod:`clomp.planner.deepening`);
@@ -204,7 +204,6 @@ def plan_end(cmap: CognitiveMap, cut_short: bool | None = None) -> State:
     >>> plan_end(m).ident
     2
     """
-    del cut_short  # the end no longer depends on it: a search cut short is searched deeper (see above)
     reach = cmap.reachable()
     best = argmin_phi(cmap, reach)
     q0 = cmap.initial_id
@@ -253,8 +252,8 @@ def frontier_end(cmap: CognitiveMap, ends: list[State] | None = None) -> State:
     return min(gains, key=lambda s: (exploring_score(cmap, s), s.ident))
 
 
-def extract_plan(cmap: CognitiveMap, cut_short: bool | None = None) -> Plan:
-    """ρ: the shortest path from q0 to :func:`plan_end` (``cut_short`` as there) through uninterrupted states.
+def extract_plan(cmap: CognitiveMap) -> Plan:
+    """ρ: the shortest path from q0 to :func:`plan_end` through uninterrupted states.
 
     >>> from clomp.formal.model import Disturbance, Pose, TaskKind
     >>> g = Disturbance.goal(1.0, 0.0)
@@ -265,7 +264,7 @@ def extract_plan(cmap: CognitiveMap, cut_short: bool | None = None) -> Plan:
     >>> extract_plan(m)
     Plan(states=(0, 1, 2))
     """
-    end = plan_end(cmap, cut_short)
+    end = plan_end(cmap)
     return Plan(tuple(cmap.path(end.ident)))
 
 

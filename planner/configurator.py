@@ -255,7 +255,7 @@ class Configurator:
         search = _Search(self, obstacles, g, cleared)
         stop = search.run()
         cmap = search.cmap
-        p = extract_plan(cmap, stop == "budget")
+        p = extract_plan(cmap)
         # a plan that ends at the frontier: ``frontier`` — unless the search spent its budget
         # and the plan explores (argmin φ is no frontier): still ``budget``, so that a deeper
         # search (:mod:`clomp.planner.deepening`) may find a way closer first
