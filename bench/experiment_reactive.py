@@ -39,6 +39,7 @@ from typing import Any
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
+from clomp.planner.noise import preset_names  # noqa: E402
 from clomp.planner.robot_model import RobotModel  # noqa: E402
 from clomp.runtime.experiment.layouts import make_layout  # noqa: E402
 from clomp.runtime.experiment.runner import noise_seed, run_once  # noqa: E402
@@ -66,7 +67,7 @@ def main() -> int:
     ap.add_argument("--family", default="overtaking")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--runs", type=int, default=10)
-    ap.add_argument("--noise", default="paper", choices=("ideal", "paper", "harsh", "harsh-modelled", "unmodelled"))
+    ap.add_argument("--noise", default="paper", choices=preset_names())
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--variants", default=",".join(VARIANTS))
     a = ap.parse_args()

@@ -18,6 +18,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
+from clomp.planner.noise import preset_names
 from clomp.planner.scenarios import ScenarioError
 from clomp.runtime.cli._common import output_folder
 from clomp.runtime.cli._args import seed_arg
@@ -38,7 +39,7 @@ def register(sub: Any) -> None:
                         "(default overtaking)")
     p.add_argument("--runs", type=int, default=10, help="layouts, each run in both conditions (default 10)")
     p.add_argument("--seed", type=seed_arg, default=0, help="seed of the layouts and the noise (default 0)")
-    p.add_argument("--noise", choices=("ideal", "paper", "harsh", "harsh-modelled", "unmodelled"), default="paper",
+    p.add_argument("--noise", choices=preset_names(), default="paper",
                    help="noise preset of the execution world (default paper)")
     p.add_argument("--noise-scale", type=float, default=1.0, help="factor on every noise term (default 1)")
     p.add_argument("--feedback", choices=("scan", "none"), default="scan",

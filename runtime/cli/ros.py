@@ -31,6 +31,7 @@ import time
 from pathlib import Path
 from typing import Any
 
+from clomp.planner.noise import preset_names
 from clomp.runtime.cli import EXIT_NOT_REACHED, CliError
 from clomp.runtime.cli._signals import interrupts_raise
 from clomp.runtime.cli._common import add_mover_options, scene_movers
@@ -65,7 +66,7 @@ def register(sub: Any) -> None:
     where.add_argument("--scenario", help="scenario name or file (default overtaking)")
     where.add_argument("--layout", metavar="FAMILY", help="a layout of this family (with --seed and --index)")
     s.add_argument("--index", type=int, default=0, help="which layout of the family (default 0)")
-    s.add_argument("--noise", choices=("ideal", "paper", "harsh", "harsh-modelled", "unmodelled"), default="paper",
+    s.add_argument("--noise", choices=preset_names(), default="paper",
                    help="noise preset (default paper; harsh carries the error sources the estimator does not model)")
     s.add_argument("--seed", type=int, default=0, help="seed of the noise (and the layout) (default 0)")
     s.add_argument("--scan-rate", type=float, default=5.5, metavar="HZ", help="LiDAR revolutions a second, 5.5-10 (default 5.5)")

@@ -39,6 +39,7 @@ from pathlib import Path
 from collections.abc import Callable
 from typing import Any
 
+from clomp.planner.noise import preset_names
 from clomp.runtime.cli._args import seed_arg
 from clomp.runtime.cli.plan import add_planner_options, configurator_from_args, parse_goal
 from clomp.runtime.cli import EXIT_DEVICE_FAULT, EXIT_INTERRUPTED, EXIT_NOT_REACHED, EXIT_OK, CliError
@@ -370,7 +371,7 @@ def add_emulate_world(devices: Any) -> None:
     )
     w.add_argument("--scenario", default="overtaking", help="scenario name or file (default overtaking)")
     w.add_argument("--seed", type=seed_arg, help="seed of the simulated robot's noise")
-    w.add_argument("--noise", choices=("ideal", "paper", "harsh", "harsh-modelled", "unmodelled"), default=None,
+    w.add_argument("--noise", choices=preset_names(), default=None,
                    help="run the execution world with this noise preset (default: the older simulated robot "
                         "with the scenario's noise)")
     w.add_argument("--noise-scale", type=float, default=1.0, help="factor on every term of --noise (default 1)")

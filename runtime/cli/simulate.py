@@ -8,6 +8,7 @@ import math
 from pathlib import Path
 from typing import Any
 
+from clomp.planner.noise import preset_names
 from clomp.planner.inputs import safe_name
 from clomp.planner.scenarios import ScenarioError
 from clomp.runtime.cli._args import seed_arg
@@ -23,7 +24,7 @@ __all__ = ["add_world_options", "check_world_options", "exit_status", "world_noi
 def add_world_options(p: Any) -> None:
     """``--noise``, ``--noise-scale``, ``--feedback``, ``--no-gyro``, ``--moving`` and ``--mover``
     (shared by simulate and demo)."""
-    p.add_argument("--noise", choices=("ideal", "paper", "harsh", "harsh-modelled", "unmodelled"), default=None,
+    p.add_argument("--noise", choices=preset_names(), default=None,
                    help="noise preset of the execution world (specs/noise_presets.json; default paper, with "
                         "the scenario file's own 'noise' object laid over it)")
     p.add_argument("--noise-scale", type=float, default=1.0, help="factor on every noise term (default 1)")

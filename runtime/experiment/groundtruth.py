@@ -32,11 +32,12 @@ from clomp.formal.model import Pose
 from clomp.planner.robot_model import RobotModel
 from clomp.planner.scenarios import Scene
 from clomp.runtime.interface import Robot
+from clomp.planner.noise import preset_names
 from clomp.runtime.backends.sim import NoiseConfig, SimRobot
 
 __all__ = ["NOISE_PRESETS", "WorldRobot", "make_robot", "sim_noise", "world_name"]
 
-NOISE_PRESETS: tuple[str, ...] = ("ideal", "paper", "harsh", "harsh-modelled", "unmodelled")  # the presets of specs/noise_presets.json
+NOISE_PRESETS: tuple[str, ...] = tuple(preset_names())  # the presets of specs/noise_presets.json, read there (one list)
 
 
 class WorldRobot(Robot, Protocol):
