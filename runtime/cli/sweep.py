@@ -132,7 +132,8 @@ def run(args: argparse.Namespace) -> int:
     except (RuntimeError, OSError) as exc:
         raise CliError(str(exc)) from None
     wall, cpu = time.perf_counter() - w0, time.thread_time() - c0
-    whole = load_records(out / "runs.jsonl")
+    on_disk = load_records(out / "runs.jsonl")
+    whole = [r for r in on_disk if r["key"] in wanted]  # this command's runs; a resume keeps others on disk
     cells: dict[tuple[str, str, float, int], list[dict[str, Any]]] = {}
     for r in whole:
         cells.setdefault(block_key(r), []).append(r)
@@ -152,6 +153,7 @@ def run(args: argparse.Namespace) -> int:
                                                  indent=1, allow_nan=False) + "\n", encoding="utf-8")
     page = write_report(whole, out / "report.html", f"clomp sweep: {len(whole)} runs")
     ran = len(records) - kept  # runs/s counts what this call ran, not the runs a --resume kept
-    print(f"{ran} runs in {wall:.0f} s wall ({ran / max(wall, 1e-9):.2f} runs/s{f'; {kept} kept from before' if kept else ''}), this process "
+    print(f"{ran} runs in {wall:.0f} s wall ({ran / max(wall, 1e-9):.2f} runs/s{f'; {kept} kept from before' if kept else ''}"
+          f"{f'; {len(on_disk) - len(whole)} runs outside this selection left in runs.jsonl' if len(on_disk) > len(whole) else ''}), this process "
           f"{cpu:.1f} s thread CPU; wrote {out}{os.sep}: runs.jsonl, runs.csv, table.md, summary.json, {page.name}")
     return 0
