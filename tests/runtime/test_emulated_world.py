@@ -4,6 +4,7 @@ process of its own (the face the ``clomp run`` end-to-end tests use)."""
 from __future__ import annotations
 
 import dataclasses
+import math
 import os
 import subprocess
 import sys
@@ -16,7 +17,7 @@ from clomp.planner.noise import NoiseTerms
 from clomp.runtime.clock import ManualClock
 from clomp.runtime.devices.rplidar import RPLidar
 from clomp.runtime.realtime import NICENESS
-from clomp.runtime.backends.emulated import EmulatedWorld, EmulatedWorldProcess
+from clomp.runtime.backends.emulated import IMPACT, EmulatedWorld, EmulatedWorldProcess
 from clomp.runtime.backends.sim import NoiseConfig
 from clomp.runtime.backends.world import WorldRobot
 from tests.runtime._simline import SimLine
@@ -138,3 +139,24 @@ def test_the_world_loads_its_compiled_ray_caster_before_it_serves() -> None:
     env = {**os.environ, "PYTHONPATH": os.pathsep.join(sys.path)}
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=300)
     assert done.returncode == 0 and done.stdout.strip() == "1", done.stderr
+
+
+def test_a_kick_is_felt_for_a_contact_s_three_reports_not_one() -> None:
+    """The world's push changes the body's velocity within one physics step; the emulated
+    accelerometer feels it for IMPACT s (three 10 ms reports), so a report the line loses
+    (one in ten at harsh) does not lose the kick: after a push of 0.2 m the three readings
+    each carry its 169 m/s², the fourth only the slide's grip (7.8)."""
+    clock = ManualClock(100.0)
+    world = EmulatedWorld("overtaking", noise="ideal", seed=0, clock=clock)
+    world.lidar.scanning = True  # the world runs
+    for _ in range(5):
+        clock.advance(0.01)
+        assert max(map(abs, world._acceleration())) < 1.0  # standing
+    world.sim.push(0.2, 0.0)  # type: ignore[union-attr]
+    felt = []
+    for _ in range(5):
+        clock.advance(0.01)
+        felt.append(math.hypot(*world._acceleration()))
+    assert IMPACT == 0.03
+    assert [round(a) for a in felt[:3]] == [round(felt[0])] * 3 and felt[0] > 100.0
+    assert 5.0 < felt[3] < 10.0 and 5.0 < felt[4] < 10.0
