@@ -418,10 +418,19 @@ def _run_world(args: argparse.Namespace) -> int:
             world.stop()
         p = world.pose
         print(f"robot at ({p.x:.3f}, {p.y:.3f}, {math.degrees(p.theta):.0f}°), {world.goal_distance:.3f} m from the goal, "
-              f"{world.collisions} collision(s)", flush=True)
+              f"{world.collisions} collision(s){_disturbances(world)}", flush=True)
     if world.error is not None:
         raise CliError(f"the emulated world failed: {world.error}")
     return 0
+
+
+def _disturbances(world: Any) -> str:
+    """The world's pushes and slip events for the summary line ('' when it had none), e.g.
+    ``, pushed 0.18 m at 12.3 s, 1 slip event(s)``: the truth a run's doubt may answer."""
+    slip_events = getattr(world, "slips", [])
+    pushes = "".join(f", pushed {d:.2f} m at {t:.1f} s" for t, d in getattr(world, "pushes", []))
+    slips = f", {len(slip_events)} slip event(s)" if slip_events else ""
+    return pushes + slips
 
 
 def _serve_world(world: Any, args: argparse.Namespace) -> None:
