@@ -84,6 +84,32 @@ def wait_driving(world: EmulatedWorldProcess, run: Run) -> None:
         pytest.fail(f"the robot never drove (exit {run.proc.returncode}):\n{run.stderr}")
 
 
+def read_lines(proc: subprocess.Popen[str], n: int) -> list[str]:
+    """The first ``n`` lines ``proc`` prints (stripped), waited for as they come; fails when it
+    ends first or prints fewer in :data:`HANG` s (a hang: a bare readline would wait forever)."""
+    import queue
+    import threading
+
+    got: queue.Queue[str] = queue.Queue()
+    out = proc.stdout
+    assert out is not None
+    def read() -> None:
+        for _ in range(n):
+            got.put(out.readline())
+
+    threading.Thread(target=read, daemon=True).start()
+    lines: list[str] = []
+    for _ in range(n):
+        try:
+            line = got.get(timeout=HANG)
+        except queue.Empty:
+            pytest.fail(f"printed {lines} and no more in {HANG:g} s")
+        if not line:
+            pytest.fail(f"ended after printing {lines}")
+        lines.append(line.strip())
+    return lines
+
+
 def assert_clean_failure(stderr: str, rc: int, wheels: str = "wheels stopped") -> None:
     assert rc != 0
     assert "Traceback" not in stderr
@@ -398,8 +424,7 @@ def test_emulate_world_serves_a_whole_stack_a_user_can_run(tmp_path: Path) -> No
         argv = [sys.executable, "-c", code, "world", "--scenario", "open"]
     world = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:
-        assert world.stdout is not None
-        lines = [world.stdout.readline().strip() for _ in range(4)]
+        lines = read_lines(world, 4)
         ports = dict(line.split(": ", 1) for line in lines)
         assert ports["run"].startswith("clomp run --lidar ") and f"--imu {ports['imu']}" in ports["run"]
         run = subprocess.run(
