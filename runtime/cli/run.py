@@ -179,7 +179,6 @@ def run(args: argparse.Namespace) -> int:
 
 def _run(args: argparse.Namespace, scheduling: str) -> int:
     from clomp.runtime.backends.hardware import HardwareRobot
-    from clomp.runtime.clock import ScaledClock, WallClock
     from clomp.runtime.supervision import Supervisor, SupervisorConfig
 
     goal = parse_goal(args.goal)
@@ -188,7 +187,7 @@ def _run(args: argparse.Namespace, scheduling: str) -> int:
     runlog, path = open_runlog(args.log)
     lock = threading.Lock()
     log = _SharedLog(runlog, lock)
-    clock = WallClock() if args.time_scale == 1.0 else ScaledClock(args.time_scale)
+    clock = _clock(args.time_scale)
     log.write("run", argv=sys.argv[1:], lidar=args.lidar, motors=args.motors, imu=args.imu, dry_run=args.dry_run,
               goal=list(goal), max_time=args.max_time, time_scale=args.time_scale,
               config=config.to_dict(), monotonic=time.monotonic(), wall=time.time(), scheduling=scheduling,
@@ -208,6 +207,14 @@ def _run(args: argparse.Namespace, scheduling: str) -> int:
                                          imu_port=args.imu),
                    work, runlog, log, path,
                    usage_fault=lambda: _missing_path(args.lidar) or _missing_path(args.motors) or _missing_path(args.imu))
+
+
+def _clock(time_scale: float) -> Any:
+    """The run's one clock: wall time, or ``time_scale`` times faster (a test puts the run on
+    simulated time here: tests/runtime/_simcli.py)."""
+    from clomp.runtime.clock import ScaledClock, WallClock
+
+    return WallClock() if time_scale == 1.0 else ScaledClock(time_scale)
 
 
 def open_runlog(name: str | None) -> tuple[Any, Path]:
