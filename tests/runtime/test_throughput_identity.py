@@ -126,3 +126,45 @@ def test_the_hazard_test_fuses_only_when_a_shallow_alarm_asks_and_decides_as_bef
                 assert (lazy.alarms.deferred, lazy.alarms._dismissed) == (eager.alarms.deferred, eager.alarms._dismissed)
     assert lazy.alarms.allowance > 0.01  # harsh: the fused revolutions were in play
     assert 0 < lazy.fusions < ticks / 2, (lazy.fusions, ticks)
+
+
+def _frozen_map_queries(map_points: np.ndarray, seen: np.ndarray, new_surface: float) -> tuple[np.ndarray, np.ndarray]:
+    """The local map's two k-d tree queries as they were before issue #41's grid: which
+    points are new surfaces (no map point within ``new_surface``), and each point's map
+    point within 5 cm (-1: none), the balanced tree choosing where two are equally near."""
+    from scipy.spatial import cKDTree
+
+    tree = cKDTree(map_points, balanced_tree=False, compact_nodes=False)
+    d, _ = tree.query(seen, distance_upper_bound=new_surface)
+    new = ~np.isfinite(d)
+    d2, idx2 = tree.query(seen, k=2, distance_upper_bound=0.05)
+    d, idx = d2[:, 0], idx2[:, 0]
+    if bool((np.isfinite(d) & (d == d2[:, 1])).any()):
+        d, idx = cKDTree(map_points).query(seen, distance_upper_bound=0.05)
+    return new, np.where(np.isfinite(d), idx, -1)
+
+
+def _grid_map_queries(map_points: np.ndarray, seen: np.ndarray, new_surface: float) -> tuple[np.ndarray, np.ndarray]:
+    """The same two answers from LocalMap's grid search (as its _add and _map_sd ask)."""
+    from clomp.runtime.estimation._localmap import LocalMap
+
+    lm = LocalMap()
+    lm._map_points = map_points
+    return lm._nearest(seen, new_surface)[0] < 0, lm._met(seen)
+
+
+@settings(max_examples=150, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), n_map=st.integers(1, 3000), n=st.integers(0, 400),
+       spread=st.sampled_from([0.2, 1.0, 2.5]))
+def test_the_local_maps_grid_search_finds_what_its_k_d_tree_found(seed: int, n_map: int, n: int, spread: float) -> None:
+    """Map points on the map's 1 cm grid (unique), revolution points anywhere near them, some
+    exactly on map points, between two (equally near) or a bound away along an axis."""
+    rng = np.random.default_rng(seed)
+    cells = np.unique(np.round(rng.uniform(-spread, spread, (n_map, 2)) / 0.01), axis=0)
+    map_points = cells * 0.01
+    picks = map_points[rng.integers(0, len(map_points), 4)]
+    special = np.r_[picks, picks + [0.005, 0.0], picks + [0.05, 0.0], picks + [0.0, 0.03], picks + [0.03, 0.0]]
+    seen = np.r_[rng.uniform(-spread - 0.1, spread + 0.1, (n, 2)), special]
+    got, want = _grid_map_queries(map_points, seen, 0.03), _frozen_map_queries(map_points, seen, 0.03)
+    assert np.array_equal(got[0], want[0])
+    assert np.array_equal(got[1], want[1])
