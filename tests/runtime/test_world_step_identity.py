@@ -18,7 +18,8 @@ import pytest
 
 from clomp.planner.scenarios import load_scenario
 from clomp.runtime.backends import _dynamics, _lidar, world
-from clomp.runtime.backends.world import ScanFrame, WorldRobot, _to_robot, make_world_robot
+from clomp.runtime.backends.world import WorldRobot, _to_robot, make_world_robot
+from clomp.runtime.devices.frame import ScanFrame
 
 
 def _frozen_advance(self: WorldRobot, dt: float) -> None:
@@ -127,7 +128,8 @@ def _drive(w: WorldRobot, stream: bool) -> list[Any]:
         w.sleep(0.1)
         frame = w.read_scan(timeout=0.0)
         if frame is not None:
-            out.append((frame.timestamp, frame.points.tobytes(), frame.point_times.tobytes()))
+            times = frame.point_times
+            out.append((frame.timestamp, frame.points.tobytes(), None if times is None else times.tobytes()))
         out.append((w.rotation(), w.peak_acceleration(), w.peak_acceleration_vector()))
         if stream and k >= 20:
             out.append([(a.tobytes(), r.tobytes(), t, first) for a, r, t, first in w.stream()])
