@@ -126,7 +126,7 @@ class PlanWatch:
             return None
         self._remember(clean_scan, scan_pose)
         pts = scan_to_frame(clean_scan, scan_pose, pose)
-        recent = self._fused(pose) if self.alarms.allowance > 0 else None
+        recent = (lambda: self._fused(pose)) if self.alarms.allowance > 0 else None  # fused only when asked
         return self.alarms.hazard(pts, task.kind, error, self.model, lookahead, needed, pose, recent)
 
     def _remember(self, clean_scan: np.ndarray, scan_pose: Pose) -> None:
