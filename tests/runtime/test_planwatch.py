@@ -100,34 +100,3 @@ def test_the_supervisor_deepens_a_spent_search_unless_told_not_to() -> None:
         assert all(m == 50 for m, _ in budgets) is not expect
     with pytest.raises(ValueError, match="deepen must be a positive integer"):
         SupervisorConfig(deepen=0)
-
-
-# -- a later task's failure is acted on where the running task ends ----------------------------------
-def test_a_check_that_fails_a_later_task_lets_the_running_one_end_and_replans_there() -> None:
-    """A plan check that finds the running task free and a later one blocked does not stop
-    the robot mid-task (where no state of the map ends, so nothing can be recalled and a
-    fresh plan starts from a fraction of a task: the misses at harsh clutter had that in
-    common): the running task ends by its own criterion and the plan is made anew there.
-    A check that fails the running task itself still interrupts it at once."""
-    from clomp.runtime.backends.sim import SimRobot
-    from clomp.runtime.supervision.plancheck import CheckResult
-
-    for failing, interrupted in ((2, False), (1, True)):
-        scene = load_scenario("open")
-        sup = Supervisor(SimRobot(scene, seed=0), (0.5, 0.6))  # a turn, then straights
-
-        def check(*args: Any, _k: int = failing, **kwargs: Any) -> CheckResult:
-            return CheckResult(False, f"task {_k} (STRAIGHT) now meets an obstacle after 0.10 of 0.27 m", _k, 0.0)
-
-        sup.watch.alarms.check = check  # type: ignore[method-assign]
-        while not sup.terminal and not any(t.target is S.REPLANNING for t in sup.transitions):
-            sup.step()
-            sup.clock.sleep(sup.model.tick)
-        first = sup.tasks[0]
-        to_replan = next(t for t in sup.transitions if t.target is S.REPLANNING)
-        assert to_replan.reason.startswith(f"plan check: task {failing} (STRAIGHT)"), to_replan.reason
-        assert len(sup.tasks) == 1  # the next task never started
-        assert (first.outcome != "done") is interrupted, first.outcome
-        assert len(sup.plans) == 1 and len(sup.plans[0].result.steps) >= 2
-        if not interrupted:
-            assert any(c.ok and "replanning where it ends" in c.reason for c in sup.checks)
