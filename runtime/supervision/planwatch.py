@@ -125,14 +125,12 @@ class PlanWatch:
         self.stuck = 0  # plans in a row that ended before the robot moved (see :meth:`stalled`)
         self._from: Pose | None = None
         self._recent: deque[tuple[np.ndarray, Pose]] = deque(maxlen=3)  # the newest clean revolutions, where taken
-        self.later: str | None = None  # a later task failed the newest check (:meth:`later_failure`)
         self.unfused = 0  # times a kept revolution disagreed with the newest and was left out of the fusion
         contacts_warm_up()  # the compiled plan check is ready before the robot moves
 
     def started(self, pose: Pose) -> None:
         """A plan, fresh or recalled, starts executing with the robot at ``pose``."""
         self._from = pose
-        self.later = None
 
     def stalled(self, pose: Pose, min_progress: float, min_turn: float = 0.1) -> int:
         """REPLANNING is deciding with the robot at ``pose``: how many plans in a row ended
@@ -204,28 +202,10 @@ class PlanWatch:
         self._remember(clean_scan, scan_pose)
         verdict = self.alarms.check(states, plan.origin, scan_pose, goal, clean_scan, self.model, tolerance,
                                     running=True, recent=lambda: self._fused(scan_pose))  # fused only when asked
-        ok, reason = verdict.ok, verdict.reason
-        self.later = None
-        if not ok and verdict.tasks >= 2:  # the running task is free: a later one fails
-            self.later = reason
-            ok, reason = True, f"{reason}: the running task is free, replanning where it ends"
-        rec = TimedRecord(t, time.perf_counter() - t0, ok, reason, time.thread_time() - c0)
+        rec = TimedRecord(t, time.perf_counter() - t0, verdict.ok, verdict.reason, time.thread_time() - c0)
         self.checks.append(rec)
         self.log("check", ok=rec.ok, duration_s=rec.duration_s, reason=rec.reason)
         return rec
-
-    def later_failure(self) -> str | None:
-        """The running task ended: why a later task of the plan failed the newest check (the
-        plan is made anew here, at a state of the map), or None. Read once.
-
-        A check that finds the running task free and a *later* one blocked (or ending off
-        the map's prediction) does not interrupt the running task (:meth:`check`): the hazard
-        test guards it tick by tick, and stopped mid-task the robot stands where no state of
-        the map ends, so recall cannot continue the map and every such stop costs a fresh
-        plan from a pose that is a task's fraction. At harsh, in clutter, the mid-task
-        replans a later task's near-miss caused were what the misses had in common."""
-        why, self.later = self.later, None
-        return why
 
     def recall(self, last: PlanRecord | None, pose: Pose, goal: Pose, scan: np.ndarray, tolerance: tuple[float, float],
                max_recalls: int, t: float) -> Recall | None:

@@ -436,10 +436,6 @@ class Supervisor:
                 self._fire(E.DISAGREE, f"task ended far from the map's prediction ({off})")
                 return
             self._end_task("done")
-            later = self.watch.later_failure()
-            if later is not None and self._queue:  # a later task failed the check: plan anew here, at a state's end
-                self._fire(E.DISAGREE, f"plan check: {later}")
-                return
             if not self._start_next(now):
                 self._plan_ended()
                 return
