@@ -9,9 +9,7 @@ robot can reuse when it does not:
 - every revolution while executing, :meth:`PlanWatch.check`: the running task and the
   queued ones tested against the newest revolution
   (:meth:`clomp.runtime.supervision.alarms.Alarms.check`, i.e.
-  :func:`clomp.runtime.supervision.plancheck.check_plan` with the noise allowance); a
-  failure of a *later* task is acted on where the running task ends
-  (:meth:`PlanWatch.later_failure`), at a state of the map;
+  :func:`clomp.runtime.supervision.plancheck.check_plan` with the noise allowance);
 - the fused revolutions that judge shallow alarms (:meth:`PlanWatch._fused`) hold only
   the revolutions that agree with the newest (:func:`misplaced`): one the estimate placed
   wrong, after a push or a slip it does not model, would outvote the newest;

@@ -23,7 +23,7 @@ reckoning alone. The goal, the remaining plan and every task's error signal come
   revolution, the running task and the queued ones are *checked*: tested against the new
   scan's points from the estimate (:func:`clomp.runtime.supervision.plancheck.check_plan`); one that
   now meets an obstacle or would end off the map's prediction sends the supervisor to
-  REPLANNING (a later task's failure where the running task ends), and so does a task that ended far from the prediction or a plan that ended
+  REPLANNING, and so does a task that ended far from the prediction or a plan that ended
   short of the goal. A plan that ends at the goal by the estimate taken while driving
   goes to REPLANNING too (with scan feedback): the robot stands, the still revolutions
   correct the estimate, and the goal is declared (or approached anew) on the settled one,
