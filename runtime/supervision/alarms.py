@@ -147,6 +147,11 @@ class Alarms:
         self._dismissed = -1  # the last revolution a shallow hazard alarm was dismissed as the noise's
 
     @property
+    def noise(self) -> float:
+        """The range noise (m, a standard deviation) the last revolutions show (0 before any)."""
+        return float(np.median(self._noise)) if self._noise else 0.0
+
+    @property
     def allowance(self) -> float:
         """How far (m) inside the body a point must be for an alarm to stand at once: the
         part of ``k`` noise deviations the planner's clearance does not already absorb."""
