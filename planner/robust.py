@@ -224,7 +224,13 @@ class RobustConfigurator(Configurator):
         self.predictions: list[tuple[float, float]] = []
 
     def _plain(self) -> Configurator:
-        return Configurator(self.robot, self.cost, self.max_states, self.horizon)
+        """The plain Configurator of this one's search: its budget, and its ``recovery``
+        and ``transient`` (the supervisor's back-off sets ``recovery`` on a copy of the
+        configurator, :func:`clomp.planner.deepening.plan_deepening`; without them here a
+        robust run never backed off where a best-first run did)."""
+        c = Configurator(self.robot, self.cost, self.max_states, self.horizon, recovery=self.recovery)
+        c.transient = self.transient
+        return c
 
     def probabilistic_map(self, scan: Any, goal: Disturbance | tuple[float, float],
                           seed: int | None = None) -> ProbabilisticMap:
@@ -241,7 +247,8 @@ class RobustConfigurator(Configurator):
         """
         if self.search_routes > 1:
             base = Configurator(self.robot, self.cost, max(self.max_states, self.route_states), self.horizon,
-                                routes=self.search_routes)
+                                routes=self.search_routes, recovery=self.recovery)
+            base.transient = self.transient
         else:
             base = self._plain()
         return sample_map(scan, goal, self.samples, self.noise, self.seed if seed is None else seed, base,
@@ -257,6 +264,7 @@ class RobustConfigurator(Configurator):
         greedy_result = plain.plan(points, goal)
         pm = self.probabilistic_map(points, goal, self.seed + self._calls)
         self._calls += 1
+        self.transient = None  # used once, as Configurator.plan uses it
         g = greedy_result
         target = plan_target(pm.map, g.map[g.plan.end].end, g.goal, self.goal_radius, self.frontier_slack)
         if all(pm.map.has_transition(a, b) for a, b in g.plan.steps()):

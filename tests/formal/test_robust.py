@@ -289,3 +289,21 @@ def test_the_second_look_values_plans_on_rollouts_of_its_own():
     assert v_r == pytest.approx(v_g) and 0 <= v_g <= 1
     values = {conf.confirm_deviation(scan, goal, same, seed=s)[1] for s in range(4)}
     assert len(values) > 1  # fresh rollouts: the estimate moves with the seed
+
+
+def test_the_robust_configurator_backs_off_where_the_best_first_one_does():
+    """The supervisor's back-off plans a jam again with ``recovery`` set on a copy of its
+    configurator (plan_deepening(back_off=True)); the robust configurator's own searches
+    dropped it, so a robust run stood (or said UNREACHABLE) where a best-first one backed
+    off (found by the calibration bench, docs/calibration.md)."""
+    import numpy as np
+
+    from clomp.formal.model import TaskKind
+    from clomp.planner.deepening import plan_deepening
+    from clomp.planner.robust import RobustConfigurator
+
+    box = np.array([[0.1, y] for y in np.linspace(-0.3, 0.3, 61)] + [[x, s * 0.3] for x in np.linspace(-0.05, 0.1, 16) for s in (-1, 1)])
+    conf = RobustConfigurator(samples=2, noise="ideal")
+    assert plan_deepening(conf, box, (1.0, 0.0)).steps == []
+    steps = plan_deepening(conf, box, (1.0, 0.0), back_off=True).steps
+    assert steps and steps[0].task is TaskKind.REVERSE
