@@ -28,6 +28,7 @@ from clomp.planner.probabilistic import (
     RolloutNoise,
     sample_map,
 )
+from clomp.planner.pushes import Pushes
 from clomp.planner.robot_model import RobotModel
 
 __all__ = ["plan_target", "RobustChoice", "RobustDecision", "RobustConfigurator", "SUPERVISOR_HAZARD", "CLOSED_LOOP_HAZARD",
@@ -148,7 +149,8 @@ class RobustConfigurator(Configurator):
     (``tolerance``), a rollout is interrupted where the supervisor's scan test would
     stop it (``hazard``), and each noisy world carries its robot's true pose from task to
     task (``carry``, :func:`clomp.planner.probabilistic.sample_map`): a task starts where the
-    one before truly ended, as in the world, not at the state's recorded pose. A stop is retried up to ``retries`` times (default 1) in Storm's
+    one before truly ended, as in the world, not at the state's recorded pose (``pushes``,
+    :class:`clomp.planner.pushes.Pushes`, default none: the world's pushes too). A stop is retried up to ``retries`` times (default 1) in Storm's
     objective, as the supervisor replans after one (:func:`clomp.formal.retry.retry_model`; 0:
     a stop is final, as before; at harsh noise, 50 paired runs per family, 1 and 0 gave
     the same successes: doorway 42 vs greedy 41 both, clutter 16 vs 16 both). Needs
@@ -199,6 +201,7 @@ class RobustConfigurator(Configurator):
         confirm: bool = True,
         retries: int = 1,
         carry: bool = True,
+        pushes: Pushes | None = None,
         **options: Any,
     ) -> None:
         super().__init__(robot, **options)
@@ -217,6 +220,7 @@ class RobustConfigurator(Configurator):
             raise ValueError(f"retries must be a whole number >= 0, got {retries!r}")
         self.retries = retries
         self.carry = carry
+        self.pushes = pushes
         self._calls = 0
         self.decisions: list[str] = []
         self.confirmations: list[tuple[float, float]] = []
@@ -252,7 +256,7 @@ class RobustConfigurator(Configurator):
         else:
             base = self._plain()
         return sample_map(scan, goal, self.samples, self.noise, self.seed if seed is None else seed, base,
-                          self.tolerance, self.hazard, self.carry)
+                          self.tolerance, self.hazard, self.carry, self.pushes)
 
     def sample(self, scan: Any, goal: Disturbance | tuple[float, float]) -> RobustChoice:
         """The probabilistic map of ``scan``, the best-first plan and Storm's policy on it
@@ -294,7 +298,7 @@ class RobustConfigurator(Configurator):
         base = c.pm.nominal
         g = c.greedy_result
         other = sample_map(points, goal, self.samples, self.noise, seed, _Fixed(base, self.cost), self.tolerance, self.hazard,
-                           self.carry)
+                           self.carry, self.pushes)
         target = plan_target(other.map, g.map[g.plan.end].end, g.goal, self.goal_radius, self.frontier_slack)
         best = robust_plan(other.map, target, retries=self.retries).scheduler
 
