@@ -17,7 +17,7 @@ import numpy as np
 from clomp.formal.lts import CognitiveMap
 from clomp.formal.model import Disturbance, Pose, TaskKind
 from clomp.formal.scheduler import RobustPlan
-from clomp.formal.supervisory import Plan
+from clomp.formal.supervisory import Plan, is_frontier
 from clomp.planner.configurator import Configurator, PlanResult
 from clomp.planner.perception import load_scan
 from clomp.planner.probabilistic import (
@@ -31,7 +31,7 @@ from clomp.planner.probabilistic import (
 from clomp.planner.pushes import Pushes
 from clomp.planner.robot_model import RobotModel
 
-__all__ = ["plan_target", "RobustChoice", "RobustDecision", "RobustConfigurator", "SUPERVISOR_HAZARD", "CLOSED_LOOP_HAZARD",
+__all__ = ["plan_target", "frontier_outcomes", "RobustChoice", "RobustDecision", "RobustConfigurator", "SUPERVISOR_HAZARD", "CLOSED_LOOP_HAZARD",
            "CLOSED_LOOP_TERMS",
            "closed_loop_noise", "rollout_noise"]
 
@@ -84,14 +84,24 @@ def rollout_noise(noise: RolloutNoise | str) -> RolloutNoise:
 
 
 def plan_target(cmap: CognitiveMap, nominal_end: Pose, goal: Disturbance, radius: float = 0.1,
-                slack: float = POSITION_TOLERANCE) -> set[int]:
+                slack: float = POSITION_TOLERANCE, frontier: bool | None = None) -> set[int]:
     """The states a plan on ``cmap`` is for, as the closed loop measures success: when the
     best-first plan reaches the goal (its end ``nominal_end`` lies within ``radius``, the
     experiment's success radius, 0.1 m), the free states that end within ``radius`` of
     the goal (on the rollouts' true poses); when it does not (the goal lies beyond the
     sensed disc, or the search stopped short of it), the free states that end no
     farther from the goal than ``nominal_end`` plus ``slack`` (default
-    :data:`POSITION_TOLERANCE`): the progress the supervisor replans from.
+    :data:`POSITION_TOLERANCE`): the progress the supervisor replans from. When that end
+    is a frontier state (``frontier``; None: a frontier state of ``cmap`` ends there),
+    only the frontier states among them: the plan-end rule ends an exploring plan at a
+    frontier and never inside a U, whose states may lie nearer the goal but from which
+    the next plan sees nothing new (:func:`clomp.formal.supervisory.plan_end`, rule 3b).
+
+    Before, the inside of a U was a target as good as the frontier: on ``u-trap`` at
+    harsh noise Storm found driving into it surer than going round (P 1.00 against
+    0.90, layout 3), and where a second look confirmed it the robust run drove into the
+    trap and ended ``UNREACHABLE`` where the best-first run reached the goal (robust
+    27/39 against greedy 32/39, docs/calibration.md).
 
     Before, a map in which one noisy outcome of many happened to end within ``radius``
     made the goal the target of a plan that aims at a frontier (P the chance of that
@@ -112,7 +122,26 @@ def plan_target(cmap: CognitiveMap, nominal_end: Pose, goal: Disturbance, radius
     near = {s.ident for s in free if s.end.distance_to(goal.x, goal.y) <= radius}
     if near and d <= radius:
         return near
-    return {s.ident for s in free if s.end.distance_to(goal.x, goal.y) <= d + slack}
+    close = [s for s in free if s.end.distance_to(goal.x, goal.y) <= d + slack]
+    if frontier is None:
+        frontier = any(is_frontier(s) and s.end.distance_to(nominal_end.x, nominal_end.y) <= 1e-9 for s in close)
+    ends = {s.ident for s in close} & frontier_outcomes(cmap) if frontier else set()
+    return ends or {s.ident for s in close}
+
+
+def frontier_outcomes(cmap: CognitiveMap) -> set[int]:
+    """The frontier states of ``cmap`` and every other outcome of a choice that has one
+    (a noisy rollout of a task that ends at the frontier ended off its state: at the
+    rim too, not inside what the scan showed).
+
+    >>> import numpy as np
+    >>> r = sample_map(np.zeros((0, 2)), (3.0, 0.0), samples=2, noise="ideal")
+    >>> r.nominal.plan.end in frontier_outcomes(r.map)
+    True
+    """
+    front = {s.ident for s in cmap.states() if is_frontier(s)}
+    choices = {(t.source, t.label) for t in cmap.transitions() if t.target in front}
+    return front | {t.target for t in cmap.transitions() if (t.source, t.label) in choices}
 
 
 @dataclass
