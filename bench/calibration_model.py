@@ -39,6 +39,10 @@ from calibration import BINS, _print_table, predictions, read_records  # noqa: E
 PUSH_WINDOW = 1.5
 """A contact episode that begins this soon (s) after a push is the push's."""
 MAIN = "closed loop, 1 replan (the robust planner's objective)"
+OUTSIDE = ("unconfirmed, off the goal", "false success", "contact after a push")
+"""Failures whose cause no first plan's map holds: the estimate's error where the run
+ends, and a push into an obstacle (during the first plan's tasks only the ``pushes``
+variant holds it)."""
 
 
 def cause(r: dict[str, Any]) -> str:
@@ -107,11 +111,17 @@ def resample_all(pairs: list[dict[str, Any]], variants: list[str], cache_path: s
                 key = f"{p['noise']}|{p['family']}|{p['run']}|{v}"
                 if key not in cache:
                     cache[key] = resampled(r, p["noise"], v, p["family"], p["run"])
+                    _save(cache, cache_path)
                 r["pred"][f"resampled: {v}"] = cache[key]
     finally:
-        if cache_path:
-            with open(cache_path, "w", encoding="utf-8") as fh:
-                json.dump(cache, fh)
+        _save(cache, cache_path)
+
+
+def _save(cache: dict[str, float], path: str | None) -> None:
+    if path:
+        with open(path + ".part", "w", encoding="utf-8") as fh:
+            json.dump(cache, fh)
+        os.replace(path + ".part", path)
 
 
 def _trimmed(values: list[float]) -> list[float]:
@@ -164,13 +174,17 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--noise", nargs="+", default=["harsh"])
     ap.add_argument("--resample", nargs="*", default=[], choices=["current", "pushes"])
     ap.add_argument("--cache", help="JSON file keeping resampled predictions between calls")
+    ap.add_argument("--resample-from", type=float, default=0.0, metavar="P",
+                    help="resample only the runs whose first plan's P is at least P (the rest keep no resampled value)")
     ap.add_argument("--fit", action="store_true", help="refit the closed-loop rollout terms to the runs' task errors")
     args = ap.parse_args(argv)
     pairs = [p for p in read_records(args.files) if p["noise"] in args.noise and "map" in p.get("greedy", {})]
     for p in pairs:
         p["greedy"]["pred"] = predictions(p["greedy"])
     if args.resample:
-        resample_all(pairs, args.resample, args.cache)
+        todo = sorted((p for p in pairs if p["greedy"]["pred"][MAIN] >= args.resample_from), key=lambda p: (p["run"], p["family"]))
+        resample_all(todo, args.resample, args.cache)
+        pairs = [p for p in pairs if all(f"resampled: {v}" in p["greedy"]["pred"] for v in args.resample)]
     for nz in args.noise:
         sub = [p for p in pairs if p["noise"] == nz]
         per = ", ".join(f"{f} {sum(p['family'] == f for p in sub)}" for f in sorted({p["family"] for p in sub}))
@@ -179,6 +193,8 @@ def main(argv: list[str] | None = None) -> int:
         g = [p["greedy"] for p in sub if p["family"] != "cul-de-sac"]
         for name in [MAIN] + [f"resampled: {v}" for v in args.resample]:
             _print_table(name, [r["pred"][name] for r in g], [r["ok"] for r in g])
+            _print_table(f"{name}; against the runs with the failures outside the map forgiven ({', '.join(OUTSIDE)})",
+                         [r["pred"][name] for r in g], [int(r["ok"] or cause(r) in OUTSIDE) for r in g])
         if args.fit:
             fit(sub, nz)
     return 0
