@@ -21,7 +21,7 @@ from scipy.spatial import cKDTree
 from clomp.formal.geometry import points_from_frame
 from clomp.formal.model import Pose
 from clomp.runtime.estimation._exact import median
-from clomp.runtime.estimation.doubt import Doubt
+from clomp.runtime.estimation.doubt import Doubt, see_through
 from clomp.runtime.estimation.ekf import OdometryFilter
 from clomp.runtime.estimation.icp import ReferenceScan
 
@@ -42,6 +42,15 @@ class LocalMap:
     _map_points: np.ndarray | None
     _map_tree: cKDTree | None
     _map_sds: np.ndarray | None
+    pose: Pose
+
+    def sees_past(self, points: np.ndarray) -> tuple[int, int]:
+        """How many bearings of a revolution ``points`` (robot frame) seen at the estimate look
+        past a surface the map holds (:func:`~clomp.runtime.estimation.doubt.see_through`), and
+        at how many the map holds one; (0, 0) before there is a map."""
+        if self._map_points is None:
+            return 0, 0
+        return see_through(self._map_points, points, self.pose)
 
     def _add(self, points: np.ndarray, pose: Pose, reseed: bool) -> bool:
         """Put a revolution seen from ``pose`` into the map (1 cm grid, within ``map_radius``)."""
