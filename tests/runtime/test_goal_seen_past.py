@@ -6,22 +6,18 @@ revolutions see past the surfaces the map drew before, and it must not claim the
 
 from __future__ import annotations
 
-import math
 from types import SimpleNamespace
 
 import numpy as np
 import pytest
 
 from clomp.formal.model import Pose
-from clomp.planner import Configurator
-from clomp.runtime.backends.world import make_world_robot
 from clomp.runtime.devices.frame import ScanFrame
 from clomp.runtime.estimation.doubt import Doubt
 from clomp.runtime.estimation.odometry import ScanOdometry
-from clomp.runtime.experiment.layouts import make_layout
-from clomp.runtime.supervision import SupervisorState as S
+from clomp.runtime.experiment.runrecords import run_spec
+from clomp.runtime.experiment.runspec import RunSpec
 from clomp.runtime.supervision.goal import seen_past
-from clomp.runtime.supervision.supervisor import Supervisor
 
 _ROOM = np.array([[0.9, y] for y in np.linspace(-0.6, 0.6, 61)] + [[x, 0.6] for x in np.linspace(-0.6, 0.9, 76)]
                  + [[-0.6, y] for y in np.linspace(-0.6, 0.6, 61)])
@@ -48,36 +44,11 @@ def test_standing_elsewhere_sees_past_the_map_and_the_doubt_rises() -> None:
     assert sup.estimator.doubt.sd == Doubt().kick_sd and sup.estimator.doubt.events[-1][1] == "seen past at the goal"
 
 
-def _set_down_at_the_goal(family: str, seed: int, push: tuple[float, float], gyro: bool) -> tuple[str, float, str]:
-    """A run of ``family`` at ``paper`` noise; when its plan ends at the goal by the estimate,
-    the body is set down ``push`` (m, world frame) away, a displacement nothing but the LiDAR
-    sees: (end state, true distance to the goal, reason)."""
-    lay = make_layout(family, seed, 0)
-    conf = Configurator()
-    robot = make_world_robot(lay.scene, "paper", seed=seed, robot=conf.robot, gyro=gyro)
-    gx, gy = lay.scene.goal_in_robot_frame()
-    sup = Supervisor(robot, (gx, gy), conf)
-    sup.start()
-    moved = False
-    while not sup.terminal and robot.now() < 90.0:
-        sup.step()
-        if not moved and sup.state is S.REPLANNING and "settling" in sup.reason:
-            body, control = robot._body, robot._control
-            p = body.position
-            body.position = control.position = (p.x + push[0], p.y + push[1])
-            moved = True
-        robot.sleep(conf.robot.tick)
-    true = robot.ground_truth_pose()
-    return sup.state.value, math.hypot(true.x - lay.scene.goal[0], true.y - lay.scene.goal[1]), sup.reason
-
-
 @pytest.mark.slow
-@pytest.mark.parametrize("family,seed,push,gyro", [
-    ("overtaking", 0, (-0.2, 0.0), False),
-    ("overtaking", 0, (0.0, 0.2), False),
-    ("overtaking", 0, (-0.2, 0.0), True),
+@pytest.mark.parametrize("family,seed,run", [
+    ("stopper", 3, 0),  # pushed 0.11 m at 24 s, nothing felt it: it ended GOAL_REACHED 0.149 m off, bound 0.010 m
+    ("clutter", 4, 1),  # a doubt seen through, cleared against surfaces drawn while the heading drifted: 0.137 m off
 ])
-def test_set_down_off_the_goal_it_never_claims_it(family: str, seed: int, push: tuple[float, float], gyro: bool) -> None:
-    state, dist, reason = _set_down_at_the_goal(family, seed, push, gyro)
-    assert dist > 0.1, "the case is constructed to be off the goal"
-    assert state != "GOAL_REACHED", (state, dist, reason)
+def test_the_harsh_runs_without_the_gyro_that_claimed_a_goal_they_were_not_at(family: str, seed: int, run: int) -> None:
+    rec = run_spec(RunSpec(family, seed, run, "planning", "harsh", gyro=False))
+    assert not rec["false_success"], (rec["end_state"], rec["final_error_m"], rec["reason"])
