@@ -22,7 +22,7 @@ from clomp.formal.geometry import points_from_frame
 from clomp.formal.model import Pose
 from clomp.runtime.estimation._exact import median
 from clomp.runtime.estimation._icp_core import cell_keys, grid_index, nearest_two
-from clomp.runtime.estimation.doubt import Doubt
+from clomp.runtime.estimation.doubt import Doubt, see_through
 from clomp.runtime.estimation.ekf import OdometryFilter
 from clomp.runtime.estimation.icp import ReferenceScan
 from clomp.runtime.jit import interruptible
@@ -47,6 +47,15 @@ class LocalMap:
     _map_tree: cKDTree | None
     _map_sds: np.ndarray | None
     _map_grid: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, tuple[float, float, float, int, int]] | None
+    pose: Pose
+
+    def sees_past(self, points: np.ndarray) -> tuple[int, int]:
+        """How many bearings of a revolution ``points`` (robot frame) seen at the estimate look
+        past a surface the map holds (:func:`~clomp.runtime.estimation.doubt.see_through`), and
+        at how many the map holds one; (0, 0) before there is a map."""
+        if self._map_points is None:
+            return 0, 0
+        return see_through(self._map_points, points, self.pose)
 
     def _add(self, points: np.ndarray, pose: Pose, reseed: bool) -> bool:
         """Put a revolution seen from ``pose`` into the map (1 cm grid, within ``map_radius``)."""
