@@ -50,18 +50,19 @@ class SerialDevice:
     :meth:`_close_port`) or given as an open serial-like object (used as it is, left open).
 
     A driver sets ``_device`` (its name in messages, ``"LiDAR"``) and ``_port_error`` (the
-    exception a failing port raises), calls :meth:`_attach` from its constructor and defines
-    ``close()``, which leaving a ``with`` block calls.
+    exception a failing port raises), calls :meth:`_attach` from its constructor and overrides
+    ``close()`` (which leaving a ``with`` block calls) when its device must be left safe
+    before the port closes; the base's closes an owned port and leaves a given one open.
 
     >>> class Echo(SerialDevice):
     ...     _device, _port_error = "echo", OSError
     ...     def __init__(self, port: Any) -> None:
     ...         self._attach(port, baudrate=115200, timeout=0.01)
-    ...     def close(self) -> None:
-    ...         self._close_port()
     >>> with Echo("loop://") as dev:
     ...     dev._write(b"hi"), dev._port.read(2), dev.port_name
     (None, b'hi', 'loop://')
+    >>> dev._port.is_open  # it opened the port, so leaving the block closed it
+    False
     """
 
     _device = "device"
@@ -121,8 +122,10 @@ class SerialDevice:
                 pass
 
     def close(self) -> None:
-        """Release the device (each driver says how)."""
-        raise NotImplementedError
+        """Release the device: here, close the port if this driver opened it. A driver
+        with a device to leave safe first (stop the motor, neutral wheels, the reader
+        thread) does that and then calls :meth:`_close_port`."""
+        self._close_port()
 
     def __enter__(self) -> Self:
         return self
