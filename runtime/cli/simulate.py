@@ -77,7 +77,8 @@ def print_summary(r: RunResult) -> None:
     print(f"{r.scene.name} — {r.condition}: {'GOAL REACHED' if r.reached_goal else 'goal not reached'} "
           f"({r.end_state}: {r.reason})")
     print(f"  {r.time_s:.1f} s simulated in {r.wall_s:.2f} s ({r.time_s / max(r.wall_s, 1e-9):.0f}× real time); "
-          f"collisions {r.collisions}; ends {r.final_distance:.3f} m from the goal (success within {SUCCESS_RADIUS} m)")
+          f"collisions {r.collisions}" + (f" (+{r.pushed_contacts} pushed into)" if r.pushed_contacts else "")
+          + f"; ends {r.final_distance:.3f} m from the goal (success within {SUCCESS_RADIUS} m)")
     if r.moving is not None:
         m = r.moving
         print(f"  moving bodies: {m['moving_collisions']} collision(s), {m['robot_caused_collisions']} caused by the robot, "
@@ -96,9 +97,9 @@ def print_summary(r: RunResult) -> None:
 
 
 def exit_status(r: RunResult) -> int:
-    """0 when the robot truly reached the goal without a collision and the supervisor could
+    """0 when the robot truly reached the goal without a collision (its own or a pushed contact) and the supervisor could
     vouch for it; 1 otherwise (also GOAL_UNCONFIRMED: the estimate could not vouch for it)."""
-    ok = r.reached_goal and r.collisions == 0 and r.end_state != "GOAL_UNCONFIRMED"
+    ok = r.reached_goal and r.collisions == 0 and r.pushed_contacts == 0 and r.end_state != "GOAL_UNCONFIRMED"
     return EXIT_OK if ok else EXIT_NOT_REACHED
 
 
@@ -112,6 +113,7 @@ def _summary_dict(r: RunResult, png: Path) -> dict[str, Any]:
         "goal_unconfirmed": r.end_state == "GOAL_UNCONFIRMED",
         "final_distance_m": r.final_distance,
         "collisions": r.collisions,
+        "pushed_contacts": r.pushed_contacts,
         "time_s": r.time_s,
         "wall_s": r.wall_s,
         "plans": r.plans,

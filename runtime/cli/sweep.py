@@ -145,6 +145,7 @@ def run(args: argparse.Namespace) -> int:
         c = s["conditions"]
         print(f"{key[0]:<11} {key[1]:<6}{'' if key[3] else ' no gyro'}  " + "  ".join(
             f"{n}: {c[n]['success']}/{c[n]['runs']} success, {c[n]['collisions']} coll., "
+            f"{c[n].get('pushed_contacts', 0)} pushed, "
             f"{c[n].get('false_successes', 0)} false" for n in c))
     write_csv(whole, out / "runs.csv")
     (out / "table.md").write_text(conditions_table(whole) + "\n", encoding="utf-8")

@@ -14,6 +14,14 @@ and "collided 8 times" for the reactive one: the two words are the two classes h
 The same counter runs on both conditions, on the ground truth of the world (never on
 what the robot believed).
 
+A collision the world caused is counted apart (:func:`mark_pushed`): a *pushed contact*
+is a collision episode that begins while an external push of the world (``push_rate``,
+:meth:`~clomp.runtime.backends.world.WorldRobot.push`) still slides the body — after the
+push and no later than its slide time on open floor plus :data:`PUSH_MARGIN_S` — and
+touches ahead of the body in the push's direction (the push moved it into the obstacle).
+What the robot drove into stays a collision, also when a push came just before: a
+contact that begins after the slide, or away from the push's direction, is the robot's.
+
 >>> trace = [(t / 10, 0.02) for t in range(30)]          # 3 s grinding, 2 cm deep
 >>> trace += [(5.0, 0.002), (7.0, 0.003)]                # two light touches 2 s apart
 >>> c = count_contacts(trace)
@@ -25,16 +33,19 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 __all__ = [
     "BRUSH_DEPTH_M",
     "BRUSH_DURATION_S",
     "MERGE_GAP_S",
+    "PUSH_MARGIN_S",
     "ContactCount",
     "Episode",
+    "Push",
     "contact_episodes",
     "count_contacts",
+    "mark_pushed",
 ]
 
 MERGE_GAP_S = 1.0
@@ -43,6 +54,9 @@ BRUSH_DEPTH_M = 0.01
 """An episode whose deepest penetration stays below this (m) may be a brush ..."""
 BRUSH_DURATION_S = 0.5
 """... if it also lasted less than this (s)."""
+PUSH_MARGIN_S = 0.1
+"""A contact that begins up to this long (s) after a push's slide on open floor would have
+ended is still the push's (ten physics steps: the body slows against the obstacle's friction)."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -54,6 +68,7 @@ class Episode:
     max_penetration_m: float
     samples: int
     brush: bool
+    pushed: bool = False  # a collision an external push slid the body into (:func:`mark_pushed`)
 
     @property
     def duration_s(self) -> float:
@@ -74,8 +89,13 @@ class ContactCount:
 
     @property
     def collisions(self) -> int:
-        """Episodes that are not brushes."""
-        return sum(not e.brush for e in self.episodes)
+        """Episodes that are not brushes and not pushed contacts: the robot's own collisions."""
+        return sum(not e.brush and not e.pushed for e in self.episodes)
+
+    @property
+    def pushed(self) -> int:
+        """Collision episodes an external push slid the body into (:func:`mark_pushed`)."""
+        return sum(not e.brush and e.pushed for e in self.episodes)
 
     @property
     def brushes(self) -> int:
@@ -129,6 +149,44 @@ def contact_episodes(
     if group:
         close()
     return episodes
+
+
+@dataclass(frozen=True, slots=True)
+class Push:
+    """An external push as the world applied it: when (s), how long it slides the body on
+    open floor before the wheels' grip stops it (s), which way (rad, world frame) and where
+    the body's rotation centre was then (world frame)."""
+
+    time: float
+    slide_s: float
+    direction: float
+    x: float
+    y: float
+
+
+def mark_pushed(episodes: Iterable[Episode], pushes: Iterable[Push], touched: Iterable[tuple[float, float]]) -> list[Episode]:
+    """``episodes`` with :attr:`Episode.pushed` set on each collision episode a push slid the
+    body into: it begins after a push (``push.time < start``) and no later than
+    ``push.time + push.slide_s +`` :data:`PUSH_MARGIN_S`, and where it first touched
+    (``touched``, one world point per episode) lies ahead of the body's position at the push
+    along the push's direction. Brushes stay brushes; nothing else changes.
+
+    >>> eps = [Episode(10.10, 12.0, 0.02, 190, False), Episode(30.0, 31.0, 0.02, 100, False)]
+    >>> push = Push(10.0, 0.23, 0.0, 0.0, 0.0)                # pushed along +x at 10 s
+    >>> [e.pushed for e in mark_pushed(eps, [push], [(0.2, 0.0), (0.2, 0.0)])]
+    [True, False]
+    >>> [e.pushed for e in mark_pushed(eps, [push], [(-0.2, 0.0), (0.2, 0.0)])]  # touched behind: its own
+    [False, False]
+    """
+    kicks = list(pushes)
+    out = []
+    for e, (px, py) in zip(episodes, touched, strict=True):
+        hit = not e.brush and any(
+            k.time < e.start_s <= k.time + k.slide_s + PUSH_MARGIN_S
+            and (px - k.x) * math.cos(k.direction) + (py - k.y) * math.sin(k.direction) > 0.0
+            for k in kicks)
+        out.append(replace(e, pushed=hit) if hit != e.pushed else e)
+    return out
 
 
 def count_contacts(trace: Iterable[tuple[float, float]], **kw: float) -> ContactCount:

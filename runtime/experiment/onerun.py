@@ -29,7 +29,8 @@ from clomp.planner.configurator import Configurator
 from clomp.planner.scenarios import Scene
 from clomp.runtime.backends.sim import NoiseConfig
 from clomp.runtime.backends.world import WorldNoise, make_world_robot
-from clomp.runtime.experiment.contacts import ContactCount, Episode, contact_episodes
+from clomp.runtime.backends._dynamics import push_speed
+from clomp.runtime.experiment.contacts import ContactCount, Episode, Push, contact_episodes, mark_pushed
 from clomp.runtime.experiment.groundtruth import make_robot
 from clomp.runtime.experiment.layouts import shape_distance
 from clomp.runtime.experiment.plots import RunTrace
@@ -40,7 +41,7 @@ from clomp.runtime.experiment.runspec import check_condition
 from clomp.runtime.records.runlog import RunLog
 from clomp.runtime.supervision.supervisor import Supervisor, SupervisorConfig
 
-__all__ = ["SUCCESS_RADIUS", "RunResult", "moving_counts", "run_once"]
+__all__ = ["SUCCESS_RADIUS", "RunResult", "moving_counts", "run_contacts", "run_once", "world_pushes"]
 
 SUCCESS_RADIUS = 0.1
 """Ground-truth distance (m) to the goal within which a run reached it: twice the planner's
@@ -89,8 +90,14 @@ class RunResult:
 
     @property
     def collisions(self) -> int:
-        """Contact episodes that are not brushes."""
+        """Contact episodes that are not brushes and not pushed contacts: the robot's own."""
         return ContactCount(tuple(self.episodes)).collisions
+
+    @property
+    def pushed_contacts(self) -> int:
+        """Collision episodes an external push of the world slid the body into
+        (:func:`~clomp.runtime.experiment.contacts.mark_pushed`), counted apart from :attr:`collisions`."""
+        return ContactCount(tuple(self.episodes)).pushed
 
     @property
     def brushes(self) -> int:
@@ -138,6 +145,40 @@ def moving_counts(robot: Any) -> dict[str, int]:
     count = ContactCount(tuple(eps))
     return {"static_collisions": stat.collisions, "moving_collisions": count.collisions,
             "moving_brushes": count.brushes, "robot_caused_collisions": caused}
+
+
+def world_pushes(robot: Any, path: list[tuple[float, float, float, float]]) -> list[Push]:
+    """The world's external pushes of a run (none for a robot that cannot be pushed), each
+    with its slide time on open floor (``2 d / v0``, the kick ``v0`` of
+    :func:`~clomp.runtime.backends._dynamics.push_speed`) and the body's true position then
+    (``path``: the ground truth, ``(t, x, y, theta)``)."""
+    out = []
+    times = [p[0] for p in path]
+    for k in getattr(robot, "pushes", None) or []:
+        v0 = push_speed(k.distance, robot.body)
+        i = min(max(int(np.searchsorted(times, k.time)), 0), len(path) - 1)
+        out.append(Push(k.time, 2.0 * k.distance / v0 if v0 > 0 else 0.0, k.direction, path[i][1], path[i][2]))
+    return out
+
+
+def run_contacts(robot: Any, scene: Scene, truth: list[tuple[float, float, float, float]] | None = None
+                 ) -> tuple[list[Episode], list[tuple[float, float]]]:
+    """A run's contact episodes (ground truth), those an external push slid the body into
+    marked (:func:`~clomp.runtime.experiment.contacts.mark_pushed`), and where each began
+    (the obstacle point nearest the body then, world frame). ``truth``: the ground-truth
+    path, ``(t, x, y, theta)`` (default: the robot's own).
+
+    >>> from clomp.planner import load_scenario
+    >>> from clomp.runtime.backends.world import make_world_robot
+    >>> w = make_world_robot(load_scenario("overtaking"), "ideal", seed=0)
+    >>> w.sleep(0.5); w.push(0.5, 0.0); w.sleep(2.0)        # slid 0.5 m along +x into the box
+    >>> [(e.kind, e.pushed) for e in run_contacts(w, load_scenario("overtaking"))[0]]
+    [('collision', True)]
+    """
+    truth = _ground_truth_path(robot, robot.ground_truth_pose()) if truth is None else truth
+    episodes = contact_episodes(robot.contact_trace())
+    contacts = [_contact_point(scene, truth, e.start_s) for e in episodes]
+    return mark_pushed(episodes, world_pushes(robot, truth), contacts), contacts
 
 
 def _world(start: Pose, p: Pose) -> tuple[float, float]:
@@ -313,9 +354,9 @@ def run_once(
     true = robot.ground_truth_pose()
     dist = math.hypot(true.x - scene.goal[0], true.y - scene.goal[1])
     believed = bool(report.reached_goal)  # it claimed the goal (GOAL_REACHED; not GOAL_UNCONFIRMED)
-    episodes = contact_episodes(robot.contact_trace())
     truth = _ground_truth_path(robot, true)
-    if expect == "unreachable":
+    episodes, contacts = run_contacts(robot, scene, truth)
+    if expect == "unreachable":  # a pushed contact fails it too (the robot must stop clear and say so)
         reached = end_state == "UNREACHABLE" and not any(not e.brush for e in episodes)
     else:
         reached = dist <= SUCCESS_RADIUS
@@ -325,7 +366,6 @@ def run_once(
     times = [t for t, _, _, _ in truth[::10]] + [float(report.time_s)]
     headings = [th for _, _, _, th in truth[::10]] + [true.theta]
     estimate = [_world(start, Pose(x, y, th)) for _, x, y, th in report.trajectory]
-    contacts = [_contact_point(scene, truth, e.start_s) for e in episodes]
     counters = {name: _count(report, name) for name in ("checks", "recalls", "fresh_plans")}
     return RunResult(
         condition, run, seed_, scene, end_state, reason, reached, believed, dist, episodes, contacts,

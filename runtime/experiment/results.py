@@ -61,7 +61,11 @@ CSV_COLUMNS: dict[str, tuple[str, str]] = {
     "false_success": ("0/1", "claimed the goal (GOAL_REACHED) while truly farther than success_radius from it"),
     "end_state": ("", "final state: GOAL_REACHED, GOAL_UNCONFIRMED, UNREACHABLE, TIMEOUT, HALTED"),
     "final_error_m": ("m", "ground-truth distance from the robot's rotation centre to the goal at the end"),
-    "collisions": ("count", "contact episodes (gaps < 1 s merged) that are not brushes (ground truth)"),
+    "collisions": ("count", "contact episodes (gaps < 1 s merged) that are not brushes and not pushed contacts: "
+                            "what the robot ran into (ground truth)"),
+    "pushed_contacts": ("count", "collision episodes an external push of the world slid the body into: begun within "
+                                 "the push's slide on open floor + 0.1 s after it, touching ahead along the push "
+                                 "(contacts.mark_pushed); counted apart from collisions, empty in older records"),
     "brushes": ("count", "contact episodes shallower than 1 cm and shorter than 0.5 s"),
     "max_penetration_m": ("m", "deepest penetration of the body into an obstacle over the run"),
     "contact_s": ("s", "summed duration of the contact episodes"),
@@ -195,6 +199,7 @@ def _condition(rs: list[dict[str, Any]]) -> dict[str, Any]:
         "success_rate": succ / n if n else None,
         "success_ci95": [lo, hi],
         "collisions": sum(int(r["collisions"]) for r in rs),
+        "pushed_contacts": sum(int(r.get("pushed_contacts") or 0) for r in rs),
         "brushes": sum(int(r["brushes"]) for r in rs),
         "runs_with_collision": sum(int(r["collisions"]) > 0 for r in rs),
         "collisions_per_run": mean_ci([float(r["collisions"]) for r in rs]),
@@ -297,6 +302,7 @@ def table(summary: dict[str, Any], paper: dict[str, Any] | None = None) -> str:
         ("unconfirmed at the goal", [f"{c[n].get('goal_unconfirmed', 0)}/{c[n]['runs']}" for n in names]),
         ("false successes", [f"{c[n].get('false_successes', 0)}/{c[n]['runs']}" for n in names]),
         ("collisions (total)", [f"{c[n]['collisions']} (in {c[n]['runs_with_collision']} runs)" for n in names]),
+        ("pushed contacts (total)", [str(c[n].get("pushed_contacts", 0)) for n in names]),
         ("brushes (total)", [str(c[n]["brushes"]) for n in names]),
         ("collisions per run (95 %)", [_per_run(c[n], "collisions_per_run") for n in names]),
         ("final error, median (m)", ["—" if c[n]["final_error_median_m"] is None else f"{c[n]['final_error_median_m']:.3f}"
@@ -361,16 +367,17 @@ def markdown_rows(summary: dict[str, Any]) -> str:
             f"{m.get('p', float('nan')):.2g} |")
 
 
-CONDITIONS_HEADER = ("| family | noise | condition | runs | reached (success) [95 % CI] | collisions | false successes | "
-                     "unconfirmed | median time to goal (s) | paired vs planning (McNemar p) |\n"
-                     "|---|---|---|---|---|---|---|---|---|---|")
+CONDITIONS_HEADER = ("| family | noise | condition | runs | reached (success) [95 % CI] | collisions | pushed contacts | "
+                     "false successes | unconfirmed | median time to goal (s) | paired vs planning (McNemar p) |\n"
+                     "|---|---|---|---|---|---|---|---|---|---|---|")
 """The header of the every-condition table (docs/experiment-room.md): one row per condition."""
 
 
 def condition_rows(summary: dict[str, Any]) -> str:
     """One Markdown row per condition of one (family, noise) summary, under :data:`CONDITIONS_HEADER`.
 
-    Success with its Wilson interval, collisions, false successes, unconfirmed ends, the median
+    Success with its Wilson interval, collisions (the robot's own), pushed contacts (a push of
+    the world slid it in: counted apart), false successes, unconfirmed ends, the median
     time to the goal of the runs that truly reached it, and McNemar's p of each baseline paired
     with planning on the same layouts ("—" for planning itself or without a planning run).
 
@@ -378,7 +385,7 @@ def condition_rows(summary: dict[str, Any]) -> str:
     ...          "collisions": 0, "brushes": 0, "final_error_m": 0.02, "time_s": 9.0, "time_to_goal_s": 9.0,
     ...          "wall_s": 1.0, "expect": "reach"} for c in ("planning", "dwa")]
     >>> print(condition_rows({"family": "corridor", "noise": "paper", **summarise(recs)}).splitlines()[1])
-    | corridor | paper | dwa | 1 | 1 [0.21, 1.00] | 0 | 0 | 0 | 9.0 | 1 |
+    | corridor | paper | dwa | 1 | 1 [0.21, 1.00] | 0 | 0 | 0 | 0 | 9.0 | 1 |
     """
     c = summary["conditions"]
     rows = []
@@ -390,7 +397,8 @@ def condition_rows(summary: dict[str, Any]) -> str:
         m = summary.get("mcnemar_success" + suffix) if suffix is not None else None
         p = "—" if m is None else f"{m['p']:.2g}"
         rows.append(f"| {summary.get('family')} | {summary.get('noise')} | {name} | {d['runs']} | "
-                    f"{d['success']} [{lo:.2f}, {hi:.2f}] | {d['collisions']} | {d.get('false_successes', 0)} | "
+                    f"{d['success']} [{lo:.2f}, {hi:.2f}] | {d['collisions']} | {d.get('pushed_contacts', 0)} | "
+                    f"{d.get('false_successes', 0)} | "
                     f"{d.get('goal_unconfirmed', 0)} | {'—' if t is None else f'{t:.1f}'} | "
                     f"{p} |")
     return "\n".join(rows)
@@ -405,7 +413,7 @@ def conditions_table(records: Iterable[dict[str, Any]]) -> str:
     ...          "reached_goal": 1, "believed_goal": 1, "collisions": 0, "brushes": 0, "final_error_m": 0.02,
     ...          "time_s": 9.0, "time_to_goal_s": 9.0, "wall_s": 1.0, "expect": "reach", "gyro": 0}]
     >>> conditions_table(recs).splitlines()[-1]
-    '| corridor | paper, no gyro | planning | 1 | 1 [0.21, 1.00] | 0 | 0 | 0 | 9.0 | — |'
+    '| corridor | paper, no gyro | planning | 1 | 1 [0.21, 1.00] | 0 | 0 | 0 | 0 | 9.0 | — |'
     """
     cells: dict[tuple[str, str, float, int], list[dict[str, Any]]] = {}
     for r in records:

@@ -67,6 +67,7 @@ def _record(spec: RunSpec, scene: Any, expect: str, r: Any) -> dict[str, Any]:
         "end_state": r.end_state,
         "final_error_m": _r(r.final_distance, 4),
         "collisions": r.collisions,
+        "pushed_contacts": r.pushed_contacts,
         "brushes": r.brushes,
         "max_penetration_m": _r(max((e.max_penetration_m for e in r.episodes), default=0.0), 4),
         "contact_s": _r(sum(e.duration_s for e in r.episodes), 3),

@@ -6,7 +6,16 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from clomp.runtime.experiment.contacts import BRUSH_DEPTH_M, contact_episodes, count_contacts
+from clomp.runtime.experiment.contacts import (
+    BRUSH_DEPTH_M,
+    PUSH_MARGIN_S,
+    ContactCount,
+    Episode,
+    Push,
+    contact_episodes,
+    count_contacts,
+    mark_pushed,
+)
 
 TICK = 0.02
 
@@ -74,3 +83,41 @@ def test_every_sample_in_exactly_one_episode_and_episodes_a_second_apart(samples
         assert b.start_s - a.end_s >= 1.0
     for e in eps:
         assert e.brush == (e.max_penetration_m < BRUSH_DEPTH_M and e.duration_s < 0.5)
+
+
+# -- pushed contacts (what a push of the world slid the body into), counted apart ----------------
+def _world_run(actions):
+    from clomp.planner import load_scenario
+    from clomp.runtime.backends.world import make_world_robot
+    from clomp.runtime.experiment.onerun import run_contacts
+
+    scene = load_scenario("overtaking")  # a box 0.36 m ahead of the body's front
+    w = make_world_robot(scene, "ideal", seed=0)
+    for act in actions:
+        act(w)
+    return run_contacts(w, scene)[0]
+
+
+def test_a_push_into_the_box_is_a_pushed_contact_not_a_collision():
+    eps = _world_run([lambda w: w.sleep(0.5), lambda w: w.push(0.5, 0.0),
+                      lambda w: w.set_wheel_speeds(0.05, 0.05), lambda w: w.sleep(1.5)])
+    c = ContactCount(tuple(eps))
+    assert (c.collisions, c.pushed) == (0, 1), eps
+
+
+def test_driving_into_the_box_stays_a_collision_even_after_a_push_away():
+    eps = _world_run([lambda w: w.sleep(0.5), lambda w: w.push(0.2, 3.14159),   # pushed back, away from the box
+                      lambda w: w.sleep(0.5), lambda w: w.set_wheel_speeds(0.2, 0.2), lambda w: w.sleep(4.0)])
+    c = ContactCount(tuple(eps))
+    assert (c.collisions, c.pushed) == (1, 0), eps
+
+
+def test_a_contact_after_the_slide_is_the_robots_own():
+    late = Episode(10.0 + 0.23 + PUSH_MARGIN_S + 0.01, 12.0, 0.02, 100, False)
+    on_time = Episode(10.2, 12.0, 0.02, 100, False)
+    brush = Episode(10.1, 10.2, 0.002, 5, True)
+    push = Push(10.0, 0.23, 0.0, 0.0, 0.0)
+    got = mark_pushed([late, on_time, brush, on_time], [push], [(0.3, 0.0)] * 3 + [(-0.3, 0.0)])  # the last behind
+    assert [e.pushed for e in got] == [False, True, False, False]
+    c = ContactCount(tuple(got))
+    assert (c.collisions, c.pushed, c.brushes) == (2, 1, 1)
