@@ -167,6 +167,10 @@ _EVENTS = (
     MachineEvent("approach", True, "confirming, the settled estimate put the robot off the goal: the supervisor "
                                    "plans to it again"),
     MachineEvent("plan_short", False, "the plan's last task ended short of the goal"),
+    MachineEvent("move_away", True, "a push felt (an IMU kick, or a revolution seeing through the map) left the robot "
+                                    "touching or within a margin of an obstacle: the supervisor backs or drives a short "
+                                    "way clear of it before it plans"),
+    MachineEvent("moved_away", False, "the move away ended (its distance driven, or its time spent)"),
     MachineEvent("disagree", False, "a scan or a task's end disagrees with the map (hazard, off prediction, overrun)"),
     MachineEvent("fault", False, "a device fails (motor controller, LiDAR, a robot fault)"),
 )
@@ -184,10 +188,14 @@ _GUARDS = {
     "plan_done_short": "the plan's last task is done and the goal is farther than the tolerance",
     "map_disagrees": "a hazard is ahead, the task ended far from its prediction, or it overran its duration",
     "device_failed": "a robot call raised a fault",
+    "pushed_against_obstacle": "a push was felt since the last judgement, the newest revolution after it has points "
+                               "within the margin of the body, and a short straight or reverse clears some of them "
+                               "without meeting another",
+    "move_done": "the move away has driven its distance, or spent twice its expected time",
 }
 
 _T = MachineTransition
-_NON_TERMINAL = ("IDLE", "PLANNING", "EXECUTING", "REPLANNING", "CONFIRMING")
+_NON_TERMINAL = ("IDLE", "PLANNING", "EXECUTING", "REPLANNING", "CONFIRMING", "MOVING_AWAY")
 _TERMINAL = ("GOAL_REACHED", "GOAL_UNCONFIRMED", "UNREACHABLE", "HALTED")
 
 SUPERVISOR = Machine(
@@ -195,7 +203,7 @@ SUPERVISOR = Machine(
     states=(*_NON_TERMINAL, *_TERMINAL),
     initial="IDLE",
     terminal=frozenset(_TERMINAL),
-    wheels=frozenset({"EXECUTING"}),
+    wheels=frozenset({"EXECUTING", "MOVING_AWAY"}),
     events=_EVENTS,
     guards=_GUARDS,
     transitions=(
@@ -218,6 +226,11 @@ SUPERVISOR = Machine(
         _T("CONFIRMING", "goal_unconfirmed", "GOAL_UNCONFIRMED", "confirm_spent"),
         _T("CONFIRMING", "approach", "REPLANNING", "estimate_left_goal"),
         _T("CONFIRMING", "no_plan", "UNREACHABLE", "no_safe_task"),
+        # pushed against an obstacle: a short move clear of it first, then a plan made afresh
+        _T("EXECUTING", "move_away", "MOVING_AWAY", "pushed_against_obstacle"),
+        _T("REPLANNING", "move_away", "MOVING_AWAY", "pushed_against_obstacle"),
+        _T("MOVING_AWAY", "moved_away", "REPLANNING", "move_done"),
+        _T("MOVING_AWAY", "disagree", "REPLANNING", "map_disagrees"),
         *(_T(s, "fault", "HALTED", "device_failed") for s in _NON_TERMINAL),
         *(_T(s, "abort", "HALTED") for s in _NON_TERMINAL),
         # a terminal state ignores what the world still does (the wheels stay stopped)
@@ -228,10 +241,10 @@ SUPERVISOR = Machine(
 
 PLANT = Machine(
     name="robot",
-    states=("OFF", "STOPPED", "DRIVING", "FAILED"),
+    states=("OFF", "STOPPED", "DRIVING", "BACKING_OFF", "FAILED"),
     initial="OFF",
     terminal=frozenset({"STOPPED", "FAILED"}),
-    wheels=frozenset({"DRIVING"}),
+    wheels=frozenset({"DRIVING", "BACKING_OFF"}),
     events=_EVENTS,
     transitions=(
         _T("OFF", "start", "STOPPED"),
@@ -250,6 +263,12 @@ PLANT = Machine(
         _T("DRIVING", "disagree", "STOPPED"),
         _T("DRIVING", "abort", "STOPPED"),
         _T("DRIVING", "fault", "FAILED"),
+        _T("STOPPED", "move_away", "BACKING_OFF"),
+        _T("DRIVING", "move_away", "BACKING_OFF"),
+        _T("BACKING_OFF", "moved_away", "STOPPED"),
+        _T("BACKING_OFF", "disagree", "STOPPED"),
+        _T("BACKING_OFF", "abort", "STOPPED"),
+        _T("BACKING_OFF", "fault", "FAILED"),
         _T("FAILED", "fault", "FAILED"),
         _T("FAILED", "abort", "FAILED"),
     ),
@@ -258,7 +277,9 @@ PLANT = Machine(
 already reached: uncontrollable outcomes) or starts a task; driving, a task ends (as
 predicted: the next task; at the goal, short of it, or off the map) or the wheels are
 stopped; a fault can happen at any time. Confirming a doubtful goal it stands (``approach``:
-the supervisor's choice to plan again, the robot still stopped)."""
+the supervisor's choice to plan again, the robot still stopped). Pushed against an obstacle
+(``move_away``, the supervisor's choice, stopped or driving) it backs off: the move ends
+(``moved_away``), the way turns out blocked (``disagree``), or it is stopped."""
 
 
 @dataclass(frozen=True)
@@ -383,7 +404,7 @@ def machine_model(sup: Machine = SUPERVISOR, plant: Machine | None = PLANT, reme
 
     >>> m = machine_model(SUPERVISOR, None)
     >>> m.n_states, sorted(m.states[k].name for k in m.labels["motors"])
-    (9, ['EXECUTING'])
+    (10, ['EXECUTING', 'MOVING_AWAY'])
     """
     from clomp.formal.export import STAY, Choice, ExportModel
     from clomp.formal.supervisory import Plan

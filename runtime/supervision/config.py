@@ -99,6 +99,10 @@ class SupervisorConfig:
       them (``Configurator(recovery=True)``).
     - ``wait_timeout`` (s): the longest a WAIT stands watching before the plan is made anew
       around what stayed.
+    - ``move_away`` (m): after a push felt (an IMU kick, a revolution seeing through the map)
+      that left ``hazard_points`` scan points within ``push_margin`` (m) of the body, the
+      supervisor drives or backs this far clear of them before it plans (MOVING_AWAY,
+      :mod:`clomp.runtime.supervision.pushaway`); 0: never (as before).
 
     >>> SupervisorConfig(confirm=0)
     Traceback (most recent call last):
@@ -132,6 +136,8 @@ class SupervisorConfig:
     relocate_at_goal: int = 0
     moving: bool = False
     wait_timeout: float = 4.0
+    move_away: float = 0.12
+    push_margin: float = 0.04
 
     def __post_init__(self) -> None:
         if self.feedback not in FEEDBACK:
@@ -153,6 +159,8 @@ class SupervisorConfig:
         _non_negative("min_progress", self.min_progress)
         _non_negative("lookahead", self.lookahead)
         _non_negative("wait_timeout", self.wait_timeout, positive=True)
+        _non_negative("move_away", self.move_away)
+        _non_negative("push_margin", self.push_margin)
         if not (isinstance(self.end_tolerance, tuple) and len(self.end_tolerance) == 2):
             raise ValueError(f"end_tolerance must be (metres, radians), got {self.end_tolerance!r}")
         for name, x in zip(("end_tolerance[0]", "end_tolerance[1]"), self.end_tolerance):

@@ -9,10 +9,13 @@
                  REPLANNING ─planned / at_goal / goal_unconfirmed / no_plan→ (as from PLANNING)
                  CONFIRMING ─at_goal→ GOAL_REACHED    CONFIRMING ─approach→ REPLANNING
                  CONFIRMING ─goal_unconfirmed→ GOAL_UNCONFIRMED
+    EXECUTING, REPLANNING ─move_away→ MOVING_AWAY ─moved_away / disagree→ REPLANNING
     any non-terminal state ─fault / abort→ HALTED
 
 CONFIRMING (wheels stopped): the estimate put the robot at the goal but could not vouch for
 it; the supervisor stands and looks before it gives up (:mod:`clomp.runtime.supervision.goal`).
+MOVING_AWAY (wheels turning): a push felt left the robot against an obstacle; a short
+straight or reverse takes it clear before it plans (:mod:`clomp.runtime.supervision.pushaway`).
 
 The machine is described once, as data, in :data:`clomp.formal.control.SUPERVISOR` (states,
 events with their controllability, guards, where the wheels may turn); this module
@@ -62,6 +65,7 @@ class SupervisorState(str, enum.Enum):
     EXECUTING = "EXECUTING"
     REPLANNING = "REPLANNING"
     CONFIRMING = "CONFIRMING"
+    MOVING_AWAY = "MOVING_AWAY"
     GOAL_REACHED = "GOAL_REACHED"
     GOAL_UNCONFIRMED = "GOAL_UNCONFIRMED"
     UNREACHABLE = "UNREACHABLE"
@@ -83,6 +87,8 @@ class Event(str, enum.Enum):
     NO_PLAN = "no_plan"
     NEXT_TASK = "next_task"
     PLAN_SHORT = "plan_short"
+    MOVE_AWAY = "move_away"
+    MOVED_AWAY = "moved_away"
     DISAGREE = "disagree"
     FAULT = "fault"
     ABORT = "abort"
@@ -130,7 +136,8 @@ def state_machine_prism() -> str:
     """The supervisor's state machine as a PRISM MDP (events are nondeterministic
     choices), written by :func:`clomp.formal.export.write_prism`: ``q`` is the state, labels
     ``motors`` (the wheels may turn), ``terminal`` and one per state in lower case, e.g.
-    ``Pmax=? [F ("motors" & !"executing")]`` = 0 (the wheels turn only in EXECUTING).
+    ``Pmax=? [F ("motors" & !"executing" & !"moving_away")]`` = 0 (the wheels turn only in
+    EXECUTING and MOVING_AWAY).
     The closed loop with the robot is :func:`clomp.formal.control.machine_model` (checked by
     ``specs/properties/supervisor/machine.pctl``).
 

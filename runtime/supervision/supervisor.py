@@ -89,6 +89,7 @@ from clomp.runtime.supervision.execution import GuardViolation, end_error, guard
 from clomp.runtime.supervision.goal import at_goal, confirm_tick, relocated_at_goal
 from clomp.runtime.supervision.moving import Appearance, wait_tick
 from clomp.runtime.supervision.planwatch import PlanWatch
+from clomp.runtime.supervision.pushaway import move_tick, push_tick
 from clomp.runtime.supervision.replanning import fresh_plan, recall
 from clomp.runtime.supervision.progress import Progress
 from clomp.runtime.supervision.records import PlanRecord, SupervisorReport, TaskRecord, TimedRecord
@@ -171,6 +172,10 @@ class Supervisor:
         self.alarms = self.watch.alarms
         self.checks, self.recalls = self.watch.checks, self.watch.recalls
         self.appearance = Appearance(self.model)  # what appeared since the last plan (``moving`` only)
+        self._push_events = 0  # the estimator's doubt events looked at (clomp.runtime.supervision.pushaway)
+        self._pushed_at: float | None = None  # when a push was felt that is still to be judged
+        self._away: Task | None = None  # MOVING_AWAY's move
+        self._away_ticks = 0
 
     # -- public -------------------------------------------------------------------------------
     @property
@@ -340,18 +345,22 @@ class Supervisor:
             self._take(frame, now)
         elif self.sensing.seconds_silent(now) > self.config.scan_timeout:
             raise RobotFault(f"sensor silent: no scan for {self.sensing.seconds_silent(now):.2f} s")
-        if self.state in (S.PLANNING, S.REPLANNING):
+        if push_tick(self, now, frame is not None):
+            pass  # pushed against an obstacle: it started moving away (clomp.runtime.supervision.pushaway)
+        elif self.state in (S.PLANNING, S.REPLANNING):
             self._plan_tick(now)
         elif self.state is S.EXECUTING:
             self._execute_tick(now)
         elif self.state is S.CONFIRMING:
             confirm_tick(self, now)
+        elif self.state is S.MOVING_AWAY:
+            move_tick(self, now)
         self.trajectory.append((now - (self._t0 or 0.0), self.pose.x, self.pose.y, self.pose.theta))
 
     def _take(self, frame: ScanFrame, now: float) -> None:
         """A new revolution: the estimate takes it, the log and the alarms see it, and a plan
         check is due once a revolution while executing."""
-        self._check_due = self.state is S.EXECUTING
+        self._check_due = self.state in MOTOR_STATES
         rec = self.sensing.take(frame, now, self._cmd, still=not self._check_due)
         if self.log is not None:
             if rec is not None:

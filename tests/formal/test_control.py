@@ -19,7 +19,8 @@ def _verdicts(machine: Machine) -> dict[str, tuple[bool | None, list[str]]]:
 def test_the_shipped_machine_satisfies_every_property():
     v = _verdicts(SUPERVISOR)
     assert set(v) == {"wheels_only_on_a_task", "fault_stops_the_wheels", "terminal_is_still", "nonblocking", "goal_possible",
-                      "unconfirmed_stays_unconfirmed", "unconfirmed_only_after_confirming", "confirming_is_still"}
+                      "unconfirmed_stays_unconfirmed", "unconfirmed_only_after_confirming", "confirming_is_still",
+                      "moving_away_then_replans", "moving_away_only_backing_off"}
     assert all(passed for passed, _ in v.values()), v
 
 
@@ -40,8 +41,9 @@ def test_wheels_on_in_replanning_fails_in_storm():
 
 
 def test_events_are_split_into_controllable_and_uncontrollable():
-    assert SUPERVISOR.controllable == {"start", "planned", "next_task", "abort", "approach"}
-    assert SUPERVISOR.uncontrollable == {"no_plan", "at_goal", "goal_unconfirmed", "plan_short", "disagree", "fault"}
+    assert SUPERVISOR.controllable == {"start", "planned", "next_task", "abort", "approach", "move_away"}
+    assert SUPERVISOR.uncontrollable == {"no_plan", "at_goal", "goal_unconfirmed", "plan_short", "disagree", "fault",
+                                         "moved_away"}
     assert all(t.guard is None or t.guard in SUPERVISOR.guards for t in SUPERVISOR.transitions)
 
 
@@ -115,3 +117,28 @@ def test_confirming_stands_and_is_the_only_way_to_unconfirmed():
     assert v["unconfirmed_only_after_confirming"][0] is False and v["confirming_is_still"][0] is True
     v = _verdicts(SUPERVISOR.with_wheels({"EXECUTING", "CONFIRMING"}))
     assert v["confirming_is_still"][0] is False
+
+
+def test_moving_away_after_a_push_keeps_the_checks_and_ends_in_a_replan():
+    """A push that left the robot against an obstacle: MOVING_AWAY turns the wheels (the plant
+    backs off), is entered on the supervisor's ``move_away`` from EXECUTING or REPLANNING, and
+    ends on the uncontrollable ``moved_away`` (or a blocked way, ``disagree``) in REPLANNING.
+    Controllable and non-blocking; ignoring ``moved_away`` breaks controllability, a move that
+    ends in another move or one made with the plant stopped breaks the properties that say so."""
+    assert "MOVING_AWAY" in SUPERVISOR.wheels and "MOVING_AWAY" not in SUPERVISOR.terminal
+    assert "move_away" in SUPERVISOR.controllable and "moved_away" in SUPERVISOR.uncontrollable
+    for s in ("EXECUTING", "REPLANNING"):
+        assert SUPERVISOR.target(s, "move_away") == "MOVING_AWAY"
+    assert SUPERVISOR.target("MOVING_AWAY", "moved_away") == "REPLANNING"
+    assert controllability(SUPERVISOR, PLANT).ok and nonblocking(SUPERVISOR, PLANT).ok
+    r = controllability(SUPERVISOR.with_transition("MOVING_AWAY", "moved_away", None), PLANT)
+    assert not r.ok and "MOVING_AWAY disables uncontrollable 'moved_away'" in str(r)
+    stuck = SUPERVISOR.with_transition("MOVING_AWAY", "moved_away", "EXECUTING")
+    assert _verdicts(stuck)["moving_away_then_replans"][0] is False
+    from clomp.formal.control import MachineTransition
+    from dataclasses import replace
+
+    still = replace(PLANT, transitions=tuple(t if (t.source, t.event) != ("STOPPED", "move_away")
+                                             else MachineTransition("STOPPED", "move_away", "STOPPED")
+                                             for t in PLANT.transitions))
+    assert {r.spec.name: r.passed for r in check_machine(SUPERVISOR, still)}["moving_away_only_backing_off"] is False

@@ -215,7 +215,7 @@ def test_goal_in_robot_frame_follows_the_pose_estimate():
 # -- the machine itself -----------------------------------------------------------------------------
 def test_transition_table_invariants():
     states = set(SupervisorState)
-    assert MOTOR_STATES == {S.EXECUTING}
+    assert MOTOR_STATES == {S.EXECUTING, S.MOVING_AWAY}
     for s in states - TERMINAL:
         assert TRANSITIONS[(s, Event.FAULT)] is S.HALTED
         assert TRANSITIONS[(s, Event.ABORT)] is S.HALTED
@@ -231,6 +231,9 @@ def test_transition_table_invariants():
     assert seen == states
     # the only ways into EXECUTING are a plan or the next task of a plan
     assert {ev for (_, ev), dst in TRANSITIONS.items() if dst is S.EXECUTING} == {Event.PLANNED, Event.NEXT_TASK}
+    # the move away after a push: entered only on move_away, left only for a plan made afresh (or a halt)
+    assert {ev for (_, ev), dst in TRANSITIONS.items() if dst is S.MOVING_AWAY} == {Event.MOVE_AWAY}
+    assert {dst for (src, _), dst in TRANSITIONS.items() if src is S.MOVING_AWAY} == {S.REPLANNING, S.HALTED}
 
 
 def test_dot_export_names_every_state_and_transition():
@@ -258,7 +261,7 @@ def test_prism_export_checks_in_storm(tmp_path):
     path.write_text(state_machine_prism())
     program = stormpy.parse_prism_program(str(path))
     props = stormpy.parse_properties(
-        'Pmax=? [F ("motors" & !"executing")]; Pmax=? [F ("halted" & "motors")]; Pmax=? [F "goal_reached"]; '
+        'Pmax=? [F ("motors" & !"executing" & !"moving_away")]; Pmax=? [F ("halted" & "motors")]; Pmax=? [F "goal_reached"]; '
         'Pmax=? [F "halted"]; Pmax=? [F ("executing" & !"motors")]',
         program,
     )
@@ -266,7 +269,7 @@ def test_prism_export_checks_in_storm(tmp_path):
     assert model.nr_states == len(SupervisorState)  # one model state per machine state
     init = model.initial_states[0]
     values = [stormpy.model_checking(model, p).get_value(init) for p in props]
-    assert values[0] == pytest.approx(0.0)  # the wheels turn only in EXECUTING
+    assert values[0] == pytest.approx(0.0)  # the wheels turn only in EXECUTING and MOVING_AWAY
     assert values[1] == pytest.approx(0.0)  # never halted with the wheels on
     assert values[2] == pytest.approx(1.0)  # the goal can be reached
     assert values[3] == pytest.approx(1.0)  # a fault can be taken
