@@ -45,6 +45,12 @@ class SupervisorConfig:
     - ``max_plans``: fresh plans at most, then UNREACHABLE.
     - ``patience``: plans in a row that bring the robot no closer (by ``min_progress``)
       before UNREACHABLE (with 3, three of ten harsh slalom runs gave up 5-8 s in).
+    - ``stall_time`` (s), ``real_progress`` (m): plans that in ``stall_time`` seconds of the
+      run brought the robot less than ``real_progress`` closer to the goal (its best distance
+      at a plan) before UNREACHABLE (:meth:`~clomp.runtime.supervision.progress.Progress.stalled_for`):
+      ``patience`` counts plans, and deep plans that each creep a few centimetres on ran a
+      cul-de-sac or a shut door into the time limit. 30 s and 0.1 m: the longest such lull
+      of a run that then reached its goal was 28.5 s (42 harsh and paper runs). 0 s: never.
     - ``max_recalls``: REPLANNING's recalls of the map in a row before it explores anew.
     - ``max_stuck``: plans in a row that end before the robot moved ``min_progress``
       before UNREACHABLE (standing by an obstacle, interrupted again and again).
@@ -116,6 +122,8 @@ class SupervisorConfig:
     scan_timeout: float = 1.0
     max_plans: int = 30
     patience: int = 6
+    stall_time: float = 30.0
+    real_progress: float = 0.1
     max_recalls: int = 5
     max_stuck: int = 8
     min_progress: float = 0.03
@@ -159,6 +167,8 @@ class SupervisorConfig:
         _non_negative("min_progress", self.min_progress)
         _non_negative("lookahead", self.lookahead)
         _non_negative("wait_timeout", self.wait_timeout, positive=True)
+        _non_negative("stall_time", self.stall_time)
+        _non_negative("real_progress", self.real_progress)
         _non_negative("move_away", self.move_away)
         _non_negative("push_margin", self.push_margin)
         if not (isinstance(self.end_tolerance, tuple) and len(self.end_tolerance) == 2):

@@ -3,7 +3,10 @@
 The counts behind UNREACHABLE (see :mod:`clomp.runtime.supervision.supervisor`): plans in
 a row that found no safe task (``confirm``), plans that backed off with none between that
 found a task without (``confirm`` too), plans in a row that brought the robot no closer to
-the goal (``patience``), and the recalled continuations already taken (the same
+the goal (``patience``), plans that in ``stall_time`` seconds brought it less than
+``real_progress`` closer (a count of plans misses deep plans that each creep a few
+centimetres on: a cul-de-sac or a shut door ran into the time limit, HALTED, after 9-25
+plans), and the recalled continuations already taken (the same
 one again, after tasks of it ran and no closer than before, is a loop).
 
 >>> from clomp.runtime.supervision.config import SupervisorConfig
@@ -39,6 +42,7 @@ class Progress:
         self.best = math.inf  # the closest to the goal (m) a plan started from
         self.stalled = 0  # plans in a row that started no closer than ``best``
         self._recalled: dict[tuple[int, int], tuple[float, int]] = {}  # (map, state) -> distance, tasks done
+        self._history: list[tuple[float, float]] = []  # (time s, best distance m) at each plan judged in time
 
     def backed_off(self, dist: float) -> str | None:
         """A plan made ``dist`` m from the goal found no safe task of the paper's three and
@@ -72,10 +76,12 @@ class Progress:
         return ("goal unreachable: no safe task leads closer to the goal"
                 + (f" (on {self.empty} scans in a row)" if self.empty > 1 else ""))
 
-    def planned(self, reached_goal: bool, dist: float) -> str | None:
-        """A plan with tasks, made ``dist`` m from the goal (``reached_goal``: it ends there):
-        the reason to give up after ``patience`` plans in a row that came no closer, else None.
-        Progress is what the robot achieved, not what a plan to the disc's rim promised."""
+    def planned(self, reached_goal: bool, dist: float, now: float | None = None) -> str | None:
+        """A plan with tasks, made ``dist`` m from the goal (``reached_goal``: it ends there) at
+        ``now`` s (the run's time; None: not judged in time): the reason to give up after
+        ``patience`` plans in a row that came no closer, or when the plans of the last
+        ``stall_time`` s brought it less than ``real_progress`` closer (:meth:`stalled_for`),
+        else None. Progress is what the robot achieved, not what a plan to the disc's rim promised."""
         self.empty = self.backoffs = 0
         if reached_goal or dist < self.best - self.config.min_progress:
             self.stalled = 0
@@ -84,11 +90,37 @@ class Progress:
             if self.stalled >= self.config.patience:
                 return f"goal unreachable: {self.stalled} plans in a row brought it no closer"
         self.best = min(self.best, dist)
+        if now is None or reached_goal:
+            return None
+        return self.stalled_for(now)
+
+    def stalled_for(self, now: float) -> str | None:
+        """Progress in time: the reason to give up when the best distance known at ``now`` s is
+        less than ``real_progress`` below the best known ``stall_time`` s before (plans judged
+        for at least that long), else None. A few centimetres now and then is no progress.
+
+        >>> p = Progress(SupervisorConfig(stall_time=30.0, real_progress=0.1))
+        >>> [p.planned(False, d, t) for t, d in ((0.0, 1.0), (20.0, 0.96), (31.0, 0.92))]
+        [None, None, 'goal unreachable: 0.08 m closer in the last 30 s (needs 0.1 m)']
+        >>> p = Progress(SupervisorConfig(stall_time=30.0, real_progress=0.1))
+        >>> [p.planned(False, d, t) for t, d in ((0.0, 1.0), (20.0, 0.96), (31.0, 0.85))]
+        [None, None, None]
+        """
+        cfg = self.config
+        self._history.append((now, self.best))
+        if cfg.stall_time <= 0 or now - self._history[0][0] < cfg.stall_time:
+            return None
+        before = min((b for t, b in self._history if t <= now - cfg.stall_time), default=self._history[0][1])
+        gain = before - self.best
+        if gain < cfg.real_progress:
+            return (f"goal unreachable: {max(gain, 0.0):.2f} m closer in the last {cfg.stall_time:g} s "
+                    f"(needs {cfg.real_progress:g} m)")
         return None
 
     def world_changed(self) -> None:
         """What stood in the way turned out to stay (a WAIT timed out, issue #42): the plans
-        before were made for another world, so their lack of progress no longer counts.
+        before were made for another world, so their lack of progress no longer counts (in
+        plans or in time).
 
         >>> from clomp.runtime.supervision.config import SupervisorConfig
         >>> p = Progress(SupervisorConfig(patience=2))
@@ -98,6 +130,7 @@ class Progress:
         True
         """
         self.stalled = 0
+        self._history.clear()
 
     def recalled(self) -> None:
         """A recalled plan runs: an earlier empty one no longer counts towards ``confirm``."""

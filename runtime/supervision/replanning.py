@@ -64,7 +64,8 @@ def fresh_plan(sup: Supervisor, scan: np.ndarray, goal: tuple[float, float], dis
     if backs_off(result, sup.configurator.recovery):
         why = sup.progress.backed_off(dist)
     else:
-        why = sup.progress.no_safe_task() if not result.steps else sup.progress.planned(result.reached_goal, dist)
+        why = (sup.progress.no_safe_task() if not result.steps
+               else sup.progress.planned(result.reached_goal, dist, now - (sup._t0 or 0.0)))
     if why is not None:
         sup._fire(E.NO_PLAN, why)
         return
