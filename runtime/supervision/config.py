@@ -49,8 +49,10 @@ class SupervisorConfig:
       run brought the robot less than ``real_progress`` closer to the goal (its best distance
       at a plan) before UNREACHABLE (:meth:`~clomp.runtime.supervision.progress.Progress.stalled_for`):
       ``patience`` counts plans, and deep plans that each creep a few centimetres on ran a
-      cul-de-sac or a shut door into the time limit. 30 s and 0.1 m: the longest such lull
-      of a run that then reached its goal was 28.5 s (42 harsh and paper runs). 0 s: never.
+      cul-de-sac or a shut door into the time limit. 30 s and 0.1 m: in 59 runs of 10
+      families whose goal can be reached (harsh and paper) the longest such lull was 28 s (a
+      21 s detour in clutter at paper), and the 16 runs at a cul-de-sac or a shut door then
+      all end by 97 s. 0 s: never.
     - ``max_recalls``: REPLANNING's recalls of the map in a row before it explores anew.
     - ``max_stuck``: plans in a row that end before the robot moved ``min_progress``
       before UNREACHABLE (standing by an obstacle, interrupted again and again).
