@@ -167,11 +167,11 @@ _EVENTS = (
     MachineEvent("approach", True, "confirming, the settled estimate put the robot off the goal: the supervisor "
                                    "plans to it again"),
     MachineEvent("plan_short", False, "the plan's last task ended short of the goal"),
+    MachineEvent("disagree", False, "a scan or a task's end disagrees with the map (hazard, off prediction, overrun)"),
     MachineEvent("move_away", True, "a push felt (an IMU kick, or a revolution seeing through the map) left the robot "
                                     "touching or within a margin of an obstacle: the supervisor backs or drives a short "
                                     "way clear of it before it plans"),
     MachineEvent("moved_away", False, "the move away ended (its distance driven, or its time spent)"),
-    MachineEvent("disagree", False, "a scan or a task's end disagrees with the map (hazard, off prediction, overrun)"),
     MachineEvent("fault", False, "a device fails (motor controller, LiDAR, a robot fault)"),
 )
 

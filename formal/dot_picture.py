@@ -10,14 +10,14 @@ a layout that fits a page, poses in the states' labels and a state's many self-l
   the double borders (terminal) and the folded self-loops;
 - :func:`pose_line` — a state's end pose as a label line (planner frame, metres and degrees);
 - :func:`folded_loops` — a state's self-loops on several events as one edge labelled with
-  all of them (a terminal state of the supervisor ignores six events: one loop, not six).
+  all of them (a terminal state of the supervisor ignores seven events: one loop, not seven).
 
 Nothing here changes a model: only how its DOT text looks.
 
 >>> from clomp.formal.control import SUPERVISOR, machine_model
 >>> m = machine_model(SUPERVISOR, None)
 >>> len(folded_loops(m)), folded_loops(m)[0].split(", color")[0].strip()
-(4, '2 -> 2 [label="ignores 6 events"')
+(4, '2 -> 2 [label="ignores 7 events"')
 """
 
 from __future__ import annotations

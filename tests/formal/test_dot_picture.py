@@ -63,7 +63,7 @@ def test_supervisor_terminal_states_have_one_labelled_loop_each():
     for k, label in re.findall(r"^\s*(\d+) -> \1 \[label=\"([^\"]*)\"", dot, re.M):
         loops.setdefault(names[k], []).append(label)
     for s in TERMINAL:
-        assert loops.get(s.value) == ["ignores 6 events"], (s, loops.get(s.value))
+        assert loops.get(s.value) == ["ignores 7 events"], (s, loops.get(s.value))
     assert loops["EXECUTING"] == ["next_task"]
     legend = next(line for line in dot.splitlines() if line.strip().startswith("legend ["))
     for ev in ("no_plan", "at_goal", "goal_unconfirmed", "plan_short", "disagree", "fault"):
