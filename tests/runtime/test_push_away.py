@@ -13,12 +13,13 @@ from clomp.runtime.supervision.states import SupervisorState as S
 from clomp.runtime.supervision.supervisor import Supervisor, SupervisorConfig
 
 
-def _pushed_into_the_box(move_away: float) -> tuple[Supervisor, list]:
+def _pushed_into_the_box(move_away: float | None) -> tuple[Supervisor, list]:
     """Overtaking, ideal noise with the IMU: 3 s in, while a task runs, a push slides the
     robot 0.3 m along +x into the box ahead; 5 s more of the run."""
     scene = load_scenario("overtaking")
     world = make_world_robot(scene, "ideal", seed=0)
-    sup = Supervisor(world, scene.goal_in_robot_frame(), config=SupervisorConfig(move_away=move_away))
+    cfg = SupervisorConfig() if move_away is None else SupervisorConfig(move_away=move_away)
+    sup = Supervisor(world, scene.goal_in_robot_frame(), config=cfg)
     sup.start()
     pushed = None
     while not sup.terminal and (pushed is None or sup.clock.now() < pushed + 5.0):
@@ -33,7 +34,7 @@ def _pushed_into_the_box(move_away: float) -> tuple[Supervisor, list]:
 
 
 def test_a_push_into_the_box_is_answered_by_backing_off_and_stays_a_brush():
-    sup, episodes = _pushed_into_the_box(0.12)
+    sup, episodes = _pushed_into_the_box(None)  # the default move
     moves = [t for t in sup.transitions if t.target is S.MOVING_AWAY]
     assert len(moves) == 1 and "backing off" in moves[0].reason, sup.transitions
     after = [t for t in sup.transitions if t.source is S.MOVING_AWAY]
