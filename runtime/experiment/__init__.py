@@ -3,7 +3,7 @@
 - :mod:`.layouts` — layout families, each world reproducible from (family, seed, run);
 - :mod:`.reactive` — the paper's reactive baseline (one loop, one straight step of look-ahead);
 - :mod:`.groundtruth` — the execution world a run uses and its ground truth (pose, contact trace);
-- :mod:`.contacts` — contact episodes: collisions and brushes, counted as the paper would;
+- :mod:`.contacts` — contact episodes: collisions and brushes, counted as the paper would, and pushed contacts apart;
 - :mod:`.runspec` — what one run depends on (:class:`~.runspec.RunSpec`) and its seeding;
 - :mod:`.onerun` — one run of one condition, measured on the ground truth;
 - :mod:`.runrecords` — one run as a pure function of its spec, a JSON-ready record; reading them back;
