@@ -93,21 +93,30 @@ def causes(pairs: list[dict[str, Any]]) -> None:
                   f"pushes at {[round(t, 1) for t in r.get('pushes', [])]} s of {r.get('time', math.nan):.0f} s")
 
 
-def resampled(rec: dict[str, Any], noise: str, variant: str, family: str, k: int) -> float:
-    """The first plan's P on a map sampled anew from ``rec``'s first scan (see the module)."""
+def resampled(rec: dict[str, Any], noise: str, variant: str, family: str, k: int, terms: tuple[float, float] | None = None) -> float:
+    """The first plan's P on a map sampled anew from ``rec``'s first scan (see the module);
+    ``terms``: the whole-run (lost, stand) of variant ``cross`` (the other fold's fit)."""
     import numpy as np
 
     from clomp.planner.pushes import Pushes
     from clomp.planner.robust import CLOSED_LOOP_HAZARD, RobustConfigurator, closed_loop_pushes
 
-    pushes = Pushes.preset(noise) if variant == "pushes" else closed_loop_pushes(noise) if variant == "whole" else None
+    pushes: Pushes | None = None
+    if variant == "pushes":
+        pushes = Pushes.preset(noise)
+    elif variant == "whole":
+        pushes = closed_loop_pushes(noise)
+    elif variant == "cross" and terms is not None and Pushes.preset(noise).active:
+        pushes = Pushes(Pushes.preset(noise).rate, Pushes.preset(noise).size, *terms)
     conf = RobustConfigurator(samples=rec.get("samples", 30), noise=noise, seed=1000 * k, hazard=CLOSED_LOOP_HAZARD,
                               pushes=pushes, max_states=rec.get("first_states", 50), recovery=rec.get("first_recovery", False))
     return float(conf.sample(np.asarray(rec["scan"], dtype=float), tuple(rec["goal"])).p_greedy)
 
 
-def resample_all(pairs: list[dict[str, Any]], variants: list[str], cache_path: str | None) -> None:
-    """Add ``rec["pred"]["resampled: V"]`` to every greedy record, from ``cache_path`` where kept."""
+def resample_all(pairs: list[dict[str, Any]], variants: list[str], cache_path: str | None,
+                 folds: dict[int, tuple[float, float]] | None = None) -> None:
+    """Add ``rec["pred"]["resampled: V"]`` to every greedy record, from ``cache_path`` where kept;
+    ``folds``: for variant ``cross``, the (lost, stand) to predict layout k with (its fold k % 2's)."""
     cache: dict[str, float] = {}
     if cache_path and os.path.exists(cache_path):
         with open(cache_path, encoding="utf-8") as fh:
@@ -118,9 +127,11 @@ def resample_all(pairs: list[dict[str, Any]], variants: list[str], cache_path: s
             if r is None or "scan" not in r:
                 continue
             for v in variants:
-                key = f"{p['noise']}|{p['family']}|{p['run']}|{_variant_key(v, p['noise'])}"
+                terms = (folds or {}).get(p["run"] % 2) if v == "cross" else None
+                vk = f"cross {terms[0]:.3f} {terms[1]:.1f}" if terms is not None else _variant_key(v, p["noise"])
+                key = f"{p['noise']}|{p['family']}|{p['run']}|{vk}"
                 if key not in cache:
-                    cache[key] = resampled(r, p["noise"], v, p["family"], p["run"])
+                    cache[key] = resampled(r, p["noise"], v, p["family"], p["run"], terms)
                     _save(cache, cache_path)
                 r["pred"][f"resampled: {v}"] = cache[key]
     finally:
@@ -242,7 +253,8 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("files", nargs="+")
     ap.add_argument("--noise", nargs="+", default=["harsh"])
-    ap.add_argument("--resample", nargs="*", default=[], choices=["current", "pushes", "whole"])
+    ap.add_argument("--resample", nargs="*", default=[], choices=["current", "pushes", "whole", "cross"],
+                    help="cross: the whole-run model with the terms fitted on the other layouts' parity (2-fold cross-fit)")
     ap.add_argument("--cache", help="JSON file keeping resampled predictions between calls")
     ap.add_argument("--resample-from", type=float, default=0.0, metavar="P",
                     help="resample only the runs whose first plan's P is at least P (the rest keep no resampled value)")
@@ -256,12 +268,19 @@ def main(argv: list[str] | None = None) -> int:
         for nz in args.noise:
             print(f"noise {nz}, layouts below {args.train_below}:")
             fit_whole_run([p for p in pairs if p["noise"] == nz and p["run"] < args.train_below])
+    folds: dict[int, tuple[float, float]] = {}
+    if "cross" in args.resample:
+        if len(args.noise) != 1:
+            ap.error("--resample cross fits one noise preset: give one --noise")
+        for parity in (0, 1):  # layout k is predicted with the terms fitted on the layouts of the other parity
+            print(f"noise {args.noise[0]}, fit on the {'odd' if parity == 0 else 'even'} layouts (predicts the {'even' if parity == 0 else 'odd'}):")
+            folds[parity] = fit_whole_run([p for p in pairs if p["run"] % 2 != parity])
     pairs = [p for p in pairs if p["run"] >= args.train_below]
     for p in pairs:
         p["greedy"]["pred"] = predictions(p["greedy"])
     if args.resample:
         todo = sorted((p for p in pairs if p["greedy"]["pred"][MAIN] >= args.resample_from), key=lambda p: (p["run"], p["family"]))
-        resample_all(todo, args.resample, args.cache)
+        resample_all(todo, args.resample, args.cache, folds)
         pairs = [p for p in pairs if all(f"resampled: {v}" in p["greedy"]["pred"] for v in args.resample)]
     for nz in args.noise:
         sub = [p for p in pairs if p["noise"] == nz]
