@@ -421,13 +421,19 @@ def sample_map(
     b.map = _reachable_part(b.map)
     plan = extract_plan(b.map)
     b.map.metadata.update({"plan": list(plan.states), "samples": samples, "noise": nz.to_dict(), "seed": seed, "nominal_plan": list(nominal.plan.states),
-                           "carry": carry, **({"pushes": [pushes.rate, pushes.size]} if pushes is not None and pushes.active else {}),
+                           "carry": carry, **({"pushes": _pushes_record(pushes)} if pushes is not None and pushes.active else {}),
                            STOPS_KEY: {str(i): src for i, src in sorted(b.stops.items()) if i in b.map and src in b.map},
                            **({LOST_KEY: {str(i): src for i, src in sorted(b.lost.items()) if i in b.map}} if b.lost else {})})
     if hazard is not None and hazard.contacts:
         b.map.metadata[OFFS_KEY] = {str(i): a for i, a in sorted(_offs(b).items())}
     kept = sum(1 for i in b.new if i in b.map)
     return ProbabilisticMap(b.map, nominal, samples, nz, time.perf_counter() - t0, time.thread_time() - c0, kept)
+
+
+def _pushes_record(p: Pushes) -> list[float]:
+    """The map's record of its pushes: [rate, size], with [lost, stand] after them when
+    the whole run's terms are on (a map sampled without them reads as before)."""
+    return [p.rate, p.size] + ([p.lost, p.stand] if p.lost or p.stand else [])
 
 
 def _offs(b: _Builder) -> dict[int, int]:

@@ -115,3 +115,22 @@ def test_standing_time_is_exposed_on_the_first_task_only():
 def test_whole_run_pushes_refuse_a_lost_chance_above_one():
     with pytest.raises(NoiseError):
         Pushes(0.02, 0.2, lost=1.5)
+
+
+def test_closed_loop_export_samples_the_worlds_pushes_with_the_whole_run_terms(tmp_path, capsys):
+    """``clomp export --closed-loop`` writes the model the calibration bench checks
+    (:func:`clomp.planner.robust.closed_loop_pushes`): at harsh the world's pushes and the
+    whole run's terms; at paper none; without ``--closed-loop`` none (the robust planner's map)."""
+    import json
+
+    import clomp.runtime.cli as cli
+    from clomp.planner.pushes import WHOLE_RUN
+
+    def meta(*extra: str) -> dict:
+        out = tmp_path / "m.json"
+        assert cli.main(["export", "--scenario", "overtaking", "--samples", "3", *extra, "-f", "json", "-o", str(out)]) == 0
+        return json.loads(out.read_text())["metadata"]
+
+    assert meta("--noise", "harsh", "--closed-loop")["pushes"] == [0.02, 0.2, *WHOLE_RUN["harsh"]]
+    assert "pushes" not in meta("--noise", "paper", "--closed-loop")
+    assert "pushes" not in meta("--noise", "harsh")
