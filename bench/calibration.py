@@ -2,7 +2,8 @@
 
 Run: ``python bench/calibration.py [--layouts 100] [--families doorway clutter]
 [--noise paper harsh] [--samples 30] [--conditions greedy robust] [--workers K]
-[--out FILE.jsonl]``, and ``python bench/calibration.py --summary FILE.jsonl …`` for the
+[--out FILE.jsonl [--resume]]`` (``--resume``: in stages, leaving out the layouts
+``--out`` holds; each record is written as its run ends), and ``python bench/calibration.py --summary FILE.jsonl …`` for the
 tables of runs already made. For every layout (family, seed 0, index k;
 :func:`clomp.runtime.experiment.layouts.make_layout`, the layouts of ``clomp experiment``)
 and noise preset, the supervisor drives the layout in the execution world with the
