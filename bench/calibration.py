@@ -2,7 +2,8 @@
 
 Run: ``python bench/calibration.py [--layouts 100] [--families doorway clutter]
 [--noise paper harsh] [--samples 30] [--conditions greedy robust] [--workers K]
-[--out FILE.jsonl]``, and ``python bench/calibration.py --summary FILE.jsonl …`` for the
+[--out FILE.jsonl [--resume]]`` (``--resume``: in stages, leaving out the layouts
+``--out`` holds; each record is written as its run ends), and ``python bench/calibration.py --summary FILE.jsonl …`` for the
 tables of runs already made. For every layout (family, seed 0, index k;
 :func:`clomp.runtime.experiment.layouts.make_layout`, the layouts of ``clomp experiment``)
 and noise preset, the supervisor drives the layout in the execution world with the
@@ -50,7 +51,7 @@ import sys
 import tempfile
 import time
 from collections.abc import Callable, Iterator
-from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures import ProcessPoolExecutor, as_completed
 from typing import Any
 
 from clomp.planner.configurator import PlanResult
@@ -260,8 +261,23 @@ def diagnosis(r: Any, errors: dict[str, list[float]]) -> dict[str, Any]:
 
 
 def _todo(args: argparse.Namespace) -> list[tuple[str, int, str]]:
-    """(family, k, noise) in the order k = first, first + 1, …: a run stopped early is balanced."""
-    return [(f, k, nz) for k in range(args.first, args.first + args.layouts) for nz in args.noise for f in args.families]
+    """(family, k, noise) in the order k = first, first + 1, …: a run stopped early is balanced.
+    With ``--resume``, the layouts whose every asked condition ``--out`` already holds are left out."""
+    todo = [(f, k, nz) for k in range(args.first, args.first + args.layouts) for nz in args.noise for f in args.families]
+    if getattr(args, "resume", False) and args.out and os.path.exists(args.out):
+        held = done(read_records([args.out]), tuple(args.conditions))
+        todo = [t for t in todo if (t[2], t[0], t[1]) not in held]
+    return todo
+
+
+def done(pairs: list[dict[str, Any]], conditions: tuple[str, ...]) -> set[tuple[str, str, int]]:
+    """(noise, family, layout) of the records ``pairs`` that hold a run of every one of ``conditions``.
+
+    >>> sorted(done([{"noise": "harsh", "family": "u-trap", "run": 3, "greedy": {}},
+    ...              {"noise": "paper", "family": "u-trap", "run": 3, "robust": {}}], ("greedy",)))
+    [('harsh', 'u-trap', 3)]
+    """
+    return {(p["noise"], p["family"], p["run"]) for p in pairs if all(c in p for c in conditions)}
 
 
 def _pairs(args: argparse.Namespace) -> Iterator[dict[str, Any]]:
@@ -271,11 +287,11 @@ def _pairs(args: argparse.Namespace) -> Iterator[dict[str, Any]]:
         for f, k, nz in todo:
             yield run_pair(f, k, nz, args.samples, args.max_time, conds, args.open_loop)
         return
-    n = len(todo)
     ctx = multiprocessing.get_context("spawn")  # no fork of a parent that may hold Storm's threads
     with ProcessPoolExecutor(max_workers=args.workers, mp_context=ctx) as pool:
-        yield from pool.map(run_pair, [t[0] for t in todo], [t[1] for t in todo], [t[2] for t in todo], [args.samples] * n,
-                            [args.max_time] * n, [conds] * n, [args.open_loop] * n)
+        futures = [pool.submit(run_pair, f, k, nz, args.samples, args.max_time, conds, args.open_loop) for f, k, nz in todo]
+        for fut in as_completed(futures):  # as each is done: a run stopped early keeps every finished record
+            yield fut.result()
 
 
 def calibration_rows(pred: list[float], ok: list[int]) -> list[dict[str, Any]]:
@@ -444,10 +460,14 @@ def _parse(argv: list[str] | None) -> argparse.Namespace:
     ap.add_argument("--max-time", type=float, default=120.0)
     ap.add_argument("--workers", type=int, default=1)
     ap.add_argument("--out", help="append every run's record as a JSON line to this file as it is done")
+    ap.add_argument("--resume", action="store_true",
+                    help="with --out: skip the layouts whose asked conditions --out already holds (a sweep run in stages)")
     ap.add_argument("--summary", nargs="+", metavar="FILE", help="print the tables of records already written (no runs)")
     args = ap.parse_args(argv)
     if args.layouts < 1 or args.first < 0 or args.samples < 1:
         ap.error("--layouts and --samples must be >= 1, --first >= 0")
+    if args.resume and not args.out:
+        ap.error("--resume continues the records of --out: give --out FILE")
     unknown = [f for f in args.families if f not in FAMILIES] + [n for n in args.noise if n not in preset_names()]
     if unknown:
         ap.error(f"unknown family or noise preset: {', '.join(unknown)} (families: {', '.join(FAMILIES)}; "

@@ -1,7 +1,7 @@
 """What the first plan's model misses: the calibration bench's runs read back.
 
-Run: ``python bench/calibration_model.py FILE.jsonl … [--noise harsh] [--resample current pushes]
-[--cache FILE.json] [--fit]`` on the records of ``bench/calibration.py --out``.
+Run: ``python bench/calibration_model.py FILE.jsonl … [--noise harsh] [--resample current pushes whole]
+[--cache FILE.json] [--fit] [--fit-whole-run] [--train-below K]`` on the records of ``bench/calibration.py --out``.
 
 - **Causes**: every failed greedy run by how it failed — a contact episode that began
   within :data:`PUSH_WINDOW` s of a push (the world's ``push_rate``), another contact, a
@@ -13,6 +13,16 @@ Run: ``python bench/calibration_model.py FILE.jsonl … [--noise harsh] [--resam
   gives now), ``pushes`` (the same with the world's pushes in the rollouts,
   :mod:`clomp.planner.pushes`). Each is a map and Storm per record (about 2 s of CPU);
   ``--cache`` keeps them between calls. Prints the calibration table of each.
+- ``whole``: the closed loop's model as ``clomp export --closed-loop`` writes it
+  (:func:`clomp.planner.robust.closed_loop_pushes`): the pushes with the estimator's
+  whole-run terms, a push that leaves the estimate lost is a dead end
+  (:data:`clomp.planner.pushes.WHOLE_RUN`).
+- **Whole-run fit** (``--fit-whole-run``, on the layouts below ``--train-below K``; the
+  tables are then of the layouts from K on, held out): ``lost``, the chance that a push
+  the body survived (no contact within :data:`PUSH_WINDOW` s) leaves the run failing, by
+  maximum likelihood of success ~ b (1 - lost)^k over the runs without a push contact (k
+  their survived pushes, b free); ``stand``, the median of a run's time beyond its first
+  plan's tasks over the runs that ended at the goal (reached or unconfirmed).
 - **Fit** (``--fit``): the tasks' end errors of the runs (truth against the supervisor's
   estimate, :func:`rollout_calibration.task_errors`) beside the rollouts' with the
   current closed-loop terms, and the terms that would match their mean and spread (one
@@ -83,21 +93,30 @@ def causes(pairs: list[dict[str, Any]]) -> None:
                   f"pushes at {[round(t, 1) for t in r.get('pushes', [])]} s of {r.get('time', math.nan):.0f} s")
 
 
-def resampled(rec: dict[str, Any], noise: str, variant: str, family: str, k: int) -> float:
-    """The first plan's P on a map sampled anew from ``rec``'s first scan (see the module)."""
+def resampled(rec: dict[str, Any], noise: str, variant: str, family: str, k: int, terms: tuple[float, float] | None = None) -> float:
+    """The first plan's P on a map sampled anew from ``rec``'s first scan (see the module);
+    ``terms``: the whole-run (lost, stand) of variant ``cross`` (the other fold's fit)."""
     import numpy as np
 
     from clomp.planner.pushes import Pushes
-    from clomp.planner.robust import CLOSED_LOOP_HAZARD, RobustConfigurator
+    from clomp.planner.robust import CLOSED_LOOP_HAZARD, RobustConfigurator, closed_loop_pushes
 
-    pushes = Pushes.preset(noise) if variant == "pushes" else None
+    pushes: Pushes | None = None
+    if variant == "pushes":
+        pushes = Pushes.preset(noise)
+    elif variant == "whole":
+        pushes = closed_loop_pushes(noise)
+    elif variant == "cross" and terms is not None and Pushes.preset(noise).active:
+        pushes = Pushes(Pushes.preset(noise).rate, Pushes.preset(noise).size, *terms)
     conf = RobustConfigurator(samples=rec.get("samples", 30), noise=noise, seed=1000 * k, hazard=CLOSED_LOOP_HAZARD,
                               pushes=pushes, max_states=rec.get("first_states", 50), recovery=rec.get("first_recovery", False))
     return float(conf.sample(np.asarray(rec["scan"], dtype=float), tuple(rec["goal"])).p_greedy)
 
 
-def resample_all(pairs: list[dict[str, Any]], variants: list[str], cache_path: str | None) -> None:
-    """Add ``rec["pred"]["resampled: V"]`` to every greedy record, from ``cache_path`` where kept."""
+def resample_all(pairs: list[dict[str, Any]], variants: list[str], cache_path: str | None,
+                 folds: dict[int, tuple[float, float]] | None = None) -> None:
+    """Add ``rec["pred"]["resampled: V"]`` to every greedy record, from ``cache_path`` where kept;
+    ``folds``: for variant ``cross``, the (lost, stand) to predict layout k with (its fold k % 2's)."""
     cache: dict[str, float] = {}
     if cache_path and os.path.exists(cache_path):
         with open(cache_path, encoding="utf-8") as fh:
@@ -108,13 +127,75 @@ def resample_all(pairs: list[dict[str, Any]], variants: list[str], cache_path: s
             if r is None or "scan" not in r:
                 continue
             for v in variants:
-                key = f"{p['noise']}|{p['family']}|{p['run']}|{v}"
+                terms = (folds or {}).get(p["run"] % 2) if v == "cross" else None
+                vk = f"cross {terms[0]:.3f} {terms[1]:.1f}" if terms is not None else _variant_key(v, p["noise"])
+                key = f"{p['noise']}|{p['family']}|{p['run']}|{vk}"
                 if key not in cache:
-                    cache[key] = resampled(r, p["noise"], v, p["family"], p["run"])
+                    cache[key] = resampled(r, p["noise"], v, p["family"], p["run"], terms)
                     _save(cache, cache_path)
                 r["pred"][f"resampled: {v}"] = cache[key]
     finally:
         _save(cache, cache_path)
+
+
+def _variant_key(variant: str, noise: str) -> str:
+    """The cache key of a variant: ``whole`` with the whole-run terms it was sampled with."""
+    if variant != "whole":
+        return variant
+    from clomp.planner.robust import closed_loop_pushes
+
+    p = closed_loop_pushes(noise)
+    return "whole" if p is None else f"whole {p.lost:.3f} {p.stand:.1f}"
+
+
+def survived_pushes(r: dict[str, Any]) -> int:
+    """The pushes of run ``r`` that no contact episode followed within :data:`PUSH_WINDOW` s.
+
+    >>> survived_pushes({"pushes": [2.0, 9.0], "episodes": [[9.5, 10.0, 0.01, False]]})
+    1
+    """
+    eps = [e[0] for e in r.get("episodes", []) if not e[3]]
+    return sum(1 for t in r.get("pushes", []) if not any(0 <= e - t <= PUSH_WINDOW for e in eps))
+
+
+def plan_duration(r: dict[str, Any]) -> float:
+    """The first plan's nominal time (s): its tasks' durations on the stored map."""
+    states = {s["id"]: s for s in r["map"]["states"]}
+    return float(sum(states[i].get("duration", 0.0) for i in r["plan"][1:] if i in states))
+
+
+def fit_whole_run(pairs: list[dict[str, Any]]) -> tuple[float, float]:
+    """(lost, stand) fitted to the greedy runs ``pairs`` (see the module docstring); printed."""
+    runs = [p["greedy"] for p in pairs if p["family"] != "cul-de-sac"]
+    usable = [r for r in runs if survived_pushes(r) == len(r.get("pushes", []))]  # no push contact
+    ks = [survived_pushes(r) for r in usable]
+    oks = [r["ok"] for r in usable]
+    best = (-math.inf, 0.0, 0.0)
+    for i in range(1, 100):
+        b = i / 100
+        for j in range(0, 100):
+            lost = j / 100
+            ll = sum(math.log(max(b * (1 - lost) ** k if o else 1 - b * (1 - lost) ** k, 1e-12)) for k, o in zip(ks, oks))
+            best = max(best, (ll, lost, b))
+    ll, lost, b = best
+    # a 95 % profile-likelihood interval for lost (b at its best for each lost)
+    inside = []
+    for j in range(0, 100):
+        lj = j / 100
+        lj_best = max(sum(math.log(max(bb / 100 * (1 - lj) ** k if o else 1 - bb / 100 * (1 - lj) ** k, 1e-12))
+                          for k, o in zip(ks, oks)) for bb in range(1, 100))
+        if ll - lj_best <= 1.92:
+            inside.append(lj)
+    ended = [r for r in runs if r["end"] in ("GOAL_REACHED", "GOAL_UNCONFIRMED")]
+    extra = sorted(max(r.get("time", 0.0) - plan_duration(r), 0.0) for r in ended)
+    stand = statistics.median(extra) if extra else 0.0
+    pushed = [o for k, o in zip(ks, oks) if k]
+    print(f"  whole-run fit on {len(runs)} runs ({len(usable)} without a push contact; {len(pushed)} of them with a survived push, "
+          f"{sum(pushed)} succeeded; {len(usable) - len(pushed)} without a push, {sum(oks) - sum(pushed)} succeeded): "
+          f"lost {lost:.2f} [{min(inside, default=math.nan):.2f}, {max(inside, default=math.nan):.2f}] (b {b:.2f}); "
+          f"stand {stand:.1f} s (median of {len(extra)} runs ended at the goal; quartiles "
+          f"{extra[len(extra) // 4] if extra else math.nan:.1f}-{extra[3 * len(extra) // 4] if extra else math.nan:.1f} s)")
+    return lost, stand
 
 
 def _save(cache: dict[str, float], path: str | None) -> None:
@@ -172,18 +253,34 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("files", nargs="+")
     ap.add_argument("--noise", nargs="+", default=["harsh"])
-    ap.add_argument("--resample", nargs="*", default=[], choices=["current", "pushes"])
+    ap.add_argument("--resample", nargs="*", default=[], choices=["current", "pushes", "whole", "cross"],
+                    help="cross: the whole-run model with the terms fitted on the other layouts' parity (2-fold cross-fit)")
     ap.add_argument("--cache", help="JSON file keeping resampled predictions between calls")
     ap.add_argument("--resample-from", type=float, default=0.0, metavar="P",
                     help="resample only the runs whose first plan's P is at least P (the rest keep no resampled value)")
     ap.add_argument("--fit", action="store_true", help="refit the closed-loop rollout terms to the runs' task errors")
+    ap.add_argument("--fit-whole-run", action="store_true", help="fit the whole-run terms (lost, stand) to the training layouts")
+    ap.add_argument("--train-below", type=int, default=0, metavar="K",
+                    help="layouts below K are the whole-run fit's; the tables are of the layouts from K on (default 0: all)")
     args = ap.parse_args(argv)
     pairs = [p for p in read_records(args.files) if p["noise"] in args.noise and "map" in p.get("greedy", {})]
+    if args.fit_whole_run:
+        for nz in args.noise:
+            print(f"noise {nz}, layouts below {args.train_below}:")
+            fit_whole_run([p for p in pairs if p["noise"] == nz and p["run"] < args.train_below])
+    folds: dict[int, tuple[float, float]] = {}
+    if "cross" in args.resample:
+        if len(args.noise) != 1:
+            ap.error("--resample cross fits one noise preset: give one --noise")
+        for parity in (0, 1):  # layout k is predicted with the terms fitted on the layouts of the other parity
+            print(f"noise {args.noise[0]}, fit on the {'odd' if parity == 0 else 'even'} layouts (predicts the {'even' if parity == 0 else 'odd'}):")
+            folds[parity] = fit_whole_run([p for p in pairs if p["run"] % 2 != parity])
+    pairs = [p for p in pairs if p["run"] >= args.train_below]
     for p in pairs:
         p["greedy"]["pred"] = predictions(p["greedy"])
     if args.resample:
         todo = sorted((p for p in pairs if p["greedy"]["pred"][MAIN] >= args.resample_from), key=lambda p: (p["run"], p["family"]))
-        resample_all(todo, args.resample, args.cache)
+        resample_all(todo, args.resample, args.cache, folds)
         pairs = [p for p in pairs if all(f"resampled: {v}" in p["greedy"]["pred"] for v in args.resample)]
     for nz in args.noise:
         sub = [p for p in pairs if p["noise"] == nz]

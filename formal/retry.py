@@ -52,8 +52,8 @@ import networkx as nx
 
 from clomp.formal.export_model import STAY, Choice, ExportError, ExportModel
 
-__all__ = ["RETRY", "STOP_LABEL", "STOPS_KEY", "OFF_LABEL", "OFFS_KEY", "INTERRUPTED", "GAVE_UP", "retry_model", "loop_model",
-           "map_stops", "map_offs"]
+__all__ = ["RETRY", "STOP_LABEL", "STOPS_KEY", "OFF_LABEL", "OFFS_KEY", "INTERRUPTED", "GAVE_UP", "LOST_KEY", "LOST_LABEL",
+           "retry_model", "loop_model", "map_stops", "map_offs", "map_lost"]
 
 RETRY = "retry"
 """The action of a stop state's retry (the supervisor's replan from the stop)."""
@@ -75,6 +75,15 @@ OFF_LABEL = "off_map"
 OFFS_KEY = "offs"
 """The key of a closed-loop map's ``metadata`` naming its free leaves off the map's
 prediction: ident -> the state the task aimed at (:func:`map_offs` reads it)."""
+
+LOST_KEY = "lost"
+"""The key of a map's ``metadata`` naming its lost states (a push left the estimate off
+the truth: the run ends off the goal, :func:`clomp.planner.pushes.push_lost`): ident ->
+the state the pushed task started from."""
+
+LOST_LABEL = "estimate_lost"
+"""The closed-loop model's label of the lost states (:data:`LOST_KEY`): not the goal, not
+a collision, not replanned from."""
 
 STOPS_KEY = "stops"
 """The key of a map's ``metadata`` naming its stop states: ident -> the state its task
@@ -104,6 +113,15 @@ def map_offs(metadata: Mapping[str, object]) -> dict[int, int]:
     ({7: 3}, {})
     """
     return _idents(metadata, OFFS_KEY)
+
+
+def map_lost(metadata: Mapping[str, object]) -> dict[int, int]:
+    """The lost states a map's ``metadata`` names (:data:`LOST_KEY`), or ``{}``.
+
+    >>> map_lost({"lost": {"9": 0}}), map_lost({})
+    ({9: 0}, {})
+    """
+    return _idents(metadata, LOST_KEY)
 
 
 def retry_model(m: ExportModel, stops: Mapping[int, int], retries: int = 1,
@@ -183,7 +201,7 @@ def _reentries(index: Mapping[int, int], named: Mapping[int, int], fits: Callabl
 
 
 def loop_model(m: ExportModel, stops: Mapping[int, int], replans: int = 1,
-               offs: Mapping[int, int] | None = None) -> ExportModel:
+               offs: Mapping[int, int] | None = None, lost: Mapping[int, int] | None = None) -> ExportModel:
     """The model of the closed loop: :func:`retry_model` with ``replans`` retries, labelled
     by what happened rather than by the map's ``interrupted`` flag. ``collision`` is a
     contact only (a stop is never one, retried or not); ``interrupted`` marks every stop
@@ -195,7 +213,9 @@ def loop_model(m: ExportModel, stops: Mapping[int, int], replans: int = 1,
     ``off_map``. With ``P=? [F "goal"]`` on it, Storm
     and PRISM give the chance of reaching the goal with replans, ``P=? [F "collision"]``
     the chance of a contact the check could not prevent
-    (``specs/properties/closed_loop/``).
+    (``specs/properties/closed_loop/``). ``lost``: the map's lost states
+    (:data:`LOST_KEY`), labelled :data:`LOST_LABEL` in every layer (empty without them):
+    dead ends, where a push left the estimate off the truth.
 
     A stop (q1, started from q0) whose one replan is left in layer 0 and gone in layer 1
     (q1 + 2 = q3): interrupted in both, never a collision, given up in layer 1:
@@ -218,6 +238,9 @@ def loop_model(m: ExportModel, stops: Mapping[int, int], replans: int = 1,
     labels["collision"] = labels.get("collision", frozenset()) - stop
     labels[INTERRUPTED] = stop | off
     labels[GAVE_UP] = final
+    span = max(s.ident for s in m.states) + 1
+    dead = set(lost or {})
+    labels[LOST_LABEL] = frozenset(p for p, s in enumerate(r.states) if s.ident % span in dead)
     return replace(r, labels=labels)
 
 

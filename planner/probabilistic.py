@@ -59,13 +59,13 @@ import numpy as np
 
 from clomp.formal.lts import CognitiveMap
 from clomp.formal.model import Disturbance, Pose, State, TaskKind
-from clomp.formal.retry import OFFS_KEY, STOPS_KEY
+from clomp.formal.retry import LOST_KEY, OFFS_KEY, STOPS_KEY
 from clomp.formal.supervisory import extract_plan
 from clomp.planner.configurator import Configurator, CostContext, PlanResult
 from clomp.planner.hazard import HazardRule, hazard_stop
 from clomp.planner.noise import NoiseError, RolloutNoise, preset_names
 from clomp.planner.perception import Obstacles, load_scan, perceive
-from clomp.planner.pushes import Pushes, push_outcome
+from clomp.planner.pushes import Pushes, push_lost, push_outcome
 from clomp.planner.recovery import RECOVERY_TASKS, after_wait, noisy_recovery
 from clomp.planner.rollout import Outcome, World, frontier_distance, in_the_way, make_task
 from clomp.planner.visibility import KnownFree
@@ -272,9 +272,25 @@ class _Builder:
         self.aims: dict[int, int] = {}
         """New free states -> the nominal state their task aimed at."""
         """Stop states (interrupted by the hazard rule, not by a contact) -> their source."""
+        self.lost: dict[int, int] = {}
+        """Lost states (a push left the estimate off the truth, :func:`clomp.planner.pushes.push_lost`) -> their source."""
 
     def _state_kind(self, ident: int) -> str:
-        return "stop" if ident in self.stops else _kind(self.map[ident])
+        return "stop" if ident in self.stops else "lost" if ident in self.lost else _kind(self.map[ident])
+
+    def lost_state(self, source: int, kind: TaskKind, out: Outcome, d_i: Disturbance) -> int:
+        """The dead end of the pushes from ``source`` by ``kind`` that left the estimate
+        lost: one state per choice, ending where the task began (the run makes no
+        progress it knows of; never a plan's end nor a target)."""
+        for ident, src in self.lost.items():
+            if src == source and self.map[ident].task is kind:
+                return ident
+        ident = max(s.ident for s in self.map.states()) + 1
+        s = State(ident, out.task, d_i, None, out.start, out.start, 0.0, out.duration)
+        self.map.add_state(replace(s, cost=self.cost(s, self.ctx)))
+        self.new.append(ident)
+        self.lost[ident] = source
+        return ident
 
     def group(self, source: int, kind: TaskKind, nominal_target: int | None, out: Outcome, d_i: Disturbance,
               stop: bool = False) -> int:
@@ -331,7 +347,9 @@ def sample_map(
     planned heading). Without it every rollout of a choice starts at the state's
     recorded end pose, so an error within the tolerance is forgotten at each step and a
     later task never meets the obstacle such an error leads it into. ``pushes``: the
-    world's external pushes while a task runs (:mod:`clomp.planner.pushes`; default none)."""
+    world's external pushes while a task runs (:mod:`clomp.planner.pushes`; default none),
+    with its whole-run terms: a push that leaves the estimate lost ends in a dead end
+    named in ``metadata["lost"]``, and the first task's exposure includes the run's standing."""
     if isinstance(samples, bool) or not isinstance(samples, int) or samples < 1:
         raise NoiseError(f"samples must be a whole number >= 1, got {samples!r}")
     if samples > MAX_SAMPLES:
@@ -371,6 +389,7 @@ def sample_map(
         choices.setdefault((t.source, t.label), t.target)
     rank = _breadth_first(nominal.map) if carry else {}  # a choice's start is known once its source is reached
     arrivals: dict[int, dict[int, Pose]] = {}  # with carry: state -> world -> where that world's robot truly is
+    q0 = nominal.map.initial.ident
     order = sorted(choices.items(), key=lambda kv: (rank.get(kv[0][0], kv[0][0]), list(TaskKind).index(kv[0][1])))
     for (source, kind), target in order:
         start = nominal.map[source].end
@@ -383,15 +402,18 @@ def sample_map(
                 w = cleared[i]
             begin = here.get(i, pool[i % len(pool)] if pool else start) if carry else start
             out, stopped = _rollout_stop(kind, begin, nominal.goal, w, robot, nz, hazard, aim)
+            lost = False
             if pushes is not None and not stopped and kind not in RECOVERY_TASKS:
-                out = push_outcome(out, w.obstacles.points, robot, pushes, w.rng)
+                free = out
+                out = push_outcome(out, w.obstacles.points, robot, pushes, w.rng, pushes.stand if source == q0 else 0.0)
+                lost = out is not free and out.d_n is None and push_lost(pushes, w.rng)
             if out.reached_goal and not known.clear(out, robot):
                 out = replace(out, reached_goal=False)
             if carry:
                 out = replace(out, start=start)  # the map's states start where their source ends
-            ident = b.group(source, kind, target, out, nominal.goal, stopped)
+            ident = b.lost_state(source, kind, out, nominal.goal) if lost else b.group(source, kind, target, out, nominal.goal, stopped)
             counts[ident] = counts.get(ident, 0) + 1
-            if carry and not stopped and out.d_n is None:
+            if carry and not stopped and not lost and out.d_n is None:
                 arrivals.setdefault(ident, {}).setdefault(i, out.end)
         for ident, k in sorted(counts.items()):
             b.map.add_transition(source, ident, kind, Fraction(k, samples))
@@ -399,12 +421,19 @@ def sample_map(
     b.map = _reachable_part(b.map)
     plan = extract_plan(b.map)
     b.map.metadata.update({"plan": list(plan.states), "samples": samples, "noise": nz.to_dict(), "seed": seed, "nominal_plan": list(nominal.plan.states),
-                           "carry": carry, **({"pushes": [pushes.rate, pushes.size]} if pushes is not None and pushes.active else {}),
-                           STOPS_KEY: {str(i): src for i, src in sorted(b.stops.items()) if i in b.map and src in b.map}})
+                           "carry": carry, **({"pushes": _pushes_record(pushes)} if pushes is not None and pushes.active else {}),
+                           STOPS_KEY: {str(i): src for i, src in sorted(b.stops.items()) if i in b.map and src in b.map},
+                           **({LOST_KEY: {str(i): src for i, src in sorted(b.lost.items()) if i in b.map}} if b.lost else {})})
     if hazard is not None and hazard.contacts:
         b.map.metadata[OFFS_KEY] = {str(i): a for i, a in sorted(_offs(b).items())}
     kept = sum(1 for i in b.new if i in b.map)
     return ProbabilisticMap(b.map, nominal, samples, nz, time.perf_counter() - t0, time.thread_time() - c0, kept)
+
+
+def _pushes_record(p: Pushes) -> list[float]:
+    """The map's record of its pushes: [rate, size], with [lost, stand] after them when
+    the whole run's terms are on (a map sampled without them reads as before)."""
+    return [p.rate, p.size] + ([p.lost, p.stand] if p.lost or p.stand else [])
 
 
 def _offs(b: _Builder) -> dict[int, int]:
@@ -453,7 +482,7 @@ def _complete_turns(b: _Builder, nominal: PlanResult, conf: Configurator, known:
 
     for ident in list(b.new):
         s = b.map[ident]
-        if s.task.is_turn and not s.interrupted and not b.map.out_transitions(ident):
+        if s.task.is_turn and not s.interrupted and ident not in b.lost and not b.map.out_transitions(ident):
             out = simulate(TaskKind.STRAIGHT, s.end, nominal.goal, nominal.obstacles, conf.robot)
             if out.reached_goal and not known.clear(out, conf.robot):
                 out = replace(out, reached_goal=False)

@@ -28,15 +28,29 @@ from clomp.planner.probabilistic import (
     RolloutNoise,
     sample_map,
 )
+from clomp.formal.retry import map_lost
 from clomp.planner.pushes import Pushes
 from clomp.planner.robot_model import RobotModel
 
 __all__ = ["plan_target", "frontier_outcomes", "RobustChoice", "RobustDecision", "RobustConfigurator", "SUPERVISOR_HAZARD", "CLOSED_LOOP_HAZARD",
            "CLOSED_LOOP_TERMS",
-           "closed_loop_noise", "rollout_noise"]
+           "closed_loop_noise", "rollout_noise", "closed_loop_pushes"]
 
 _CONFIRM_SEED = 2**40
 """Added to a plan's sampling seed for the map that confirms a deviation (its own worlds)."""
+
+def closed_loop_pushes(noise: str) -> Pushes | None:
+    """The pushes of the closed loop's model at preset ``noise``: the world's pushes with
+    the estimator's whole-run terms (:meth:`Pushes.whole_run`), or None for a preset
+    without pushes (the map is then the one sampled without the term). One rule for
+    ``clomp export/check --closed-loop`` and the calibration bench's prediction.
+
+    >>> closed_loop_pushes("paper") is None, closed_loop_pushes("harsh").rate
+    (True, 0.02)
+    """
+    p = Pushes.whole_run(noise)
+    return p if p.active else None
+
 
 SUPERVISOR_HAZARD = HazardRule()
 """The supervisor's scan test with its defaults (2 points, 5.5 Hz)."""
@@ -133,7 +147,8 @@ def plan_target(cmap: CognitiveMap, nominal_end: Pose, goal: Disturbance, radius
     """
     q0 = cmap.initial.ident
     reach = cmap.reachable()
-    free = [s for s in cmap.states() if s.ident in reach and s.ident != q0 and not s.interrupted]
+    lost = map_lost(cmap.metadata)  # a push left the estimate lost there: never a target
+    free = [s for s in cmap.states() if s.ident in reach and s.ident != q0 and not s.interrupted and s.ident not in lost]
     d = nominal_end.distance_to(goal.x, goal.y)
     near = {s.ident for s in free if s.end.distance_to(goal.x, goal.y) <= radius}
     if near and d <= radius:

@@ -11,7 +11,7 @@ from typing import Any
 
 from clomp.formal.export import FORMATS, LABEL_HOLDER, ExportError, ExportModel, ModelKind, drn_adds_holder, export_model, induced_model, write
 from clomp.formal.lts import MAX_MAP_BYTES, CognitiveMap, MapError
-from clomp.formal.retry import loop_model, map_offs, map_stops
+from clomp.formal.retry import loop_model, map_lost, map_offs, map_stops
 from clomp.planner import PlanningError, ScanError, scan_files
 from clomp.planner.deepening import plan_deepening
 from clomp.planner.inputs import InputError, load_json, read_text
@@ -211,8 +211,9 @@ def replans_of(args: argparse.Namespace) -> int:
 
 def closed_loop_model(m: ExportModel, cmap: CognitiveMap, replans: int) -> ExportModel:
     """The closed loop's model of the export ``m`` of ``cmap``: its stops and offs (the
-    map's metadata) replanned from ``replans`` times (:func:`clomp.formal.retry.loop_model`)."""
-    return loop_model(m, map_stops(cmap.metadata), replans, map_offs(cmap.metadata))
+    map's metadata) replanned from ``replans`` times, its lost states (a push left the
+    estimate off the truth) labelled (:func:`clomp.formal.retry.loop_model`)."""
+    return loop_model(m, map_stops(cmap.metadata), replans, map_offs(cmap.metadata), map_lost(cmap.metadata))
 
 
 def _check_model_options(args: argparse.Namespace) -> None:

@@ -138,7 +138,7 @@ def robust_from_args(args: argparse.Namespace, conf: Configurator) -> RobustConf
     """The runtime's robust configurator for the sampling options (``--samples``, default
     30; ``--noise``; ``--seed``) and the planner options of ``conf``: one construction for
     ``plan --robust`` and the maps ``export``/``check --samples`` write, so they agree."""
-    from clomp.planner.robust import CLOSED_LOOP_HAZARD, SUPERVISOR_HAZARD, RobustConfigurator, rollout_noise
+    from clomp.planner.robust import CLOSED_LOOP_HAZARD, SUPERVISOR_HAZARD, RobustConfigurator, closed_loop_pushes, rollout_noise
 
     if args.samples is None:
         args.samples = 30
@@ -148,9 +148,11 @@ def robust_from_args(args: argparse.Namespace, conf: Configurator) -> RobustConf
     except NoiseError as exc:
         raise CliError(f"--noise: {exc}") from None
     closed = getattr(args, "closed_loop", False)  # export --closed-loop: contacts the check foresees are stops
+    # ... and the world's pushes with the whole run's terms, as the calibration bench predicts
     return RobustConfigurator(conf.robot, samples=args.samples, noise=noise, seed=args.seed,
                               max_states=conf.max_states, horizon=conf.horizon,
-                              hazard=CLOSED_LOOP_HAZARD if closed else SUPERVISOR_HAZARD)
+                              hazard=CLOSED_LOOP_HAZARD if closed else SUPERVISOR_HAZARD,
+                              pushes=closed_loop_pushes(args.noise) if closed else None)
 
 
 def probabilistic_from_args(args: argparse.Namespace, conf: Configurator, scan: Any, goal: tuple[float, float]) -> ProbabilisticMap:

@@ -46,3 +46,25 @@ def test_greedy_and_robust_runs_written_apart_merge_per_layout(tmp_path, capsys)
     merged = _bench().read_records([str(a), str(b)])
     assert [(p["run"], sorted(k for k in p if k in ("greedy", "robust"))) for p in merged] == [(3, ["greedy", "robust"]), (4, ["greedy"])]
     assert _bench().main(["--summary", str(tmp_path / "missing.jsonl")]) == 2 and "error:" in capsys.readouterr().err
+
+
+def test_resume_leaves_out_the_layouts_the_out_file_holds(tmp_path):
+    """``--resume``: a sweep run in stages continues where ``--out`` stops; a layout
+    whose asked condition is missing (a robust run after greedy ones) is still to do."""
+    import json
+
+    out = tmp_path / "runs.jsonl"
+    out.write_text("".join(json.dumps(r) + "\n" for r in (
+        {"noise": "harsh", "family": "u-trap", "run": 0, "greedy": {"ok": 1}},
+        {"noise": "harsh", "family": "doorway", "run": 1, "greedy": {"ok": 0}})))
+    b = _bench()
+    base = ["--layouts", "2", "--families", "u-trap", "doorway", "--noise", "harsh", "--out", str(out)]
+    assert b._todo(b._parse([*base, "--conditions", "greedy", "--resume"])) == [("doorway", 0, "harsh"), ("u-trap", 1, "harsh")]
+    assert len(b._todo(b._parse([*base, "--conditions", "greedy", "robust", "--resume"]))) == 4
+    assert len(b._todo(b._parse([*base, "--conditions", "greedy"]))) == 4  # without --resume: everything
+
+
+def test_resume_needs_an_out_file(capsys):
+    with pytest.raises(SystemExit) as exc:
+        _bench().main(["--resume"])
+    assert exc.value.code == 2 and "--out" in capsys.readouterr().err

@@ -45,6 +45,37 @@ def _quarters() -> CognitiveMap:
     return m
 
 
+def test_loop_model_labels_the_lost_states_in_every_layer_and_they_are_dead_ends(tmp_path):
+    """The whole run's term: a push that left the estimate lost (``metadata["lost"]``,
+    clomp.planner.pushes) is labelled ``estimate_lost`` in each replan layer, never
+    retried nor a goal; Storm gives the shipped closed-loop properties on it (the goal's
+    chance halved: q1's STRAIGHT ends lost half the time); without lost states the
+    label is there, empty."""
+    from clomp.formal.checking import check_properties, load_storm_model
+    from clomp.formal.export import write_prism
+    from clomp.formal.retry import LOST_LABEL, map_lost
+
+    q = _quarters()
+    m = CognitiveMap.from_parts([*q.states(), State(6, TaskKind.STRAIGHT, q.goal, None, Pose(0.5, 0), Pose(0.5, 0))], [], goal=q.goal)
+    for k in (1, 2, 3, 4):
+        m.add_transition(0, k, TaskKind.STRAIGHT, Fraction(1, 4))
+    m.add_transition(1, 5, TaskKind.STRAIGHT, Fraction(1, 2))
+    m.add_transition(1, 6, TaskKind.STRAIGHT, Fraction(1, 2))
+    m.metadata.update({**q.metadata, "lost": {"6": 1}})
+    r = loop_model(export_model(m, "dtmc"), map_stops(m.metadata), 1, map_offs(m.metadata), map_lost(m.metadata))
+    assert sorted(r.states[k].ident for k in r.labels[LOST_LABEL]) == [6, 6 + 7]
+    assert not r.labels[LOST_LABEL] & (r.labels[INTERRUPTED] | r.labels["goal"])
+    assert loop_model(export_model(q, "dtmc"), map_stops(q.metadata), 1, map_offs(q.metadata)).labels[LOST_LABEL] == frozenset()
+    write_prism(r, tmp_path / "lost.prism", "dtmc")
+    specs = {s.name: s for s in _loop_files()["dtmc"].properties}  # type: ignore[attr-defined]
+    names = ["lost_is_not_goal", "lost_is_not_interrupted", "p_goal_with_replans", "p_estimate_lost"]
+    got = {c.spec.name: c for c in check_properties(load_storm_model(tmp_path / "lost.prism"), [specs[n] for n in names])}
+    assert got["lost_is_not_goal"].passed and got["lost_is_not_interrupted"].passed
+    # q1 is reached 1/4 directly, 1/4 by the off's replan, 1/16 by the stop's (q0 again, then q1): 9/16, then half each way
+    assert got["p_estimate_lost"].value == pytest.approx(9 / 32, abs=1e-9)
+    assert got["p_goal_with_replans"].value == pytest.approx(9 / 32, abs=1e-9)
+
+
 def test_loop_model_labels_what_happened_not_the_maps_interrupted_flag():
     m = _quarters()
     r = loop_model(export_model(m, "dtmc"), map_stops(m.metadata), 1, map_offs(m.metadata))

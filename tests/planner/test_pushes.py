@@ -60,3 +60,77 @@ def test_a_push_either_meets_an_obstacle_or_moves_the_end_by_its_slide(seed, dur
     else:
         moved = math.hypot(got.end.x - out.end.x, got.end.y - out.end.y)
         assert 0.1 - 1e-9 <= moved <= 0.3 + 1e-9
+
+
+def _plan_p(pm):
+    from clomp.formal.scheduler import plan_probability
+    from clomp.formal.supervisory import Plan
+    from clomp.planner.robust import plan_target
+
+    end = pm.nominal.map[pm.nominal.plan.end].end
+    return plan_probability(pm.map, Plan(tuple(pm.nominal.plan.states)), plan_target(pm.map, end, pm.nominal.goal), 1)
+
+
+def test_a_push_that_loses_the_estimate_is_a_dead_end_of_the_map():
+    """The whole run's term: with ``lost`` = 1 every push the body survives ends in a
+    lost state (named in the metadata, no successor, never the goal nor a target, not an
+    outcome the loop replans from), so the plan's P falls by the pushes' chance; with
+    ``lost`` = 0 the same pushes are outcomes the closed loop replans from."""
+    from clomp.formal.retry import map_lost, map_offs
+    from clomp.planner.robust import CLOSED_LOOP_HAZARD, plan_target
+
+    kw = dict(samples=30, noise="harsh", seed=2, carry=True, hazard=CLOSED_LOOP_HAZARD)
+    free = sample_map(np.zeros((0, 2)), (1.5, 0.0), pushes=Pushes(0.05, 0.2), **kw)
+    dead = sample_map(np.zeros((0, 2)), (1.5, 0.0), pushes=Pushes(0.05, 0.2, lost=1.0), **kw)
+    lost = map_lost(dead.map.metadata)
+    assert lost and not map_lost(free.map.metadata)
+    target = plan_target(dead.map, dead.nominal.map[dead.nominal.plan.end].end, dead.nominal.goal)
+    for ident, source in lost.items():
+        s = dead.map[ident]
+        assert not dead.map.out_transitions(ident) and not s.reached_goal and not s.interrupted
+        assert ident not in target and ident not in map_offs(dead.map.metadata)
+        assert any(t.target == ident for t in dead.map.out_transitions(source))
+    share = sum(float(t.probability) for src in set(lost.values()) for t in dead.map.out_transitions(src) if t.target in lost)
+    assert share > 0
+    assert _plan_p(dead) < _plan_p(free) - 0.05
+
+
+def test_standing_time_is_exposed_on_the_first_task_only():
+    """``stand`` adds exposure to the tasks from q0 (the run's planning and confirming);
+    with a long stand and ``lost`` = 1 nearly every first task ends lost, later ones not more often."""
+    from clomp.formal.retry import map_lost
+
+    kw = dict(samples=20, noise="harsh", seed=4, carry=True)
+    pm = sample_map(np.zeros((0, 2)), (1.5, 0.0), pushes=Pushes(0.05, 0.2, lost=1.0, stand=200.0), **kw)
+    lost = map_lost(pm.map.metadata)
+    q0 = pm.map.initial.ident
+    first = sum(float(t.probability) for t in pm.map.out_transitions(q0) if t.target in lost and t.label is TaskKind.STRAIGHT)
+    assert first >= 0.95
+    assert all(src == q0 for src in lost.values()) or all(
+        sum(float(t.probability) for t in pm.map.out_transitions(src) if t.target in lost) < 0.95
+        for src in set(lost.values()) - {q0}
+    )
+
+
+def test_whole_run_pushes_refuse_a_lost_chance_above_one():
+    with pytest.raises(NoiseError):
+        Pushes(0.02, 0.2, lost=1.5)
+
+
+def test_closed_loop_export_samples_the_worlds_pushes_with_the_whole_run_terms(tmp_path, capsys):
+    """``clomp export --closed-loop`` writes the model the calibration bench checks
+    (:func:`clomp.planner.robust.closed_loop_pushes`): at harsh the world's pushes and the
+    whole run's terms; at paper none; without ``--closed-loop`` none (the robust planner's map)."""
+    import json
+
+    import clomp.runtime.cli as cli
+    from clomp.planner.pushes import WHOLE_RUN
+
+    def meta(*extra: str) -> dict:
+        out = tmp_path / "m.json"
+        assert cli.main(["export", "--scenario", "overtaking", "--samples", "3", *extra, "-f", "json", "-o", str(out)]) == 0
+        return json.loads(out.read_text())["metadata"]
+
+    assert meta("--noise", "harsh", "--closed-loop")["pushes"] == [0.02, 0.2, *WHOLE_RUN["harsh"]]
+    assert "pushes" not in meta("--noise", "paper", "--closed-loop")
+    assert "pushes" not in meta("--noise", "harsh")
