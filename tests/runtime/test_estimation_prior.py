@@ -27,7 +27,8 @@ from clomp.runtime.supervision.sensing import Sensing
 def _corridor(x: float) -> np.ndarray:
     """Two long walls 0.3 m either side, seen from ``x`` along them (robot frame)."""
     xs = np.linspace(-1.0, 1.0, 101)
-    return np.r_[np.c_[xs, np.full_like(xs, 0.3)], np.c_[xs, np.full_like(xs, -0.3)]]
+    walls: np.ndarray = np.r_[np.c_[xs, np.full_like(xs, 0.3)], np.c_[xs, np.full_like(xs, -0.3)]]
+    return walls
 
 
 def _drive_corridor(prior: OdometryPrior | None) -> ScanOdometry:
