@@ -18,7 +18,6 @@ from typing import Protocol, runtime_checkable
 import numpy as np
 
 from clomp.formal.model import Pose
-from clomp.planner.noise import NoiseTerms
 from clomp.runtime.devices.frame import ScanFrame
 
 __all__ = ["ScanFrame", "Robot", "RobotFault", "TurnSensing", "ShockSensing", "OdometryUncertainty", "Calibrated",
@@ -130,7 +129,7 @@ class OdometryUncertainty(Protocol):
 class Calibrated(Protocol):
     """A backend that tells the estimator its drive's calibration (issue #36), as a robot's
     maker or a calibration run would: the standard deviations its errors are drawn from
-    (a :class:`~clomp.planner.noise.NoiseTerms`), never this run's draws. Optional: the
+    (the terms of a :class:`~clomp.planner.noise.NoiseTerms`, by name), never this run's draws. Optional: the
     estimator's wheel prior is then sized to it
     (:meth:`~clomp.runtime.estimation.prior.OdometryPrior.from_noise`), the worst case's otherwise.
 
@@ -140,8 +139,8 @@ class Calibrated(Protocol):
     False
     """
 
-    def calibration(self) -> NoiseTerms:
-        """The noise terms the robot's drive and sensors are specified to (standard deviations)."""
+    def calibration(self) -> dict[str, float]:
+        """The noise terms the robot's drive and sensors are specified to (standard deviations, by name)."""
         ...
 
 

@@ -28,6 +28,7 @@ import numpy as np
 
 from clomp.formal.geometry import dead_reckon
 from clomp.formal.model import Pose
+from clomp.planner.noise import NoiseTerms
 from clomp.planner.perception import validate_scan
 from clomp.planner.robot_model import RobotModel
 from clomp.runtime.estimation.fusion import fuse_revolutions
@@ -98,7 +99,8 @@ class Sensing:
         self.config = config
         self.wheel_base = model.wheel_base
         # a robot told its calibration (the execution world) sizes the wheel prior to it (issue #36)
-        prior = OdometryPrior.from_noise(robot.calibration(), model.wheel_base, speed=model.straight_speed) \
+        prior = OdometryPrior.from_noise(NoiseTerms(**robot.calibration()), model.wheel_base,
+                                         speed=model.straight_speed) \
             if isinstance(robot, Calibrated) else None
         self.estimator: ScanOdometry | None = ScanOdometry(model.wheel_base, prior=prior) \
             if config.feedback == "scan" else None

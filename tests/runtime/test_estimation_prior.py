@@ -51,7 +51,7 @@ def test_the_world_tells_its_calibration_and_sensing_sizes_the_prior_to_it() -> 
 
     robot = make_world_robot(load_scenario("corridor"), "paper", seed=0)
     assert isinstance(robot, Calibrated)
-    assert robot.calibration() == NoiseTerms.preset("paper")
+    assert robot.calibration() == NoiseTerms.preset("paper").to_dict()
     s = Sensing(robot, RobotModel(), SupervisorConfig())
     assert s.estimator is not None
     told = OdometryPrior.from_noise(NoiseTerms.preset("paper"), 0.15, speed=RobotModel().straight_speed)
