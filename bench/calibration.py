@@ -45,21 +45,26 @@ import json
 import math
 import multiprocessing
 import statistics
+import os
 import sys
+import tempfile
 import time
 from collections.abc import Callable, Iterator
 from concurrent.futures import ProcessPoolExecutor
 from typing import Any
 
-from clomp.planner.configurator import Configurator, PlanResult
+from clomp.planner.configurator import PlanResult
 from clomp.planner.robust import CLOSED_LOOP_HAZARD, SUPERVISOR_HAZARD, RobustChoice, RobustConfigurator
 from clomp.planner.noise import preset_names
 from clomp.runtime.experiment.layouts import FAMILIES, make_layout
 from clomp.runtime.experiment.runner import run_once
 from clomp.runtime.experiment.stats import mcnemar, wilson
+from rollout_calibration import task_errors
 
 NAMES = ("greedy", "robust")
 BINS = (0.0, 0.2, 0.4, 0.6, 0.8, 1.0 + 1e-9)
+PUSH_JUMP = 0.04
+"""A step of the true path (0.1 s) longer than this is a push (:func:`pushes`)."""
 PATIENCE = 6
 """The supervisor's patience (:class:`clomp.runtime.supervision.config.SupervisorConfig`):
 plans in a row that come no closer before it gives up."""
@@ -111,25 +116,50 @@ PREDICTIONS: dict[str, Callable[[Any, Any, set[int]], float]] = {
 class FirstPlanPredicted(RobustConfigurator):
     """The best-first plans, unchanged; the first plan's map sampled as the closed loop
     (this configurator's hazard) and kept (``first``, ``choice``), with the open-loop
-    map's prediction beside it when ``open_loop``."""
+    map's prediction beside it when ``open_loop``.
+
+    The first planning step is every call on the first scan: a search that spends its
+    budget is searched again deeper, and an empty plan again with REVERSE, by copies of
+    this configurator (:func:`clomp.planner.deepening.plan_deepening`), so the record is
+    kept in dicts the copies share and the prediction is of the plan the supervisor
+    runs (before, the first, shallow search's: a plan the robot never drove, and the
+    copies planned without ``recovery``, so a bench run never backed off)."""
 
     def __init__(self, open_loop: bool = False, **kw: Any) -> None:
         super().__init__(**kw)
         self.open_loop = open_loop
         self.first: dict[str, Any] = {}
-        self.choice: RobustChoice | None = None
-        self.scan: Any = None
+        self.shared: dict[str, Any] = {}
+
+    @property
+    def choice(self) -> RobustChoice | None:
+        """The first sampled choice (the first scan at the first budget): what a paired
+        robust run's first :meth:`RobustConfigurator.sample` reuses."""
+        return self.shared.get("choice")
+
+    @property
+    def scan(self) -> Any:
+        return self.shared.get("scan")
 
     def plan(self, scan: Any, goal: Any) -> PlanResult:
-        if self.first:
-            return Configurator(self.robot, self.cost, self.max_states, self.horizon).plan(scan, goal)
+        import numpy as np
+
+        sh = self.shared
+        if "scan" in sh and not np.array_equal(np.asarray(scan), sh["scan"]):
+            sh["closed"] = True  # a new scan: the first step is over
+        if sh.get("closed"):
+            return self._plain().plan(scan, goal)
         c = self.sample(scan, goal)
-        self.choice, self.scan = c, scan
-        self.first = {"closed": c.p_greedy, "goal_in_map": bool(c.greedy_result.reached_goal),
-                      "target_is_goal": _goal_target(c), "map": c.pm.map.to_dict(), "plan": list(c.greedy.states),
-                      "target": sorted(c.target), "goal": [c.greedy_result.goal.x, c.greedy_result.goal.y],
-                      "nominal_end": c.greedy_result.map[c.greedy_result.plan.end].end.as_list(),
-                      "scan": [[round(float(x), 5), round(float(y), 5)] for x, y in scan]}
+        sh.setdefault("choice", c)
+        sh["scan"] = np.asarray(scan)
+        self.first.clear()
+        self.first.update({"closed": c.p_greedy, "goal_in_map": bool(c.greedy_result.reached_goal),
+                           "target_is_goal": _goal_target(c), "map": c.pm.map.to_dict(), "plan": list(c.greedy.states),
+                           "target": sorted(c.target), "goal": [c.greedy_result.goal.x, c.greedy_result.goal.y],
+                           "nominal_end": c.greedy_result.map[c.greedy_result.plan.end].end.as_list(),
+                           "first_stop": c.greedy_result.stop_reason, "first_states": self.max_states,
+                           "first_recovery": self.recovery,
+                           "scan": [[round(float(x), 5), round(float(y), 5)] for x, y in scan]})
         if self.open_loop:
             o = RobustConfigurator(self.robot, samples=self.samples, noise=self.noise, seed=self.seed,
                                    hazard=SUPERVISOR_HAZARD, retries=self.retries).sample(scan, goal)
@@ -179,11 +209,19 @@ def run_pair(family: str, k: int, noise: str, samples: int, max_time: float, con
             conf = Reusing(first, **kw)
         c1 = time.thread_time()
         w1 = time.perf_counter()
-        r = run_once(layout.scene, "planning", seed=k, run=k, noise=noise, configurator=conf, max_time=max_time,
-                     expect=layout.expect)
+        fd, log = tempfile.mkstemp(suffix=".jsonl")
+        os.close(fd)
+        try:
+            r = run_once(layout.scene, "planning", seed=k, run=k, noise=noise, configurator=conf, max_time=max_time,
+                         expect=layout.expect, log=log)
+            with open(log, encoding="utf-8") as fh:
+                errors = task_errors([json.loads(line) for line in fh])
+        finally:
+            os.unlink(log)
         rec: dict[str, Any] = {"ok": int(r.reached_goal and r.collisions == 0), "false_success": int(r.believed_goal and not r.reached_goal),
                                "collisions": r.collisions, "end": r.end_state, "distance": r.final_distance,
                                "plans": r.plans, "cpu": time.thread_time() - c1, "wall": time.perf_counter() - w1}
+        rec.update(diagnosis(r, errors))
         if isinstance(conf, FirstPlanPredicted):
             rec.update(conf.first or {"closed": math.nan})  # no plan at all: no prediction
         else:
@@ -191,6 +229,34 @@ def run_pair(family: str, k: int, noise: str, samples: int, max_time: float, con
             rec["decisions"] = list(conf.decisions)
         out[name] = rec
     return out
+
+
+def pushes(path: list[tuple[float, float]], times: list[float], jump: float = PUSH_JUMP) -> list[float]:
+    """The times at which the true path jumps by more than ``jump`` m between two of its
+    points (0.1 s apart): a push (its kick is 1.1-2.2 m/s at ``harsh``; the wheels drive
+    at most 0.1 m/s). The world keeps its pushes; the run's result does not.
+
+    >>> pushes([(0.0, 0.0), (0.01, 0.0), (0.15, 0.0), (0.16, 0.0)], [0.0, 0.1, 0.2, 0.3])
+    [0.1]
+    """
+    out: list[float] = []
+    for i in range(1, min(len(path), len(times))):
+        if math.dist(path[i - 1], path[i]) > jump and not (out and times[i - 1] - out[-1] <= 0.5):
+            out.append(times[i - 1])
+    return out
+
+
+def diagnosis(r: Any, errors: dict[str, list[float]]) -> dict[str, Any]:
+    """What a run's record keeps for reading its failure later: the pushes (times), the
+    contact episodes (start, end, depth, brush), the estimate's error at the end (m), and
+    the tasks' end errors (truth against estimate, :func:`rollout_calibration.task_errors`:
+    what the closed loop's rollout terms are fitted to)."""
+    est = r.estimate[-1] if r.estimate else None
+    end = r.path[-1] if r.path else None
+    return {"pushes": pushes(r.path, r.times),
+            "episodes": [[e.start_s, e.end_s, e.max_penetration_m, e.brush] for e in r.episodes],
+            "estimate_error": math.dist(est, end) if est is not None and end is not None else math.nan,
+            "task_errors": errors, "time": r.time_s}
 
 
 def _todo(args: argparse.Namespace) -> list[tuple[str, int, str]]:

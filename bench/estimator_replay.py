@@ -9,8 +9,9 @@ A closed-loop run's outcome (reached or not) depends on the estimate, the planne
 supervisor together, and 20 runs give a count whose noise hides a small change to the
 estimator. ``record`` runs the planning condition (scan feedback) and keeps, per run,
 exactly what :class:`~clomp.runtime.estimation.odometry.ScanOdometry` was given — every
-``reset``, ``advance`` (time, commanded wheel speeds) and ``update`` (the revolution: its
-points, timestamp and per-point times) — with the world's ground truth, in one ``.npz``
+``reset``, ``advance`` (time, commanded wheel speeds, the gyro's heading when the world has
+one), ``shock`` (the accelerometer's peak) and ``update`` (the revolution: its points,
+timestamp and per-point times) — with the world's ground truth, in one ``.npz``
 per run (numbers only, no pickles). ``replay`` feeds the same inputs to an estimator built
 with other settings and prints, per family, the error of its final pose against the
 ground truth (median, 75th percentile, the share within 5 cm) and of its heading: the
@@ -52,7 +53,7 @@ from clomp.runtime.estimation.odometry import ScanOdometry  # noqa: E402
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from estimate_ceiling import true_calibration  # noqa: E402
 
-RESET, ADVANCE, UPDATE = 0, 1, 2
+RESET, ADVANCE, UPDATE, SHOCK = 0, 1, 2, 3
 
 
 class _Recorder(ScanOdometry):
@@ -67,11 +68,17 @@ class _Recorder(ScanOdometry):
             self.fed.append((RESET, float(t), pose.x, pose.y, pose.theta))
         super().reset(pose, t)
 
-    def advance(self, t: float, wheels: tuple[float, float], odometry: Pose | None = None) -> None:
-        if odometry is not None:
+    def advance(self, t: float, wheels: tuple[float, float], odometry: Pose | None = None,
+                rotation: float | None = None, covariance: Any = None) -> None:
+        if odometry is not None or covariance is not None:
             raise SystemExit("estimator_replay: a backend with its own odometry is not recorded")
-        self.fed.append((ADVANCE, float(t), float(wheels[0]), float(wheels[1])))
-        super().advance(t, wheels, odometry)
+        turned = math.nan if rotation is None else float(rotation)
+        self.fed.append((ADVANCE, float(t), float(wheels[0]), float(wheels[1]), turned))
+        super().advance(t, wheels, odometry, rotation, covariance)
+
+    def shock(self, peak: float) -> None:
+        self.fed.append((SHOCK, float(peak)))
+        super().shock(peak)
 
     def update(self, frame: ScanFrame, twist: tuple[float, float] | None = None) -> Any:
         if twist is not None:
@@ -81,7 +88,12 @@ class _Recorder(ScanOdometry):
 
 
 def _record_one(args: tuple[str, int, int, str, str]) -> str:
-    family, seed, run, noise, folder = args
+    return record(*args)
+
+
+def record(family: str, seed: int, run: int, noise: str, folder: str, max_time: float = 120.0) -> str:
+    """Run (family, seed, run) at ``noise`` closed loop for at most ``max_time`` simulated
+    seconds, keeping what its estimator was fed; the path of the ``.npz`` written in ``folder``."""
     import clomp.runtime.supervision.supervisor as sup_module
     from clomp.runtime.experiment.onerun import _ground_truth_path
     from clomp.runtime.experiment.runner import RunSpec, scene_for, noise_seed
@@ -93,7 +105,9 @@ def _record_one(args: tuple[str, int, int, str, str]) -> str:
     robot = make_robot(scene, noise=noise, seed=noise_seed(seed, run), model=conf.robot)
     sup = sup_module.Supervisor(robot, tuple(scene.goal_in_robot_frame()), conf, config=sup_module.SupervisorConfig(feedback="scan"))
     sup.estimator = _Recorder(conf.robot.wheel_base)  # the same estimator, keeping what it is fed
-    rep = sup.run(max_time=120.0)
+    # the world's drive as built (a harsh world's wheel bias then wanders during the run)
+    calibration = true_calibration(robot, conf.robot.wheel_base)
+    rep = sup.run(max_time=max_time)
     est = sup.estimator
     assert isinstance(est, _Recorder)
     truth = np.array(_ground_truth_path(robot, robot.ground_truth_pose()), dtype=float)
@@ -116,8 +130,9 @@ def _record_one(args: tuple[str, int, int, str, str]) -> str:
         offsets=np.array(offsets, dtype=np.int64), stamped=np.array(stamped, dtype=bool),
         points=np.concatenate(points) if points else np.zeros((0, 2)),
         point_times=np.concatenate(times) if times else np.zeros(0), truth=truth,
-        goal=np.array(scene.goal, dtype=float), outcome=np.array(rep.state.value),
-        calibration=np.array(true_calibration(robot, conf.robot.wheel_base), dtype=float))
+        goal=np.array(scene.goal, dtype=float), outcome=np.array(rep.state.value), reason=np.array(rep.reason),
+        estimate=np.array(est.pose.as_list(), dtype=float),
+        calibration=np.array(calibration, dtype=float))
     return name
 
 
@@ -146,7 +161,9 @@ def _replay_one(args: tuple[str, dict[str, Any]]) -> Result:
         odometry_module.match_scans = base  # type: ignore[assignment]
 
 
-def _replay(path: str, spec: dict[str, Any]) -> Result:
+def replay_estimator(path: str, spec: dict[str, Any]) -> tuple[ScanOdometry, float]:
+    """The estimator ``spec`` builds, fed the recording at ``path``; the thread CPU seconds it took.
+    With ``spec == {}`` it ends where the recording's own estimator ended (``estimate``)."""
     d = np.load(path, allow_pickle=False)
     odo = _variant(spec)
     frame_no = 0
@@ -154,14 +171,21 @@ def _replay(path: str, spec: dict[str, Any]) -> Result:
     for kind, sc in zip(d["kinds"], d["scalars"]):
         if kind == RESET:
             odo.reset(Pose(float(sc[1]), float(sc[2]), float(sc[3])), float(sc[0]))
-        elif kind == ADVANCE:
-            odo.advance(float(sc[0]), (float(sc[1]), float(sc[2])))
+        elif kind == ADVANCE:  # a recording made before the gyro was kept has nan there: no gyro
+            odo.advance(float(sc[0]), (float(sc[1]), float(sc[2])), rotation=None if math.isnan(sc[3]) else float(sc[3]))
+        elif kind == SHOCK:
+            odo.shock(float(sc[0]))
         else:
             a, b = d["offsets"][frame_no], d["offsets"][frame_no + 1]
             pt = d["point_times"][a:b] if d["stamped"][frame_no] else None
             odo.update(ScanFrame(d["points"][a:b], float(sc[0]), point_times=pt))
             frame_no += 1
-    cpu = time.thread_time() - c0
+    return odo, time.thread_time() - c0
+
+
+def _replay(path: str, spec: dict[str, Any]) -> Result:
+    d = np.load(path, allow_pickle=False)
+    odo, cpu = replay_estimator(path, spec)
     # the truth is in the world's frame, the estimate in the supervisor's (its reset pose is
     # where the robot stood at the start): a corridor layout starts turned up to 0.15 rad
     first, last = d["truth"][0], d["truth"][-1]

@@ -21,14 +21,17 @@ IMU too (its errors drawn from the preset: runtime/backends/_imu.py). Per settin
 - wall time, the process's CPU time and the main thread's (the supervisor's) CPU time.
 
 ``--pty`` instead runs what a user runs, in real time: ``clomp emulate world``'s world (an
-:class:`EmulatedWorldProcess`) and ``clomp run --lidar … --motors … --imu … --goal X,Y`` (the
+:class:`EmulatedWorldProcess`) and ``clomp run --lidar … --motors … [--imu …] --goal X,Y`` (the
 scenario's goal, as ``bench/ros_loop.py`` gives it to ``clomp ros node``) as a subprocess, at
-each ``--scales`` time scale (1 and 2), for each of ``--scenarios`` (default ``--scenario``)
-and ``--seeds`` (default 0..runs-1); one JSON line a run (also appended to ``--json``; the run
-logs kept in ``--logs``), per setting how many runs end truly within 0.1 m and how many exit 0
-farther than that (false successes), and at the end the per-family table of docs/ros2.md::
+each ``--scales`` time scale (1 and 2), ``--imu`` on, off or both, for each of ``--scenarios``
+(default ``--scenario``) and ``--seeds`` (default 0..runs-1); one JSON line a run (also
+appended to ``--json``; the run logs kept in ``--logs``), and per setting the figures above
+(reached = exit 0; the estimate's error from the run log's last fused pose; the world's
+pushes counted) with wall-clock time and the load average, and at the end the per-family
+table of docs/ros2.md. Its figures depend on how busy the machine is (say so beside them)::
 
     python bench/imu_stack.py --pty --scenarios overtaking,corridor,doorway --seeds 0,1,2,3,4,5,6,7,8,9 --scales 1
+    python bench/imu_stack.py --pty --seeds 0,1,2,3,4,5,6,7,8,9 --scales 1,2 --imu both
 """
 
 from __future__ import annotations
@@ -83,9 +86,12 @@ def summary(label: str, rows: list[dict[str, Any]]) -> str:
             f"(supervisor thread {sum(r['thread'] for r in rows):.0f} s) for {sum(r['sim_s'] for r in rows):.0f} simulated s")
 
 
-def one_pty(scenario: str, noise: str, seed: int, scale: float, log: Path) -> dict[str, Any]:
-    """One real-time run over ptys: ``clomp run``'s exit status, the goal it was given and the
-    true final distance (the world's), its collisions and the last line on stderr."""
+def one_pty(scenario: str, noise: str, seed: int, scale: float, log: Path, imu: bool = True) -> dict[str, Any]:
+    """One real-time run over ptys: ``clomp run``'s exit status, the goal it was given, the
+    true final distance (the world's), the estimate's error at the end (the run log's last
+    fused pose against the world's pose in the start frame), collisions, the world's pushes
+    and the last line on stderr."""
+    import os
     import subprocess
 
     from clomp.runtime.backends.emulated import EmulatedWorldProcess
@@ -94,13 +100,52 @@ def one_pty(scenario: str, noise: str, seed: int, scale: float, log: Path) -> di
     with EmulatedWorldProcess(scenario, noise=noise, seed=seed, time_scale=scale) as world:
         gx, gy = world.scene.goal_in_robot_frame()
         argv = [sys.executable, "-m", "clomp.runtime.cli", "run", "--lidar", world.lidar_port, "--motors",
-                world.motor_port, "--imu", world.imu_port, "--goal", f"{gx!r},{gy!r}", "--time-scale", f"{scale:g}",
-                "--max-time", "120", "--log", str(log)]
+                world.motor_port, *(["--imu", world.imu_port] if imu else []), "--goal", f"{gx!r},{gy!r}",
+                "--time-scale", f"{scale:g}", "--max-time", "120", "--log", str(log)]
+        load = os.getloadavg()[0]
         done = subprocess.run(argv, capture_output=True, text=True, timeout=600)
         last = (done.stderr.strip().splitlines() or done.stdout.strip().splitlines() or ["(nothing printed)"])[-1]
-        return {"scenario": scenario, "noise": noise, "seed": seed, "time_scale": scale, "goal": [gx, gy],
+        truth = relative(world.scene.start, world.pose)
+        est = _last_estimate(log)
+        return {"scenario": scenario, "noise": noise, "seed": seed, "time_scale": scale, "imu": imu, "goal": [gx, gy],
                 "exit": done.returncode, "true": float(world.goal_distance), "collisions": int(world.collisions),
+                "est": None if est is None else math.hypot(est[0] - truth.x, est[1] - truth.y),
+                "pushes": [list(p) for p in world.pushes], "load": load,
                 "last": last[:300], "wall": time.perf_counter() - t0, "log": str(log)}
+
+
+def _last_estimate(log: Path) -> tuple[float, float] | None:
+    """The last fused pose (x, y in the start frame) of a run log, None without one."""
+    import json
+
+    pose = None
+    try:
+        with open(log) as f:
+            for line in f:
+                if '"feedback"' in line:
+                    pose = json.loads(line).get("pose", pose)
+    except OSError:
+        return None
+    return None if pose is None else (float(pose[0]), float(pose[1]))
+
+
+def pty_summary(label: str, rows: list[dict[str, Any]]) -> str:
+    """The benchmark's line for real-time runs (reached = exit 0), as :func:`summary`'s."""
+    med = statistics.median
+    ests = [r["est"] for r in rows if r["est"] is not None]
+    return (f"{label}: reached (exit 0) {sum(r['exit'] == 0 for r in rows)}/{len(rows)}, "
+            f"false successes {sum(r['exit'] == 0 and r['true'] > 0.1 for r in rows)}, "
+            f"unconfirmed {sum(_unconfirmed(r) for r in rows)}, faults (exit 3) {sum(r['exit'] == 3 for r in rows)}, "
+            f"collisions {sum(r['collisions'] for r in rows)}, "
+            f"median true final error {med(r['true'] for r in rows):.3f} m, "
+            f"median estimate error at end {med(ests) if ests else math.nan:.3f} m, "
+            f"truly within 0.1 m {sum(r['true'] <= 0.1 for r in rows)}/{len(rows)}, "
+            f"pushed runs {sum(bool(r.get('pushes')) for r in rows)}; "
+            f"wall {sum(r['wall'] for r in rows):.0f} s, load {min(r['load'] for r in rows):.1f}-{max(r['load'] for r in rows):.1f}")
+
+
+def _unconfirmed(r: dict[str, Any]) -> bool:
+    return bool(r["exit"] == 1 and "unconfirmed" in r["last"].lower())
 
 
 def family_table(rows: list[dict[str, Any]]) -> str:
@@ -124,22 +169,30 @@ def main_pty(args: argparse.Namespace) -> int:
     import tempfile
 
     rows: list[dict[str, Any]] = []
+    imus = {"on": (True,), "off": (False,), "both": (True, False)}[args.imu]
     with tempfile.TemporaryDirectory() as tmp:
         logs = Path(args.logs) if args.logs else Path(tmp)
         logs.mkdir(parents=True, exist_ok=True)
         for scale in (float(k) for k in args.scales.split(",")):
-            for scenario in args.scenarios.split(","):
-                for seed in _seeds(args):
-                    r = one_pty(scenario, args.noise, seed, scale, logs / f"{scenario}-{scale:g}-{seed}.jsonl")
-                    rows.append(r)
-                    print(json.dumps(r), flush=True)
-                    if args.json:
-                        with open(args.json, "a") as f:
-                            f.write(json.dumps(r) + "\n")
-                rs = [r for r in rows if r["scenario"] == scenario and r["time_scale"] == scale]
-                print(f"{scenario} time scale {scale:g}: truly within 0.1 m {sum(r['true'] <= 0.1 for r in rs)}/{len(rs)}, "
-                      f"false successes {sum(r['exit'] == 0 and r['true'] > 0.1 for r in rs)}", flush=True)
-    print(family_table(rows))
+            for imu in imus:
+                for scenario in args.scenarios.split(","):
+                    for seed in _seeds(args):
+                        name = f"{scenario}-{scale:g}-{'imu' if imu else 'noimu'}-{seed}.jsonl"
+                        r = one_pty(scenario, args.noise, seed, scale, logs / name, imu)
+                        rows.append(r)
+                        print(json.dumps(r), flush=True)
+                        if args.json:
+                            with open(args.json, "a") as f:
+                                f.write(json.dumps(r) + "\n")
+                    rs = [r for r in rows if r["scenario"] == scenario and r["time_scale"] == scale and r["imu"] == imu]
+                    print(pty_summary(f"{scenario} time scale {scale:g} {'with --imu' if imu else 'without IMU'}", rs),
+                          flush=True)
+    print(f"real time over ptys, noise {args.noise}:")
+    for scale in sorted({r["time_scale"] for r in rows}):
+        for imu in imus:
+            rs = [r for r in rows if r["time_scale"] == scale and r["imu"] == imu]
+            print(pty_summary(f"time scale {scale:g} {'with --imu' if imu else 'without IMU':>12}", rs))
+    print(family_table([r for r in rows if r["imu"]]))
     return 0
 
 
@@ -159,6 +212,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--scales", default="1,2", help="--pty: comma-separated --time-scale values")
     ap.add_argument("--json", metavar="FILE", help="--pty: also append each run as a JSON line")
     ap.add_argument("--logs", metavar="DIR", help="--pty: keep the run logs here")
+    ap.add_argument("--imu", choices=("on", "off", "both"), default="on", help="--pty: clomp run with --imu, without, or both")
     args = ap.parse_args(argv)
     if args.pty:
         args.scenarios = args.scenarios or args.scenario
@@ -171,7 +225,8 @@ def main(argv: list[str] | None = None) -> int:
             state = r["state"].value if r["state"] is not None else "raised"
             print(f"seed {seed:2d} {label:>12}: {state:<13} true {r['true']:.3f} m  estimate off {r['est']:.3f} m"
                   f"{'  fault: ' + r['fault'] if r['fault'] else ''}  ({r['wall']:.1f} s wall)", flush=True)
-    print(f"{args.runs} runs of {args.scenario}, noise {args.noise}, simulated time:", flush=True)
+    print(f"{args.runs} runs of {args.scenario}, noise {args.noise}, in simulated time (the lockstep clock: the "
+          "software's outcome, not the machine's load; --pty for real time):", flush=True)
     for label, rows in results.items():
         print(summary(label, rows))
     return 0

@@ -22,6 +22,7 @@ import math
 import os
 import tempfile
 import time
+from typing import Any
 
 import numpy as np
 
@@ -52,29 +53,46 @@ def world_errors(families: list[str], runs: int, noise: str) -> dict[str, list[f
                     records = [json.loads(line) for line in fh]
             finally:
                 os.unlink(path)
+            for key, values in task_errors(records).items():
+                out[key].extend(values)
+    return out
+
+
+def task_errors(records: list[dict[str, Any]]) -> dict[str, list[float]]:
+    """The errors of every task of one run log (``clomp run``'s records) that ended by its
+    own criterion: a turn's relative angle error (truth / believed - 1, turns of more
+    than 0.2 rad), a straight's relative length error and its sideways error per metre
+    (straights of more than 5 cm), the truth against the supervisor's estimate.
+
+    >>> start = {"event": "task", "phase": "start", "task": "STRAIGHT", "pose": [0, 0, 0], "truth": [0, 0, 0]}
+    >>> end = {"event": "task", "phase": "end", "task": "STRAIGHT", "pose": [1, 0, 0], "truth": [1.1, 0.05, 0]}
+    >>> {k: [round(x, 3) for x in v] for k, v in task_errors([start, end]).items()}
+    {'turn': [], 'length': [0.1], 'sideways': [0.05]}
+    """
+    out: dict[str, list[float]] = {"turn": [], "length": [], "sideways": []}
+    start: dict[str, Any] | None = None
+    for rec in records:
+        if rec.get("event") != "task":
+            continue
+        if rec.get("phase") == "start":
+            start = rec
+            continue
+        if rec.get("phase") != "end" or start is None:
             start = None
-            for rec in records:
-                if rec.get("event") != "task":
-                    continue
-                if rec.get("phase") == "start":
-                    start = rec
-                    continue
-                if rec.get("phase") != "end" or start is None:
-                    start = None
-                    continue
-                p0, p1, t0, t1 = start["pose"], rec["pose"], start["truth"], rec["truth"]
-                if rec["task"] == "STRAIGHT":
-                    d = math.hypot(p1[0] - p0[0], p1[1] - p0[1])
-                    if d > 0.05:
-                        dx, dy = t1[0] - t0[0], t1[1] - t0[1]
-                        c, s = math.cos(t0[2]), math.sin(t0[2])
-                        out["length"].append((dx * c + dy * s) / d - 1)
-                        out["sideways"].append((-dx * s + dy * c) / d)
-                else:
-                    believed = wrap_angle(p1[2] - p0[2])
-                    if abs(believed) > 0.2:
-                        out["turn"].append(wrap_angle(t1[2] - t0[2]) / believed - 1)
-                start = None
+            continue
+        p0, p1, t0, t1 = start["pose"], rec["pose"], start["truth"], rec["truth"]
+        if rec["task"] == "STRAIGHT":
+            d = math.hypot(p1[0] - p0[0], p1[1] - p0[1])
+            if d > 0.05:
+                dx, dy = t1[0] - t0[0], t1[1] - t0[1]
+                c, s = math.cos(t0[2]), math.sin(t0[2])
+                out["length"].append((dx * c + dy * s) / d - 1)
+                out["sideways"].append((-dx * s + dy * c) / d)
+        else:
+            believed = wrap_angle(p1[2] - p0[2])
+            if abs(believed) > 0.2:
+                out["turn"].append(wrap_angle(t1[2] - t0[2]) / believed - 1)
+        start = None
     return out
 
 

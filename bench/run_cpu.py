@@ -10,7 +10,7 @@ would sustain at that cost, with both conditions mixed as a sweep mixes them. Pr
 not wall time: the machine may be shared, and wall time under load is not the figure
 (issue #41's target: >= 3 runs/s on 2 cores for the paper's family). CPU time still grows
 somewhat under heavy load (caches shared with other processes), so compare two trees
-side by side, interleaved. ``--profile FILE`` writes a cProfile of the measured runs.
+side by side, interleaved. ``--profile FILE`` writes a cProfile of the measured runs (timed in process CPU).
 """
 
 from __future__ import annotations
@@ -39,7 +39,7 @@ def main() -> int:
     if args.runs < 1:
         ap.error("--runs must be at least 1")
     conditions = args.condition or ["planning", "reactive"]
-    prof = cProfile.Profile() if args.profile else None
+    prof = cProfile.Profile(time.process_time) if args.profile else None  # CPU, not wall time: the machine is shared
     means = []
     for cond in conditions:
         run_spec(RunSpec(args.family, args.seed + 99, 0, cond, args.noise))  # warm-up, not counted

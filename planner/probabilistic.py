@@ -65,6 +65,7 @@ from clomp.planner.configurator import Configurator, CostContext, PlanResult
 from clomp.planner.hazard import HazardRule, hazard_stop
 from clomp.planner.noise import NoiseError, RolloutNoise, preset_names
 from clomp.planner.perception import Obstacles, load_scan, perceive
+from clomp.planner.pushes import Pushes, push_outcome
 from clomp.planner.recovery import RECOVERY_TASKS, after_wait, noisy_recovery
 from clomp.planner.rollout import Outcome, World, frontier_distance, in_the_way, make_task
 from clomp.planner.visibility import KnownFree
@@ -313,6 +314,7 @@ def sample_map(
     tolerance: tuple[float, float] | None = None,
     hazard: HazardRule | None = None,
     carry: bool = False,
+    pushes: Pushes | None = None,
 ) -> ProbabilisticMap:
     """Build the nominal map of ``scan`` for ``goal`` and estimate every choice's outcome
     from ``samples`` noisy rollouts (see the module docstring); ``seed`` makes it
@@ -328,7 +330,8 @@ def sample_map(
     outcome (a straight drives the planned length from there, a turn turns to the
     planned heading). Without it every rollout of a choice starts at the state's
     recorded end pose, so an error within the tolerance is forgotten at each step and a
-    later task never meets the obstacle such an error leads it into."""
+    later task never meets the obstacle such an error leads it into. ``pushes``: the
+    world's external pushes while a task runs (:mod:`clomp.planner.pushes`; default none)."""
     if isinstance(samples, bool) or not isinstance(samples, int) or samples < 1:
         raise NoiseError(f"samples must be a whole number >= 1, got {samples!r}")
     if samples > MAX_SAMPLES:
@@ -380,6 +383,8 @@ def sample_map(
                 w = cleared[i]
             begin = here.get(i, pool[i % len(pool)] if pool else start) if carry else start
             out, stopped = _rollout_stop(kind, begin, nominal.goal, w, robot, nz, hazard, aim)
+            if pushes is not None and not stopped and kind not in RECOVERY_TASKS:
+                out = push_outcome(out, w.obstacles.points, robot, pushes, w.rng)
             if out.reached_goal and not known.clear(out, robot):
                 out = replace(out, reached_goal=False)
             if carry:
@@ -394,7 +399,7 @@ def sample_map(
     b.map = _reachable_part(b.map)
     plan = extract_plan(b.map)
     b.map.metadata.update({"plan": list(plan.states), "samples": samples, "noise": nz.to_dict(), "seed": seed, "nominal_plan": list(nominal.plan.states),
-                           "carry": carry,
+                           "carry": carry, **({"pushes": [pushes.rate, pushes.size]} if pushes is not None and pushes.active else {}),
                            STOPS_KEY: {str(i): src for i, src in sorted(b.stops.items()) if i in b.map and src in b.map}})
     if hazard is not None and hazard.contacts:
         b.map.metadata[OFFS_KEY] = {str(i): a for i, a in sorted(_offs(b).items())}

@@ -180,10 +180,17 @@ class Contacts:
         # sample carries who hit whom (True: the robot drove into the body)
         self.static_trace: list[tuple[float, float]] = []
         self.moving_trace: list[tuple[float, float, bool]] = []
+        self._deepest: float = -1.0  # the step being recorded (a static world's): its deepest contact
+        self._where: tuple[float, float] | None = None
 
     def update(self, t: float, body: pymunk.Body, movers: Movers | None = None) -> None:
         """Record the step ending at ``t``: the deepest penetration and a new collision
         (with ``movers``, the static and the moving contacts apart as well)."""
+        if movers is None:  # every step of a static world: no closure and no split to build
+            self._deepest, self._where = -1.0, None
+            body.each_arbiter(self._visit)
+            self._count(t, self._deepest, self._where)
+            return
         deepest = -1.0
         where: tuple[float, float] | None = None
         split = {"static": -1.0, "moving": -1.0}
@@ -203,11 +210,21 @@ class Contacts:
                 caused = caused or bool(who)
 
         body.each_arbiter(visit)
-        if movers is not None:
-            if split["static"] >= -0.5:
-                self.static_trace.append((t, max(0.0, split["static"])))
-            if split["moving"] >= -0.5:
-                self.moving_trace.append((t, max(0.0, split["moving"]), caused))
+        if split["static"] >= -0.5:
+            self.static_trace.append((t, max(0.0, split["static"])))
+        if split["moving"] >= -0.5:
+            self.moving_trace.append((t, max(0.0, split["moving"]), caused))
+        self._count(t, deepest, where)
+
+    def _visit(self, arb: pymunk.Arbiter) -> None:
+        """The deepest contact point of the step so far, and where (a static world's step)."""
+        for p in arb.contact_point_set.points:
+            if -p.distance > self._deepest:
+                self._deepest = -p.distance
+                self._where = (float(p.point_a.x), float(p.point_a.y))
+
+    def _count(self, t: float, deepest: float, where: tuple[float, float] | None) -> None:
+        """The step's trace sample and a new collision, from its deepest contact (``where``: None, none)."""
         if where is not None:
             self.trace.append((t, max(0.0, deepest)))
             if not self.touching and t - self._ended >= _CONTACT_GAP:

@@ -137,9 +137,15 @@ class Lidar:
         revolution instead of once per physics step).
         """
         n, k = self.noise, i1 - i0
-        angle = self._rng.standard_normal(k) if n.angle_sd else None
+        angle: np.ndarray | None
+        rng: np.ndarray | None
+        if n.angle_sd and n.range_sd:  # one call, the same draws: the angles' k, then the ranges' k
+            z = self._rng.standard_normal(2 * k)
+            angle, rng = z[:k], z[k:]
+        else:
+            angle = self._rng.standard_normal(k) if n.angle_sd else None
+            rng = self._rng.standard_normal(k) if n.range_sd else None
         x, y, th = self.origin(pose)
-        rng = self._rng.standard_normal(k) if n.range_sd else None
         drop = self._rng.random(k) if n.dropout else None
         if self.streaming is None:
             self._raw.append((x, y, th, k, angle, rng, drop, t))

@@ -402,8 +402,9 @@ class WorldRobot(SimulatedBackend):
         if self.movers is not None:
             self.movers.step(self._t, dt, self._xyth(), self.body.front_offset, (v * math.cos(th), v * math.sin(th), w))
         self._space.step(dt)
+        p, angle = body.position, body.angle  # read once: nothing below moves the body
         if self._gyro is not None:
-            self._gyro.step((body.angle - th) / dt, dt)
+            self._gyro.step((angle - th) / dt, dt)
         if self._shock is not None:
             vel = body.velocity
             after = (float(vel.x), float(vel.y))
@@ -411,7 +412,7 @@ class WorldRobot(SimulatedBackend):
             self._velocity = after
         self._t += dt
         self._contacts.update(self._t, body, self.movers)
-        pose = self._xyth()
+        pose = (float(p.x), float(p.y), float(angle))  # _xyth(), from the reads above
         self.trajectory.append((self._t, *pose))
         frame = self._lidar.step(self._t, pose)
         if frame is not None:

@@ -179,7 +179,6 @@ def run(args: argparse.Namespace) -> int:
 
 def _run(args: argparse.Namespace, scheduling: str) -> int:
     from clomp.runtime.backends.hardware import HardwareRobot
-    from clomp.runtime.clock import ScaledClock, WallClock
     from clomp.runtime.supervision import Supervisor, SupervisorConfig
 
     goal = parse_goal(args.goal)
@@ -188,7 +187,7 @@ def _run(args: argparse.Namespace, scheduling: str) -> int:
     runlog, path = open_runlog(args.log)
     lock = threading.Lock()
     log = _SharedLog(runlog, lock)
-    clock = WallClock() if args.time_scale == 1.0 else ScaledClock(args.time_scale)
+    clock = _clock(args.time_scale)
     log.write("run", argv=sys.argv[1:], lidar=args.lidar, motors=args.motors, imu=args.imu, dry_run=args.dry_run,
               goal=list(goal), max_time=args.max_time, time_scale=args.time_scale,
               config=config.to_dict(), monotonic=time.monotonic(), wall=time.time(), scheduling=scheduling,
@@ -208,6 +207,14 @@ def _run(args: argparse.Namespace, scheduling: str) -> int:
                                          imu_port=args.imu),
                    work, runlog, log, path,
                    usage_fault=lambda: _missing_path(args.lidar) or _missing_path(args.motors) or _missing_path(args.imu))
+
+
+def _clock(time_scale: float) -> Any:
+    """The run's one clock: wall time, or ``time_scale`` times faster (a test puts the run on
+    simulated time here: tests/runtime/_simcli.py)."""
+    from clomp.runtime.clock import ScaledClock, WallClock
+
+    return WallClock() if time_scale == 1.0 else ScaledClock(time_scale)
 
 
 def open_runlog(name: str | None) -> tuple[Any, Path]:
@@ -418,10 +425,19 @@ def _run_world(args: argparse.Namespace) -> int:
             world.stop()
         p = world.pose
         print(f"robot at ({p.x:.3f}, {p.y:.3f}, {math.degrees(p.theta):.0f}°), {world.goal_distance:.3f} m from the goal, "
-              f"{world.collisions} collision(s)", flush=True)
+              f"{world.collisions} collision(s){_disturbances(world)}", flush=True)
     if world.error is not None:
         raise CliError(f"the emulated world failed: {world.error}")
     return 0
+
+
+def _disturbances(world: Any) -> str:
+    """The world's pushes and slip events for the summary line ('' when it had none), e.g.
+    ``, pushed 0.18 m at 12.3 s, 1 slip event(s)``: the truth a run's doubt may answer."""
+    slip_events = getattr(world, "slips", [])
+    pushes = "".join(f", pushed {d:.2f} m at {t:.1f} s" for t, d in getattr(world, "pushes", []))
+    slips = f", {len(slip_events)} slip event(s)" if slip_events else ""
+    return pushes + slips
 
 
 def _serve_world(world: Any, args: argparse.Namespace) -> None:

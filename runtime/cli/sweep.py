@@ -80,7 +80,7 @@ def run(args: argparse.Namespace) -> int:
     from clomp.runtime.experiment.groundtruth import NOISE_PRESETS
     from clomp.runtime.experiment.htmlpage import block_key, write_report
     from clomp.runtime.experiment.policy import PolicyError
-    from clomp.runtime.experiment.results import summarise, write_csv
+    from clomp.runtime.experiment.results import conditions_table, summarise, write_csv
     from clomp.runtime.experiment.runrecords import load_records
     from clomp.runtime.experiment.runspec import experiment_specs
 
@@ -132,7 +132,8 @@ def run(args: argparse.Namespace) -> int:
     except (RuntimeError, OSError) as exc:
         raise CliError(str(exc)) from None
     wall, cpu = time.perf_counter() - w0, time.thread_time() - c0
-    whole = load_records(out / "runs.jsonl")
+    on_disk = load_records(out / "runs.jsonl")
+    whole = [r for r in on_disk if r["key"] in wanted]  # this command's runs; a resume keeps others on disk
     cells: dict[tuple[str, str, float, int], list[dict[str, Any]]] = {}
     for r in whole:
         cells.setdefault(block_key(r), []).append(r)
@@ -146,11 +147,13 @@ def run(args: argparse.Namespace) -> int:
             f"{n}: {c[n]['success']}/{c[n]['runs']} success, {c[n]['collisions']} coll., "
             f"{c[n].get('false_successes', 0)} false" for n in c))
     write_csv(whole, out / "runs.csv")
+    (out / "table.md").write_text(conditions_table(whole) + "\n", encoding="utf-8")
     (out / "summary.json").write_text(json.dumps({"cells": summaries, "runs": len(whole), "wall_s": round(wall, 1),
                                                   "runs_per_s": round((len(records) - kept) / wall, 3) if wall > 0 else None},
                                                  indent=1, allow_nan=False) + "\n", encoding="utf-8")
     page = write_report(whole, out / "report.html", f"clomp sweep: {len(whole)} runs")
     ran = len(records) - kept  # runs/s counts what this call ran, not the runs a --resume kept
-    print(f"{ran} runs in {wall:.0f} s wall ({ran / max(wall, 1e-9):.2f} runs/s{f'; {kept} kept from before' if kept else ''}), this process "
-          f"{cpu:.1f} s thread CPU; wrote {out}{os.sep}: runs.jsonl, runs.csv, summary.json, {page.name}")
+    print(f"{ran} runs in {wall:.0f} s wall ({ran / max(wall, 1e-9):.2f} runs/s{f'; {kept} kept from before' if kept else ''}"
+          f"{f'; {len(on_disk) - len(whole)} runs outside this selection left in runs.jsonl' if len(on_disk) > len(whole) else ''}), this process "
+          f"{cpu:.1f} s thread CPU; wrote {out}{os.sep}: runs.jsonl, runs.csv, table.md, summary.json, {page.name}")
     return 0

@@ -41,9 +41,8 @@ from clomp.runtime.devices.bno08x_codec import (
     encode_report,
     unwrap,
 )
-from clomp.runtime.devices.port import OPEN_ERRORS as _OPEN_ERRORS
 from clomp.runtime.devices.port import PORT_ERRORS as _PORT_ERRORS
-from clomp.runtime.devices.port import open_serial
+from clomp.runtime.devices.port import SerialDevice
 
 __all__ = [
     "Bno08xRvc",
@@ -80,7 +79,7 @@ class ImuSample:
     yaw: float
 
 
-class Bno08xRvc:
+class Bno08xRvc(SerialDevice):
     """A BNO08x in UART-RVC mode on a serial port, read on a background thread.
 
     ``port`` is a device path (``/dev/ttyUSB0``), a pyserial URL or an open serial-like
@@ -99,6 +98,8 @@ class Bno08xRvc:
     scan's time); each raises the latched :class:`ImuError` once the stream has failed,
     and :attr:`on_fault` hears of the fault the moment it is found.
     """
+
+    _device, _port_error = "IMU", ImuPortError
 
     def __init__(
         self,
@@ -144,28 +145,16 @@ class Bno08xRvc:
         self._recent: collections.deque[ImuSample] = collections.deque(maxlen=history)
         self._cond = threading.Condition()
         self._closing = threading.Event()
-        if isinstance(port, str):
-            self._spec: str | None = port
-            self._owns_port = True
-            try:
-                self.port: Any = open_serial(port, baudrate, _READ_SLICE)
-            except _OPEN_ERRORS as exc:
-                raise ImuPortError(f"cannot open IMU port {port}: {exc}") from exc
-        else:
-            if not hasattr(port, "read"):
-                raise TypeError(f"port must be a path, a URL or a serial-like object, got {port!r}")
-            self._spec, self._owns_port, self.port = None, False, port
-            if getattr(port, "timeout", 0) is None:
-                port.timeout = _READ_SLICE  # a blocking read would hang on a silent device
+        self._attach(port, baudrate=baudrate, timeout=_READ_SLICE, needs=("read",), read_slice=_READ_SLICE)
         self._thread = threading.Thread(target=self._read_loop, name="imu-reader", daemon=True)
         self._thread.start()
 
     # -- what a consumer reads
 
     @property
-    def port_name(self) -> str:
-        """The path/URL of the port, or the name of the port object."""
-        return self._spec or str(getattr(self.port, "port", None) or self.port)
+    def port(self) -> Any:
+        """The serial port (or the serial-like object given)."""
+        return self._port
 
     @property
     def fault(self) -> ImuError | None:
@@ -227,8 +216,8 @@ class Bno08xRvc:
         held = False  # a deadline passed with bytes waiting: read them before judging
         while not self._closing.is_set():
             try:
-                waiting = int(getattr(self.port, "in_waiting", 0))
-                data = bytes(self.port.read(max(1, waiting)))
+                waiting = int(getattr(self._port, "in_waiting", 0))
+                data = bytes(self._port.read(max(1, waiting)))
             except _PORT_ERRORS as exc:
                 if not self._closing.is_set():
                     self._trip(ImuPortError(f"IMU port {self.port_name} failed while reading (device unplugged?): {exc}"))
@@ -256,7 +245,7 @@ class Bno08xRvc:
     def _waiting(self) -> int:
         """Bytes waiting in the port's buffer (0 when it cannot say)."""
         try:
-            return int(getattr(self.port, "in_waiting", 0))
+            return int(getattr(self._port, "in_waiting", 0))
         except _PORT_ERRORS:
             return 0
 
@@ -340,17 +329,7 @@ class Bno08xRvc:
         self._closing.set()
         if self._thread is not threading.current_thread():
             self._thread.join(timeout=2.0)
-        if self._owns_port:
-            try:
-                self.port.close()
-            except _PORT_ERRORS:
-                pass
-
-    def __enter__(self) -> Self:
-        return self
-
-    def __exit__(self, *exc: object) -> None:
-        self.close()
+        self._close_port()
 
     def __repr__(self) -> str:
         state = "healthy" if self._fault is None else f"fault: {self._fault}"

@@ -19,9 +19,8 @@ import time
 from collections.abc import Callable
 from typing import Any
 
-from clomp.runtime.devices.port import OPEN_ERRORS as _OPEN_ERRORS
 from clomp.runtime.devices.port import PORT_ERRORS as _PORT_ERRORS
-from clomp.runtime.devices.port import open_serial
+from clomp.runtime.devices.port import SerialDevice
 from clomp.runtime.devices.maestro_codec import (
     decode_errors,
     DEFAULT_DEVICE_NUMBER,
@@ -63,7 +62,7 @@ __all__ = [
 ]
 
 
-class Maestro:
+class Maestro(SerialDevice):
     """Two wheel servos on a Pololu Maestro.
 
     ``port`` is a device path (``/dev/ttyACM0``), a pyserial URL, or an open
@@ -72,6 +71,8 @@ class Maestro:
     stops them when :meth:`set_speeds` is not called for ``watchdog_timeout`` seconds
     (``None`` disables it).
     """
+
+    _device, _port_error = "Maestro", MaestroPortError
 
     def __init__(
         self,
@@ -122,42 +123,13 @@ class Maestro:
         self._speeds = (0.0, 0.0)
         self._closed = threading.Event()
         self._uninstall: Callable[[], None] | None = None
-        if isinstance(port, str):
-            self._spec: str | None = port
-            self._owns_port = True
-            self._port: Any = self._open(port, baudrate)
-        else:
-            if not all(hasattr(port, m) for m in ("read", "write")):
-                raise TypeError(f"port must be a path, a URL or a serial-like object, got {port!r}")
-            self._spec, self._owns_port, self._port = None, False, port
+        self._attach(port, baudrate=baudrate, timeout=reply_timeout)
         self._watchdog: threading.Thread | None = None
         if watchdog_timeout is not None:
             self._watchdog = threading.Thread(target=self._watch, name="maestro-watchdog", daemon=True)
             self._watchdog.start()
 
-    # -- port plumbing
-
-    def _open(self, spec: str, baudrate: int) -> Any:
-        try:
-            return open_serial(spec, baudrate, self.reply_timeout)
-        except _OPEN_ERRORS as exc:
-            raise MaestroPortError(f"cannot open Maestro port {spec}: {exc}") from exc
-
-    @property
-    def port_name(self) -> str:
-        """The path/URL of the port, or the name of the port object."""
-        return self._spec or str(getattr(self._port, "port", None) or self._port)
-
-    def _write(self, data: bytes) -> None:
-        try:
-            self._port.write(data)
-            flush = getattr(self._port, "flush", None)
-            if flush is not None:
-                flush()
-        except _PORT_ERRORS as exc:
-            raise MaestroPortError(
-                f"Maestro port {self.port_name} failed while writing (device unplugged?): {exc}"
-            ) from exc
+    # -- port plumbing (SerialDevice's: opening, port_name, _write, closing)
 
     def _query(self, request: bytes, n: int, what: str) -> bytes:
         with self._lock:
@@ -359,17 +331,7 @@ class Maestro:
         self._closed.set()
         if self._watchdog is not None and self._watchdog is not threading.current_thread():
             self._watchdog.join(timeout=1.0)
-        if self._owns_port:
-            try:
-                self._port.close()
-            except _PORT_ERRORS:
-                pass
-
-    def __enter__(self) -> Maestro:
-        return self
-
-    def __exit__(self, *exc: object) -> None:
-        self.close()
+        self._close_port()
 
     def __repr__(self) -> str:
         return f"Maestro({self.port_name!r}, protocol={self.protocol!r})"

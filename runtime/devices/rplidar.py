@@ -17,9 +17,8 @@ from collections.abc import Callable, Iterator
 from typing import Any, Literal
 
 
-from clomp.runtime.devices.port import OPEN_ERRORS as _OPEN_ERRORS
 from clomp.runtime.devices.port import PORT_ERRORS as _PORT_ERRORS
-from clomp.runtime.devices.port import open_serial
+from clomp.runtime.devices.port import SerialDevice
 from clomp.runtime.devices.frame import ScanFrame
 from clomp.runtime.devices.rplidar_codec import (
     Command,
@@ -103,7 +102,7 @@ _STOP_DRAIN = 0.5
 MotorControl = Literal["dtr", "none"] | Callable[[bool], None] | None
 
 
-class RPLidar:
+class RPLidar(SerialDevice):
     """An RPLIDAR A1 on a serial port.
 
     ``port`` is a device path (``/dev/ttyUSB0``), a pyserial URL (``loop://``,
@@ -122,6 +121,8 @@ class RPLidar:
     (``time.monotonic`` unless a test passes its own); waiting for the line to fall quiet
     after STOP is always on wall time.
     """
+
+    _device, _port_error = "LiDAR", LidarPortError
 
     def __init__(
         self,
@@ -149,26 +150,9 @@ class RPLidar:
         self.skipped_scans = 0
         self.period: float | None = None  # s a revolution takes, measured from their ends
         self._last_end: float | None = None
-        if isinstance(port, str):
-            self._spec: str | None = port
-            self._owns_port = True
-            self._port: Any = None
-            self._open()
-        else:
-            if not all(hasattr(port, m) for m in ("read", "write")):
-                raise TypeError(f"port must be a path, a URL or a serial-like object, got {port!r}")
-            self._spec = None
-            self._owns_port = False
-            self._port = port
-            if getattr(port, "timeout", 0) is None:
-                port.timeout = _READ_SLICE  # a blocking read would hang on a silent device
+        self._attach(port, baudrate=baudrate, timeout=_READ_SLICE, read_slice=_READ_SLICE)
 
-    # -- port plumbing
-
-    @property
-    def port_name(self) -> str:
-        """The path/URL of the port, or the name of the port object."""
-        return self._spec or str(getattr(self._port, "port", None) or self._port)
+    # -- port plumbing (SerialDevice's, the scan stopped when the port fails)
 
     @property
     def scanning(self) -> bool:
@@ -180,27 +164,9 @@ class RPLidar:
         """Bytes skipped while resynchronising the current scan stream."""
         return self._decoder.dropped_bytes
 
-    def _open(self) -> None:
-        assert self._spec is not None
-        try:
-            self._port = open_serial(self._spec, self.baudrate, _READ_SLICE)
-        except _OPEN_ERRORS as exc:
-            raise LidarPortError(f"cannot open LiDAR port {self._spec}: {exc}") from exc
-
-    def _port_failed(self, what: str, exc: BaseException) -> LidarPortError:
+    def _port_failed(self, what: str, exc: BaseException) -> Exception:
         self._scanning = False
-        return LidarPortError(
-            f"LiDAR port {self.port_name} failed while {what} (device unplugged?): {exc}"
-        )
-
-    def _write(self, data: bytes) -> None:
-        try:
-            self._port.write(data)
-            flush = getattr(self._port, "flush", None)
-            if flush is not None:
-                flush()
-        except _PORT_ERRORS as exc:
-            raise self._port_failed("writing", exc) from exc
+        return super()._port_failed(what, exc)
 
     def _reset_input(self) -> None:
         reset = getattr(self._port, "reset_input_buffer", None)
@@ -435,7 +401,7 @@ class RPLidar:
         except _PORT_ERRORS:
             pass
         if self._owns_port:
-            self._open()
+            self._open_port(self.baudrate, _READ_SLICE)
             return
         opener = getattr(self._port, "open", None)
         if opener is None:
@@ -452,17 +418,7 @@ class RPLidar:
                 self.stop()
         except LidarError:
             pass
-        if self._owns_port and self._port is not None:
-            try:
-                self._port.close()
-            except _PORT_ERRORS:
-                pass
-
-    def __enter__(self) -> RPLidar:
-        return self
-
-    def __exit__(self, *exc: object) -> None:
-        self.close()
+        self._close_port()
 
     def __repr__(self) -> str:
         return f"RPLidar({self.port_name!r}, scanning={self._scanning})"

@@ -27,7 +27,7 @@ import numpy as np
 
 from clomp.runtime.jit import compiled, interruptible
 
-__all__ = ["grid_index", "cell_keys", "nearest", "icp_iterations", "warm_up"]
+__all__ = ["grid_index", "cell_keys", "nearest", "nearest_two", "icp_iterations", "warm_up"]
 
 # a grid of at most this many cells per axis (a quarter of a million in all): a scan
 # spread over more than 51 m (far outliers) gets coarser cells rather than a huge index
@@ -81,6 +81,37 @@ def nearest(qx: float, qy: float, bound2: float, pts: np.ndarray, starts: np.nda
                 if d2 < best:
                     best, found = d2, k
     return found, best
+
+
+@compiled
+def nearest_two(qs: np.ndarray, bound2: float, pts: np.ndarray, starts: np.ndarray, x0: float, y0: float, cell: float,
+                nx: int, ny: int, found: np.ndarray, best: np.ndarray, second: np.ndarray) -> None:
+    """For each row of ``qs`` (N×2): the grid-sorted point nearest it with a squared distance
+    below ``bound2`` (``found``: its index, -1 when none), that squared distance and the
+    next nearest one's (``best``, ``second``; ``bound2`` when there is none) — a k-d tree's
+    ``query(qs, k=2, distance_upper_bound=sqrt(bound2))`` with squared distances summed as
+    it sums them (``dx * dx + dy * dy``). A cell beyond the bound on every side is searched
+    too, so that no rounding at a cell's edge can leave a point within the bound out."""
+    bound = math.sqrt(bound2)
+    for i in range(qs.shape[0]):
+        qx, qy = qs[i, 0], qs[i, 1]
+        b1, b2, f = bound2, bound2, -1
+        lx = max(math.floor((qx - bound - x0) / cell) - 1.0, 0.0)
+        hx = min(math.floor((qx + bound - x0) / cell) + 1.0, nx - 1.0)
+        ly = max(math.floor((qy - bound - y0) / cell) - 1.0, 0.0)
+        hy = min(math.floor((qy + bound - y0) / cell) + 1.0, ny - 1.0)
+        if lx <= hx and ly <= hy:  # else outside the grid (or not a number)
+            for ix in range(int(lx), int(hx) + 1):
+                for iy in range(int(ly), int(hy) + 1):
+                    c = ix * ny + iy
+                    for k in range(starts[c], starts[c + 1]):
+                        dx, dy = qx - pts[k, 0], qy - pts[k, 1]
+                        d2 = dx * dx + dy * dy
+                        if d2 < b1:
+                            b1, b2, f = d2, b1, k
+                        elif d2 < b2:
+                            b2 = d2
+        found[i], best[i], second[i] = f, b1, b2
 
 
 @compiled
@@ -181,10 +212,11 @@ def icp_iterations(pts: np.ndarray, rows: np.ndarray, real: np.ndarray, starts: 
 
 
 def warm_up() -> None:
-    """Compile (or load from the cache) the matcher now, with the argument types a match
+    """Compile (or load from the cache) the matcher (and the map's nearest-point search) now, with the argument types a match
     uses: a robot calls this before it moves, so that the first match — seconds of
     compiling on a fresh install — never stalls a control loop that is driving."""
     pts = np.zeros((1, 2))
     starts, grid = grid_index(pts, 0.1)
     interruptible(icp_iterations, pts, np.zeros((1, 2, 2)), np.ones((1, 2), dtype=bool), starts, *grid, np.zeros((1, 2)),
                   np.zeros(3), 1, 0.1, 0.1, 0.01, 0.5, 0.02, 1)
+    interruptible(nearest_two, pts, 0.01, pts, starts, *grid, np.zeros(1, dtype=np.int64), np.zeros(1), np.zeros(1))

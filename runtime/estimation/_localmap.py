@@ -21,11 +21,15 @@ from scipy.spatial import cKDTree
 from clomp.formal.geometry import points_from_frame
 from clomp.formal.model import Pose
 from clomp.runtime.estimation._exact import median
-from clomp.runtime.estimation.doubt import Doubt
+from clomp.runtime.estimation._icp_core import cell_keys, grid_index, nearest_two
+from clomp.runtime.estimation.doubt import Doubt, see_through
 from clomp.runtime.estimation.ekf import OdometryFilter
 from clomp.runtime.estimation.icp import ReferenceScan
+from clomp.runtime.jit import interruptible
 
 __all__ = ["LocalMap"]
+
+_GRID_CELL = 0.05  # m: the map's search grid (the widest bound it is searched within)
 
 
 class LocalMap:
@@ -42,6 +46,16 @@ class LocalMap:
     _map_points: np.ndarray | None
     _map_tree: cKDTree | None
     _map_sds: np.ndarray | None
+    _map_grid: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, tuple[float, float, float, int, int]] | None
+    pose: Pose
+
+    def sees_past(self, points: np.ndarray) -> tuple[int, int]:
+        """How many bearings of a revolution ``points`` (robot frame) seen at the estimate look
+        past a surface the map holds (:func:`~clomp.runtime.estimation.doubt.see_through`), and
+        at how many the map holds one; (0, 0) before there is a map."""
+        if self._map_points is None:
+            return 0, 0
+        return see_through(self._map_points, points, self.pose)
 
     def _add(self, points: np.ndarray, pose: Pose, reseed: bool) -> bool:
         """Put a revolution seen from ``pose`` into the map (1 cm grid, within ``map_radius``)."""
@@ -53,8 +67,7 @@ class LocalMap:
         if len(old) and self._map is not None and len(self._map):
             # only surfaces the map does not hold yet: re-adding known ones would smear them
             # along the robot's estimation error and let the estimate drift with them
-            d, _ = self._tree().query(world, distance_upper_bound=self.new_surface)
-            new = ~np.isfinite(d)
+            new = self._nearest(world, self.new_surface)[0] < 0
             if not new.any():
                 return False
             points, world = points[new], world[new]  # each point's uncertainty below is its own arithmetic
@@ -76,15 +89,28 @@ class LocalMap:
         self._map = ReferenceScan(merged)
         return True
 
-    def _tree(self) -> cKDTree:
-        """The k-d tree of the map's points, built when first asked after the map changed (one
-        per map, not one per revolution). Built unbalanced and without shrinking its nodes to
-        the points (scipy's ``balanced_tree`` and ``compact_nodes`` off), which costs half as
-        much: a nearest point found in it, and its distance, are those scipy's default tree
-        finds, but where two map points are exactly as near (:meth:`_map_sd` asks that tree then)."""
-        if self._map_tree is None:
-            self._map_tree = cKDTree(self._map_points, balanced_tree=False, compact_nodes=False)
-        return self._map_tree
+    def _nearest(self, points: np.ndarray, bound: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """For each of the N×2 ``points`` (world frame): the nearest map point closer than
+        ``bound`` (its index, -1 when none), the squared distance to it and to the next
+        nearest (``bound ** 2`` when none) — what a k-d tree's ``query(points, k=2,
+        distance_upper_bound=bound)`` finds, from a compiled search of a uniform grid of the
+        map's points (:func:`~clomp.runtime.estimation._icp_core.nearest_two`), built once
+        per map: the two tree queries a revolution made were a tenth of a reactive run's
+        CPU (issue #41). Where two map points are about as near, which one a tree names is
+        its choice: :meth:`_map_sd` asks scipy's tree then."""
+        pts = self._map_points
+        assert pts is not None
+        cached = getattr(self, "_map_grid", None)
+        if cached is None or cached[0] is not pts:
+            starts, grid = grid_index(pts, _GRID_CELL)
+            order = np.argsort(cell_keys(pts, grid), kind="stable")
+            cached = (pts, np.ascontiguousarray(pts[order]), order, starts, grid)
+            self._map_grid = cached
+        _, sorted_pts, order, starts, grid = cached
+        q = np.ascontiguousarray(points, dtype=float).reshape(-1, 2)
+        found, best, second = np.empty(len(q), dtype=np.int64), np.empty(len(q)), np.empty(len(q))
+        interruptible(nearest_two, q, bound * bound, sorted_pts, starts, *grid, found, best, second)
+        return np.where(found >= 0, order[np.maximum(found, 0)], -1), best, second
 
     def _map_sd(self, points: np.ndarray, pose: Pose) -> tuple[float, float]:
         """How wrong the surfaces a revolution seen from ``pose`` meets may be (m, rad): the
@@ -92,16 +118,22 @@ class LocalMap:
         as the estimate that drew it (0 for the start's seed)."""
         if self._map_points is None or self._map_sds is None or not len(self._map_points) or not len(points):
             return (0.0, 0.0)
-        seen = points_from_frame(points, pose)
-        d2, idx2 = self._tree().query(seen, k=2, distance_upper_bound=0.05)
-        d, idx = d2[:, 0], idx2[:, 0]
-        if bool((np.isfinite(d) & (d == d2[:, 1])).any()):
-            # two map points equally near a point: which one counts is the tree's choice, and
-            # the map's tree was built balanced and compacted (scipy's default) until issue
-            # #41; that tree chooses here, so that the answer stays the one it gave
-            d, idx = cKDTree(self._map_points).query(seen, distance_upper_bound=0.05)
-        hit = np.isfinite(d)
+        idx = self._met(points_from_frame(points, pose))
+        hit = idx >= 0
         if not hit.any():
             return (0.0, 0.0)
         sds = self._map_sds[idx[hit]]
         return (median(sds[:, 0]), median(sds[:, 1]))  # float(np.median(...)), bit for bit
+
+    def _met(self, seen: np.ndarray) -> np.ndarray:
+        """The map point each of the N×2 ``seen`` (world frame) meets: its nearest within 5 cm
+        (-1: none)."""
+        idx, best, second = self._nearest(seen, 0.05)
+        if bool(((idx >= 0) & (second <= best * (1.0 + 1e-9))).any()):
+            # two map points (about) equally near a point: which one counts is the tree's
+            # choice, and the map's tree was built balanced and compacted (scipy's default)
+            # until issue #41; that tree chooses here, so that the answer stays the one it gave
+            # (elsewhere the nearest point is unique: every tree and the grid find it)
+            d, near = cKDTree(self._map_points).query(seen, distance_upper_bound=0.05)
+            idx = np.where(np.isfinite(d), near, -1)
+        return idx

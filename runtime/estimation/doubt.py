@@ -64,26 +64,37 @@ class Doubt:
     to ``jolt_sd`` (a slip event of 0.5 s at 0.1 m/s). Either opens the filter's
     uncertainty as wide and is a floor (without it a slipped ``u-trap`` run ended
     GOAL_REACHED 0.105 m off, believing 1 cm). ``trust`` (m): surfaces drawn at most this
-    uncertain count as drawn before the doubt. ``through_least``, ``through_share``,
+    uncertain count as drawn before the doubt (0.01: the start's seed and what was drawn
+    soon after. At 0.05, surfaces drawn while a heading drifted unseen, 0.1-0.3 m off,
+    carried 0.02-0.05 and were trusted: three runs at ``harsh`` without the gyro cleared
+    a doubt that was right against them and ended GOAL_REACHED 0.14-0.27 m off).
+    ``through_least``, ``through_share``,
     ``through_after``: when a revolution contradicts the map, and after how many in a row
     the robot is taken to stand elsewhere (:meth:`seen`; 10 bearings and a fifth: the
     world's harsh runs saw past at most 6 of 31 where the estimate was right, a robot
-    moved 0.15 m unseen 15-48 of 110-120)."""
+    moved 0.15 m unseen 15-48 of 110-120). ``goal_through``: at the goal, the revolutions
+    fused standing there may see past at most this many bearings of the map for the
+    estimate to vouch for the goal (:func:`~clomp.runtime.supervision.goal.at_goal`; 8:
+    at ``harsh`` without the gyro, standing at the goal, the estimate right saw past at
+    most 5, the estimate 0.10-0.26 m off after a push nothing felt or a drift 10-20 of
+    150-170, with no share asked: a fused revolution is not one noisy pass)."""
 
     jolt: float = 3.0
     kick: float = 30.0
     kick_sd: float = 0.15
     jolt_sd: float = 0.05
-    trust: float = 0.05
+    trust: float = 0.01
     through_least: int = 10
     through_share: float = 0.2
     through_after: int = 2
+    goal_through: int = 8
     sd: float = 0.0
     through_in_a_row: int = 0
     events: list[tuple[float, str, float]] = field(default_factory=list)
 
     def __post_init__(self) -> None:
-        for name in ("jolt", "kick", "kick_sd", "jolt_sd", "trust", "through_least", "through_share", "through_after"):
+        for name in ("jolt", "kick", "kick_sd", "jolt_sd", "trust", "through_least", "through_share", "through_after",
+                     "goal_through"):
             v = getattr(self, name)
             if not (math.isfinite(v) and v > 0):
                 raise ValueError(f"Doubt: {name} must be a positive number, got {v!r}")

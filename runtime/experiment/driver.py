@@ -131,8 +131,8 @@ def run_specs(
 
 class _Store:
     """Where the runs of an experiment go as they finish: ``done`` (key → record) and
-    ``failures`` (key → error); with ``out``, ``out/runs.jsonl`` (resumed: the records
-    there of the same specs are kept, the file rewritten clean) and ``out/errors.jsonl``
+    ``failures`` (key → error); with ``out``, ``out/runs.jsonl`` (resumed: every record
+    there is kept, the file rewritten clean, and those of the same specs count as done) and ``out/errors.jsonl``
     (started afresh); the progress bar and ``on_record``."""
 
     def __init__(self, specs: list[RunSpec], out: str | os.PathLike[str] | None, resume: bool,
@@ -151,10 +151,12 @@ class _Store:
         claim_folder(folder, resume)  # refuses to resume another code version's runs
         path = folder / "runs.jsonl"
         if resume:
-            kept = {rec["key"]: rec for rec in load_records(path) if rec["key"] in wanted}
+            # every finished run stays on disk, also those outside this selection (a narrower
+            # resume must not delete a wider sweep's runs); only the selection's count as done
+            kept = {rec["key"]: rec for rec in load_records(path)}
             # rewrite clean (drops a line cut short by a crash, and a run written twice)
             path.write_text("".join(json.dumps(r, allow_nan=False) + "\n" for r in kept.values()), encoding="utf-8")
-            self.done.update((key, self._in_memory(rec, on_disk=True)) for key, rec in kept.items())
+            self.done.update((key, self._in_memory(rec, on_disk=True)) for key, rec in kept.items() if key in wanted)
         else:
             path.write_text("", encoding="utf-8")
         return open(path, "a", encoding="utf-8")

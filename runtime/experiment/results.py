@@ -30,8 +30,8 @@ from typing import Any
 from clomp.runtime.experiment.runspec import CONDITIONS
 from clomp.runtime.experiment.stats import mcnemar, mean_ci, paired_ttest, wilson
 
-__all__ = ["BASELINES", "COLUMN_TYPES", "CSV_COLUMNS", "MARKDOWN_HEADER", "PAPER", "markdown_rows", "summarise", "table", "write_csv",
-           "write_parquet", "write_schema"]
+__all__ = ["BASELINES", "COLUMN_TYPES", "CONDITIONS_HEADER", "CSV_COLUMNS", "MARKDOWN_HEADER", "PAPER", "condition_rows", "conditions_table",
+           "markdown_rows", "summarise", "table", "write_csv", "write_parquet", "write_schema"]
 
 PAPER: dict[str, dict[str, Any]] = {
     "planning": {"reached_goal": 10, "runs": 10, "collisions": 0, "brushes": 2, "planning_time_s": (0.064, 0.009),
@@ -203,6 +203,8 @@ def _condition(rs: list[dict[str, Any]]) -> dict[str, Any]:
         "planning_time_s": _ms([float(r["planning_time_s"]) for r in rs if r.get("planning_time_s") is not None]),
         "states": _ms([float(r["states"]) for r in rs if r.get("states") is not None]),
         "time_to_goal_s": _ms([float(r["time_to_goal_s"]) for r in rs if r.get("time_to_goal_s") is not None]),
+        "time_to_goal_median_s": _median([float(r["time_to_goal_s"]) for r in rs
+                                          if r.get("time_to_goal_s") is not None and int(r["reached_goal"])]),
         "sim_s": sum(float(r["time_s"]) for r in rs),
         "wall_s": sum(float(r["wall_s"]) for r in rs),
         "cpu_s": sum(float(r.get("cpu_s") or 0.0) for r in rs),
@@ -357,3 +359,63 @@ def markdown_rows(summary: dict[str, Any]) -> str:
     return (f"| {summary.get('family')} | {summary.get('noise')} | {p['runs']} | {_ci(p)} | {_ci(r)} | "
             f"{p['collisions']} / {p['brushes']} | {r['collisions']} / {r['brushes']} | {diff:+.2f} (p {tp}) | "
             f"{m.get('p', float('nan')):.2g} |")
+
+
+CONDITIONS_HEADER = ("| family | noise | condition | runs | reached (success) [95 % CI] | collisions | false successes | "
+                     "unconfirmed | median time to goal (s) | paired vs planning (McNemar p) |\n"
+                     "|---|---|---|---|---|---|---|---|---|---|")
+"""The header of the every-condition table (docs/experiment-room.md): one row per condition."""
+
+
+def condition_rows(summary: dict[str, Any]) -> str:
+    """One Markdown row per condition of one (family, noise) summary, under :data:`CONDITIONS_HEADER`.
+
+    Success with its Wilson interval, collisions, false successes, unconfirmed ends, the median
+    time to the goal of the runs that truly reached it, and McNemar's p of each baseline paired
+    with planning on the same layouts ("—" for planning itself or without a planning run).
+
+    >>> recs = [{"condition": c, "run": 0, "seed": 0, "success": 1, "reached_goal": 1, "believed_goal": 1,
+    ...          "collisions": 0, "brushes": 0, "final_error_m": 0.02, "time_s": 9.0, "time_to_goal_s": 9.0,
+    ...          "wall_s": 1.0, "expect": "reach"} for c in ("planning", "dwa")]
+    >>> print(condition_rows({"family": "corridor", "noise": "paper", **summarise(recs)}).splitlines()[1])
+    | corridor | paper | dwa | 1 | 1 [0.21, 1.00] | 0 | 0 | 0 | 9.0 | 1 |
+    """
+    c = summary["conditions"]
+    rows = []
+    for name in (n for n in _NAMES if n in c):
+        d = c[name]
+        lo, hi = d["success_ci95"]
+        t = d.get("time_to_goal_median_s")
+        suffix = dict(BASELINES).get(name)
+        m = summary.get("mcnemar_success" + suffix) if suffix is not None else None
+        p = "—" if m is None else f"{m['p']:.2g}"
+        rows.append(f"| {summary.get('family')} | {summary.get('noise')} | {name} | {d['runs']} | "
+                    f"{d['success']} [{lo:.2f}, {hi:.2f}] | {d['collisions']} | {d.get('false_successes', 0)} | "
+                    f"{d.get('goal_unconfirmed', 0)} | {'—' if t is None else f'{t:.1f}'} | "
+                    f"{p} |")
+    return "\n".join(rows)
+
+
+def conditions_table(records: Iterable[dict[str, Any]]) -> str:
+    """The every-condition Markdown table of a sweep's records: a cell per (family, noise,
+    noise scale, gyro), in the order the families and presets first appear, rows from
+    :func:`condition_rows` ("no gyro" added to the noise of a cell run without it).
+
+    >>> recs = [{"family": "corridor", "noise": "paper", "condition": "planning", "run": 0, "seed": 0, "success": 1,
+    ...          "reached_goal": 1, "believed_goal": 1, "collisions": 0, "brushes": 0, "final_error_m": 0.02,
+    ...          "time_s": 9.0, "time_to_goal_s": 9.0, "wall_s": 1.0, "expect": "reach", "gyro": 0}]
+    >>> conditions_table(recs).splitlines()[-1]
+    '| corridor | paper, no gyro | planning | 1 | 1 [0.21, 1.00] | 0 | 0 | 0 | 9.0 | — |'
+    """
+    cells: dict[tuple[str, str, float, int], list[dict[str, Any]]] = {}
+    for r in records:
+        key = (str(r.get("family", "")), str(r.get("noise", "")), float(r.get("noise_scale", 1.0)), int(r.get("gyro", 1)))
+        cells.setdefault(key, []).append(r)
+    fam_order = {k[0]: i for i, k in reversed(list(enumerate(cells)))}
+    noise_order = {k[1]: i for i, k in reversed(list(enumerate(cells)))}
+    out = [CONDITIONS_HEADER]
+    for key in sorted(cells, key=lambda k: (fam_order[k[0]], noise_order[k[1]], k[2], -k[3])):
+        fam, noise, scale, gyro = key
+        label = noise + ("" if scale == 1.0 else f" ×{scale:g}") + ("" if gyro else ", no gyro")
+        out.append(condition_rows({**summarise(cells[key]), "family": fam, "noise": label}))
+    return "\n".join(out)

@@ -24,7 +24,7 @@ import numpy as np
 
 from clomp.runtime.jit import compiled, interruptible
 
-__all__ = ["straight_gaps", "turn_first_ticks", "warm_up"]
+__all__ = ["straight_gaps", "sweep_hits", "turn_first_ticks", "warm_up"]
 
 
 @compiled
@@ -108,11 +108,31 @@ def turn_first_ticks(zr: np.ndarray, zi: np.ndarray, sx: np.ndarray, sy: np.ndar
                 break
 
 
+@compiled
+def sweep_hits(px: np.ndarray, py: np.ndarray, xs: np.ndarray, ys: np.ndarray, cs: np.ndarray, ss: np.ndarray,
+               rear: float, front: float, half: float) -> int:
+    """How many of the points ``px, py`` lie inside the box (``rear``, ``front``, ``half``;
+    on its outline counts) at any of the poses ``xs, ys`` with heading cos ``cs``, sin
+    ``ss``: the hazard test's count (:func:`clomp.runtime.supervision.records.hits`), each
+    point moved into each pose's frame by the operations
+    :func:`clomp.formal.geometry.points_to_frame` does, in its order."""
+    count = 0
+    for j in range(px.shape[0]):
+        for g in range(xs.shape[0]):
+            r0, r1 = px[j] - xs[g], py[j] - ys[g]
+            u, v = r0 * cs[g] + r1 * ss[g], -r0 * ss[g] + r1 * cs[g]
+            if u >= -rear and u <= front and abs(v) <= half:
+                count += 1
+                break
+    return count
+
+
 def warm_up() -> None:
-    """Compile (or load from the cache) both loops now, with the argument types a check
+    """Compile (or load from the cache) the loops now, with the argument types a check
     uses: the supervisor calls this before the robot moves, so that the first plan check
     — seconds of compiling on a fresh install — never stalls a driving control loop."""
     one, flag = np.zeros(1), np.zeros(1, dtype=bool)
     interruptible(straight_gaps, one, one, one, one, one, one, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, np.zeros(1))
     interruptible(turn_first_ticks, one, one, one, one, one, one, one, np.zeros(1, dtype=np.int64), 0.1, 0.0, 0.0, 0.0,
                   0.0, 0.0, 0.0, 0.0, 0.0, np.zeros(1, dtype=np.int64), flag, np.zeros((1, 1), dtype=bool))
+    interruptible(sweep_hits, one, one, one, one, one, one, 0.0, 0.0, 0.0)

@@ -289,3 +289,49 @@ def test_the_second_look_values_plans_on_rollouts_of_its_own():
     assert v_r == pytest.approx(v_g) and 0 <= v_g <= 1
     values = {conf.confirm_deviation(scan, goal, same, seed=s)[1] for s in range(4)}
     assert len(values) > 1  # fresh rollouts: the estimate moves with the seed
+
+
+def test_the_robust_configurator_backs_off_where_the_best_first_one_does():
+    """The supervisor's back-off plans a jam again with ``recovery`` set on a copy of its
+    configurator (plan_deepening(back_off=True)); the robust configurator's own searches
+    dropped it, so a robust run stood (or said UNREACHABLE) where a best-first one backed
+    off (found by the calibration bench, docs/calibration.md)."""
+    import numpy as np
+
+    from clomp.formal.model import TaskKind
+    from clomp.planner.deepening import plan_deepening
+    from clomp.planner.robust import RobustConfigurator
+
+    box = np.array([[0.1, y] for y in np.linspace(-0.3, 0.3, 61)] + [[x, s * 0.3] for x in np.linspace(-0.05, 0.1, 16) for s in (-1, 1)])
+    conf = RobustConfigurator(samples=2, noise="ideal")
+    assert plan_deepening(conf, box, (1.0, 0.0)).steps == []
+    steps = plan_deepening(conf, box, (1.0, 0.0), back_off=True).steps
+    assert steps and steps[0].task is TaskKind.REVERSE
+
+
+def test_an_exploring_plans_target_is_the_frontier_not_the_inside_of_a_u():
+    """The best-first plan ends at a frontier (the goal lies beyond what the scan shows);
+    a state inside a U lies nearer the goal but is no frontier. Only frontier outcomes are
+    the target: before, the inside of the U was a target as good as the frontier, Storm
+    found it surer, and robust runs drove into the trap (u-trap, harsh: robust 27/39 vs
+    greedy 32/39). A noisy outcome of the frontier's own choice counts as the frontier."""
+    from clomp.formal.lts import CognitiveMap
+    from clomp.formal.model import Disturbance, Pose, State, TaskKind
+    from clomp.formal.supervisory import FRONTIER
+    from clomp.planner.robust import frontier_outcomes, plan_target
+
+    g = Disturbance.goal(1.2, 0.0)
+    o = Pose(0, 0)
+    rim = ((FRONTIER, 1.0),)
+    cmap = CognitiveMap.from_parts([
+        State(0, TaskKind.STRAIGHT, g, None, o, o),
+        State(1, TaskKind.RIGHT, g, None, o, Pose(0, 0, -0.8)),
+        State(2, TaskKind.STRAIGHT, g, None, Pose(0, 0, -0.8), Pose(0.5, -0.5, -0.8), extra=rim),  # round the arm
+        State(3, TaskKind.STRAIGHT, g, None, o, Pose(0.6, 0.0)),  # into the U: 0.6 m from the goal
+        State(4, TaskKind.STRAIGHT, g, None, Pose(0, 0, -0.8), Pose(0.52, -0.52, -0.8)),  # the frontier's task, off its state
+    ], [(0, 1), (1, 2), (0, 3), (1, 4)], goal=g)
+    end = cmap[2].end
+    assert end.distance_to(g.x, g.y) > cmap[3].end.distance_to(g.x, g.y)
+    assert frontier_outcomes(cmap) == {2, 4}
+    assert plan_target(cmap, end, g) == {2, 4}
+    assert plan_target(cmap, end, g, frontier=False) == {2, 3, 4}  # the rule before: the U's inside too

@@ -246,3 +246,47 @@ def test_the_supervisors_plan_check_hands_the_fused_revolutions_to_the_alarms() 
         oks.append(watch.check([step], SimpleNamespace(origin=o), o, Pose(1.0, 0.0), pts, (0.08, 0.3), float(k)).ok)
     assert oks == [True] * 4
     assert any("fused" in c.reason for c in watch.checks)
+
+
+def test_revolutions_the_estimate_placed_wrong_are_not_fused_so_a_push_towards_a_wall_is_acted_on() -> None:
+    """A push the estimate does not model (harsh: 0.1-0.3 m at random times) moves the robot
+    towards a wall between revolutions; the estimate stays where it was. The revolutions
+    before the push, placed by that estimate, put the wall 10 cm farther than it now is:
+    fused with the newest they outvote it and the shallow alarm (the wall 1 cm inside the
+    path) is dismissed as the noise's. They disagree with the newest beyond what range noise
+    explains (:func:`~clomp.runtime.supervision.planwatch.misplaced`): left out, the alarm
+    stands on the second revolution that shows it, as any shallow alarm that persists. (In
+    harsh closing 0/7 the dismissals ran three revolutions, then the turning body touched.)"""
+    from clomp.formal.model import Disturbance
+    from clomp.planner.tasks import Task
+    from clomp.runtime.supervision.planwatch import PlanWatch
+
+    rng = np.random.default_rng(6)
+    watch = PlanWatch(M, lambda *a, **k: None)
+    at = Pose(0.0, 0.0, 0.0)  # the estimate: it never learns of the push
+    task = Task.straight(M, at, Disturbance.goal(2.0, 0.0), 1.0)
+    verdicts = []
+    for k in range(5):
+        wall_y = M.width / 2 + (0.09 if k < 2 else -0.01)  # pushed 10 cm towards it after the second revolution
+        watch.alarms.revolution(_polar_noise(_wall_rays(wall_y), 0.025, rng))  # the measured noise: harsh
+        clean = _wall_rays(wall_y)  # where the surface is: 1 cm inside the path after the push
+        verdicts.append(watch.hazard(clean, at, at, task, 0.27, 0.5, 2))
+    assert watch.alarms.allowance > 0.01  # shallow alarms are judged on the fused revolutions
+    assert verdicts[:3] == [None, None, None]  # clear, clear, then seen once
+    assert verdicts[3] is not None, verdicts  # two revolutions in a row: it stands
+    assert watch.unfused >= 2
+
+
+def test_a_misplaced_revolution_is_told_from_range_noise() -> None:
+    """:func:`~clomp.runtime.supervision.planwatch.misplaced`: two harsh revolutions of the
+    same walls agree; one shifted 5 cm towards them does not; too few bearings near: no verdict."""
+    from clomp.runtime.supervision.planwatch import misplaced
+
+    rng = np.random.default_rng(7)
+    room = np.vstack([_wall_rays(0.3), -_wall_rays(0.3)])
+    a, b = _polar_noise(room, 0.025, rng), _polar_noise(room, 0.025, rng)
+    assert misplaced(a, b, 0.025) is None
+    shifted = _polar_noise(room + [0.0, 0.05], 0.025, rng)
+    off = misplaced(a, shifted, 0.025)
+    assert off is not None and 0.03 < off < 0.08
+    assert misplaced(a[:5], b[:5], 0.025) is None

@@ -51,3 +51,22 @@ def test_family_names_with_hyphens_and_the_sign_count() -> None:
     assert "sign right in 2/3 runs" in replay.calibration_line(rows)
     old = [("f", 0.0, 0.0, 0.0, (0.0,) * 4, None)]
     assert "not recorded" in replay.calibration_line(old)
+
+
+def test_a_short_recording_holds_the_whole_run_and_replays_to_the_same_estimate(tmp_path: Path) -> None:
+    """``record`` keeps every call the supervisor makes to its estimator, with the keywords it
+    passes now (the gyro's ``rotation``, the odometry's ``covariance``): a recorder that
+    rejected one held only the reset and its run ended HALTED at once. Replayed with the same
+    settings, the inputs lead to the very estimate the recording's estimator ended at."""
+    replay = _module("estimator_replay")
+    path = replay.record("overtaking", 0, 0, "harsh", str(tmp_path), max_time=6.0)
+    d = np.load(path)
+    kinds = list(d["kinds"])
+    assert "Error" not in str(d["reason"]), d["reason"]  # ended by the time limit, not by a failing call
+    assert kinds.count(replay.RESET) == 1 and kinds.count(replay.UPDATE) >= 20  # ~5.5 revolutions/s for 6 s
+    assert kinds.count(replay.ADVANCE) >= 50  # one a control tick (0.1 s)
+    advances = d["scalars"][d["kinds"] == replay.ADVANCE]
+    assert not np.isnan(advances[:, 3]).any()  # the world's gyro: its heading kept with every advance
+    assert kinds.count(replay.SHOCK) >= 50  # and its accelerometer's peak, a tick
+    odo, _cpu = replay.replay_estimator(path, {})
+    assert odo.pose.as_list() == list(d["estimate"])  # the same inputs, the same estimate, bit for bit

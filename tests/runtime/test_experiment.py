@@ -171,6 +171,11 @@ def test_records_stream_to_the_folder_and_resume_skips_them(tmp_path):
     more = run_experiment("overtaking", runs=3, seed=5, noise="paper", max_time=40, out=tmp_path,
                           resume=True, on_record=lambda r: again.append(r))
     assert len(more) == 6 and sorted(r["run"] for r in again) == [2, 2]
+    # a narrower resume runs nothing new and deletes none of the wider one's finished runs
+    fewer = run_experiment("overtaking", runs=1, seed=5, noise="paper", max_time=40, out=tmp_path, resume=True,
+                           on_record=lambda r: again.append(r))
+    assert len(fewer) == 2 and len(again) == 2
+    assert sorted(r["key"] for r in load_records(tmp_path / "runs.jsonl")) == sorted(r["key"] for r in more)
 
 
 def test_an_experiment_written_to_a_folder_keeps_only_the_plotted_traces_in_memory(tmp_path):

@@ -136,8 +136,10 @@ def test_pololu_protocol_and_multiple_targets(emu: MaestroEmulator, options: dic
 
 def test_other_device_number_is_ignored_by_the_maestro(emu: MaestroEmulator) -> None:
     with Maestro(emu.port, protocol="pololu", device_number=7, watchdog_timeout=None, reply_timeout=0.2) as m:
+        sent = emu.clock()
         m.set_speeds(1.0, 1.0)
-        time.sleep(0.1)
+        # the event, not a pause: the device has taken in the command's bytes (and ignored them)
+        assert emu.wait_for(lambda e: e.last_byte_at >= sent, 10.0)
         assert _wheel_targets(emu) == (0, 0)
         with pytest.raises(MaestroTimeout):
             m.get_errors()

@@ -26,6 +26,7 @@ pytest.importorskip("rclpy", reason="ROS 2 (rclpy) is not installed: pip install
 
 from clomp.formal.geometry import dead_reckon  # noqa: E402
 from clomp.formal.model import Pose  # noqa: E402
+from clomp.runtime.clock import ManualClock  # noqa: E402
 from clomp.runtime.ros.convert import make_odometry, yaw_quaternion  # noqa: E402
 
 REPO = Path(__file__).resolve().parents[2]
@@ -381,7 +382,20 @@ def test_the_recorded_bag_played_into_a_dry_run(tmp_path: Path) -> None:
         base.close()
 
 
-def test_the_watchdog_does_not_trip_in_a_round_that_came_late() -> None:
+def _manual_monotonic(monkeypatch: pytest.MonkeyPatch, module: Any) -> ManualClock:
+    """``module``'s ``time.monotonic`` on a :class:`ManualClock` that stands still unless the
+    test moves it: a window the test means to land in (a round on time, a command still fresh)
+    cannot be missed because the machine held this thread up between two calls."""
+    import types
+
+    clock = ManualClock(1000.0)
+    fake = types.SimpleNamespace(**{k: getattr(time, k) for k in dir(time) if not k.startswith("_")})
+    fake.monotonic = clock.now
+    monkeypatch.setattr(module, "time", fake)
+    return clock
+
+
+def test_the_watchdog_does_not_trip_in_a_round_that_came_late(monkeypatch: pytest.MonkeyPatch) -> None:
     """A watchdog round held up (the control thread had the GIL, the machine was busy) finds
     the last scan old while newer ones wait in the executor's queue: it must not trip then,
     only when it runs on time and the scan is still old."""
@@ -389,15 +403,17 @@ def test_the_watchdog_does_not_trip_in_a_round_that_came_late() -> None:
     from rclpy.node import Node
     from rclpy.signals import SignalHandlerOptions
 
+    import clomp.runtime.ros.robot as robot_module
     from clomp.runtime.ros.robot import RosRobot, RosRobotConfig
 
+    clock = _manual_monotonic(monkeypatch, robot_module)
     context = rclpy.Context()
     rclpy.init(context=context, signal_handler_options=SignalHandlerOptions.NO)
     try:
         node = Node("watchdog_test", context=context)  # not spun: the test calls the watchdog itself
         robot = RosRobot(node, 0.15, RosRobotConfig(use_odom=False))
         robot._armed = True
-        now = time.monotonic()
+        now = clock.now()
         robot._scan_at = now - 1.0
         robot._watched = now - 1.0  # the last round was a second ago: this one is late
         robot._watch()
@@ -436,13 +452,15 @@ def test_odometry_time_going_backwards_is_a_sensor_fault(idle_node: Any) -> None
     assert robot.fault is not None and "odom time went backwards" in robot.fault
 
 
-def test_the_sim_stops_the_wheels_when_commands_go_stale(idle_node: Any) -> None:
+def test_the_sim_stops_the_wheels_when_commands_go_stale(idle_node: Any, monkeypatch: pytest.MonkeyPatch) -> None:
     from geometry_msgs.msg import Twist
 
     from clomp.planner import load_scenario
     from clomp.runtime.backends.world import make_world_robot
+    import clomp.runtime.ros.sim as sim_module
     from clomp.runtime.ros.sim import SimNode
 
+    clock = _manual_monotonic(monkeypatch, sim_module)
     world = make_world_robot(load_scenario("open"), "ideal", seed=0)
     sim = SimNode(idle_node, world, 0.15, cmd_timeout=0.5)
     cmd = Twist()
@@ -450,7 +468,7 @@ def test_the_sim_stops_the_wheels_when_commands_go_stale(idle_node: Any) -> None
     sim._on_cmd(cmd)
     sim._step()
     assert world.commanded == (0.1, 0.1) and sim.stale_stops == 0
-    sim._last_cmd = time.monotonic() - 0.6  # the last command is older than cmd_timeout
+    sim._last_cmd = clock.now() - 0.6  # the last command is older than cmd_timeout
     sim._step()
     assert world.commanded == (0.0, 0.0) and sim.stale_stops == 1
 

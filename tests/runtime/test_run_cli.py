@@ -1,7 +1,15 @@
-"""``clomp run`` end to end over pseudo-terminals: the device emulators in front of a simulated
-world (clomp.runtime.backends.emulated, in a process of its own, as real devices would be), the real
-drivers, the hardware robot and the supervisor in a subprocess. Fault tests measure, on the Maestro emulator's side, how long after the fault
-the wheels were commanded to stop."""
+"""``clomp run`` end to end.
+
+Its behaviour on faults, signals and a dry run (exit status, messages, run-log records, the
+wheels commanded to stop) is tested on the whole hardware stack in simulated time: ``clomp run``
+in this process, the real drivers and supervisor against the device emulators on simulated
+lines (tests/runtime/_simcli.py), so no outcome depends on how busy the machine is and the
+stop is timed on the emulators' own clock. What needs real processes and pseudo-terminals (a
+SIGKILLed run, ``clomp emulate world`` serving ``clomp run``) runs them, the world in a process
+of its own (clomp.runtime.backends.emulated) as real devices would be, and waits only for events
+(a line printed, the wheels commanded, an exit), each bounded by :data:`HANG` only against a
+hang. The real-time runs to the goal over ptys are slow tests; their simulated-time twins are
+in test_stack_simtime.py."""
 
 from __future__ import annotations
 
@@ -17,12 +25,13 @@ from typing import Any
 import pytest
 
 import clomp.runtime.cli as cli
-from clomp.runtime.devices.emulators import MaestroEmulator
 from clomp.runtime.backends.emulated import EmulatedWorldProcess
 from clomp.runtime.records.runlog import read_log
-from tests.runtime._stack import wheels_stopped_at
+from tests.runtime._simcli import PORTS, simulate_cli
+from tests.runtime._stack import StackRun, at, wheels_stopped_at
 
 NEUTRAL = 6000
+HANG = 300.0  # wall seconds after which a wait for an event is a hang, not a slow machine
 _RUN_MODULE = "clomp.runtime.cli.run"
 _UNREGISTERED = f"import clomp.runtime.cli as c; c._COMMAND_MODULES.append({_RUN_MODULE!r}); raise SystemExit(c.main())"
 
@@ -53,7 +62,8 @@ class Run:
                                      cwd=log.parent)
         self.stdout = self.stderr = ""
 
-    def finish(self, timeout: float) -> int:
+    def finish(self, timeout: float = HANG) -> int:
+        """Wait for the exit (``timeout``: a hang, a failure)."""
         try:
             self.stdout, self.stderr = self.proc.communicate(timeout=timeout)
         except subprocess.TimeoutExpired:
@@ -65,32 +75,46 @@ class Run:
     def records(self) -> list[dict[str, Any]]:
         return list(read_log(self.log))
 
-    def abs_time(self, rec: dict[str, Any]) -> float:
-        """A record's time on this machine's monotonic clock (the ``run`` record names the origin)."""
-        first = next(r for r in self.records() if r["event"] == "run")
-        return first["monotonic"] - first["t"] + rec["t"]
 
-
-def wait_driving(world: EmulatedWorldProcess, run: Run, timeout: float = 15.0) -> None:
-    ok = world.maestro.wait_for(lambda e: e.speeds != (0.0, 0.0) or run.proc.poll() is not None, timeout)
+def wait_driving(world: EmulatedWorldProcess, run: Run) -> None:
+    """Wait for the event: the wheels commanded to move (or the run ended, a failure)."""
+    ok = world.maestro.wait_for(lambda e: e.speeds != (0.0, 0.0) or run.proc.poll() is not None, HANG)
     if not ok or run.proc.poll() is not None:
-        run.finish(5.0)
+        run.finish()
         pytest.fail(f"the robot never drove (exit {run.proc.returncode}):\n{run.stderr}")
 
 
-def assert_stopped_after(emu: MaestroEmulator, t0: float) -> None:
-    """Both wheels were commanded to stop at or after ``t0`` and never to move again.
+def read_lines(proc: subprocess.Popen[str], n: int) -> list[str]:
+    """The first ``n`` lines ``proc`` prints (stripped), waited for as they come; fails when it
+    ends first or prints fewer in :data:`HANG` s (a hang: a bare readline would wait forever)."""
+    import queue
+    import threading
 
-    No bound on how soon: over ptys in real time that measures the machine's scheduler; the
-    software's own latency is measured in simulated time (test_stack_faults_simtime.py)."""
-    wheels_stopped_at(emu, t0)
+    got: queue.Queue[str] = queue.Queue()
+    out = proc.stdout
+    assert out is not None
+    def read() -> None:
+        for _ in range(n):
+            got.put(out.readline())
+
+    threading.Thread(target=read, daemon=True).start()
+    lines: list[str] = []
+    for _ in range(n):
+        try:
+            line = got.get(timeout=HANG)
+        except queue.Empty:
+            pytest.fail(f"printed {lines} and no more in {HANG:g} s")
+        if not line:
+            pytest.fail(f"ended after printing {lines}")
+        lines.append(line.strip())
+    return lines
 
 
-def assert_clean_failure(run: Run, rc: int, wheels: str = "wheels stopped") -> None:
+def assert_clean_failure(stderr: str, rc: int, wheels: str = "wheels stopped") -> None:
     assert rc != 0
-    assert "Traceback" not in run.stderr and "Traceback" not in run.stdout
-    lines = [line for line in run.stderr.splitlines() if line.strip()]
-    assert lines and wheels in lines[-1], run.stderr
+    assert "Traceback" not in stderr
+    lines = [line for line in stderr.splitlines() if line.strip()]
+    assert lines and wheels in lines[-1], stderr
 
 
 # ---------------------------------------------------------------------------- end to end
@@ -107,7 +131,7 @@ def assert_honest_end(run: Run, rc: int, truly: float, within: float = 0.1) -> N
 def _overtaking(tmp_path: Path, scale: float) -> None:
     with EmulatedWorldProcess("overtaking", time_scale=scale) as world:
         run = Run(world, tmp_path / "run.jsonl", "--time-scale", f"{scale:g}", "--max-time", "80")
-        rc = run.finish(timeout=80 / scale + 15)
+        rc = run.finish()
         assert_honest_end(run, rc, world.goal_distance, 0.12)  # truly there, not only by dead reckoning
         assert world.collisions == 0
         assert world.maestro.speeds == (0.0, 0.0)
@@ -138,7 +162,7 @@ def test_the_hardware_stack_closes_the_loop_in_the_harsh_world(tmp_path: Path) -
     revolution, and the robot truly reaches the goal."""
     with EmulatedWorldProcess("corridor", noise="harsh", seed=1, time_scale=2.0) as world:
         run = Run(world, tmp_path / "run.jsonl", "--time-scale", "2", "--max-time", "90")
-        rc = run.finish(timeout=90 / 2 + 15)
+        rc = run.finish()
         assert_honest_end(run, rc, world.goal_distance)
         assert world.collisions == 0
     recs = run.records()
@@ -152,27 +176,32 @@ def test_a_little_line_garbage_is_tolerated_and_the_run_still_works(tmp_path: Pa
     faults = {"garbage_rate": 0.02, "bad_check_rate": 0.01, "seed": 7}
     with EmulatedWorldProcess("open", time_scale=2.0, lidar_options=faults) as world:
         run = Run(world, tmp_path / "run.jsonl", "--time-scale", "2", "--max-time", "30", goal="0.5,0.0")
-        rc = run.finish(timeout=30)
+        rc = run.finish()
         p = world.pose
         assert_honest_end(run, rc, math.hypot(p.x - 0.5, p.y), 0.08)
         assert world.lidar.garbage_bytes_sent > 0
     assert not any(r["event"] == "fault" for r in run.records())
 
 
-def test_dry_run_plans_on_real_scans_but_never_moves_the_wheels(tmp_path: Path) -> None:
-    with EmulatedWorldProcess("open") as world:
-        run = Run(world, tmp_path / "run.jsonl", "--dry-run", "--max-time", "1.5")
-        rc = run.finish(timeout=20)
-        assert rc == 0, run.stderr  # a dry run ends at its time limit
-        assert world.maestro.events and all(target == NEUTRAL for _, _, target in world.maestro.events)
-        assert world.pose.x == pytest.approx(0.0, abs=1e-9)
-    recs = run.records()
+def test_dry_run_plans_on_real_scans_but_never_moves_the_wheels(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str], run_registered: None
+) -> None:
+    sim = simulate_cli(monkeypatch, "open")
+    log = tmp_path / "run.jsonl"
+    rc = cli.main(["run", *PORTS, "--goal", "1.0,0.0", "--log", str(log), "--dry-run", "--max-time", "1.5"])
+    out, err = capsys.readouterr()
+    assert rc == 0, err  # a dry run ends at its time limit
+    assert sim.elapsed >= 1.5  # of simulated time: the limit, not a fault, ended it
+    assert sim.world.maestro.events and all(target == NEUTRAL for _, _, target in sim.world.maestro.events)
+    assert sim.world.pose.x == pytest.approx(0.0, abs=1e-9)
+    recs = list(read_log(log))
     assert recs[0]["dry_run"] is True
     scans = [r for r in recs if r["event"] == "scan"]
     plans = [r for r in recs if r["event"] == "plan"]
-    assert len(scans) >= 3 and len(plans) == len(scans)  # ~5.5 scans/s, each planned
+    # the A1's ~5.5 revolutions/s for 1.5 s of simulated time (9 measured), every one planned
+    assert sim.robot is not None and len(scans) >= 8 and len(plans) == len(scans) == sim.robot.scans
     assert all(p["reached_goal"] and p["tasks"] == ["STRAIGHT"] for p in plans)  # open: one clear run
-    assert "scans planned" in run.stdout
+    assert f"dry run: {len(scans)} scans planned" in out
     assert not any(r["event"] == "motor" and r.get("sent") not in (None, [0.0, 0.0]) for r in recs)
     # the hardware run's log converts like a simulated one: a LaserScan per scan, a Path per plan
     from clomp.runtime.records.mcap_writer import write_mcap
@@ -182,67 +211,93 @@ def test_dry_run_plans_on_real_scans_but_never_moves_the_wheels(tmp_path: Path) 
 
 
 # ---------------------------------------------------------------------------------- faults
+# ``clomp run`` in this process on simulated time (tests/runtime/_simcli.py): each fault comes
+# at T_FAULT s of the run, while the wheels turn (``at`` checks), and nothing waits on the wall clock.
+
+T_FAULT = 3.0  # simulated seconds: driving the first straight (it stands ~1.8 s to seed its map)
+TICK = 0.1  # the supervisor's control period (RobotModel.tick)
 
 
-def test_ctrl_c_stops_the_wheels_logs_why_and_exits_non_zero(tmp_path: Path) -> None:
-    with EmulatedWorldProcess("open") as world:
-        run = Run(world, tmp_path / "run.jsonl")
-        wait_driving(world, run)
-        t0 = time.monotonic()
-        run.proc.send_signal(signal.SIGINT)
-        rc = run.finish(timeout=10)
-        assert_stopped_after(world.maestro, t0)  # stopped after the signal, and stayed stopped
-    # how soon, measured on the simulated clock: test_stack_faults_simtime.py
+def _sim_run(log: Path, *extra: str) -> int:
+    return cli.main(["run", *PORTS, "--goal", "1.0,0.0", "--log", str(log), "--max-time", "30", *extra])
+
+
+def _log_time(sim: StackRun, t: float) -> float:
+    """Simulated time ``t`` as the run log's ``t`` (seconds since the log opened)."""
+    return t - float(sim.notes["log_t0"])
+
+
+def test_ctrl_c_stops_the_wheels_logs_why_and_exits_non_zero(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str], run_registered: None
+) -> None:
+    """A real SIGINT, sent by this process to itself while the wheels turn: clomp run's own
+    handler turns it into the halt; the wheels stop in that same instant and stay stopped."""
+    import os
+
+    sim = simulate_cli(monkeypatch, "open", hook=at(T_FAULT, lambda sim: os.kill(os.getpid(), signal.SIGINT)))
+    log = tmp_path / "run.jsonl"
+    rc = _sim_run(log)
+    t_fault = sim.notes["t_fault"]
+    assert wheels_stopped_at(sim.world.maestro, t_fault) == t_fault  # before any more time passed
+    assert sim.world.maestro.speeds == (0.0, 0.0)
     assert rc == 130
-    assert_clean_failure(run, rc)
-    stop = [r for r in run.records() if r["event"] == "stop"]
-    assert stop and "SIGINT" in stop[-1]["reason"] and stop[-1]["status"] == "HALTED"
+    assert_clean_failure(capsys.readouterr().err, rc)
+    stop = [r for r in read_log(log) if r["event"] == "stop"]
+    assert len(stop) == 1 and "SIGINT" in stop[0]["reason"] and stop[0]["status"] == "HALTED"
 
 
 @pytest.mark.parametrize(
     ("fault", "said"),
     [("garbage", "corrupt"), ("bad_check", "corrupt"), ("silent", "silent")],
 )
-def test_a_broken_lidar_stream_stops_the_wheels_and_says_why(tmp_path: Path, fault: str, said: str) -> None:
-    """End to end on pty emulators in real time. The 300 ms deadline itself is tested on device
-    time in test_hardware_deadlines.py: here a fully loaded machine may delay any of the three
-    processes, so no wall-clock bound is asserted here: only that the stop came and held."""
-    with EmulatedWorldProcess("open") as world:
-        run = Run(world, tmp_path / "run.jsonl")
-        wait_driving(world, run)
-        # timed from the moment the device went wrong (its own clock: this machine's monotonic time)
-        if fault == "garbage":
-            t0 = world.lidar.inject(garbage_rate=1.0)  # mostly garbage from now on
-        elif fault == "bad_check":
-            t0 = world.lidar.inject(bad_check_rate=1.0)
-        else:
-            t0 = world.lidar.inject(silent=True)
-        rc = run.finish(timeout=10)
-        assert_stopped_after(world.maestro, t0)  # stopped after the fault, and stayed stopped
+def test_a_broken_lidar_stream_stops_the_wheels_and_says_why(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str], run_registered: None,
+    fault: str, said: str,
+) -> None:
+    """The stream goes wrong while the wheels turn: clomp run stops them within the watch's
+    300 ms (here on the simulated clock, as test_hardware_deadlines.py times the deadline
+    itself), says why and exits 3."""
+    changes: dict[str, dict[str, float | bool]] = {
+        "garbage": {"garbage_rate": 1.0}, "bad_check": {"bad_check_rate": 1.0}, "silent": {"silent": True}}
+    change = changes[fault]
+
+    def inject(sim: StackRun) -> None:
+        sim.notes["t_inject"] = sim.world.lidar.inject(**change)  # the device's time of the fault
+
+    sim = simulate_cli(monkeypatch, "open", hook=at(T_FAULT, inject))
+    log = tmp_path / "run.jsonl"
+    rc = _sim_run(log)
+    t0 = sim.notes["t_inject"]
+    assert 0.0 <= wheels_stopped_at(sim.world.maestro, t0) - t0 <= 0.3  # stopped after the fault, and stayed stopped
     assert rc == 3  # a device fault
-    assert_clean_failure(run, rc)
-    assert said in run.stderr
-    faults = [r for r in run.records() if r["event"] == "fault"]
+    err = capsys.readouterr().err
+    assert_clean_failure(err, rc)
+    assert said in err
+    recs = list(read_log(log))
+    faults = [r for r in recs if r["event"] == "fault"]
     assert faults and all(said in r["reason"] for r in faults)
-    assert run.records()[-1]["event"] == "stop" and run.records()[-1]["status"] == "HALTED"
+    assert faults[0]["t"] >= _log_time(sim, t0)
+    assert recs[-1]["event"] == "stop" and recs[-1]["status"] == "HALTED"
 
 
-def test_the_motor_controller_vanishing_is_detected_within_a_tick(tmp_path: Path) -> None:
+def test_the_motor_controller_vanishing_is_detected_within_a_tick(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str], run_registered: None
+) -> None:
     """Nothing can be sent over a vanished port (the Maestro's own serial timeout must stop the
     servos): what the software owes is to notice at its next command, log why, and exit."""
-    with EmulatedWorldProcess("open") as world:
-        run = Run(world, tmp_path / "run.jsonl")
-        wait_driving(world, run)
-        t0 = time.monotonic()
-        world.maestro.vanish()
-        rc = run.finish(timeout=10)
+    sim = simulate_cli(monkeypatch, "open", hook=at(T_FAULT, lambda sim: sim.world.maestro.vanish()))
+    log = tmp_path / "run.jsonl"
+    rc = _sim_run(log)
     assert rc == 3  # a device fault
-    assert_clean_failure(run, rc, wheels="could NOT command the wheels to stop")
-    assert "motor controller" in run.stderr
-    fault = next(r for r in run.records() if r["event"] == "fault")
+    err = capsys.readouterr().err
+    assert_clean_failure(err, rc, wheels="could NOT command the wheels to stop")
+    assert "motor controller" in err
+    recs = list(read_log(log))
+    fault = next(r for r in recs if r["event"] == "fault")
     assert fault["source"] == "motors"
-    assert run.abs_time(fault) >= t0  # detected after it happened; how soon: test_stack_faults_simtime.py
-    assert any(r["event"] == "motor" and "could not stop" in r.get("error", "") for r in run.records())
+    t_fault = _log_time(sim, sim.notes["t_fault"])
+    assert 0.0 <= fault["t"] - t_fault <= TICK + 1e-6, (fault["t"], t_fault)  # at the next command
+    assert any(r["event"] == "motor" and "could not stop" in r.get("error", "") for r in recs)
 
 
 def test_an_exception_inside_planning_halts_with_the_wheels_stopped(
@@ -251,45 +306,20 @@ def test_an_exception_inside_planning_halts_with_the_wheels_stopped(
     from clomp.planner.configurator import Configurator
 
     raised: list[float] = []
+    sim = simulate_cli(monkeypatch, "open")
 
     def broken_plan(self: Any, scan: Any, goal: Any) -> Any:
-        raised.append(time.monotonic())
+        raised.append(sim.clock.now())
         raise RuntimeError("boom in the planner")
 
     monkeypatch.setattr(Configurator, "plan", broken_plan)
     log = tmp_path / "run.jsonl"
-    with EmulatedWorldProcess("open") as world:
-        rc = cli.main(["run", "--lidar", world.lidar_port, "--motors", world.motor_port, "--goal", "1.0,0.0",
-                       "--log", str(log), "--max-time", "10"])
-        assert_stopped_after(world.maestro, raised[0])  # stopped after the raise, and stayed stopped
+    rc = _sim_run(log)
+    assert raised and wheels_stopped_at(sim.world.maestro, raised[0]) == raised[0]  # stopped at the raise
     err = capsys.readouterr().err
     assert rc == 1 and "Traceback" not in err and "boom in the planner" in err
     faults = [r for r in read_log(log) if r["event"] == "fault"]
     assert faults and "RuntimeError: boom in the planner" in faults[0]["reason"]
-
-
-@pytest.mark.parametrize("serial_timeout", [None, 0.5])
-def test_after_sigkill_only_the_maestros_own_serial_timeout_stops_the_wheels(
-    tmp_path: Path, serial_timeout: float | None
-) -> None:
-    """SIGKILL leaves no handler to run: a new board (timeout off) keeps the wheels turning;
-    with the board's serial timeout set, the Maestro itself sends them home."""
-    with EmulatedWorldProcess("open", serial_timeout=serial_timeout) as world:
-        run = Run(world, tmp_path / "run.jsonl")
-        wait_driving(world, run)
-        run.proc.kill()
-        run.finish(timeout=10)
-        emu = world.maestro
-        if serial_timeout is None:
-            # two seconds of the device's own time after the last byte, still driving
-            assert emu.wait_for(lambda e: e.clock() - e.last_byte_at >= 2.0, 10.0)
-            assert emu.speeds != (0.0, 0.0) and not emu.timed_out
-        else:
-            assert emu.wait_for(lambda e: e.speeds == (0.0, 0.0), 10.0)
-            assert emu.timed_out and emu.error_code & (1 << 5)  # the serial-timeout error bit
-            stopped_at = emu.events[-1][0]
-            assert stopped_at - emu.last_byte_at >= serial_timeout  # the board's doing, not the driver's
-    assert run.proc.returncode == -signal.SIGKILL
 
 
 def test_a_signal_landing_inside_a_supervisor_step_keeps_its_name(
@@ -309,15 +339,43 @@ def test_a_signal_landing_inside_a_supervisor_step_keeps_its_name(
         return result
 
     monkeypatch.setattr(Configurator, "plan", plan_then_ctrl_c)
+    sim = simulate_cli(monkeypatch, "open")
     log = tmp_path / "run.jsonl"
-    with EmulatedWorldProcess("open") as world:
-        rc = cli.main(["run", "--lidar", world.lidar_port, "--motors", world.motor_port, "--goal", "1.0,0.0",
-                       "--log", str(log), "--max-time", "10"])
-        assert world.maestro.wait_for(lambda e: e.speeds == (0.0, 0.0), 10.0)
+    rc = _sim_run(log)
+    assert sim.world.maestro.speeds == (0.0, 0.0)
     err = capsys.readouterr().err
     assert rc == 130 and "Traceback" not in err and "SIGINT" in err
     stop = [r for r in read_log(log) if r["event"] == "stop"]
     assert len(stop) == 1 and stop[0]["reason"] == "interrupted by SIGINT" and stop[0]["status"] == "HALTED"
+
+
+# ------------------------------------------------- a real process killed: only the board stops the wheels
+
+
+@pytest.mark.parametrize("serial_timeout", [None, 0.5])
+def test_after_sigkill_only_the_maestros_own_serial_timeout_stops_the_wheels(
+    tmp_path: Path, serial_timeout: float | None
+) -> None:
+    """SIGKILL leaves no handler to run: a new board (timeout off) keeps the wheels turning;
+    with the board's serial timeout set, the Maestro itself sends them home. A real ``clomp
+    run`` over ptys, killed once the wheels turn; every wait is for an event (the wheels
+    commanded, the process gone, the board's own clock passing), bounded only against a hang."""
+    with EmulatedWorldProcess("open", serial_timeout=serial_timeout) as world:
+        run = Run(world, tmp_path / "run.jsonl")
+        wait_driving(world, run)
+        run.proc.kill()
+        run.finish()
+        emu = world.maestro
+        if serial_timeout is None:
+            # two seconds of the device's own time after the last byte, still driving
+            assert emu.wait_for(lambda e: e.clock() - e.last_byte_at >= 2.0, HANG)
+            assert emu.speeds != (0.0, 0.0) and not emu.timed_out
+        else:
+            assert emu.wait_for(lambda e: e.speeds == (0.0, 0.0), HANG)
+            assert emu.timed_out and emu.error_code & (1 << 5)  # the serial-timeout error bit
+            stopped_at = emu.events[-1][0]
+            assert stopped_at - emu.last_byte_at >= serial_timeout  # the board's doing, not the driver's
+    assert run.proc.returncode == -signal.SIGKILL
 
 
 # ------------------------------------------------------------------------- user errors
@@ -352,30 +410,33 @@ def test_start_up_errors_are_one_line_and_still_logged(
 
 
 def test_emulate_world_serves_a_whole_stack_a_user_can_run(tmp_path: Path) -> None:
+    """Real processes over ptys, in real time (scale 1: the least a loaded machine must keep up
+    with): the world prints its ports and the command to run (lines waited for), the run goes
+    to its end (its exit waited for), and the world's summary says where the robot truly is."""
     import clomp.runtime.cli.emulate as emulate
 
     if "add_emulate_world" in inspect.getsource(emulate):
-        argv = clomp("emulate", "world", "--scenario", "open", "--time-scale", "2")
+        argv = clomp("emulate", "world", "--scenario", "open")
     else:  # not wired into `clomp emulate` yet: the same parser, stand-alone
         code = ("import argparse, sys; from clomp.runtime.cli.run import add_emulate_world; "
                 "p = argparse.ArgumentParser(); add_emulate_world(p.add_subparsers(required=True)); "
                 "a = p.parse_args(sys.argv[1:]); raise SystemExit(a.func(a))")
-        argv = [sys.executable, "-c", code, "world", "--scenario", "open", "--time-scale", "2"]
+        argv = [sys.executable, "-c", code, "world", "--scenario", "open"]
     world = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:
-        lines = [world.stdout.readline().strip() for _ in range(4)]
+        lines = read_lines(world, 4)
         ports = dict(line.split(": ", 1) for line in lines)
         assert ports["run"].startswith("clomp run --lidar ") and f"--imu {ports['imu']}" in ports["run"]
         run = subprocess.run(
             clomp("run", "--lidar", ports["lidar"], "--motors", ports["motors"], "--goal", "0.3,0",
-                  "--time-scale", "2", "--log", str(tmp_path / "run.jsonl")),
-            capture_output=True, text=True, timeout=30,
+                  "--log", str(tmp_path / "run.jsonl")),
+            capture_output=True, text=True, timeout=HANG,
         )
         assert run.returncode == 0, run.stderr
     finally:
         world.send_signal(signal.SIGINT)
         try:
-            out, err = world.communicate(timeout=10)
+            out, err = world.communicate(timeout=HANG)
         except subprocess.TimeoutExpired:
             world.kill()
             out, err = world.communicate()

@@ -52,6 +52,13 @@ def test_a_sweep_runs_every_cell_once_and_writes_one_page(tmp_path: Path) -> Non
     summary = json.loads((out / "summary.json").read_text())
     assert sorted((c["family"], c["noise"]) for c in summary["cells"]) == [
         ("doorway", "ideal"), ("doorway", "paper"), ("overtaking", "ideal"), ("overtaking", "paper")]
+    rows = [[c.strip() for c in line.strip("|").split("|")] for line in (out / "table.md").read_text().splitlines()[2:]]
+    assert len(rows) == 8  # one row per cell and condition, as the runs say
+    by_row = {(r[0], r[1], r[2]): r for r in rows}
+    for line in (out / "runs.jsonl").read_text().splitlines():
+        rec = json.loads(line)
+        row = by_row[(rec["family"], rec["noise"], rec["condition"])]
+        assert row[3] == "1" and row[4].split()[0] == str(rec["success"]) and row[5] == str(rec["collisions"])
     page = _parse((out / "report.html").read_text())
     assert page.tags["details"] == 8 and page.tags["svg"] == 8  # every run drillable, drawn
     assert len([h for h in page.h2 if "runs" in h]) == 4  # one section per cell
