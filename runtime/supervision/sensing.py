@@ -98,9 +98,10 @@ class Sensing:
         self._shock = robot.peak_acceleration if isinstance(robot, ShockSensing) else lambda: None  # an accelerometer
         self.config = config
         self.wheel_base = model.wheel_base
-        # a robot told its calibration (the execution world) sizes the wheel prior to it (issue #36)
+        # a robot told its calibration (the execution world) sizes the wheel prior to it (issue #36),
+        # unless it has no heading sensor and is told of errors the filter does not model
         prior = OdometryPrior.from_noise(NoiseTerms(**robot.calibration()), model.wheel_base,
-                                         speed=model.straight_speed) \
+                                         speed=model.straight_speed, heading=self._rotation() is not None) \
             if isinstance(robot, Calibrated) else None
         self.estimator: ScanOdometry | None = ScanOdometry(model.wheel_base, prior=prior) \
             if config.feedback == "scan" else None
