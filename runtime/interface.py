@@ -131,7 +131,9 @@ class Calibrated(Protocol):
     maker or a calibration run would: the standard deviations its errors are drawn from
     (the terms of a :class:`~clomp.planner.noise.NoiseTerms`, by name), never this run's draws. Optional: the
     estimator's wheel prior is then sized to it
-    (:meth:`~clomp.runtime.estimation.prior.OdometryPrior.from_noise`), the worst case's otherwise.
+    (:meth:`~clomp.runtime.estimation.prior.OdometryPrior.from_noise`), the worst case's otherwise,
+    and also when the robot has no heading sensor and is told of error sources the filter does
+    not model (``harsh``: its heading errors would look small).
 
     >>> from clomp.planner import load_scenario
     >>> from clomp.runtime.backends.sim import SimRobot
