@@ -20,7 +20,8 @@ import numpy as np
 from clomp.formal.model import Pose
 from clomp.runtime.devices.frame import ScanFrame
 
-__all__ = ["ScanFrame", "Robot", "RobotFault", "TurnSensing", "ShockSensing", "OdometryUncertainty", "finite_goal"]
+__all__ = ["ScanFrame", "Robot", "RobotFault", "TurnSensing", "ShockSensing", "OdometryUncertainty", "Calibrated",
+           "finite_goal"]
 
 
 class RobotFault(RuntimeError):
@@ -121,6 +122,27 @@ class OdometryUncertainty(Protocol):
     def odometry_covariance(self) -> tuple[np.ndarray | None, np.ndarray | None]:
         """The newest odometry's (pose, twist) covariance, each planar 3×3 (x, y, yaw; the
         pose's in the odometry frame, the twist's in the base frame), None where unknown."""
+        ...
+
+
+@runtime_checkable
+class Calibrated(Protocol):
+    """A backend that tells the estimator its drive's calibration (issue #36), as a robot's
+    maker or a calibration run would: the standard deviations its errors are drawn from
+    (the terms of a :class:`~clomp.planner.noise.NoiseTerms`, by name), never this run's draws. Optional: the
+    estimator's wheel prior is then sized to it
+    (:meth:`~clomp.runtime.estimation.prior.OdometryPrior.from_noise`), the worst case's otherwise,
+    and also when the robot has no heading sensor and is told of error sources the filter does
+    not model (``harsh``: its heading errors would look small).
+
+    >>> from clomp.planner import load_scenario
+    >>> from clomp.runtime.backends.sim import SimRobot
+    >>> isinstance(SimRobot(load_scenario("open"), seed=0), Calibrated)
+    False
+    """
+
+    def calibration(self) -> dict[str, float]:
+        """The noise terms the robot's drive and sensors are specified to (standard deviations, by name)."""
         ...
 
 

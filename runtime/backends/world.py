@@ -254,6 +254,12 @@ class WorldRobot(SimulatedBackend):
         :meth:`peak_acceleration`), or None when built with ``gyro=False`` (no IMU)."""
         return None if self._shock is None else self._shock.read_vector()
 
+    def calibration(self) -> dict[str, float]:
+        """What the robot is told of its own errors (:class:`~clomp.runtime.interface.Calibrated`):
+        the noise terms it draws them from, as a maker's specification gives them, not this
+        run's draws (those are :meth:`drive_truth` and :meth:`gyro_truth`)."""
+        return self.noise.to_dict()
+
     # -- ground truth ----------------------------------------------------------------------------
     def ground_truth_pose(self) -> Pose:
         """The true pose of the robot frame's origin in the world frame."""

@@ -70,6 +70,7 @@ from clomp.runtime.estimation._exact import unwrap
 from clomp.runtime.estimation._icp_core import warm_up
 from clomp.runtime.estimation._localmap import LocalMap
 from clomp.runtime.estimation.icp import ReferenceScan, ScanMatch, match_scans
+from clomp.runtime.estimation.prior import OdometryPrior
 from clomp.runtime.estimation.reported import OdometryCovariance, step_noise_floor
 
 __all__ = ["ScanOdometry", "FeedbackRecord", "deskew"]
@@ -147,7 +148,9 @@ class ScanOdometry(LocalMap):
     default: never. With 2, the hardware stack's overtaking run in simulated time ended
     0.21 m from the goal instead of 0.06: the matches it then took were wrong ones). How far
     the estimate may be off, all told, is :meth:`position_sd`, which counts such a
-    disagreement while it lasts.
+    disagreement while it lasts. ``prior``: what it is told of the drive
+    (:class:`~clomp.runtime.estimation.prior.OdometryPrior`: the filter's calibration prior,
+    and how late the body follows a command; default the worst case, told nothing).
     """
 
     def __init__(
@@ -172,6 +175,7 @@ class ScanOdometry(LocalMap):
         relocalise_after: int = 0,
         agree: tuple[float, float] = (0.05, 0.1),
         admit_after: int = 0,
+        prior: OdometryPrior | None = None,
     ) -> None:
         if not (math.isfinite(wheel_base) and wheel_base > 0):
             raise ValueError(f"wheel_base must be positive, got {wheel_base!r}")
@@ -190,7 +194,9 @@ class ScanOdometry(LocalMap):
         self.seed_revolutions = max(1, int(seed_revolutions))
         self.noise_factor = float(noise_factor)
         self.range_sd: float | None = None  # m, measured from the still revolutions of the seed
-        self.filter = OdometryFilter(self.wheel_base)
+        self.prior = prior or OdometryPrior.worst()
+        self.filter = OdometryFilter(self.wheel_base, **self.prior.filter_kwargs())
+        self._commands: deque[tuple[float, float, float]] = deque()  # (since, v, w) as commanded, for ``prior.delay``
         self.pose = Pose(0.0, 0.0, 0.0)
         self._t = 0.0
         self._twist = (0.0, 0.0)
@@ -222,6 +228,7 @@ class ScanOdometry(LocalMap):
         self.pose, self._t = pose, float(t)
         self.filter.reset(pose)
         self._history = deque([(self._t, pose)])
+        self._commands = deque([(self._t, 0.0, 0.0)])
         self._map = None
         self._map_points = self._map_tree = self._map_sds = None
         self._odo = None
@@ -273,6 +280,8 @@ class ScanOdometry(LocalMap):
             self._odo_cov = None if covariance is None else covariance[0]
             self._twist = (v, w)
         else:
+            if self.prior.delay > 0:  # the body follows the commands late: dead-reckon on them as it does
+                v, w = self._delayed(t, v, w)
             self._twist = (v, w)
             if still:
                 self.filter.zero_rate(turned, dt)  # type: ignore[arg-type]
@@ -285,6 +294,27 @@ class ScanOdometry(LocalMap):
             self._history.append((self._t, self.pose))
             while len(self._history) > 2 and self._history[1][0] < self._t - self.history_s:
                 self._history.popleft()
+
+    def _delayed(self, t: float, v: float, w: float) -> tuple[float, float]:
+        """The twist the body drove over the step from the last advance to ``t``, the wheels
+        commanded (``v``, ``w``) over it: the commands' mean over the same step ``prior.delay``
+        s earlier (the body follows late)."""
+        if not self._commands or self._commands[-1][1:] != (v, w):
+            self._commands.append((self._t, v, w))
+        d = self.prior.delay
+        a, b = self._t - d, float(t) - d
+        while len(self._commands) > 1 and self._commands[1][0] <= a:
+            self._commands.popleft()
+        if not b > a:
+            return self._commands[-1][1], self._commands[-1][2]
+        seg = list(self._commands)
+        sv = sw = 0.0
+        for k, (since, cv, cw) in enumerate(seg):
+            until = seg[k + 1][0] if k + 1 < len(seg) else math.inf
+            span = min(until, b) - max(since, a)
+            if span > 0:
+                sv, sw = sv + cv * span, sw + cw * span
+        return sv / (b - a), sw / (b - a)
 
     def pose_at(self, t: float) -> Pose:
         """The estimate at time ``t`` (interpolated in the kept history; clamped at its ends)."""

@@ -28,11 +28,13 @@ import numpy as np
 
 from clomp.formal.geometry import dead_reckon
 from clomp.formal.model import Pose
+from clomp.planner.noise import NoiseTerms
 from clomp.planner.perception import validate_scan
 from clomp.planner.robot_model import RobotModel
 from clomp.runtime.estimation.fusion import fuse_revolutions
 from clomp.runtime.estimation.odometry import FeedbackRecord, ScanOdometry
-from clomp.runtime.interface import OdometryUncertainty, Robot, ScanFrame, ShockSensing, TurnSensing
+from clomp.runtime.estimation.prior import OdometryPrior
+from clomp.runtime.interface import Calibrated, OdometryUncertainty, Robot, ScanFrame, ShockSensing, TurnSensing
 from clomp.runtime.supervision.config import SupervisorConfig
 
 __all__ = ["Sensing", "crop_far", "turning"]
@@ -96,7 +98,13 @@ class Sensing:
         self._shock = robot.peak_acceleration if isinstance(robot, ShockSensing) else lambda: None  # an accelerometer
         self.config = config
         self.wheel_base = model.wheel_base
-        self.estimator: ScanOdometry | None = ScanOdometry(model.wheel_base) if config.feedback == "scan" else None
+        # a robot told its calibration (the execution world) sizes the wheel prior to it (issue #36),
+        # unless it has no heading sensor and is told of errors the filter does not model
+        prior = OdometryPrior.from_noise(NoiseTerms(**robot.calibration()), model.wheel_base,
+                                         speed=model.straight_speed, heading=self._rotation() is not None) \
+            if isinstance(robot, Calibrated) else None
+        self.estimator: ScanOdometry | None = ScanOdometry(model.wheel_base, prior=prior) \
+            if config.feedback == "scan" else None
         self.pose = Pose(0.0, 0.0, 0.0)
         self.scan: np.ndarray | None = None
         self.clean_scan: np.ndarray | None = None

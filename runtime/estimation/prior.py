@@ -1,0 +1,118 @@
+"""What the estimator is told of its robot's drive: the wheel-calibration prior (issue #36).
+
+The filter (:class:`~clomp.runtime.estimation.ekf.OdometryFilter`) learns the drive's
+systematic errors, but until a scan has shown them it can only believe its prior. Along a
+direction the scene leaves unobserved (a corridor's axis) the prior is all there is: the
+95 % position bound at the goal is the prior's forward scale times the distance driven. A
+prior sized for the worst robot (today's defaults, :meth:`OdometryPrior.worst`) makes a
+well-calibrated robot that truly stands at the goal unable to say so (the ``corridor``
+layouts at ``paper`` noise: 32 of 50 runs within 0.03 m of the goal ended GOAL_UNCONFIRMED
+with bounds of 0.09-0.30 m). A real robot is told its calibration — its wheels' tolerance,
+how much they slip on its floor, how fast its drive answers a command — and so is the
+execution world's robot (:class:`~clomp.runtime.interface.Calibrated`): the noise terms it
+draws its errors from, never the draws themselves. :meth:`OdometryPrior.from_noise` turns
+them into the filter's prior standard deviations with a margin (``margin``: how much
+worse than told the robot may be), so that a robot told nothing keeps the worst-case
+prior and one told ``harsh`` gets about it. It is told how late its drive answers a
+command, too (``delay``): dead reckoning on the commands as sent runs ahead of a body that
+starts 0.1 s late, and the filter, believing its prediction, learnt the lead as a wheel
+scale (-13 % on ``overtaking`` at ``harsh``, seed 3 run 2, which then ended 0.115 m from the
+goal it claimed).
+
+A robot without a heading sensor (no gyro, no IMU) whose maker tells it of error sources the
+filter does not model (:data:`~clomp.planner.noise.UNMODELLED_FIELDS`: a wheel bias that
+wanders, slip events, pushes, on in ``harsh``) keeps the worst case all the same
+(``heading=False`` in :meth:`OdometryPrior.from_noise`). Its heading is what the wheels and the
+matches against a map drawn from its own estimate make of it, and that is no better for
+knowing the drive's terms: on the sample of every family × seeds 0-4 at ``harsh`` without the
+gyro, the told prior and delay made 5 of 60 runs claim the goal 0.10-0.21 m off with a bound
+of 12-23 mm (a 10 % wheel mismatch the scans left unlearnt: the heading 6-16° off, the
+filter's 1-2°), where the worst case claimed none.
+
+>>> from clomp.planner.noise import UNMODELLED_FIELDS, NoiseTerms
+>>> p, h = OdometryPrior.from_noise(NoiseTerms.preset("paper")), OdometryPrior.from_noise(NoiseTerms.preset("harsh"))
+>>> round(p.calibration_sd[0], 3), round(h.calibration_sd[0], 3), OdometryPrior.worst().calibration_sd[0]
+(0.013, 0.065, 0.06)
+>>> OdometryPrior.from_noise(NoiseTerms.preset("harsh"), heading=False) == OdometryPrior.worst()
+True
+>>> OdometryPrior.from_noise(NoiseTerms.preset("paper"), heading=False) == p   # nothing unmodelled told
+True
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+from clomp.planner.noise import UNMODELLED_FIELDS, NoiseTerms
+
+__all__ = ["OdometryPrior"]
+
+_HALF_NORMAL_MEAN = math.sqrt(2.0 / math.pi)  # E|N(0, 1)|: the mean share of speed a slip takes, per unit
+_HALF_NORMAL_SD = math.sqrt(1.0 - 2.0 / math.pi)  # and its spread
+
+
+@dataclass(frozen=True)
+class OdometryPrior:
+    """The filter's prior on the drive (see the module): ``calibration_sd`` of (s, k, c, d),
+    ``calibration_walk`` (per √s while moving), ``wheel_noise`` (relative, per step of
+    each wheel) and ``delay`` (s): how long after a command the body follows it (the
+    actuation latency and half the wheels' ramp), by which
+    :class:`~clomp.runtime.estimation.odometry.ScanOdometry` delays the commands it
+    dead-reckons with (0, told nothing: the body is taken to follow at once).
+    """
+
+    calibration_sd: tuple[float, float, float, float] = (0.06, 0.06, 0.3, 0.02)
+    calibration_walk: tuple[float, float, float, float] = (0.002, 0.002, 0.01, 0.001)
+    wheel_noise: float = 0.15
+    delay: float = 0.0
+
+    @classmethod
+    def worst(cls) -> OdometryPrior:
+        """The prior of a robot told nothing: sized for the worst preset (``harsh``)."""
+        return cls()
+
+    @classmethod
+    def from_noise(cls, told: NoiseTerms, wheel_base: float = 0.15, *, margin: float = 1.5,
+                   wheel_accel: float = 1.0, speed: float = 0.1, heading: bool = True) -> OdometryPrior:
+        """The prior of a robot told its drive's noise terms ``told`` (standard deviations of
+        its errors; :class:`~clomp.planner.noise.NoiseTerms`), each ``margin`` times what they
+        imply: the forward and turn scale from the wheels' bias (their mean) and slip (its
+        mean loss, a bias the prior's mean of 0 leaves), the curvature from the bias's
+        difference over ``wheel_base``, the drift as told, the per-step noise from the
+        per-tick error and slip's spread, the walk from ``bias_walk``, the delay from
+        the latency and the ramp to ``speed`` at ``wheel_accel`` (m/s²; a told time, no margin). A turn-scale prior
+        also covers a gyro's scale error (``rate_scale``, ``rate_asymmetry``): the filter's
+        turn scale is the gyro's when there is one. ``heading`` False: the robot has no heading
+        sensor; told any error source the filter does not model (:data:`~clomp.planner.noise.UNMODELLED_FIELDS`),
+        it keeps :meth:`worst` (see the module: its heading errors would look small).
+
+        >>> q = OdometryPrior.from_noise(NoiseTerms.preset("ideal"))
+        >>> all(v > 0 for v in q.calibration_sd), q.wheel_noise > 0
+        (True, True)
+        """
+        if not (math.isfinite(margin) and margin > 0 and wheel_base > 0 and wheel_accel > 0):
+            raise ValueError("margin, wheel_base and wheel_accel must be positive")
+        m, worst = float(margin), cls.worst()
+        if not heading and any(getattr(told, name) > 0 for name in UNMODELLED_FIELDS):
+            return worst
+        scale = math.hypot(told.wheel_bias / math.sqrt(2.0), _HALF_NORMAL_MEAN * told.slip)
+        gyro = math.hypot(told.rate_scale, told.rate_asymmetry)
+        curvature = told.wheel_bias * math.sqrt(2.0) / wheel_base
+        # never below a floor: a robot told it is perfect may still be a little off, and a
+        # prior of 0 would make the filter deaf to what the scans show of it
+        floor = (0.002, 0.002, 0.01, 0.0005)
+        sd = tuple(max(f, m * v) for f, v in zip(floor, (scale, max(scale, gyro), curvature, told.drift)))
+        walk_s = told.bias_walk / math.sqrt(2.0)
+        walk = (max(worst.calibration_walk[0] / 4, m * walk_s), max(worst.calibration_walk[1] / 4, m * walk_s),
+                max(worst.calibration_walk[2] / 4, m * told.bias_walk * math.sqrt(2.0) / wheel_base),
+                worst.calibration_walk[3] / 4)
+        noise = max(0.01, m * math.hypot(told.wheel_sd, _HALF_NORMAL_SD * told.slip))
+        delay = told.latency + speed / (2.0 * wheel_accel)
+        return cls((sd[0], sd[1], sd[2], sd[3]), walk, noise, delay)
+
+    def filter_kwargs(self) -> dict[str, Any]:
+        """The :class:`~clomp.runtime.estimation.ekf.OdometryFilter` keyword arguments it sets."""
+        return {"calibration_sd": self.calibration_sd, "calibration_walk": self.calibration_walk,
+                "wheel_noise": self.wheel_noise}
