@@ -76,6 +76,8 @@ from clomp.runtime.backends._dynamics import Contacts, Drive, WorldContact, Worl
 from clomp.runtime.backends._gyro import RateGyro, ShockSensor
 from clomp.runtime.backends._lidar import Lidar
 from clomp.runtime.backends._movers import Mover, Movers, parse_movers
+from clomp.runtime.backends._pymunk_fast import angle as _angle, position as _position, space_step as _space_step, \
+    velocity as _velocity
 from clomp.runtime.backends._simulated import SimulatedBackend
 from clomp.runtime.backends._world_body import BodySpec, build_physics
 
@@ -208,8 +210,8 @@ class WorldRobot(SimulatedBackend):
         self._lidar.movers = self.movers
 
     def _xyth(self) -> tuple[float, float, float]:
-        p = self._body.position
-        return float(p.x), float(p.y), float(self._body.angle)
+        x, y = _position(self._body)
+        return x, y, _angle(self._body)
 
     # -- Robot protocol -------------------------------------------------------------------------
     @property
@@ -394,25 +396,24 @@ class WorldRobot(SimulatedBackend):
             self._random_push()
         v, w = self._drive.step(self._t, dt)
         body, control = self._body, self._control
-        th = body.angle
+        th = _angle(body)  # chipmunk's own reads and step (_pymunk_fast): the same numbers, cheaper
         # the property setters directly: pymunk's typing mixin __setattr__ costs as much again
         _set_velocity(control, (v * math.cos(th), v * math.sin(th)))
         _set_angular_velocity(control, w)
-        _set_position(control, body.position)
+        _set_position(control, _position(body))
         if self.movers is not None:
             self.movers.step(self._t, dt, self._xyth(), self.body.front_offset, (v * math.cos(th), v * math.sin(th), w))
-        self._space.step(dt)
-        p, angle = body.position, body.angle  # read once: nothing below moves the body
+        _space_step(self._space, dt)
+        (px, py), angle = _position(body), _angle(body)  # read once: nothing below moves the body
         if self._gyro is not None:
             self._gyro.step((angle - th) / dt, dt)
         if self._shock is not None:
-            vel = body.velocity
-            after = (float(vel.x), float(vel.y))
+            after = _velocity(body)
             self._shock.step(self._velocity, after, dt)
             self._velocity = after
         self._t += dt
         self._contacts.update(self._t, body, self.movers)
-        pose = (float(p.x), float(p.y), float(angle))  # _xyth(), from the reads above
+        pose = (px, py, angle)  # _xyth(), from the reads above
         self.trajectory.append((self._t, *pose))
         frame = self._lidar.step(self._t, pose)
         if frame is not None:

@@ -8,6 +8,7 @@
 - :mod:`.onerun` — one run of one condition, measured on the ground truth;
 - :mod:`.runrecords` — one run as a pure function of its spec, a JSON-ready record; reading them back;
 - :mod:`.driver` — many runs, in this process or on Dask, streamed to ``runs.jsonl`` and resumed;
+- :mod:`.warmup` — the compiled kernels ready (numba's cache) before a local cluster's workers start;
 - :mod:`.runner` — the names of those four in one place;
 - :mod:`.stats` — Wilson and t intervals, the paired t-test, McNemar's test;
 - :mod:`.results` — the CSV (documented schema), the JSON summary, the text and Markdown tables;

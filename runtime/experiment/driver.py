@@ -20,6 +20,7 @@ from typing import Any
 from clomp.runtime.experiment.provenance import claim_folder
 from clomp.runtime.experiment.runrecords import PLOTTED_RUNS, load_records, run_spec, summary_record
 from clomp.runtime.experiment.runspec import DEFAULT_CONDITIONS, RunSpec, experiment_specs
+from clomp.runtime.experiment.warmup import warm_kernels
 
 __all__ = ["ExperimentInterrupted", "RunsFailed", "batch_size", "run_experiment", "run_specs"]
 
@@ -236,7 +237,11 @@ def batch_size(runs: int, workers: int) -> int:
 def _run_on_dask(todo: list[RunSpec], workers: int, scheduler: str | None, store: _Store,
                  on_dashboard: Callable[[str], None] | None = None) -> None:
     """Every run of ``todo`` on Dask in batches (:func:`batch_size`), each run kept as its
-    batch finishes; a lost worker's batches are retried."""
+    batch finishes; a lost worker's batches are retried. A local cluster's workers start
+    after :func:`~clomp.runtime.experiment.warmup.warm_kernels` (compiled once here, not
+    once per worker; an external scheduler's workers may be on other machines)."""
+    if not scheduler:
+        warm_kernels(todo)
     client, cluster = _dask_client(workers, scheduler, dashboard=on_dashboard is not None)
     try:
         link = getattr(client, "dashboard_link", None) if on_dashboard is not None else None

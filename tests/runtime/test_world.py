@@ -29,7 +29,8 @@ def test_is_a_robot_backend_without_encoders():
     assert w.odometry() is None
 
 
-WORLD_MODULES = ("world.py", "_world_body.py", "_dynamics.py", "_lidar.py", "_gyro.py", "_raycast.py", "_simulated.py", "_movers.py")
+WORLD_MODULES = ("world.py", "_world_body.py", "_dynamics.py", "_lidar.py", "_gyro.py", "_raycast.py", "_simulated.py", "_movers.py",
+                 "_pymunk_fast.py")
 
 
 def _imported_names(path: Path) -> set[tuple[str, str]]:

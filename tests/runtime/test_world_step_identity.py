@@ -1,6 +1,8 @@
 """Issue #41's cheaper physics step holds the world bit for bit.
 
-The step reads the body's pose once after pymunk's step, a static world's contacts are
+The step reads the body's pose and velocity from chipmunk directly and steps the space
+without pymunk's wrapper when nothing is queued (:mod:`clomp.runtime.backends._pymunk_fast`),
+reads the body's pose once after pymunk's step, a static world's contacts are
 recorded without building a closure each step, and the LiDAR draws a step's beam and range
 noise in one call. A world built with frozen copies of the code they replaced
 (:class:`_FrozenWorld`) must give the same trajectory, revolutions, gyro, shocks and
@@ -116,8 +118,15 @@ class _FrozenLidar(_lidar.Lidar):
     _measure = _frozen_measure
 
 
+def _frozen_xyth(self: WorldRobot) -> tuple[float, float, float]:
+    """WorldRobot._xyth as it was before issue #41 (pymunk's properties, not chipmunk's reads)."""
+    p = self._body.position
+    return float(p.x), float(p.y), float(self._body.angle)
+
+
 class _FrozenWorld(WorldRobot):
     _advance = _frozen_advance
+    _xyth = _frozen_xyth
 
 
 def _drive(w: WorldRobot, stream: bool) -> list[Any]:
