@@ -94,9 +94,14 @@ def seen_past(sup: Supervisor) -> int:
         est.doubt.raise_to(est.doubt.kick_sd, sup.clock.now(), "seen past at the goal")
         return through
     moved = est.start_posts_shift(scan)  # seen from any side, the start's posts (issue #36)
-    if moved is None or moved <= est.doubt.posts_moved:
+    turned = est.compass.measure(scan, est.pose, est.range_sd, either_side=True) \
+        if est.compass is not None and est.compass.seeded else None  # and the start's faces, from behind too
+    if moved is not None and moved > est.doubt.posts_moved:
+        why = f"the start's posts put it {moved:.3f} m away"
+    elif turned is not None and abs(turned[0]) > max(3.0 * turned[1], est.doubt.faces_turned):
+        why = f"the start's faces turn it by {math.degrees(turned[0]):.1f}°"
+    else:
         return 0
-    why = f"the start's posts put it {moved:.3f} m away"
     est.doubt.raise_to(est.doubt.kick_sd, sup.clock.now(), why)
     if not est.doubt.events or est.doubt.events[-1][1] != why:  # already in doubt: said all the same
         est.doubt.events.append((sup.clock.now(), why, est.doubt.sd))
@@ -106,7 +111,7 @@ def seen_past(sup: Supervisor) -> int:
 def _past_words(sup: Supervisor, past: int) -> str:
     """What :func:`seen_past` found, in words."""
     events = [] if sup.estimator is None else sup.estimator.doubt.events
-    if events and str(events[-1][1]).startswith("the start's posts"):
+    if events and str(events[-1][1]).startswith("the start's"):
         return str(events[-1][1])
     return f"it sees past {past} bearings of the map"
 
