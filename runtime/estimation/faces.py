@@ -353,7 +353,9 @@ class FaceCompass:
             # points nearest the estimate's line and so confirm the estimate
             reach = max(abs(f.start), abs(f.end)) * math.tan(spread)
             wide = max(self.band, tol + reach) + (self.depth if either_side else 0.0)  # a box's back face lies behind
-            cand = (np.abs(across) <= wide) & (along >= f.start + self.margin) & (along <= f.end - self.margin)
+            # read from behind, a box's sides reach back past the face's ends: kept clear of them
+            end = self.margin + (self.depth / 2 if either_side else 0.0)
+            cand = (np.abs(across) <= wide) & (along >= f.start + end) & (along <= f.end - end)
             if cand.sum() < 8:
                 continue
             wc = world[cand]
@@ -384,7 +386,7 @@ class FaceCompass:
             if abs(off) > math.pi / 2:  # a line has no sense of direction
                 off = wrap_angle(off + math.pi)
             sd = math.hypot(max(sd_fit, sd_r / math.sqrt(float(np.sum((s_ - s_.mean()) ** 2)))), f.sd, self.floor)
-            if sd > self.max_sd or abs(off) > 3.0 * math.hypot(sd, prior_sd):
+            if sd > self.max_sd or abs(off) > 3.0 * math.hypot(sd, prior_sd) or (either_side and abs(off) > self.square_limit * 2.5):
                 # too little of a face to tell a heading by (the few points of a short
                 # face, or a corner's, are where wild readings come from), or off the prior
                 continue
