@@ -25,6 +25,7 @@ from clomp.runtime.estimation._icp_core import cell_keys, grid_index, nearest_tw
 from clomp.runtime.estimation.doubt import Doubt, see_through
 from clomp.runtime.estimation.ekf import OdometryFilter
 from clomp.runtime.estimation.icp import ReferenceScan
+from clomp.runtime.estimation.posts import posts_shift
 from clomp.runtime.jit import interruptible
 
 __all__ = ["LocalMap"]
@@ -56,6 +57,20 @@ class LocalMap:
         if self._map_points is None:
             return 0, 0
         return see_through(self._map_points, points, self.pose)
+
+    def start_posts_shift(self, points: np.ndarray, *, drawn_within: float = 0.002) -> float | None:
+        """How far (m) the small posts the map drew while the estimate was known within
+        ``drawn_within`` m (the start's) move the estimate, paired by their centres with those
+        a revolution ``points`` (robot frame) shows now (:func:`~clomp.runtime.estimation.posts.posts_shift`:
+        a post's centre does not depend on the side it is seen from); None when too few pair
+        up or there is no map."""
+        if self._map_points is None or self._map_sds is None or not len(points):
+            return None
+        start = self._map_sds[:, 0] <= drawn_within
+        if int(start.sum()) < 8:
+            return None
+        return posts_shift(self._map_points[start], self._map_sds[start, 2], points_from_frame(points, self.pose),
+                           np.array([self.pose.x, self.pose.y]))
 
     def _add(self, points: np.ndarray, pose: Pose, reseed: bool) -> bool:
         """Put a revolution seen from ``pose`` into the map (1 cm grid, within ``map_radius``)."""

@@ -77,7 +77,14 @@ class Doubt:
     estimate to vouch for the goal (:func:`~clomp.runtime.supervision.goal.at_goal`; 8:
     at ``harsh`` without the gyro, standing at the goal, the estimate right saw past at
     most 5, the estimate 0.10-0.26 m off after a push nothing felt or a drift 10-20 of
-    150-170, with no share asked: a fused revolution is not one noisy pass)."""
+    150-170, with no share asked: a fused revolution is not one noisy pass). ``posts_moved``
+    (m): at the goal, the start's small posts, paired by their centres with those seen now
+    (:func:`~clomp.runtime.estimation.posts.posts_shift`), may move the estimate at most this
+    far for it to vouch for the goal (a post's centre is about 1-2 cm off, and two or three
+    posts turn the robot by that over their spread). ``faces_turned`` (rad): the start's
+    straight faces, read from either side (:meth:`~clomp.runtime.estimation.faces.FaceCompass.measure`),
+    may turn the estimate at most this much (and three of their standard deviations) for it
+    to vouch for the goal (a heading 6° off moves what it sees 0.1 m at 1 m)."""
 
     jolt: float = 3.0
     kick: float = 30.0
@@ -88,13 +95,15 @@ class Doubt:
     through_share: float = 0.2
     through_after: int = 2
     goal_through: int = 8
+    posts_moved: float = 0.08
+    faces_turned: float = math.radians(6.0)
     sd: float = 0.0
     through_in_a_row: int = 0
     events: list[tuple[float, str, float]] = field(default_factory=list)
 
     def __post_init__(self) -> None:
         for name in ("jolt", "kick", "kick_sd", "jolt_sd", "trust", "through_least", "through_share", "through_after",
-                     "goal_through"):
+                     "goal_through", "posts_moved", "faces_turned"):
             v = getattr(self, name)
             if not (math.isfinite(v) and v > 0):
                 raise ValueError(f"Doubt: {name} must be a positive number, got {v!r}")

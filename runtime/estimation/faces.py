@@ -248,7 +248,8 @@ class FaceCompass:
     recorded harsh runs such faces were 7.4° off their true direction (median; 90th
     percentile 28°) against 1.0° (4.5°) for squared ones, and a compass reading a wrong
     face confirms a wrong heading. ``behind`` (m): a face is read only from the side it
-    was seen from, the robot at least this far in front of its line; ``max_sd`` (rad): a
+    was seen from, the robot at least this far in front of its line (``depth``, m: read from
+    either side, how much farther from the line a box's back face may lie); ``max_sd`` (rad): a
     revolution's reading of one face less certain than this is left out. Each face is fitted
     on the points within ``fit_band`` × the range noise of its line.
     """
@@ -258,7 +259,8 @@ class FaceCompass:
                  margin: float = 0.02, incidence: float = 0.4, right_angles: bool = True,
                  corner: float = 0.08, square_limit: float = math.radians(12.0), behind: float = 0.05,
                  grow_unsquared: bool = False, fit_band: float = 3.5, square_sd: float = math.radians(5.0),
-                 square_length: float = 0.08, max_sd: float = math.radians(6.0)) -> None:
+                 square_length: float = 0.08, max_sd: float = math.radians(6.0), depth: float = 0.12) -> None:
+        self.depth = float(depth)
         self.square_sd, self.square_length = float(square_sd), float(square_length)
         self.max_sd = float(max_sd)
         self.grow_unsquared = bool(grow_unsquared)
@@ -319,12 +321,18 @@ class FaceCompass:
                     int(sel.sum()), sd)
 
     def measure(self, points: np.ndarray, pose: Pose, range_sd: float | None,
-                prior_sd: float = math.inf) -> tuple[float, float, int] | None:
+                prior_sd: float = math.inf, either_side: bool = False) -> tuple[float, float, int] | None:
         """The heading offset (rad, measured minus ``pose.theta``), its standard deviation and
         the number of faces that gave it, from one revolution ``points`` (robot frame, de-skewed)
         seen at ``pose``; None when it sees no known face well enough (8 points over 8 cm).
         A face whose offset is beyond 3 standard deviations (its own and ``prior_sd``, the
-        estimate's heading) is taken for a wrong association and left out."""
+        estimate's heading) is taken for a wrong association and left out. ``either_side``:
+        a face is read from behind too, where a thin wall's other side or a box's back face
+        lies parallel to it (issue #36: at the goal, the start's faces seen from the far side
+        tell a heading that drifted with the map: 12° in u-trap 4/2 at ``harsh`` without the
+        gyro, :func:`~clomp.runtime.supervision.goal.seen_past`); its ends are kept clear of a
+        box's sides and a reading beyond 2.5 × ``square_limit`` (30°) is taken for a wrong
+        face. Not for steering, where a parallel face nearby would be taken for it."""
         pts = np.asarray(points, dtype=float).reshape(-1, 2)
         if not self.faces or len(pts) < 8:
             return None
@@ -337,7 +345,7 @@ class FaceCompass:
         here = np.array([pose.x, pose.y])
         for f in self.faces:
             fc, fd, fn = np.asarray(f.centre), np.asarray(f.direction), np.asarray(f.normal)
-            if float((here - fc) @ fn) < self.behind:
+            if float((here - fc) @ fn) < self.behind and not either_side:
                 continue  # the robot is behind the face (or in its plane): it cannot see it
             q = world - fc
             along, across = q @ fd, q @ fn
@@ -346,7 +354,10 @@ class FaceCompass:
             # by three standard deviations: a band only as wide as the noise would keep the
             # points nearest the estimate's line and so confirm the estimate
             reach = max(abs(f.start), abs(f.end)) * math.tan(spread)
-            cand = (np.abs(across) <= max(self.band, tol + reach)) & (along >= f.start + self.margin) & (along <= f.end - self.margin)
+            wide = max(self.band, tol + reach) + (self.depth if either_side else 0.0)  # a box's back face lies behind
+            # read from behind, a box's sides reach back past the face's ends: kept clear of them
+            end = self.margin + (self.depth / 2 if either_side else 0.0)
+            cand = (np.abs(across) <= wide) & (along >= f.start + end) & (along <= f.end - end)
             if cand.sum() < 8:
                 continue
             wc = world[cand]
@@ -377,7 +388,7 @@ class FaceCompass:
             if abs(off) > math.pi / 2:  # a line has no sense of direction
                 off = wrap_angle(off + math.pi)
             sd = math.hypot(max(sd_fit, sd_r / math.sqrt(float(np.sum((s_ - s_.mean()) ** 2)))), f.sd, self.floor)
-            if sd > self.max_sd or abs(off) > 3.0 * math.hypot(sd, prior_sd):
+            if sd > self.max_sd or abs(off) > 3.0 * math.hypot(sd, prior_sd) or (either_side and abs(off) > self.square_limit * 2.5):
                 # too little of a face to tell a heading by (the few points of a short
                 # face, or a corner's, are where wild readings come from), or off the prior
                 continue

@@ -88,11 +88,32 @@ def seen_past(sup: Supervisor) -> int:
     est = sup.estimator
     if est is None or sup.sensing.scan is None:
         return 0
-    through, _ = est.sees_past(sup.sensing.planning_scan())
-    if through < est.doubt.goal_through:
+    scan = sup.sensing.planning_scan()
+    through, _ = est.sees_past(scan)
+    if through >= est.doubt.goal_through:
+        est.doubt.raise_to(est.doubt.kick_sd, sup.clock.now(), "seen past at the goal")
+        return through
+    moved = est.start_posts_shift(scan)  # seen from any side, the start's posts (issue #36)
+    turned = est.compass.measure(scan, est.pose, est.range_sd, either_side=True) \
+        if est.compass is not None and est.compass.seeded else None  # and the start's faces, from behind too
+    if moved is not None and moved > est.doubt.posts_moved:
+        why = f"the start's posts put it {moved:.3f} m away"
+    elif turned is not None and abs(turned[0]) > max(3.0 * turned[1], est.doubt.faces_turned):
+        why = f"the start's faces turn it by {math.degrees(turned[0]):.1f}°"
+    else:
         return 0
-    est.doubt.raise_to(est.doubt.kick_sd, sup.clock.now(), "seen past at the goal")
-    return through
+    est.doubt.raise_to(est.doubt.kick_sd, sup.clock.now(), why)
+    if not est.doubt.events or est.doubt.events[-1][1] != why:  # already in doubt: said all the same
+        est.doubt.events.append((sup.clock.now(), why, est.doubt.sd))
+    return est.doubt.goal_through
+
+
+def _past_words(sup: Supervisor, past: int) -> str:
+    """What :func:`seen_past` found, in words."""
+    events = [] if sup.estimator is None else sup.estimator.doubt.events
+    if events and str(events[-1][1]).startswith("the start's"):
+        return str(events[-1][1])
+    return f"it sees past {past} bearings of the map"
 
 
 def at_goal(sup: Supervisor, dist: float, what: str) -> None:
@@ -116,7 +137,7 @@ def at_goal(sup: Supervisor, dist: float, what: str) -> None:
         sup._confirm_honest = 0.0 if est is None else est.filter.honest_sigma_xy
         why = f"{what} by the estimate ({dist:.3f} m), but its 95 % bound {bound:.3f} m cannot vouch for {cfg.vouch_radius:g} m"
         if past:
-            why += f" (standing, it sees past {past} bearings of the map: it may stand elsewhere)"
+            why += f" (standing, {_past_words(sup, past)}: it may stand elsewhere)"
         sup._fire(E.GOAL_UNCONFIRMED, f"{why}: confirming")
         if cfg.confirm_looks == 0:  # no looking asked for: unconfirmed at once
             sup._fire(E.GOAL_UNCONFIRMED, f"{why}: unconfirmed")
@@ -181,6 +202,6 @@ def confirm_tick(sup: Supervisor, now: float) -> None:
                               f"{b:.3f} m): approach {sup._approaches} of {cfg.confirm_approaches}")
     elif dist > sup.goal_radius or looked >= cfg.confirm_looks:
         where = "at the goal" if dist <= sup.goal_radius else f"{dist:.3f} m from the goal, no approach left,"
-        seen = f", and it sees past {past} bearings of the map" if past else ""
+        seen = f", and {_past_words(sup, past)}" if past else ""
         sup._fire(E.GOAL_UNCONFIRMED, f"{where} by the estimate ({dist:.3f} m) after {looked} revolutions standing, "
                                       f"but its 95 % bound {b:.3f} m cannot vouch for {radius:g} m{seen}: unconfirmed")
