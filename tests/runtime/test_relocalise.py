@@ -37,14 +37,14 @@ def _seen(world: np.ndarray, pose: Pose, reach: float = 2.5) -> np.ndarray:
 
 @settings(max_examples=6, deadline=None)
 @given(st.floats(0.08, 0.3), st.floats(-math.pi, math.pi))
-def test_a_kicked_revolution_is_found_where_it_was_seen_from(size, direction):
+def test_a_kicked_revolution_is_found_where_it_was_seen_from(size: float, direction: float) -> None:
     truth = Pose(size * math.cos(direction), size * math.sin(direction), 0.0)
     r = relocalise(_room(), np.zeros((len(_room()), 3)), _seen(_room(), truth), Pose(0.0, 0.0, 0.0))
     assert r.pose is not None, r.why
     assert math.hypot(r.pose.x - truth.x, r.pose.y - truth.y) < 0.02 and r.sd < 0.03
 
 
-def test_along_a_corridor_the_kick_stays_in_doubt():
+def test_along_a_corridor_the_kick_stays_in_doubt() -> None:
     truth = Pose(0.2, 0.05, 0.0)
     r = relocalise(_corridor(), np.zeros((602, 3)), _seen(_corridor(), truth), Pose(0.0, 0.0, 0.0))
     assert r.pose is None and "not unique" in r.why
@@ -60,7 +60,7 @@ def _odometry(world: np.ndarray) -> ScanOdometry:
     return odo
 
 
-def test_after_a_kick_the_map_drawn_before_it_moves_the_estimate_and_lowers_the_floor():
+def test_after_a_kick_the_map_drawn_before_it_moves_the_estimate_and_lowers_the_floor() -> None:
     odo = _odometry(_room())
     odo.advance(0.2, (0.0, 0.0))
     odo.shock(150.0)  # kicked: the body slid 0.22 m sideways, the estimate does not know
@@ -75,7 +75,7 @@ def test_after_a_kick_the_map_drawn_before_it_moves_the_estimate_and_lowers_the_
     assert odo.position_sd() < 0.03 and odo.doubt.events[-1][1] == "relocalised"
 
 
-def test_after_a_kick_along_a_corridor_the_floor_stays():
+def test_after_a_kick_along_a_corridor_the_floor_stays() -> None:
     odo = _odometry(_corridor())
     odo.advance(0.2, (0.0, 0.0))
     odo.shock(150.0)
