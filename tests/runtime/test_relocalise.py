@@ -32,7 +32,8 @@ def _corridor() -> np.ndarray:
 
 def _seen(world: np.ndarray, pose: Pose, reach: float = 2.5) -> np.ndarray:
     pts = points_to_frame(world, pose)
-    return pts[np.hypot(pts[:, 0], pts[:, 1]) <= reach]
+    out: np.ndarray = pts[np.hypot(pts[:, 0], pts[:, 1]) <= reach]
+    return out
 
 
 @settings(max_examples=6, deadline=None)
