@@ -15,6 +15,7 @@ from clomp.formal.geometry import wrap_angle
 
 from clomp.planner import load_scenario
 from clomp.runtime.backends.sim import SimRobot
+from clomp.runtime.supervision import replanning
 from clomp.runtime.supervision import supervisor as sup_module
 from clomp.runtime.supervision.supervisor import Supervisor
 
@@ -22,7 +23,7 @@ from clomp.runtime.supervision.supervisor import Supervisor
 def test_a_plan_that_lasts_does_not_move_the_estimate(monkeypatch: pytest.MonkeyPatch) -> None:
     scene = load_scenario("open")  # the first task is a STRAIGHT
     robot = SimRobot(scene, seed=0)
-    real = sup_module.fresh_plan
+    real = replanning.fresh_plan
 
     def slow(sup: Supervisor, *args: Any, **kwargs: Any) -> Any:
         robot.sleep(3.0)  # the plan takes 3 s, the wheels stopped meanwhile; then its first task starts
