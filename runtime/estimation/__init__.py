@@ -4,7 +4,9 @@
 prior, gating and degeneracy detection); ``clomp.runtime.estimation.odometry`` fuses those
 matches with dead reckoning into the pose the supervisor's tasks run on;
 ``clomp.runtime.estimation.doubt`` keeps what that pose may not be vouched for after a shock
-the IMU felt or a revolution that saw past the map.
+the IMU felt or a revolution that saw past the map, and
+``clomp.runtime.estimation.relocalise`` re-localises the robot after a shock against the
+map drawn before it.
 """
 
 from __future__ import annotations

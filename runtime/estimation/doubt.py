@@ -21,7 +21,10 @@ guesses) against the surfaces drawn *before* the doubt — those whose own uncer
 below :attr:`Doubt.trust` — lowers it (:meth:`Doubt.confirmed`): to how far a pose the
 trusted surfaces explain as well lies from the estimate. Surfaces drawn while in doubt
 carry it (:class:`~clomp.runtime.estimation.odometry.ScanOdometry` draws them with the
-floor), so they are not trusted for it.
+floor), so they are not trusted for it. After a shock, the map as it was when the shock
+was felt re-localises the robot (:mod:`~clomp.runtime.estimation.relocalise`): on unique,
+well-paired evidence the floor falls to what that evidence leaves, and the surfaces drawn
+in doubt are dropped.
 
 >>> d = Doubt()
 >>> d.shock(1.2, 3.0)                     # a drive's own acceleration: nothing

@@ -71,6 +71,7 @@ from clomp.runtime.estimation._icp_core import warm_up
 from clomp.runtime.estimation._localmap import LocalMap
 from clomp.runtime.estimation.icp import ReferenceScan, ScanMatch, match_scans
 from clomp.runtime.estimation.prior import OdometryPrior
+from clomp.runtime.estimation.relocalise import KickMemory, Relocalisation
 from clomp.runtime.estimation.reported import OdometryCovariance, step_noise_floor
 
 __all__ = ["ScanOdometry", "FeedbackRecord", "deskew"]
@@ -111,7 +112,7 @@ def deskew(points: np.ndarray, point_times: np.ndarray | None, v: float, w: floa
     return points_from_frames(points, px, py, th)
 
 
-class ScanOdometry(LocalMap):
+class ScanOdometry(LocalMap, KickMemory):
     """The pose estimate (supervisor frame) from dead reckoning and scan matching.
 
     ``map_radius`` (m): how much of the map around the robot is kept; ``map_resolution``
@@ -397,6 +398,15 @@ class ScanOdometry(LocalMap):
                                  () if seeded else ("x", "y", "heading"), seeded)
             self.records.append(rec)
             return rec
+        if self.kick_pending(stamp):  # after a shock: the map drawn before it, searched widely
+            jumped = self.relocalise_after_kick(points, at)
+            res = self.last_relocalisation
+            if res is not None and res.pose is not None:
+                now = self.pose_at(stamp)
+                rec = FeedbackRecord(stamp, True, "map", f"{'re-localised' if jumped else 'confirmed'} after a kick: {res.why}",
+                                     (now.x - at.x, now.y - at.y, wrap_angle(now.theta - at.theta)), (), True)
+                self.records.append(rec)
+                return rec
         # a match may move the estimate only as far as the filter's uncertainty explains
         # (3 sigma, at least 3 cm and 0.05 rad, at most ``gate``)
         f = self.filter
@@ -459,6 +469,9 @@ class ScanOdometry(LocalMap):
         self.reseeds = 0  # times a revolution matching nothing re-seeded the map
         self.last_map_sd = (0.0, 0.0)  # how wrong the surfaces the last match met may be (m, rad)
         self.doubt = Doubt()  # the floor under position_sd that only a wider search lowers
+        self._before_doubt: tuple[np.ndarray, np.ndarray] | None = None  # the map when a shock was felt
+        self._kicked_at = 0.0  # when (odometry time)
+        self.last_relocalisation: Relocalisation | None = None  # the last search against it
 
     def shock(self, peak: float) -> None:
         """The IMU's accelerometer peaked at ``peak`` m/s² (:class:`~clomp.runtime.estimation.doubt.Doubt`):
@@ -466,6 +479,7 @@ class ScanOdometry(LocalMap):
         (so the next matches may pull the estimate there) and keeps it as a floor."""
         sd, _shocked = self.doubt.shock(peak, self._t)
         if sd > 0:
+            self.remember_before_doubt()  # what was drawn before it: what re-localises after it
             for m in (self.filter.P, self.filter.honest):
                 m[:2, :2] += np.eye(2) * sd * sd
 

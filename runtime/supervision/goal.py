@@ -63,7 +63,13 @@ def relocated_at_goal(sup: Supervisor, now: float) -> bool:
     elsewhere — in doubt, the map drawn before the doubt, which lowers the doubt when
     they do not (:meth:`~clomp.runtime.supervision.sensing.Sensing.confirm_doubt`); if
     so the estimate moves there (at most ``relocate_at_goal`` times a run, 0 by default)
-    and the robot plans on from it. True when it moved."""
+    and the robot plans on from it. True when it moved. After a shock, first the map drawn
+    before it re-localises the robot (:meth:`~clomp.runtime.estimation.relocalise.KickMemory.relocalise_after_kick`):
+    well supported, the doubt falls to what it shows and, when it puts the robot elsewhere,
+    the estimate moves there (whatever ``relocate_at_goal``: the evidence is unique)."""
+    settled = _after_kick(sup)
+    if settled is not None:
+        return settled
     better = sup.sensing.confirm_doubt()  # in doubt: searched widely against the map drawn before it
     if better is None and sup._relocations < sup.config.relocate_at_goal:
         better = sup.sensing.better_pose()
@@ -74,6 +80,27 @@ def relocated_at_goal(sup: Supervisor, now: float) -> bool:
     sup.pose = sup.sensing.pose
     sup._relocations += 1
     sup._log("relocated", before=was.as_list(), pose=sup.pose.as_list())
+    return True
+
+
+def _after_kick(sup: Supervisor) -> bool | None:
+    """In doubt after a shock, the revolutions fused standing here re-localised against the
+    map drawn before it: True when that moved the estimate (the poses follow it), False
+    when it settled the doubt where the estimate is, None when it did not settle it."""
+    est = sup.estimator
+    if est is None or sup.sensing.scan is None:
+        return None
+    was = sup.pose
+    moved = est.relocalise_after_kick(sup.sensing.planning_scan(), sigmas=sup.config.vouch_sigmas)
+    res = est.last_relocalisation
+    if res is not None and res.pose is not None:
+        sup._log("relocalised after a kick" if moved is not None else "confirmed after a kick",
+                 before=was.as_list(), pose=est.pose.as_list(), sd=round(est.doubt.sd, 4), why=res.why)
+    if res is None or res.pose is None:
+        return None
+    if moved is None:
+        return False
+    sup.sensing.pose = sup.pose = est.pose
     return True
 
 

@@ -469,6 +469,8 @@ class Supervisor:
         vl, vr = task.wheel_speeds(e, wrap_angle(self.pose.theta - task.start.theta))  # a STRAIGHT holds its heading
         if self.state not in MOTOR_STATES:  # the machine's table forbids the wheels here
             raise GuardViolation(f"the wheels may not turn in {self.state.value}")
+        # the old command drove until now: a long tick (a plan made under load) is not the new one's
+        self.sensing.update_pose(self.clock.now(), self._cmd)
         self.robot.set_wheel_speeds(vl, vr)
         if self.log is not None and (vl, vr) != self._cmd:
             self._log("motor", left=vl, right=vr)

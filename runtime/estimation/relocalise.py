@@ -1,0 +1,246 @@
+"""Where the robot stands after a kick, by the map drawn before it: :func:`relocalise`.
+
+A kick (issue #36) slides the body 0.1-0.3 m between two revolutions; the matcher, whose
+correspondences reach a few centimetres, pairs what it sees after the kick near the
+prediction, and the surfaces seen from then on join the map where that estimate draws
+them. So the map drawn *after* the kick cannot tell where the robot is, and the doubt
+(:class:`~clomp.runtime.estimation.doubt.Doubt`) keeps a floor of a kick's size under
+the bound (0.37-0.41 m at the goal in every pushed pty run of session 6, even one truly
+0.022 m off). The map drawn *before* the kick can: :func:`relocalise` places the
+revolution at every pose of a grid around the estimate (as wide as a push, a few headings
+about the IMU's) and scores each by how far its points fall from that map (a distance
+field, so thousands of poses cost one lookup each; point-to-point, so a face's *ends*
+count, not only its line: one 20 cm face seen from the start is all the ``overtaking``
+scene gives). The best is *well supported* only when
+
+- it pairs enough of the revolution (``least_inliers``, and ``least_paired`` points),
+- it is *unique*: no pose farther than ``apart`` from it explains the revolution within
+  ``unique`` of its misfit (chi-square units, ``correlation`` neighbouring points counted
+  as one; 30, as the ``better`` of :func:`~clomp.runtime.estimation.confirm.ambiguity`):
+  a corridor's axis, or a scene that matches twice, leaves the doubt where it is,
+- and it is not on the search's edge.
+
+Its ``sd`` is how far that pose may be off: the farthest pose explaining the revolution
+nearly as well (within ``unique``, as a 95 % bound), and the uncertainty of the map points it met
+(each drawn as uncertain as the estimate that drew it).
+
+>>> room = np.array([[1.0, y] for y in np.linspace(-0.6, 0.6, 61)] + [[x, 0.6] for x in np.linspace(-0.6, 1.0, 81)]
+...                 + [[-0.6, y] for y in np.linspace(-0.6, 0.6, 61)])
+>>> sds = np.zeros((len(room), 2))
+>>> seen = room - [0.2, -0.1]                  # kicked: it stands at (0.2, -0.1), believing (0, 0)
+>>> r = relocalise(room, sds, seen, Pose(0.0, 0.0, 0.0))
+>>> r.pose is not None and abs(r.pose.x - 0.2) < 0.01 and abs(r.pose.y + 0.1) < 0.01, r.sd < 0.01
+(True, True)
+>>> wall = np.array([[x, 0.5] for x in np.linspace(-3.0, 3.0, 301)])
+>>> relocalise(wall, np.zeros((301, 2)), wall[100:200], Pose(0.0, 0.0, 0.0)).pose is None   # along a wall: anywhere
+True
+"""
+
+from __future__ import annotations
+
+import math
+from collections import deque
+from dataclasses import dataclass
+
+import numpy as np
+
+from clomp.formal.geometry import compose, points_from_frame, relative
+from clomp.formal.model import Pose
+from scipy.ndimage import distance_transform_edt
+from scipy.spatial import cKDTree
+
+from clomp.runtime.estimation.doubt import Doubt
+from clomp.runtime.estimation.ekf import OdometryFilter
+from clomp.runtime.estimation.icp import ReferenceScan, match_scans
+
+__all__ = ["HEADINGS", "KickMemory", "Relocalisation", "relocalise"]
+
+HEADINGS: tuple[float, ...] = (-0.1, -0.05, 0.0, 0.05, 0.1)
+"""The headings (rad, about the estimate's) searched: the IMU keeps the heading, a push off
+the centre turns the body a little."""
+
+
+@dataclass(frozen=True)
+class Relocalisation:
+    """The outcome of :func:`relocalise`. ``pose``: the well-supported pose (None: none is);
+    ``sd`` (m): how far it may be off (inf without one); ``inliers``: the share of the
+    revolution it pairs; ``spread`` (m): the farthest pose from it explaining the revolution
+    about as well; ``rival`` (m): the nearest pose farther than ``apart`` explaining it
+    nearly as well (inf: none); ``why``: in words."""
+
+    pose: Pose | None
+    sd: float
+    inliers: float
+    spread: float
+    rival: float
+    why: str
+
+
+def _field(map_points: np.ndarray, lo: np.ndarray, hi: np.ndarray, res: float, cap: float) -> np.ndarray:
+    """The distance (m, at most ``cap``) from each cell of a ``res`` grid spanning ``lo``..``hi``
+    to the nearest map point: the misfit of a point that falls there, looked up at once."""
+    shape = np.ceil((hi - lo) / res).astype(int) + 1
+    occupied = np.ones(tuple(shape), dtype=bool)
+    k = np.floor((map_points - lo) / res + 0.5).astype(int)
+    inside = np.all((k >= 0) & (k < shape), axis=1)
+    occupied[k[inside, 0], k[inside, 1]] = False
+    out: np.ndarray = np.minimum(distance_transform_edt(occupied) * res, cap)
+    return out
+
+
+def relocalise(map_points: np.ndarray, map_sds: np.ndarray, points: np.ndarray, pose: Pose, *,
+               radius: float = 0.4, step: float = 0.02, headings: tuple[float, ...] = HEADINGS,
+               min_points: int = 10, sd: float = 0.02, correlation: float = 4.0, reach: float = 3.0,
+               apart: float = 0.15, unique: float = 30.0, least_inliers: float = 0.6,
+               least_paired: int = 20, sigmas: float = 2.45, most_points: int = 100) -> Relocalisation:
+    """The revolution ``points`` (robot frame), believed seen from ``pose``, placed at every
+    pose of a grid (``step`` m, within ``radius`` m of ``pose``, at each of ``headings``)
+    over ``map_points`` (map frame; ``map_sds[:, 0]``: how wrong each may be, m); see the
+    module docstring. Each pose's misfit: each point's squared distance to the map in
+    ``sd`` (at most ``reach``), over ``correlation``. Well supported: the best pairs at
+    least ``least_inliers`` of the points (``least_paired`` of them) within ``reach`` sd,
+    no pose farther than ``apart`` from it is within ``unique`` of its misfit, and it is
+    not on the search's edge (the grid scores every k-th point, at most ``most_points``:
+    a wall-rich revolution's 400 points cost 0.5 s on a busy machine); then its ``sd`` counts the farthest pose within ``unique``
+    (as a ``sigmas`` bound: conservative, ``unique`` is five times chi-square's 95 % point
+    with two degrees of freedom), the map's uncertainty where it meets it, and the grid."""
+    pts = np.asarray(points, dtype=float).reshape(-1, 2)
+    ref = np.asarray(map_points, dtype=float).reshape(-1, 2)
+    if len(pts) < min_points or len(ref) < min_points:
+        return Relocalisation(None, math.inf, 0.0, math.inf, math.inf, "too few points")
+    res, cap = step / 2, reach * sd
+    few = pts[:: -(-len(pts) // most_points)]  # the grid is scored on at most ``most_points`` of them
+    seen = [points_from_frame(few, Pose(pose.x, pose.y, pose.theta + h)) for h in headings]
+    every = np.vstack([ref, *seen])
+    lo, hi = every.min(axis=0) - radius - cap - res, every.max(axis=0) + radius + cap + res
+    dist = _field(ref, lo, hi, res, cap)
+    offs = np.arange(-round(radius / step), round(radius / step) + 1) * round(step / res)
+    cost = np.empty((len(headings), len(offs), len(offs)))
+    for i, w in enumerate(seen):
+        k = np.floor((w - lo) / res + 0.5).astype(int)
+        d = dist[k[:, 0, None, None] + offs[None, :, None], k[:, 1, None, None] + offs[None, None, :]]
+        cost[i] = np.sum(d * d, axis=0) / (sd * sd) / correlation * (len(pts) / len(few))  # as if all were scored
+    h, a, b = np.unravel_index(int(np.argmin(cost)), cost.shape)
+    dx, dy = offs * res, offs * res
+    gx, gy = np.meshgrid(dx, dy, indexing="ij")
+    far = np.hypot(gx - dx[a], gy - dy[b])  # each grid pose's distance from the best
+    best = float(cost[h, a, b])
+    rivals = far[None, :, :] * np.ones((len(headings), 1, 1))
+    near_as_well = cost <= best + unique
+    rival = float(rivals[near_as_well & (rivals > apart)].min()) if np.any(near_as_well & (rivals > apart)) else math.inf
+    spread = float(rivals[near_as_well].max())  # the poses as good, conservatively: how far they reach
+    at = Pose(pose.x + float(dx[a]), pose.y + float(dy[b]), pose.theta + headings[h])
+    d_best, idx = cKDTree(ref).query(points_from_frame(pts, at), distance_upper_bound=cap)
+    met = np.isfinite(d_best)
+    inl = float(met.mean())
+    if inl < least_inliers or int(met.sum()) < least_paired:
+        return Relocalisation(None, math.inf, inl, spread, rival,
+                              f"best pairs {inl:.0%} of {len(pts)} points within {cap * 100:.0f} cm: too little")
+    if rival < math.inf:
+        return Relocalisation(None, math.inf, inl, spread, rival,
+                              f"a pose {rival:.2f} m from the best explains it nearly as well: not unique")
+    if max(abs(a - len(offs) // 2), abs(b - len(offs) // 2)) >= len(offs) // 2:
+        return Relocalisation(None, math.inf, inl, spread, rival, "the best lies on the search's edge")
+    refined = match_scans(ReferenceScan(ref), pts, at, gate=None, min_points=min_points)
+    if refined.ok and math.hypot(refined.pose.x - at.x, refined.pose.y - at.y) <= 2 * step:  # within the grid's own blur
+        at = refined.pose
+    map_sd = float(np.median(np.asarray(map_sds, dtype=float).reshape(len(ref), -1)[idx[met], 0]))
+    out = math.sqrt(map_sd ** 2 + (max(spread, step) / sigmas) ** 2)
+    return Relocalisation(at, out, inl, spread, rival,
+                          f"pairs {inl:.0%} of {len(pts)} points, poses as good within {spread * 100:.0f} cm, "
+                          f"none farther")
+
+
+class KickMemory:
+    """The kick half of :class:`~clomp.runtime.estimation.odometry.ScanOdometry` (a mixin: it
+    reads and writes the odometry's map, filter and doubt): the map as it was when a shock
+    was felt (:meth:`remember_before_doubt`), and the re-localisation against it
+    (:meth:`relocalise_after_kick`) that lowers the doubt's floor, or moves the estimate,
+    when the evidence supports it."""
+
+    min_points: int
+    match_sd: float
+    noise_factor: float
+    range_sd: float | None
+    correlation: float
+    relocalised: int
+    pose: Pose
+    _t: float
+    _map_points: np.ndarray | None
+    _map_sds: np.ndarray | None
+    _before_doubt: tuple[np.ndarray, np.ndarray] | None
+    _kicked_at: float
+    _map: ReferenceScan | None
+    _map_tree: cKDTree | None
+    _history: deque[tuple[float, Pose]]
+    filter: OdometryFilter
+    doubt: Doubt
+    last_relocalisation: Relocalisation | None
+    last_map_sd: tuple[float, float]
+
+    def remember_before_doubt(self) -> None:
+        """A shock was felt: keep the map as it is now (drawn before it), once per doubt."""
+        if self._before_doubt is None and self._map_points is not None and self._map_sds is not None:
+            self._before_doubt = (self._map_points, self._map_sds)
+            self._kicked_at = self._t
+
+    def kick_pending(self, stamp: float, settle: float = 0.3, search: float = 5.0) -> bool:
+        """Whether a revolution stamped ``stamp``, while driving, is searched against the map
+        drawn before the shock: from ``settle`` s after it (the slide is over) to ``search`` s
+        after it (near where it was kicked, the robot still sees what it saw before)."""
+        return self._before_doubt is not None and self._kicked_at + settle <= stamp <= self._kicked_at + search
+
+    def relocalise_after_kick(self, points: np.ndarray, at: Pose | None = None, sigmas: float = 2.45) -> Pose | None:
+        """In doubt after a shock, a revolution ``points`` (robot frame) believed seen from
+        ``at`` (default: the estimate now) matched against the map drawn before the shock
+        (:func:`relocalise`; only surfaces seen from the side the robot faces them from now).
+        Well supported, the doubt falls to that evidence: to the re-localisation's ``sd``
+        plus the estimate's distance from it over ``sigmas`` when it lies within the
+        re-localisation's own ``sigmas`` bound (the estimate stays), else the estimate moves
+        by the difference (the pose now is returned). Either way the surfaces drawn in doubt
+        are dropped (they were drawn from an estimate of unknown error) and this revolution
+        is drawn anew. Not supported: None, the doubt stays (:attr:`last_relocalisation`)."""
+        doubt = self.doubt
+        self.last_relocalisation = None
+        if self._before_doubt is None or doubt.sd <= 0:
+            return None
+        seen = self.pose if at is None else at
+        ref, ref_sds = self._before_doubt
+        keep = np.cos(np.arctan2(ref[:, 1] - seen.y, ref[:, 0] - seen.x) - ref_sds[:, 2]) > 0.0
+        sd = max(2 * self.match_sd, self.noise_factor * (self.range_sd or 0.0))
+        res = relocalise(ref[keep], ref_sds[keep], points, seen, min_points=self.min_points, sd=sd,
+                         correlation=self.correlation)
+        self.last_relocalisation = res
+        if res.pose is None:
+            return None
+        off = math.hypot(res.pose.x - seen.x, res.pose.y - seen.y)
+        stays = off <= sigmas * res.sd
+        floor = res.sd + off / sigmas if stays else res.sd
+        moved = None if stays else compose(res.pose, relative(seen, self.pose))
+        self._settle_kick(moved, floor, ref, ref_sds)
+        drawn = seen if stays else res.pose
+        self._add(points, drawn, reseed=False)  # type: ignore[attr-defined]  # LocalMap's
+        self.last_map_sd = self._map_sd(points, drawn)  # type: ignore[attr-defined]
+        doubt.events.append((self._t, "relocalised" if moved is not None else "confirmed", round(floor, 3)))
+        return moved
+
+    def _settle_kick(self, pose: Pose | None, sd: float, ref: np.ndarray, ref_sds: np.ndarray) -> None:
+        """The doubt is settled at ``sd`` (m), the estimate moved to ``pose`` (None: it
+        stays): the filter's position uncertainty, the gain's and the vouching one, is set to
+        it (the kick's share of it was what the doubt held), the map is the one drawn
+        before the doubt."""
+        f = self.filter
+        if pose is not None:
+            f.shift(pose)
+            self.pose = pose
+            self._history = deque([(self._t, pose)])
+            self.relocalised += 1
+        for m in (f.P, f.honest):
+            m[:2, :] = 0.0
+            m[:, :2] = 0.0
+            m[:2, :2] = np.eye(2) * sd * sd
+        self.doubt.confirmed(sd)
+        self._map_points, self._map_sds = ref, ref_sds
+        self._map_tree = None
+        self._map = ReferenceScan(ref)
+        self._before_doubt = None
