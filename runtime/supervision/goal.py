@@ -120,6 +120,13 @@ def seen_past(sup: Supervisor) -> int:
     if through >= est.doubt.goal_through:
         est.doubt.raise_to(est.doubt.kick_sd, sup.clock.now(), "seen past at the goal")
         return through
+    before = est.stands_before(scan)  # or short of them: what is not drawn stands before what is
+    if before >= est.doubt.goal_through:
+        why = f"it sees {before} bearings stand before surfaces the map drew"
+        est.doubt.raise_to(est.doubt.kick_sd, sup.clock.now(), why)
+        if not est.doubt.events or est.doubt.events[-1][1] != why:
+            est.doubt.events.append((sup.clock.now(), why, est.doubt.sd))
+        return before
     moved = est.start_posts_shift(scan)  # seen from any side, the start's posts (issue #36)
     turned = est.compass.measure(scan, est.pose, est.range_sd, either_side=True) \
         if est.compass is not None and est.compass.seeded else None  # and the start's faces, from behind too
@@ -138,7 +145,7 @@ def seen_past(sup: Supervisor) -> int:
 def _past_words(sup: Supervisor, past: int) -> str:
     """What :func:`seen_past` found, in words."""
     events = [] if sup.estimator is None else sup.estimator.doubt.events
-    if events and str(events[-1][1]).startswith("the start's"):
+    if events and str(events[-1][1]).startswith(("the start's", "it sees")):
         return str(events[-1][1])
     return f"it sees past {past} bearings of the map"
 
