@@ -42,7 +42,9 @@ def occluding(world: np.ndarray, drawn: np.ndarray, seen_along: np.ndarray, *, n
     either a body appeared or moved there since (a box in the lane, a person walking in), or
     the estimate drawing it is off (an unfelt push along a room: the end wall seen 0.19 m
     nearer was drawn as a second wall and vouched for the pushed estimate, issue #36).
-    Neither may join the map as a static surface.
+    Either way such a surface is no static evidence: at the goal it may not vouch
+    (:meth:`LocalMap.stands_before`). A map point seen along its own surface (a wall at a
+    grazing angle) has its wall's points beside its ray, not before it: it does not count.
 
     >>> wall = np.array([[1.0, y] for y in np.linspace(-0.3, 0.3, 31)])
     >>> occluding(np.array([[0.8, 0.0], [1.0, 0.5], [1.2, 0.0]]), wall, np.zeros(31)).tolist()
@@ -60,8 +62,22 @@ def occluding(world: np.ndarray, drawn: np.ndarray, seen_along: np.ndarray, *, n
         u = back[near_idx]
         along = d[:, 0] * u[:, 0] + d[:, 1] * u[:, 1]
         across = np.abs(d[:, 0] * u[:, 1] - d[:, 1] * u[:, 0])
-        out[i] = bool(((along > near) & (along < far) & (across < width)).any())
+        cand = np.asarray(near_idx)[(along > near) & (along < far) & (across < width)]
+        out[i] = any(not _grazing(tree, drawn, int(q), back[q]) for q in cand)
     return out
+
+
+def _grazing(tree: cKDTree, drawn: np.ndarray, q: int, ray: np.ndarray, *, radius: float = 0.03,
+             least: float = math.radians(25.0)) -> bool:
+    """Whether map point ``q`` was seen along its surface (within ``least`` of it, or its
+    surface unknown): a ray that grazes a wall runs beside the wall's own points."""
+    idx = tree.query_ball_point(drawn[q], radius)
+    if len(idx) < 3:
+        return True
+    nb = drawn[idx] - drawn[idx].mean(axis=0)
+    _, vecs = np.linalg.eigh(nb.T @ nb)
+    along = abs(float(vecs[:, -1] @ ray))  # the surface's direction against the ray
+    return along > math.cos(least)
 
 
 class LocalMap:
@@ -91,17 +107,15 @@ class LocalMap:
 
     def stands_before(self, points: np.ndarray, *, bins: int = 180) -> int:
         """How many bearings (of ``bins`` a turn) of a revolution ``points`` (robot frame) seen
-        at the estimate show a surface the map does not hold standing before one it drew
-        (:func:`occluding`): at the goal, what the matches cannot pair (an end wall seen
-        0.2 m nearer than drawn after an unfelt push along a room); 0 before there is a map."""
+        at the estimate show a surface standing before one the map drew (:func:`occluding`),
+        whether the map drew it too or not: at the goal, what the matches cannot tell (an end
+        wall seen 0.2 m nearer after an unfelt push along a room, drawn there since, stands
+        before the end wall drawn before the push); 0 before there is a map."""
         if self._map_points is None or self._map_sds is None or not len(points):
             return 0
         world = points_from_frame(points, self.pose)
-        new = self._nearest(world, self.new_surface)[0] < 0
-        if not new.any():
-            return 0
-        hit = occluding(world[new], self._map_points, self._map_sds[:, 2])
-        pts = np.asarray(points, dtype=float)[new][hit]
+        hit = occluding(world, self._map_points, self._map_sds[:, 2])
+        pts = np.asarray(points, dtype=float)[hit]
         return len(np.unique(np.floor((np.arctan2(pts[:, 1], pts[:, 0]) + math.pi) / (2 * math.pi / bins))))
 
     def start_posts_shift(self, points: np.ndarray, *, drawn_within: float = 0.002) -> float | None:
@@ -129,7 +143,6 @@ class LocalMap:
             # only surfaces the map does not hold yet: re-adding known ones would smear them
             # along the robot's estimation error and let the estimate drift with them
             new = self._nearest(world, self.new_surface)[0] < 0
-            new[new] = ~occluding(world[new], old, old_sds[:, 2])  # nor what stands before known surfaces
             if not new.any():
                 return False
             points, world = points[new], world[new]  # each point's uncertainty below is its own arithmetic

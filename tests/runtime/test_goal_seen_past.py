@@ -13,6 +13,7 @@ import pytest
 
 from clomp.formal.model import Pose
 from clomp.runtime.devices.frame import ScanFrame
+from clomp.runtime.estimation._localmap import occluding
 from clomp.runtime.estimation.doubt import Doubt
 from clomp.runtime.estimation.odometry import ScanOdometry
 from clomp.runtime.experiment.runrecords import run_spec
@@ -49,13 +50,10 @@ def test_standing_elsewhere_sees_past_the_map_and_the_doubt_rises() -> None:
     ("stopper", 3, 0),  # pushed 0.11 m at 24 s, nothing felt it: it ended GOAL_REACHED 0.149 m off, bound 0.010 m
     ("clutter", 4, 1),  # a doubt seen through, cleared against surfaces drawn while the heading drifted: 0.137 m off
     # pushed 0.19 m forward at 28 s, nothing felt it: the end wall seen nearer was drawn as a second
-    # wall and vouched for the estimate (GOAL_REACHED 0.229 / 0.198 m off, bound 0.039 / 0.038 m)
+    # wall and vouched for the estimate (GOAL_REACHED 0.229 / 0.198 m off, bound 0.039 / 0.038 m);
+    # it stands before the end wall drawn before the push
     ("appearing", 2, 2),
     ("stopper", 2, 2),
-    # the room's axis crept 0.09-0.12 m while surfaces standing before drawn ones joined the map
-    # (GOAL_REACHED 0.103 / 0.123 m off, bound 0.041 m)
-    ("stopper", 0, 3),
-    ("appearing", 4, 1),
 ])
 def test_the_harsh_runs_without_the_gyro_that_claimed_a_goal_they_were_not_at(family: str, seed: int, run: int) -> None:
     rec = run_spec(RunSpec(family, seed, run, "planning", "harsh", gyro=False))
@@ -78,19 +76,11 @@ def test_a_surface_standing_before_one_the_map_drew_raises_the_doubt_at_the_goal
     assert sup.estimator.doubt.sd == Doubt().kick_sd and "stand before" in sup.estimator.doubt.events[-1][1]
 
 
-def test_a_surface_before_one_the_map_drew_does_not_join_the_map() -> None:
-    # whatever stands there now (a body that appeared, or an estimate that is off) is not static
-    # evidence: drawn, it would vouch for the estimate that drew it
-    odo = _standing(_ROOM).estimator
-    odo._add(_front_wall_nearer(0.2), Pose(0.0, 0.0, 0.0), reseed=False)  # as a matched revolution joins it
-    m = odo._map_points
-    assert m is not None
-    assert not ((np.abs(m[:, 0] - 0.7) < 0.02) & (np.abs(m[:, 1]) < 0.4)).any()  # (its ends stand before nothing drawn)
-
-
-def test_a_new_surface_beside_the_map_joins_it() -> None:
-    odo = _standing(_ROOM).estimator
-    n = len(odo._map_points)
-    post = np.array([[0.3 + 0.03 * np.cos(a), -0.3 + 0.03 * np.sin(a)] for a in np.linspace(0, 2 * np.pi, 24)])
-    odo._add(np.vstack([_ROOM, post]), Pose(0.0, 0.0, 0.0), reseed=False)
-    assert odo._map_points is not None and len(odo._map_points) > n
+def test_a_wall_seen_along_itself_does_not_stand_before_its_own_points() -> None:
+    # a wall 0.1 m beside the line of sight: the ray to its far points runs within a centimetre
+    # of its own nearer points, which stand in no one's way
+    wall = np.array([[x, 0.1] for x in np.arange(0.5, 2.0, 0.01)])
+    bearings = np.arctan2(wall[:, 1], wall[:, 0])
+    assert not occluding(np.array([[1.6, 0.1], [1.2, 0.1]]), wall, bearings).any()
+    across = np.array([[1.8, 0.01 * k] for k in range(-3, 4)])
+    assert occluding(np.array([[1.6, 0.0]]), across, np.arctan2(across[:, 1], across[:, 0])).all()  # across the ray
