@@ -81,7 +81,17 @@ from clomp.runtime.backends._pymunk_fast import angle as _angle, position as _po
 from clomp.runtime.backends._simulated import SimulatedBackend
 from clomp.runtime.backends._world_body import BodySpec, build_physics
 
-__all__ = ["BodySpec", "Mover", "WorldNoise", "WorldRobot", "WorldContact", "WorldPush", "make_world_robot", "parse_movers"]
+__all__ = [
+    "BodySpec",
+    "Mover",
+    "WorldNoise",
+    "WorldRobot",
+    "WorldContact",
+    "WorldPush",
+    "make_world_robot",
+    "parse_movers",
+    "push_speed",
+]
 
 WorldNoise = NoiseTerms
 """The world's noise: every term of a preset (:class:`clomp.planner.noise.NoiseTerms`)."""

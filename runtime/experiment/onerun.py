@@ -28,8 +28,7 @@ from clomp.formal.model import Pose
 from clomp.planner.configurator import Configurator
 from clomp.planner.scenarios import Scene
 from clomp.runtime.backends.sim import NoiseConfig
-from clomp.runtime.backends.world import WorldNoise, make_world_robot
-from clomp.runtime.backends._dynamics import push_speed
+from clomp.runtime.backends.world import WorldNoise, make_world_robot, push_speed
 from clomp.runtime.experiment.contacts import ContactCount, Episode, Push, contact_episodes, mark_pushed
 from clomp.runtime.experiment.groundtruth import make_robot
 from clomp.runtime.experiment.layouts import shape_distance
@@ -150,7 +149,7 @@ def moving_counts(robot: Any) -> dict[str, int]:
 def world_pushes(robot: Any, path: list[tuple[float, float, float, float]]) -> list[Push]:
     """The world's external pushes of a run (none for a robot that cannot be pushed), each
     with its slide time on open floor (``2 d / v0``, the kick ``v0`` of
-    :func:`~clomp.runtime.backends._dynamics.push_speed`) and the body's true position then
+    :func:`~clomp.runtime.backends.world.push_speed`) and the body's true position then
     (``path``: the ground truth, ``(t, x, y, theta)``)."""
     out = []
     times = [p[0] for p in path]

@@ -50,6 +50,7 @@ a push of 0.1-0.5 m slides the body 0.16-0.36 s on open floor, and a revolution 
 5.5 Hz) read while it still slid may not show it against the obstacle yet. The first that
 does starts the move; a contact lasting under 0.5 s and 1 cm deep is a brush."""
 _STEP = 0.01  # m between the poses a move away is checked at
+_JUMP = 0.02  # m beyond a tick's drive: an estimate that moved more was re-localised, not driven
 
 
 def _near(local: np.ndarray, shift: float, box: tuple[float, float, float]) -> np.ndarray:
@@ -118,6 +119,7 @@ def push_tick(sup: Supervisor, now: float, fresh: bool) -> bool:
     pose = sup.pose
     sup._away = Task.reverse(sup.model, pose, None, -d) if d < 0 else Task.straight(sup.model, pose, None, d)
     sup._away_ticks = 0
+    sup._away_left = None
     sup._log("task", task=sup._away.kind.value, phase="start", pose=pose.as_list(), reason="move away")
     move_tick(sup, now)
     return True
@@ -130,6 +132,16 @@ def move_tick(sup: Supervisor, now: float) -> None:
     task = sup._away
     assert task is not None
     e = task.error(sup.pose)
+    left = sup._away_left
+    if left is not None and abs(e - left) > sup.model.max_speed * sup.model.tick + _JUMP:
+        # the estimate jumped (a re-localisation after the push), not the wheels: the move
+        # is what was left of it, from where the robot now is believed to be
+        pose = sup.pose
+        again = Task.reverse if task.kind is TaskKind.REVERSE else Task.straight
+        task = again(sup.model, pose, None, left)
+        sup._away = task
+        e = task.error(pose)
+    sup._away_left = e
     sup._away_ticks += 1
     if task.done(e) or sup._away_ticks > 2 * task.max_ticks() + 10:
         why = "moved away" if task.done(e) else "moved away (its time spent)"

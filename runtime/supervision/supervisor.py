@@ -176,6 +176,7 @@ class Supervisor:
         self._pushed_at: float | None = None  # when a push was felt that is still to be judged
         self._away: Task | None = None  # MOVING_AWAY's move
         self._away_ticks = 0
+        self._away_left: float | None = None  # what the move had left last tick (a jump re-anchors it)
 
     # -- public -------------------------------------------------------------------------------
     @property
