@@ -167,7 +167,8 @@ _EVENTS = (
     MachineEvent("approach", True, "confirming, the settled estimate put the robot off the goal: the supervisor "
                                    "plans to it again"),
     MachineEvent("plan_short", False, "the plan's last task ended short of the goal"),
-    MachineEvent("disagree", False, "a scan or a task's end disagrees with the map (hazard, off prediction, overrun)"),
+    MachineEvent("disagree", False, "a scan or a task's end disagrees with the map (hazard, off prediction, overrun), "
+                                    "or the estimate the task was set from jumped"),
     MachineEvent("move_away", True, "a push felt (an IMU kick, or a revolution seeing through the map) left the robot "
                                     "touching or within a margin of an obstacle: the supervisor backs or drives a short "
                                     "way clear of it before it plans"),
@@ -186,7 +187,8 @@ _GUARDS = {
     "no_safe_task": "the plan is empty, the goal is unreachable, or plans stopped bringing it closer",
     "task_done_as_predicted": "the task's error reached zero near the map's predicted end, and the plan has another task",
     "plan_done_short": "the plan's last task is done and the goal is farther than the tolerance",
-    "map_disagrees": "a hazard is ahead, the task ended far from its prediction, or it overran its duration",
+    "map_disagrees": "a hazard is ahead, the task ended far from its prediction, it overran its duration, or a "
+                     "revolution moved the estimate farther than replan_jump while it ran",
     "device_failed": "a robot call raised a fault",
     "pushed_against_obstacle": "a push was felt since the last judgement, the newest revolution after it has points "
                                "within the margin of the body, and a short straight or reverse clears some of them "

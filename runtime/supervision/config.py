@@ -111,6 +111,13 @@ class SupervisorConfig:
       that left ``hazard_points`` scan points within ``push_margin`` (m) of the body, the
       supervisor drives or backs this far clear of them before it plans (MOVING_AWAY,
       :mod:`clomp.runtime.supervision.pushaway`); 0: never (as before).
+    - ``replan_jump`` (m, rad): a revolution that moves the estimate farther than this while
+      a task runs (a re-localisation after a push, a large correction: not the wheels) ends
+      the task and the supervisor plans afresh (EXECUTING → REPLANNING, ``disagree``): the
+      task was set from where the robot was believed to be, and would drive the rest of its
+      length from the wrong place. Ordinary corrections at ``harsh`` stay under 3 cm and 1°;
+      after a push they were 7-12 cm. Such a jump is also what makes a revolution seeing
+      through the map evidence of a push (:mod:`clomp.runtime.supervision.pushaway`).
 
     >>> SupervisorConfig(confirm=0)
     Traceback (most recent call last):
@@ -148,6 +155,7 @@ class SupervisorConfig:
     wait_timeout: float = 4.0
     move_away: float = 0.12
     push_margin: float = 0.04
+    replan_jump: tuple[float, float] = (0.05, 0.1)
 
     def __post_init__(self) -> None:
         if self.feedback not in FEEDBACK:
@@ -177,6 +185,11 @@ class SupervisorConfig:
             raise ValueError(f"end_tolerance must be (metres, radians), got {self.end_tolerance!r}")
         for name, x in zip(("end_tolerance[0]", "end_tolerance[1]"), self.end_tolerance):
             _non_negative(name, x, positive=True)
+        if not (isinstance(self.replan_jump, tuple) and len(self.replan_jump) == 2):
+            raise ValueError(f"replan_jump must be (metres, radians), got {self.replan_jump!r}")
+        for name, x in zip(("replan_jump[0]", "replan_jump[1]"), self.replan_jump):
+            if not (isinstance(x, (int, float)) and not isinstance(x, bool) and x > 0):  # inf: never
+                raise ValueError(f"{name} must be a positive number, got {x!r}")
 
     @property
     def fused_revolutions(self) -> int:

@@ -22,7 +22,7 @@ from clomp.planner.robot_model import RobotModel
 from clomp.planner.rollout import make_task
 from clomp.planner.tasks import Task
 
-__all__ = ["GuardViolation", "end_error", "guard", "task_for"]
+__all__ = ["GuardViolation", "end_error", "guard", "jumped", "task_for"]
 
 
 class GuardViolation(RuntimeError):
@@ -92,4 +92,21 @@ def end_error(pose: Pose, predicted: Pose, tolerance: tuple[float, float]) -> st
     a = abs(wrap_angle(pose.theta - predicted.theta))
     if d > tolerance[0] or a > tolerance[1]:
         return f"{d:.3f} m, {math.degrees(a):.0f}° off"
+    return None
+
+
+def jumped(before: Pose, after: Pose, limit: tuple[float, float]) -> str | None:
+    """How far one revolution moved the estimate from ``before`` to ``after`` (the same
+    instant: the wheels did not do it), when farther than ``limit`` (m, rad); None within it.
+    A task set from ``before`` would drive the rest of its length from the wrong place.
+
+    >>> jumped(Pose(0.0, 0.0, 0.0), Pose(0.12, 0.0, 0.0), (0.05, 0.1))
+    '0.120 m, 0°'
+    >>> jumped(Pose(0.0, 0.0, 0.0), Pose(0.02, 0.01, 0.02), (0.05, 0.1)) is None
+    True
+    """
+    d = before.distance_to(after.x, after.y)
+    a = abs(wrap_angle(after.theta - before.theta))
+    if d > limit[0] or a > limit[1]:
+        return f"{d:.3f} m, {math.degrees(a):.0f}°"
     return None

@@ -28,6 +28,9 @@ reckoning alone. The goal, the remaining plan and every task's error signal come
   goes to REPLANNING too (with scan feedback): the robot stands, the still revolutions
   correct the estimate, and the goal is declared (or approached anew) on the settled one,
   within ``goal_radius`` (default: the planner's goal tolerance, 0.05 m; 0.08 m before).
+  A revolution that moves the estimate farther than ``replan_jump`` (a re-localisation
+  after a push, a large correction) ends the running task too: it was set from the belief
+  before the jump, a changed belief is a new disturbance, and the Configurator plans anew.
 - At the goal by the estimate, the estimate must vouch for it (issue #36): GOAL_REACHED
   only when the distance plus the 95 % bound of the position (``vouch_sigmas`` standard
   deviations of :meth:`~clomp.runtime.estimation.odometry.ScanOdometry.position_sd`: the
@@ -85,7 +88,7 @@ from clomp.planner.tasks import Task
 from clomp.runtime.clock import Clock, clock_for
 from clomp.runtime.estimation.odometry import ScanOdometry
 from clomp.runtime.supervision.config import SupervisorConfig
-from clomp.runtime.supervision.execution import GuardViolation, end_error, guard, task_for
+from clomp.runtime.supervision.execution import GuardViolation, end_error, guard, jumped, task_for
 from clomp.runtime.supervision.goal import at_goal, confirm_tick, relocated_at_goal
 from clomp.runtime.supervision.moving import Appearance, wait_tick
 from clomp.runtime.supervision.planwatch import PlanWatch
@@ -177,6 +180,8 @@ class Supervisor:
         self._away: Task | None = None  # MOVING_AWAY's move
         self._away_ticks = 0
         self._away_left: float | None = None  # what the move had left last tick (a jump re-anchors it)
+        self._jump: str | None = None  # the estimate jumped at this tick's revolution while a task ran (how far)
+        self._jumped_at: float | None = None  # when the estimate last jumped (push evidence, clomp.runtime.supervision.pushaway)
 
     # -- public -------------------------------------------------------------------------------
     @property
@@ -340,6 +345,7 @@ class Supervisor:
 
     def _tick(self) -> None:
         now = self.clock.now()
+        self._jump = None
         self.sensing.update_pose(now, self._cmd)
         frame = self.robot.read_scan(timeout=0.0)
         if frame is not None:
@@ -362,7 +368,12 @@ class Supervisor:
         """A new revolution: the estimate takes it, the log and the alarms see it, and a plan
         check is due once a revolution while executing."""
         self._check_due = self.state in MOTOR_STATES
+        before = self.pose
         rec = self.sensing.take(frame, now, self._cmd, still=not self._check_due)
+        jump = jumped(before, self.pose, self.config.replan_jump)
+        if jump is not None:
+            self._jumped_at = now
+            self._jump = jump if self.state is S.EXECUTING and self._task is not None else None
         if self.log is not None:
             if rec is not None:
                 self._log("feedback", ok=rec.ok, source=rec.source, reason=rec.reason, correction=list(rec.correction),
@@ -439,6 +450,9 @@ class Supervisor:
             return
         task = self._task
         assert task is not None and self._record is not None
+        if self._jump is not None:  # set from the belief before: a new disturbance, the Configurator plans anew
+            self._fire(E.DISAGREE, f"the estimate jumped {self._jump} while the task ran: planning from the new one")
+            return
         e = task.error(self.pose)
         if task.done(e):
             off = end_error(self.pose, self._record.predicted_end, self.config.end_tolerance)
