@@ -169,7 +169,8 @@ _EVENTS = (
     MachineEvent("plan_short", False, "the plan's last task ended short of the goal"),
     MachineEvent("disagree", False, "a scan or a task's end disagrees with the map (hazard, off prediction, overrun), "
                                     "or the estimate the task was set from jumped"),
-    MachineEvent("move_away", True, "a push felt (an IMU kick, or a revolution seeing through the map) left the robot "
+    MachineEvent("move_away", True, "a push felt (an IMU kick, or a revolution seeing through the map as the estimate "
+                                    "jumped) left the robot "
                                     "touching or within a margin of an obstacle: the supervisor backs or drives a short "
                                     "way clear of it before it plans"),
     MachineEvent("moved_away", False, "the move away ended (its distance driven, or its time spent)"),

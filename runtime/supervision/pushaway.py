@@ -4,9 +4,10 @@ An external push (a passer-by, a bump) slides the robot 0.1-0.3 m; at ``harsh`` 
 planning collisions began 0.04-0.17 s after one that slid it into an obstacle, and most
 count as collisions only because the robot then stayed touching 0.7-7 s while it settled
 and replanned (note of session 6, #36 item 4). So a push the robot *felt* — a kick of
-its IMU's accelerometer or a revolution seeing through the map it drew
-(:class:`~clomp.runtime.estimation.doubt.Doubt`'s ``kick`` and ``seen through`` events) —
-is judged on the revolutions read after it (for :data:`LOOK_S`): when one has
+its IMU's accelerometer (:class:`~clomp.runtime.estimation.doubt.Doubt`'s ``kick`` event), or
+a revolution seeing through the map it drew (``seen through``) with the estimate jumping
+within :data:`LOOK_S` of it (the supervisor's ``replan_jump``: the matches followed the body
+elsewhere) — is judged on the revolutions read after it (for :data:`LOOK_S`): when one has
 ``hazard_points`` points within ``push_margin`` of the body, the supervisor runs a short
 straight or reverse (``move_away`` m) that leaves fewer of them there without meeting
 another point on its way (:func:`away_move`), then plans afresh (MOVING_AWAY →
@@ -43,7 +44,11 @@ if TYPE_CHECKING:  # pragma: no cover
 __all__ = ["LOOK_S", "PUSH_EVIDENCE", "away_move", "move_tick", "push_tick"]
 
 PUSH_EVIDENCE = ("kick", "seen through")
-"""The estimator's doubt events that mean the body was moved by something else than its wheels."""
+"""The estimator's doubt events that mean the body was moved by something else than its wheels:
+a kick alone; a revolution seeing through the map only with the estimate jumping within
+:data:`LOOK_S` of it. Seeing through happens without a push too (a surface the map drew
+wrong, a body that moved away), and next to an obstacle a move away is then a needless
+detour."""
 LOOK_S = 1.0
 """A push is judged on the revolutions read after the tick it was felt in, for this long (s):
 a push of 0.1-0.5 m slides the body 0.16-0.36 s on open floor, and a revolution (0.18 s at
@@ -92,8 +97,19 @@ def _felt(sup: Supervisor, now: float) -> None:
         return
     events = est.doubt.events
     new, sup._push_events = events[sup._push_events:], len(events)
-    if sup._pushed_at is None and any(why in PUSH_EVIDENCE for _, why, _ in new):
+    if sup._pushed_at is None and any(why == PUSH_EVIDENCE[0] for _, why, _ in new):
         sup._pushed_at = now  # the first: the collision a push ends in kicks the accelerometer again
+    if any(why == PUSH_EVIDENCE[1] for _, why, _ in new):
+        sup._seen_at = now
+    seen, jump = sup._seen_at, sup._jumped_at
+    if seen is None:
+        return
+    if jump is not None and abs(jump - seen) <= LOOK_S:  # seen through, and the estimate followed the body
+        sup._seen_at = None
+        if sup._pushed_at is None:
+            sup._pushed_at = max(seen, jump)
+    elif now > seen + LOOK_S:
+        sup._seen_at = None  # seen through, but no jump: not a push
 
 
 def push_tick(sup: Supervisor, now: float, fresh: bool) -> bool:

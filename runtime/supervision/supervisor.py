@@ -177,6 +177,7 @@ class Supervisor:
         self.appearance = Appearance(self.model)  # what appeared since the last plan (``moving`` only)
         self._push_events = 0  # the estimator's doubt events looked at (clomp.runtime.supervision.pushaway)
         self._pushed_at: float | None = None  # when a push was felt that is still to be judged
+        self._seen_at: float | None = None  # when a revolution saw through the map, no jump of the estimate yet
         self._away: Task | None = None  # MOVING_AWAY's move
         self._away_ticks = 0
         self._away_left: float | None = None  # what the move had left last tick (a jump re-anchors it)

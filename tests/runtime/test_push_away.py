@@ -2,7 +2,11 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
+
+from clomp.formal.model import Pose
 
 from clomp.planner import load_scenario
 from clomp.planner.robot_model import RobotModel
@@ -57,3 +61,55 @@ def test_away_move_takes_the_side_that_helps_and_never_drives_into_a_point():
     assert away_move(np.vstack([ahead, behind]), m, 0.04, 0.05) == -0.05
     assert away_move(np.vstack([ahead, behind]), m, 0.04, 0.08) is None  # as near the wall behind then: no help
     assert away_move(ahead[:1], m, 0.04, 0.12) is None  # one point is noise, not an obstacle (hazard_points 2)
+
+
+def _seen_through_beside_the_box(jump: float) -> Supervisor:
+    """Overtaking at ``ideal``, no push: 3 s in, while a task runs, three points appear 2 cm
+    ahead of the body in every revolution (within the push margin), and the estimator's
+    doubt records a revolution seeing through the map; with ``jump`` > 0 that revolution
+    also moves the estimate ``jump`` m (as the matches following a pushed body do). 2 s more."""
+    scene = load_scenario("overtaking")
+    world = make_world_robot(scene, "ideal", seed=0)
+    sup = Supervisor(world, scene.goal_in_robot_frame())
+    read, take = world.read_scan, sup.sensing.take
+    near = np.array([[0.11, -0.02], [0.11, 0.0], [0.11, 0.02]])
+    seen: list[float] = []
+
+    def read_near(timeout: float | None = None):  # type: ignore[no-untyped-def]
+        frame = read(timeout=timeout)
+        if frame is None or not seen:
+            return frame
+        times = None if frame.point_times is None else np.concatenate([frame.point_times, np.zeros(3)])
+        quality = None if frame.quality is None else np.concatenate([frame.quality, np.full(3, frame.quality.max())])
+        return dataclasses.replace(frame, points=np.vstack([frame.points, near]), point_times=times, quality=quality)
+
+    def take_and_see(frame, now, cmd, still):  # type: ignore[no-untyped-def]
+        rec = take(frame, now, cmd, still)
+        if not seen and now > 3.0 and sup.state is S.EXECUTING:
+            assert sup.estimator is not None
+            sup.estimator.doubt.events.append((now, "seen through", 0.1))
+            if jump > 0:
+                p = sup.sensing.pose
+                sup.sensing.relocate(Pose(p.x + jump, p.y, p.theta))
+            seen.append(now)
+        return rec
+
+    world.read_scan = read_near  # type: ignore[method-assign]
+    sup.sensing.take = take_and_see  # type: ignore[method-assign]
+    sup.start()
+    while not sup.terminal and (not seen or sup.clock.now() < seen[0] + 2.0):
+        t = sup.clock.now()
+        sup.step()
+        sup.clock.sleep(t + sup.model.tick - sup.clock.now())
+    assert seen
+    return sup
+
+
+def test_seeing_through_the_map_without_a_push_does_not_start_a_move_away() -> None:
+    sup = _seen_through_beside_the_box(0.0)
+    assert not [t for t in sup.transitions if t.target is S.MOVING_AWAY], sup.transitions
+
+
+def test_seeing_through_the_map_as_the_estimate_jumps_is_a_push() -> None:
+    sup = _seen_through_beside_the_box(0.1)
+    assert [t for t in sup.transitions if t.target is S.MOVING_AWAY], sup.transitions
