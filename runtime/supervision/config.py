@@ -110,7 +110,9 @@ class SupervisorConfig:
     - ``move_away`` (m): after a push felt (an IMU kick, a revolution seeing through the map)
       that left ``hazard_points`` scan points within ``push_margin`` (m) of the body, the
       supervisor drives or backs this far clear of them before it plans (MOVING_AWAY,
-      :mod:`clomp.runtime.supervision.pushaway`); 0: never (as before).
+      :mod:`clomp.runtime.supervision.pushaway`); 0: never (as before). ``move_away_longest``
+      (m): it drives or backs farther, up to this, when ``move_away`` leaves ``hazard_points``
+      within the margin (a post beside the body slides along it to its corner).
     - ``replan_jump`` (m, rad): a revolution that moves the estimate farther than this while
       a task runs (a re-localisation after a push, a large correction: not the wheels) ends
       the task and the supervisor plans afresh (EXECUTING → REPLANNING, ``disagree``): the
@@ -155,6 +157,7 @@ class SupervisorConfig:
     wait_timeout: float = 4.0
     move_away: float = 0.12
     push_margin: float = 0.04
+    move_away_longest: float = 0.3
     replan_jump: tuple[float, float] = (0.05, 0.1)
 
     def __post_init__(self) -> None:
@@ -181,6 +184,7 @@ class SupervisorConfig:
         _non_negative("real_progress", self.real_progress)
         _non_negative("move_away", self.move_away)
         _non_negative("push_margin", self.push_margin)
+        _non_negative("move_away_longest", self.move_away_longest)
         if not (isinstance(self.end_tolerance, tuple) and len(self.end_tolerance) == 2):
             raise ValueError(f"end_tolerance must be (metres, radians), got {self.end_tolerance!r}")
         for name, x in zip(("end_tolerance[0]", "end_tolerance[1]"), self.end_tolerance):
