@@ -224,6 +224,39 @@ class KickMemory:
         doubt.events.append((self._t, "relocalised" if moved is not None else "confirmed", round(floor, 3)))
         return moved
 
+    def slid(self, distance: float, bearing: float, turned: float, duration: float, latency: float = 0.1) -> Pose | None:
+        """A kick's slide as the IMU measured it (:class:`~clomp.runtime.devices.bno08x_slide.Slide`):
+        ``distance`` m towards ``bearing`` (rad, in the body frame at the kick), the body
+        having turned ``turned`` rad since, over ``duration`` s. The wheels' prediction
+        never saw it, and in a scene with little to match (``overtaking``: one small box) the
+        scans do not either, so the estimate moves by it now (the poses since the kick too,
+        ``latency`` s allowed for the report's delay), and the map goes back to what was
+        drawn before the kick (what the matcher drew since, it drew from the unmoved
+        estimate). The doubt's floor stays: only the re-localisation lowers it. Returns the
+        pose now (None: nothing to move by).
+
+        >>> from clomp.runtime.estimation.odometry import ScanOdometry
+        >>> o = ScanOdometry(0.15)
+        >>> p = o.slid(0.2, math.pi / 2, 0.0, 0.25)
+        >>> round(p.x, 3), round(p.y, 3), o.doubt.events[-1][1]
+        (0.0, 0.2, 'slid')
+        """
+        if not (math.isfinite(distance) and distance > 0 and math.isfinite(bearing) and math.isfinite(turned)):
+            return None
+        at = self.pose.theta - turned + bearing  # the kick's direction in the estimate's frame
+        dx, dy = distance * math.cos(at), distance * math.sin(at)
+        moved = Pose(self.pose.x + dx, self.pose.y + dy, self.pose.theta)
+        self.filter.shift(moved)
+        self.pose = moved
+        since = self._t - duration - latency
+        self._history = deque((t, Pose(p.x + dx, p.y + dy, p.theta)) if t >= since else (t, p) for t, p in self._history)
+        if self._before_doubt is not None:
+            self._map_points, self._map_sds = self._before_doubt
+            self._map_tree = None
+            self._map = ReferenceScan(self._before_doubt[0])
+        self.doubt.events.append((self._t, "slid", round(distance, 3)))
+        return moved
+
     def _settle_kick(self, pose: Pose | None, sd: float, ref: np.ndarray, ref_sds: np.ndarray) -> None:
         """The doubt is settled at ``sd`` (m), the estimate moved to ``pose`` (None: it
         stays): the filter's position uncertainty, the gain's and the vouching one, is set to
