@@ -178,6 +178,24 @@ class KickMemory:
     last_relocalisation: Relocalisation | None
     last_map_sd: tuple[float, float]
 
+    slide_sensing = False  # the IMU measures a kick's slide (clomp run --imu): the revolutions in it are not matched
+    _slide_span: tuple[float, float] | None = None  # (from, to) odometry s: a kick's slide, to inf until measured
+
+    def felt(self, sd: float) -> None:
+        """A shock of ``sd`` (m) was felt now; a kick's (the doubt's ``kick_sd``) starts a slide
+        whose revolutions are not matched (:meth:`in_slide`) when the IMU will measure it."""
+        if self.slide_sensing and sd >= self.doubt.kick_sd:
+            self._slide_span = (self._t - 0.1, math.inf)  # a revolution ending just before it was felt: in it
+
+    def in_slide(self, stamp: float, longest: float = 1.0) -> bool:
+        """Whether a revolution stamped ``stamp`` was taken while a kick slid the body: from just
+        before it was felt until its slide was measured (:meth:`slid`; at most ``longest`` s).
+        Its points were de-skewed by a prediction without the slide and it would be matched
+        from a pose the slide then moves (session 8: one such match undid a measured 0.1 m
+        slide, the run ended 0.148 m off), so it is neither matched nor drawn."""
+        span = self._slide_span
+        return span is not None and span[0] <= stamp <= min(span[1], span[0] + longest)
+
     def remember_before_doubt(self) -> None:
         """A shock was felt: keep the map as it is now (drawn before it), once per doubt."""
         if self._before_doubt is None and self._map_points is not None and self._map_sds is not None:
@@ -254,6 +272,8 @@ class KickMemory:
             self._map_points, self._map_sds = self._before_doubt
             self._map_tree = None
             self._map = ReferenceScan(self._before_doubt[0])
+        if self._slide_span is not None and self._slide_span[1] == math.inf:
+            self._slide_span = (self._slide_span[0], self._t)
         self.doubt.events.append((self._t, "slid", round(distance, 3)))
         return moved
 

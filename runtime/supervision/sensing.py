@@ -106,6 +106,8 @@ class Sensing:
             if isinstance(robot, Calibrated) else None
         self.estimator: ScanOdometry | None = ScanOdometry(model.wheel_base, prior=prior) \
             if config.feedback == "scan" else None
+        if self.estimator is not None and getattr(robot, "imu", None) is not None:
+            self.estimator.slide_sensing = callable(getattr(robot, "slides", None))  # HardwareRobot with --imu
         self.pose = Pose(0.0, 0.0, 0.0)
         self.scan: np.ndarray | None = None
         self.clean_scan: np.ndarray | None = None
