@@ -1,37 +1,34 @@
 """The hardware robot: a :class:`~clomp.runtime.interface.Robot` backend over an RPLIDAR A1 and a
 Pololu Maestro driving two continuous-rotation wheel servos, optionally with a BNO08x IMU.
 
-Wheel speeds in m/s become the Maestro's normalised speeds in [-1, 1] by dividing by the
-robot model's ``max_speed`` (0.2 m/s on the paper's robot). The paper's robot has no
-wheel encoders, so :meth:`HardwareRobot.odometry` is dead reckoning from the commanded
-speeds and the times they were sent (or None when disabled).
+Wheel speeds in m/s become the Maestro's normalised speeds in [-1, 1] by dividing by the robot model's
+``max_speed`` (0.2 m/s on the paper's robot). The paper's robot has no wheel encoders, so
+:meth:`HardwareRobot.odometry` is dead reckoning from the commanded speeds and the times they were sent (or
+None when disabled).
 
-A background thread reads the LiDAR all the time, so the control loop never blocks on
-the serial line and the device layer watches the stream on its own: a port failure,
-no byte for ``byte_timeout`` s, or a stream that is mostly undecodable (more than
-``garbage_fraction`` of the bytes of the last ``garbage_window`` s) *trips* the robot —
-the wheels are stopped from that thread at once, and every later :meth:`read_scan` /
-:meth:`set_wheel_speeds` raises :class:`~clomp.runtime.interface.RobotFault` with the reason. A
-little garbage is resynchronised by the decoder and tolerated.
+A background thread reads the LiDAR all the time, so the control loop never blocks on the serial line and
+the device layer watches the stream on its own: a port failure, no byte for ``byte_timeout`` s, or a stream
+that is mostly undecodable (more than ``garbage_fraction`` of the bytes of the last ``garbage_window`` s)
+*trips* the robot — the wheels are stopped from that thread at once, and every later :meth:`read_scan` /
+:meth:`set_wheel_speeds` raises :class:`~clomp.runtime.interface.RobotFault` with the reason. A little
+garbage is resynchronised by the decoder and tolerated. Every device error (LidarError, MaestroError, serial
+and OS errors) surfaces as a RobotFault naming the device and port; :meth:`stop` always tries to stop the
+wheels.
 
-Every device error (LidarError, MaestroError, serial and OS errors) surfaces as a
-RobotFault naming the device and port; :meth:`stop` always tries to stop the wheels.
-
-With an IMU (``imu_port``: a BNO08x in UART-RVC mode, :mod:`clomp.runtime.devices.bno08x`) the
-robot is :class:`~clomp.runtime.interface.TurnSensing`: :meth:`HardwareRobot.rotation` is the
-heading the IMU turned since its first report, which the supervisor's estimator follows for
-the heading (the wheels give the distance, the scans the corrections) and whose offset it
-measures while the wheels stand, as it does the execution world's gyro. :meth:`odometry` is
-then None, so the estimator reckons the wheels itself and knows when they stand. The IMU's
-driver watches its stream as the LiDAR's is watched: unplugged, no report for
-``imu_silence`` s, garbage instead of reports, or a yaw turning faster than the wheels can
-turn the robot (``imu_rate_margin`` times their fastest spin) trips the robot at once from
-the IMU's reader thread — the wheels stopped, every later call a RobotFault. Without an IMU
-:meth:`rotation` is None and nothing else changes.
-In ``dry_run`` mode the LiDAR is read as usual but the wheels are held stopped (neutral
-is sent instead of every command); the dead-reckoned pose still follows the commands,
-i.e. it is where the robot *would* be. ``clomp run --dry-run`` does not execute plans at
-all: it plans on every scan with the robot standing still (see ``clomp.runtime.cli.run``).
+With an IMU (``imu_port``: a BNO08x in UART-RVC mode, :mod:`clomp.runtime.devices.bno08x`) the robot is
+:class:`~clomp.runtime.interface.TurnSensing`: :meth:`HardwareRobot.rotation` is the heading the IMU turned
+since its first report, which the supervisor's estimator follows for the heading (the wheels give the
+distance, the scans the corrections) and whose offset it measures while the wheels stand, as it does the
+execution world's gyro. :meth:`odometry` is then None, so the estimator reckons the wheels itself and knows
+when they stand. The IMU's driver watches its stream as the LiDAR's is watched: unplugged, no report for
+``imu_silence`` s, garbage instead of reports, or a yaw turning faster than the wheels can turn the robot
+(``imu_rate_margin`` times their fastest spin) trips the robot at once from the IMU's reader thread — the
+wheels stopped, every later call a RobotFault. Its reports' accelerations measure a kick's slide
+(:meth:`slides`). Without an IMU :meth:`rotation` is None and nothing else changes.
+In ``dry_run`` mode the LiDAR is read as usual but the wheels are held stopped (neutral is sent instead of
+every command); the dead-reckoned pose still follows the commands, i.e. it is where the robot *would* be.
+``clomp run --dry-run`` does not execute plans at all: it plans on every scan with the robot standing still
+(see ``clomp.runtime.cli.run``).
 """
 
 from __future__ import annotations
@@ -43,13 +40,13 @@ import time
 from collections import deque
 from collections.abc import Callable
 from dataclasses import asdict, dataclass, field
-from typing import Any, Literal
+from typing import Any, Literal, TypeVar
 
 from clomp.formal.geometry import dead_reckon
 from clomp.formal.model import Pose
 from clomp.planner.robot_model import RobotModel
 from clomp.runtime.devices.port import OPEN_ERRORS, PORT_ERRORS, open_serial
-from clomp.runtime.devices.bno08x import Bno08xRvc, ImuError
+from clomp.runtime.devices.bno08x import Bno08xRvc, ImuError, Slide
 from clomp.runtime.devices.maestro import Maestro, MaestroError, WheelConfig
 from clomp.runtime.devices.rplidar import DEFAULT_BAUDRATE, LidarError, LidarTimeout, RPLidar
 from clomp.runtime.clock import Clock, WallClock, device_seconds, device_time, device_to_clock
@@ -57,6 +54,7 @@ from clomp.runtime.interface import RobotFault, ScanFrame
 from clomp.runtime.records.runlog import RunLogLike
 
 __all__ = ["HardwareConfig", "HardwareRobot", "on_clock", "open_lidar_port"]
+_T = TypeVar("_T")
 
 _DEVICE_ERRORS: tuple[type[BaseException], ...] = (LidarError, MaestroError, ImuError, ValueError, *PORT_ERRORS)
 _READ_SLICE = 0.05  # seconds one blocking read of the LiDAR port may take
@@ -458,16 +456,18 @@ class HardwareRobot:
             return self._pose
 
     def rotation(self) -> float | None:
-        """The heading the IMU turned since its first report (rad, counter-clockwise), None without
-        an IMU (:class:`~clomp.runtime.interface.TurnSensing`); RobotFault once tripped (its faults trip it)."""
+        """The heading the IMU turned since its first report (rad, ccw; None: no IMU; TurnSensing; RobotFault once tripped)."""
         return self._from_imu(Bno08xRvc.rotation)
 
     def peak_acceleration(self) -> float | None:
-        """The largest horizontal acceleration the IMU reported since the last call (m/s²),
-        None without an IMU or a new report (:class:`~clomp.runtime.interface.ShockSensing`)."""
+        """The IMU's largest horizontal acceleration since the last call (m/s², None: none; ShockSensing)."""
         return self._from_imu(Bno08xRvc.peak_acceleration)
 
-    def _from_imu(self, read: Callable[[Bno08xRvc], float | None]) -> float | None:
+    def slides(self) -> list[Slide]:
+        """The kicks' slides the IMU measured since the last call (bno08x_slide; none without one)."""
+        return list(self._from_imu(Bno08xRvc.slides) or [])
+
+    def _from_imu(self, read: Callable[[Bno08xRvc], _T]) -> _T | None:
         """``read`` of the IMU (None without one); its faults trip the robot (RobotFault)."""
         if self.imu is None:
             return None

@@ -43,9 +43,11 @@ from clomp.runtime.devices.bno08x_codec import (
 )
 from clomp.runtime.devices.port import PORT_ERRORS as _PORT_ERRORS
 from clomp.runtime.devices.port import SerialDevice
+from clomp.runtime.devices.bno08x_slide import Slide, SlideWatch
 
 __all__ = [
     "Bno08xRvc",
+    "Slide",
     "ImuSample",
     "ImuError",
     "ImuPortError",
@@ -142,6 +144,8 @@ class Bno08xRvc(SerialDevice):
         self._fault: ImuError | None = None
         self._first: ImuSample | None = None
         self._peak: float | None = None  # the largest horizontal acceleration since peak_acceleration (m/s²)
+        self._watch = SlideWatch()  # a kick's slide, from the reports' accelerations (bno08x_slide)
+        self._slides: list[Slide] = []  # the slides ended since :meth:`slides`
         self._recent: collections.deque[ImuSample] = collections.deque(maxlen=history)
         self._cond = threading.Condition()
         self._closing = threading.Event()
@@ -195,6 +199,14 @@ class Bno08xRvc(SerialDevice):
             self.check()
             peak, self._peak = self._peak, None
             return peak
+
+    def slides(self) -> list[Slide]:
+        """The kicks' slides measured since the last call (:class:`~clomp.runtime.devices.bno08x_slide.SlideWatch`),
+        oldest first; raises the latched :class:`ImuError`."""
+        with self._cond:
+            self.check()
+            out, self._slides = self._slides, []
+            return out
 
     def wait_for(self, predicate: Callable[[Self], bool], timeout: float) -> bool:
         """Wait (wall time, at most ``timeout`` s) until ``predicate(self)`` holds, re-checked
@@ -267,6 +279,9 @@ class Bno08xRvc(SerialDevice):
                 self._recent.append(sample)
                 ax, ay, _az = r.accel
                 self._peak = max(self._peak or 0.0, math.hypot(ax, ay))
+                slid = self._watch.feed(r.index, ax, ay, sample.yaw)
+                if slid is not None:
+                    self._slides.append(slid)
                 fault = fault or self._rate_fault()
         return True, fault
 

@@ -364,10 +364,12 @@ class ScanOdometry(LocalMap, KickMemory):
         period = min(max(stamp - self._last_stamp, 0.0), 0.3) if self._last_stamp is not None else 0.0
         self._last_stamp = stamp
         at = self.pose_at(stamp - period / 2 if frame.point_times is None else stamp)
-        if frame.point_times is None and abs(w) > 1e-3 and self._map is not None:
-            # without per-point times a revolution taken while turning is smeared by the turn
-            rec = FeedbackRecord(stamp, False, "dead-reckoning", "taken while turning, without point times: smeared",
-                                 (0.0, 0.0, 0.0), ("x", "y", "heading"), False)
+        # without per-point times a revolution taken while turning is smeared by the turn;
+        # one taken while a kick slid the body is not matched either (KickMemory.in_slide)
+        smeared = frame.point_times is None and abs(w) > 1e-3 and self._map is not None
+        if smeared or self.in_slide(stamp):
+            why = "taken while turning, without point times: smeared" if smeared else "taken in a kick's slide: not matched"
+            rec = FeedbackRecord(stamp, False, "dead-reckoning", why, (0.0, 0.0, 0.0), ("x", "y", "heading") if smeared else (), False)
             self.records.append(rec)
             return rec
         if self._seed is not None and (self._moved_since > 0.0 or self._twist != (0.0, 0.0)):
@@ -471,6 +473,7 @@ class ScanOdometry(LocalMap, KickMemory):
         self.doubt = Doubt()  # the floor under position_sd that only a wider search lowers
         self._before_doubt: tuple[np.ndarray, np.ndarray] | None = None  # the map when a shock was felt
         self._kicked_at = 0.0  # when (odometry time)
+        self._slide_span = None  # a kick's slide (KickMemory.in_slide)
         self.last_relocalisation: Relocalisation | None = None  # the last search against it
 
     def shock(self, peak: float) -> None:
@@ -480,6 +483,7 @@ class ScanOdometry(LocalMap, KickMemory):
         sd, _shocked = self.doubt.shock(peak, self._t)
         if sd > 0:
             self.remember_before_doubt()  # what was drawn before it: what re-localises after it
+            self.felt(sd)
             for m in (self.filter.P, self.filter.honest):
                 m[:2, :2] += np.eye(2) * sd * sd
 

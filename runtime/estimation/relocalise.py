@@ -178,6 +178,24 @@ class KickMemory:
     last_relocalisation: Relocalisation | None
     last_map_sd: tuple[float, float]
 
+    slide_sensing = False  # the IMU measures a kick's slide (clomp run --imu): the revolutions in it are not matched
+    _slide_span: tuple[float, float] | None = None  # (from, to) odometry s: a kick's slide, to inf until measured
+
+    def felt(self, sd: float) -> None:
+        """A shock of ``sd`` (m) was felt now; a kick's (the doubt's ``kick_sd``) starts a slide
+        whose revolutions are not matched (:meth:`in_slide`) when the IMU will measure it."""
+        if self.slide_sensing and sd >= self.doubt.kick_sd:
+            self._slide_span = (self._t - 0.1, math.inf)  # a revolution ending just before it was felt: in it
+
+    def in_slide(self, stamp: float, longest: float = 1.0) -> bool:
+        """Whether a revolution stamped ``stamp`` was taken while a kick slid the body: from just
+        before it was felt until its slide was measured (:meth:`slid`; at most ``longest`` s).
+        Its points were de-skewed by a prediction without the slide and it would be matched
+        from a pose the slide then moves (session 8: one such match undid a measured 0.1 m
+        slide, the run ended 0.148 m off), so it is neither matched nor drawn."""
+        span = self._slide_span
+        return span is not None and span[0] <= stamp <= min(span[1], span[0] + longest)
+
     def remember_before_doubt(self) -> None:
         """A shock was felt: keep the map as it is now (drawn before it), once per doubt."""
         if self._before_doubt is None and self._map_points is not None and self._map_sds is not None:
@@ -222,6 +240,41 @@ class KickMemory:
         self._add(points, drawn, reseed=False)  # type: ignore[attr-defined]  # LocalMap's
         self.last_map_sd = self._map_sd(points, drawn)  # type: ignore[attr-defined]
         doubt.events.append((self._t, "relocalised" if moved is not None else "confirmed", round(floor, 3)))
+        return moved
+
+    def slid(self, distance: float, bearing: float, turned: float, duration: float, latency: float = 0.1) -> Pose | None:
+        """A kick's slide as the IMU measured it (:class:`~clomp.runtime.devices.bno08x_slide.Slide`):
+        ``distance`` m towards ``bearing`` (rad, in the body frame at the kick), the body
+        having turned ``turned`` rad since, over ``duration`` s. The wheels' prediction
+        never saw it, and in a scene with little to match (``overtaking``: one small box) the
+        scans do not either, so the estimate moves by it now (the poses since the kick too,
+        ``latency`` s allowed for the report's delay), and the map goes back to what was
+        drawn before the kick (what the matcher drew since, it drew from the unmoved
+        estimate). The doubt's floor stays: only the re-localisation lowers it. Returns the
+        pose now (None: nothing to move by).
+
+        >>> from clomp.runtime.estimation.odometry import ScanOdometry
+        >>> o = ScanOdometry(0.15)
+        >>> p = o.slid(0.2, math.pi / 2, 0.0, 0.25)
+        >>> round(p.x, 3), round(p.y, 3), o.doubt.events[-1][1]
+        (0.0, 0.2, 'slid')
+        """
+        if not (math.isfinite(distance) and distance > 0 and math.isfinite(bearing) and math.isfinite(turned)):
+            return None
+        at = self.pose.theta - turned + bearing  # the kick's direction in the estimate's frame
+        dx, dy = distance * math.cos(at), distance * math.sin(at)
+        moved = Pose(self.pose.x + dx, self.pose.y + dy, self.pose.theta)
+        self.filter.shift(moved)
+        self.pose = moved
+        since = self._t - duration - latency
+        self._history = deque((t, Pose(p.x + dx, p.y + dy, p.theta)) if t >= since else (t, p) for t, p in self._history)
+        if self._before_doubt is not None:
+            self._map_points, self._map_sds = self._before_doubt
+            self._map_tree = None
+            self._map = ReferenceScan(self._before_doubt[0])
+        if self._slide_span is not None and self._slide_span[1] == math.inf:
+            self._slide_span = (self._slide_span[0], self._t)
+        self.doubt.events.append((self._t, "slid", round(distance, 3)))
         return moved
 
     def _settle_kick(self, pose: Pose | None, sd: float, ref: np.ndarray, ref_sds: np.ndarray) -> None:

@@ -96,6 +96,7 @@ class Sensing:
         # the odometry's own covariance, when the backend reports one (a ROS base's /odom)
         self._odo_cov = robot.odometry_covariance if isinstance(robot, OdometryUncertainty) else lambda: None
         self._shock = robot.peak_acceleration if isinstance(robot, ShockSensing) else lambda: None  # an accelerometer
+        self._slides = getattr(robot, "slides", list)  # a kick's slide, measured by the IMU (HardwareRobot)
         self.config = config
         self.wheel_base = model.wheel_base
         # a robot told its calibration (the execution world) sizes the wheel prior to it (issue #36),
@@ -105,6 +106,8 @@ class Sensing:
             if isinstance(robot, Calibrated) else None
         self.estimator: ScanOdometry | None = ScanOdometry(model.wheel_base, prior=prior) \
             if config.feedback == "scan" else None
+        if self.estimator is not None and getattr(robot, "imu", None) is not None:
+            self.estimator.slide_sensing = callable(getattr(robot, "slides", None))  # HardwareRobot with --imu
         self.pose = Pose(0.0, 0.0, 0.0)
         self.scan: np.ndarray | None = None
         self.clean_scan: np.ndarray | None = None
@@ -138,6 +141,8 @@ class Sensing:
             peak = self._shock()
             if peak is not None:
                 self.estimator.shock(peak)  # an outside force: what it moved the body by is doubted
+            for slide in self._slides():  # how far it slid: the estimate moves by it
+                self.estimator.slid(slide.distance, slide.bearing, slide.turned, slide.duration)
             self.pose = self.estimator.pose
             return
         self.pose = odo if odo is not None else dead_reckon(self.pose, *cmd, self.wheel_base, dt)

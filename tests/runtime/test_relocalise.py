@@ -86,3 +86,38 @@ def test_after_a_kick_along_a_corridor_the_floor_stays() -> None:
         odo.update(ScanFrame(_seen(_corridor(), truth), 0.2 + 0.1 * k))
     assert odo.position_sd() >= 0.15 and odo.last_relocalisation is not None
     assert odo.last_relocalisation.pose is None
+
+
+def test_a_revolution_taken_in_a_kick_s_slide_is_not_matched_and_the_slide_moves_the_estimate() -> None:
+    """With an IMU that measures a kick's slide (``clomp run --imu``): a revolution taken while
+    the body slid (stamped from just before the kick was felt until the slide was measured,
+    even one processed after it) is neither matched nor drawn, and the slide moves the
+    estimate. Matched, the half-way revolution pulls the estimate 0.11 m (the kick opened the
+    gate) and the slide then adds its whole 0.21 m: 0.1 m too far."""
+    odo = _odometry(_room())
+    odo.slide_sensing = True
+    odo.advance(0.2, (0.0, 0.0))
+    odo.shock(150.0)
+    half, truth = Pose(0.01, 0.11, 0.0), Pose(0.01, 0.22, 0.0)
+    odo.advance(0.3, (0.0, 0.0))
+    rec = odo.update(ScanFrame(_seen(_room(), half), 0.3))
+    assert "kick's slide" in rec.reason and not rec.ok
+    odo.advance(0.45, (0.0, 0.0))
+    moved = odo.slid(0.21, math.pi / 2, 0.0, 0.25)
+    assert moved is not None
+    rec = odo.update(ScanFrame(_seen(_room(), half), 0.4))  # stamped in the slide, read after it was measured
+    assert "kick's slide" in rec.reason
+    assert math.hypot(odo.pose.x - truth.x, odo.pose.y - truth.y) < 0.02
+    odo.advance(0.6, (0.0, 0.0))
+    rec = odo.update(ScanFrame(_seen(_room(), truth), 0.6))  # after it: matched (or re-localised) again
+    assert "kick's slide" not in rec.reason and math.hypot(odo.pose.x - truth.x, odo.pose.y - truth.y) < 0.02
+
+
+def test_without_slide_sensing_a_kick_leaves_the_revolutions_matched() -> None:
+    """The execution world's robot and ``clomp run`` without ``--imu`` feel no slide: as before."""
+    odo = _odometry(_room())
+    odo.advance(0.2, (0.0, 0.0))
+    odo.shock(150.0)
+    odo.advance(0.3, (0.0, 0.0))
+    rec = odo.update(ScanFrame(_seen(_room(), Pose(0.01, 0.11, 0.0)), 0.3))
+    assert "kick's slide" not in rec.reason
