@@ -47,7 +47,7 @@ from clomp.runtime.cli._common import add_mover_options, load_scene, output_path
 from clomp.runtime.cli._signals import interrupts_raise
 from clomp.runtime.cli._status import StatusLine
 
-__all__ = ["register", "add_emulate_world", "default_log_path", "operate", "open_runlog"]
+__all__ = ["register", "add_emulate_world", "default_log_path", "operate", "open_runlog", "ready_kernels"]
 
 def _missing_path(spec: str | None) -> bool:
     """True for a port named by a path that does not exist (a typo, not a device fault)."""
@@ -250,6 +250,7 @@ def operate(open_robot: Callable[[], Any], work: Callable[[Any, Callable[[Any], 
         with interrupts_raise() as signalled:
             try:
                 try:
+                    ready_kernels()
                     robot = open_robot()
                 except RobotFault as exc:
                     return _not_started(exc, log, usage_fault(), path)
@@ -269,6 +270,38 @@ def operate(open_robot: Callable[[], Any], work: Callable[[Any, Callable[[Any], 
     finally:
         runlog.close()
     return _finished(report, robot, path, say)
+
+
+def ready_kernels(warm: Callable[[], object] | None = None, stream: Any = None) -> float:
+    """Load (or, on an empty cache, compile) the planner's, the matcher's and the plan
+    check's compiled kernels before any device opens; returns the seconds it took.
+
+    Why: numba compiles a kernel on its first call and holds the GIL while it does. On a
+    fresh install the first plan of ``clomp run`` compiled for about 70 s inside the control
+    loop, the LiDAR's reader thread starved, and the run ended as a silent-sensor fault
+    (measured on the emulated robot). Here it happens before the wheels can move: about 1 s
+    from a warm cache, about 35 s once after an install. On a terminal a line says so while
+    it runs (and is cleared); a redirected stream gets nothing.
+
+    >>> ready_kernels(warm=lambda: None) >= 0.0
+    True
+    """
+    from clomp.runtime.experiment.runspec import RunSpec
+    from clomp.runtime.experiment.warmup import warm_kernels
+
+    out = sys.stderr if stream is None else stream
+    tty = bool(getattr(out, "isatty", lambda: False)())
+    if tty:
+        print("clomp: loading the compiled kernels (compiled once after an install, about 35 s)…",
+              end="\r", file=out, flush=True)
+    start = time.monotonic()
+    if warm is None:
+        warm_kernels([RunSpec("overtaking", 0, 0, "planning", "paper")])
+    else:
+        warm()
+    if tty:
+        print("\x1b[2K", end="\r", file=out, flush=True)
+    return time.monotonic() - start
 
 
 def _not_started(exc: Exception, log: Any, usage: bool, path: Path) -> int:

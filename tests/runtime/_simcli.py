@@ -89,4 +89,7 @@ def simulate_cli(monkeypatch: pytest.MonkeyPatch, scenario: Any, *, seed: int = 
     monkeypatch.setattr(hardware, "HardwareRobot", SimHardwareRobot)
     monkeypatch.setattr(runlog, "RunLog", SimRunLog)
     monkeypatch.setattr(run_cli, "_clock", lambda time_scale: run_clock)
+    # the kernels' warm-up is a run of the execution world of its own (tests/runtime/
+    # test_run_kernels.py); here it would only run the tests' patched planners once more
+    monkeypatch.setattr(run_cli, "ready_kernels", lambda: 0.0)
     return run
