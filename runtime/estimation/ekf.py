@@ -115,7 +115,9 @@ class OdometryFilter:
     observes (False: the full gain, which moves the unobserved ones too, through their
     correlation with the observed). ``rate_noise`` (rad/√s), ``rate_offset_sd`` (rad/s,
     prior) and ``rate_offset_walk`` (rad/s per √s): the gyro's white noise and offset, when
-    :meth:`predict` is given its rotation.
+    :meth:`predict` is given its rotation. ``honest_walk``: (m per √m driven, rad per √m
+    driven, rad per √rad turned) added to :attr:`honest` only, never to ``P``: what the
+    model does not hold and matches against a map the estimate drew cannot show (0: none).
     """
 
     def __init__(
@@ -135,6 +137,7 @@ class OdometryFilter:
         slip_noise: float = 0.0,
         turn_noise: float = 0.0,
         path_heading_noise: float = 0.0,
+        honest_walk: tuple[float, float, float] = (0.0, 0.0, 0.0),
     ) -> None:
         if not (math.isfinite(wheel_base) and wheel_base > 0):
             raise ValueError(f"wheel_base must be positive, got {wheel_base!r}")
@@ -151,6 +154,7 @@ class OdometryFilter:
         self.slip_noise = float(slip_noise)
         self.turn_noise = float(turn_noise)
         self.path_heading_noise = float(path_heading_noise)
+        self.honest_walk = tuple(float(v) for v in honest_walk)
         self.match_floor = np.square(np.asarray(match_floor, dtype=float))
         # no learnt term beyond three prior standard deviations: a wrong association must
         # not teach the filter wheels no robot has
@@ -311,6 +315,13 @@ class OdometryFilter:
         q[3:7, 3:7] = np.diag(np.square(self.calibration_walk)) * dt * m
         q[7, 7] = self.rate_offset_walk**2 * dt
         self.P = f @ self.P @ f.T + q
+        if any(self.honest_walk):
+            # what neither the model nor its matches can show (a slip, a bias that wanders,
+            # a map drawn by the same drifting estimate): admitted, never believed (the gain is P's)
+            q = q.copy()
+            q[0, 0] += self.honest_walk[0] ** 2 * dist
+            q[1, 1] += self.honest_walk[0] ** 2 * dist
+            q[2, 2] += self.honest_walk[1] ** 2 * dist + self.honest_walk[2] ** 2 * rot
         self.honest = f @ self.honest @ f.T + q
 
     def zero_rate(self, turned: float, dt: float) -> None:

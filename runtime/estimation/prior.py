@@ -33,7 +33,9 @@ filter's 1-2°), where the worst case claimed none.
 >>> p, h = OdometryPrior.from_noise(NoiseTerms.preset("paper")), OdometryPrior.from_noise(NoiseTerms.preset("harsh"))
 >>> round(p.calibration_sd[0], 3), round(h.calibration_sd[0], 3), OdometryPrior.worst().calibration_sd[0]
 (0.013, 0.065, 0.06)
->>> OdometryPrior.from_noise(NoiseTerms.preset("harsh"), heading=False) == OdometryPrior.worst()
+>>> OdometryPrior.from_noise(NoiseTerms.preset("harsh"), heading=False) == OdometryPrior.worst()   # and admits more
+False
+>>> OdometryPrior.from_noise(NoiseTerms.preset("harsh"), heading=False).calibration_sd == OdometryPrior.worst().calibration_sd
 True
 >>> OdometryPrior.from_noise(NoiseTerms.preset("paper"), heading=False) == p   # nothing unmodelled told
 True
@@ -41,13 +43,19 @@ True
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 from typing import Any
 
 from clomp.planner.noise import UNMODELLED_FIELDS, NoiseTerms
 
-__all__ = ["OdometryPrior"]
+__all__ = ["UNSEEN_WALK", "OdometryPrior"]
+
+# what a robot without a heading sensor, told of error sources the filter does not model,
+# admits beyond its model (m per √m driven, rad per √m driven, rad per √rad turned): the
+# filter's :attr:`~clomp.runtime.estimation.ekf.OdometryFilter.honest` covariance only
+UNSEEN_WALK: tuple[float, float, float] = (0.05, 0.03, 0.03)
 
 _HALF_NORMAL_MEAN = math.sqrt(2.0 / math.pi)  # E|N(0, 1)|: the mean share of speed a slip takes, per unit
 _HALF_NORMAL_SD = math.sqrt(1.0 - 2.0 / math.pi)  # and its spread
@@ -67,6 +75,7 @@ class OdometryPrior:
     calibration_walk: tuple[float, float, float, float] = (0.002, 0.002, 0.01, 0.001)
     wheel_noise: float = 0.15
     delay: float = 0.0
+    honest_walk: tuple[float, float, float] = (0.0, 0.0, 0.0)
 
     @classmethod
     def worst(cls) -> OdometryPrior:
@@ -96,7 +105,7 @@ class OdometryPrior:
             raise ValueError("margin, wheel_base and wheel_accel must be positive")
         m, worst = float(margin), cls.worst()
         if not heading and any(getattr(told, name) > 0 for name in UNMODELLED_FIELDS):
-            return worst
+            return dataclasses.replace(worst, honest_walk=UNSEEN_WALK)
         scale = math.hypot(told.wheel_bias / math.sqrt(2.0), _HALF_NORMAL_MEAN * told.slip)
         gyro = math.hypot(told.rate_scale, told.rate_asymmetry)
         curvature = told.wheel_bias * math.sqrt(2.0) / wheel_base
@@ -115,4 +124,4 @@ class OdometryPrior:
     def filter_kwargs(self) -> dict[str, Any]:
         """The :class:`~clomp.runtime.estimation.ekf.OdometryFilter` keyword arguments it sets."""
         return {"calibration_sd": self.calibration_sd, "calibration_walk": self.calibration_walk,
-                "wheel_noise": self.wheel_noise}
+                "wheel_noise": self.wheel_noise, "honest_walk": self.honest_walk}

@@ -184,3 +184,27 @@ def test_what_the_model_does_not_hold_grows_the_uncertainty_by_distance_and_turn
     assert slip.P[1, 1] - base.P[1, 1] > 0.9 * 0.1**2 * 0.1  # 0.1 m at (0.1 m/√m)² across the path
     assert turn.P[2, 2] - base.P[2, 2] > 0.9 * 0.1**2 * 1.0  # 1 rad at (0.1 rad/√rad)²
     assert slip.honest[1, 1] == slip.P[1, 1] and OdometryFilter(0.15).slip_noise == 0.0
+
+
+def test_the_honest_walk_is_admitted_never_believed() -> None:
+    """``honest_walk`` grows :attr:`honest` by its terms per metre driven and radian turned,
+    and leaves the estimate and its gain (``P``) bit for bit as without it (issue #36: at
+    ``harsh`` without the gyro the position crept 0.02 → 0.09 m along a doorless room while
+    the admitted uncertainty grew only to 0.017 m)."""
+    plain, walked = OdometryFilter(0.15), OdometryFilter(0.15, honest_walk=(0.03, 0.02, 0.01))
+    for f in (plain, walked):
+        for _ in range(50):
+            f.predict(0.1, 0.2, 0.2)  # 1 m driven, 2 rad turned
+        f.correct((0.001, -0.002, 0.001), WALL_FIX)
+    assert np.array_equal(plain.x, walked.x) and np.array_equal(plain.P, walked.P)
+    before = OdometryFilter(0.15, honest_walk=(0.03, 0.02, 0.01))
+    for _ in range(50):
+        before.predict(0.1, 0.2, 0.2)
+    unwalked = OdometryFilter(0.15)
+    for _ in range(50):
+        unwalked.predict(0.1, 0.2, 0.2)
+    grown = np.diag(before.honest[:3, :3] - unwalked.honest[:3, :3])
+    # the position's share is at least its walk over the metre (the heading's spreads it further)
+    assert grown[0] + grown[1] >= 2 * 0.03**2 * 0.999
+    assert math.isclose(grown[2], 0.02**2 * 1.0 + 0.01**2 * 2.0, rel_tol=1e-6)
+    assert walked.honest_sigma_xy > plain.honest_sigma_xy

@@ -3,6 +3,7 @@ and dead reckoning as late as the body follows its commands. All in simulated ti
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -16,7 +17,7 @@ from clomp.planner.robot_model import RobotModel
 from clomp.runtime.backends.world import make_world_robot
 from clomp.runtime.devices.frame import ScanFrame
 from clomp.runtime.estimation.odometry import ScanOdometry
-from clomp.runtime.estimation.prior import OdometryPrior
+from clomp.runtime.estimation.prior import UNSEEN_WALK, OdometryPrior
 from clomp.runtime.experiment.onerun import run_once
 from clomp.runtime.experiment.runspec import RunSpec, noise_seed, scene_for
 from clomp.runtime.interface import Calibrated
@@ -70,16 +71,20 @@ def test_without_a_heading_sensor_told_unmodelled_errors_it_keeps_the_worst_case
     s = Sensing(make_world_robot(load_scenario("corridor"), preset, seed=0, gyro=gyro), RobotModel(), SupervisorConfig())
     assert s.estimator is not None
     expect = OdometryPrior.from_noise(NoiseTerms.preset(preset), 0.15, speed=RobotModel().straight_speed) \
-        if told else OdometryPrior.worst()
+        if told else dataclasses.replace(OdometryPrior.worst(), honest_walk=UNSEEN_WALK)
     assert s.estimator.prior == expect
     assert (s.estimator.prior.delay > 0) == told
+    # and only that robot admits the walk its model and matches cannot show
+    assert any(s.estimator.filter.honest_walk) == (not told)
 
 
 @pytest.mark.parametrize("name", UNMODELLED_FIELDS)
 def test_any_unmodelled_term_told_without_a_heading_sensor_means_the_worst_case(name: str) -> None:
     told = NoiseTerms(**{**NoiseTerms.preset("paper").to_dict(), name: 0.01})
-    assert OdometryPrior.from_noise(told, heading=False) == OdometryPrior.worst()
+    assert OdometryPrior.from_noise(told, heading=False) == dataclasses.replace(OdometryPrior.worst(),
+                                                                                honest_walk=UNSEEN_WALK)
     assert OdometryPrior.from_noise(told, heading=True) != OdometryPrior.worst()
+    assert not any(OdometryPrior.from_noise(told, heading=True).honest_walk)
 
 
 def test_a_robot_told_paper_vouches_along_a_corridor_one_told_nothing_does_not() -> None:
