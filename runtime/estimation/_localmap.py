@@ -218,7 +218,7 @@ class LocalMap:
         and the goal was claimed 0.109 m off, bound 0.017 m). Points drawn later carry the
         figure of the walked estimate that drew them."""
         now = np.arctan2(seen[:, 1] - pose.y, seen[:, 0] - pose.x)
-        turned = np.abs((now - sds[:, 2] + math.pi) % (2 * math.pi) - math.pi) > math.pi / 2
+        turned = np.cos(now - sds[:, 2]) < 0.0  # more than 90° from the bearing it was drawn along
         turned &= sds[:, 0] <= drawn_within
         if not turned.any():
             return sds
