@@ -88,11 +88,8 @@ def end_error(pose: Pose, predicted: Pose, tolerance: tuple[float, float]) -> st
     >>> end_error(Pose(0.0, 0.0, 0.0), Pose(0.05, 0.0, 0.1), (0.08, 0.3)) is None
     True
     """
-    d = pose.distance_to(predicted.x, predicted.y)
-    a = abs(wrap_angle(pose.theta - predicted.theta))
-    if d > tolerance[0] or a > tolerance[1]:
-        return f"{d:.3f} m, {math.degrees(a):.0f}° off"
-    return None
+    off = _beyond(pose, predicted, tolerance)
+    return None if off is None else f"{off} off"
 
 
 def jumped(before: Pose, after: Pose, limit: tuple[float, float]) -> str | None:
@@ -105,8 +102,13 @@ def jumped(before: Pose, after: Pose, limit: tuple[float, float]) -> str | None:
     >>> jumped(Pose(0.0, 0.0, 0.0), Pose(0.02, 0.01, 0.02), (0.05, 0.1)) is None
     True
     """
-    d = before.distance_to(after.x, after.y)
-    a = abs(wrap_angle(after.theta - before.theta))
-    if d > limit[0] or a > limit[1]:
-        return f"{d:.3f} m, {math.degrees(a):.0f}°"
+    return _beyond(before, after, limit)
+
+
+def _beyond(a: Pose, b: Pose, limit: tuple[float, float]) -> str | None:
+    """``"D m, A°"``: how far apart ``a`` and ``b`` are, when farther than ``limit`` (m, rad)."""
+    d = a.distance_to(b.x, b.y)
+    turn = abs(wrap_angle(b.theta - a.theta))
+    if d > limit[0] or turn > limit[1]:
+        return f"{d:.3f} m, {math.degrees(turn):.0f}°"
     return None
