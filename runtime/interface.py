@@ -18,9 +18,10 @@ from typing import Protocol, runtime_checkable
 import numpy as np
 
 from clomp.formal.model import Pose
+from clomp.runtime.devices.bno08x_slide import Slide
 from clomp.runtime.devices.frame import ScanFrame
 
-__all__ = ["ScanFrame", "Robot", "RobotFault", "TurnSensing", "ShockSensing", "OdometryUncertainty", "Calibrated",
+__all__ = ["ScanFrame", "Robot", "RobotFault", "TurnSensing", "ShockSensing", "SlideSensing", "OdometryUncertainty", "Calibrated",
            "finite_goal"]
 
 
@@ -104,6 +105,25 @@ class ShockSensing(Protocol):
     def peak_acceleration(self) -> float | None:
         """The largest horizontal acceleration (m/s²) since the last call; None when the
         sensor has nothing."""
+        ...
+
+
+@runtime_checkable
+class SlideSensing(Protocol):
+    """A backend whose IMU measures how far a kick slid the body (its accelerations
+    integrated over the slide; :class:`~clomp.runtime.devices.bno08x_slide.SlideWatch`).
+    Optional: the supervisor's estimator then moves the estimate by each slide and does not
+    match the revolutions taken during it (:meth:`~clomp.runtime.estimation.odometry.ScanOdometry.slid`).
+
+    >>> from clomp.planner import load_scenario
+    >>> from clomp.runtime.backends.sim import SimRobot
+    >>> isinstance(SimRobot(load_scenario("open"), seed=0), SlideSensing)
+    False
+    """
+
+    def slides(self) -> list[Slide] | None:
+        """The slides measured since the last call (oldest first); None when the backend
+        has no sensor for them (then it never will)."""
         ...
 
 

@@ -463,9 +463,9 @@ class HardwareRobot:
         """The IMU's largest horizontal acceleration since the last call (m/s², None: none; ShockSensing)."""
         return self._from_imu(Bno08xRvc.peak_acceleration)
 
-    def slides(self) -> list[Slide]:
-        """The kicks' slides the IMU measured since the last call (bno08x_slide; none without one)."""
-        return list(self._from_imu(Bno08xRvc.slides) or [])
+    def slides(self) -> list[Slide] | None:
+        """The kicks' slides the IMU measured since the last call (bno08x_slide; None: no IMU; SlideSensing)."""
+        return self._from_imu(Bno08xRvc.slides)
 
     def _from_imu(self, read: Callable[[Bno08xRvc], _T]) -> _T | None:
         """``read`` of the IMU (None without one); its faults trip the robot (RobotFault)."""

@@ -242,7 +242,8 @@ class KickMemory:
         doubt.events.append((self._t, "relocalised" if moved is not None else "confirmed", round(floor, 3)))
         return moved
 
-    def slid(self, distance: float, bearing: float, turned: float, duration: float, latency: float = 0.1) -> Pose | None:
+    def slid(self, distance: float, bearing: float, turned: float, duration: float, latency: float = 0.1,
+             sd: float = 0.0) -> Pose | None:
         """A kick's slide as the IMU measured it (:class:`~clomp.runtime.devices.bno08x_slide.Slide`):
         ``distance`` m towards ``bearing`` (rad, in the body frame at the kick), the body
         having turned ``turned`` rad since, over ``duration`` s. The wheels' prediction
@@ -250,8 +251,10 @@ class KickMemory:
         scans do not either, so the estimate moves by it now (the poses since the kick too,
         ``latency`` s allowed for the report's delay), and the map goes back to what was
         drawn before the kick (what the matcher drew since, it drew from the unmoved
-        estimate). The doubt's floor stays: only the re-localisation lowers it. Returns the
-        pose now (None: nothing to move by).
+        estimate). ``sd`` (m): how far the measured displacement may be off (one standard
+        deviation, the slide's own): the filter's position variance, the gain's and the
+        vouching one, grows by it. The doubt's floor stays: only the re-localisation lowers
+        it. Returns the pose now (None: nothing to move by).
 
         >>> from clomp.runtime.estimation.odometry import ScanOdometry
         >>> o = ScanOdometry(0.15)
@@ -265,6 +268,9 @@ class KickMemory:
         dx, dy = distance * math.cos(at), distance * math.sin(at)
         moved = Pose(self.pose.x + dx, self.pose.y + dy, self.pose.theta)
         self.filter.shift(moved)
+        if math.isfinite(sd) and sd > 0:
+            for m in (self.filter.P, self.filter.honest):
+                m[:2, :2] += np.eye(2) * sd * sd
         self.pose = moved
         since = self._t - duration - latency
         self._history = deque((t, Pose(p.x + dx, p.y + dy, p.theta)) if t >= since else (t, p) for t, p in self._history)

@@ -34,7 +34,8 @@ from clomp.planner.robot_model import RobotModel
 from clomp.runtime.estimation.fusion import fuse_revolutions
 from clomp.runtime.estimation.odometry import FeedbackRecord, ScanOdometry
 from clomp.runtime.estimation.prior import OdometryPrior
-from clomp.runtime.interface import Calibrated, OdometryUncertainty, Robot, ScanFrame, ShockSensing, TurnSensing
+from clomp.runtime.interface import (Calibrated, OdometryUncertainty, Robot, ScanFrame, ShockSensing, SlideSensing,
+                                     TurnSensing)
 from clomp.runtime.supervision.config import SupervisorConfig
 
 __all__ = ["Sensing", "crop_far", "turning"]
@@ -96,7 +97,7 @@ class Sensing:
         # the odometry's own covariance, when the backend reports one (a ROS base's /odom)
         self._odo_cov = robot.odometry_covariance if isinstance(robot, OdometryUncertainty) else lambda: None
         self._shock = robot.peak_acceleration if isinstance(robot, ShockSensing) else lambda: None  # an accelerometer
-        self._slides = getattr(robot, "slides", list)  # a kick's slide, measured by the IMU (HardwareRobot)
+        self._slides = robot.slides if isinstance(robot, SlideSensing) else lambda: None  # a kick's slide (an IMU)
         self.config = config
         self.wheel_base = model.wheel_base
         # a robot told its calibration (the execution world) sizes the wheel prior to it (issue #36),
@@ -106,8 +107,8 @@ class Sensing:
             if isinstance(robot, Calibrated) else None
         self.estimator: ScanOdometry | None = ScanOdometry(model.wheel_base, prior=prior) \
             if config.feedback == "scan" else None
-        if self.estimator is not None and getattr(robot, "imu", None) is not None:
-            self.estimator.slide_sensing = callable(getattr(robot, "slides", None))  # HardwareRobot with --imu
+        if self.estimator is not None:  # its slides measured (clomp run --imu): the revolutions in one are not matched
+            self.estimator.slide_sensing = self._slides() is not None
         self.pose = Pose(0.0, 0.0, 0.0)
         self.scan: np.ndarray | None = None
         self.clean_scan: np.ndarray | None = None
@@ -141,8 +142,8 @@ class Sensing:
             peak = self._shock()
             if peak is not None:
                 self.estimator.shock(peak)  # an outside force: what it moved the body by is doubted
-            for slide in self._slides():  # how far it slid: the estimate moves by it
-                self.estimator.slid(slide.distance, slide.bearing, slide.turned, slide.duration)
+            for slide in self._slides() or ():  # how far it slid: the estimate moves by it
+                self.estimator.slid(slide.distance, slide.bearing, slide.turned, slide.duration, sd=slide.sd)
             self.pose = self.estimator.pose
             return
         self.pose = odo if odo is not None else dead_reckon(self.pose, *cmd, self.wheel_base, dt)

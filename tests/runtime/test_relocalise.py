@@ -121,3 +121,59 @@ def test_without_slide_sensing_a_kick_leaves_the_revolutions_matched() -> None:
     odo.advance(0.3, (0.0, 0.0))
     rec = odo.update(ScanFrame(_seen(_room(), Pose(0.01, 0.11, 0.0)), 0.3))
     assert "kick's slide" not in rec.reason
+
+
+def test_a_measured_slide_s_own_uncertainty_is_added_to_the_position_variance() -> None:
+    """The slide's ``sd`` (how far the IMU's integrated displacement may be off) widens the
+    position variance, the gain's and the vouching one, by ``sd²``: the estimate moved by a
+    measurement, not by a certainty."""
+    odo = _odometry(_room())
+    odo.slide_sensing = True
+    odo.advance(0.2, (0.0, 0.0))
+    before = odo.filter.P[:2, :2].copy(), odo.filter.honest[:2, :2].copy()
+    assert odo.slid(0.2, 0.0, 0.0, 0.25, sd=0.03) is not None
+    for was, now in zip(before, (odo.filter.P[:2, :2], odo.filter.honest[:2, :2]), strict=True):
+        assert np.allclose(now - was, np.eye(2) * 0.03**2)
+
+
+class _SlideRobot:
+    """A stand-in backend: only what Sensing asks of a slide sensor (the rest of a SimRobot)."""
+
+    def __init__(self, inner: object, measured: list[object] | None) -> None:
+        self._inner, self._measured = inner, measured
+
+    def __getattr__(self, name: str) -> object:
+        return getattr(self._inner, name)
+
+    def slides(self) -> list[object] | None:
+        out, self._measured = self._measured, ([] if self._measured is not None else None)
+        return out
+
+
+def test_sensing_feeds_a_slide_sensor_s_slides_and_only_its_owner_skips_slide_revolutions() -> None:
+    """A backend that is :class:`~clomp.runtime.interface.SlideSensing` with a sensor (its
+    ``slides()`` not None) makes the estimator skip revolutions in a slide and move by each
+    slide measured; one without a sensor (None) or without the method changes nothing."""
+    from clomp.planner import load_scenario
+    from clomp.planner.robot_model import RobotModel
+    from clomp.runtime.backends.sim import SimRobot
+    from clomp.runtime.devices.bno08x_slide import Slide
+    from clomp.runtime.interface import SlideSensing
+    from clomp.runtime.supervision.config import SupervisorConfig
+    from clomp.runtime.supervision.sensing import Sensing
+
+    def sensing(robot: object) -> Sensing:
+        return Sensing(robot, RobotModel(), SupervisorConfig())  # type: ignore[arg-type]
+
+    plain = SimRobot(load_scenario("open"), seed=0)
+    assert not isinstance(plain, SlideSensing)
+    assert sensing(plain).estimator.slide_sensing is False  # type: ignore[union-attr]
+    assert sensing(_SlideRobot(plain, None)).estimator.slide_sensing is False  # type: ignore[union-attr]
+    robot = _SlideRobot(SimRobot(load_scenario("open"), seed=0), [])
+    assert isinstance(robot, SlideSensing)
+    s = sensing(robot)
+    assert s.estimator is not None and s.estimator.slide_sensing is True
+    s.start(0.0)
+    robot._measured = [Slide(0.2, math.pi / 2, 0.0, 0.25, 0.02, False, 60.0)]
+    s.update_pose(0.1, (0.0, 0.0))
+    assert abs(s.pose.y - 0.2) < 0.01 and abs(s.pose.x) < 0.01
