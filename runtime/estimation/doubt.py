@@ -151,7 +151,8 @@ class Doubt:
 
 
 def trusted_check(doubt: Doubt, map_points: np.ndarray, map_sds: np.ndarray, points: np.ndarray, pose: Pose, *,
-                  min_points: int = 10, sd: float = 0.02, correlation: float = 4.0, sigmas: float = 2.45) -> Pose | None:
+                  min_points: int = 10, sd: float = 0.02, correlation: float = 4.0, sigmas: float = 2.45,
+                  least_inliers: float = 0.5) -> Pose | None:
     """A revolution ``points`` (robot frame) seen standing at the estimate ``pose``, searched
     for widely (:func:`~clomp.runtime.estimation.confirm.ambiguity`) against the map points
     drawn at most :attr:`Doubt.trust` uncertain (``map_sds[:, 0]``) and, when ``map_sds[:, 2]``
@@ -161,7 +162,10 @@ def trusted_check(doubt: Doubt, map_points: np.ndarray, map_sds: np.ndarray, poi
     when they fit clearly better elsewhere (the caller relocates), else None; when they
     match at the estimate, ``doubt`` falls to the farther of the match's own offset and the
     farthest pose explaining them as well, as a ``sigmas`` bound. Too few trusted points,
-    or no match: the doubt stays.
+    no match, or a match that pairs less than ``least_inliers`` of the revolution: the
+    doubt stays (0.5: a third of a revolution paired at the estimate once cleared a kick's
+    doubt at a corridor's goal, truly 0.34 m off with a 0.043 m bound; on 72 harsh runs
+    every claim the check let through paired 58 % or more).
 
     >>> room = np.array([[0.8, y] for y in np.linspace(-0.6, 0.6, 61)] + [[x, 0.6] for x in np.linspace(-0.6, 0.6, 61)])
     >>> d = Doubt(sd=0.15)
@@ -179,7 +183,7 @@ def trusted_check(doubt: Doubt, map_points: np.ndarray, map_sds: np.ndarray, poi
     amb = ambiguity(ref, points, pose, min_points=min_points, sd=sd, correlation=correlation)
     if amb.better is not None:
         return amb.better
-    if not amb.matched:
+    if not amb.matched or amb.inliers < least_inliers:
         return None
     here = match_scans(ref, points, pose, gate=None, min_points=min_points)
     off = math.hypot(here.pose.x - pose.x, here.pose.y - pose.y)

@@ -171,3 +171,21 @@ def test_the_wide_search_ignores_surfaces_seen_from_the_other_side():
     d2 = Doubt(sd=0.15)  # the same surfaces without the side they were seen from: vouched for
     trusted_check(d2, front, sds[:, :2], back, Pose(1.0, 0.0, math.pi))
     assert d2.sd < 0.15
+
+
+def test_the_wide_search_lowers_the_doubt_only_when_the_trusted_surfaces_explain_most_of_the_revolution() -> None:
+    """A revolution that pairs only a third of its points with the trusted surfaces (the rest
+    falls where they hold nothing) is no evidence for where the robot stands: the doubt stays
+    (a corridor's goal, a kick's doubt cleared by such a match, ended GOAL_REACHED 0.34 m
+    off). The same trusted part seen alone, or with little beside it, lowers it."""
+    from clomp.runtime.estimation.doubt import trusted_check
+
+    corner = np.array([[0.8, y] for y in np.linspace(-0.6, 0.6, 61)] + [[x, 0.6] for x in np.linspace(-0.6, 0.6, 61)])
+    sds = np.zeros((len(corner), 2))
+    elsewhere = np.array([[-0.9, y] for y in np.linspace(-1.2, 0.6, 121)] + [[x, -0.9] for x in np.linspace(-0.6, 0.8, 121)])
+    d = Doubt(sd=0.15)
+    assert trusted_check(d, corner, sds, np.r_[corner, elsewhere], Pose(0.0, 0.0, 0.0)) is None
+    assert d.sd == 0.15  # 122 of 364 points paired: the doubt stays
+    d2 = Doubt(sd=0.15)
+    trusted_check(d2, corner, sds, np.r_[corner, elsewhere[:60]], Pose(0.0, 0.0, 0.0))
+    assert d2.sd < 0.02  # 122 of 182: lowered to what the match shows
