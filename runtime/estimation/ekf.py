@@ -138,6 +138,8 @@ class OdometryFilter:
         turn_noise: float = 0.0,
         path_heading_noise: float = 0.0,
         honest_walk: tuple[float, float, float] = (0.0, 0.0, 0.0),
+        turn_learn_sd: float | None = math.radians(1.5),
+        turn_learn_after: float = 0.5,
     ) -> None:
         if not (math.isfinite(wheel_base) and wheel_base > 0):
             raise ValueError(f"wheel_base must be positive, got {wheel_base!r}")
@@ -155,6 +157,8 @@ class OdometryFilter:
         self.turn_noise = float(turn_noise)
         self.path_heading_noise = float(path_heading_noise)
         self.honest_walk = tuple(float(v) for v in honest_walk)
+        self.turn_learn_sd = None if turn_learn_sd is None else float(turn_learn_sd)
+        self.turn_learn_after = float(turn_learn_after)
         self.match_floor = np.square(np.asarray(match_floor, dtype=float))
         # no learnt term beyond three prior standard deviations: a wrong association must
         # not teach the filter wheels no robot has
@@ -335,7 +339,7 @@ class OdometryFilter:
         surfaces the turning estimate drew, do not show it (issue #36, clutter 15/0 with the
         gyro: a gain 8.9 % high, never learnt, turned the heading 10° off in one turn on the
         spot while the honest heading said 0.9-1.7°; the goal was claimed 0.155 m off)."""
-        need = max(float(self.honest[4, 4]), 0.0) * self.turn_unfixed**2
+        need = max(float(self.P[4, 4]), 0.0) * self.turn_unfixed**2
         if need > self.honest[2, 2]:
             self.honest[2, 2] = need
 
@@ -440,6 +444,8 @@ class OdometryFilter:
             return False, d2
         kgain = self.P @ h.T @ s_inv
         pinned = self.heading_sd(info)
+        turn_only = (learn and self.turn_learn_sd is not None and pinned <= self.turn_learn_sd
+                     and abs(self.turn_unfixed) >= self.turn_learn_after)
         if learn and self.learn_heading_sd is not None:
             # the calibration is learnt only from a match that pins the heading by itself: one
             # that leaves rotation to the position (one small box) would teach the wheels the
@@ -455,7 +461,10 @@ class OdometryFilter:
             # named slalom scene through the supervisor's patience, for no paper run.)
             kgain[:3, :] = u @ (u.T @ kgain[:3, :])
         if not learn:
+            keep = kgain[4, :].copy()
             kgain[3:, :] = 0.0  # Joseph form below keeps P right for any gain
+            if turn_only:
+                kgain[4, :] = keep
         self.x = self.x + kgain @ z
         self.x[3:] = np.clip(self.x[3:], -self.calibration_bound, self.calibration_bound)
         self.x[2] = wrap_angle(float(self.x[2]))
@@ -464,6 +473,9 @@ class OdometryFilter:
         # the same gain, with the map's own error in the measurement: the Joseph form gives
         # the covariance of this estimate for any gain, so ``honest`` is what it truly is
         r_map = h[:, :3] @ np.diag([map_sd[0] ** 2, map_sd[0] ** 2, map_sd[1] ** 2]) @ h[:, :3].T
+        if turn_only and not learn:
+            kgain[4, :] = 0.0
+            ikh = np.eye(_N) - kgain @ h
         self.honest = ikh @ self.honest @ ikh.T + kgain @ (r + r_map) @ kgain.T
         self._not_below_map(u, np.diag([map_sd[0] ** 2, map_sd[0] ** 2, map_sd[1] ** 2]))
         self._pinned(pinned)
