@@ -140,6 +140,7 @@ class OdometryFilter:
         honest_walk: tuple[float, float, float] = (0.0, 0.0, 0.0),
         turn_learn_sd: float | None = math.radians(1.5),
         turn_learn_after: float = 0.5,
+        turn_asymmetry: float = 0.0,
     ) -> None:
         if not (math.isfinite(wheel_base) and wheel_base > 0):
             raise ValueError(f"wheel_base must be positive, got {wheel_base!r}")
@@ -159,6 +160,7 @@ class OdometryFilter:
         self.honest_walk = tuple(float(v) for v in honest_walk)
         self.turn_learn_sd = None if turn_learn_sd is None else float(turn_learn_sd)
         self.turn_learn_after = float(turn_learn_after)
+        self.turn_asymmetry = float(turn_asymmetry)
         self.match_floor = np.square(np.asarray(match_floor, dtype=float))
         # no learnt term beyond three prior standard deviations: a wrong association must
         # not teach the filter wheels no robot has
@@ -180,6 +182,8 @@ class OdometryFilter:
         self.P[:3, :3] = np.eye(3) * 1e-10
         self.honest = self.P.copy()
         self.turn_unfixed = 0.0  # rad the gyro turned since the heading was last pinned sharply
+        self.turn_gain_error = 0.0  # rad: what the gain, as uncertain as it was, may have made of it
+        self.turn_rotation = 0.0  # rad turned either way since then (what the asymmetry may make of it)
 
     @property
     def pose(self) -> Pose:
@@ -330,6 +334,11 @@ class OdometryFilter:
         self.honest = f @ self.honest @ f.T + q
         if turned is not None:
             self.turn_unfixed += dth
+            # each step's rotation at the gain's uncertainty then: a gain learnt later does not
+            # undo what it made of the turns before (signed: one gain, a turn back undoes it);
+            # the gain's difference by direction, which the filter does not model, does not cancel
+            self.turn_gain_error += math.sqrt(max(float(self.P[4, 4]), 0.0)) * dth
+            self.turn_rotation += abs(dth)
             self._floor_turn()
 
     def _floor_turn(self) -> None:
@@ -339,7 +348,7 @@ class OdometryFilter:
         surfaces the turning estimate drew, do not show it (issue #36, clutter 15/0 with the
         gyro: a gain 8.9 % high, never learnt, turned the heading 10° off in one turn on the
         spot while the honest heading said 0.9-1.7°; the goal was claimed 0.155 m off)."""
-        need = max(float(self.P[4, 4]), 0.0) * self.turn_unfixed**2
+        need = (abs(self.turn_gain_error) + self.turn_asymmetry * self.turn_rotation) ** 2
         if need > self.honest[2, 2]:
             self.honest[2, 2] = need
 
@@ -348,7 +357,7 @@ class OdometryFilter:
         (``learn_heading_sd``), it pins the heading and the gyro's rotation counts from here;
         otherwise :meth:`_floor_turn` keeps what the gain may have made of the rotation."""
         if heading_sd <= (math.radians(0.5) if self.learn_heading_sd is None else self.learn_heading_sd):
-            self.turn_unfixed = 0.0
+            self.turn_unfixed = self.turn_gain_error = self.turn_rotation = 0.0
         else:
             self._floor_turn()
 
