@@ -62,6 +62,14 @@ learnt as wheels that curve, and the learnt curvature would turn every later str
 the wrong way (at the ``paper`` noise it taught -0.25 to -0.44 rad/m to wheels of about
 ±0.05 and left runs 0.1-0.3 m from the goal they believed they had reached).
 
+With a gyro the turn scale ``k`` is the gyro's gain, and a turn shows it: once the heading has
+turned ``turn_learn_after`` (rad) since it was last pinned sharply, a match pinning the heading
+within ``turn_learn_sd`` teaches ``k`` alone (issue #36: at ``harsh`` among posts the matches
+pinned it to 0.9-1.6°, never 0.5°, and a gain 8.9 % high turned the heading 10° off in one turn
+on the spot). What the gain may have made of the rotation since the last sharp pin is admitted
+in :attr:`honest`, whatever the matches say (:meth:`OdometryFilter._floor_turn`): they are made
+against surfaces the turning estimate drew, and show part of its error at best.
+
 >>> import math
 >>> f = OdometryFilter(wheel_base=0.15, match_floor=(0.0, 0.0, 0.0))
 >>> for _ in range(10):
@@ -118,6 +126,11 @@ class OdometryFilter:
     :meth:`predict` is given its rotation. ``honest_walk``: (m per √m driven, rad per √m
     driven, rad per √rad turned) added to :attr:`honest` only, never to ``P``: what the
     model does not hold and matches against a map the estimate drew cannot show (0: none).
+    ``turn_learn_sd`` (rad; None: never) and ``turn_learn_after`` (rad): with a gyro, the turn
+    scale alone is learnt from a match pinning the heading within ``turn_learn_sd`` once the
+    heading turned ``turn_learn_after`` since it was last pinned sharply. ``turn_asymmetry``
+    (relative): how much the gyro's gain one way may differ from the one gain learnt (half the
+    told difference between the two ways), admitted in :attr:`honest` per radian turned.
     """
 
     def __init__(
@@ -333,21 +346,30 @@ class OdometryFilter:
             q[2, 2] += self.honest_walk[1] ** 2 * dist + self.honest_walk[2] ** 2 * rot
         self.honest = f @ self.honest @ f.T + q
         if turned is not None:
-            self.turn_unfixed += dth
+            self.turn_unfixed += float(dth)
             # each step's rotation at the gain's uncertainty then: a gain learnt later does not
             # undo what it made of the turns before (signed: one gain, a turn back undoes it);
             # the gain's difference by direction, which the filter does not model, does not cancel
-            self.turn_gain_error += math.sqrt(max(float(self.P[4, 4]), 0.0)) * dth
-            self.turn_rotation += abs(dth)
+            self.turn_gain_error += math.sqrt(max(float(self.P[4, 4]), 0.0)) * float(dth)
+            self.turn_rotation += abs(float(dth))
             self._floor_turn()
 
     def _floor_turn(self) -> None:
-        """:attr:`honest`'s heading at least the gyro's gain uncertainty times the rotation
-        since the heading was last pinned sharply (:attr:`turn_unfixed`): an unlearnt gain
-        errs by that much, and matches that do not pin the heading by themselves, made against
+        """:attr:`honest`'s heading at least what the gyro's gain may have made of the rotation
+        since the heading was last pinned sharply: each step's rotation times the gain's
+        standard deviation then (signed, :attr:`turn_gain_error`: a gain learnt later does not
+        undo the error it made before), plus ``turn_asymmetry`` times the rotation either way
+        (:attr:`turn_rotation`). Matches that do not pin the heading by themselves, made against
         surfaces the turning estimate drew, do not show it (issue #36, clutter 15/0 with the
         gyro: a gain 8.9 % high, never learnt, turned the heading 10° off in one turn on the
-        spot while the honest heading said 0.9-1.7°; the goal was claimed 0.155 m off)."""
+        spot while the honest heading said 0.9-1.7°; the goal was claimed 0.155 m off).
+
+        >>> f = OdometryFilter(0.15, turn_learn_sd=None)
+        >>> for _ in range(30):
+        ...     f.predict(0.0, 0.5, 0.1, turned=0.05)        # 1.5 rad on the spot, no match
+        >>> round(f.turn_gain_error / (0.06 * 1.5), 2), bool(f.honest[2, 2] >= f.turn_gain_error**2)   # its sd times the turn
+        (1.0, True)
+        """
         need = (abs(self.turn_gain_error) + self.turn_asymmetry * self.turn_rotation) ** 2
         if need > self.honest[2, 2]:
             self.honest[2, 2] = need

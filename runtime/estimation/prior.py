@@ -69,6 +69,9 @@ class OdometryPrior:
     actuation latency and half the wheels' ramp), by which
     :class:`~clomp.runtime.estimation.odometry.ScanOdometry` delays the commands it
     dead-reckons with (0, told nothing: the body is taken to follow at once).
+    ``turn_asymmetry``: half the told difference of a gyro's gain between the two ways of
+    turning, with the margin (0, told nothing), admitted per radian turned
+    (:meth:`~clomp.runtime.estimation.ekf.OdometryFilter._floor_turn`).
     """
 
     calibration_sd: tuple[float, float, float, float] = (0.06, 0.06, 0.3, 0.02)
