@@ -72,6 +72,9 @@ class OdometryPrior:
     actuation latency and half the wheels' ramp), by which
     :class:`~clomp.runtime.estimation.odometry.ScanOdometry` delays the commands it
     dead-reckons with (0, told nothing: the body is taken to follow at once).
+    ``turn_asymmetry``: half the told difference of a gyro's gain between the two ways of
+    turning, with the margin (0, told nothing), admitted per radian turned
+    (:meth:`~clomp.runtime.estimation.ekf.OdometryFilter._floor_turn`).
     """
 
     calibration_sd: tuple[float, float, float, float] = (0.06, 0.06, 0.3, 0.02)
@@ -79,6 +82,7 @@ class OdometryPrior:
     wheel_noise: float = 0.15
     delay: float = 0.0
     honest_walk: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    turn_asymmetry: float = 0.0
 
     @classmethod
     def worst(cls) -> OdometryPrior:
@@ -124,9 +128,12 @@ class OdometryPrior:
                 max(worst.calibration_walk[2] / 4, m * told.bias_walk * math.sqrt(2.0) / wheel_base),
                 worst.calibration_walk[3] / 4)
         noise = max(0.01, m * math.hypot(told.wheel_sd, _HALF_NORMAL_SD * told.slip))
-        return cls((sd[0], sd[1], sd[2], sd[3]), walk, noise, delay)
+        # a gyro's gain turning one way differs from the other's by ``rate_asymmetry``: each
+        # way half of it from the one gain the filter learns
+        return cls((sd[0], sd[1], sd[2], sd[3]), walk, noise, delay, turn_asymmetry=m * told.rate_asymmetry / 2.0)
 
     def filter_kwargs(self) -> dict[str, Any]:
         """The :class:`~clomp.runtime.estimation.ekf.OdometryFilter` keyword arguments it sets."""
         return {"calibration_sd": self.calibration_sd, "calibration_walk": self.calibration_walk,
-                "wheel_noise": self.wheel_noise, "honest_walk": self.honest_walk}
+                "wheel_noise": self.wheel_noise, "honest_walk": self.honest_walk,
+                "turn_asymmetry": self.turn_asymmetry}
