@@ -38,7 +38,8 @@ def _revolution(at: tuple[float, float], rng: np.random.Generator, walker: tuple
         hit = (along > 0) & (miss2 < wr * wr)
         r = np.where(hit, np.minimum(r, along - np.sqrt(np.maximum(wr * wr - miss2, 0.0))), r)
     r = r + rng.normal(0.0, noise, r.size)
-    return np.c_[r * c, r * s]
+    out: np.ndarray = np.c_[r * c, r * s]
+    return out
 
 
 def _standing(odo: ScanOdometry, revolutions: list[np.ndarray]) -> None:
