@@ -6,7 +6,8 @@ matches with dead reckoning into the pose the supervisor's tasks run on;
 ``clomp.runtime.estimation.doubt`` keeps what that pose may not be vouched for after a shock
 the IMU felt or a revolution that saw past the map, and
 ``clomp.runtime.estimation.relocalise`` re-localises the robot after a shock against the
-map drawn before it.
+map drawn before it; ``clomp.runtime.estimation.standing`` sees a robot moved while it
+stood building the map's seed.
 """
 
 from __future__ import annotations

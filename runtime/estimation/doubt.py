@@ -14,7 +14,10 @@ position's standard deviation that ordinary matches do not lower, raised by
   jolt (a few m/s²: a collision, or a body stopping dead while its wheels spin, a slip);
 - a revolution that matched nothing the map holds, so that the map was re-seeded from a
   dead-reckoned pose, and well-matched revolutions that disagreed with the prediction
-  several times in a row (:meth:`Doubt.raise_to`).
+  several times in a row (:meth:`Doubt.raise_to`);
+- a revolution seen standing at the start that differs from the map's seed on most
+  bearings: the robot was moved before it drove, and the start pose it was told no longer
+  holds (:mod:`~clomp.runtime.estimation.standing`, the event ``"moved standing"``).
 
 Only a wider search (:func:`~clomp.runtime.estimation.confirm.ambiguity`, several starting
 guesses) against the surfaces drawn *before* the doubt — those whose own uncertainty is

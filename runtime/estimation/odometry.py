@@ -73,6 +73,7 @@ from clomp.runtime.estimation.icp import ReferenceScan, ScanMatch, match_scans
 from clomp.runtime.estimation.prior import OdometryPrior
 from clomp.runtime.estimation.relocalise import KickMemory, Relocalisation
 from clomp.runtime.estimation.reported import OdometryCovariance, step_noise_floor
+from clomp.runtime.estimation.standing import StandingSeed
 
 __all__ = ["ScanOdometry", "FeedbackRecord", "deskew"]
 
@@ -112,7 +113,7 @@ def deskew(points: np.ndarray, point_times: np.ndarray | None, v: float, w: floa
     return points_from_frames(points, px, py, th)
 
 
-class ScanOdometry(LocalMap, KickMemory):
+class ScanOdometry(LocalMap, KickMemory, StandingSeed):
     """The pose estimate (supervisor frame) from dead reckoning and scan matching.
 
     ``map_radius`` (m): how much of the map around the robot is kept; ``map_resolution``
@@ -380,6 +381,7 @@ class ScanOdometry(LocalMap, KickMemory):
             # still at the start pose, which fixes the frame: each revolution seen from there
             # joins the seed, fused (median range per bearing), so the map's surfaces are
             # less noisy than one revolution's and a small face's direction better known
+            self._check_standing(points, stamp)  # one showing it was moved restarts it
             self._seed.append(points)
             self._seed_pose = at
             n = min(len(self._seed), self.seed_revolutions)
