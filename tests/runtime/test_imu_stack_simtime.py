@@ -7,6 +7,7 @@ tripped makes ``clomp run`` exit 3 (cli.run._finished: ``robot.fault`` set)."""
 from __future__ import annotations
 
 import math
+import time
 from typing import Any
 
 import pytest
@@ -107,3 +108,21 @@ def test_without_the_imu_the_robot_measures_no_turn_and_reckons_the_wheels() -> 
     assert run.robot is not None and run.robot.imu is None and run.robot.rotation() is None
     assert run.robot.odometry() is not None
     assert math.isfinite(run.world.goal_distance)
+
+
+def test_a_starved_imu_reader_still_stops_the_wheels_within_a_tick_of_its_silence(monkeypatch: pytest.MonkeyPatch) -> None:
+    """On a loaded machine the IMU's reader thread runs late while the LiDAR's line moves
+    simulated time: its line must not count as idle at the controller's wake-up time before
+    the reader has judged that time (CI saw the wheels stop 0.4 s after the silence, a tick
+    late; reproduced here by delaying each read on the IMU's line, and fixed in the line)."""
+    from tests.runtime import _simline
+
+    original = _simline.SimLine.read
+
+    def late(self: _simline.SimLine, size: int = 1) -> bytes:
+        if self.follow:
+            time.sleep(0.004)  # wall time: the reader thread scheduled late
+        return original(self, size)
+
+    monkeypatch.setattr(_simline.SimLine, "read", late)
+    test_an_imu_fault_halts_the_run_with_the_wheels_stopped(_silent, "fell silent", 0.2)
