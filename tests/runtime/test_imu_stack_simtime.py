@@ -113,15 +113,33 @@ def test_without_the_imu_the_robot_measures_no_turn_and_reckons_the_wheels() -> 
 def test_a_starved_imu_reader_still_stops_the_wheels_within_a_tick_of_its_silence(monkeypatch: pytest.MonkeyPatch) -> None:
     """On a loaded machine the IMU's reader thread runs late while the LiDAR's line moves
     simulated time: its line must not count as idle at the controller's wake-up time before
-    the reader has judged that time (CI saw the wheels stop 0.4 s after the silence, a tick
-    late; reproduced here by delaying each read on the IMU's line, and fixed in the line)."""
+    the reader has judged the time its read waited (CI saw the wheels stop 0.4 s after the
+    silence, a tick late). Forced here without timing luck: inside each read, the IMU's line
+    goes on only once the LiDAR's line has brought time to a wake-up time the controller
+    has not yet woken at (the reader a tick behind the LiDAR's all run)."""
     from tests.runtime import _simline
+
+    class Late:
+        """A ``running`` event whose wait returns once simulated time reached the wake-up time."""
+
+        def __init__(self, clock: _simline.LockstepClock) -> None:
+            self.clock = clock
+
+        def wait(self, timeout: float | None = None) -> bool:
+            c = self.clock
+            give_up = time.monotonic() + 5.0  # wall bound: a bug here fails, never hangs
+            with c._cond:  # on only at a wake-up time not yet reached by every line: the reader lags
+                while not c.free and (c._until is None or c._reached or c.now() < c._until) \
+                        and time.monotonic() < give_up:
+                    c._cond.wait(0.01)
+            return True
 
     original = _simline.SimLine.read
 
     def late(self: _simline.SimLine, size: int = 1) -> bytes:
-        if self.follow:
-            time.sleep(0.004)  # wall time: the reader thread scheduled late
+        if self.follow and not isinstance(self.running, Late):
+            assert isinstance(self.clock, _simline.LockstepClock)
+            self.running = Late(self.clock)  # type: ignore[assignment]
         return original(self, size)
 
     monkeypatch.setattr(_simline.SimLine, "read", late)
