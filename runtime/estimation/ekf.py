@@ -278,6 +278,19 @@ class OdometryFilter:
                 self.honest[:2, :2] += (n * n - have) * np.outer(u, u)
         self.honest[2, 2] = max(float(self.honest[2, 2]), float(d[2]) ** 2)
 
+    def widen_position(self, sd: float) -> None:
+        """The position may be off by ``sd`` (m) more than the filter knew (a kick, a measured
+        slide, a move seen standing): both covariances, the gain's and the vouching one, grow
+        by ``sd²`` in x and y; a non-finite or non-positive ``sd`` changes nothing.
+
+        >>> f = OdometryFilter(0.15)
+        >>> before = f.honest[0, 0]; f.widen_position(0.1); round(float(f.honest[0, 0] - before), 6)
+        0.01
+        """
+        if math.isfinite(sd) and sd > 0:
+            for m in (self.P, self.honest):
+                m[:2, :2] += np.eye(2) * sd * sd
+
     def shift(self, pose: Pose) -> None:
         """Move the pose estimate to ``pose`` (an outside correction), keeping the covariance."""
         self.x[:3] = (pose.x, pose.y, pose.theta)

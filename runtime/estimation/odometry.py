@@ -486,8 +486,7 @@ class ScanOdometry(LocalMap, KickMemory, StandingSeed):
         if sd > 0:
             self.remember_before_doubt()  # what was drawn before it: what re-localises after it
             self.felt(sd)
-            for m in (self.filter.P, self.filter.honest):
-                m[:2, :2] += np.eye(2) * sd * sd
+            self.filter.widen_position(sd)
 
     def confirm_doubt(self, points: np.ndarray) -> Pose | None:
         """In doubt (:attr:`doubt`), a revolution ``points`` seen standing here is searched

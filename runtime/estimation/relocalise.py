@@ -268,9 +268,7 @@ class KickMemory:
         dx, dy = distance * math.cos(at), distance * math.sin(at)
         moved = Pose(self.pose.x + dx, self.pose.y + dy, self.pose.theta)
         self.filter.shift(moved)
-        if math.isfinite(sd) and sd > 0:
-            for m in (self.filter.P, self.filter.honest):
-                m[:2, :2] += np.eye(2) * sd * sd
+        self.filter.widen_position(sd)
         self.pose = moved
         since = self._t - duration - latency
         self._history = deque((t, Pose(p.x + dx, p.y + dy, p.theta)) if t >= since else (t, p) for t, p in self._history)

@@ -88,8 +88,7 @@ class StandingSeed:
             self.remember_before_doubt()  # type: ignore[attr-defined]  # KickMemory's
         sd = self.doubt.kick_sd
         if self.doubt.sd < sd:  # (a kick the IMU felt has opened them already)
-            for m in (self.filter.P, self.filter.honest):
-                m[:2, :2] += np.eye(2) * sd * sd
+            self.filter.widen_position(sd)
             self.doubt.raise_to(sd, stamp, "moved standing")
         else:
             self.doubt.events.append((stamp, "moved standing", self.doubt.sd))
