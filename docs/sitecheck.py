@@ -74,7 +74,10 @@ def rendered(site: Path, shots: Path | None) -> list[str]:
         print("sitecheck: no headless Chromium here; the pages were not rendered")
         return []
     problems = []
-    flags = [chromium, "--headless", "--no-sandbox", "--disable-gpu", "--window-size=1280,1600"]
+    # offline: no first-run, sync, component or background fetches (this machine has no network)
+    flags = [chromium, "--headless", "--no-sandbox", "--disable-gpu", "--disable-dev-shm-usage", "--disable-quic", "--no-first-run",
+             "--disable-background-networking", "--disable-component-update", "--disable-sync",
+             "--window-size=1280,1600"]
     for name in PAGES:
         page = site / name
         if not page.exists():
@@ -92,6 +95,7 @@ def rendered(site: Path, shots: Path | None) -> list[str]:
             shots.mkdir(parents=True, exist_ok=True)
             out = shots / (name.replace("/", "_").removesuffix(".html") + ".png")
             subprocess.run([*flags, f"--screenshot={out}", page.as_uri()], capture_output=True, timeout=120)
+    print(f"sitecheck: {len(PAGES)} landing pages rendered by headless Chromium ({chromium})")
     return problems
 
 

@@ -84,7 +84,8 @@ def test_experiment_report_embeds_its_figures_and_chromium_renders_it(tmp_path: 
     chromium = shutil.which("chromium") or shutil.which("chromium-browser")
     if chromium is None:
         pytest.skip("no headless Chromium on this machine")
-    dom = subprocess.run([chromium, "--headless", "--no-sandbox", "--disable-gpu", "--dump-dom",
+    dom = subprocess.run([chromium, "--headless", "--no-sandbox", "--disable-gpu", "--disable-dev-shm-usage", "--disable-quic", "--no-first-run",
+                          "--disable-background-networking", "--disable-component-update", "--disable-sync", "--dump-dom",
                           (out / "report.html").as_uri()], capture_output=True, text=True, timeout=120)
     assert dom.returncode == 0
     rendered = _parse(dom.stdout)
