@@ -7,7 +7,9 @@ unconfirmed, false successes, collisions with a t interval per run, brushes, med
 error and time to the goal), each baseline's paired tests against planning (McNemar on
 success, the paired t-test on collisions), the paper's figures beside ``overtaking``, and
 a drill-down: every run a row, its trajectory (the layout, the true path, the estimate, the
-contacts, the goal) drawn as inline SVG behind a ``<details>``. The experiment's PNGs in the
+contacts, the goal) drawn as inline SVG behind a ``<details>`` (the lines thinned to the
+pixel, so a 10,000-run sweep's page stays tens of MB, not hundreds). A sweep's page opens
+on "Every cell": one row per cell and condition, each linking to its block. The experiment's PNGs in the
 same folder are embedded (base64), so the page is one file with no external reference.
 
 >>> import tempfile, pathlib
@@ -111,6 +113,27 @@ def _paper(family: str) -> str:
             f"with {pp['collisions']} collisions; reactive {pr['reached_goal']}/{pr['runs']} with {pr['collisions']}.</p>")
 
 
+def _thin(line: Sequence[Sequence[float]], step: float) -> list[Sequence[float]]:
+    """The polyline's points at least ``step`` (m, a pixel) from the last one kept, and its end.
+
+    A run's path holds a point every 0.1 s, most of them within a pixel of the last (the robot
+    stands or creeps): drawn at 260 px they add bytes, not ink — a 10,000-run sweep's page
+    would be ~100 MB.
+
+    >>> _thin([(0.0, 0.0), (0.001, 0.0), (0.002, 0.0), (0.5, 0.0), (0.501, 0.0)], 0.01)
+    [(0.0, 0.0), (0.5, 0.0), (0.501, 0.0)]
+    """
+    if len(line) < 3:
+        return list(line)
+    kept = [line[0]]
+    for p in line[1:-1]:
+        q = kept[-1]
+        if abs(p[0] - q[0]) >= step or abs(p[1] - q[1]) >= step:
+            kept.append(p)
+    kept.append(line[-1])
+    return kept
+
+
 def _svg(rec: dict[str, Any], size: int = 260) -> str:
     """The run drawn in the plane: obstacles grey, true path blue, estimate dashed, contacts red, goal ♥."""
     from clomp.runtime.experiment.report import record_scene
@@ -137,7 +160,7 @@ def _svg(rec: dict[str, Any], size: int = 260) -> str:
         else:
             parts.append(f'<polygon points="{" ".join(xy(v) for v in s.vertices)}" fill="#999"/>')
     for key, style in (("estimate", 'stroke="#e80" stroke-dasharray="4 3"'), ("path", 'stroke="#14c"')):
-        line = rec.get(key) or []
+        line = _thin(rec.get(key) or [], 2.0 / k)  # 2 px: under the 2 px stroke
         if len(line) > 1:
             parts.append(f'<polyline points="{" ".join(xy(p) for p in line)}" fill="none" {style} stroke-width="2"/>')
     for c in rec.get("contacts") or []:
@@ -162,6 +185,22 @@ def _runs(recs: list[dict[str, Any]]) -> str:
     return "".join(rows)
 
 
+def _overview(cells: list[tuple[int, str, dict[str, Any]]]) -> str:
+    """One row per cell and condition: success with its interval, false successes, unconfirmed,
+    collisions — the sweep at a glance, each row linking to its cell's block."""
+    head = ("<tr><th>cell</th><th>condition</th><th>runs</th><th>truly at the goal [95 % Wilson]</th>"
+            "<th>false successes</th><th>unconfirmed</th><th>collisions (runs with one)</th></tr>")
+    rows = []
+    for i, name, s in cells:
+        for cond, c in s["conditions"].items():
+            fs = int(c.get("false_successes", 0))
+            rows.append(f'<tr><td><a href="#b{i}">{_e(name)}</a></td><td>{_e(cond)}</td><td>{c["runs"]}</td>'
+                        f"<td>{c['success']}{_interval(*c['success_ci95'])}</td>"
+                        f'<td{" class=bad" if fs else ""}>{fs}</td><td>{c.get("goal_unconfirmed", 0)}</td>'
+                        f"<td>{c['collisions']} ({c['runs_with_collision']})</td></tr>")
+    return f"<h2>Every cell</h2><table>{head}{''.join(rows)}</table>"
+
+
 def _images(folder: Path) -> str:
     out = []
     for png in sorted(folder.glob("*.png")):
@@ -178,14 +217,17 @@ def write_report(records: Iterable[dict[str, Any]], path: str | os.PathLike[str]
     blocks: dict[tuple[str, str, float, int], list[dict[str, Any]]] = {}
     for r in recs:
         blocks.setdefault(block_key(r), []).append(r)
-    nav, sections = [], []
+    nav, sections, cells = [], [], []
     for i, (key, rs) in enumerate(sorted(blocks.items())):
         fam, noise, scale, gyro = key
         name = f"{fam} · noise {noise} ×{scale:g}" + ("" if gyro else " · no gyro")
         nav.append(f'<a href="#b{i}">{_e(name)}</a>')
         s = summarise(rs)
+        cells.append((i, name, s))
         sections.append(f'<h2 id="b{i}">{_e(name)} — {len(rs)} runs</h2>{_summary_table(s)}{_tests(s)}{_paper(fam)}'
                         f"<h3>Every run</h3>{_runs(rs)}")
+    if len(cells) > 1:
+        nav.append(_overview(cells))
     figures = _images(Path(images)) if images is not None else ""
     page = (f"<!doctype html><html lang=en><meta charset=utf-8><title>{_e(title)}</title><style>{_CSS}</style>"
             f"<h1>{_e(title)}</h1><p>{len(recs)} runs. Success = truly within 0.1 m of the goal (ground truth); a false "

@@ -98,3 +98,25 @@ def test_a_record_without_its_trace_still_gets_a_row(tmp_path: Path) -> None:
            "final_error_m": 0.4, "time_s": 5.0, "wall_s": 0.1}
     text = write_report([rec], tmp_path / "r.html", "t").read_text()
     assert "FALSE SUCCESS" in text and "no trace kept" in text
+
+
+def _rec(run: int, family: str, path: list[list[float]]) -> dict[str, object]:
+    return {"key": f"{family}/{run}", "family": family, "noise": "ideal", "noise_scale": 1.0, "gyro": 1,
+            "condition": "planning", "run": run, "success": 1, "reached_goal": 1, "believed_goal": 1,
+            "false_success": 0, "collisions": 0, "brushes": 0, "final_error_m": 0.02, "time_s": 11.0,
+            "time_to_goal_s": 11.0, "wall_s": 0.5, "end_state": "GOAL_REACHED", "obstacles": [], "goal": [1.0, 0.0],
+            "start": [0.0, 0.0, 0.0], "path": path, "estimate": [], "contacts": []}
+
+
+def test_a_large_sweeps_page_stays_small_and_opens_on_every_cell(tmp_path: Path) -> None:
+    # a robot that stands 100 s then drives: a point every 0.1 s, most within a pixel of the last
+    path = [[0.0, 0.0]] * 1000 + [[i / 100, 0.0] for i in range(101)]
+    recs = [_rec(k, fam, path) for fam in ("overtaking", "doorway") for k in range(3)]
+    text = write_report(recs, tmp_path / "r.html", "t").read_text()
+    drawn = [seg.split('"')[0].split() for seg in text.split('<polyline points="')[1:]]
+    assert len(drawn) == 6 and all(2 < len(pts) <= 60 for pts in drawn)  # 1,101 points → under the stroke's width apart
+    assert all(pts[0] == drawn[0][0] and pts[-1] == drawn[0][-1] for pts in drawn)  # the ends kept
+    page = _parse(text)
+    cells = text.split("<h2>Every cell</h2>")[1].split("</table>")[0]
+    assert cells.count("<tr>") == 1 + 2  # a header and a row per cell and condition
+    assert 'href="#b0"' in cells and 'href="#b1"' in cells and page.tags["details"] == 6
