@@ -6,12 +6,15 @@ clearance in one compiled loop (numba, :mod:`clomp.runtime.jit`) with the same
 floating-point operations — each difference and product rounded on its own as numpy's
 element-wise loops round it, the pose's cosine and sine numpy's own (computed before the
 compiled call), ``hypot`` the C library's, as numpy's — so the two agree bit for bit
-(``tests/runtime/test_dwa_clearance.py``). The loop skips work that cannot change a minimum:
-a pose's remaining points once one touches (0 is the least a distance can be), an arc's
-remaining poses once one touches, and ``hypot`` wherever its larger leg already reaches the
-smallest distance so far (a faithfully rounded ``hypot`` is never below its larger leg; with
-a zero leg it is the other leg exactly, C99 F.9.4.3). The numpy statement took about 90 %
-of a dwa run's CPU (an arcs × poses × points broadcast, about 18 ms a control tick).
+(``tests/runtime/test_dwa_clearance.py``). The loop skips work that cannot change the arc's
+minimum: ``hypot`` wherever its larger leg already reaches the arc's least distance so far (a
+faithfully rounded ``hypot`` is never below its larger leg; with a zero leg it is the other
+leg exactly, C99 F.9.4.3), and the rest of the arc once a point touches. The controller asks
+for less still, and gets it exactly: its score reads a clearance only up to 0.3 m (``cap``)
+and only on arcs that keep the margin (``stop``: an arc within it is dropped whatever its
+distance), so the loop starts each arc at the cap and leaves it at the margin. The numpy
+statement took about 90 % of a dwa run's CPU (an arcs × poses × points broadcast, about
+18 ms a control tick; the loop 0.1 ms).
 
 >>> import numpy as np
 >>> body = (0.1, 0.09, 0.01, 0.18)  # rear offset, front offset, clearance, width
@@ -56,10 +59,13 @@ def arc_clearance_numpy(pts: np.ndarray, x: np.ndarray, y: np.ndarray, th: np.nd
     return out
 
 
-def arc_clearance(pts: np.ndarray, x: np.ndarray, y: np.ndarray, th: np.ndarray, body: Body) -> np.ndarray:
+def arc_clearance(pts: np.ndarray, x: np.ndarray, y: np.ndarray, th: np.ndarray, body: Body, cap: float = math.inf,
+                  stop: float = 0.0) -> np.ndarray:
     """Per arc (``x``, ``y``, ``th``: (N, T) poses along it), the smallest distance (m) from the
     inflated body to a point of ``pts`` (P, 2) at any of its poses: ``arc_clearance_numpy(...).min(axis=1)``
-    bit for bit, compiled (see the module).
+    bit for bit, compiled (see the module) — where that is above ``stop`` (an arc that comes
+    within ``stop`` gets some distance at most ``stop``: the loop stops there) and at most
+    ``cap`` (a larger one is ``cap``). The defaults give the exact minimum.
 
     >>> arc_clearance(np.array([[0.0, 0.0]]), np.zeros((1, 1)), np.zeros((1, 1)), np.zeros((1, 1)), (0.1, 0.09, 0.01, 0.18)).tolist()
     [0.0]
@@ -69,18 +75,17 @@ def arc_clearance(pts: np.ndarray, x: np.ndarray, y: np.ndarray, th: np.ndarray,
     p = np.ascontiguousarray(pts, dtype=np.float64).reshape(-1, 2)
     xs, ys = (np.ascontiguousarray(a, dtype=np.float64) for a in (x, y))
     c, s = np.ascontiguousarray(np.cos(th), dtype=np.float64), np.ascontiguousarray(np.sin(th), dtype=np.float64)
-    interruptible(_arc_clearance, p, xs, ys, c, s, -rear - clearance, front, clearance, width / 2, out)
+    interruptible(_arc_clearance, p, xs, ys, c, s, -rear - clearance, front, clearance, width / 2, float(cap), float(stop), out)
     return out
 
 
 @compiled
-def _arc_clearance(pts: np.ndarray, x: np.ndarray, y: np.ndarray, c: np.ndarray, s: np.ndarray, back: float,
-                   front: float, clearance: float, half: float, out: np.ndarray) -> None:  # pragma: no cover - compiled
+def _arc_clearance(pts: np.ndarray, x: np.ndarray, y: np.ndarray, c: np.ndarray, s: np.ndarray, back: float, front: float,
+                   clearance: float, half: float, cap: float, stop: float, out: np.ndarray) -> None:  # pragma: no cover - compiled
     for i in range(x.shape[0]):
-        arc = math.inf
+        best = cap  # the arc's least distance so far
         for j in range(x.shape[1]):
             xi, yi, ci, si = x[i, j], y[i, j], c[i, j], s[i, j]
-            best = math.inf
             for k in range(pts.shape[0]):
                 dx, dy = pts[k, 0] - xi, pts[k, 1] - yi
                 bx, by = ci * dx + si * dy, -si * dx + ci * dy
@@ -96,10 +101,8 @@ def _arc_clearance(pts: np.ndarray, x: np.ndarray, y: np.ndarray, c: np.ndarray,
                     d = math.hypot(ox, oy)
                 if d < best:
                     best = d
-                    if best == 0.0:
+                    if best <= stop:
                         break
-            if best < arc:
-                arc = best
-                if arc == 0.0:
-                    break
-        out[i] = arc
+            if best <= stop:
+                break
+        out[i] = best

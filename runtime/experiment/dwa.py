@@ -152,12 +152,15 @@ class DwaController(ReactiveController):
         straight = (np.abs(w) < 1e-9)[:, None]
         x = np.where(straight, v[:, None] * t, v[:, None] / safe_w * np.sin(th))
         y = np.where(straight, 0.0, v[:, None] / safe_w * (1 - np.cos(th)))
-        clear = self._clearance(pts, x, y, th)  # (N,) the nearest point to the body along each arc
+        # (N,) the nearest point to the body along each arc: exact where the score reads it (above
+        # the margin, below the cap); an arc within the margin is only known to be so
+        cap = _CLEAR_CAP if self.margin < _CLEAR_CAP else math.inf
+        clear = self._clearance(pts, x, y, th, cap=cap, stop=self.margin)
         admissible = clear > self.margin  # no arc that comes nearer an obstacle than the margin within the horizon
         if not admissible.any():
             return None, 0.0
-        bearing = np.arctan2(np.sin(np.arctan2(g.y - y[:, -1], g.x - x[:, -1]) - th[:, -1]),
-                             np.cos(np.arctan2(g.y - y[:, -1], g.x - x[:, -1]) - th[:, -1]))
+        off = np.arctan2(g.y - y[:, -1], g.x - x[:, -1]) - th[:, -1]
+        bearing = np.arctan2(np.sin(off), np.cos(off))
         ws = self.weights
         d0 = math.hypot(g.x, g.y)
         progress = (d0 - np.hypot(g.x - x[:, -1], g.y - y[:, -1])) / (m.max_speed * self.horizon)
@@ -171,10 +174,12 @@ class DwaController(ReactiveController):
             return None, 0.0
         return float(v[k]), float(w[k])
 
-    def _clearance(self, pts: np.ndarray, x: np.ndarray, y: np.ndarray, th: np.ndarray) -> np.ndarray:
+    def _clearance(self, pts: np.ndarray, x: np.ndarray, y: np.ndarray, th: np.ndarray, cap: float = math.inf,
+                   stop: float = 0.0) -> np.ndarray:
         """Per arc (poses ``x``, ``y``, ``th``: (N, T)), the smallest distance (m) from the inflated
-        body to a point at any of its poses (0: a hit; inf without points)."""
-        return arc_clearance(pts, x, y, th, self._body())
+        body to a point at any of its poses (0: a hit; inf without points), where above ``stop``,
+        at most ``cap``: :func:`~clomp.runtime.experiment._dwa_clearance.arc_clearance`."""
+        return arc_clearance(pts, x, y, th, self._body(), cap=cap, stop=stop)
 
     def _body(self) -> Body:
         m = self.model

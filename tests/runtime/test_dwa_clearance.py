@@ -35,8 +35,9 @@ class _Still:
 class _ReferenceDwa(DwaController):
     """The dwa controller with the numpy statement as its clearance."""
 
-    def _clearance(self, pts: np.ndarray, x: np.ndarray, y: np.ndarray, th: np.ndarray) -> np.ndarray:
-        out: np.ndarray = arc_clearance_numpy(pts, x, y, th, self._body()).min(axis=1)
+    def _clearance(self, pts: np.ndarray, x: np.ndarray, y: np.ndarray, th: np.ndarray, cap: float = np.inf,
+                   stop: float = 0.0) -> np.ndarray:
+        out: np.ndarray = arc_clearance_numpy(pts, x, y, th, self._body()).min(axis=1)  # exact, cap and stop unused
         return out
 
 
@@ -50,6 +51,21 @@ def test_the_compiled_clearance_is_the_numpy_statement(seed: int, n: int, arcs: 
     x, y = rng.uniform(-0.4, 0.4, (arcs, poses)), rng.uniform(-0.4, 0.4, (arcs, poses))
     x[0], y[0] = 0.0, 0.0
     assert _same(arc_clearance(pts, x, y, th, _BODY), arc_clearance_numpy(pts, x, y, th, _BODY).min(axis=1))
+
+
+@settings(max_examples=60, deadline=None)
+@given(seed=st.integers(0, 2**31 - 1), n=st.integers(1, 120), cap=st.floats(0.0, 1.0), stop=st.floats(-0.1, 0.3))
+def test_a_cap_and_a_stop_leave_the_clearance_exact_between_them(seed: int, n: int, cap: float, stop: float) -> None:
+    """Above ``stop`` the distance is the exact minimum, or ``cap`` when that is larger; at or below, it is at most ``stop``."""
+    rng = np.random.default_rng(seed)
+    pts = _points(rng, n)
+    th = rng.uniform(-2.0, 2.0, (30, 6))
+    x, y = rng.uniform(-0.6, 0.6, (30, 6)), rng.uniform(-0.6, 0.6, (30, 6))
+    exact = arc_clearance_numpy(pts, x, y, th, _BODY).min(axis=1)
+    got = arc_clearance(pts, x, y, th, _BODY, cap=cap, stop=stop)
+    above = np.minimum(exact, cap) > stop
+    assert _same(got[above], np.minimum(exact, cap)[above])
+    assert (got[~above] <= stop).all()
 
 
 @settings(max_examples=40, deadline=None)
@@ -67,11 +83,15 @@ def test_a_few_points_ahead_of_straight_and_turning_arcs(seed: int, n: int) -> N
 
 @settings(max_examples=60, deadline=None)
 @given(seed=st.integers(0, 2**31 - 1), n=st.integers(0, 250), vl=st.floats(-0.2, 0.2), vr=st.floats(-0.2, 0.2),
-       gx=st.floats(-2.0, 2.0), gy=st.floats(-2.0, 2.0), recover=st.sampled_from([-1, 0, 1]))
+       gx=st.floats(-2.0, 2.0), gy=st.floats(-2.0, 2.0), recover=st.sampled_from([-1, 0, 1]), sparse=st.booleans())
 def test_the_decisions_are_the_numpy_statements(seed: int, n: int, vl: float, vr: float, gx: float, gy: float,
-                                                recover: int) -> None:
+                                                recover: int, sparse: bool) -> None:
     rng = np.random.default_rng(seed)
-    scan = _points(rng, n)[: n + 6 * (n > 0)]
+    if sparse:  # a few points a little way off: the arcs' clearances between the margin and the cap decide
+        r, a = rng.uniform(0.25, 0.7, n % 8 + 1), rng.uniform(-np.pi, np.pi, n % 8 + 1)
+        scan = np.c_[r * np.cos(a), r * np.sin(a)]
+    else:
+        scan = _points(rng, n)[: n + 6 * (n > 0)]
     fast, ref = DwaController(_Still(), (gx, gy)), _ReferenceDwa(_Still(), (gx, gy))
     for c in (fast, ref):
         c._scan, c._scan_pose, c._t0, c._cmd, c._recover = scan, c.pose, 0.0, (vl, vr), recover
