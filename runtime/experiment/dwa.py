@@ -44,6 +44,7 @@ import numpy as np
 
 from clomp.formal.geometry import points_from_frame, relative
 from clomp.formal.model import Pose
+from clomp.runtime.experiment._dwa_clearance import Body, arc_clearance
 from clomp.runtime.experiment.reactive import ReactiveController
 
 __all__ = ["DwaController", "DwaWeights"]
@@ -112,7 +113,7 @@ class DwaController(ReactiveController):
         for sign in (self._recover, -self._recover):
             w = np.array([sign * 2 * spin / m.wheel_base])
             t = np.array([[0.5 * m.tick, m.tick, 2 * m.tick]])
-            if self._clearance(pts, np.zeros((1, 3)), np.zeros((1, 3)), w[:, None] * t).min() > 0:
+            if self._clearance(pts, np.zeros((1, 3)), np.zeros((1, 3)), w[:, None] * t)[0] > 0:
                 self._recover = sign
                 return (-sign * spin, sign * spin)
         return (-m.straight_speed / 2, -m.straight_speed / 2)
@@ -151,13 +152,15 @@ class DwaController(ReactiveController):
         straight = (np.abs(w) < 1e-9)[:, None]
         x = np.where(straight, v[:, None] * t, v[:, None] / safe_w * np.sin(th))
         y = np.where(straight, 0.0, v[:, None] / safe_w * (1 - np.cos(th)))
-        clear = self._clearance(pts, x, y, th)  # (N, T) the nearest point to the body at each pose
-        clear = clear.min(axis=1)
+        # (N,) the nearest point to the body along each arc: exact where the score reads it (above
+        # the margin, below the cap); an arc within the margin is only known to be so
+        cap = _CLEAR_CAP if self.margin < _CLEAR_CAP else math.inf
+        clear = self._clearance(pts, x, y, th, cap=cap, stop=self.margin)
         admissible = clear > self.margin  # no arc that comes nearer an obstacle than the margin within the horizon
         if not admissible.any():
             return None, 0.0
-        bearing = np.arctan2(np.sin(np.arctan2(g.y - y[:, -1], g.x - x[:, -1]) - th[:, -1]),
-                             np.cos(np.arctan2(g.y - y[:, -1], g.x - x[:, -1]) - th[:, -1]))
+        off = np.arctan2(g.y - y[:, -1], g.x - x[:, -1]) - th[:, -1]
+        bearing = np.arctan2(np.sin(off), np.cos(off))
         ws = self.weights
         d0 = math.hypot(g.x, g.y)
         progress = (d0 - np.hypot(g.x - x[:, -1], g.y - y[:, -1])) / (m.max_speed * self.horizon)
@@ -171,17 +174,13 @@ class DwaController(ReactiveController):
             return None, 0.0
         return float(v[k]), float(w[k])
 
-    def _clearance(self, pts: np.ndarray, x: np.ndarray, y: np.ndarray, th: np.ndarray) -> np.ndarray:
-        """Per arc and pose, the smallest distance (m) from the inflated body to a point (0: a hit)."""
-        if len(pts) == 0:
-            return np.full(x.shape, np.inf)
+    def _clearance(self, pts: np.ndarray, x: np.ndarray, y: np.ndarray, th: np.ndarray, cap: float = math.inf,
+                   stop: float = 0.0) -> np.ndarray:
+        """Per arc (poses ``x``, ``y``, ``th``: (N, T)), the smallest distance (m) from the inflated
+        body to a point at any of its poses (0: a hit; inf without points), where above ``stop``,
+        at most ``cap``: :func:`~clomp.runtime.experiment._dwa_clearance.arc_clearance`."""
+        return arc_clearance(pts, x, y, th, self._body(), cap=cap, stop=stop)
+
+    def _body(self) -> Body:
         m = self.model
-        c, s = np.cos(th)[..., None], np.sin(th)[..., None]
-        dx, dy = pts[:, 0] - x[..., None], pts[:, 1] - y[..., None]  # (N, T, P)
-        bx, by = c * dx + s * dy, -s * dx + c * dy
-        ox = np.maximum(np.maximum(-m.rear_offset - m.clearance - bx, bx - m.front_offset - m.clearance), 0.0)
-        oy = np.maximum(np.abs(by) - m.width / 2 - m.clearance, 0.0)
-        inside = (ox == 0) & (oy == 0)
-        d = np.where(inside, 0.0, np.hypot(ox, oy))
-        out: np.ndarray = d.min(axis=2)
-        return out
+        return (m.rear_offset, m.front_offset, m.clearance, m.width)
