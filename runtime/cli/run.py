@@ -19,6 +19,13 @@ scans. An IMU that is unplugged, falls silent for 0.2 s, sends garbage or report
 faster than the wheels can make is a device fault (exit 3, wheels stopped), never a silent
 fallback to the wheels. Without ``--imu`` the run is as it was.
 
+``--drive-delay S`` tells the estimator how long after a command the body follows it (the
+drive's latency and half its ramp to speed; default 0.1 s, a hobby-servo drive's order:
+:data:`~clomp.runtime.supervision.config.DRIVE_DELAY`): it dead-reckons on the commands that
+late, with or without ``--imu`` (without one, the robot's own dead reckoning on the commands as
+sent is then not used). Taken as 0 (``--drive-delay 0``: as before), every start's lead of the
+commands over the body was learnt from the scans as a wrong wheel scale.
+
 On a terminal, one status line updates while the robot runs (state, task, estimated
 distance to the goal and its bound, LiDAR revolutions, LiDAR/IMU health); it is not drawn
 into a pipe or a file.
@@ -72,6 +79,9 @@ def register(sub: Any) -> None:
     p.add_argument("--time-scale", type=float, default=1.0, metavar="K",
                    help="run the controller's clock K times faster than wall time; only for an emulated "
                         "world running at the same scale (default 1)")
+    p.add_argument("--drive-delay", type=float, default=None, metavar="S",
+                   help="how long after a command the wheels move the body (latency plus half the ramp to speed; "
+                        "default 0.1 s); the estimator dead-reckons on the commands that late")
     d = p.add_argument_group("devices")
     d.add_argument("--lidar-baud", type=int, default=115200, help="LiDAR baud rate (default 115200)")
     d.add_argument("--lidar-motor", choices=("dtr", "none"), default="dtr",
@@ -137,6 +147,7 @@ def _config(args: argparse.Namespace) -> Any:
         raise CliError("--device-number must be in 0..127")
     if not (math.isfinite(args.watchdog) and args.watchdog >= 0):
         raise CliError("--watchdog must be a number of seconds >= 0")
+    delay = _drive_delay(args)
     try:
         return HardwareConfig(
             lidar_baudrate=args.lidar_baud,
@@ -151,10 +162,21 @@ def _config(args: argparse.Namespace) -> Any:
             multiple_targets=args.multiple_targets,
             watchdog_timeout=args.watchdog or None,
             dry_run=args.dry_run,
-            odometry=not args.no_odometry,
+            # the estimator reckons the commands itself, late by the delay (the command odometry cannot know it)
+            odometry=not args.no_odometry and (args.dry_run or delay == 0),
         )
     except ValueError as exc:
         raise CliError(str(exc)) from None
+
+
+def _drive_delay(args: argparse.Namespace) -> float:
+    """``--drive-delay`` (s), its default :data:`~clomp.runtime.supervision.config.DRIVE_DELAY`."""
+    from clomp.runtime.supervision.config import DRIVE_DELAY
+
+    delay = DRIVE_DELAY if getattr(args, "drive_delay", None) is None else float(args.drive_delay)
+    if not (math.isfinite(delay) and 0 <= delay <= 2):
+        raise CliError(f"--drive-delay must be a number of seconds in [0, 2], got {args.drive_delay}")
+    return delay
 
 
 def _say(text: str) -> None:
@@ -198,7 +220,7 @@ def _run(args: argparse.Namespace, scheduling: str) -> int:
             _say("dry run: planning on every scan, the wheels are held stopped")
             return _dry_run(robot, conf, goal, clock, log, args.max_time, path)
         sup = Supervisor(robot, goal, conf, clock=clock, log=_SharedLog(runlog, lock, frozenset({"motor"})),
-                         config=SupervisorConfig(moving=args.moving))
+                         config=SupervisorConfig(moving=args.moving, drive_delay=_drive_delay(args)))
         hold(sup)
         with StatusLine(sup, robot):
             return sup.run(max_time=args.max_time)

@@ -254,7 +254,9 @@ class KickMemory:
         estimate). ``sd`` (m): how far the measured displacement may be off (one standard
         deviation, the slide's own): the filter's position variance, the gain's and the
         vouching one, grows by it. The doubt's floor stays: only the re-localisation lowers
-        it. Returns the pose now (None: nothing to move by).
+        it. Returns the pose now (None: nothing to move by). ``distance`` 0 with an ``sd``: a
+        slide measured but not believed (:attr:`~clomp.runtime.devices.bno08x_slide.SlideWatch.farthest`):
+        the estimate stays, its position variance and its doubt open by ``sd``.
 
         >>> from clomp.runtime.estimation.odometry import ScanOdometry
         >>> o = ScanOdometry(0.15)
@@ -262,8 +264,16 @@ class KickMemory:
         >>> round(p.x, 3), round(p.y, 3), o.doubt.events[-1][1]
         (0.0, 0.2, 'slid')
         """
-        if not (math.isfinite(distance) and distance > 0 and math.isfinite(bearing) and math.isfinite(turned)):
+        if not (math.isfinite(distance) and distance >= 0 and math.isfinite(bearing) and math.isfinite(turned)):
             return None
+        if distance == 0:  # a slide not believed (SlideWatch.farthest): where it went is not known
+            if not (math.isfinite(sd) and sd > 0):
+                return None
+            self.filter.widen_position(sd)
+            self.doubt.raise_to(sd, self._t, "slide not believed")  # only a re-localisation lowers it
+            if self._slide_span is not None and self._slide_span[1] == math.inf:
+                self._slide_span = (self._slide_span[0], self._t)
+            return self.pose
         at = self.pose.theta - turned + bearing  # the kick's direction in the estimate's frame
         dx, dy = distance * math.cos(at), distance * math.sin(at)
         moved = Pose(self.pose.x + dx, self.pose.y + dy, self.pose.theta)

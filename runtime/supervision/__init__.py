@@ -11,7 +11,7 @@ Devices, robots and the command line's lower layers do not import this room.
 'HALTED'
 """
 
-from clomp.runtime.supervision.config import SupervisorConfig
+from clomp.runtime.supervision.config import DRIVE_DELAY, SupervisorConfig
 from clomp.runtime.supervision.states import (
     MOTOR_STATES,
     TERMINAL,
@@ -37,6 +37,7 @@ __all__ = [
     "PlanRecord",
     "Supervisor",
     "SupervisorConfig",
+    "DRIVE_DELAY",
     "SupervisorReport",
     "SupervisorState",
     "TERMINAL",

@@ -16,9 +16,16 @@ from dataclasses import dataclass
 
 from clomp.planner.deepening import DEEPEN
 
-__all__ = ["FEEDBACK", "SupervisorConfig"]
+__all__ = ["DRIVE_DELAY", "FEEDBACK", "SupervisorConfig"]
 
 FEEDBACK = ("scan", "none")
+
+#: s: what ``clomp run`` takes a robot's drive to lag its commands by when told nothing
+#: (``--drive-delay``): the order of a hobby-servo drive's — a Maestro's 20 ms servo frame and
+#: the servo's response (latency) plus half the wheels' ramp to the straight speed (0.1 m/s at
+#: about 1 m/s²: 0.05 s). A robot's own measure is better: command a start standing in front of
+#: a wall and time its first motion in the scans or the IMU.
+DRIVE_DELAY = 0.1
 
 
 def _positive_int(name: str, n: object, least: int = 1) -> None:
@@ -120,6 +127,14 @@ class SupervisorConfig:
       length from the wrong place. Ordinary corrections at ``harsh`` stay under 3 cm and 1°;
       after a push they were 7-12 cm. Such a jump is also what makes a revolution seeing
       through the map evidence of a push (:mod:`clomp.runtime.supervision.pushaway`).
+    - ``drive_delay`` (s): how long after a command the body follows it (the drive's latency
+      and half its ramp to speed), as the robot's maker or a measurement tells it; the
+      estimator dead-reckons on the commands that late
+      (:attr:`~clomp.runtime.estimation.prior.OdometryPrior.delay`), whatever else its prior
+      is. None: the backend's own (a :class:`~clomp.runtime.interface.Calibrated` robot's told
+      delay, else 0). ``clomp run`` sets it (``--drive-delay``, default
+      :data:`~clomp.runtime.supervision.config.DRIVE_DELAY`): taken as 0, every start's lead of
+      the commands over the body (about 1.5 cm at 0.1 m/s) was learnt as a wheel scale.
 
     >>> SupervisorConfig(confirm=0)
     Traceback (most recent call last):
@@ -159,6 +174,7 @@ class SupervisorConfig:
     push_margin: float = 0.04
     move_away_longest: float = 0.3
     replan_jump: tuple[float, float] = (0.05, 0.1)
+    drive_delay: float | None = None
 
     def __post_init__(self) -> None:
         if self.feedback not in FEEDBACK:
@@ -185,6 +201,8 @@ class SupervisorConfig:
         _non_negative("move_away", self.move_away)
         _non_negative("push_margin", self.push_margin)
         _non_negative("move_away_longest", self.move_away_longest)
+        if self.drive_delay is not None:
+            _non_negative("drive_delay", self.drive_delay)
         if not (isinstance(self.end_tolerance, tuple) and len(self.end_tolerance) == 2):
             raise ValueError(f"end_tolerance must be (metres, radians), got {self.end_tolerance!r}")
         for name, x in zip(("end_tolerance[0]", "end_tolerance[1]"), self.end_tolerance):

@@ -105,6 +105,8 @@ class Sensing:
         prior = OdometryPrior.from_noise(NoiseTerms(**robot.calibration()), model.wheel_base,
                                          speed=model.straight_speed, heading=self._rotation() is not None) \
             if isinstance(robot, Calibrated) else None
+        if config.drive_delay is not None:  # told how late the drive follows (clomp run --drive-delay)
+            prior = dataclasses.replace(prior or OdometryPrior.worst(), delay=config.drive_delay)
         self.estimator: ScanOdometry | None = ScanOdometry(model.wheel_base, prior=prior) \
             if config.feedback == "scan" else None
         if self.estimator is not None:  # its slides measured (clomp run --imu): the revolutions in one are not matched

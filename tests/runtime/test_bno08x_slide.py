@@ -67,3 +67,31 @@ def test_driving_and_a_bump_without_a_slide_measure_nothing() -> None:
     bump = [(i, 0.0, 0.0) for i in range(10)] + [(10, 60.0, 0.0), (11, 60.0, 0.0), (12, 60.0, 0.0)] + \
         [(i, 0.0, 0.0) for i in range(13, 30)]
     assert _slides(bump) == []
+
+
+def test_a_slide_longer_than_a_push_is_not_believed() -> None:
+    """A kick, then the acceleration held against it for 0.58 s: 1.32 m by the coast's formula
+    (over ptys, ``overtaking`` seed 7 moved its estimate by such a slide after a 0.26 m push and
+    ended truly 0.55 m off). Reported with no distance and the whole length as its sd."""
+    reports = [(i, 0.0, 0.0) for i in range(10)] + [(10 + k, 150.0, 0.0) for k in range(3)] + \
+        [(13 + k, -7.85, 0.0) for k in range(58)] + [(71 + k, 0.0, 0.0) for k in range(5)]
+    slides = _slides(reports)
+    assert len(slides) == 1
+    s = slides[0]
+    assert s.distance == 0.0 and s.sd >= 1.2, s
+    w = SlideWatch(farthest=2.0)
+    believed = [b for i, ax, ay in reports if (b := w.feed(i, ax, ay, 0.0)) is not None]
+    assert believed and believed[0].distance > 1.2  # what it measured, believed
+
+
+def test_a_slide_not_believed_leaves_the_estimate_and_opens_its_doubt() -> None:
+    from clomp.formal.model import Pose
+    from clomp.runtime.estimation.odometry import ScanOdometry
+
+    o = ScanOdometry(0.15)
+    o.reset(Pose(0.0, 0.0, 0.0), 0.0)
+    before = o.position_sd()
+    p = o.slid(0.0, 0.5, 0.0, 0.58, sd=1.32)
+    assert p == Pose(0.0, 0.0, 0.0) and o.pose == p
+    assert o.position_sd() >= 1.3 > before and o.doubt.sd >= 1.32
+    assert o.slid(0.0, 0.5, 0.0, 0.58, sd=0.0) is None  # nothing measured, nothing done
