@@ -118,7 +118,10 @@ def observed_information(information: np.ndarray, points: np.ndarray, pose: Pose
     scale = np.array([1.0, 1.0, lever])
     h = info / scale[:, None] / scale[None, :]  # the matcher's units
     u = vecs[:, lost]
-    keep = np.eye(3) - u @ u.T
-    h = keep @ h @ keep
+    # what the match says of the rest not knowing these directions (the Schur complement):
+    # never more than it said, in any direction, and nothing along them
+    hu = h @ u
+    h = h - hu @ np.linalg.pinv(u.T @ hu) @ hu.T
+    h = (h + h.T) / 2
     return h * scale[:, None] * scale[None, :], tuple(_direction_name(u[:, k]) for k in range(u.shape[1]))
 
