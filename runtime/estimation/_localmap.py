@@ -208,7 +208,7 @@ class LocalMap:
         if not lost:
             return match
         imat = tuple((float(r[0]), float(r[1]), float(r[2])) for r in info)
-        return dataclasses.replace(match, information_matrix=imat, unobservable=(*match.unobservable, *lost))
+        return dataclasses.replace(match, information_matrix=imat, unobservable=(*match.unobservable, *(d for d in lost if d not in match.unobservable)))
 
     def _map_sd(self, points: np.ndarray, pose: Pose) -> tuple[float, float]:
         """How wrong the surfaces a revolution seen from ``pose`` meets may be (m, rad): the

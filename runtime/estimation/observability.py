@@ -111,17 +111,26 @@ def observed_information(information: np.ndarray, points: np.ndarray, pose: Pose
         return info, ()
     world = points_from_frame(np.asarray(points, dtype=float).reshape(-1, 2)[mask], pose)
     shape, n = shape_information(world, (pose.x, pose.y), radius=radius, lever=lever)
-    lam, vecs = np.linalg.eigh(shape / max(n, 1))
-    lost = (lam < min_information) & (np.abs(vecs[2]) <= heading_share)
-    if not lost.any():
-        return info, ()
     scale = np.array([1.0, 1.0, lever])
     h = info / scale[:, None] / scale[None, :]  # the matcher's units
-    u = vecs[:, lost]
+    # only what the match claims can be over-claimed: the shape is judged within the directions
+    # the match observes (those it left unobservable carry no information to take out)
+    mlam, mvec = np.linalg.eigh((h + h.T) / 2)
+    r = mvec[:, mlam > 1e-9 * max(float(mlam.max()), 1e-300)]
+    if not r.size:
+        return info, ()
+    slam, svec = np.linalg.eigh(r.T @ (shape / max(n, 1)) @ r)
+    dirs = r @ svec
+    lost = (slam < min_information) & (np.abs(dirs[2]) <= heading_share)
+    if not lost.any():
+        return info, ()
     # what the match says of the rest not knowing these directions (the Schur complement):
     # never more than it said, in any direction, and nothing along them
-    hu = h @ u
-    h = h - hu @ np.linalg.pinv(u.T @ hu) @ hu.T
-    h = (h + h.T) / 2
+    hr = r.T @ h @ r
+    w = svec[:, lost]
+    hw = hr @ w
+    hr = hr - hw @ np.linalg.pinv(w.T @ hw) @ hw.T
+    h = r @ ((hr + hr.T) / 2) @ r.T
+    u = dirs[:, lost]
     return h * scale[:, None] * scale[None, :], tuple(_direction_name(u[:, k]) for k in range(u.shape[1]))
 

@@ -103,3 +103,13 @@ def test_corridor_21_without_the_gyro_does_not_claim_the_goal_after_an_unfelt_pu
     on b0cf3fc."""
     rec = run_spec(RunSpec("corridor", 21, 0, "planning", "harsh", gyro=False))
     assert not rec["false_success"], (rec["end_state"], rec["final_error_m"], rec["reason"])
+
+
+def test_a_direction_the_match_already_left_unobserved_takes_nothing_more_away() -> None:
+    """One face ahead (``overtaking`` at ``paper``): the matcher itself left the position along
+    the face unobserved, its information only across it; the shape's check leaves that as it is
+    (taking out a direction slightly off the match's own null space would take out everything)."""
+    face = np.c_[np.full(31, 0.6), np.linspace(-0.08, 0.08, 31)]
+    across = np.diag([400.0, 0.0, 0.0])
+    out, lost = observed_information(across, face, Pose(0.0, 0.0, 0.0), np.ones(31, bool))
+    assert lost == () and out[0, 0] == 400.0
