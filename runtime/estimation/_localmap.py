@@ -13,6 +13,7 @@ True
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -24,7 +25,8 @@ from clomp.runtime.estimation._exact import median
 from clomp.runtime.estimation._icp_core import cell_keys, grid_index, nearest_two
 from clomp.runtime.estimation.doubt import Doubt, see_through
 from clomp.runtime.estimation.ekf import OdometryFilter
-from clomp.runtime.estimation.icp import ReferenceScan
+from clomp.runtime.estimation.icp import ReferenceScan, ScanMatch
+from clomp.runtime.estimation.observability import observed_information
 from clomp.runtime.estimation.posts import posts_shift
 from clomp.runtime.jit import interruptible
 
@@ -191,6 +193,22 @@ class LocalMap:
         found, best, second = np.empty(len(q), dtype=np.int64), np.empty(len(q)), np.empty(len(q))
         interruptible(nearest_two, q, bound * bound, sorted_pts, starts, *grid, found, best, second)
         return np.where(found >= 0, order[np.maximum(found, 0)], -1), best, second
+
+    def _observed(self, match: ScanMatch, points: np.ndarray, paired_within: float = 0.04) -> ScanMatch:
+        """``match`` of the revolution ``points`` (robot frame) without the information its
+        scene's shape does not give (:func:`~clomp.runtime.estimation.observability.observed_information`:
+        a noisy wall's points matched point to point claim the position along the wall), the
+        directions taken out named among its unobservable ones; the points it paired are those
+        within the matcher's final distance ``paired_within`` (m) of the map. A rejected match,
+        or one the shape confirms, is returned as it is."""
+        if not match.ok or self._map_points is None or not len(points):
+            return match
+        paired = self._nearest(points_from_frame(points, match.pose), paired_within)[0] >= 0
+        info, lost = observed_information(np.asarray(match.information_matrix), points, match.pose, paired)
+        if not lost:
+            return match
+        imat = tuple((float(r[0]), float(r[1]), float(r[2])) for r in info)
+        return dataclasses.replace(match, information_matrix=imat, unobservable=(*match.unobservable, *(d for d in lost if d not in match.unobservable)))
 
     def _map_sd(self, points: np.ndarray, pose: Pose) -> tuple[float, float]:
         """How wrong the surfaces a revolution seen from ``pose`` meets may be (m, rad): the

@@ -417,7 +417,7 @@ class ScanOdometry(LocalMap, KickMemory, StandingSeed):
         gate = (min(self.gate[0], 0.03 + 3 * f.sigma_xy), min(self.gate[1], 0.05 + 3 * f.sigma_theta))
         least = self.min_points if frame.point_times is not None else self.min_points_unstamped
         match = match_scans(self._map, points, at, gate=None, min_points=least)
-        match = self._gated(match, at, gate)
+        match = self._observed(self._gated(match, at, gate), points)
         corrected = at
         reason = match.reason
         ok = match.ok
