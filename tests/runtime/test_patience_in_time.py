@@ -66,3 +66,16 @@ def test_a_wait_timing_out_again_and_again_does_not_wipe_the_search() -> None:
         p.world_changed(cfg.wait_timeout)
     first = next(i for i, v in enumerate(verdicts) if v is not None)
     assert first == 4, verdicts  # at 48 s of the run, 4 x 4 s stood: 32 s of search, 0 m closer
+
+
+@pytest.mark.slow
+def test_a_cul_de_sac_that_alternates_back_offs_and_frontier_plans_ends_unreachable() -> None:
+    """cul-de-sac seed 17 run 0 at harsh, with the gyro: a 55 s frontier plan, then back-offs
+    and frontier plans in turn, HALTED at the 120 s limit (0.61 m from the goal) when only the
+    frontier plans were judged in time; now UNREACHABLE within the limit, no collision."""
+    from clomp.runtime.experiment.runrecords import run_spec
+    from clomp.runtime.experiment.runspec import RunSpec
+
+    rec = run_spec(RunSpec("cul-de-sac", 17, 0, "planning", "harsh", gyro=True))
+    assert rec["end_state"] == "UNREACHABLE" and rec["time_s"] < 120.0, (rec["end_state"], rec["reason"])
+    assert "closer in the last" in rec["reason"] and rec["collisions"] == 0
