@@ -59,7 +59,9 @@ class SupervisorConfig:
       cul-de-sac or a shut door into the time limit. 30 s and 0.1 m: in 59 runs of 10
       families whose goal can be reached (harsh and paper) the longest such lull was 28 s (a
       21 s detour in clutter at paper), and the 16 runs at a cul-de-sac or a shut door then
-      all end by 97 s. 0 s: never.
+      all end by 97 s. Judged at every plan the robot sets out on (fresh, backing off,
+      recalled); the seconds a WAIT stood before it timed out are not counted (issue #36).
+      0 s: never.
     - ``max_recalls``: REPLANNING's recalls of the map in a row before it explores anew.
     - ``max_stuck``: plans in a row that end before the robot moved ``min_progress``
       before UNREACHABLE (standing by an obstacle, interrupted again and again).

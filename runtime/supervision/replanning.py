@@ -61,11 +61,11 @@ def fresh_plan(sup: Supervisor, scan: np.ndarray, goal: tuple[float, float], dis
     sup.plans.append(rec)
     if sup.log is not None:
         sup._log("plan", **plan_fields(result, rec.origin))
+    t = now - (sup._t0 or 0.0)
     if backs_off(result, sup.configurator.recovery):
-        why = sup.progress.backed_off(dist)
+        why = sup.progress.backed_off(dist, t)  # judged in time too: back-offs between frontier plans (issue #36)
     else:
-        why = (sup.progress.no_safe_task() if not result.steps
-               else sup.progress.planned(result.reached_goal, dist, now - (sup._t0 or 0.0)))
+        why = sup.progress.no_safe_task() if not result.steps else sup.progress.planned(result.reached_goal, dist, t)
     if why is not None:
         sup._fire(E.NO_PLAN, why)
         return
@@ -99,15 +99,19 @@ def recall(sup: Supervisor, scan: np.ndarray, now: float) -> bool:
         sup.watch.recalls[-1] = dataclasses.replace(sup.watch.recalls[-1], ok=False, reason="refused: a loop")
         sup.watch.recalls_in_a_row -= 1
         return False
-    if backs_off(found.result, sup.configurator.recovery) and (why := sup.progress.backed_off(dist)) is not None:
-        sup._fire(E.NO_PLAN, why)  # a recalled back-off counts as one (a pen: backed off, recalled, for ever)
+    t, back = now - (sup._t0 or 0.0), backs_off(found.result, sup.configurator.recovery)
+    # a recalled plan is judged in time like a fresh one (issue #36)
+    why = sup.progress.recalled(dist, None if found.result.reached_goal or back else t)
+    if why is None and back:
+        why = sup.progress.backed_off(dist, t)  # a recalled back-off counts as one (a pen: backed off, recalled, for ever)
+    if why is not None:
+        sup._fire(E.NO_PLAN, why)
         return True
     rec = sup._plan = PlanRecord(now - (sup._t0 or 0.0), last.origin, found.result, recalled=True)
     sup.plans.append(rec)
     states = rec.result.plan.states
     k = states.index(found.state)
-    sup._queue = deque((rec.result.map[t], (s, t)) for s, t in zip(states[k:], states[k + 1:]))
-    sup.progress.recalled()
+    sup._queue = deque((rec.result.map[b], (a, b)) for a, b in zip(states[k:], states[k + 1:]))
     sup._fire(E.PLANNED, f"plan {len(sup.plans)} recalled from q{found.state} of the map: {len(sup._queue)} tasks")
     sup.watch.started(sup.pose)
     sup._execute_tick(now)

@@ -398,7 +398,7 @@ class Supervisor:
         scan = self.sensing.planning_scan()
         waited_out = self.config.moving and self.appearance.stale  # a WAIT timed out: plan round what stayed
         if waited_out:
-            self.progress.world_changed()
+            self.progress.world_changed(self.config.wait_timeout)  # it stood that long: not search time
         if self.state is S.REPLANNING and not waited_out and recall(self, scan, now):
             return
         fresh_plan(self, scan, (g.x, g.y), dist, now)
