@@ -95,10 +95,13 @@ def simulate_reverse(start: Pose, goal: Disturbance | None, obstacles: Obstacles
                 gap -= margin
             hit = k
     step = robot.straight_speed * robot.tick
-    if gap >= distance:
+    # the gap in whole ticks (a gap within rounding of a tick counts as the tick); a cut that
+    # still allows the whole distance is no cut
+    ticked = max(0.0, math.floor(gap / step + 1e-9) * step) if gap < distance else distance
+    if ticked >= distance:
         travelled, d_n = distance, None
     else:
-        travelled = max(0.0, math.floor(gap / step + 1e-9) * step)
+        travelled = ticked
         i = int(obstacles.owner[hit])
         d_n = Disturbance(DisturbanceKind.OBSTACLE, float(pts[hit, 0]), float(pts[hit, 1]), obstacles.outline(i), i)
     end = Pose(start.x - c * travelled, start.y - s * travelled, start.theta)

@@ -114,3 +114,11 @@ def test_a_reverse_never_ends_with_the_body_on_a_point_behind_it(points, theta, 
     end_rear = -robot.rear_offset - out.distance
     assert not np.any(behind & (ku > end_rear + 1e-9)), (u, v, out)
     assert out.distance <= distance + 1e-12 and (out.d_n is None) == (out.distance >= distance - 1e-12)
+
+
+def test_a_reverse_cut_within_rounding_of_its_whole_length_is_not_cut() -> None:
+    """Hypothesis found it (a full-suite run, 2026-12-06): a point 0.2 m behind, a 0.01 m REVERSE — the gap
+    in whole ticks rounded up to the whole length, yet the point was named as what cut it."""
+    out = simulate_reverse(Pose(0.0, 0.0, 0.0), Disturbance.goal(1.0, 0.0), perceive(np.array([[-0.2, 0.0]]), body=None),
+                           RobotModel(), 0.01)
+    assert out is not None and out.distance == 0.01 and out.d_n is None
