@@ -44,7 +44,9 @@ from scipy.spatial import cKDTree
 
 from clomp.formal.geometry import points_from_frame
 from clomp.formal.model import Pose
+from clomp.runtime.estimation._shape_core import shape_estimate
 from clomp.runtime.estimation.icp import _direction_name
+from clomp.runtime.jit import interruptible
 
 __all__ = ["observed_information", "shape_information"]
 
@@ -93,9 +95,29 @@ def shape_information(world: np.ndarray, centre: tuple[float, float], *, radius:
     return j.T @ j, int(usable.sum())
 
 
+def _surely_observed(world: np.ndarray, centre: tuple[float, float], r: np.ndarray, min_information: float, *,
+                     radius: float, lever: float) -> bool:
+    """Whether the exact test of :func:`observed_information` surely finds every direction of
+    ``r`` (orthonormal columns, the matcher's units) observed: the compiled estimate of the
+    shape's information per point exceeds ``min_information`` there by more than its rounding
+    (bounded by 1e-7 of its trace per point: the two differ by about 1e-13 of it), and no
+    comparison in it was a tie. By Weyl's inequality the exact figure's least eigenvalue is
+    then above ``min_information`` too, and the exact test returns the match unchanged."""
+    pts = np.ascontiguousarray(world, dtype=float).reshape(-1, 2)
+    if len(pts) < 4 or not np.isfinite(pts).all():
+        return False
+    shape, n, unsure = interruptible(shape_estimate, pts, float(centre[0]), float(centre[1]), float(radius), 32, 0.25,
+                                     float(lever))
+    if unsure or n < 1:
+        return False
+    per = shape / n
+    slack = 1e-7 * float(np.trace(per)) + 1e-12
+    return bool(np.linalg.eigvalsh(r.T @ per @ r).min() >= min_information + slack)
+
+
 def observed_information(information: np.ndarray, points: np.ndarray, pose: Pose, paired: np.ndarray, *,
                          lever: float = 0.5, min_information: float = 0.02, heading_share: float = 0.3,
-                         radius: float = 0.2) -> tuple[np.ndarray, tuple[str, ...]]:
+                         radius: float = 0.2, screen: bool = True) -> tuple[np.ndarray, tuple[str, ...]]:
     """A match's ``information`` (3×3, state units: m, m, rad) without the directions the
     scene's shape does not observe (see the module), and their names (``"x"``, ``"y"`` or a
     mixed direction; empty when nothing was taken out, and then ``information`` itself is
@@ -104,13 +126,18 @@ def observed_information(information: np.ndarray, points: np.ndarray, pose: Pose
     information). A direction is not observed when the shape's information per paired point
     along it is below ``min_information`` (the matcher's own test, rotation scaled by
     ``lever``) and it is mostly a translation (its heading share at most ``heading_share``:
-    rotation about one small box is the matcher's and the filter's own concern)."""
+    rotation about one small box is the matcher's and the filter's own concern).
+
+    ``screen``: first judge the match with :func:`~clomp.runtime.estimation._shape_core.shape_estimate`
+    (compiled, the same figure up to rounding) and return ``information`` at once when every
+    direction it claims is observed by more than that rounding can move (issue #41: most
+    revolutions, at a fraction of the cost); the answer is the same bit for bit, and ``False``
+    always computes the exact shape (the reference the tests compare it with)."""
     info = np.asarray(information, dtype=float).reshape(3, 3)
     mask = np.asarray(paired, dtype=bool).reshape(-1)
     if not mask.any() or not info.any():
         return info, ()
     world = points_from_frame(np.asarray(points, dtype=float).reshape(-1, 2)[mask], pose)
-    shape, n = shape_information(world, (pose.x, pose.y), radius=radius, lever=lever)
     scale = np.array([1.0, 1.0, lever])
     h = info / scale[:, None] / scale[None, :]  # the matcher's units
     # only what the match claims can be over-claimed: the shape is judged within the directions
@@ -119,6 +146,9 @@ def observed_information(information: np.ndarray, points: np.ndarray, pose: Pose
     r = mvec[:, mlam > 1e-9 * max(float(mlam.max()), 1e-300)]
     if not r.size:
         return info, ()
+    if screen and _surely_observed(world, (pose.x, pose.y), r, min_information, radius=radius, lever=lever):
+        return info, ()
+    shape, n = shape_information(world, (pose.x, pose.y), radius=radius, lever=lever)
     slam, svec = np.linalg.eigh(r.T @ (shape / max(n, 1)) @ r)
     dirs = r @ svec
     lost = (slam < min_information) & (np.abs(dirs[2]) <= heading_share)
