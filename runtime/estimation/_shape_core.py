@@ -35,12 +35,45 @@ TIE = 1e-8
 
 
 @compiled
-def _nearest_cut(near: np.ndarray, inside: int, k: int, r2: float) -> tuple[float, bool]:  # pragma: no cover - compiled
+def _first_at_least(keys: np.ndarray, key: int) -> int:  # pragma: no cover - compiled
+    """The first index of the sorted ``keys`` holding ``key`` or more (a binary search)."""
+    lo, hi = 0, keys.shape[0]
+    while lo < hi:
+        mid = (lo + hi) // 2
+        if keys[mid] < key:
+            lo = mid + 1
+        else:
+            hi = mid
+    return lo
+
+
+@compiled
+def _nearest_cut(near: np.ndarray, inside: int, k: int, r2: float, ranked: np.ndarray) -> tuple[float, bool]:  # pragma: no cover - compiled
     """The squared distance below which the ``k`` nearest of ``near[:inside]`` lie (``r2``
-    when there are no more than ``k``), and whether the k-th and the next are a tie."""
+    when there are no more than ``k``), and whether the k-th and the next are a tie
+    (``ranked``: scratch room for ``inside`` figures)."""
     if inside <= k:
         return r2, False
-    ranked = np.partition(near[:inside], k)
+    ranked[:inside] = near[:inside]
+    lo, hi = 0, inside - 1
+    while lo < hi:  # quickselect: ranked[k] the (k+1)-th smallest, those before it no larger
+        pivot = ranked[(lo + hi) // 2]
+        i, j = lo, hi
+        while i <= j:
+            while ranked[i] < pivot:
+                i += 1
+            while ranked[j] > pivot:
+                j -= 1
+            if i <= j:
+                ranked[i], ranked[j] = ranked[j], ranked[i]
+                i += 1
+                j -= 1
+        if k <= j:
+            hi = j
+        elif k >= i:
+            lo = i
+        else:
+            break
     kth, nxt = ranked[:k].max(), ranked[k]
     return 0.5 * (kth + nxt), bool(nxt - kth <= TIE * r2)
 
@@ -68,6 +101,7 @@ def shape_estimate(pts: np.ndarray, cx: float, cy: float, radius: float, neighbo
     xs, ys = pts[order, 0].copy(), pts[order, 1].copy()
     keys = (cx_of * ny + cy_of)[order]
     near = np.empty(n_pts)
+    scratch = np.empty(n_pts)
     who = np.empty(n_pts, dtype=np.int64)
     usable = 0
     unsure = False
@@ -76,8 +110,8 @@ def shape_estimate(pts: np.ndarray, cx: float, cy: float, radius: float, neighbo
         gx, gy = int(keys[i] // ny), int(keys[i] % ny)
         inside = 0
         for ix in range(max(gx - 1, 0), min(gx + 2, nx)):
-            first = int(np.searchsorted(keys, ix * ny + max(gy - 1, 0)))
-            last = int(np.searchsorted(keys, ix * ny + min(gy + 2, ny)))
+            first = _first_at_least(keys, ix * ny + max(gy - 1, 0))
+            last = _first_at_least(keys, ix * ny + min(gy + 2, ny))
             for jj in range(first, last):
                 dx, dy = xs[jj] - xi, ys[jj] - yi
                 e = dx * dx + dy * dy
@@ -87,7 +121,7 @@ def shape_estimate(pts: np.ndarray, cx: float, cy: float, radius: float, neighbo
                     near[inside] = e
                     who[inside] = jj
                     inside += 1
-        cut, tie = _nearest_cut(near, inside, k, r2)
+        cut, tie = _nearest_cut(near, inside, k, r2, scratch)
         unsure = unsure or tie
         count = 0
         mx, my = 0.0, 0.0

@@ -59,3 +59,21 @@ def test_screen_decides_a_rich_scene_without_the_exact_shape(monkeypatch: object
     corridor = _scene(3, 0, 0.0, 81)
     assert observed_information(full, corridor, Pose(0.0, 0.0, 0.0), np.ones(len(corridor), bool))[1] == ("x",)
     assert calls
+
+
+@settings(max_examples=80, deadline=None)
+@given(st.lists(st.floats(0.0, 0.04), min_size=1, max_size=60), st.integers(1, 40))
+def test_nearest_cut_selects_the_k_nearest(values: list[float], k: int) -> None:
+    """The quickselect cut keeps exactly the ``k`` nearest, or says the k-th and the next tie."""
+    from clomp.runtime.estimation._shape_core import _nearest_cut
+
+    near = np.array(values)
+    cut, tie = _nearest_cut(near, len(near), k, 0.04, np.empty(len(near)))
+    ranked = np.sort(near)
+    if len(near) <= k:
+        assert cut == 0.04 and not tie
+    elif not tie:
+        assert int((near <= cut).sum()) == k
+        assert ranked[k] - ranked[k - 1] > 0.04 * 1e-8
+    else:
+        assert ranked[k] - ranked[k - 1] <= 0.04 * 1e-8
