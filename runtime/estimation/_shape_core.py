@@ -11,10 +11,13 @@ point at the line test's threshold or without spread. The caller then trusts it 
 the rounding provably cannot change the answer, and otherwise computes the exact one.
 
 >>> import numpy as np
->>> wall = np.c_[np.linspace(-1.0, 1.0, 81), np.full(81, 0.5)]
+>>> wall = np.c_[np.linspace(-1.0, 1.0, 80), np.full(80, 0.5)]
 >>> shape, n, unsure = shape_estimate(wall, 0.0, 0.0, 0.2, 32, 0.25, 0.5)
 >>> n, unsure, round(float(shape[1, 1]), 6), round(float(shape[0, 0]), 6)
-(81, False, 81.0, 0.0)
+(80, False, 80.0, 0.0)
+>>> spaced = np.c_[np.linspace(-1.0, 1.0, 81), np.full(81, 0.5)]  # every 2.5 cm: neighbours at 0.2 m exactly
+>>> bool(shape_estimate(spaced, 0.0, 0.0, 0.2, 32, 0.25, 0.5)[2])
+True
 """
 
 from __future__ import annotations
