@@ -12,6 +12,6 @@ stood building the map's seed.
 
 from __future__ import annotations
 
-from clomp.runtime.estimation.icp import ReferenceScan, ScanMatch, match_scans
+from clomp.runtime.estimation.icp import ReferenceScan, ScanMatch, match_scans, neighbour_lines
 
-__all__ = ["ReferenceScan", "ScanMatch", "match_scans"]
+__all__ = ["ReferenceScan", "ScanMatch", "match_scans", "neighbour_lines"]

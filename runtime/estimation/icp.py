@@ -46,7 +46,7 @@ from clomp.formal.model import Pose
 from clomp.runtime.estimation._icp_core import cell_keys, grid_index, icp_iterations
 from clomp.runtime.jit import interruptible
 
-__all__ = ["ScanMatch", "ReferenceScan", "match_scans"]
+__all__ = ["ScanMatch", "ReferenceScan", "match_scans", "neighbour_lines"]
 
 # the reference grid's cell (m): about the first iteration's correspondence distance
 _CELL = 0.1
@@ -99,22 +99,9 @@ class ReferenceScan:
         if len(pts) < neighbours:
             self._set_rows()
             return
-        d, idx = cKDTree(pts).query(pts, k=neighbours, distance_upper_bound=normal_radius)
-        near = np.isfinite(d)
-        count = near.sum(axis=1)
-        nb = pts[np.where(near, idx, 0)]  # N×k×2, padded with point 0 where no neighbour
-        wts = near[..., None].astype(float)
-        mean = (nb * wts).sum(axis=1) / np.maximum(count, 1)[:, None]
-        q = (nb - mean[:, None, :]) * wts
-        sxx, syy, sxy = (q[..., 0] ** 2).sum(1), (q[..., 1] ** 2).sum(1), (q[..., 0] * q[..., 1]).sum(1)
-        # eigenvalues of [[sxx, sxy], [sxy, syy]]: the line's spread and the spread across it
-        half_tr, det = (sxx + syy) / 2, sxx * syy - sxy**2
-        root = np.sqrt(np.maximum(half_tr**2 - det, 0.0))
-        big, small = half_tr + root, half_tr - root
-        angle = 0.5 * np.arctan2(2 * sxy, sxx - syy)  # direction of the line
+        count, line, angle = neighbour_lines(pts, normal_radius, neighbours)
         # a point is usable when it has neighbours; it is on a line when they spread along one
         usable = count >= 4
-        line = (big > 0) & (small <= 0.25 * big)
         self.points = pts[usable]
         self.normals = np.c_[-np.sin(angle), np.cos(angle)][usable]
         self.line = line[usable]
@@ -145,6 +132,47 @@ class ReferenceScan:
 
     def __len__(self) -> int:
         return len(self.points)
+
+
+def neighbour_lines(points: np.ndarray, radius: float, neighbours: int,
+                    line_ratio: float = 0.25) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The line test of each point's neighbourhood: for every row of ``points`` (N×2; N and
+    ``neighbours`` at least 2),
+    how many of its ``neighbours`` nearest points lie within ``radius`` (itself included),
+    whether they spread along a line (the spread across it at most ``line_ratio`` of the
+    spread along, the principal axes of their scatter) and that line's direction (rad).
+
+    The matcher (:class:`ReferenceScan`, within 8 cm) gives a point on a line its normal;
+    :func:`~clomp.runtime.estimation.observability.shape_information` (within 0.2 m) asks the
+    same of the scene's shape; the compiled screen
+    :func:`~clomp.runtime.estimation._shape_core.shape_estimate` repeats it for speed (a test
+    holds the two together).
+
+    >>> import numpy as np
+    >>> s = np.linspace(0.0, 0.5, 11)
+    >>> corner = np.r_[np.c_[s, np.zeros(11)], np.c_[np.zeros(10), s[1:]]]   # two walls meet at 0
+    >>> count, line, angle = neighbour_lines(corner, 0.12, 8)
+    >>> int(count[5]), bool(line[5]), round(float(angle[5]), 3), round(float(angle[15]), 3)
+    (5, True, 0.0, 1.571)
+    >>> bool(line[0])                                  # the corner itself lies on no line
+    False
+    """
+    pts = np.asarray(points, dtype=float).reshape(-1, 2)
+    d, idx = cKDTree(pts).query(pts, k=min(neighbours, len(pts)), distance_upper_bound=radius)
+    near = np.isfinite(d)
+    count = near.sum(axis=1)
+    nb = pts[np.where(near, idx, 0)]  # N×k×2, padded with point 0 where no neighbour
+    wts = near[..., None].astype(float)
+    mean = (nb * wts).sum(axis=1) / np.maximum(count, 1)[:, None]
+    q = (nb - mean[:, None, :]) * wts
+    sxx, syy, sxy = (q[..., 0] ** 2).sum(1), (q[..., 1] ** 2).sum(1), (q[..., 0] * q[..., 1]).sum(1)
+    # eigenvalues of [[sxx, sxy], [sxy, syy]]: the line's spread and the spread across it
+    half_tr, det = (sxx + syy) / 2, sxx * syy - sxy**2
+    root = np.sqrt(np.maximum(half_tr**2 - det, 0.0))
+    big, small = half_tr + root, half_tr - root
+    angle = 0.5 * np.arctan2(2 * sxy, sxx - syy)  # direction of the line
+    line = (big > 0) & (small <= line_ratio * big)
+    return count, line, angle
 
 
 def _direction_name(v: np.ndarray) -> str:

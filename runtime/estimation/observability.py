@@ -40,12 +40,11 @@ returned unchanged.
 from __future__ import annotations
 
 import numpy as np
-from scipy.spatial import cKDTree
 
 from clomp.formal.geometry import points_from_frame
 from clomp.formal.model import Pose
 from clomp.runtime.estimation._shape_core import shape_estimate
-from clomp.runtime.estimation.icp import _direction_name
+from clomp.runtime.estimation.icp import _direction_name, neighbour_lines
 from clomp.runtime.jit import interruptible
 
 __all__ = ["observed_information", "shape_information"]
@@ -69,21 +68,9 @@ def shape_information(world: np.ndarray, centre: tuple[float, float], *, radius:
     pts = np.asarray(world, dtype=float).reshape(-1, 2)
     if len(pts) < 4:
         return np.zeros((3, 3)), 0
-    k = min(neighbours, len(pts))
-    d, idx = cKDTree(pts).query(pts, k=k, distance_upper_bound=radius)
-    near = np.isfinite(d)
-    count = near.sum(axis=1)
-    nb = pts[np.where(near, idx, 0)]
-    w = near[..., None].astype(float)
-    mean = (nb * w).sum(axis=1) / np.maximum(count, 1)[:, None]
-    q = (nb - mean[:, None, :]) * w
-    sxx, syy, sxy = (q[..., 0] ** 2).sum(1), (q[..., 1] ** 2).sum(1), (q[..., 0] * q[..., 1]).sum(1)
-    half, det = (sxx + syy) / 2, sxx * syy - sxy**2
-    root = np.sqrt(np.maximum(half**2 - det, 0.0))
-    big, small = half + root, half - root
-    angle = 0.5 * np.arctan2(2 * sxy, sxx - syy)  # the line's direction
+    count, line, angle = neighbour_lines(pts, radius, neighbours, line_ratio)  # the matcher's test
     usable = count >= 4
-    line = usable & (big > 0) & (small <= line_ratio * big)
+    line = usable & line
     spot = usable & ~line
     # d(point)/d(theta), over the lever: the point about the robot, turned a right angle
     arm = np.c_[-(pts[:, 1] - centre[1]), pts[:, 0] - centre[0]] / lever

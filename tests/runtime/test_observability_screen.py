@@ -8,7 +8,8 @@ from hypothesis import strategies as st
 
 from clomp.formal.model import Pose
 from clomp.runtime.estimation import observability
-from clomp.runtime.estimation.observability import observed_information
+from clomp.runtime.estimation._shape_core import shape_estimate
+from clomp.runtime.estimation.observability import observed_information, shape_information
 
 
 def _scene(seed: int, kind: int, noise: float, n: int) -> np.ndarray:
@@ -40,6 +41,23 @@ def test_screen_is_the_exact_answer(seed: int, kind: int, noise: float, n: int, 
     exact = observed_information(info, points, pose, paired, screen=False)
     assert fast[1] == exact[1]
     assert fast[0].tobytes() == exact[0].tobytes()
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(0, 10**6), st.integers(0, 2), st.sampled_from([0.0, 0.005, 0.025]), st.integers(4, 120),
+       st.floats(-0.5, 0.5), st.sampled_from([0.15, 0.2]), st.sampled_from([0.25, 0.4]))
+def test_compiled_shape_is_the_shared_line_test(seed: int, kind: int, noise: float, n: int, x: float, radius: float,
+                                                ratio: float) -> None:
+    """The compiled copy of the line test (``shape_estimate``) gives what the python one
+    (``icp.neighbour_lines``, through ``shape_information``) gives, up to rounding, whenever it
+    does not say a comparison was a tie: a point judged a line by one and not the other
+    would move the figure by a whole point's worth."""
+    world = _scene(seed, kind, noise, n)
+    fast, m, unsure = shape_estimate(np.ascontiguousarray(world), x, 0.0, radius, 32, ratio, 0.5)
+    exact, n_exact = shape_information(world, (x, 0.0), radius=radius, line_ratio=ratio)
+    if not unsure:
+        assert m == n_exact
+        assert np.allclose(fast, exact, rtol=0.0, atol=1e-9 * max(float(np.trace(exact)), 1.0))
 
 
 def test_screen_decides_a_rich_scene_without_the_exact_shape(monkeypatch: object) -> None:
