@@ -1,8 +1,12 @@
-"""Shared fixtures: where the recorded scans are."""
+"""Shared fixtures: where the recorded scans are, and the bench scripts as modules."""
 
 from __future__ import annotations
 
+import importlib
+import sys
+from collections.abc import Callable
 from pathlib import Path
+from types import ModuleType
 
 import pytest
 from hypothesis import HealthCheck, settings
@@ -18,6 +22,21 @@ SCANS = REPO.parent / "shared" / "data" / "scans" / "corridor-2023-10-25"
 #: the overtaking scenario's goal stands in the box's shadow (no plan claims it); this one,
 #: right of the box and seen by the scan, is reached round the box (R S R S L S, 14 states)
 SEEN_GOAL = "overtaking@0.8,-0.3"
+BENCH = REPO / "bench"
+
+
+@pytest.fixture(scope="session")
+def bench_script() -> Callable[[str], ModuleType]:
+    """``bench_script(name)``: the script ``bench/<name>.py`` as a module, imported by its own
+    name with ``bench/`` on ``sys.path`` (as the worker processes a bench spawns import it,
+    ``sys.path`` passed on), so the tests call the very functions the script runs."""
+
+    def load(name: str) -> ModuleType:
+        if str(BENCH) not in sys.path:
+            sys.path.insert(0, str(BENCH))
+        return importlib.import_module(name)
+
+    return load
 
 
 @pytest.fixture(scope="session")

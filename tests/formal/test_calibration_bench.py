@@ -3,24 +3,20 @@ are measured, not tested: see docs/calibration.md)."""
 
 from __future__ import annotations
 
-import importlib
-import sys
+from collections.abc import Callable
 from pathlib import Path
 from types import ModuleType
 
 import pytest
 
-BENCH = Path(__file__).resolve().parents[2] / "bench" / "calibration.py"
+
+@pytest.fixture
+def calibration(bench_script: Callable[[str], ModuleType]) -> ModuleType:
+    return bench_script("calibration")
 
 
-def _bench() -> ModuleType:
-    if str(BENCH.parent) not in sys.path:
-        sys.path.insert(0, str(BENCH.parent))
-    return importlib.import_module(BENCH.stem)
-
-
-def test_the_table_bins_predictions_and_sets_the_wilson_interval_beside_them():
-    rows = _bench().calibration_rows([0.05, 0.1, 0.5, 0.55, 0.9, 1.0, float("nan")], [1, 1, 0, 1, 1, 1, 0])
+def test_the_table_bins_predictions_and_sets_the_wilson_interval_beside_them(calibration: ModuleType) -> None:
+    rows = calibration.calibration_rows([0.05, 0.1, 0.5, 0.55, 0.9, 1.0, float("nan")], [1, 1, 0, 1, 1, 1, 0])
     assert [(r["bin"], r["n"], r["successes"]) for r in rows] == [("0.0-0.2", 2, 2), ("0.4-0.6", 2, 1), ("0.8-1.0", 2, 2)]
     low = rows[0]
     assert low["mean_predicted"] == pytest.approx(0.075) and low["wilson"][0] == pytest.approx(0.342, abs=1e-3)
@@ -28,13 +24,13 @@ def test_the_table_bins_predictions_and_sets_the_wilson_interval_beside_them():
 
 
 @pytest.mark.parametrize("argv", [["--layouts", "0"], ["--families", "nowhere"], ["--noise", "stormy"]])
-def test_bad_options_are_refused_before_any_run(argv, capsys):
+def test_bad_options_are_refused_before_any_run(argv: list[str], capsys: pytest.CaptureFixture[str], calibration: ModuleType) -> None:
     with pytest.raises(SystemExit) as exc:
-        _bench().main(argv)
+        calibration.main(argv)
     assert exc.value.code == 2 and "error:" in capsys.readouterr().err
 
 
-def test_greedy_and_robust_runs_written_apart_merge_per_layout(tmp_path, capsys):
+def test_greedy_and_robust_runs_written_apart_merge_per_layout(tmp_path: Path, capsys: pytest.CaptureFixture[str], calibration: ModuleType) -> None:
     """The calibration's greedy runs and the paired robust runs come from separate runs
     of the bench (``--conditions``); ``--summary`` pairs them by noise, family and layout."""
     import json
@@ -43,12 +39,12 @@ def test_greedy_and_robust_runs_written_apart_merge_per_layout(tmp_path, capsys)
     key = {"family": "doorway", "run": 3, "noise": "paper"}
     a.write_text(json.dumps({**key, "greedy": {"ok": 1}}) + "\n" + json.dumps({**key, "run": 4, "greedy": {"ok": 0}}) + "\n")
     b.write_text(json.dumps({**key, "robust": {"ok": 0}}) + "\n")
-    merged = _bench().read_records([str(a), str(b)])
+    merged = calibration.read_records([str(a), str(b)])
     assert [(p["run"], sorted(k for k in p if k in ("greedy", "robust"))) for p in merged] == [(3, ["greedy", "robust"]), (4, ["greedy"])]
-    assert _bench().main(["--summary", str(tmp_path / "missing.jsonl")]) == 2 and "error:" in capsys.readouterr().err
+    assert calibration.main(["--summary", str(tmp_path / "missing.jsonl")]) == 2 and "error:" in capsys.readouterr().err
 
 
-def test_resume_leaves_out_the_layouts_the_out_file_holds(tmp_path):
+def test_resume_leaves_out_the_layouts_the_out_file_holds(tmp_path: Path, calibration: ModuleType) -> None:
     """``--resume``: a sweep run in stages continues where ``--out`` stops; a layout
     whose asked condition is missing (a robust run after greedy ones) is still to do."""
     import json
@@ -57,14 +53,14 @@ def test_resume_leaves_out_the_layouts_the_out_file_holds(tmp_path):
     out.write_text("".join(json.dumps(r) + "\n" for r in (
         {"noise": "harsh", "family": "u-trap", "run": 0, "greedy": {"ok": 1}},
         {"noise": "harsh", "family": "doorway", "run": 1, "greedy": {"ok": 0}})))
-    b = _bench()
+    b = calibration
     base = ["--layouts", "2", "--families", "u-trap", "doorway", "--noise", "harsh", "--out", str(out)]
     assert b._todo(b._parse([*base, "--conditions", "greedy", "--resume"])) == [("doorway", 0, "harsh"), ("u-trap", 1, "harsh")]
     assert len(b._todo(b._parse([*base, "--conditions", "greedy", "robust", "--resume"]))) == 4
     assert len(b._todo(b._parse([*base, "--conditions", "greedy"]))) == 4  # without --resume: everything
 
 
-def test_resume_needs_an_out_file(capsys):
+def test_resume_needs_an_out_file(capsys: pytest.CaptureFixture[str], calibration: ModuleType) -> None:
     with pytest.raises(SystemExit) as exc:
-        _bench().main(["--resume"])
+        calibration.main(["--resume"])
     assert exc.value.code == 2 and "--out" in capsys.readouterr().err

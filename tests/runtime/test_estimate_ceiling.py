@@ -3,10 +3,8 @@ the world's drive in the filter's terms, so dead reckoning with it follows the w
 
 from __future__ import annotations
 
-import importlib
 import math
-import sys
-from pathlib import Path
+from collections.abc import Callable
 from types import ModuleType
 
 import pytest
@@ -16,22 +14,20 @@ from clomp.runtime.estimation.ekf import OdometryFilter
 from clomp.runtime.backends.world import WorldNoise, make_world_robot
 from clomp.runtime.supervision import SupervisorConfig
 
-BENCH = Path(__file__).resolve().parents[2] / "bench" / "estimate_ceiling.py"
+
+@pytest.fixture
+def ceiling(bench_script: Callable[[str], ModuleType]) -> ModuleType:
+    return bench_script("estimate_ceiling")
 
 
-def _bench() -> ModuleType:
-    if str(BENCH.parent) not in sys.path:
-        sys.path.insert(0, str(BENCH.parent))
-    return importlib.import_module(BENCH.stem)
-
-
-def _dead_reckoning_error(seed: int, known: bool) -> tuple[float, float]:
+def _dead_reckoning_error(seed: int, ceiling: ModuleType | None) -> tuple[float, float]:
     """A straight, a left quarter turn, a straight, a right quarter turn, a straight, in a
-    world with strong bias, drift and slip: the filter's dead reckoning against the truth."""
+    world with strong bias, drift and slip: the filter's dead reckoning against the truth,
+    told the world's calibration by ``ceiling`` (the bench module; None: not told)."""
     w = make_world_robot(load_scenario("open"), WorldNoise(wheel_bias=0.05, drift=0.02, slip=0.05), seed=seed)
     f = OdometryFilter(w.body.wheel_base)
-    if known:
-        f.x[3:7] = _bench().true_calibration(w, w.body.wheel_base)
+    if ceiling is not None:
+        f.x[3:7] = ceiling.true_calibration(w, w.body.wheel_base)
     start = w.ground_truth_pose()
     turn = 0.58 * w.body.wheel_base / 2
     for (left, right), ticks in (((0.1, 0.1), 30), ((-turn, turn), 27), ((0.1, 0.1), 30), ((turn, -turn), 27),
@@ -46,18 +42,18 @@ def _dead_reckoning_error(seed: int, known: bool) -> tuple[float, float]:
 
 
 @pytest.mark.parametrize("seed", [0, 1, 2, 3])
-def test_the_true_calibration_makes_dead_reckoning_follow_the_world(seed: int) -> None:
-    err, heading = _dead_reckoning_error(seed, known=True)
+def test_the_true_calibration_makes_dead_reckoning_follow_the_world(seed: int, ceiling: ModuleType) -> None:
+    err, heading = _dead_reckoning_error(seed, ceiling)
     assert err < 0.015 and heading < math.radians(3.0)  # what is left is the per-tick slip
 
 
 def test_without_it_the_same_drive_goes_astray() -> None:
     # the check above has something to tell: uncalibrated, the same seeds end far off
-    assert max(_dead_reckoning_error(seed, known=False)[0] for seed in range(4)) > 0.1
+    assert max(_dead_reckoning_error(seed, None)[0] for seed in range(4)) > 0.1
 
 
 @pytest.mark.parametrize("seed", [0, 1, 2])
-def test_the_gyros_true_calibration_makes_its_heading_follow_the_world(seed: int) -> None:
+def test_the_gyros_true_calibration_makes_its_heading_follow_the_world(seed: int, ceiling: ModuleType) -> None:
     """With a gyro the filter's ``k`` and ``b`` are the gyro's: told them, the heading
     integrated from its readings follows the body through two quarter turns; untold, the
     same drive ends degrees off."""
@@ -66,7 +62,7 @@ def test_the_gyros_true_calibration_makes_its_heading_follow_the_world(seed: int
         w = make_world_robot(load_scenario("open"), WorldNoise(rate_bias=0.05, rate_scale=0.05), seed=seed)
         f = OdometryFilter(w.body.wheel_base)
         if known:
-            f.x[3:8] = _bench().true_gyro_calibration(w, w.body.wheel_base)
+            f.x[3:8] = ceiling.true_gyro_calibration(w, w.body.wheel_base)
         start, last = w.ground_truth_pose(), w.rotation()
         turn = 0.58 * w.body.wheel_base / 2
         for (left, right), ticks in (((-turn, turn), 27), ((0.1, 0.1), 20), ((turn, -turn), 27), ((0.0, 0.0), 5)):
@@ -81,7 +77,7 @@ def test_the_gyros_true_calibration_makes_its_heading_follow_the_world(seed: int
     assert errors[0] < math.radians(0.1) < math.radians(2) < errors[1], errors
 
 
-def test_the_true_pose_is_fed_in_the_supervisors_frame() -> None:
+def test_the_true_pose_is_fed_in_the_supervisors_frame(ceiling: ModuleType) -> None:
     """A corridor layout starts turned in the world (here -0.145 rad): the truth ablation
     must hand the supervisor the world's pose seen from the start, as its estimate is, or
     the goal turns with the start heading and the "ceiling" misses corridors it should not."""
@@ -94,7 +90,7 @@ def test_the_true_pose_is_fed_in_the_supervisors_frame() -> None:
     assert abs(scene.start.theta) > 0.1  # the case this test is about
     conf = Configurator()
     robot = make_robot(scene, noise="harsh", seed=0, model=conf.robot)
-    sup = _bench()._TruthFed(robot, tuple(scene.goal_in_robot_frame()), conf, config=SupervisorConfig(feedback="scan"))
+    sup = ceiling._TruthFed(robot, tuple(scene.goal_in_robot_frame()), conf, config=SupervisorConfig(feedback="scan"))
     sup.start()
     poses = []
     for _ in range(400):  # 40 s: the still start, a plan, driving

@@ -3,24 +3,21 @@ reports how well the filter learnt them (per family, hyphenated family names inc
 
 from __future__ import annotations
 
-import importlib
-import sys
+from collections.abc import Callable
 from pathlib import Path
 from types import ModuleType
 
 import numpy as np
-
-BENCH = Path(__file__).resolve().parents[2] / "bench"
-
-
-def _module(name: str) -> ModuleType:
-    if str(BENCH) not in sys.path:
-        sys.path.insert(0, str(BENCH))
-    return importlib.import_module(name)
+import pytest
 
 
-def test_a_recording_keeps_the_drive_and_the_replay_compares_the_learnt_calibration(tmp_path: Path) -> None:
-    replay = _module("estimator_replay")
+@pytest.fixture
+def replay(bench_script: Callable[[str], ModuleType]) -> ModuleType:
+    return bench_script("estimator_replay")
+
+
+def test_a_recording_keeps_the_drive_and_the_replay_compares_the_learnt_calibration(
+        tmp_path: Path, replay: ModuleType, bench_script: Callable[[str], ModuleType]) -> None:
     path = replay._record_one(("overtaking", 0, 0, "harsh", str(tmp_path)))
     kept = np.load(path)["calibration"]
     # the same terms a world built from the same (family, seed, run, noise) drives with
@@ -31,7 +28,7 @@ def test_a_recording_keeps_the_drive_and_the_replay_compares_the_learnt_calibrat
     scene, _ = scene_for(RunSpec("overtaking", 0, 0, "planning", "harsh"))
     model = Configurator().robot
     robot = make_robot(scene, noise="harsh", seed=noise_seed(0, 0), model=model)
-    expected = _module("estimate_ceiling").true_calibration(robot, model.wheel_base)
+    expected = bench_script("estimate_ceiling").true_calibration(robot, model.wheel_base)
     assert np.allclose(kept, expected) and abs(kept[2]) > 0.0
     name, position, heading, cpu, learnt, truth = replay._replay(path, {})
     assert name.startswith("overtaking-0-0-harsh") and position >= 0.0 and heading >= 0.0
@@ -39,8 +36,7 @@ def test_a_recording_keeps_the_drive_and_the_replay_compares_the_learnt_calibrat
     assert "curvature sign right in" in replay.calibration_line([(name, position, heading, cpu, learnt, truth)])
 
 
-def test_family_names_with_hyphens_and_the_sign_count() -> None:
-    replay = _module("estimator_replay")
+def test_family_names_with_hyphens_and_the_sign_count(replay: ModuleType) -> None:
     assert replay.family_of("cul-de-sac-3-12-harsh.npz") == "cul-de-sac"
     assert replay.family_of("u-trap-0-1-paper.npz") == "u-trap"
     assert replay.family_of("slalom-0-9-harsh.npz") == "slalom"
@@ -53,12 +49,11 @@ def test_family_names_with_hyphens_and_the_sign_count() -> None:
     assert "not recorded" in replay.calibration_line(old)
 
 
-def test_a_short_recording_holds_the_whole_run_and_replays_to_the_same_estimate(tmp_path: Path) -> None:
+def test_a_short_recording_holds_the_whole_run_and_replays_to_the_same_estimate(tmp_path: Path, replay: ModuleType) -> None:
     """``record`` keeps every call the supervisor makes to its estimator, with the keywords it
     passes now (the gyro's ``rotation``, the odometry's ``covariance``): a recorder that
     rejected one held only the reset and its run ended HALTED at once. Replayed with the same
     settings, the inputs lead to the very estimate the recording's estimator ended at."""
-    replay = _module("estimator_replay")
     path = replay.record("overtaking", 0, 0, "harsh", str(tmp_path), max_time=6.0)
     d = np.load(path)
     kinds = list(d["kinds"])
