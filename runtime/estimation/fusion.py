@@ -32,12 +32,21 @@ import numpy as np
 
 from clomp.formal.geometry import polar_to_xy
 
-__all__ = ["fuse_revolutions", "range_spread"]
+__all__ = ["bin_ranges", "fuse_revolutions", "range_spread"]
 
 
-def _bin_ranges(clouds: Sequence[np.ndarray], bin_deg: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Each revolution's mean range per bearing bin (NaN where it saw nothing), and the
-    summed sines and cosines of the bearings per bin."""
+def bin_ranges(clouds: Sequence[np.ndarray], bin_deg: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Each revolution's mean range per bearing bin of ``bin_deg`` degrees (NaN where it saw
+    nothing), and the summed sines and cosines of the bearings per bin: what
+    :func:`fuse_revolutions`, :func:`range_spread` and
+    :func:`~clomp.runtime.estimation.standing.moved_standing` compare revolutions by.
+
+    >>> import numpy as np
+    >>> near, far = np.array([[0.5, 0.0], [0.0, 1.0]]), np.array([[0.6, 0.0]])
+    >>> ranges, _, _ = bin_ranges([near, far], 90.0)      # four bins: ahead, left, behind, right
+    >>> ranges.round(2).tolist()
+    [[0.5, 1.0, nan, nan], [0.6, nan, nan, nan]]
+    """
     nbins = int(math.ceil(360.0 / bin_deg))
     ranges = np.full((len(clouds), nbins), np.nan)
     sin_sum = np.zeros(nbins)
@@ -69,7 +78,7 @@ def range_spread(scans: Sequence[np.ndarray], bin_deg: float = 0.5, min_pairs: i
     clouds = [np.asarray(s, dtype=float).reshape(-1, 2) for s in scans]
     if len(clouds) < 2:
         return None
-    ranges, _, _ = _bin_ranges(clouds, bin_deg)
+    ranges, _, _ = bin_ranges(clouds, bin_deg)
     diff = np.diff(ranges, axis=0)
     diff = diff[np.isfinite(diff)]
     if len(diff) < min_pairs:
@@ -85,7 +94,7 @@ def fuse_revolutions(scans: Sequence[np.ndarray], bin_deg: float = 0.5, min_supp
     clouds = [np.asarray(s, dtype=float).reshape(-1, 2) for s in scans]
     if len(clouds) < max(2, min_support):
         return clouds[-1] if clouds else np.zeros((0, 2))
-    ranges, sin_sum, cos_sum = _bin_ranges(clouds, bin_deg)
+    ranges, sin_sum, cos_sum = bin_ranges(clouds, bin_deg)
     support = np.sum(np.isfinite(ranges), axis=0)
     keep = support >= min_support
     if not keep.any():

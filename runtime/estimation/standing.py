@@ -40,7 +40,7 @@ import numpy as np
 
 from clomp.runtime.estimation.doubt import Doubt
 from clomp.runtime.estimation.ekf import OdometryFilter
-from clomp.runtime.estimation.fusion import _bin_ranges, fuse_revolutions
+from clomp.runtime.estimation.fusion import bin_ranges, fuse_revolutions
 
 __all__ = ["StandingSeed", "moved_standing"]
 
@@ -56,7 +56,7 @@ def moved_standing(seed: Sequence[np.ndarray], points: np.ndarray, *, step: floa
     if not len(seed) or not len(points):
         return False
     ref = fuse_revolutions(seed) if len(seed) > 1 else np.asarray(seed[-1], dtype=float).reshape(-1, 2)
-    ranges, _, _ = _bin_ranges([ref, np.asarray(points, dtype=float).reshape(-1, 2)], bin_deg)
+    ranges, _, _ = bin_ranges([ref, np.asarray(points, dtype=float).reshape(-1, 2)], bin_deg)
     diff = np.abs(ranges[1] - ranges[0])
     diff = diff[np.isfinite(diff)]
     return len(diff) >= least and float(np.mean(diff > step)) > share
