@@ -33,11 +33,9 @@ every command); the dead-reckoned pose still follows the commands, i.e. it is wh
 
 from __future__ import annotations
 
-import dataclasses
 import math
 import threading
 import time
-from collections import deque
 from collections.abc import Callable
 from dataclasses import asdict, dataclass, field
 from typing import Any, Literal, TypeVar
@@ -45,19 +43,19 @@ from typing import Any, Literal, TypeVar
 from clomp.formal.geometry import dead_reckon
 from clomp.formal.model import Pose
 from clomp.planner.robot_model import RobotModel
-from clomp.runtime.devices.port import OPEN_ERRORS, PORT_ERRORS, open_serial
+from clomp.runtime.devices.port import PORT_ERRORS
 from clomp.runtime.devices.bno08x import Bno08xRvc, ImuError, Slide
 from clomp.runtime.devices.maestro import Maestro, MaestroError, WheelConfig
 from clomp.runtime.devices.rplidar import DEFAULT_BAUDRATE, LidarError, LidarTimeout, RPLidar
-from clomp.runtime.clock import Clock, WallClock, device_seconds, device_time, device_to_clock
+from clomp.runtime.clock import Clock, WallClock, device_time
 from clomp.runtime.interface import RobotFault, ScanFrame
 from clomp.runtime.records.runlog import RunLogLike
+from clomp.runtime.backends._lidar_watch import LidarWatch, _CountingPort, _describe, on_clock, open_lidar_port
 
 __all__ = ["HardwareConfig", "HardwareRobot", "on_clock", "open_lidar_port"]
 _T = TypeVar("_T")
 
 _DEVICE_ERRORS: tuple[type[BaseException], ...] = (LidarError, MaestroError, ImuError, ValueError, *PORT_ERRORS)
-_READ_SLICE = 0.05  # seconds one blocking read of the LiDAR port may take
 #: seconds (device time) close() waits, once the wheels are stopped, for the reader to end and
 #: the devices to be released: a stalled device (a write that blocks) is then left behind, and
 #: never holds the process
@@ -123,65 +121,7 @@ class HardwareConfig:
         return asdict(self)
 
 
-class _CountingPort:
-    """A serial-like port that counts the bytes read through it (the stream watch needs it)."""
-
-    def __init__(self, port: Any) -> None:
-        self._port = port
-        self.bytes_read = 0
-
-    def read(self, size: int = 1) -> bytes:
-        data: bytes = self._port.read(size)
-        self.bytes_read += len(data)
-        return data
-
-    @property
-    def dtr(self) -> Any:
-        return self._port.dtr
-
-    @dtr.setter
-    def dtr(self, value: bool) -> None:
-        self._port.dtr = value
-
-    def __getattr__(self, name: str) -> Any:
-        return getattr(self._port, name)
-
-
-def open_lidar_port(spec: str, baudrate: int = DEFAULT_BAUDRATE) -> Any:
-    """Open a LiDAR serial port (path or pyserial URL) with a short read timeout.
-
-    Raises :class:`RobotFault` with the port's name when it cannot be opened.
-    """
-    try:
-        return open_serial(spec, baudrate, _READ_SLICE)
-    except OPEN_ERRORS as exc:
-        raise RobotFault(f"cannot open the LiDAR port {spec}: {exc}") from exc
-
-
-def _describe(exc: BaseException) -> str:
-    return f"{type(exc).__name__}: {exc}"
-
-
-def on_clock(frame: ScanFrame, clock: Clock) -> ScanFrame:
-    """``frame`` (stamped by the LiDAR's driver on :func:`~clomp.runtime.clock.device_time`) with its
-    timestamp and point times on ``clock``: unchanged but on a ScaledClock, whose supervisor
-    would otherwise take a revolution for one of another clock and de-skew it by wall seconds.
-
-    >>> import numpy as np
-    >>> from clomp.runtime.clock import ScaledClock
-    >>> c = ScaledClock(2.0); f = on_clock(ScanFrame(np.zeros((2, 2)), c._origin + 1.0, point_times=np.array([-0.09, 0.0])), c)
-    >>> round(f.timestamp, 9), f.point_times.tolist()
-    (2.0, [-0.18, 0.0])
-    """
-    scale = device_seconds(clock)
-    stamp = device_to_clock(clock)(frame.timestamp)
-    if scale == 1.0 and stamp == frame.timestamp:
-        return frame
-    times = None if frame.point_times is None else frame.point_times * scale
-    return dataclasses.replace(frame, timestamp=stamp, point_times=times)
-
-
-class HardwareRobot:
+class HardwareRobot(LidarWatch):
     """The paper's robot on serial ports: RPLIDAR A1 scans in, Maestro wheel commands out.
 
     ``lidar_port`` and ``motor_port`` are device paths, pyserial URLs or open serial-like
@@ -311,50 +251,6 @@ class HardwareRobot:
         except _DEVICE_ERRORS as exc:
             raise RobotFault(f"LiDAR on {getattr(raw, 'port', None) or raw}: {exc}") from exc
         return lidar, counter
-
-    # -- the reader thread ----------------------------------------------------------------------
-    def _watch(self) -> None:
-        """Read revolutions and watch the stream until closed or tripped."""
-        cfg = self.config
-        lidar, counter = self.lidar, self._counter
-        now_fn = self._device_clock  # the stream watch's windows run on the devices' time
-        last_bytes, last_byte_t = counter.bytes_read, now_fn()
-        window: deque[tuple[float, int, int]] = deque([(last_byte_t, counter.bytes_read, lidar.dropped_bytes)])
-        while not self._closing.is_set():
-            try:
-                frame: ScanFrame | None = lidar.read_scan(timeout=_READ_SLICE)
-            except LidarTimeout:
-                frame = None
-            except Exception as exc:  # port gone, protocol error, anything: the stream is dead
-                if not self._closing.is_set():
-                    self._trip(f"LiDAR on {lidar.port_name} failed: {_describe(exc)}", source="lidar")
-                return
-            now = now_fn()
-            if frame is not None:
-                frame = on_clock(frame, self.clock)
-                with self._lock:
-                    self._latest, self._delivered = frame, False
-                    self.scans += 1
-                    self._lock.notify_all()
-            nbytes, dropped = counter.bytes_read, lidar.dropped_bytes
-            if nbytes != last_bytes:
-                last_bytes, last_byte_t = nbytes, now
-            elif now - last_byte_t > (cfg.byte_timeout if self.scans else cfg.start_timeout):
-                # before the first revolution the motor may still be spinning up
-                self._trip(f"LiDAR on {lidar.port_name} fell silent: no byte for {now - last_byte_t:.2f} s", source="lidar")
-                return
-            window.append((now, nbytes, dropped))
-            while len(window) > 2 and now - window[1][0] >= cfg.garbage_window:
-                window.popleft()
-            t0, b0, d0 = window[0]
-            got, bad = nbytes - b0, dropped - d0
-            if now - t0 >= cfg.garbage_window and got >= cfg.min_window_bytes and bad > cfg.garbage_fraction * got:
-                self._trip(
-                    f"LiDAR stream on {lidar.port_name} is corrupt: {bad} of {got} bytes in the last "
-                    f"{now - t0:.2f} s could not be decoded (wrong baud rate, bad cable or noise?)",
-                    source="lidar",
-                )
-                return
 
     def _trip(self, reason: str, *, source: str) -> None:
         """Latch a fault and stop the wheels now (from whichever thread found it)."""
