@@ -18,7 +18,7 @@ import math
 
 import numpy as np
 
-__all__ = ["median", "ring_neighbours", "unwrap"]
+__all__ = ["median", "nanmedian_columns", "ring_neighbours", "unwrap"]
 
 
 def median(values: np.ndarray) -> float:
@@ -39,6 +39,29 @@ def median(values: np.ndarray) -> float:
         return float(0.0 + np.partition(v, h)[h])
     part = np.partition(v, (h - 1, h))
     return float((0.0 + part[h - 1] + part[h]) / 2)
+
+
+def nanmedian_columns(values: np.ndarray) -> np.ndarray:
+    """``np.nanmedian(values, axis=0)`` of a 2-d float array (each column's median over its
+    non-NaN values; NaN for a column of NaNs, without numpy's warning), bit for bit: the
+    middle value, or the two middle ones summed from +0.0 and halved, as numpy's masked
+    median does (an odd count's middle value summed twice).
+    numpy's own for an array holding infinities (their order among masked values is its).
+
+    >>> nanmedian_columns(np.array([[1.0, np.nan], [4.0, 2.0], [2.0, np.nan], [3.0, np.nan]])).tolist()
+    [2.5, 2.0]
+    """
+    v = np.asarray(values, dtype=float)
+    if v.ndim != 2 or not v.shape[0] or bool(np.isinf(v).any()):
+        return np.asarray(np.nanmedian(v, axis=0), dtype=float)
+    srt = np.sort(v, axis=0)  # NaN last, where the masked median sorts its masked values
+    counts = v.shape[0] - np.count_nonzero(np.isnan(v), axis=0)
+    h = np.minimum(counts // 2, v.shape[0] - 1)
+    lo = np.where(counts % 2 == 1, h, np.maximum(h - 1, 0))
+    cols = np.arange(v.shape[1])
+    out: np.ndarray = (0.0 + srt[lo, cols] + srt[h, cols]) / 2.0  # numpy's masked sum starts from +0.0
+    out[counts == 0] = math.nan
+    return out
 
 
 def ring_neighbours(a: np.ndarray, reach: int) -> list[np.ndarray]:
