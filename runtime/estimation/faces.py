@@ -56,7 +56,7 @@ import numpy as np
 
 from clomp.formal.geometry import points_from_frame, points_to_frame, wrap_angle
 from clomp.formal.model import Pose
-from clomp.runtime.estimation._exact import median
+from clomp.runtime.estimation._exact import eigh, mean_rows, median
 from clomp.runtime.estimation.fusion import fuse_revolutions
 
 __all__ = ["Face", "FaceCompass", "find_faces", "fit_line", "refine_line"]
@@ -97,9 +97,9 @@ def fit_line(points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, fl
     >>> [round(float(abs(v)), 3) for v in d], round(rms, 6)
     ([0.707, 0.707], 0.0)
     """
-    c = points.mean(axis=0)
+    c = mean_rows(points)  # points.mean(axis=0) and np.linalg.eigh, bit for bit, cheaper (issue #41)
     q = points - c
-    w, v = np.linalg.eigh(q.T @ q)
+    w, v = eigh(q.T @ q)
     return c, v[:, 1], v[:, 0], math.sqrt(max(float(w[0]), 0.0) / len(points))
 
 
