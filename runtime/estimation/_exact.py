@@ -25,7 +25,7 @@ try:  # the gufuncs behind np.linalg.eigh / eigvalsh (numpy >= 1.8; private, so 
 except ImportError:  # pragma: no cover - a numpy without them: numpy's own functions
     _gufuncs = None
 
-__all__ = ["eigh", "eigvalsh", "mean_rows", "median", "nanmedian_columns", "ring_neighbours", "unwrap"]
+__all__ = ["eigh", "eigvalsh", "mean", "mean_rows", "median", "nanmedian_columns", "ring_neighbours", "unwrap"]
 
 
 def median(values: np.ndarray) -> float:
@@ -81,6 +81,18 @@ def eigvalsh(a: np.ndarray) -> np.ndarray:
         return np.asarray(np.linalg.eigvalsh(a))
     w: np.ndarray = _gufuncs.eigvalsh_lo(a, signature="d->d")
     return w
+
+
+def mean(values: np.ndarray) -> float:
+    """``float(np.mean(values))`` of a non-empty 1-d float64 array, bit for bit: its sum
+    (numpy's own pairwise reduction) over its count, without ``np.mean``'s Python wrapper.
+
+    >>> mean(np.array([1.0, 2.0, 4.0]))
+    2.3333333333333335
+    """
+    if values.dtype != np.float64 or values.ndim != 1 or not len(values):
+        return float(np.mean(values))
+    return float(np.add.reduce(values, axis=None) / len(values))
 
 
 def mean_rows(points: np.ndarray) -> np.ndarray:

@@ -23,7 +23,7 @@ from scipy.spatial import cKDTree
 
 from clomp.formal.geometry import points_from_frame, points_to_frame
 from clomp.formal.model import Pose
-from clomp.runtime.estimation._exact import eigh, eigvalsh, mean_rows, median, nanmedian_columns, ring_neighbours, unwrap
+from clomp.runtime.estimation._exact import eigh, eigvalsh, mean, mean_rows, median, nanmedian_columns, ring_neighbours, unwrap
 from clomp.runtime.estimation.doubt import see_through
 from clomp.runtime.estimation.icp import ReferenceScan
 from clomp.runtime.estimation.odometry import ScanOdometry
@@ -112,6 +112,14 @@ def test_mean_rows_is_numpys_bit_for_bit(v: np.ndarray, masked: bool) -> None:
     if masked:
         v = v[np.arange(len(v)) % 3 != 1] if len(v) > 2 else v
     assert mean_rows(v).tobytes() == v.mean(axis=0).tobytes()
+
+
+@settings(max_examples=300, deadline=None)
+@given(hnp.arrays(np.float64, st.integers(1, 400), elements=st.floats(-10, 10) | st.sampled_from([0.0, -0.0, 1e-300, 0.01])))
+def test_mean_is_numpys_bit_for_bit(v: np.ndarray) -> None:
+    """refine_line's and measure's 1-d means (lengths past numpy's 8-way unrolled blocks)."""
+    assert _same_float(mean(v), float(np.mean(v)))
+    assert _same_float(mean(v[::2]), float(np.mean(v[::2])))
 
 
 @settings(max_examples=200, deadline=None)
