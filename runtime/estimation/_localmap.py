@@ -21,7 +21,7 @@ from scipy.spatial import cKDTree
 
 from clomp.formal.geometry import points_from_frame
 from clomp.formal.model import Pose
-from clomp.runtime.estimation._exact import median
+from clomp.runtime.estimation._exact import eigvalsh, median
 from clomp.runtime.estimation._icp_core import cell_keys, grid_index, nearest_two
 from clomp.runtime.estimation.doubt import Doubt, see_through
 from clomp.runtime.estimation.ekf import OdometryFilter
@@ -155,7 +155,7 @@ class LocalMap:
             points, world = points[new], world[new]  # each point's uncertainty below is its own arithmetic
         # how wrong each new point may be: the honest position sd and the heading's at its range
         hon = self.filter.honest
-        pos_var = max(float(np.linalg.eigvalsh(hon[:2, :2])[-1]), self.doubt.sd ** 2)  # in doubt, the doubt
+        pos_var = max(float(eigvalsh(hon[:2, :2])[-1]), self.doubt.sd ** 2)  # in doubt, the doubt (np.linalg.eigvalsh bit for bit)
         th_var = max(float(hon[2, 2]), 0.0)
         rng2 = np.einsum("ij,ij->i", points, points)
         sds = np.column_stack((np.sqrt(pos_var + rng2 * th_var), np.full(len(points), math.sqrt(th_var)),

@@ -99,6 +99,7 @@ import numpy as np
 
 from clomp.formal.geometry import midpoint_step, wrap_angle
 from clomp.formal.model import Pose
+from clomp.runtime.estimation._exact import eigh, eigvalsh
 from clomp.runtime.estimation.reported import psd_max, rotate_covariance
 
 __all__ = ["OdometryFilter"]
@@ -217,12 +218,12 @@ class OdometryFilter:
     @property
     def sigma_xy(self) -> float:
         """Standard deviation of the position (m, the larger axis)."""
-        return float(math.sqrt(max(np.linalg.eigvalsh(self.P[:2, :2])[-1], 0.0)))
+        return float(math.sqrt(max(eigvalsh(self.P[:2, :2])[-1], 0.0)))
 
     @property
     def honest_sigma_xy(self) -> float:
         """Standard deviation of the position (m, the larger axis) by :attr:`honest`."""
-        return float(math.sqrt(max(np.linalg.eigvalsh(self.honest[:2, :2])[-1], 0.0)))
+        return float(math.sqrt(max(eigvalsh(self.honest[:2, :2])[-1], 0.0)))
 
     @property
     def sigma_theta(self) -> float:
@@ -471,7 +472,7 @@ class OdometryFilter:
         nu[2] = wrap_angle(float(nu[2]))
         info = np.asarray(information, dtype=float).reshape(3, 3)
         info = (info + info.T) / 2
-        lam, vecs = np.linalg.eigh(info)
+        lam, vecs = eigh(info)  # np.linalg.eigh bit for bit, cheaper (_exact; issue #41)
         keep = lam > min_information
         if not keep.any() or not np.all(np.isfinite(nu)):
             return False, 0.0
@@ -531,7 +532,7 @@ class OdometryFilter:
         drew itself shares the map's error and cannot be known better than it."""
         have = u.T @ self.honest[:3, :3] @ u
         lack = u.T @ map_cov @ u - have
-        lam, vecs = np.linalg.eigh((lack + lack.T) / 2)
+        lam, vecs = eigh((lack + lack.T) / 2)
         pos = lam > 0
         if pos.any():
             add = u @ (vecs[:, pos] * lam[pos]) @ vecs[:, pos].T @ u.T

@@ -31,6 +31,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from clomp.formal.geometry import polar_to_xy
+from clomp.runtime.estimation._exact import nanmedian_columns
 
 __all__ = ["bin_ranges", "fuse_revolutions", "range_spread"]
 
@@ -99,6 +100,6 @@ def fuse_revolutions(scans: Sequence[np.ndarray], bin_deg: float = 0.5, min_supp
     keep = support >= min_support
     if not keep.any():
         return np.zeros((0, 2))
-    med = np.nanmedian(ranges[:, keep], axis=0)
+    med = nanmedian_columns(ranges[:, keep])  # np.nanmedian(…, axis=0) bit for bit, without its masked arrays
     ang = np.arctan2(sin_sum[keep], cos_sum[keep])
     return polar_to_xy(med, ang)

@@ -43,6 +43,7 @@ import numpy as np
 
 from clomp.formal.geometry import points_from_frame
 from clomp.formal.model import Pose
+from clomp.runtime.estimation._exact import eigh, eigvalsh
 from clomp.runtime.estimation._shape_core import shape_estimate
 from clomp.runtime.estimation.icp import _direction_name, neighbour_lines
 from clomp.runtime.jit import interruptible
@@ -99,7 +100,7 @@ def _surely_observed(world: np.ndarray, centre: tuple[float, float], r: np.ndarr
         return False
     per = shape / n
     slack = 1e-7 * float(np.trace(per)) + 1e-12
-    return bool(np.linalg.eigvalsh(r.T @ per @ r).min() >= min_information + slack)
+    return bool(eigvalsh(r.T @ per @ r).min() >= min_information + slack)
 
 
 def observed_information(information: np.ndarray, points: np.ndarray, pose: Pose, paired: np.ndarray, *,
@@ -129,14 +130,14 @@ def observed_information(information: np.ndarray, points: np.ndarray, pose: Pose
     h = info / scale[:, None] / scale[None, :]  # the matcher's units
     # only what the match claims can be over-claimed: the shape is judged within the directions
     # the match observes (those it left unobservable carry no information to take out)
-    mlam, mvec = np.linalg.eigh((h + h.T) / 2)
+    mlam, mvec = eigh((h + h.T) / 2)  # np.linalg.eigh bit for bit, cheaper (_exact; issue #41)
     r = mvec[:, mlam > 1e-9 * max(float(mlam.max()), 1e-300)]
     if not r.size:
         return info, ()
     if screen and _surely_observed(world, (pose.x, pose.y), r, min_information, radius=radius, lever=lever):
         return info, ()
     shape, n = shape_information(world, (pose.x, pose.y), radius=radius, lever=lever)
-    slam, svec = np.linalg.eigh(r.T @ (shape / max(n, 1)) @ r)
+    slam, svec = eigh(r.T @ (shape / max(n, 1)) @ r)
     dirs = r @ svec
     lost = (slam < min_information) & (np.abs(dirs[2]) <= heading_share)
     if not lost.any():

@@ -40,6 +40,7 @@ A shallow alarm is therefore acted on at most one revolution late (about 0.18 s 
 
 from __future__ import annotations
 
+import functools
 import math
 from collections import deque
 from collections.abc import Callable
@@ -105,20 +106,33 @@ def hazard_hits(points: np.ndarray, kind: TaskKind, error: float, m: RobotModel,
     if len(pts) == 0:
         return 0, 0
     rate = m.turn_rate if kind.is_turn else m.straight_speed
-    return _hits(pts, sweep(kind, min(error, rate * lookahead)), m, allowance), _hits(pts, sweep(kind, error), m, allowance)
+    xs, ys = pts[:, 0].copy(), pts[:, 1].copy()
+    return (_hits(xs, ys, _sweep_frames(kind, min(error, rate * lookahead)), m, allowance),
+            _hits(xs, ys, _sweep_frames(kind, error), m, allowance))
 
 
-def _hits(points: np.ndarray, poses: np.ndarray, m: RobotModel, allowance: float) -> int:
-    """:func:`~clomp.runtime.supervision.records.hits`, the count the same bit for bit, in one
-    compiled loop (the array calls per pose were a tenth of a planning run's CPU; issue #41);
-    the headings' cosines and sines are Python's, as the frame change takes them."""
-    rear, front, half = body_box(m, -allowance)
+@functools.lru_cache(maxsize=256)
+def _sweep_frames(kind: TaskKind, amount: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The poses of :func:`~clomp.runtime.supervision.records.sweep` as the compiled count
+    takes them: x, y and the headings' cosines and sines (Python's, as the frame change
+    takes them), read-only. Cached: the look-ahead's sweep (``rate × lookahead``) is the
+    same every tick of a task, and building it was a fifth of the hazard test (issue #41)."""
+    poses = sweep(kind, amount)
     th = poses[:, 2].tolist()
-    cs = np.array([math.cos(t) for t in th])
-    ss = np.array([math.sin(t) for t in th])
-    pts = np.ascontiguousarray(points, dtype=float)
-    return int(interruptible(sweep_hits, pts[:, 0].copy(), pts[:, 1].copy(), np.ascontiguousarray(poses[:, 0]),
-                             np.ascontiguousarray(poses[:, 1]), cs, ss, rear, front, half))
+    out = (np.ascontiguousarray(poses[:, 0]), np.ascontiguousarray(poses[:, 1]),
+           np.array([math.cos(t) for t in th]), np.array([math.sin(t) for t in th]))
+    for a in out:
+        a.setflags(write=False)
+    return out
+
+
+def _hits(xs: np.ndarray, ys: np.ndarray, frames: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray],
+          m: RobotModel, allowance: float) -> int:
+    """:func:`~clomp.runtime.supervision.records.hits` of the points (``xs``, ``ys``) at the
+    sweep's ``frames`` (:func:`_sweep_frames`), the count the same bit for bit, in one
+    compiled loop (the array calls per pose were a tenth of a planning run's CPU; issue #41)."""
+    rear, front, half = body_box(m, -allowance)
+    return int(interruptible(sweep_hits, xs, ys, *frames, rear, front, half))
 
 
 class Alarms:
@@ -139,6 +153,7 @@ class Alarms:
                              f"{window!r}, {near!r}")
         self.k, self.cap, self.near, self.clearance = k, cap, near, clearance
         self._noise: deque[float] = deque(maxlen=window)
+        self._median: float | None = None  # the median of _noise, once asked after a revolution
         self._revolution = 0
         self._raised: dict[str, int] = {}  # the last revolution each kind of alarm was raised in
         self._before: dict[str, int] = {}  # and the one before that
@@ -149,7 +164,7 @@ class Alarms:
     @property
     def noise(self) -> float:
         """The range noise (m, a standard deviation) the last revolutions show (0 before any)."""
-        return float(np.median(self._noise)) if self._noise else 0.0
+        return self._noise_median() if self._noise else 0.0
 
     @property
     def allowance(self) -> float:
@@ -157,13 +172,21 @@ class Alarms:
         part of ``k`` noise deviations the planner's clearance does not already absorb."""
         if not self._noise:
             return 0.0
-        return min(max(self.k * float(np.median(self._noise)) - self.clearance, 0.0), self.cap)
+        return min(max(self.k * self._noise_median() - self.clearance, 0.0), self.cap)
+
+    def _noise_median(self) -> float:
+        """``float(np.median(self._noise))``, computed once a revolution: the hazard test asks
+        the allowance every tick (a median every tick was 2 % of a planning run; issue #41)."""
+        if self._median is None:
+            self._median = float(np.median(self._noise))
+        return self._median
 
     def revolution(self, points: np.ndarray) -> None:
         """A new revolution: measure its range noise."""
         self._revolution += 1
         if len(points) >= 8:
             self._noise.append(range_noise(points))
+            self._median = None
 
     def stands(self, kind: str, deep: bool, at: Pose | None = None) -> bool:
         """Whether an alarm of ``kind`` raised now, in this revolution, with the robot ``at``

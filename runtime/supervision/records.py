@@ -125,13 +125,13 @@ def sweep(kind: TaskKind, amount: float) -> np.ndarray:
         amount = 0.0
     if not kind.is_turn:
         n = max(2, int(math.ceil(amount / 0.02)) + 1)
-        xs = np.linspace(0.0, max(amount, 0.0), n) * (-1.0 if kind is TaskKind.REVERSE else 1.0)
-        line: np.ndarray = np.c_[xs, np.zeros(n), np.zeros(n)]
-        return line
+        out = np.zeros((n, 3))  # filled column by column: np.c_ cost more than the values (issue #41)
+        out[:, 0] = np.linspace(0.0, max(amount, 0.0), n) * (-1.0 if kind is TaskKind.REVERSE else 1.0)
+        return out
     n = max(2, int(math.ceil(amount / math.radians(5))) + 1)
-    th = np.linspace(0.0, max(amount, 0.0), n) * (1 if kind is TaskKind.LEFT else -1)
-    spin: np.ndarray = np.c_[np.zeros(n), np.zeros(n), th]
-    return spin
+    out = np.zeros((n, 3))
+    out[:, 2] = np.linspace(0.0, max(amount, 0.0), n) * (1 if kind is TaskKind.LEFT else -1)
+    return out
 
 
 def hits(points: np.ndarray, poses: np.ndarray, m: RobotModel, allowance: float = 0.0) -> int:

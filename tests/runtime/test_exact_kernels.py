@@ -12,6 +12,7 @@ uncertainty of the new points only) with its old self.
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 from hypothesis import given, settings
@@ -22,7 +23,7 @@ from scipy.spatial import cKDTree
 
 from clomp.formal.geometry import points_from_frame, points_to_frame
 from clomp.formal.model import Pose
-from clomp.runtime.estimation._exact import median, ring_neighbours, unwrap
+from clomp.runtime.estimation._exact import eigh, eigvalsh, mean, mean_rows, median, nanmedian_columns, ring_neighbours, unwrap
 from clomp.runtime.estimation.doubt import see_through
 from clomp.runtime.estimation.icp import ReferenceScan
 from clomp.runtime.estimation.odometry import ScanOdometry
@@ -52,6 +53,73 @@ def test_median_of_a_strided_column() -> None:
     a = np.random.default_rng(1).normal(size=(301, 3))
     assert _same_float(median(a[:, 1]), float(np.median(a[:, 1])))
     assert _same_float(median(a[:-1, 2]), float(np.median(a[:-1, 2])))
+
+
+@settings(max_examples=300, deadline=None)
+@given(hnp.arrays(np.float64, st.tuples(st.integers(1, 12), st.integers(0, 40)),
+                  elements=st.floats(0.0, 2.0) | st.sampled_from([np.nan, np.nan, 0.5, -0.0, 1e300])))
+def test_nanmedian_columns_is_numpys_bit_for_bit(v: np.ndarray) -> None:
+    """The fused revolutions' median range per bearing (a few revolutions × many bins, NaN
+    where a revolution saw nothing): odd and even counts, repeats, signed zeros, columns of
+    NaN only (numpy warns there; the fusion never asks for them)."""
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        ref = np.nanmedian(v, axis=0)
+    got = nanmedian_columns(v)
+    assert got.dtype == ref.dtype and got.shape == ref.shape
+    assert got.tobytes() == ref.tobytes() or all(_same_float(a, b) for a, b in zip(got.tolist(), ref.tolist()))
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.integers(1, 4), st.integers(0, 2**32 - 1), st.sampled_from([1e-12, 1e-3, 1.0, 1e4]),
+       st.sampled_from(["plain", "strided", "nan", "int"]))
+def test_eigh_and_eigvalsh_are_numpys_bit_for_bit(n: int, seed: int, scale: float, kind: str) -> None:
+    """The small symmetric matrices the estimator decomposes (2×2 scatter, 3×3 information,
+    a covariance's 2×2 corner: a strided view); NaN and integer input go to numpy itself."""
+    rng = np.random.default_rng(seed)
+    a = rng.normal(0.0, scale, (n + 1, n + 1))
+    a = (a + a.T) / 2
+    m = a[:n, :n] if kind == "strided" else a[:n, :n].copy()
+    if kind == "nan":
+        m[0, 0] = np.nan
+    if kind == "int":
+        m = np.round(m * 10).astype(int)
+    def same(ours: Any, ref: Any) -> None:
+        try:
+            want = ref(m)
+        except np.linalg.LinAlgError:
+            try:
+                ours(m)
+            except np.linalg.LinAlgError:
+                return
+            raise AssertionError("numpy raised, ours did not") from None
+        got = ours(m)
+        pairs = zip(got, want) if isinstance(got, tuple) else [(got, want)]
+        for g, w in pairs:
+            assert g.dtype == w.dtype and g.shape == w.shape and g.tobytes() == w.tobytes()
+
+    same(eigh, np.linalg.eigh)
+    same(eigvalsh, np.linalg.eigvalsh)
+
+
+@settings(max_examples=300, deadline=None)
+@given(hnp.arrays(np.float64, st.tuples(st.integers(1, 300), st.just(2)),
+                  elements=st.floats(-10, 10) | st.sampled_from([0.0, -0.0, 1e-300, 0.01])), st.booleans())
+def test_mean_rows_is_numpys_bit_for_bit(v: np.ndarray, masked: bool) -> None:
+    """fit_line's centre: the mean of N×2 points (a masked selection, as refine_line passes)."""
+    if masked:
+        v = v[np.arange(len(v)) % 3 != 1] if len(v) > 2 else v
+    assert mean_rows(v).tobytes() == v.mean(axis=0).tobytes()
+
+
+@settings(max_examples=300, deadline=None)
+@given(hnp.arrays(np.float64, st.integers(1, 400), elements=st.floats(-10, 10) | st.sampled_from([0.0, -0.0, 1e-300, 0.01])))
+def test_mean_is_numpys_bit_for_bit(v: np.ndarray) -> None:
+    """refine_line's and measure's 1-d means (lengths past numpy's 8-way unrolled blocks)."""
+    assert _same_float(mean(v), float(np.mean(v)))
+    assert _same_float(mean(v[::2]), float(np.mean(v[::2])))
 
 
 @settings(max_examples=200, deadline=None)

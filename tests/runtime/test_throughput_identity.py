@@ -9,6 +9,7 @@ hazard test asks for only when a shallow alarm needs them (they were fused every
 from __future__ import annotations
 
 import math
+from collections import deque
 
 import numpy as np
 from hypothesis import given, settings
@@ -18,7 +19,7 @@ from clomp.formal.model import Disturbance, Pose, TaskKind
 from clomp.planner.footprint import body_box, inside
 from clomp.planner.robot_model import RobotModel
 from clomp.planner.tasks import Task
-from clomp.runtime.supervision.alarms import hazard_hits
+from clomp.runtime.supervision.alarms import Alarms, hazard_hits, range_noise
 from clomp.runtime.supervision.planwatch import PlanWatch
 from clomp.runtime.supervision.records import hits, scan_to_frame, sweep
 
@@ -168,3 +169,23 @@ def test_the_local_maps_grid_search_finds_what_its_k_d_tree_found(seed: int, n_m
     got, want = _grid_map_queries(map_points, seen, 0.03), _frozen_map_queries(map_points, seen, 0.03)
     assert np.array_equal(got[0], want[0])
     assert np.array_equal(got[1], want[1])
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.lists(st.floats(0.0, 0.05), min_size=1, max_size=25), st.integers(1, 12))
+def test_the_allowance_computed_once_a_revolution_is_the_median_every_tick(noises: list[float], window: int) -> None:
+    """:class:`Alarms` keeps its noise median until the next revolution: asked every tick,
+    it is ``np.median`` of the window then, bit for bit (issue #41)."""
+    a = Alarms(window=window)
+    window_now: deque[float] = deque(maxlen=window)
+    rng = np.random.default_rng(len(noises))
+    for sd in noises:
+        ang = np.linspace(-1.0, 1.0, 60)
+        r = 0.6 / np.cos(ang) + rng.normal(0.0, sd, 60)
+        pts = np.c_[r * np.cos(ang), r * np.sin(ang)]
+        a.revolution(pts)
+        window_now.append(range_noise(pts))
+        for _ in range(2):  # two ticks in a revolution
+            med = float(np.median(window_now))
+            assert a.noise == med
+            assert a.allowance == min(max(a.k * med - a.clearance, 0.0), a.cap)
