@@ -231,17 +231,40 @@ _PART_WORDS = {
 }
 
 
+def _doubt_source(sup: Supervisor) -> str:
+    """The last event of the doubt that put its floor where it is (a shock's size is its
+    acceleration: a kick's floor is ``kick_sd``, a jolt's ``jolt_sd``), or '' when none did (a
+    wide search set it since); with its time.
+
+    >>> from clomp.runtime.estimation.doubt import Doubt
+    >>> class _S: pass
+    >>> s = _S(); s.estimator = _S(); s.estimator.doubt = d = Doubt()
+    >>> _ = d.shock(120.0, 3.0); _ = d.shock(8.0, 5.0)   # a kick, then a jolt: the kick's floor stands
+    >>> _doubt_source(s)
+    'kick at 3.0 s'
+    """
+    est = sup.estimator
+    if est is None:
+        return ""
+    d = est.doubt
+    for t, kind, size in reversed(d.events):
+        floor = d.kick_sd if kind == "kick" else d.jolt_sd if kind == "jolt" else float(size)
+        if abs(floor - d.sd) <= 1e-6:
+            return f"{kind} at {t:.1f} s"
+    return ""
+
+
 def bound_words(sup: Supervisor) -> str:
     """The largest part of the bound (:func:`bound_parts`) in words, '' without scan feedback;
-    the doubt's names its last event (what raised it, or the search that last set it)."""
+    the doubt's names the event that set it (:func:`_doubt_source`)."""
     parts = bound_parts(sup)
     if not parts:
         return ""
     name = max(parts, key=lambda n: parts[n])
     if name != "doubt":
         return f"set by {_PART_WORDS[name]}"
-    events = [] if sup.estimator is None else sup.estimator.doubt.events
-    return "set by the doubt's floor" + (f" (last: {events[-1][1]} at {events[-1][0]:.1f} s)" if events else "")
+    source = _doubt_source(sup)
+    return "set by the doubt's floor" + (f" (raised by: {source})" if source else "")
 
 
 def _blind(names: tuple[str, ...]) -> bool:

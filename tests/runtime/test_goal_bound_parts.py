@@ -52,7 +52,7 @@ def test_a_doubt_floor_is_named_with_its_event() -> None:
 
     sup, log = _run(doubt)
     assert sup.state is S.GOAL_UNCONFIRMED, sup.reason
-    assert "bound 0.367 m, set by the doubt's floor (last: a test's push at" in sup.reason, sup.reason
+    assert "bound 0.367 m, set by the doubt's floor (raised by: a test's push at" in sup.reason, sup.reason
     parts = [r for r in log.records if r["event"] == "bound"]
     assert parts and parts[-1]["doubt"] == max(v for k, v in parts[-1].items() if k != "event")
 
