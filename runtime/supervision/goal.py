@@ -54,7 +54,7 @@ from clomp.runtime.supervision.states import Event as E
 if TYPE_CHECKING:  # pragma: no cover
     from clomp.runtime.supervision.supervisor import Supervisor
 
-__all__ = ["at_goal", "confirm_tick", "relocated_at_goal", "seen_past", "standing_bound"]
+__all__ = ["at_goal", "bound_parts", "bound_words", "confirm_tick", "relocated_at_goal", "seen_past", "standing_bound"]
 
 
 def relocated_at_goal(sup: Supervisor, now: float) -> bool:
@@ -195,6 +195,78 @@ def standing_bound(sup: Supervisor) -> float | None:
     return max(bound, floor)
 
 
+def bound_parts(sup: Supervisor) -> dict[str, float]:
+    """What sets the 95 % bound a decision taken standing uses (:func:`standing_bound`): each
+    part as ``vouch_sigmas`` standard deviations (m) — ``filter`` (the filter's honest position
+    uncertainty), ``doubt`` (the floor only a wide search lowers,
+    :class:`~clomp.runtime.estimation.doubt.Doubt`), ``disagreement`` (well-matched revolutions
+    rejected just now), ``map`` (how wrong the surfaces met may be), ``blind`` (the filter's
+    figure when confirming began, once a revolution standing left a direction unobserved);
+    empty without scan feedback. The bound is the largest but for ``disagreement``, which adds.
+    Why a run ended unconfirmed, in its reason and log (issue #36: on seeds 35-44 at ``harsh``
+    most truly-reached runs that were not claimed stood at a doubt's floor of 0.367 m).
+
+    >>> from clomp.planner import load_scenario
+    >>> from clomp.runtime.backends.sim import SimRobot
+    >>> from clomp.runtime.supervision.supervisor import Supervisor
+    >>> scene = load_scenario("open")
+    >>> sorted(bound_parts(Supervisor(SimRobot(scene, seed=0), scene.goal_in_robot_frame())))
+    ['blind', 'disagreement', 'doubt', 'filter', 'map']
+    """
+    est = sup.estimator
+    if est is None:
+        return {}
+    k = sup.config.vouch_sigmas
+    dis = est.disagreement if est.rejected_in_a_row > 0 and est.disagreement is not None else (0.0, 0.0, 0.0)
+    return {"filter": k * est.filter.honest_sigma_xy, "doubt": k * est.doubt.sd,
+            "disagreement": k * math.hypot(dis[0], dis[1]), "map": k * float(est.last_map_sd[0]),
+            "blind": k * sup._confirm_honest if sup._confirm_blind else 0.0}
+
+
+_PART_WORDS = {
+    "filter": "the filter's position uncertainty",
+    "disagreement": "matches that disagree with the prediction",
+    "map": "how wrong the surfaces it meets may be",
+    "blind": "the filter's uncertainty when confirming began (standing left a direction unobserved)",
+}
+
+
+def _doubt_source(sup: Supervisor) -> str:
+    """The last event of the doubt that put its floor where it is (a shock's size is its
+    acceleration: a kick's floor is ``kick_sd``, a jolt's ``jolt_sd``), or '' when none did (a
+    wide search set it since); with its time.
+
+    >>> from clomp.runtime.estimation.doubt import Doubt
+    >>> class _S: pass
+    >>> s = _S(); s.estimator = _S(); s.estimator.doubt = d = Doubt()
+    >>> _ = d.shock(120.0, 3.0); _ = d.shock(8.0, 5.0)   # a kick, then a jolt: the kick's floor stands
+    >>> _doubt_source(s)
+    'kick at 3.0 s'
+    """
+    est = sup.estimator
+    if est is None:
+        return ""
+    d = est.doubt
+    for t, kind, size in reversed(d.events):
+        floor = d.kick_sd if kind == "kick" else d.jolt_sd if kind == "jolt" else float(size)
+        if abs(floor - d.sd) <= 1e-6:
+            return f"{kind} at {t:.1f} s"
+    return ""
+
+
+def bound_words(sup: Supervisor) -> str:
+    """The largest part of the bound (:func:`bound_parts`) in words, '' without scan feedback;
+    the doubt's names the event that set it (:func:`_doubt_source`)."""
+    parts = bound_parts(sup)
+    if not parts:
+        return ""
+    name = max(parts, key=lambda n: parts[n])
+    if name != "doubt":
+        return f"set by {_PART_WORDS[name]}"
+    source = _doubt_source(sup)
+    return "set by the doubt's floor" + (f" (raised by: {source})" if source else "")
+
+
 def _blind(names: tuple[str, ...]) -> bool:
     """True when a match left a direction of the position unobserved (any but pure heading).
 
@@ -237,5 +309,8 @@ def confirm_tick(sup: Supervisor, now: float) -> None:
     elif dist > sup.goal_radius or looked >= cfg.confirm_looks:
         where = "at the goal" if dist <= sup.goal_radius else f"{dist:.3f} m from the goal, no approach left,"
         seen = f", and {_past_words(sup, past)}" if past else ""
+        words = bound_words(sup)
+        sup._log("bound", **{k: round(v, 4) for k, v in bound_parts(sup).items()})
         sup._fire(E.GOAL_UNCONFIRMED, f"{where} by the estimate ({dist:.3f} m) after {looked} revolutions standing, "
-                                      f"but its 95 % bound {b:.3f} m cannot vouch for {radius:g} m{seen}: unconfirmed")
+                                      f"but its 95 % bound {b:.3f} m{f', {words},' if words else ''} cannot vouch "
+                                      f"for {radius:g} m{seen}: unconfirmed")
