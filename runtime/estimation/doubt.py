@@ -52,9 +52,9 @@ import numpy as np
 from clomp.formal.model import Pose
 from clomp.runtime.estimation.confirm import ambiguity
 from clomp.runtime.estimation.icp import ReferenceScan, match_scans
-from clomp.runtime.estimation.seethrough import Through, see_through, see_through_along
+from clomp.runtime.estimation.seethrough import see_through, see_through_along
 
-__all__ = ["Doubt", "see_through", "see_through_along", "trusted_check"]
+__all__ = ["Doubt", "see_through", "trusted_check"]
 
 
 
@@ -153,9 +153,13 @@ class Doubt:
             self.raise_to(self.kick_sd, t, "seen through")
         return bad, moved
 
-    def judge(self, seen: Through, t: float) -> tuple[bool, bool]:
-        """:meth:`seen` of what :func:`~clomp.runtime.estimation.seethrough.see_through_along` found."""
-        return self.seen(seen.through, seen.both, t, seen.along)
+    def judge(self, map_points: np.ndarray, points: np.ndarray, pose: Pose, t: float) -> tuple[bool, bool]:
+        """:meth:`seen` of a revolution ``points`` (robot frame) seen from the estimate ``pose``
+        against ``map_points`` at time ``t``: what
+        :func:`~clomp.runtime.estimation.seethrough.see_through_along` finds (weighed by
+        displacement only when ``through_least`` bearings see past)."""
+        s = see_through_along(map_points, points, pose, least=self.through_least)
+        return self.seen(s.through, s.both, t, s.along)
 
     def _contradicts(self, through: int, could: int) -> bool:
         """``through`` bearings seeing past, of ``could``: at least ``through_least`` and ``through_share``."""

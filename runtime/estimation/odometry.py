@@ -62,7 +62,7 @@ from clomp.formal.geometry import (
 from clomp.formal.model import Pose
 from clomp.runtime.devices.frame import ScanFrame
 from clomp.runtime.estimation.confirm import Ambiguity, ambiguity
-from clomp.runtime.estimation.doubt import Doubt, see_through_along, trusted_check
+from clomp.runtime.estimation.doubt import Doubt, trusted_check
 from clomp.runtime.estimation.ekf import OdometryFilter
 from clomp.runtime.estimation.faces import FaceCompass
 from clomp.runtime.estimation.fusion import fuse_revolutions, range_spread
@@ -452,7 +452,7 @@ class ScanOdometry(LocalMap, KickMemory, StandingSeed):
             self.filter.honest[:2, :2] += np.eye(2) * self.gate[0] ** 2
             self.filter.honest[2, 2] += self.gate[1] ** 2
             self.doubt.raise_to(self.gate[0], stamp, "re-seeded")
-        bad, moved = self.doubt.judge(see_through_along(self._map_points, points, corrected), stamp) \
+        bad, moved = self.doubt.judge(self._map_points, points, corrected, stamp) \
             if self._map_points is not None else (False, False)
         if moved:  # it stands elsewhere than the estimate: the gain opened as after a kick
             self.filter.P[:2, :2] += np.eye(2) * self.doubt.kick_sd ** 2

@@ -121,27 +121,45 @@ def see_through(map_points: np.ndarray, points: np.ndarray, pose: Pose, *, margi
     return int(through.sum()), int(np.isfinite(drawn).sum())
 
 
-def see_through_along(map_points: np.ndarray, points: np.ndarray, pose: Pose, *, step: float = 0.15,
-                      directions: int = 16, margin: float = 0.1, bins: int = 180, reach: float = 1.2,
+def see_through_along(map_points: np.ndarray, points: np.ndarray, pose: Pose, *, steps: tuple[float, ...] = (0.15,),
+                      directions: int = 16, least: int = 10, margin: float = 0.1, bins: int = 180, reach: float = 1.2,
                       empty: float = 0.9) -> Through:
-    """:func:`see_through` (same ``margin``, ``bins``, ``reach``, ``empty``), and for each of
-    ``directions`` displacements of ``step`` m (the k-th at ``2πk/directions`` in the map's
-    frame): the bearings that see past and could show it, and the bearings that could — those
-    where the map holds a surface from ``pose`` and, from ``pose`` displaced so, either none
-    within ``reach`` or one more than ``margin`` farther (see the module docstring).
+    """:func:`see_through` (same ``margin``, ``bins``, ``reach``, ``empty``), and when at least
+    ``least`` bearings see past (fewer cannot contradict the map, however few could show a
+    displacement), for each displacement of each of ``steps`` m towards each of
+    ``directions`` headings (the k-th at ``2πk/directions`` in the map's frame; the steps
+    outer): the bearings it explains and the bearings that could show it (see the module
+    docstring). A bearing *could* show it when the map holds a surface there from ``pose``
+    and, from ``pose`` displaced so, either none within ``reach`` or one more than ``margin``
+    farther; it is *explained* when it sees past and its return lies within ``margin`` of
+    that farther surface (or the displaced map holds none to compare with). A body that left
+    (a person stepping away from the robot's side) is seen past too, but what lies behind it
+    is far beyond where a push-sized displacement would move its surface: it explains
+    nothing, and a few bearings seeing past cannot make a displacement's case.
 
     >>> wall = np.array([[0.5, y] for y in np.linspace(-0.3, 0.3, 31)])
-    >>> see_through_along(wall, wall, Pose(0.0, 0.0, 0.0)).along[8]   # backing off the wall: all 31 could show it
-    (0, 31)
+    >>> see_through_along(wall, wall + [0.15, 0.0], Pose(0.0, 0.0, 0.0)).along[8]   # truly 0.15 m back of it
+    (21, 31)
+    >>> see_through_along(wall, wall, Pose(0.0, 0.0, 0.0)).along   # nothing seen past: nothing to weigh
+    ()
     """
     if not len(map_points) or not len(points):
-        return Through(0, 0, ((0, 0),) * directions)
+        return Through(0, 0, ())
     through, drawn, every = _through(map_points, points, pose, margin, bins, reach, empty)
     has = np.isfinite(drawn)
+    if int(through.sum()) < least:
+        return Through(int(through.sum()), int(has.sum()), ())
+    pts = np.asarray(points, dtype=float).reshape(-1, 2)
+    seen = _profile(pts[:, 0], pts[:, 1], np.hypot(pts[:, 0], pts[:, 1]), bins)
     along = []
-    for k in range(directions):
-        phi = 2 * math.pi * k / directions
-        moved = _drawn(every, Pose(pose.x + step * math.cos(phi), pose.y + step * math.sin(phi), pose.theta), reach, bins)
-        could = has & (~np.isfinite(moved) | (moved > drawn + margin))
-        along.append((int((through & could).sum()), int(could.sum())))
+    for step in steps:
+        for k in range(directions):
+            phi = 2 * math.pi * k / directions
+            moved = _drawn(every, Pose(pose.x + step * math.cos(phi), pose.y + step * math.sin(phi), pose.theta), reach, bins)
+            none = ~np.isfinite(moved)
+            could = has & (none | (moved > drawn + margin))
+            near = np.isfinite(seen) & ~none
+            near[near] = np.abs(seen[near] - moved[near]) <= margin
+            explained = through & could & (none | near)
+            along.append((int(explained.sum()), int(could.sum())))
     return Through(int(through.sum()), int(has.sum()), tuple(along))
