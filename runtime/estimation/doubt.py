@@ -78,7 +78,11 @@ class Doubt:
     ``through_after``: when a revolution contradicts the map, and after how many in a row
     the robot is taken to stand elsewhere (:meth:`seen`; 10 bearings and a fifth: the
     world's harsh runs saw past at most 6 of 31 where the estimate was right, a robot
-    moved 0.15 m unseen 15-48 of 110-120). ``goal_through``: at the goal, the revolutions
+    moved 0.15 m unseen 15-48 of 110-120) — a fifth of every bearing with a surface, or
+    of the bearings that could show one push-sized displacement and see past as it would
+    (:func:`~clomp.runtime.estimation.seethrough.see_through_along`: pushed 0.19 m along
+    a room, ``stopper`` 37/0 saw past 13-20 of 135-160 bearings, the side walls parallel to
+    the push among them, but 11-16 of the 48-52 that could show it). ``goal_through``: at the goal, the revolutions
     fused standing there may see past at most this many bearings of the map for the
     estimate to vouch for the goal (:func:`~clomp.runtime.supervision.goal.at_goal`; 8:
     at ``harsh`` without the gyro, standing at the goal, the estimate right saw past at

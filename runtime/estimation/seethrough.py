@@ -10,7 +10,8 @@ sees past the end walls only; the long side walls, parallel to the push, look th
 where it is and from where it believes it is. Counted against every bearing with a surface
 (13-20 of 135-160), the evidence stayed under a fifth of them and the run ended GOAL_REACHED
 0.214 m off, believing a 0.068 m bound. Counted against the bearings that a displacement
-along the room would move past their surface (11-17 of 40-50), it is a third.
+along the room would move past their surface (48-52), those seeing past as it would (11-16)
+are a fifth to a third: the two revolutions after the push contradict the map.
 
 :func:`see_through_along` therefore also gives, for each of ``directions`` displacements of
 ``step`` m (the matcher's first reach: a smaller one it pulls back itself), how many bearings

@@ -66,7 +66,7 @@ def _pushed(push: float, sign: float, y: float, th: float) -> tuple[Through, int
 
 
 def test_a_push_along_the_long_axis_is_a_small_share_of_the_room_but_most_of_what_could_show_it() -> None:
-    seen, k = _pushed(0.187, 1.0, 0.0, 0.0)  # stopper 37/0's push
+    seen, k = _pushed(0.187, 1.0, 0.15, 0.0)  # stopper 37/0's push, off the room's axis
     d = Doubt()
     assert seen.through < d.through_share * seen.both  # the side walls dilute it under a fifth of the room
     assert d.seen(seen.through, seen.both, 1.0) == (False, False)  # against the whole room: nothing
@@ -109,17 +109,18 @@ def test_the_whole_revolution_count_is_see_through_s() -> None:
 
 
 def test_a_robot_pushed_along_a_long_room_is_doubted_and_its_map_guarded() -> None:
-    # the odometry drew the room at x = -0.1; pushed 0.2 m along it where nothing felt it
+    # the odometry drew the room at (-0.1, 0.15); pushed 0.187 m along it where nothing felt it
     # (its prediction: it stood still), its revolutions see past the wall behind it
     world = _room()
     odo = ScanOdometry(wheel_base=0.15)
-    odo.reset(Pose(-0.1, 0.0, 0.0), 0.0)
-    odo.update(ScanFrame(_scan(world, Pose(-0.1, 0.0, 0.0)), 0.0))
+    odo.reset(Pose(-0.1, 0.15, 0.0), 0.0)
+    odo.update(ScanFrame(_scan(world, Pose(-0.1, 0.15, 0.0)), 0.0))
     odo.advance(0.1, (0.01, 0.01))  # it moved (1 mm): the seed is fixed, later revolutions are matched
+    assert odo._map_points is not None
     before = len(odo._map_points)
     for k in (1, 2):
         odo.advance(0.1 + k * 0.2, (0.0, 0.0))
-        odo.update(ScanFrame(_scan(world, Pose(0.1, 0.0, 0.0)), 0.1 + k * 0.2))
+        odo.update(ScanFrame(_scan(world, Pose(0.087, 0.15, 0.0)), 0.1 + k * 0.2))
     assert len(odo._map_points) == before  # what contradicts the map does not join it
     assert odo.doubt.events and odo.doubt.events[-1][1] == "seen through" and odo.position_sd() >= 0.15
 
