@@ -152,6 +152,8 @@ def see_through_along(map_points: np.ndarray, points: np.ndarray, pose: Pose, *,
         return Through(int(through.sum()), int(has.sum()), ())
     pts = np.asarray(points, dtype=float).reshape(-1, 2)
     seen = _profile(pts[:, 0], pts[:, 1], np.hypot(pts[:, 0], pts[:, 1]), bins)
+    box = reach + max(steps, default=0.0) + 1e-6  # what a displaced pose can reach (the rest of the map cannot count)
+    every = every[(np.abs(every[:, 0] - pose.x) <= box) & (np.abs(every[:, 1] - pose.y) <= box)]
     along = []
     for step in steps:
         for k in range(directions):
