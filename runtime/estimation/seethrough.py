@@ -123,8 +123,8 @@ def see_through(map_points: np.ndarray, points: np.ndarray, pose: Pose, *, margi
 
 
 def see_through_along(map_points: np.ndarray, points: np.ndarray, pose: Pose, *, steps: tuple[float, ...] = (0.15,),
-                      directions: int = 16, least: int = 10, margin: float = 0.1, bins: int = 180, reach: float = 1.2,
-                      empty: float = 0.9) -> Through:
+                      directions: int = 16, least: int = 10, clear: float = 0.09, margin: float = 0.1, bins: int = 180,
+                      reach: float = 1.2, empty: float = 0.9) -> Through:
     """:func:`see_through` (same ``margin``, ``bins``, ``reach``, ``empty``), and when at least
     ``least`` bearings see past (fewer cannot contradict the map, however few could show a
     displacement), for each displacement of each of ``steps`` m towards each of
@@ -133,7 +133,11 @@ def see_through_along(map_points: np.ndarray, points: np.ndarray, pose: Pose, *,
     docstring). A bearing *could* show it when the map holds a surface there from ``pose``
     and, from ``pose`` displaced so, either none within ``reach`` or one more than ``margin``
     farther; it is *explained* when it sees past and its return lies within ``margin`` of
-    that farther surface (or the displaced map holds none to compare with). A body that left
+    that farther surface (or the displaced map holds none to compare with). A displacement
+    whose way passes within ``clear`` m of a map point (the body's half-width: the point
+    would lie inside the body) is not one the robot underwent, and counts (0, 0): a body
+    that stood at the robot's nose and left (``stopper``) otherwise reads as a push
+    through where it stood. A body that left
     (a person stepping away from the robot's side) is seen past too, but what lies behind it
     is far beyond where a push-sized displacement would move its surface: it explains
     nothing, and a few bearings seeing past cannot make a displacement's case.
@@ -155,10 +159,16 @@ def see_through_along(map_points: np.ndarray, points: np.ndarray, pose: Pose, *,
     box = reach + max(steps, default=0.0) + 1e-6  # what a displaced pose can reach (the rest of the map cannot count)
     every = every[(np.abs(every[:, 0] - pose.x) <= box) & (np.abs(every[:, 1] - pose.y) <= box)]
     along = []
+    rel = every - [pose.x, pose.y]
     for step in steps:
         for k in range(directions):
             phi = 2 * math.pi * k / directions
-            moved = _drawn(every, Pose(pose.x + step * math.cos(phi), pose.y + step * math.sin(phi), pose.theta), reach, bins)
+            u = np.array([math.cos(phi), math.sin(phi)])
+            along_u = np.clip(rel @ u, 0.0, step)  # each map point's nearest place on the way there
+            if bool((np.hypot(rel[:, 0] - along_u * u[0], rel[:, 1] - along_u * u[1]) < clear).any()):
+                along.append((0, 0))  # the body would pass through a surface the map holds: not a push it underwent
+                continue
+            moved = _drawn(every, Pose(pose.x + step * u[0], pose.y + step * u[1], pose.theta), reach, bins)
             none = ~np.isfinite(moved)
             could = has & (none | (moved > drawn + margin))
             near = np.isfinite(seen) & ~none
