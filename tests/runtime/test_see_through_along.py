@@ -140,7 +140,20 @@ def test_a_robot_pushed_along_a_long_room_is_doubted_and_its_map_guarded() -> No
 
 
 @pytest.mark.slow
-def test_stopper_37_0_without_the_gyro_does_not_claim_a_goal_it_is_not_at() -> None:
-    # pushed 0.187 m along the room at 21.7 s, nothing felt it; it ended GOAL_REACHED 0.214 m off, bound 0.068 m
+def test_stopper_37_0_without_the_gyro_does_not_claim_a_goal_it_is_not_at(monkeypatch: pytest.MonkeyPatch) -> None:
+    # pushed 0.187 m along the room at 21.7 s, nothing felt it; it ended GOAL_REACHED 0.214 m off,
+    # bound 0.068 m. Before, from 4 s, a body that stood beside it had left: 12-20 bearings saw past
+    # where it stood, far beyond where a push would move it — not a displacement
+    judged: list[tuple[float, bool]] = []
+    seen = Doubt.seen
+
+    def spy(self: Doubt, through: int, both: int, t: float, along: tuple[tuple[int, int], ...] = ()) -> tuple[bool, bool]:
+        out = seen(self, through, both, t, along)
+        judged.append((t, out[1]))
+        return out
+
+    monkeypatch.setattr(Doubt, "seen", spy)
     rec = run_spec(RunSpec("stopper", 37, 0, "planning", "harsh", gyro=False))
     assert not rec["false_success"], (rec["end_state"], rec["final_error_m"], rec["reason"])
+    moved = [t for t, m in judged if m]
+    assert moved and 21.7 <= moved[0] <= 22.5, moved  # the push, seen twice in a row; the body that left, never
