@@ -164,8 +164,8 @@ def see_through_along(map_points: np.ndarray, points: np.ndarray, pose: Pose, *,
         for k in range(directions):
             phi = 2 * math.pi * k / directions
             u = np.array([math.cos(phi), math.sin(phi)])
-            along_u = np.clip(rel @ u, 0.0, step)  # each map point's nearest place on the way there
-            if bool((np.hypot(rel[:, 0] - along_u * u[0], rel[:, 1] - along_u * u[1]) < clear).any()):
+            ahead = rel @ u  # the body sweeps the points ahead of it on the way, within ``clear`` of its line
+            if bool(((ahead > 0.0) & (ahead <= step + clear) & (np.abs(rel @ [-u[1], u[0]]) < clear)).any()):
                 along.append((0, 0))  # the body would pass through a surface the map holds: not a push it underwent
                 continue
             moved = _drawn(every, Pose(pose.x + step * u[0], pose.y + step * u[1], pose.theta), reach, bins)
