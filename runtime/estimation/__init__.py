@@ -4,7 +4,8 @@
 prior, gating and degeneracy detection); ``clomp.runtime.estimation.odometry`` fuses those
 matches with dead reckoning into the pose the supervisor's tasks run on;
 ``clomp.runtime.estimation.doubt`` keeps what that pose may not be vouched for after a shock
-the IMU felt or a revolution that saw past the map, and
+the IMU felt or a revolution that saw past the map (``clomp.runtime.estimation.seethrough``:
+judged also against the bearings that could show a push-sized displacement), and
 ``clomp.runtime.estimation.relocalise`` re-localises the robot after a shock against the
 map drawn before it; ``clomp.runtime.estimation.standing`` sees a robot moved while it
 stood building the map's seed.

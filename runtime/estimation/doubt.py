@@ -49,13 +49,13 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from clomp.formal.geometry import points_to_frame
 from clomp.formal.model import Pose
-from clomp.runtime.estimation._exact import ring_neighbours
 from clomp.runtime.estimation.confirm import ambiguity
 from clomp.runtime.estimation.icp import ReferenceScan, match_scans
+from clomp.runtime.estimation.seethrough import see_through, see_through_along
 
-__all__ = ["Doubt", "trusted_check"]
+__all__ = ["Doubt", "see_through", "trusted_check"]
+
 
 
 @dataclass
@@ -78,7 +78,11 @@ class Doubt:
     ``through_after``: when a revolution contradicts the map, and after how many in a row
     the robot is taken to stand elsewhere (:meth:`seen`; 10 bearings and a fifth: the
     world's harsh runs saw past at most 6 of 31 where the estimate was right, a robot
-    moved 0.15 m unseen 15-48 of 110-120). ``goal_through``: at the goal, the revolutions
+    moved 0.15 m unseen 15-48 of 110-120) — a fifth of every bearing with a surface, or
+    of the bearings that could show one push-sized displacement and see past as it would
+    (:func:`~clomp.runtime.estimation.seethrough.see_through_along`: pushed 0.19 m along
+    a room, ``stopper`` 37/0 saw past 13-20 of 135-160 bearings, the side walls parallel to
+    the push among them, but 11-16 of the 48-52 that could show it). ``goal_through``: at the goal, the revolutions
     fused standing there may see past at most this many bearings of the map for the
     estimate to vouch for the goal (:func:`~clomp.runtime.supervision.goal.at_goal`; 8:
     at ``harsh`` without the gyro, standing at the goal, the estimate right saw past at
@@ -128,18 +132,42 @@ class Doubt:
         self.sd = max(self.sd, self.jolt_sd)
         return self.jolt_sd, True
 
-    def seen(self, through: int, both: int, t: float) -> tuple[bool, bool]:
+    def seen(self, through: int, both: int, t: float, along: tuple[tuple[int, int], ...] = ()) -> tuple[bool, bool]:
         """A revolution saw past ``through`` of the ``both`` bearings where the map holds a
-        surface (:func:`see_through`) at time ``t``: whether it contradicts the map (at least
-        ``through_least`` bearings and ``through_share`` of them: its surfaces must not join
-        the map), and whether that is the ``through_after``-th in a row (the robot stands
-        elsewhere than its estimate: the floor rises to ``kick_sd``, as after a kick)."""
-        bad = through >= self.through_least and through >= self.through_share * both
+        surface (:func:`see_through`) at time ``t``, and ``along`` gives, per displacement the
+        robot may have undergone, (of those, the ones that could show it; how many could,
+        :func:`~clomp.runtime.estimation.seethrough.see_through_along`): whether it contradicts
+        the map (at least ``through_least`` bearings and ``through_share`` of them, or of those
+        that could show one displacement: its surfaces must not join the map), and whether
+        that is the ``through_after``-th in a row (the robot stands elsewhere than its
+        estimate: the floor rises to ``kick_sd``, as after a kick).
+
+        >>> d = Doubt()
+        >>> d.seen(14, 150, 1.0), d.seen(14, 150, 1.2)            # a tenth of the room: not enough
+        ((False, False), (False, False))
+        >>> d.seen(14, 150, 1.4, ((14, 45),)), d.seen(12, 150, 1.6, ((11, 50),))   # a third of what could show it
+        ((True, False), (True, True))
+        >>> d.sd, d.events[-1][1]
+        (0.15, 'seen through')
+        """
+        bad = self._contradicts(through, both) or any(self._contradicts(a, c) for a, c in along)
         self.through_in_a_row = self.through_in_a_row + 1 if bad else 0
         moved = self.through_in_a_row == self.through_after
         if moved:
             self.raise_to(self.kick_sd, t, "seen through")
         return bad, moved
+
+    def judge(self, map_points: np.ndarray, points: np.ndarray, pose: Pose, t: float) -> tuple[bool, bool]:
+        """:meth:`seen` of a revolution ``points`` (robot frame) seen from the estimate ``pose``
+        against ``map_points`` at time ``t``: what
+        :func:`~clomp.runtime.estimation.seethrough.see_through_along` finds (weighed by
+        displacement only when ``through_least`` bearings see past)."""
+        s = see_through_along(map_points, points, pose, least=self.through_least)
+        return self.seen(s.through, s.both, t, s.along)
+
+    def _contradicts(self, through: int, could: int) -> bool:
+        """``through`` bearings seeing past, of ``could``: at least ``through_least`` and ``through_share``."""
+        return through >= self.through_least and through >= self.through_share * could
 
     def raise_to(self, sd: float, t: float, why: str) -> None:
         """The estimate may be ``sd`` m off for a reason its filter does not see (``why``)."""
@@ -192,59 +220,3 @@ def trusted_check(doubt: Doubt, map_points: np.ndarray, map_sds: np.ndarray, poi
     off = math.hypot(here.pose.x - pose.x, here.pose.y - pose.y)
     doubt.confirmed(max(off, amb.distance) / sigmas)
     return None
-
-
-def see_through(map_points: np.ndarray, points: np.ndarray, pose: Pose, *, margin: float = 0.1,
-                bins: int = 180, reach: float = 1.2, empty: float = 0.9) -> tuple[int, int]:
-    """How many bearings of a revolution ``points`` (robot frame) seen from ``pose`` look
-    *through* a surface the map holds there: the return lies more than ``margin`` (m) beyond
-    the map's nearest point at that bearing (``bins`` bearings a turn; map points within
-    ``reach`` m), and so do both neighbouring bearings (one alone is a surface's edge) — or
-    has no return at all where the map's is within ``empty`` m (well inside the LiDAR's
-    range), five bearings in a row (a dropout is one). A robot moved
-    where its estimate does not know sees past the surfaces it drew, whatever the matcher
-    pairs: evidence that does not depend on the matcher's reach. Returns (such bearings,
-    bearings where the map holds a surface).
-
-    >>> wall = np.array([[0.5, y] for y in np.linspace(-0.3, 0.3, 31)])
-    >>> see_through(wall, wall, Pose(0.0, 0.0, 0.0))
-    (0, 31)
-    >>> see_through(wall, wall + [0.2, 0.0], Pose(0.0, 0.0, 0.0))[0] > 10   # it stands 0.2 m back of where it thinks
-    True
-    """
-    if not len(map_points) or not len(points):
-        return 0, 0
-    every = np.asarray(map_points, dtype=float).reshape(-1, 2)
-    # only the map points in a square a little wider than ``reach`` can lie within it: the
-    # rest (most of a large map) need not be turned into the robot frame (each point's
-    # arithmetic is its own, so the ones kept come out as they did from the whole map)
-    box = reach + 1e-6
-    inside = (np.abs(every[:, 0] - pose.x) <= box) & (np.abs(every[:, 1] - pose.y) <= box)
-    local = points_to_frame(every[inside], pose)  # the map in the robot frame
-    mx, my = local[:, 0], local[:, 1]
-    mr = np.hypot(mx, my)
-    near = mr <= reach
-    width = 2 * math.pi / bins
-
-    def profile(x: np.ndarray, y: np.ndarray, r: np.ndarray) -> np.ndarray:
-        k = np.floor((np.arctan2(y, x) + math.pi) / width).astype(int) % bins
-        out = np.full(bins, np.inf)
-        np.minimum.at(out, k, r)
-        return out
-
-    pts = np.asarray(points, dtype=float).reshape(-1, 2)
-    seen = profile(pts[:, 0], pts[:, 1], np.hypot(pts[:, 0], pts[:, 1]))
-    drawn = profile(mx[near], my[near], mr[near])
-    both = np.isfinite(seen) & np.isfinite(drawn)
-    past = both & (seen > drawn + margin)
-    # a bearing counts with both its neighbours: at a surface's edge one bearing sees past it
-    after, before = ring_neighbours(past, 1)  # np.roll(past, 1), np.roll(past, -1)
-    past &= after & before
-    # no return at all where the map's surface lies well within the LiDAR's range, five
-    # bearings in a row (a small post drawn from many revolutions spans a few more
-    # bearings than one revolution's rays hit)
-    gone = ~np.isfinite(seen) & (drawn <= empty)
-    g1, g_1, g2, g_2 = ring_neighbours(gone, 2)
-    gone &= g1 & g_1 & g2 & g_2
-    through = past | gone
-    return int(through.sum()), int(np.isfinite(drawn).sum())

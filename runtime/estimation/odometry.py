@@ -20,7 +20,7 @@ each new revolution it
 4. adds the matched revolution to the map (a face seen from a new side joins the faces
    seen before, so the estimate stays tied to the first scan instead of drifting from
    scan to scan), unless it sees past the surfaces the map holds
-   (:func:`~clomp.runtime.estimation.doubt.see_through`: the robot is not where the
+   (:func:`~clomp.runtime.estimation.seethrough.see_through_along`: the robot is not where the
    estimate puts it). A revolution that matches nothing the map holds re-seeds it.
 
 When nothing matches, the estimate stays dead reckoning; the record says why.
@@ -54,7 +54,7 @@ from clomp.formal.geometry import relative, wheel_twist, wrap_angle
 from clomp.formal.model import Pose
 from clomp.runtime.devices.frame import ScanFrame
 from clomp.runtime.estimation.confirm import Ambiguity, ambiguity
-from clomp.runtime.estimation.doubt import Doubt, see_through, trusted_check
+from clomp.runtime.estimation.doubt import Doubt, trusted_check
 from clomp.runtime.estimation.ekf import OdometryFilter
 from clomp.runtime.estimation.faces import FaceCompass
 from clomp.runtime.estimation.fusion import fuse_revolutions, range_spread
@@ -377,7 +377,7 @@ class ScanOdometry(LocalMap, KickMemory, StandingSeed, PoseHistory):
             self.filter.honest[:2, :2] += np.eye(2) * self.gate[0] ** 2
             self.filter.honest[2, 2] += self.gate[1] ** 2
             self.doubt.raise_to(self.gate[0], stamp, "re-seeded")
-        bad, moved = self.doubt.seen(*see_through(self._map_points, points, corrected), stamp) \
+        bad, moved = self.doubt.judge(self._map_points, points, corrected, stamp) \
             if self._map_points is not None else (False, False)
         if moved:  # it stands elsewhere than the estimate: the gain opened as after a kick
             self.filter.P[:2, :2] += np.eye(2) * self.doubt.kick_sd ** 2
