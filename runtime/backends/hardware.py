@@ -52,6 +52,7 @@ from clomp.runtime.devices.rplidar import DEFAULT_BAUDRATE, LidarError, LidarTim
 from clomp.runtime.clock import Clock, WallClock, device_seconds, device_time, device_to_clock
 from clomp.runtime.interface import RobotFault, ScanFrame
 from clomp.runtime.records.runlog import RunLogLike
+from clomp.runtime.backends._counting_port import CountingPort as _CountingPort
 
 __all__ = ["HardwareConfig", "HardwareRobot", "on_clock", "open_lidar_port"]
 _T = TypeVar("_T")
@@ -77,7 +78,8 @@ class HardwareConfig:
     (once revolutions flow), ``garbage_window``, ``garbage_fraction``. IMU (when one is
     given): ``imu_baudrate``, ``imu_start_timeout`` for the first report, ``imu_silence``
     for every later gap, ``imu_rate_margin`` (a yaw turning faster than this times the
-    wheels' fastest spin, ``2 max_speed / wheel_base``, is a fault).
+    wheels' fastest spin, ``2 max_speed / wheel_base``, is a fault), ``imu_still_rate``
+    (rad/s: a yaw turning faster while the wheels stand is a fault; bno08x_still).
 
     >>> cfg = HardwareConfig(motor_control="none", dry_run=True)
     >>> cfg.to_dict()["dry_run"], cfg.motor_control
@@ -106,10 +108,11 @@ class HardwareConfig:
     imu_start_timeout: float = 1.0
     imu_silence: float = 0.2
     imu_rate_margin: float = 1.5
+    imu_still_rate: float = 0.25
 
     def __post_init__(self) -> None:
         for name in ("start_timeout", "byte_timeout", "garbage_window", "imu_start_timeout", "imu_silence",
-                     "imu_rate_margin"):
+                     "imu_rate_margin", "imu_still_rate"):
             v = getattr(self, name)
             if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
                 raise ValueError(f"{name} must be a positive number of seconds, got {v!r}")
@@ -121,30 +124,6 @@ class HardwareConfig:
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready form (for the run log)."""
         return asdict(self)
-
-
-class _CountingPort:
-    """A serial-like port that counts the bytes read through it (the stream watch needs it)."""
-
-    def __init__(self, port: Any) -> None:
-        self._port = port
-        self.bytes_read = 0
-
-    def read(self, size: int = 1) -> bytes:
-        data: bytes = self._port.read(size)
-        self.bytes_read += len(data)
-        return data
-
-    @property
-    def dtr(self) -> Any:
-        return self._port.dtr
-
-    @dtr.setter
-    def dtr(self, value: bool) -> None:
-        self._port.dtr = value
-
-    def __getattr__(self, name: str) -> Any:
-        return getattr(self._port, name)
 
 
 def open_lidar_port(spec: str, baudrate: int = DEFAULT_BAUDRATE) -> Any:
@@ -281,10 +260,12 @@ class HardwareRobot:
         max_rate = cfg.imu_rate_margin * 2.0 * model.max_speed / model.wheel_base
         try:
             imu = Bno08xRvc(port, baudrate=cfg.imu_baudrate, silence_timeout=cfg.imu_silence,
-                            start_timeout=cfg.imu_start_timeout, clock=self._device_clock, max_rate=max_rate)
+                            start_timeout=cfg.imu_start_timeout, clock=self._device_clock, max_rate=max_rate,
+                            still_rate=cfg.imu_still_rate)
         except (ImuError, ValueError, TypeError) as exc:
             raise RobotFault(f"IMU: {exc}") from exc
         # no wait for the first report here: the driver's start_timeout trips the robot when none comes
+        imu.wheels_still(self.maestro is not None and not self.dry_run)  # stopped before the IMU was opened
         imu.on_fault = lambda exc: self._trip(f"IMU on {imu.port_name} failed: {_describe(exc)}", source="imu")
         self._write_log("device", device="imu", port=imu.port_name, mode="rvc", max_rate=max_rate)
         return imu
@@ -572,6 +553,8 @@ class HardwareRobot:
         with self._lock:
             self._dead_reckon(self.clock.now())
             self._cmd = cmd
+        if self.imu is not None:  # it judges its yaw while the wheels stand
+            self.imu.wheels_still(cmd == (0.0, 0.0) and not self.dry_run)
 
     def _dead_reckon(self, now: float) -> None:
         dt = now - self._pose_t
