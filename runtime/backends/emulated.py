@@ -51,7 +51,7 @@ from clomp.runtime.devices.maestro_emulator import MaestroEmulator
 from clomp.runtime.devices.rplidar_emulator import LidarEmulator
 from clomp.runtime.devices.maestro import WheelConfig
 from clomp.runtime.backends._imu import imu_terms
-from clomp.runtime.backends._imu_fault import ImuFault
+from clomp.runtime.backends.imu_fault import ImuFault
 from clomp.runtime.backends.sim import NoiseConfig, SimRobot
 from clomp.runtime.realtime import favour_this_thread
 from clomp.runtime.backends.world import WorldNoise, WorldRobot, make_world_robot
@@ -77,7 +77,7 @@ class EmulatedWorld:
     its attributes such as ``garbage_rate`` can also be changed while it runs.
     ``imu_options`` are laid over the IMU emulator's arguments the preset gives
     (:func:`~clomp.runtime.backends._imu.imu_terms`; e.g. ``{"drop_rate": 0.0}``);
-    ``imu_fault`` (:class:`~clomp.runtime.backends._imu_fault.ImuFault`) fails the IMU at a
+    ``imu_fault`` (:class:`~clomp.runtime.backends.imu_fault.ImuFault`) fails the IMU at a
     moment of world time (``clomp emulate world --imu-fault``).
     ``serial_timeout`` is the Maestro's own fail-safe (off by default, as on a new
     board): no byte for that long sends the wheels home (stopped). ``movers``: bodies that

@@ -1,6 +1,6 @@
 """``clomp emulate world``'s IMU fault options: ``--imu-fault KIND --imu-fault-at SECONDS``.
 
-The fault itself is :class:`clomp.runtime.backends._imu_fault.ImuFault`; here are its
+The fault itself is :class:`clomp.runtime.backends.imu_fault.ImuFault`; here are its
 options, their checks, and the lines the world prints: when the fault comes, and at the end
 what became of it (how long until the wheels were commanded to stop, how far the robot went).
 """
@@ -18,7 +18,7 @@ __all__ = ["add_imu_fault_options", "imu_fault_from", "say_fault_came"]
 
 def add_imu_fault_options(parser: Any) -> None:
     """Add ``--imu-fault``, ``--imu-fault-at``, ``--imu-yaw-jump`` and ``--imu-spin`` to ``parser``."""
-    from clomp.runtime.backends._imu_fault import IMU_FAULTS
+    from clomp.runtime.backends.imu_fault import IMU_FAULTS
 
     parser.add_argument("--imu-fault", choices=IMU_FAULTS, metavar="KIND",
                         help="fail the IMU at --imu-fault-at: silent (no more reports), unplug (its pty closes), "
@@ -33,9 +33,9 @@ def add_imu_fault_options(parser: Any) -> None:
 
 
 def imu_fault_from(args: argparse.Namespace) -> Any:
-    """The :class:`~clomp.runtime.backends._imu_fault.ImuFault` the options ask for (None without
+    """The :class:`~clomp.runtime.backends.imu_fault.ImuFault` the options ask for (None without
     ``--imu-fault``); a CliError for a bad time or size."""
-    from clomp.runtime.backends._imu_fault import ImuFault
+    from clomp.runtime.backends.imu_fault import ImuFault
 
     if args.imu_fault is None:
         return None

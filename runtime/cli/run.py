@@ -454,7 +454,7 @@ def _run_world(args: argparse.Namespace) -> int:
     from clomp.planner.scenarios import ScenarioError
     from clomp.runtime.realtime import favour_this_thread
     from clomp.runtime.backends.emulated import EmulatedWorld
-    from clomp.runtime.backends._imu_fault import fault_summary
+    from clomp.runtime.backends.imu_fault import fault_summary
 
     if args.serial_timeout is not None and not (math.isfinite(args.serial_timeout) and args.serial_timeout > 0):
         raise CliError(f"--serial-timeout must be a positive number of seconds, got {args.serial_timeout}")

@@ -11,7 +11,7 @@ import math
 import pytest
 
 from clomp.runtime import cli
-from clomp.runtime.backends._imu_fault import ImuFault, fault_summary
+from clomp.runtime.backends.imu_fault import ImuFault, fault_summary
 from clomp.runtime.backends.emulated import EmulatedWorld
 from clomp.runtime.clock import ManualClock
 from clomp.runtime.devices.bno08x_codec import RvcDecoder
