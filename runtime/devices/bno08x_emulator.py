@@ -164,7 +164,7 @@ class Bno08xEmulator(PtyEmulator):
                 return
             self._due_base += due
             # the source is read first: it may switch a fault on now (a world's scheduled one,
-            # backends/_imu_fault.py), which then holds for this pass's reports too
+            # backends/imu_fault.py), which then holds for this pass's reports too
             turned = None if self.garbage_only else self._true_turned()
             if self.silent or self._vanish.is_set():
                 return
