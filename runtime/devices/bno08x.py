@@ -287,7 +287,7 @@ class Bno08xRvc(SerialDevice):
                 slid = self._watch.feed(r.index, ax, ay, sample.yaw)
                 if slid is not None:
                     self._slides.append(slid)
-                fault = fault or self._rate_fault() or self._still_fault(r.index, sample.yaw)
+                fault = fault or self._rate_fault() or self._still_fault(sample)
         return True, fault
 
     def wheels_still(self, still: bool) -> None:
@@ -296,10 +296,10 @@ class Bno08xRvc(SerialDevice):
         (:class:`~clomp.runtime.devices.bno08x_still.StillWatch`)."""
         if self._still is not None:
             with self._cond:
-                self._still.command(still)
+                self._still.command(still, self.clock())
 
-    def _still_fault(self, index: int, yaw: float) -> ImuError | None:
-        why = None if self._still is None else self._still.feed(index, yaw)
+    def _still_fault(self, sample: ImuSample) -> ImuError | None:
+        why = None if self._still is None else self._still.feed(sample.report.index, sample.yaw, sample.timestamp)
         return None if why is None else ImuProtocolError(
             f"IMU on {self.port_name} disagrees wildly with the wheels: its yaw {why} "
             f"(a gyro gone bad, or a forged stream?)")

@@ -11,23 +11,29 @@ fault, never a silent fallback"). The driver's rate check
 faster than the wheels can make; this one a plausible turn rate at the wrong time.
 
 Time is counted in reports (10 ms each, from their indices: a lost report counts, a host
-that read late does not): ``settle`` s after the first report that came once the wheels
-were commanded still (the body stops: the drive's latency, its deceleration), the yaw of
-that report is the window's base; from then on the yaw may differ from it by at most
-``max_rate`` × the window's span + ``slack``. The wheels commanded to move end the window.
+that read late does not): ``settle`` s after the first report made once the wheels were
+commanded still (its timestamp at or after the command's: a reader running late still
+holds reports made while the body moved; the body stops meanwhile: the drive's latency,
+its deceleration), the yaw of that report is the window's base; from then on the yaw may
+differ from it by at most ``max_rate`` × the window's span + ``slack``. The wheels
+commanded to move end the window.
 
 >>> w = StillWatch(max_rate=0.25, slack=0.05, settle=0.3)
->>> w.command(still=True)
->>> [w.feed(i, 0.0) for i in range(40)][-1] is None
+>>> w.command(still=True, at=0.0)
+>>> w.feed(250, 2.0, -0.05) is None                             # made before the command: not counted
 True
->>> out = [w.feed(40 + i, 0.01 * i) for i in range(60)]       # 1 rad/s while standing
+>>> [w.feed(i, 0.0, i / 100) for i in range(40)][-1] is None
+True
+>>> out = [w.feed(40 + i, 0.01 * i, 0.4 + i / 100) for i in range(60)]   # 1 rad/s while standing
 >>> next(k for k, o in enumerate(out) if o is not None), out[-1] is not None
 (11, True)
->>> w.command(still=False); w.feed(100, 3.0) is None           # driving: no judgement
+>>> w.command(still=False, at=1.0); w.feed(100, 3.0, 1.0) is None      # driving: no judgement
 True
 """
 
 from __future__ import annotations
+
+import math
 
 from clomp.runtime.devices.bno08x_codec import REPORT_RATE
 
@@ -43,20 +49,22 @@ class StillWatch:
             raise ValueError("max_rate must be positive, slack and settle not negative")
         self.max_rate, self.slack, self.settle = max_rate, slack, settle
         self.still = False
+        self._since = -math.inf  # when the wheels were commanded still (the driver's clock)
         self._last: int | None = None  # the index of the last report fed in this stand
         self._span = 0  # reports since the first one of this stand
         self._base: tuple[int, float] | None = None  # (reports since the stand's first, yaw) at the window's start
 
-    def command(self, still: bool) -> None:
-        """The wheels were commanded still (True) or to move (False), now."""
+    def command(self, still: bool, at: float) -> None:
+        """The wheels were commanded still (True) or to move (False) at ``at`` (the driver's clock)."""
         if still and not self.still:
-            self._last, self._span, self._base = None, 0, None
+            self._last, self._span, self._base, self._since = None, 0, None, at
         self.still = still
 
-    def feed(self, index: int, yaw: float) -> str | None:
-        """One report (its index, its yaw followed through the wrap, rad); why the yaw is
-        wrong (turned ... in ... s while the wheels stood), or None."""
-        if not self.still:
+    def feed(self, index: int, yaw: float, timestamp: float) -> str | None:
+        """One report (its index, its yaw followed through the wrap, rad, when it was made on
+        the driver's clock); why the yaw is wrong (turned ... in ... s while the wheels
+        stood), or None."""
+        if not self.still or (self._last is None and timestamp < self._since):
             return None
         if self._last is not None:
             self._span += (index - self._last) % 256

@@ -28,11 +28,11 @@ def test_a_drift_within_the_bound_never_trips(rate: float, noise: list[float], l
     """Any drift up to ``max_rate``, noise within ±``slack``/2 on every report, reports lost
     (an index gap of up to 3): never judged wrong."""
     w = StillWatch(max_rate=0.25, slack=0.05, settle=0.3)
-    w.command(still=True)
+    w.command(still=True, at=0.0)
     index = 0
     for gap, n in zip(lost, noise):
         index += gap
-        assert w.feed(index % 256, rate * index / 100.0 + n) is None
+        assert w.feed(index % 256, rate * index / 100.0 + n, index / 100.0) is None
 
 
 @given(rate=st.floats(0.4, 4.0), sign=st.sampled_from([-1.0, 1.0]))
@@ -40,19 +40,30 @@ def test_a_turn_while_standing_trips_within_its_bound(rate: float, sign: float) 
     """A yaw turning at ``rate`` > max_rate from the window's start trips once ``rate × t``
     exceeds ``max_rate × t + slack``, to the report."""
     w = StillWatch(max_rate=0.25, slack=0.05, settle=0.3)
-    w.command(still=True)
+    w.command(still=True, at=0.0)
     for i in range(31):
-        assert w.feed(i, 0.0) is None  # settling (0.3 s), then the window's base: not judged
-    tripped = next(k for k in range(1, 1000) if w.feed(30 + k, sign * rate * k / 100.0) is not None)
+        assert w.feed(i, 0.0, i / 100.0) is None  # settling (0.3 s), then the window's base: not judged
+    tripped = next(k for k in range(1, 1000) if w.feed(30 + k, sign * rate * k / 100.0, (30 + k) / 100.0) is not None)
     assert tripped == next(k for k in range(1, 1000) if rate * k / 100.0 > 0.25 * k / 100.0 + 0.05)
 
 
 def test_moving_wheels_are_not_judged_and_a_new_stand_starts_a_new_window() -> None:
     w = StillWatch()
-    w.command(still=False)
-    assert all(w.feed(i, SPIN * i / 100.0) is None for i in range(300))
-    w.command(still=True)  # the body stands from here: the yaw it stopped at is not held against it
-    assert all(w.feed(300 + i, SPIN * 3.0) is None for i in range(300))
+    w.command(still=False, at=0.0)
+    assert all(w.feed(i % 256, SPIN * i / 100.0, i / 100.0) is None for i in range(300))
+    w.command(still=True, at=3.0)  # the body stands from here: the yaw it stopped at is not held against it
+    assert all(w.feed((300 + i) % 256, SPIN * 3.0, 3.0 + i / 100.0) is None for i in range(300))
+
+
+def test_reports_made_before_the_stand_are_not_judged_when_read_late() -> None:
+    """A reader running late (a busy host) feeds reports made while the body still turned
+    after the wheels were commanded still: they neither count in the settle nor become the
+    window's base."""
+    w = StillWatch(max_rate=0.25, slack=0.05, settle=0.3)
+    w.command(still=True, at=1.0)
+    late = [w.feed(i, SPIN * i / 100.0, i / 100.0) for i in range(100)]  # made 0-1.0 s: turning
+    assert late == [None] * 100
+    assert all(w.feed(i, SPIN * 1.0, i / 100.0) is None for i in range(100, 300))  # standing from 1.0 s
 
 
 def _driver(still: bool) -> tuple[Bno08xRvc, float]:
