@@ -5,7 +5,8 @@
 - :mod:`.sim` — the simulated robot (pymunk world, noisy LiDAR and wheels);
 - :mod:`.hardware` — the real robot over serial ports (RPLIDAR A1 + Pololu Maestro);
 - :mod:`.emulated` — the device emulators wired to a simulated robot (hardware stack, no hardware);
-- :mod:`.faults` — a wrapper that injects faults into any backend.
+- :mod:`.faults` — a wrapper that injects faults into any backend;
+- :mod:`.imu_fault` — a named IMU fault at a moment of an emulated world's time (``emulate world --imu-fault``).
 
 May import: formal, planner, :mod:`clomp.runtime.interface`, :mod:`clomp.runtime.clock`, :mod:`clomp.runtime.devices`,
 :mod:`clomp.runtime.records`; never :mod:`clomp.runtime.supervision` (a test checks it).

@@ -51,6 +51,7 @@ from clomp.runtime.devices.maestro_emulator import MaestroEmulator
 from clomp.runtime.devices.rplidar_emulator import LidarEmulator
 from clomp.runtime.devices.maestro import WheelConfig
 from clomp.runtime.backends._imu import imu_terms
+from clomp.runtime.backends.imu_fault import ImuFault
 from clomp.runtime.backends.sim import NoiseConfig, SimRobot
 from clomp.runtime.realtime import favour_this_thread
 from clomp.runtime.backends.world import WorldNoise, WorldRobot, make_world_robot
@@ -75,7 +76,9 @@ class EmulatedWorld:
     driver's. ``lidar_options`` are passed to :class:`LidarEmulator` (fault injection);
     its attributes such as ``garbage_rate`` can also be changed while it runs.
     ``imu_options`` are laid over the IMU emulator's arguments the preset gives
-    (:func:`~clomp.runtime.backends._imu.imu_terms`; e.g. ``{"drop_rate": 0.0}``).
+    (:func:`~clomp.runtime.backends._imu.imu_terms`; e.g. ``{"drop_rate": 0.0}``);
+    ``imu_fault`` (:class:`~clomp.runtime.backends.imu_fault.ImuFault`) fails the IMU at a
+    moment of world time (``clomp emulate world --imu-fault``).
     ``serial_timeout`` is the Maestro's own fail-safe (off by default, as on a new
     board): no byte for that long sends the wheels home (stopped). ``movers``: bodies that
     move or appear (people, boxes, a door that closes; :mod:`clomp.runtime.backends._movers`),
@@ -102,6 +105,7 @@ class EmulatedWorld:
         device_number: int = 12,
         lidar_options: dict[str, Any] | None = None,
         imu_options: dict[str, Any] | None = None,
+        imu_fault: ImuFault | None = None,
         serial_timeout: float | None = None,
         clock: Clock | None = None,
         movers: tuple[Any, ...] = (),
@@ -128,6 +132,9 @@ class EmulatedWorld:
         self.tick = float(tick)
         now = time.monotonic if clock is None else device_time(clock)
         self.clock: Callable[[], float] = now  # the devices' time: the world's and both emulators'
+        self.imu_fault = imu_fault
+        if imu_fault is not None and imu_fault.clock is None:
+            imu_fault.clock = now
         self.error: BaseException | None = None
         self._lock = threading.Lock()
         self._stop = threading.Event()
@@ -217,10 +224,13 @@ class EmulatedWorld:
         return np.round(pts, 2)
 
     def _heading(self) -> float:
-        """The simulated robot's true heading now (rad, world frame): what the IMU measures."""
+        """The simulated robot's true heading now (rad, world frame): what the IMU measures
+        (what it reports under ``imu_fault``, which comes here at its time)."""
         with self._lock:
             self._catch_up()
-            return self.sim.pose.theta
+            pose, now = self.sim.pose, self.sim.now()
+        fault = self.imu_fault
+        return pose.theta if fault is None else fault.heading(pose.theta, now, self.imu, pose)
 
     def _acceleration(self) -> tuple[float, float]:
         """The execution world's largest horizontal body acceleration over the last

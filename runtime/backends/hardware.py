@@ -75,7 +75,8 @@ class HardwareConfig:
     (once revolutions flow), ``garbage_window``, ``garbage_fraction``. IMU (when one is
     given): ``imu_baudrate``, ``imu_start_timeout`` for the first report, ``imu_silence``
     for every later gap, ``imu_rate_margin`` (a yaw turning faster than this times the
-    wheels' fastest spin, ``2 max_speed / wheel_base``, is a fault).
+    wheels' fastest spin, ``2 max_speed / wheel_base``, is a fault), ``imu_still_rate``
+    (rad/s: a yaw turning faster while the wheels stand is a fault; bno08x_still).
 
     >>> cfg = HardwareConfig(motor_control="none", dry_run=True)
     >>> cfg.to_dict()["dry_run"], cfg.motor_control
@@ -104,10 +105,11 @@ class HardwareConfig:
     imu_start_timeout: float = 1.0
     imu_silence: float = 0.2
     imu_rate_margin: float = 1.5
+    imu_still_rate: float = 0.25
 
     def __post_init__(self) -> None:
         for name in ("start_timeout", "byte_timeout", "garbage_window", "imu_start_timeout", "imu_silence",
-                     "imu_rate_margin"):
+                     "imu_rate_margin", "imu_still_rate"):
             v = getattr(self, name)
             if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
                 raise ValueError(f"{name} must be a positive number of seconds, got {v!r}")
@@ -221,10 +223,12 @@ class HardwareRobot(LidarWatch):
         max_rate = cfg.imu_rate_margin * 2.0 * model.max_speed / model.wheel_base
         try:
             imu = Bno08xRvc(port, baudrate=cfg.imu_baudrate, silence_timeout=cfg.imu_silence,
-                            start_timeout=cfg.imu_start_timeout, clock=self._device_clock, max_rate=max_rate)
+                            start_timeout=cfg.imu_start_timeout, clock=self._device_clock, max_rate=max_rate,
+                            still_rate=cfg.imu_still_rate)
         except (ImuError, ValueError, TypeError) as exc:
             raise RobotFault(f"IMU: {exc}") from exc
         # no wait for the first report here: the driver's start_timeout trips the robot when none comes
+        imu.wheels_still(self.maestro is not None and not self.dry_run)  # stopped before the IMU was opened
         imu.on_fault = lambda exc: self._trip(f"IMU on {imu.port_name} failed: {_describe(exc)}", source="imu")
         self._write_log("device", device="imu", port=imu.port_name, mode="rvc", max_rate=max_rate)
         return imu
@@ -468,6 +472,8 @@ class HardwareRobot(LidarWatch):
         with self._lock:
             self._dead_reckon(self.clock.now())
             self._cmd = cmd
+        if self.imu is not None:  # it judges its yaw while the wheels stand
+            self.imu.wheels_still(cmd == (0.0, 0.0) and not self.dry_run)
 
     def _dead_reckon(self, now: float) -> None:
         dt = now - self._pose_t

@@ -51,6 +51,7 @@ from clomp.runtime.cli._args import seed_arg
 from clomp.runtime.cli.plan import add_planner_options, configurator_from_args, parse_goal
 from clomp.runtime.cli import EXIT_DEVICE_FAULT, EXIT_INTERRUPTED, EXIT_NOT_REACHED, EXIT_OK, CliError
 from clomp.runtime.cli._common import add_mover_options, load_scene, output_path, path_kind, scene_movers
+from clomp.runtime.cli._emulate_faults import add_imu_fault_options, imu_fault_from, say_fault_came
 from clomp.runtime.cli._signals import interrupts_raise
 from clomp.runtime.cli._status import StatusLine
 
@@ -445,6 +446,7 @@ def add_emulate_world(devices: Any) -> None:
                    help="a body that moves or appears (a person, a box, a door that closes), as in a scenario file's "
                         "'movers', added to the scenario's own; a world with movers runs the execution world "
                         "(--noise paper unless given) and prints the clomp run command with --moving; repeatable")
+    add_imu_fault_options(w)
     w.set_defaults(func=_run_world)
 
 
@@ -452,6 +454,7 @@ def _run_world(args: argparse.Namespace) -> int:
     from clomp.planner.scenarios import ScenarioError
     from clomp.runtime.realtime import favour_this_thread
     from clomp.runtime.backends.emulated import EmulatedWorld
+    from clomp.runtime.backends.imu_fault import fault_summary
 
     if args.serial_timeout is not None and not (math.isfinite(args.serial_timeout) and args.serial_timeout > 0):
         raise CliError(f"--serial-timeout must be a positive number of seconds, got {args.serial_timeout}")
@@ -463,7 +466,7 @@ def _run_world(args: argparse.Namespace) -> int:
         preset = args.noise or ("paper" if movers else None)  # bodies that move live in the execution world
         noise = None if preset is None else WorldNoise.preset(preset, args.noise_scale)
         world = EmulatedWorld(scene, seed=args.seed, time_scale=args.time_scale, noise=noise,
-                              serial_timeout=args.serial_timeout, movers=movers)
+                              serial_timeout=args.serial_timeout, movers=movers, imu_fault=imu_fault_from(args))
     except (OSError, ScenarioError, ValueError) as exc:
         raise CliError(f"cannot simulate scenario {args.scenario!r}: {exc}") from None
     favour_this_thread(realtime=True)  # before the world's threads start: they inherit it
@@ -480,7 +483,7 @@ def _run_world(args: argparse.Namespace) -> int:
             world.stop()
         p = world.pose
         print(f"robot at ({p.x:.3f}, {p.y:.3f}, {math.degrees(p.theta):.0f}°), {world.goal_distance:.3f} m from the goal, "
-              f"{world.collisions} collision(s){_disturbances(world)}", flush=True)
+              f"{world.collisions} collision(s){_disturbances(world)}{fault_summary(world)}", flush=True)
     if world.error is not None:
         raise CliError(f"the emulated world failed: {world.error}")
     return 0
@@ -505,5 +508,7 @@ def _serve_world(world: Any, args: argparse.Namespace) -> None:
     moving = " --moving" if world.movers else ""
     print(f"run: clomp run --lidar {world.lidar_port} --motors {world.motor_port} --imu {world.imu_port} "
           f"--goal {gx:g},{gy:g}{scale}{moving}", flush=True)
+    said: list[bool] = []
     while world.lidar.running and world.maestro.running and world.error is None:
+        say_fault_came(world, said)
         time.sleep(0.1)

@@ -44,6 +44,7 @@ from clomp.runtime.devices.bno08x_codec import (
 from clomp.runtime.devices.port import PORT_ERRORS as _PORT_ERRORS
 from clomp.runtime.devices.port import SerialDevice
 from clomp.runtime.devices.bno08x_slide import Slide, SlideWatch
+from clomp.runtime.devices.bno08x_still import StillWatch
 
 __all__ = [
     "Bno08xRvc",
@@ -93,6 +94,8 @@ class Bno08xRvc(SerialDevice):
     device's time (report indices, so a host that read late does not matter) by at most
     ``max_rate × rate_window + rate_slack``; ``rate_reports`` reports in a row beyond that
     latch :class:`ImuProtocolError` (one outlier, a report forged by line noise, passes).
+    ``still_rate`` (rad/s, None: no check): told by :meth:`wheels_still` that the wheels
+    stand, a yaw turning faster than that latches it too (bno08x_still).
 
     What a heading consumer calls: :meth:`rotation` (rad turned since the first report,
     as :class:`clomp.runtime.interface.TurnSensing` asks), :meth:`latest` (the newest
@@ -116,6 +119,7 @@ class Bno08xRvc(SerialDevice):
         rate_window: float = 0.1,
         rate_slack: float = 0.05,
         rate_reports: int = 3,
+        still_rate: float | None = None,
     ) -> None:
         if not (silence_timeout > 0 and start_timeout > 0):
             raise ValueError("silence_timeout and start_timeout must be positive")
@@ -125,6 +129,7 @@ class Bno08xRvc(SerialDevice):
                              "rate_slack not negative, rate_reports at least 1")
         self.max_rate, self.rate_window, self.rate_slack, self.rate_reports = max_rate, rate_window, rate_slack, rate_reports
         self._too_fast = 0  # reports in a row whose yaw turned faster than max_rate
+        self._still = None if still_rate is None else StillWatch(max_rate=still_rate)  # a turn while the wheels stand
         if history < 1:
             raise ValueError("history must be at least 1")
         self.baudrate = baudrate
@@ -282,8 +287,22 @@ class Bno08xRvc(SerialDevice):
                 slid = self._watch.feed(r.index, ax, ay, sample.yaw)
                 if slid is not None:
                     self._slides.append(slid)
-                fault = fault or self._rate_fault()
+                fault = fault or self._rate_fault() or self._still_fault(sample)
         return True, fault
+
+    def wheels_still(self, still: bool) -> None:
+        """Tell the driver the wheels were commanded still (True) or to move, now: with
+        ``still_rate``, a yaw that turns while they stand latches :class:`ImuProtocolError`
+        (:class:`~clomp.runtime.devices.bno08x_still.StillWatch`)."""
+        if self._still is not None:
+            with self._cond:
+                self._still.command(still, self.clock())
+
+    def _still_fault(self, sample: ImuSample) -> ImuError | None:
+        why = None if self._still is None else self._still.feed(sample.report.index, sample.yaw, sample.timestamp)
+        return None if why is None else ImuProtocolError(
+            f"IMU on {self.port_name} disagrees wildly with the wheels: its yaw {why} "
+            f"(a gyro gone bad, or a forged stream?)")
 
     def _rate_fault(self) -> ImuError | None:
         """The fault when the newest sample ends ``rate_reports`` in a row whose yaw changed

@@ -163,10 +163,14 @@ class Bno08xEmulator(PtyEmulator):
                 self._due_base += max(due, 0)  # silence: the reports are not made, not held
                 return
             self._due_base += due
-            if self.garbage_only:
+            # the source is read first: it may switch a fault on now (a world's scheduled one,
+            # backends/imu_fault.py), which then holds for this pass's reports too
+            turned = None if self.garbage_only else self._true_turned()
+            if self.silent or self._vanish.is_set():
+                return
+            if turned is None or self.garbage_only:
                 self._emit_garbage(due * _c.REPORT_SIZE)
                 return
-            turned = self._true_turned()
             self._accel = self._felt()
             for _ in range(min(due, 10)):  # a long stall: the device does not catch up
                 if not self._emit(turned, now):

@@ -3,11 +3,12 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import random
 
 import pytest
-from hypothesis import assume, given, settings
+from hypothesis import assume, example, given, settings
 from hypothesis import strategies as st
 
 from clomp.runtime.devices.bno08x_codec import (
@@ -107,10 +108,15 @@ def test_the_datasheet_example_decodes_to_its_values() -> None:
 
 
 @given(reports())
+@example(RvcReport(0, 0, 0, 0, (0, 0, 0), 0, 0, 0xAA))  # ends AA AA (reserved, checksum): a header, maybe
 def test_encode_decode_round_trip(report: RvcReport) -> None:
+    """A report, then the next one as the device streams it. (Two bytes after it are not
+    always enough: a report ending ``AA AA`` may be followed by one that starts there, so the
+    decoder rightly waits for the bytes that decide; hypothesis found one, reserved = checksum = 0xAA.)"""
     data = encode_report(report)
     assert len(data) == REPORT_SIZE and data[:2] == b"\xaa\xaa"
-    assert RvcDecoder().feed(data + b"\x00\x00") == [report]  # two more bytes: no AA at its end is pending
+    following = encode_report(dataclasses.replace(report, index=(report.index + 1) % 256))
+    assert RvcDecoder().feed(data + following)[:1] == [report]
 
 
 @given(st.floats(-50.0, 50.0), st.floats(-1.5, 1.5), st.floats(-3.0, 3.0))

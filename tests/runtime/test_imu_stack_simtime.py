@@ -144,3 +144,23 @@ def test_a_starved_imu_reader_still_stops_the_wheels_within_a_tick_of_its_silenc
 
     monkeypatch.setattr(_simline.SimLine, "read", late)
     test_an_imu_fault_halts_the_run_with_the_wheels_stopped(_silent, "fell silent", 0.2)
+
+
+def test_an_imu_that_turns_while_the_robot_stands_halts_the_run_at_its_next_stand() -> None:
+    """The reported yaw starts to turn at 30°/s while the body does not (``clomp emulate world
+    --imu-fault spin``): a turn the robot could make, so no impossible rate; at its next stand
+    (the wheels commanded still) the IMU disagrees wildly with the wheels, the robot trips (exit
+    3) within the settle (0.3 s) and the drift bound's 0.19 s, and the wheels never move again."""
+    def spin(run: StackRun) -> None:
+        true, t0 = run.world.imu.heading, run.clock.now()
+        run.world.imu.heading = lambda: true() + 0.52 * (run.clock.now() - t0)
+
+    run = run_stack("overtaking", imu=True, noise="harsh", seed=1, max_time=60.0, hook=at(T_FAULT, spin))
+    assert run.report is not None and run.report.state is SupervisorState.HALTED, run.report
+    robot = run.robot
+    assert robot is not None and robot.fault is not None and "disagrees wildly" in robot.fault
+    t_fault = run.notes["t_fault"]
+    stood = wheels_stopped_at(run.world.maestro, t_fault)  # the stand (the wheels never moved again)
+    assert robot.imu is not None and robot.imu.fault_time is not None
+    assert 0.3 + 0.18 <= robot.imu.fault_time - stood <= 0.3 + 0.2 + TICK, robot.imu.fault_time - stood
+    assert run.world.maestro.speeds == (0.0, 0.0) and robot.wheels_stopped
