@@ -14,6 +14,6 @@ stood building the map's seed.
 from __future__ import annotations
 
 from clomp.runtime.estimation.fusion import bin_ranges
-from clomp.runtime.estimation.icp import ReferenceScan, ScanMatch, match_scans, neighbour_lines
+from clomp.runtime.estimation.icp import ReferenceScan, ScanMatch, direction_name, match_scans, neighbour_lines
 
-__all__ = ["ReferenceScan", "ScanMatch", "bin_ranges", "match_scans", "neighbour_lines"]
+__all__ = ["ReferenceScan", "ScanMatch", "bin_ranges", "direction_name", "match_scans", "neighbour_lines"]

@@ -46,7 +46,7 @@ from clomp.formal.model import Pose
 from clomp.runtime.estimation._icp_core import cell_keys, grid_index, icp_iterations
 from clomp.runtime.jit import interruptible
 
-__all__ = ["ScanMatch", "ReferenceScan", "match_scans", "neighbour_lines"]
+__all__ = ["ScanMatch", "ReferenceScan", "direction_name", "match_scans", "neighbour_lines"]
 
 # the reference grid's cell (m): about the first iteration's correspondence distance
 _CELL = 0.1
@@ -175,7 +175,15 @@ def neighbour_lines(points: np.ndarray, radius: float, neighbours: int,
     return count, line, angle
 
 
-def _direction_name(v: np.ndarray) -> str:
+def direction_name(v: np.ndarray) -> str:
+    """The name of a direction ``v`` of (x, y, heading): ``"x"``, ``"y"`` or ``"heading"``
+    when one axis holds more than 0.95 of it, else its components (sign chosen so the largest
+    is positive; those under 0.05 left out). Shared by the matcher's and the shape check's
+    (:mod:`~clomp.runtime.estimation.observability`) unobservable directions.
+
+    >>> direction_name(np.array([0.0, -2.0, 0.1])), direction_name(np.array([1.0, -1.0, 0.0]))
+    ('y', '0.71x-0.71y')
+    """
     v = v / np.linalg.norm(v)
     k = int(np.argmax(np.abs(v)))
     if abs(v[k]) > 0.95:
@@ -233,7 +241,7 @@ def match_scans(
     scale = np.array([1.0, 1.0, lever])
     h_state = h_obs * scale[:, None] * scale[None, :]
     imat = tuple(tuple(float(v) for v in row) for row in h_state)
-    unobservable = tuple(_direction_name(vecs[:, k]) for k in range(3) if lam[k] / max(n_used, 1) < min_information)
+    unobservable = tuple(direction_name(vecs[:, k]) for k in range(3) if lam[k] / max(n_used, 1) < min_information)
     frac = n_final / len(cur)
     pose = Pose(float(x[0]), float(x[1]), float(x[2]))
     if len(unobservable) == 3:

@@ -45,7 +45,7 @@ from clomp.formal.geometry import points_from_frame
 from clomp.formal.model import Pose
 from clomp.runtime.estimation._exact import eigh, eigvalsh
 from clomp.runtime.estimation._shape_core import shape_estimate
-from clomp.runtime.estimation.icp import _direction_name, neighbour_lines
+from clomp.runtime.estimation.icp import direction_name, neighbour_lines
 from clomp.runtime.jit import interruptible
 
 __all__ = ["observed_information", "shape_information"]
@@ -150,5 +150,5 @@ def observed_information(information: np.ndarray, points: np.ndarray, pose: Pose
     hr = hr - hw @ np.linalg.pinv(w.T @ hw) @ hw.T
     h = r @ ((hr + hr.T) / 2) @ r.T
     u = dirs[:, lost]
-    return h * scale[:, None] * scale[None, :], tuple(_direction_name(u[:, k]) for k in range(u.shape[1]))
+    return h * scale[:, None] * scale[None, :], tuple(direction_name(u[:, k]) for k in range(u.shape[1]))
 
