@@ -57,10 +57,15 @@ class Through(NamedTuple):
 
 def _profile(x: np.ndarray, y: np.ndarray, r: np.ndarray, bins: int) -> np.ndarray:
     """The nearest range per bearing (``bins`` a turn; inf where nothing is)."""
-    width = 2 * math.pi / bins
-    k = np.floor((np.arctan2(y, x) + math.pi) / width).astype(int) % bins
     out = np.full(bins, np.inf)
-    np.minimum.at(out, k, r)
+    np.minimum.at(out, _bearing(x, y, bins), r)
+    return out
+
+
+def _bearing(x: np.ndarray, y: np.ndarray, bins: int) -> np.ndarray:
+    """The bearing bin of each point (``bins`` a turn, the first at -π)."""
+    width = 2 * math.pi / bins
+    out: np.ndarray = np.floor((np.arctan2(y, x) + math.pi) / width).astype(int) % bins
     return out
 
 
@@ -92,10 +97,8 @@ def _drawn_from(every: np.ndarray, centres: list[tuple[float, float]], theta: fl
     mx, my = local[:, 0], local[:, 1]
     mr = np.hypot(mx, my)
     near = mr <= reach
-    width = 2 * math.pi / bins
-    k = np.floor((np.arctan2(my[near], mx[near]) + math.pi) / width).astype(int) % bins  # as _profile
     which = np.nonzero(near.reshape(len(centres), -1))[0]  # the centre each point was seen from
-    np.minimum.at(out, which * bins + k, mr[near])
+    np.minimum.at(out, which * bins + _bearing(mx[near], my[near], bins), mr[near])  # as _profile
     return out.reshape(len(centres), bins)
 
 
