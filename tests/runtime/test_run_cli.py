@@ -27,28 +27,18 @@ import pytest
 import clomp.runtime.cli as cli
 from clomp.runtime.backends.emulated import EmulatedWorldProcess
 from clomp.runtime.records.runlog import read_log
+from tests.runtime._ptycli import HANG, RUN_MODULE, clomp, read_lines, stop_world
 from tests.runtime._simcli import PORTS, simulate_cli
 from tests.runtime._stack import StackRun, at, wheels_stopped_at
 
 NEUTRAL = 6000
-HANG = 300.0  # wall seconds after which a wait for an event is a hang, not a slow machine
-_RUN_MODULE = "clomp.runtime.cli.run"
-_UNREGISTERED = f"import clomp.runtime.cli as c; c._COMMAND_MODULES.append({_RUN_MODULE!r}); raise SystemExit(c.main())"
-
-
-def clomp(*args: str) -> list[str]:
-    """The command line of ``clomp ARGS``: the console script once ``run`` is registered."""
-    if _RUN_MODULE not in cli._COMMAND_MODULES:
-        return [sys.executable, "-c", _UNREGISTERED, *args]
-    script = Path(sys.executable).with_name("clomp")
-    return [str(script), *args] if script.exists() else [sys.executable, "-m", "clomp.runtime.cli", *args]
 
 
 @pytest.fixture
 def run_registered(monkeypatch: pytest.MonkeyPatch) -> None:
     """Make ``clomp run`` available to in-process ``cli.main`` calls."""
-    if _RUN_MODULE not in cli._COMMAND_MODULES:
-        monkeypatch.setattr(cli, "_COMMAND_MODULES", [*cli._COMMAND_MODULES, _RUN_MODULE])
+    if RUN_MODULE not in cli._COMMAND_MODULES:
+        monkeypatch.setattr(cli, "_COMMAND_MODULES", [*cli._COMMAND_MODULES, RUN_MODULE])
 
 
 class Run:
@@ -82,32 +72,6 @@ def wait_driving(world: EmulatedWorldProcess, run: Run) -> None:
     if not ok or run.proc.poll() is not None:
         run.finish()
         pytest.fail(f"the robot never drove (exit {run.proc.returncode}):\n{run.stderr}")
-
-
-def read_lines(proc: subprocess.Popen[str], n: int) -> list[str]:
-    """The first ``n`` lines ``proc`` prints (stripped), waited for as they come; fails when it
-    ends first or prints fewer in :data:`HANG` s (a hang: a bare readline would wait forever)."""
-    import queue
-    import threading
-
-    got: queue.Queue[str] = queue.Queue()
-    out = proc.stdout
-    assert out is not None
-    def read() -> None:
-        for _ in range(n):
-            got.put(out.readline())
-
-    threading.Thread(target=read, daemon=True).start()
-    lines: list[str] = []
-    for _ in range(n):
-        try:
-            line = got.get(timeout=HANG)
-        except queue.Empty:
-            pytest.fail(f"printed {lines} and no more in {HANG:g} s")
-        if not line:
-            pytest.fail(f"ended after printing {lines}")
-        lines.append(line.strip())
-    return lines
 
 
 def assert_clean_failure(stderr: str, rc: int, wheels: str = "wheels stopped") -> None:
@@ -434,12 +398,7 @@ def test_emulate_world_serves_a_whole_stack_a_user_can_run(tmp_path: Path) -> No
         )
         assert run.returncode == 0, run.stderr
     finally:
-        world.send_signal(signal.SIGINT)
-        try:
-            out, err = world.communicate(timeout=HANG)
-        except subprocess.TimeoutExpired:
-            world.kill()
-            out, err = world.communicate()
+        out, err = stop_world(world)
     assert world.returncode == 0, err
     x = float(out.split("robot at (", 1)[1].split(",", 1)[0])
     assert x == pytest.approx(0.3, abs=0.06) and "0 collision(s)" in out
