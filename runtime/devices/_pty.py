@@ -9,8 +9,11 @@ Subclasses implement the device (:mod:`clomp.runtime.devices.rplidar_emulator`,
 from __future__ import annotations
 
 import abc
+import fcntl
 import os
 import select
+import struct
+import termios
 import threading
 import time
 import tty
@@ -22,9 +25,19 @@ __all__ = ["PtyEmulator"]
 
 
 class PtyEmulator(abc.ABC):
-    """A pty whose master side is served by a background thread."""
+    """A pty whose master side is served by a background thread.
+
+    ``stale_after`` (seconds of the device's time, None: never): bytes on the line that no
+    one has read for that long are lost, the line emptied before the next write, as a USB
+    serial adapter loses what its device sends while no program has the port open. Without
+    it a pty keeps what a device streaming unasked (the IMU) sent from the emulator's start
+    until the driver opens the port, kilobytes a minute old: the driver then read a
+    heading that had drifted while it was not listening as a turn (issue #36, a run
+    started 130 s after ``clomp emulate world`` halted on "disagrees wildly").
+    """
 
     _name = "emulator"
+    stale_after: float | None = None
 
     def _set_faults(self, faults: dict[str, float | bool], known: tuple[str, ...] | dict[str, object],
                     probabilities: tuple[str, ...]) -> float:
@@ -57,6 +70,10 @@ class PtyEmulator(abc.ABC):
         self._thread: threading.Thread | None = None
         self._lock = threading.RLock()
         self._served = threading.Condition()  # notified after every pass of the serving loop
+        #: bytes lost because no one read them for ``stale_after`` s (on the line or still to be sent)
+        self.stale_dropped = 0
+        self._unread = 0  # bytes the slave side held unread after the last write
+        self._read_at: float | None = None  # the device's time the reader was last seen taking bytes
 
     # -- lifetime
 
@@ -161,13 +178,40 @@ class PtyEmulator(abc.ABC):
         self._out += data
 
     def _flush(self) -> None:
+        if self.stale_after is not None:
+            self._drop_stale(self.clock())
         if not self._out or self._master < 0:
             return
         try:
             n = os.write(self._master, self._out)
         except BlockingIOError:
             return
+        finally:
+            if self.stale_after is not None:
+                self._unread = self._line_unread()
         del self._out[:n]
+
+    def _line_unread(self) -> int:
+        """Bytes on the line the reader has not taken (the slave side's input queue)."""
+        if self._slave < 0:
+            return 0
+        try:
+            return int(struct.unpack("i", fcntl.ioctl(self._slave, termios.FIONREAD, b"\0\0\0\0"))[0])
+        except OSError:
+            return 0
+
+    def _drop_stale(self, now: float) -> None:
+        """Empty the line (and what waits to be sent) once its bytes went unread ``stale_after`` s:
+        the reader took nothing since (the queue did not shrink) while it held some."""
+        unread = self._line_unread()
+        if self._read_at is None or unread == 0 or unread < self._unread:
+            self._read_at = now  # a reader took bytes (or there were none to take)
+        elif self.stale_after is not None and now - self._read_at >= self.stale_after:
+            termios.tcflush(self._slave, termios.TCIFLUSH)  # the kernel's buffers of the line
+            self.stale_dropped += unread + len(self._out)
+            self._out.clear()
+            self._read_at, unread = now, 0
+        self._unread = unread
 
     def _next_wakeup(self, now: float) -> float:
         return now + 0.05

@@ -58,6 +58,7 @@ class Bno08xEmulator(PtyEmulator):
     """
 
     _name = "imu-emulator"
+    stale_after = 1.0  # it streams unasked: what no one read for a second is lost (PtyEmulator)
     _FAULTS = ("silent", "garbage_only", "drop_rate", "garbage_rate", "bad_checksum_rate")
 
     def __init__(

@@ -7,13 +7,12 @@ bench/imu_faults.py, not asserted here beyond its order of events."""
 from __future__ import annotations
 
 import re
-import signal
 import subprocess
 from pathlib import Path
 
 import pytest
 
-from tests.runtime.test_run_cli import HANG, clomp, read_lines
+from tests.runtime._ptycli import HANG, clomp, read_lines, stop_world
 
 
 @pytest.mark.slow  # two interpreters and a run of several seconds in real time
@@ -29,12 +28,7 @@ def test_an_imu_failing_mid_run_exits_3_with_the_wheels_stopped(kind: str, said:
                   "--time-scale", "2", "--max-time", "120", "--log", str(tmp_path / "run.jsonl")),
             capture_output=True, text=True, timeout=HANG)
     finally:
-        world.send_signal(signal.SIGINT)
-        try:
-            out, err = world.communicate(timeout=HANG)
-        except subprocess.TimeoutExpired:
-            world.kill()
-            out, err = world.communicate()
+        out, err = stop_world(world)
     assert world.returncode == 0, err
     last = run.stderr.strip().splitlines()[-1]
     assert run.returncode == 3, run.stderr
