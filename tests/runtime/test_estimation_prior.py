@@ -77,8 +77,10 @@ def test_without_a_heading_sensor_told_unmodelled_errors_it_keeps_the_worst_case
     # the body's lateness is told either way: dead reckoning on the commands as sent made each
     # start's lead a learnt forward scale (tests/runtime/test_start_lead.py)
     assert s.estimator.prior.delay == pytest.approx(delay) and delay > 0
-    # and only that robot admits the walk its model and matches cannot show
-    assert any(s.estimator.filter.honest_walk) == (not told)
+    # and only that robot admits the heading's walk its model and matches cannot show; a robot
+    # told of slip events admits their position walk, heading sensor or not (slip_walk)
+    assert any(s.estimator.filter.honest_walk[1:]) == (not told)
+    assert (s.estimator.filter.honest_walk[0] > 0) == (preset == "harsh")
 
 
 @pytest.mark.parametrize("name", UNMODELLED_FIELDS)
