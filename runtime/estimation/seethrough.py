@@ -21,6 +21,10 @@ within ``reach``. A bearing whose expected range barely changes (a wall parallel
 displacement) cannot testify for it, so it does not dilute the evidence
 (:meth:`~clomp.runtime.estimation.doubt.Doubt.seen`).
 
+A robot pushed *towards* surfaces sees them nearer than the map, not past it
+(:func:`see_nearer`): that is judged by the whole revolution's fit to the map at poses
+around the estimate, since one body nearer than it was is common and innocent.
+
 >>> room = np.array([[x, y] for x in (-1.0, 1.0) for y in np.linspace(-0.3, 0.3, 31)]
 ...                 + [[x, y] for y in (-0.35, 0.35) for x in np.linspace(-1.0, 1.0, 101)])
 >>> seen = see_through_along(room, room - [0.2, 0.0], Pose(0.0, 0.0, 0.0))  # truly 0.2 m along +x
