@@ -5,7 +5,8 @@ prior, gating and degeneracy detection); ``clomp.runtime.estimation.odometry`` f
 matches with dead reckoning into the pose the supervisor's tasks run on;
 ``clomp.runtime.estimation.doubt`` keeps what that pose may not be vouched for after a shock
 the IMU felt or a revolution that saw past the map (``clomp.runtime.estimation.seethrough``:
-judged also against the bearings that could show a push-sized displacement), and
+judged also against the bearings that could show a push-sized displacement; and its mirror,
+a revolution seeing surfaces nearer than the map that fits a pose elsewhere far better), and
 ``clomp.runtime.estimation.relocalise`` re-localises the robot after a shock against the
 map drawn before it; ``clomp.runtime.estimation.standing`` sees a robot moved while it
 stood building the map's seed.

@@ -46,9 +46,9 @@ import numpy as np
 
 from clomp.formal.geometry import compose, points_from_frame, relative
 from clomp.formal.model import Pose
-from scipy.ndimage import distance_transform_edt
 from scipy.spatial import cKDTree
 
+from clomp.runtime.estimation._gridfit import misfit_grid
 from clomp.runtime.estimation.doubt import Doubt
 from clomp.runtime.estimation.ekf import OdometryFilter
 from clomp.runtime.estimation.icp import ReferenceScan, match_scans
@@ -76,18 +76,6 @@ class Relocalisation:
     why: str
 
 
-def _field(map_points: np.ndarray, lo: np.ndarray, hi: np.ndarray, res: float, cap: float) -> np.ndarray:
-    """The distance (m, at most ``cap``) from each cell of a ``res`` grid spanning ``lo``..``hi``
-    to the nearest map point: the misfit of a point that falls there, looked up at once."""
-    shape = np.ceil((hi - lo) / res).astype(int) + 1
-    occupied = np.ones(tuple(shape), dtype=bool)
-    k = np.floor((map_points - lo) / res + 0.5).astype(int)
-    inside = np.all((k >= 0) & (k < shape), axis=1)
-    occupied[k[inside, 0], k[inside, 1]] = False
-    out: np.ndarray = np.minimum(distance_transform_edt(occupied) * res, cap)
-    return out
-
-
 def relocalise(map_points: np.ndarray, map_sds: np.ndarray, points: np.ndarray, pose: Pose, *,
                radius: float = 0.4, step: float = 0.02, headings: tuple[float, ...] = HEADINGS,
                min_points: int = 10, sd: float = 0.02, correlation: float = 4.0, reach: float = 3.0,
@@ -108,20 +96,12 @@ def relocalise(map_points: np.ndarray, map_sds: np.ndarray, points: np.ndarray, 
     ref = np.asarray(map_points, dtype=float).reshape(-1, 2)
     if len(pts) < min_points or len(ref) < min_points:
         return Relocalisation(None, math.inf, 0.0, math.inf, math.inf, "too few points")
-    res, cap = step / 2, reach * sd
-    few = pts[:: -(-len(pts) // most_points)]  # the grid is scored on at most ``most_points`` of them
-    seen = [points_from_frame(few, Pose(pose.x, pose.y, pose.theta + h)) for h in headings]
-    every = np.vstack([ref, *seen])
-    lo, hi = every.min(axis=0) - radius - cap - res, every.max(axis=0) + radius + cap + res
-    dist = _field(ref, lo, hi, res, cap)
-    offs = np.arange(-round(radius / step), round(radius / step) + 1) * round(step / res)
-    cost = np.empty((len(headings), len(offs), len(offs)))
-    for i, w in enumerate(seen):
-        k = np.floor((w - lo) / res + 0.5).astype(int)
-        d = dist[k[:, 0, None, None] + offs[None, :, None], k[:, 1, None, None] + offs[None, None, :]]
-        cost[i] = np.sum(d * d, axis=0) / (sd * sd) / correlation * (len(pts) / len(few))  # as if all were scored
+    cap = reach * sd
+    grid = misfit_grid(ref, pts, pose, radius=radius, step=step, headings=headings, sd=sd, correlation=correlation,
+                       reach=reach, most_points=most_points)
+    cost, offs = grid.cost, grid.offsets
     h, a, b = np.unravel_index(int(np.argmin(cost)), cost.shape)
-    dx, dy = offs * res, offs * res
+    dx, dy = offs, offs
     gx, gy = np.meshgrid(dx, dy, indexing="ij")
     far = np.hypot(gx - dx[a], gy - dy[b])  # each grid pose's distance from the best
     best = float(cost[h, a, b])

@@ -147,8 +147,9 @@ def test_stopper_37_0_without_the_gyro_does_not_claim_a_goal_it_is_not_at(monkey
     judged: list[tuple[float, bool]] = []
     seen = Doubt.seen
 
-    def spy(self: Doubt, through: int, both: int, t: float, along: tuple[tuple[int, int], ...] = ()) -> tuple[bool, bool]:
-        out = seen(self, through, both, t, along)
+    def spy(self: Doubt, through: int, both: int, t: float, along: tuple[tuple[int, int], ...] = (),
+            nearer: tuple[float, float] = (0.0, 0.0)) -> tuple[bool, bool]:
+        out = seen(self, through, both, t, along, nearer)
         judged.append((t, out[1]))
         return out
 
