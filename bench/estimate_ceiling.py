@@ -117,11 +117,12 @@ def true_calibration(robot: Any, wheel_base: float) -> tuple[float, float, float
 def true_gyro_calibration(robot: Any, wheel_base: float) -> tuple[float, float, float, float, float]:
     """The filter's (s, k, c, d, b) for a robot whose heading comes from its gyro: the
     wheels' forward scale, the gyro's scale as ``k`` (it reads ``gain`` times the turn, so
-    ``1 + k = 1 / gain``) and its offset as ``b`` (rad/s, in the turn's units); ``c`` and
-    ``d`` act on the wheels' turn, which the heading no longer uses."""
+    ``1 + k = 1 / gain``) and its offset as ``b`` (rad/s, what it reads standing: the filter
+    takes it off the reading before the gain); ``c`` and ``d`` act on the wheels' turn, which
+    the heading no longer uses."""
     s = true_calibration(robot, wheel_base)[0]
     g = robot.gyro_truth()
-    return s, 1.0 / g["gain"] - 1.0, 0.0, 0.0, g["offset"] / g["gain"]
+    return s, 1.0 / g["gain"] - 1.0, 0.0, 0.0, g["offset"]
 
 
 class _CalibrationFed(Supervisor):

@@ -100,6 +100,12 @@ class OdometryPrior:
     delay: float = 0.0
     honest_walk: tuple[float, float, float] = (0.0, 0.0, 0.0)
     turn_asymmetry: float = 0.0
+    shared_floor: bool = True
+    """Whether a match's floor counts as error the revolutions share
+    (:class:`~clomp.runtime.estimation.ekf.OdometryFilter` ``shared_floor``): on for a robot told
+    nothing or told of error sources the filter does not model (their drift draws the map the
+    matches meet); off for one told its drive follows the model (``paper``: there the floor kept
+    every corridor run truly 1 cm from the goal unconfirmed)."""
 
     @classmethod
     def worst(cls) -> OdometryPrior:
@@ -147,11 +153,12 @@ class OdometryPrior:
         noise = max(0.01, m * math.hypot(told.wheel_sd, _HALF_NORMAL_SD * told.slip))
         # a gyro's gain turning one way differs from the other's by ``rate_asymmetry``: each
         # way half of it from the one gain the filter learns
+        unmodelled = any(getattr(told, name) > 0 for name in UNMODELLED_FIELDS)
         return cls((sd[0], sd[1], sd[2], sd[3]), walk, noise, delay, turn_asymmetry=m * told.rate_asymmetry / 2.0,
-                   honest_walk=(m * slip_walk(told, speed), 0.0, 0.0))
+                   honest_walk=(m * slip_walk(told, speed), 0.0, 0.0), shared_floor=unmodelled)
 
     def filter_kwargs(self) -> dict[str, Any]:
         """The :class:`~clomp.runtime.estimation.ekf.OdometryFilter` keyword arguments it sets."""
         return {"calibration_sd": self.calibration_sd, "calibration_walk": self.calibration_walk,
                 "wheel_noise": self.wheel_noise, "honest_walk": self.honest_walk,
-                "turn_asymmetry": self.turn_asymmetry}
+                "turn_asymmetry": self.turn_asymmetry, "shared_floor": self.shared_floor}
