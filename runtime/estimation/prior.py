@@ -131,6 +131,8 @@ class OdometryPrior:
         >>> q = OdometryPrior.from_noise(NoiseTerms.preset("ideal"))
         >>> all(v > 0 for v in q.calibration_sd), q.wheel_noise > 0
         (True, True)
+        >>> [OdometryPrior.from_noise(NoiseTerms.preset(p)).shared_floor for p in ("paper", "harsh")], OdometryPrior.worst().shared_floor
+        ([False, True], True)
         """
         if not (math.isfinite(margin) and margin > 0 and wheel_base > 0 and wheel_accel > 0):
             raise ValueError("margin, wheel_base and wheel_accel must be positive")
