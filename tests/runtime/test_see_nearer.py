@@ -23,6 +23,7 @@ from clomp.runtime.estimation.doubt import Doubt
 from clomp.runtime.estimation.seethrough import Nearer, see_nearer
 from clomp.runtime.experiment.runrecords import run_spec
 from clomp.runtime.experiment.runspec import RunSpec
+from tests.runtime._seenspy import spy_seen
 
 _HALF_X, _HALF_Y = 0.9, 0.6  # a room 1.8 m × 1.2 m: every wall within the map's reach (1.2 m) of its middle
 
@@ -132,16 +133,7 @@ def test_twice_in_a_row_it_stands_elsewhere() -> None:
 def test_overtaking_34_0_without_the_gyro_does_not_claim_a_goal_it_is_not_at(monkeypatch: pytest.MonkeyPatch) -> None:
     # pushed 0.3 m back along its corridor at 14.6 s, beside the box; nothing felt it, every match
     # agreed with the prediction, and it ended GOAL_REACHED 0.283 m off (bound 0.065 m)
-    judged: list[tuple[float, bool]] = []
-    seen = Doubt.seen
-
-    def spy(self: Doubt, through: int, both: int, t: float, along: tuple[tuple[int, int], ...] = (),
-            nearer: tuple[float, float] = (0.0, 0.0)) -> tuple[bool, bool]:
-        out = seen(self, through, both, t, along, nearer)
-        judged.append((t, out[1]))
-        return out
-
-    monkeypatch.setattr(Doubt, "seen", spy)
+    judged = spy_seen(monkeypatch)
     rec = run_spec(RunSpec("overtaking", 34, 0, "planning", "harsh", gyro=False))
     assert not rec["false_success"], (rec["end_state"], rec["final_error_m"], rec["reason"])
     moved = [t for t, m in judged if m]

@@ -25,6 +25,7 @@ from clomp.runtime.estimation.odometry import ScanOdometry
 from clomp.runtime.estimation.seethrough import Through, see_through, see_through_along
 from clomp.runtime.experiment.runrecords import run_spec
 from clomp.runtime.experiment.runspec import RunSpec
+from tests.runtime._seenspy import spy_seen
 
 _HALF_X, _HALF_Y = 1.15, 0.7  # a room 2.3 m × 1.4 m, as stopper 37/0's
 
@@ -144,16 +145,7 @@ def test_stopper_37_0_without_the_gyro_does_not_claim_a_goal_it_is_not_at(monkey
     # pushed 0.187 m along the room at 21.7 s, nothing felt it; it ended GOAL_REACHED 0.214 m off,
     # bound 0.068 m. Before, from 4 s, a body that stood beside it had left: 12-20 bearings saw past
     # where it stood, far beyond where a push would move it — not a displacement
-    judged: list[tuple[float, bool]] = []
-    seen = Doubt.seen
-
-    def spy(self: Doubt, through: int, both: int, t: float, along: tuple[tuple[int, int], ...] = (),
-            nearer: tuple[float, float] = (0.0, 0.0)) -> tuple[bool, bool]:
-        out = seen(self, through, both, t, along, nearer)
-        judged.append((t, out[1]))
-        return out
-
-    monkeypatch.setattr(Doubt, "seen", spy)
+    judged = spy_seen(monkeypatch)
     rec = run_spec(RunSpec("stopper", 37, 0, "planning", "harsh", gyro=False))
     assert not rec["false_success"], (rec["end_state"], rec["final_error_m"], rec["reason"])
     moved = [t for t, m in judged if m]
