@@ -32,6 +32,13 @@ table of docs/ros2.md. Its figures depend on how busy the machine is (say so bes
 
     python bench/imu_stack.py --pty --scenarios overtaking,corridor,doorway --seeds 0,1,2,3,4,5,6,7,8,9 --scales 1
     python bench/imu_stack.py --pty --seeds 0,1,2,3,4,5,6,7,8,9 --scales 1,2 --imu both
+
+``--told on`` tells ``clomp run`` the world's calibration (``--calibration``, the file ``clomp
+emulate world --calibration-out`` writes), ``off`` runs it as ``clomp run`` without one (its
+default ``--drive-delay``), ``both`` (simulated time) does each; by default the simulated-time
+runs keep the supervisor's defaults (told nothing, delay 0), as before::
+
+    python bench/imu_stack.py --runs 10 --noise paper --imu on --told both
 """
 
 from __future__ import annotations
