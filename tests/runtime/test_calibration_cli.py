@@ -181,3 +181,25 @@ def test_emulate_world_without_the_execution_world_has_no_calibration_to_write(
 def test_the_note_of_a_json_file_says_where_the_terms_came_from() -> None:
     note = json.loads(calibration_text(NoiseTerms.preset("harsh"), "json", "clomp emulate world --noise harsh"))["note"]
     assert note.startswith("the drive's noise terms") and "--noise harsh" in note and "bias_walk" in note
+
+
+def test_emulate_world_writes_its_calibration_and_the_run_command_takes_it(tmp_path: Path) -> None:
+    """As a user runs it: ``clomp emulate world --noise paper --calibration-out FILE`` writes the
+    world's terms, says where, and prints the ``clomp run`` command with ``--calibration FILE``
+    (the world is stopped by Ctrl-C before any run: a wait for lines, never for a time)."""
+    import subprocess
+
+    from tests.runtime._ptycli import clomp, read_lines, stop_world
+
+    out = tmp_path / "world.toml"
+    world = subprocess.Popen(clomp("emulate", "world", "--scenario", "open", "--noise", "paper", "--seed", "3",
+                                   "--calibration-out", str(out)),
+                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        said = dict(line.split(": ", 1) for line in read_lines(world, 5))
+    finally:
+        _, err = stop_world(world)
+    assert world.returncode == 0, err
+    assert said["calibration"] == str(out) and said["run"].endswith(f"--calibration {out}")
+    assert load_calibration(out) == NoiseTerms.preset("paper")
+    assert "shared match floor is off" in out.read_text()
