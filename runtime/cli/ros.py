@@ -76,6 +76,9 @@ def register(sub: Any) -> None:
     s.add_argument("--rays", type=int, default=360, help="LiDAR samples a revolution, 360-720 (default 360)")
     s.add_argument("--cmd-timeout", type=float, default=0.5, metavar="S", help="stop the wheels when /cmd_vel is S s old (default 0.5)")
     s.add_argument("--max-time", type=float, metavar="S", help="stop after S seconds (default: run until Ctrl-C)")
+    s.add_argument("--calibration-out", metavar="FILE",
+                   help="write the world's drive calibration (its noise terms; TOML for a .toml name, JSON otherwise) "
+                        "and print the clomp ros node command with --calibration FILE")
     s.set_defaults(func=_sim)
 
 
@@ -271,6 +274,9 @@ def _sim(args: argparse.Namespace) -> int:
         raise CliError(str(exc)) from None
     if args.max_time is not None and not (math.isfinite(args.max_time) and args.max_time > 0):
         raise CliError(f"--max-time must be a positive number of seconds, got {args.max_time}")
+    told = ""
+    if args.calibration_out is not None:
+        told = f" --calibration {_write_told(args.calibration_out, world, args.noise)}"
     with RosSession("clomp_sim") as session:
         try:
             sim = SimNode(session.node, world, model.wheel_base, cmd_timeout=args.cmd_timeout)
@@ -278,7 +284,7 @@ def _sim(args: argparse.Namespace) -> int:
             raise CliError(str(exc)) from None
         gx, gy = scene.goal_in_robot_frame()
         print(f"sim: {scene.name}, noise {args.noise}, seed {args.seed}", flush=True)
-        print(f"run: clomp ros node --goal {gx:g},{gy:g}{' --moving' if movers else ''}", flush=True)
+        print(f"run: clomp ros node --goal {gx:g},{gy:g}{' --moving' if movers else ''}{told}", flush=True)
         end = math.inf if args.max_time is None else time.monotonic() + args.max_time
         with interrupts_raise():
             try:
@@ -295,6 +301,19 @@ def _sim(args: argparse.Namespace) -> int:
     if session.error is not None or sim.error is not None:
         raise CliError(f"the sim failed: {session.error or sim.error}")
     return 0
+
+
+def _write_told(path: str, world: Any, noise: str) -> str:
+    """``--calibration-out FILE``: the world's noise terms as a calibration file; its path."""
+    from clomp.planner.noise import NoiseTerms
+    from clomp.runtime.backends.calibration import write_calibration
+    from clomp.runtime.cli._common import output_path
+
+    try:
+        return str(write_calibration(output_path(path, "--calibration-out"), NoiseTerms(**world.calibration()),
+                                     f"clomp ros sim --noise {noise}"))
+    except OSError as exc:
+        raise CliError(f"cannot write the calibration {path}: {exc}") from None
 
 
 def run_loop(scenario: str, noise: str = "harsh", seed: int = 0, *, layout: bool = False, max_time: float = 120.0,

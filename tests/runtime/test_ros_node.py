@@ -523,3 +523,20 @@ def test_a_large_odometry_covariance_widens_the_bound_the_supervisor_vouches_wit
     wide = _bound_after_driving(idle_node, big)
     assert wide >= 2.45 * math.sqrt(30 * (0.2 * 0.1) ** 2) * 0.999
     assert wide > 3 * own
+
+
+def test_ros_sim_writes_its_calibration_and_the_node_command_takes_it(tmp_path: Path,
+                                                                      capsys: pytest.CaptureFixture[str]) -> None:
+    """``clomp ros sim --calibration-out FILE`` writes the world's terms (``harsh``: its note says
+    the shared match floor stays on) and prints ``clomp ros node … --calibration FILE``."""
+    from clomp.planner.noise import NoiseTerms
+    from clomp.runtime.backends.calibration import load_calibration
+    from clomp.runtime.cli import main
+
+    out = tmp_path / "sim.json"
+    assert main(["ros", "sim", "--scenario", "open", "--noise", "harsh", "--max-time", "0.2",
+                 "--calibration-out", str(out)]) == 0
+    run = [line for line in capsys.readouterr().out.splitlines() if line.startswith("run: ")]
+    assert run and run[0].endswith(f"--calibration {out}"), run
+    assert load_calibration(out) == NoiseTerms.preset("harsh")
+    assert "shared match floor on" in json.loads(out.read_text())["note"]
