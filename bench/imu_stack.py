@@ -66,14 +66,17 @@ def one(scenario: str, noise: str, seed: int, imu: bool, max_time: float, told: 
     world's calibration (``--calibration``) or not (its default ``--drive-delay``); None: the
     supervisor's defaults (told nothing, delay 0), as this bench ran before."""
     from clomp.planner.noise import NoiseTerms
+    from clomp.runtime.backends.hardware import HardwareConfig
     from clomp.runtime.supervision import DRIVE_DELAY, SupervisorConfig
 
     wall, cpu, thread = time.perf_counter(), time.process_time(), time.thread_time()
     opts: dict[str, Any] = {}
+    # as clomp run: the estimator reckons the commands itself, late by the drive delay
+    as_run = HardwareConfig(watchdog_timeout=None, odometry=False)
     if told:
-        opts = {"calibration": NoiseTerms.preset(noise), "supervisor": SupervisorConfig()}
+        opts = {"calibration": NoiseTerms.preset(noise), "supervisor": SupervisorConfig(), "hardware": as_run}
     elif told is not None:
-        opts = {"supervisor": SupervisorConfig(drive_delay=DRIVE_DELAY)}
+        opts = {"supervisor": SupervisorConfig(drive_delay=DRIVE_DELAY), "hardware": as_run}
     run = run_stack(scenario, noise=noise, seed=seed, max_time=max_time, imu=imu, **opts)
     out: dict[str, Any] = {"wall": time.perf_counter() - wall, "cpu": time.process_time() - cpu,
                            "thread": time.thread_time() - thread}
