@@ -32,6 +32,13 @@ table of docs/ros2.md. Its figures depend on how busy the machine is (say so bes
 
     python bench/imu_stack.py --pty --scenarios overtaking,corridor,doorway --seeds 0,1,2,3,4,5,6,7,8,9 --scales 1
     python bench/imu_stack.py --pty --seeds 0,1,2,3,4,5,6,7,8,9 --scales 1,2 --imu both
+
+``--told on`` tells ``clomp run`` the world's calibration (``--calibration``, the file ``clomp
+emulate world --calibration-out`` writes), ``off`` runs it as ``clomp run`` without one (its
+default ``--drive-delay``), ``both`` (simulated time) does each; by default the simulated-time
+runs keep the supervisor's defaults (told nothing, delay 0), as before::
+
+    python bench/imu_stack.py --runs 10 --noise paper --imu on --told both
 """
 
 from __future__ import annotations
@@ -54,10 +61,23 @@ from tests.runtime._stack import run_stack  # noqa: E402
 UNCONFIRMED = getattr(SupervisorState, "GOAL_UNCONFIRMED", None)
 
 
-def one(scenario: str, noise: str, seed: int, imu: bool, max_time: float) -> dict[str, Any]:
-    """One run's outcome and costs."""
+def one(scenario: str, noise: str, seed: int, imu: bool, max_time: float, told: bool | None = None) -> dict[str, Any]:
+    """One run's outcome and costs. ``told`` (True / False): as ``clomp run`` runs, told the
+    world's calibration (``--calibration``) or not (its default ``--drive-delay``); None: the
+    supervisor's defaults (told nothing, delay 0), as this bench ran before."""
+    from clomp.planner.noise import NoiseTerms
+    from clomp.runtime.backends.hardware import HardwareConfig
+    from clomp.runtime.supervision import DRIVE_DELAY, SupervisorConfig
+
     wall, cpu, thread = time.perf_counter(), time.process_time(), time.thread_time()
-    run = run_stack(scenario, noise=noise, seed=seed, max_time=max_time, imu=imu)
+    opts: dict[str, Any] = {}
+    # as clomp run: the estimator reckons the commands itself, late by the drive delay
+    as_run = HardwareConfig(watchdog_timeout=None, odometry=False)
+    if told:
+        opts = {"calibration": NoiseTerms.preset(noise), "supervisor": SupervisorConfig(), "hardware": as_run}
+    elif told is not None:
+        opts = {"supervisor": SupervisorConfig(drive_delay=DRIVE_DELAY), "hardware": as_run}
+    run = run_stack(scenario, noise=noise, seed=seed, max_time=max_time, imu=imu, **opts)
     out: dict[str, Any] = {"wall": time.perf_counter() - wall, "cpu": time.process_time() - cpu,
                            "thread": time.thread_time() - thread}
     state = None if run.report is None else run.report.state
@@ -86,11 +106,13 @@ def summary(label: str, rows: list[dict[str, Any]]) -> str:
             f"(supervisor thread {sum(r['thread'] for r in rows):.0f} s) for {sum(r['sim_s'] for r in rows):.0f} simulated s")
 
 
-def one_pty(scenario: str, noise: str, seed: int, scale: float, log: Path, imu: bool = True) -> dict[str, Any]:
+def one_pty(scenario: str, noise: str, seed: int, scale: float, log: Path, imu: bool = True,
+            told: bool = False) -> dict[str, Any]:
     """One real-time run over ptys: ``clomp run``'s exit status, the goal it was given, the
     true final distance (the world's), the estimate's error at the end (the run log's last
     fused pose against the world's pose in the start frame), collisions, the world's pushes
-    and the last line on stderr."""
+    and the last line on stderr. ``told``: ``clomp run --calibration`` with the world's terms
+    (what ``clomp emulate world --calibration-out`` writes)."""
     import os
     import subprocess
 
@@ -99,15 +121,22 @@ def one_pty(scenario: str, noise: str, seed: int, scale: float, log: Path, imu: 
     t0 = time.perf_counter()
     with EmulatedWorldProcess(scenario, noise=noise, seed=seed, time_scale=scale) as world:
         gx, gy = world.scene.goal_in_robot_frame()
+        extra: list[str] = []
+        if told:
+            from clomp.runtime.backends.calibration import write_calibration
+
+            extra = ["--calibration", str(write_calibration(log.with_name(log.name + ".calibration.toml"),
+                                                            world.calibration, f"--noise {noise}"))]
         argv = [sys.executable, "-m", "clomp.runtime.cli", "run", "--lidar", world.lidar_port, "--motors",
                 world.motor_port, *(["--imu", world.imu_port] if imu else []), "--goal", f"{gx!r},{gy!r}",
-                "--time-scale", f"{scale:g}", "--max-time", "120", "--log", str(log)]
+                "--time-scale", f"{scale:g}", "--max-time", "120", "--log", str(log), *extra]
         load = os.getloadavg()[0]
         done = subprocess.run(argv, capture_output=True, text=True, timeout=600)
         last = (done.stderr.strip().splitlines() or done.stdout.strip().splitlines() or ["(nothing printed)"])[-1]
         truth = relative(world.scene.start, world.pose)
         est = _last_estimate(log)
-        return {"scenario": scenario, "noise": noise, "seed": seed, "time_scale": scale, "imu": imu, "goal": [gx, gy],
+        return {"scenario": scenario, "noise": noise, "seed": seed, "time_scale": scale, "imu": imu, "told": told,
+                "goal": [gx, gy],
                 "exit": done.returncode, "true": float(world.goal_distance), "collisions": int(world.collisions),
                 "est": None if est is None else math.hypot(est[0] - truth.x, est[1] - truth.y),
                 "pushes": [list(p) for p in world.pushes], "load": load,
@@ -178,7 +207,7 @@ def main_pty(args: argparse.Namespace) -> int:
                 for scenario in args.scenarios.split(","):
                     for seed in _seeds(args):
                         name = f"{scenario}-{scale:g}-{'imu' if imu else 'noimu'}-{seed}.jsonl"
-                        r = one_pty(scenario, args.noise, seed, scale, logs / name, imu)
+                        r = one_pty(scenario, args.noise, seed, scale, logs / name, imu, told=args.told == "on")
                         rows.append(r)
                         print(json.dumps(r), flush=True)
                         if args.json:
@@ -187,7 +216,7 @@ def main_pty(args: argparse.Namespace) -> int:
                     rs = [r for r in rows if r["scenario"] == scenario and r["time_scale"] == scale and r["imu"] == imu]
                     print(pty_summary(f"{scenario} time scale {scale:g} {'with --imu' if imu else 'without IMU'}", rs),
                           flush=True)
-    print(f"real time over ptys, noise {args.noise}:")
+    print(f"real time over ptys, noise {args.noise}, {'told' if args.told == 'on' else 'not told'} the world's calibration:")
     for scale in sorted({r["time_scale"] for r in rows}):
         for imu in imus:
             rs = [r for r in rows if r["time_scale"] == scale and r["imu"] == imu]
@@ -212,15 +241,24 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--scales", default="1,2", help="--pty: comma-separated --time-scale values")
     ap.add_argument("--json", metavar="FILE", help="--pty: also append each run as a JSON line")
     ap.add_argument("--logs", metavar="DIR", help="--pty: keep the run logs here")
-    ap.add_argument("--imu", choices=("on", "off", "both"), default="on", help="--pty: clomp run with --imu, without, or both")
+    ap.add_argument("--imu", choices=("on", "off", "both"), default=None,
+                    help="clomp run with --imu, without, or both (default: on with --pty, both in simulated time)")
+    ap.add_argument("--told", choices=("on", "off", "both", "default"), default="default",
+                    help="clomp run --calibration with the world's terms (on), as clomp run without it (off: its "
+                         "default --drive-delay), both (simulated time), or the supervisor's defaults (default, as before; "
+                         "--pty: off)")
     args = ap.parse_args(argv)
     if args.pty:
         args.scenarios = args.scenarios or args.scenario
+        args.imu = args.imu or "on"
         return main_pty(args)
-    results: dict[str, list[dict[str, Any]]] = {"without IMU": [], "with --imu": []}
+    tolds = {"on": (True,), "off": (False,), "both": (False, True), "default": (None,)}[args.told]
+    settings = [(f"{'with --imu' if imu else 'without IMU'}{'' if t is None else ' told' if t else ' not told'}", imu, t)
+                for imu in {"on": (True,), "off": (False,)}.get(args.imu, (False, True)) for t in tolds]
+    results: dict[str, list[dict[str, Any]]] = {label: [] for label, _, _ in settings}
     for seed in range(args.runs):
-        for label, imu in (("without IMU", False), ("with --imu", True)):
-            r = one(args.scenario, args.noise, seed, imu, args.max_time)
+        for label, imu, told in settings:
+            r = one(args.scenario, args.noise, seed, imu, args.max_time, told)
             results[label].append(r)
             state = r["state"].value if r["state"] is not None else "raised"
             print(f"seed {seed:2d} {label:>12}: {state:<13} true {r['true']:.3f} m  estimate off {r['est']:.3f} m"

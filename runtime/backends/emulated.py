@@ -44,6 +44,7 @@ import numpy as np
 
 from clomp.formal.geometry import polar_to_xy, relative
 from clomp.formal.model import Pose
+from clomp.planner.noise import NoiseTerms
 from clomp.planner.robot_model import RobotModel
 from clomp.planner.scenarios import Scene, load_scenario
 from clomp.runtime.devices.bno08x_emulator import Bno08xEmulator
@@ -372,6 +373,13 @@ class EmulatedWorld:
         the older simulated robot."""
         with self._lock:
             return list(getattr(self.sim, "slips", []))
+
+    @property
+    def calibration(self) -> NoiseTerms | None:
+        """What the world would tell a robot of its drive (the execution world's noise terms:
+        what ``clomp emulate world --calibration-out`` writes for ``clomp run --calibration``),
+        None for the older simulated robot (no terms a calibration file holds)."""
+        return NoiseTerms(**self.sim.calibration()) if isinstance(self.sim, WorldRobot) else None
 
     @property
     def sim_time(self) -> float:

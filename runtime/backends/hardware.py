@@ -42,6 +42,7 @@ from typing import Any, Literal, TypeVar
 
 from clomp.formal.geometry import dead_reckon
 from clomp.formal.model import Pose
+from clomp.planner.noise import NoiseTerms
 from clomp.planner.robot_model import RobotModel
 from clomp.runtime.devices.port import PORT_ERRORS
 from clomp.runtime.devices.bno08x import Bno08xRvc, ImuError, Slide
@@ -50,9 +51,10 @@ from clomp.runtime.devices.rplidar import DEFAULT_BAUDRATE, LidarError, LidarTim
 from clomp.runtime.clock import Clock, WallClock, device_time
 from clomp.runtime.interface import RobotFault, ScanFrame
 from clomp.runtime.records.runlog import RunLogLike
+from clomp.runtime.backends.calibration import ToldCalibration
 from clomp.runtime.backends._lidar_watch import LidarWatch, _CountingPort, _describe, on_clock, open_lidar_port
 
-__all__ = ["HardwareConfig", "HardwareRobot", "on_clock", "open_lidar_port"]
+__all__ = ["CalibratedHardwareRobot", "HardwareConfig", "HardwareRobot", "on_clock", "open_lidar_port"]
 _T = TypeVar("_T")
 
 _DEVICE_ERRORS: tuple[type[BaseException], ...] = (LidarError, MaestroError, ImuError, ValueError, *PORT_ERRORS)
@@ -500,3 +502,17 @@ class HardwareRobot(LidarWatch):
         motors = self.maestro.port_name if self.maestro is not None else None
         imu = "" if self.imu is None else f", imu={self.imu.port_name!r}"
         return f"HardwareRobot(lidar={self.lidar.port_name!r}, motors={motors!r}{imu}, dry_run={self.dry_run})"
+
+
+class CalibratedHardwareRobot(ToldCalibration, HardwareRobot):
+    """A :class:`HardwareRobot` told its drive's calibration (``clomp run --calibration FILE``;
+    :mod:`clomp.runtime.backends.calibration`): :meth:`calibration` reports ``calibration``'s
+    terms, and the supervisor's estimator sizes its wheel prior to them
+    (:class:`~clomp.runtime.interface.Calibrated`) instead of the worst case's. The other
+    arguments are :class:`HardwareRobot`'s.
+    """
+
+    def __init__(self, lidar_port: str | Any, motor_port: str | Any | None, config: HardwareConfig | None = None,
+                 *, calibration: NoiseTerms, **options: Any) -> None:
+        self.tell(calibration)
+        super().__init__(lidar_port, motor_port, config, **options)

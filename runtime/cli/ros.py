@@ -55,6 +55,9 @@ def register(sub: Any) -> None:
     n.add_argument("--sensor-timeout", type=float, metavar="S", help="stop when /scan or /odom is silent S s (default 0.5)")
     n.add_argument("--no-odom", action="store_true", help="no /odom: dead-reckon from the commanded speeds (parameter use_odom)")
     n.add_argument("--no-imu", action="store_true", help="ignore /imu (parameter use_imu)")
+    n.add_argument("--calibration", metavar="FILE",
+                   help="the drive's noise terms (JSON, or TOML for a .toml name; parameter calibration): the "
+                        "estimator's wheel prior is sized to them instead of the worst case's (as clomp run's)")
     n.add_argument("-p", "--param", action="append", default=[], metavar="NAME:=VALUE",
                    help="set a node parameter, e.g. -p body_length:=0.3 (repeatable; see docs/run.md for the list)")
     add_planner_options(n)
@@ -73,6 +76,9 @@ def register(sub: Any) -> None:
     s.add_argument("--rays", type=int, default=360, help="LiDAR samples a revolution, 360-720 (default 360)")
     s.add_argument("--cmd-timeout", type=float, default=0.5, metavar="S", help="stop the wheels when /cmd_vel is S s old (default 0.5)")
     s.add_argument("--max-time", type=float, metavar="S", help="stop after S seconds (default: run until Ctrl-C)")
+    s.add_argument("--calibration-out", metavar="FILE",
+                   help="write the world's drive calibration (its noise terms; TOML for a .toml name, JSON otherwise) "
+                        "and print the clomp ros node command with --calibration FILE")
     s.set_defaults(func=_sim)
 
 
@@ -137,6 +143,8 @@ def _overrides(args: argparse.Namespace) -> dict[str, Any]:
         out["use_imu"] = False
     if args.moving:
         out["moving"] = True
+    if args.calibration is not None:
+        out["calibration"] = str(args.calibration)
     for text in args.param:
         name, value = parse_parameter(text, PARAMETERS)
         out[name] = value
@@ -147,7 +155,7 @@ def _node(args: argparse.Namespace) -> int:
     from clomp.runtime.clock import WallClock
     from clomp.runtime.cli.run import _dry_run, _SharedLog, open_runlog, operate
     from clomp.runtime.ros.node import GoalInbox, NodeOutputs, PublishingLog, configure, supervise
-    from clomp.runtime.ros.robot import RosRobot
+    from clomp.runtime.ros.robot import CalibratedRosRobot, RosRobot
     from clomp.runtime.ros.session import RosSession
 
     goal = parse_goal(args.goal) if args.goal else None
@@ -156,6 +164,7 @@ def _node(args: argparse.Namespace) -> int:
     if args.max_time is not None and not (math.isfinite(args.max_time) and args.max_time > 0):
         raise CliError(f"--max-time must be a positive number of seconds, got {args.max_time}")
     overrides = _overrides(args)
+    _told(str(overrides.get("calibration", "")))  # a bad file is a usage error before ROS starts
     _need_ros()
     session = RosSession("clomp", overrides)
     robots: list[RosRobot] = []
@@ -164,16 +173,20 @@ def _node(args: argparse.Namespace) -> int:
             conf, rc, values = configure(session.node, dry_run=args.dry_run)
         except ValueError as exc:
             raise CliError(str(exc)) from None
+        told = _told(str(values.get("calibration", "")))  # the parameter, as the node took it
         runlog, path = open_runlog(args.log)
         log = _SharedLog(runlog, threading.Lock())  # the executor's thread writes faults and drops
         log.write("run", argv=sys.argv[1:], ros=True, dry_run=args.dry_run, goal=None if goal is None else list(goal),
                   max_time=args.max_time, config=rc.to_dict(), parameters=values,
-                  monotonic=time.monotonic(), wall=time.time())
+                  monotonic=time.monotonic(), wall=time.time(), **({} if told is None else {"calibration": told.to_dict()}))
         outputs = NodeOutputs(session.node, rc.odom_frame, rc.base_frame)
         inbox = GoalInbox(session.node, rc.odom_frame)
 
         def open_robot() -> RosRobot:
-            robots.append(RosRobot(session.node, conf.robot.wheel_base, rc, log=log))
+            if told is None:
+                robots.append(RosRobot(session.node, conf.robot.wheel_base, rc, log=log))
+            else:
+                robots.append(CalibratedRosRobot(session.node, conf.robot.wheel_base, rc, log=log, calibration=told))
             return robots[-1]
 
         def work(robot: RosRobot, hold: Any) -> Any:
@@ -194,6 +207,19 @@ def _node(args: argparse.Namespace) -> int:
         for robot in robots:
             session.flush(robot._cmd_pub)  # the last zero Twist reaches the base before the node goes
         session.close()
+
+
+def _told(path: str) -> Any:
+    """The noise terms the calibration file at ``path`` tells (a NoiseTerms), None for ``""``;
+    CliError (exit 2) naming what is wrong with the file."""
+    from clomp.runtime.backends.calibration import CalibrationError, load_calibration
+
+    if not path:
+        return None
+    try:
+        return load_calibration(path)
+    except CalibrationError as exc:
+        raise CliError(f"calibration: {exc}") from None
 
 
 def make_supervisor(robot: Any, goal: tuple[float, float], conf: Any, log: Any = None) -> Any:
@@ -248,6 +274,9 @@ def _sim(args: argparse.Namespace) -> int:
         raise CliError(str(exc)) from None
     if args.max_time is not None and not (math.isfinite(args.max_time) and args.max_time > 0):
         raise CliError(f"--max-time must be a positive number of seconds, got {args.max_time}")
+    told = ""
+    if args.calibration_out is not None:
+        told = f" --calibration {_write_told(args.calibration_out, world, args.noise)}"
     with RosSession("clomp_sim") as session:
         try:
             sim = SimNode(session.node, world, model.wheel_base, cmd_timeout=args.cmd_timeout)
@@ -255,7 +284,7 @@ def _sim(args: argparse.Namespace) -> int:
             raise CliError(str(exc)) from None
         gx, gy = scene.goal_in_robot_frame()
         print(f"sim: {scene.name}, noise {args.noise}, seed {args.seed}", flush=True)
-        print(f"run: clomp ros node --goal {gx:g},{gy:g}{' --moving' if movers else ''}", flush=True)
+        print(f"run: clomp ros node --goal {gx:g},{gy:g}{' --moving' if movers else ''}{told}", flush=True)
         end = math.inf if args.max_time is None else time.monotonic() + args.max_time
         with interrupts_raise():
             try:
@@ -274,13 +303,30 @@ def _sim(args: argparse.Namespace) -> int:
     return 0
 
 
+def _write_told(path: str, world: Any, noise: str) -> str:
+    """``--calibration-out FILE``: the world's noise terms as a calibration file; its path."""
+    from clomp.planner.noise import NoiseTerms
+    from clomp.runtime.backends.calibration import write_calibration
+    from clomp.runtime.cli._common import output_path
+
+    try:
+        return str(write_calibration(output_path(path, "--calibration-out"), NoiseTerms(**world.calibration()),
+                                     f"clomp ros sim --noise {noise}"))
+    except OSError as exc:
+        raise CliError(f"cannot write the calibration {path}: {exc}") from None
+
+
 def run_loop(scenario: str, noise: str = "harsh", seed: int = 0, *, layout: bool = False, max_time: float = 120.0,
-             log: str | os.PathLike[str] | None = None, node_args: tuple[str, ...] = (), scan_rate: float = 5.5) -> dict[str, Any]:
+             log: str | os.PathLike[str] | None = None, node_args: tuple[str, ...] = (), scan_rate: float = 5.5,
+             told: bool = False) -> dict[str, Any]:
     """The whole loop in this process: ``clomp ros sim``'s world on ``scenario`` (a layout of
     that family when ``layout``) and the ``clomp ros node`` command driving it to the
     scenario's goal over DDS, each with its own rclpy context; the exit status, how far the
     robot truly ended from the goal, its collisions (the tests, bench/ros_latency.py and
-    docs/ros2.md use it). Keep DDS on this host first (:func:`clomp.runtime.ros.session.localhost_only`)."""
+    docs/ros2.md use it). ``told``: the node is told the world's calibration (its noise terms,
+    written beside the log as ``<log>.calibration.json`` and passed as ``--calibration``), as a
+    user tells theirs; otherwise it is told nothing (the worst case's prior). Keep DDS on this
+    host first (:func:`clomp.runtime.ros.session.localhost_only`)."""
     from clomp.planner.robot_model import RobotModel
     from clomp.planner.scenarios import load_scenario
     from clomp.runtime.backends.world import make_world_robot
@@ -302,6 +348,13 @@ def run_loop(scenario: str, noise: str = "harsh", seed: int = 0, *, layout: bool
         node_args = (*node_args, "--moving")
     gx, gy = scene.goal_in_robot_frame()
     log_path = Path(log) if log is not None else Path("clomp-runs") / f"ros-{scene.name}-{noise}-{seed}.jsonl"
+    if told:
+        from clomp.planner.noise import NoiseTerms
+        from clomp.runtime.backends.calibration import write_calibration
+
+        told_at = write_calibration(log_path.with_name(log_path.name + ".calibration.json"),
+                                    NoiseTerms(**world.calibration()), f"clomp ros sim --noise {noise}")
+        node_args = (*node_args, "--calibration", str(told_at))
     with RosSession("clomp_sim") as session:
         sim = SimNode(session.node, world, model.wheel_base)
         t0 = time.monotonic()
@@ -310,4 +363,5 @@ def run_loop(scenario: str, noise: str = "harsh", seed: int = 0, *, layout: bool
         took = time.monotonic() - t0
         out = sim.summary()
         sim.close()
-    return {"scenario": scene.name, "noise": noise, "seed": seed, "exit": code, "time_s": took, "log": str(log_path), **out}
+    return {"scenario": scene.name, "noise": noise, "seed": seed, "exit": code, "time_s": took, "log": str(log_path),
+            "told": told, **out}

@@ -26,6 +26,15 @@ late, with or without ``--imu`` (without one, the robot's own dead reckoning on 
 sent is then not used). Taken as 0 (``--drive-delay 0``: as before), every start's lead of the
 commands over the body was learnt from the scans as a wrong wheel scale.
 
+``--calibration FILE`` tells the estimator the drive's noise terms (a JSON object or a TOML
+table of ``specs/noise_presets.json``'s terms, e.g. ``wheel_bias = 0.005``; a term left out is
+0; :mod:`clomp.runtime.backends.calibration`): its wheel prior is sized to them instead of the
+worst case's, so a well-calibrated robot truly at its goal can vouch for it. A told error
+source the estimator does not model (a wandering bias, slip events, pushes) keeps its bound
+wide. The told latency and ramp set the drive delay unless ``--drive-delay`` is given. A file
+that is missing, not JSON/TOML, has an unknown key, or a value that is NaN or negative is a
+usage error (exit 2). ``clomp emulate world --calibration-out FILE`` writes the emulated world's.
+
 On a terminal, one status line updates while the robot runs (state, task, estimated
 distance to the goal and its bound, LiDAR revolutions, LiDAR/IMU health); it is not drawn
 into a pipe or a file.
@@ -83,6 +92,9 @@ def register(sub: Any) -> None:
     p.add_argument("--drive-delay", type=float, default=None, metavar="S",
                    help="how long after a command the wheels move the body (latency plus half the ramp to speed; "
                         "default 0.1 s); the estimator dead-reckons on the commands that late")
+    p.add_argument("--calibration", metavar="FILE",
+                   help="the drive's noise terms (JSON, or TOML for a .toml name): the estimator's wheel prior is "
+                        "sized to them instead of the worst case's (clomp emulate world --calibration-out writes one)")
     d = p.add_argument_group("devices")
     d.add_argument("--lidar-baud", type=int, default=115200, help="LiDAR baud rate (default 115200)")
     d.add_argument("--lidar-motor", choices=("dtr", "none"), default="dtr",
@@ -148,7 +160,7 @@ def _config(args: argparse.Namespace) -> Any:
         raise CliError("--device-number must be in 0..127")
     if not (math.isfinite(args.watchdog) and args.watchdog >= 0):
         raise CliError("--watchdog must be a number of seconds >= 0")
-    delay = _drive_delay(args)
+    delay = _supervisor_delay(args)  # None: the told calibration's latency and ramp (> 0)
     try:
         return HardwareConfig(
             lidar_baudrate=args.lidar_baud,
@@ -180,6 +192,32 @@ def _drive_delay(args: argparse.Namespace) -> float:
     return delay
 
 
+def _told(args: argparse.Namespace) -> Any:
+    """The noise terms ``--calibration FILE`` tells (a NoiseTerms), None without it; CliError
+    (exit 2) for a file that cannot be used. Read once: the result is kept on ``args``."""
+    from clomp.runtime.backends.calibration import CalibrationError, load_calibration
+
+    path = getattr(args, "calibration", None)
+    if path is None:
+        return None
+    cached = getattr(args, "_told_calibration", None)
+    if cached is not None:
+        return cached
+    try:
+        args._told_calibration = load_calibration(path)
+    except CalibrationError as exc:
+        raise CliError(f"--calibration: {exc}") from None
+    return args._told_calibration
+
+
+def _supervisor_delay(args: argparse.Namespace) -> float | None:
+    """The drive delay the supervisor is told: ``--drive-delay``'s, or None (the told calibration's
+    latency and ramp) when a calibration is given without it."""
+    if _told(args) is not None and getattr(args, "drive_delay", None) is None:
+        return None
+    return _drive_delay(args)
+
+
 def _say(text: str) -> None:
     print(f"clomp run: {text}", file=sys.stderr, flush=True)
 
@@ -201,10 +239,11 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _run(args: argparse.Namespace, scheduling: str) -> int:
-    from clomp.runtime.backends.hardware import HardwareRobot
+    from clomp.runtime.backends.hardware import CalibratedHardwareRobot, HardwareRobot
     from clomp.runtime.supervision import Supervisor, SupervisorConfig
 
     goal = parse_goal(args.goal)
+    told = _told(args)
     config = _config(args)
     conf = configurator_from_args(args)
     runlog, path = open_runlog(args.log)
@@ -214,20 +253,25 @@ def _run(args: argparse.Namespace, scheduling: str) -> int:
     log.write("run", argv=sys.argv[1:], lidar=args.lidar, motors=args.motors, imu=args.imu, dry_run=args.dry_run,
               goal=list(goal), max_time=args.max_time, time_scale=args.time_scale,
               config=config.to_dict(), monotonic=time.monotonic(), wall=time.time(), scheduling=scheduling,
-              **({"moving": True} if args.moving else {}))
+              **({"moving": True} if args.moving else {}), **({} if told is None else {"calibration": told.to_dict()}))
 
     def work(robot: Any, hold: Callable[[Any], None]) -> Any:
         if args.dry_run:
             _say("dry run: planning on every scan, the wheels are held stopped")
             return _dry_run(robot, conf, goal, clock, log, args.max_time, path)
         sup = Supervisor(robot, goal, conf, clock=clock, log=_SharedLog(runlog, lock, frozenset({"motor"})),
-                         config=SupervisorConfig(moving=args.moving, drive_delay=_drive_delay(args)))
+                         config=SupervisorConfig(moving=args.moving, drive_delay=_supervisor_delay(args)))
         hold(sup)
         with StatusLine(sup, robot):
             return sup.run(max_time=args.max_time)
 
-    return operate(lambda: HardwareRobot(args.lidar, args.motors, config, model=conf.robot, log=log, clock=clock,
-                                         imu_port=args.imu),
+    def open_robot() -> Any:
+        options: dict[str, Any] = {"model": conf.robot, "log": log, "clock": clock, "imu_port": args.imu}
+        if told is None:
+            return HardwareRobot(args.lidar, args.motors, config, **options)
+        return CalibratedHardwareRobot(args.lidar, args.motors, config, calibration=told, **options)
+
+    return operate(open_robot,
                    work, runlog, log, path,
                    usage_fault=lambda: _missing_path(args.lidar) or _missing_path(args.motors) or _missing_path(args.imu))
 
@@ -446,6 +490,9 @@ def add_emulate_world(devices: Any) -> None:
                    help="a body that moves or appears (a person, a box, a door that closes), as in a scenario file's "
                         "'movers', added to the scenario's own; a world with movers runs the execution world "
                         "(--noise paper unless given) and prints the clomp run command with --moving; repeatable")
+    w.add_argument("--calibration-out", metavar="FILE",
+                   help="write the world's drive calibration (its noise terms; TOML for a .toml name, JSON otherwise) "
+                        "and print the clomp run command with --calibration FILE; needs --noise (or --mover)")
     add_imu_fault_options(w)
     w.set_defaults(func=_run_world)
 
@@ -469,6 +516,7 @@ def _run_world(args: argparse.Namespace) -> int:
                               serial_timeout=args.serial_timeout, movers=movers, imu_fault=imu_fault_from(args))
     except (OSError, ScenarioError, ValueError) as exc:
         raise CliError(f"cannot simulate scenario {args.scenario!r}: {exc}") from None
+    _write_calibration(world, args, preset)
     favour_this_thread(realtime=True)  # before the world's threads start: they inherit it
     try:
         world.start()
@@ -489,6 +537,22 @@ def _run_world(args: argparse.Namespace) -> int:
     return 0
 
 
+def _write_calibration(world: Any, args: argparse.Namespace, preset: str | None) -> None:
+    """``--calibration-out FILE``: the world's noise terms, for ``clomp run --calibration``."""
+    from clomp.runtime.backends.calibration import write_calibration
+
+    if args.calibration_out is None:
+        return
+    if world.calibration is None:
+        raise CliError("--calibration-out needs the execution world (--noise PRESET): the older simulated robot "
+                       "has no calibration to tell")
+    source = f"clomp emulate world --noise {preset}" + (f" --noise-scale {args.noise_scale:g}" if args.noise_scale != 1 else "")
+    try:
+        write_calibration(output_path(Path(args.calibration_out), "--calibration-out"), world.calibration, source)
+    except OSError as exc:
+        raise CliError(f"cannot write the calibration {args.calibration_out}: {exc}") from None
+
+
 def _disturbances(world: Any) -> str:
     """The world's pushes and slip events for the summary line ('' when it had none), e.g.
     ``, pushed 0.18 m at 12.3 s, 1 slip event(s)``: the truth a run's doubt may answer."""
@@ -506,8 +570,11 @@ def _serve_world(world: Any, args: argparse.Namespace) -> None:
     print(f"imu: {world.imu_port}", flush=True)
     scale = f" --time-scale {args.time_scale:g}" if args.time_scale != 1.0 else ""
     moving = " --moving" if world.movers else ""
+    told = f" --calibration {args.calibration_out}" if args.calibration_out else ""
+    if told:
+        print(f"calibration: {args.calibration_out}", flush=True)
     print(f"run: clomp run --lidar {world.lidar_port} --motors {world.motor_port} --imu {world.imu_port} "
-          f"--goal {gx:g},{gy:g}{scale}{moving}", flush=True)
+          f"--goal {gx:g},{gy:g}{scale}{moving}{told}", flush=True)
     said: list[bool] = []
     while world.lidar.running and world.maestro.running and world.error is None:
         say_fault_came(world, said)

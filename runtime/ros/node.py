@@ -54,7 +54,8 @@ def _defaults() -> dict[str, Any]:
     c = RosRobotConfig()
     return {**robot, "horizon": 1.2, "max_states": 50, "step_length": 0.27,
             "lidar_offset": [0.0, 0.0, 0.0], "sensor_timeout": c.sensor_timeout, "startup_timeout": c.startup_timeout,
-            "odom_frame": c.odom_frame, "base_frame": c.base_frame, "use_odom": True, "use_imu": True, "moving": False}
+            "odom_frame": c.odom_frame, "base_frame": c.base_frame, "use_odom": True, "use_imu": True, "moving": False,
+            "calibration": ""}
 
 
 #: every parameter of the node and its default

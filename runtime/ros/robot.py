@@ -33,6 +33,8 @@ from typing import Any
 import numpy as np
 
 from clomp.formal.model import Pose
+from clomp.planner.noise import NoiseTerms
+from clomp.runtime.backends.calibration import ToldCalibration
 from clomp.runtime.interface import RobotFault, ScanFrame
 from clomp.runtime.records.runlog import RunLogLike
 from clomp.runtime.ros.convert import (
@@ -48,7 +50,7 @@ from clomp.runtime.ros.convert import (
     unwrap,
 )
 
-__all__ = ["RosRobot", "RosRobotConfig"]
+__all__ = ["CalibratedRosRobot", "RosRobot", "RosRobotConfig"]
 
 
 @dataclass(frozen=True)
@@ -370,3 +372,15 @@ class RosRobot:
             for s in self._subs:
                 self.node.destroy_subscription(s)
             self.node.destroy_timer(self._timer)
+
+
+class CalibratedRosRobot(ToldCalibration, RosRobot):
+    """A :class:`RosRobot` told its drive's calibration (``clomp ros node --calibration FILE``,
+    parameter ``calibration``; :mod:`clomp.runtime.backends.calibration`): the estimator's wheel
+    prior is sized to ``calibration``'s terms (:class:`~clomp.runtime.interface.Calibrated`)
+    instead of the worst case's. The other arguments are :class:`RosRobot`'s."""
+
+    def __init__(self, node: Any, wheel_base: float, config: RosRobotConfig | None = None,
+                 log: RunLogLike | None = None, *, calibration: NoiseTerms) -> None:
+        self.tell(calibration)
+        super().__init__(node, wheel_base, config, log)

@@ -25,6 +25,7 @@ import pytest
 import clomp.runtime.backends.hardware as hardware
 import clomp.runtime.cli.run as run_cli
 import clomp.runtime.records.runlog as runlog
+from clomp.runtime.backends.calibration import ToldCalibration
 from clomp.runtime.backends.emulated import EmulatedWorld
 from tests.runtime._simline import LockstepClock, SimLine
 from tests.runtime._stack import StackRun, _HookedClock
@@ -78,6 +79,14 @@ def simulate_cli(monkeypatch: pytest.MonkeyPatch, scenario: Any, *, seed: int = 
             super().close()
             run.closed_at = clock.now()
 
+    class SimCalibratedHardwareRobot(ToldCalibration, SimHardwareRobot):
+        """The same, told its drive's calibration (``clomp run --calibration``)."""
+
+        def __init__(self, lidar_port: Any, motor_port: Any, config: Any = None, *, calibration: Any,
+                     **kwargs: Any) -> None:
+            self.tell(calibration)
+            super().__init__(lidar_port, motor_port, config, **kwargs)
+
     class SimRunLog(runlog.RunLog):
         """The run log on simulated time: a record's ``t`` is simulated seconds since the log
         opened (``run.notes["log_t0"]`` on the run's clock)."""
@@ -87,6 +96,7 @@ def simulate_cli(monkeypatch: pytest.MonkeyPatch, scenario: Any, *, seed: int = 
             run.notes["log_t0"] = self._t0
 
     monkeypatch.setattr(hardware, "HardwareRobot", SimHardwareRobot)
+    monkeypatch.setattr(hardware, "CalibratedHardwareRobot", SimCalibratedHardwareRobot)
     monkeypatch.setattr(runlog, "RunLog", SimRunLog)
     monkeypatch.setattr(run_cli, "_clock", lambda time_scale: run_clock)
     # the kernels' warm-up is a run of the execution world of its own (tests/runtime/

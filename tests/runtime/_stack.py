@@ -21,7 +21,7 @@ from typing import Any
 from clomp.planner import Configurator
 from clomp.runtime.devices.maestro_emulator import MaestroEmulator
 from clomp.runtime.backends.emulated import EmulatedWorld
-from clomp.runtime.backends.hardware import HardwareConfig, HardwareRobot
+from clomp.runtime.backends.hardware import CalibratedHardwareRobot, HardwareConfig, HardwareRobot
 from clomp.runtime.supervision import Supervisor, SupervisorConfig, SupervisorReport
 from tests.runtime._simline import LockstepClock, SimLine
 
@@ -61,12 +61,15 @@ class _HookedClock:
 
 def run_stack(scenario: Any, *, max_time: float = 80.0, seed: int = 0, conf: Configurator | None = None,
               hook: Callable[[float, StackRun], None] | None = None, clock: LockstepClock | None = None,
-              imu: bool = False, supervisor: SupervisorConfig | None = None, **world_options: Any) -> StackRun:
+              imu: bool = False, supervisor: SupervisorConfig | None = None, calibration: Any = None,
+              hardware: HardwareConfig | None = None, **world_options: Any) -> StackRun:
     """Plan and execute ``scenario``'s goal through the real drivers, in simulated time (the
     world's noise drawn from ``seed``: the same run every time). Whatever the supervisor's
     ``run`` raises (a KeyboardInterrupt a hook raised, say) is kept in ``raised``, with
     ``report`` left None, as clomp run would catch it. ``supervisor``: the supervisor's settings
-    (``SupervisorConfig(moving=True)`` with ``movers=`` in ``world_options``: a world that moves)."""
+    (``SupervisorConfig(moving=True)`` with ``movers=`` in ``world_options``: a world that moves).
+    ``calibration`` (a NoiseTerms): the robot is told it, as ``clomp run --calibration`` tells it;
+    ``hardware``: the hardware robot's settings (default: the Maestro driver's watchdog off)."""
     clock, lock = clock or LockstepClock(100.0), threading.RLock()
     world = EmulatedWorld(scenario, clock=clock, seed=seed, **world_options)  # not started: no pty, no thread
     run = StackRun(world, clock)
@@ -78,12 +81,14 @@ def run_stack(scenario: Any, *, max_time: float = 80.0, seed: int = 0, conf: Con
     imu_line = SimLine(world.imu, clock, lock=lock, name="sim-imu", follow=True) if imu else None
     run.lines.update(lidar=lidar_line, maestro=motor_line, **({"imu": imu_line} if imu_line is not None else {}))
     # the Maestro driver's watchdog: off, as in test_hardware_deadlines.py
-    config = HardwareConfig(watchdog_timeout=None)
+    config = hardware or HardwareConfig(watchdog_timeout=None)
     conf = conf or Configurator()
     t0 = run.started = clock.now()
     sup_clock: Any = clock if hook is None else _HookedClock(clock, lambda t: hook(t, run))
     try:
-        with HardwareRobot(lidar_line, motor_line, config, model=conf.robot, clock=clock, imu_port=imu_line) as robot:
+        options: dict[str, Any] = {"model": conf.robot, "clock": clock, "imu_port": imu_line}
+        with (HardwareRobot(lidar_line, motor_line, config, **options) if calibration is None else
+              CalibratedHardwareRobot(lidar_line, motor_line, config, calibration=calibration, **options)) as robot:
             run.robot = robot
             # a tripped robot's reader reads no more (nor a failed IMU's)
             clock.free_when = lambda: robot.fault is not None or (robot.imu is not None and robot.imu.fault is not None)
