@@ -104,3 +104,20 @@ def test_evidence_is_forgotten_when_the_body_may_have_moved_unseen(how: str) -> 
     else:
         odo._disagreed(Pose(0.1, 0.0, 0.0), Pose(0.0, 0.0, 0.0))
     assert odo.evidence is None and odo.vouched_sd() >= 0.1
+
+
+@pytest.mark.parametrize(("twist", "drawn", "heading", "kept"), [
+    ((0.0, 0.0), 0.01, True, True),
+    ((0.1, 0.0), 0.01, True, False),   # driving: the revolution's evidence is not taken
+    ((0.0, 0.0), 0.04, True, False),   # surfaces drawn about as uncertain as the estimate is now
+    ((0.0, 0.0), 0.01, False, False),  # no heading sensor: only the start's surfaces vouch
+])
+def test_a_match_vouches_only_standing_and_from_surfaces_better_known(twist: tuple[float, float], drawn: float,
+                                                                      heading: bool, kept: bool) -> None:
+    odo = ScanOdometry(wheel_base=0.15)
+    odo.filter.honest[:2, :2] = np.eye(2) * 0.05**2
+    odo._rot = 0.0 if heading else None
+    odo._twist = twist
+    odo.last_map_mean = (drawn, 0.0)
+    odo._evidence(Pose(0.0, 0.0, 0.0), np.eye(3) * 1e8, 0.01, np.zeros((0, 2)), Pose(0.0, 0.0, 0.0))
+    assert (odo.evidence is not None) is kept
