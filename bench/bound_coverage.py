@@ -61,6 +61,7 @@ def sample(sup: Any, origin: Pose, kind: str, bound: float | None = None) -> dic
     b = sup.config.vouch_sigmas * est.position_sd() if bound is None else bound
     return {"k": kind, "t": round(float(sup.clock.now()), 2), "err": round(float(np.hypot(*e)), 5), "bound": round(b, 5),
             "hsd": round(est.filter.honest_sigma_xy, 5), "psd": round(est.filter.sigma_xy, 5),
+            "vsd": round(est.vouched_sd(), 5), "ev": None if est.evidence is None else est.evidence.source,
             "doubt": round(est.doubt.sd, 5), "nees": round(min(nees, 1e9), 3)}
 
 

@@ -103,6 +103,7 @@ class LocalMap:
     _map_sds: np.ndarray | None
     _map_grid: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, tuple[float, float, float, int, int]] | None
     pose: Pose
+    last_map_mean: tuple[float, float] = (math.inf, math.inf)  # the mean of what _map_sd took the median of
 
     def sees_past(self, points: np.ndarray) -> tuple[int, int]:
         """How many bearings of a revolution ``points`` (robot frame) seen at the estimate look
@@ -213,7 +214,10 @@ class LocalMap:
     def _map_sd(self, points: np.ndarray, pose: Pose) -> tuple[float, float]:
         """How wrong the surfaces a revolution seen from ``pose`` meets may be (m, rad): the
         median over its points of the map points they meet (within 5 cm), each as uncertain
-        as the estimate that drew it (0 for the start's seed)."""
+        as the estimate that drew it (0 for the start's seed). Their mean is kept in
+        :attr:`last_map_mean` (what a match's own evidence counts,
+        :func:`~clomp.runtime.estimation.evidence.match_evidence`)."""
+        self.last_map_mean = (math.inf, math.inf)
         if self._map_points is None or self._map_sds is None or not len(self._map_points) or not len(points):
             return (0.0, 0.0)
         seen = points_from_frame(points, pose)
@@ -224,6 +228,7 @@ class LocalMap:
         sds = self._map_sds[idx[hit]]
         if any(self.filter.honest_walk):  # a robot that admits what its matches cannot show
             sds = self._behind(sds, seen[hit], pose)
+        self.last_map_mean = (float(np.mean(sds[:, 0])), float(np.mean(sds[:, 1])))
         return (median(sds[:, 0]), median(sds[:, 1]))  # float(np.median(...)), bit for bit
 
     def _behind(self, sds: np.ndarray, seen: np.ndarray, pose: Pose, drawn_within: float = 0.002) -> np.ndarray:

@@ -168,7 +168,8 @@ def at_goal(sup: Supervisor, dist: float, what: str) -> None:
         sup._confirm_seen = 0
         sup._confirm_blind = False
         est = sup.estimator
-        sup._confirm_honest = 0.0 if est is None else est.filter.honest_sigma_xy
+        sup._confirm_honest = 0.0 if est is None else est.vouched_sd()
+        sup._confirm_from = 0 if est is None else len(est.records)
         why = f"{what} by the estimate ({dist:.3f} m), but its 95 % bound {bound:.3f} m cannot vouch for {cfg.vouch_radius:g} m"
         if past:
             why += f" (standing, {_past_words(sup, past)}: it may stand elsewhere)"
@@ -183,16 +184,30 @@ def standing_bound(sup: Supervisor) -> float | None:
     ``vouch_sigmas`` times how wrong the surfaces the last revolution met may be (matched
     again and again, their error does not average out), and, once a revolution seen
     standing left a direction of the position unobserved, at least ``vouch_sigmas`` times
-    the filter's position uncertainty when confirming began; None without scan feedback."""
+    the filter's position uncertainty when confirming began — neither when a revolution seen
+    standing since vouches for the position by itself (:func:`_fresh_evidence`: its bound counts
+    the surfaces it met and does not depend on the gain); None without scan feedback."""
     sigmas = sup.config.vouch_sigmas
     bound = sup.sensing.position_bound(sigmas)
     est = sup.estimator
     if bound is None or est is None:
         return bound
+    if _fresh_evidence(sup):  # it counts the error of the surfaces it met itself
+        return bound
     floor = sigmas * float(est.last_map_sd[0])
     if sup._confirm_blind:
         floor = max(floor, sigmas * sup._confirm_honest)
     return max(bound, floor)
+
+
+def _fresh_evidence(sup: Supervisor) -> bool:
+    """Whether a revolution seen standing since confirming began vouches for the position by
+    itself (:attr:`~clomp.runtime.estimation.odometry.ScanOdometry.evidence`: a match observing
+    every direction, its bound independent of what the gain made of the blind ones, which
+    :func:`standing_bound`'s floor guards against)."""
+    est = sup.estimator
+    ev = None if est is None else est.evidence
+    return ev is not None and ev.revolution >= sup._confirm_from
 
 
 def bound_parts(sup: Supervisor) -> dict[str, float]:
@@ -217,10 +232,11 @@ def bound_parts(sup: Supervisor) -> dict[str, float]:
     if est is None:
         return {}
     k = sup.config.vouch_sigmas
+    fresh = _fresh_evidence(sup)
     dis = est.disagreement if est.rejected_in_a_row > 0 and est.disagreement is not None else (0.0, 0.0, 0.0)
-    return {"filter": k * est.filter.honest_sigma_xy, "doubt": k * est.doubt.sd,
-            "disagreement": k * math.hypot(dis[0], dis[1]), "map": k * float(est.last_map_sd[0]),
-            "blind": k * sup._confirm_honest if sup._confirm_blind else 0.0}
+    return {"filter": k * est.vouched_sd(), "doubt": k * est.doubt.sd,
+            "disagreement": k * math.hypot(dis[0], dis[1]), "map": 0.0 if fresh else k * float(est.last_map_sd[0]),
+            "blind": k * sup._confirm_honest if sup._confirm_blind and not fresh else 0.0}
 
 
 _PART_WORDS = {
