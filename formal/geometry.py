@@ -44,6 +44,7 @@ __all__ = [
     "points_from_frame",
     "points_from_frames",
     "points_to_frame",
+    "points_to_frames",
     "polar_to_xy",
     "relative",
     "wheel_twist",
@@ -140,6 +141,25 @@ def points_to_frame(points: np.ndarray, frame: FrameLike) -> np.ndarray:
     rel = np.asarray(points, dtype=float) - np.array([x, y])
     out: np.ndarray = np.stack((rel[:, 0] * c + rel[:, 1] * s, -rel[:, 0] * s + rel[:, 1] * c), axis=1)
     return out
+
+
+def points_to_frames(points: np.ndarray, xs: list[float], ys: list[float], ths: list[float]) -> tuple[np.ndarray, np.ndarray]:
+    """N×2 ``points`` → the frames of T robot poses at once: (u, v), each T×N, row t
+    bit-identical to ``points_to_frame(points, (xs[t], ys[t], ths[t]))``'s two columns (the
+    same scalar cos/sin and the same elementwise operations, broadcast over the poses).
+    Why: a rollout tests its footprint at every tick; testing a block of ticks in one
+    call costs one numpy call instead of one per tick.
+
+    >>> u, v = points_to_frames(np.array([[2.0, 1.0]]), [2.0, 0.0], [0.0, 0.0], [math.pi / 2, 0.0])
+    >>> u.round(9).tolist(), v.round(9).tolist()
+    ([[1.0], [2.0]], [[0.0], [1.0]])
+    """
+    c = np.array([math.cos(t) for t in ths])[:, None]
+    s = np.array([math.sin(t) for t in ths])[:, None]
+    pts = np.asarray(points, dtype=float)
+    rx = pts[:, 0][None, :] - np.asarray(xs, dtype=float)[:, None]
+    ry = pts[:, 1][None, :] - np.asarray(ys, dtype=float)[:, None]
+    return rx * c + ry * s, -rx * s + ry * c
 
 
 def polar_to_xy(ranges: np.ndarray, angles: np.ndarray) -> np.ndarray:
