@@ -80,7 +80,8 @@ def relocalise(map_points: np.ndarray, map_sds: np.ndarray, points: np.ndarray, 
                radius: float = 0.4, step: float = 0.02, headings: tuple[float, ...] = HEADINGS,
                min_points: int = 10, sd: float = 0.02, correlation: float = 4.0, reach: float = 3.0,
                apart: float = 0.15, unique: float = 30.0, least_inliers: float = 0.6,
-               least_paired: int = 20, sigmas: float = 2.45, most_points: int = 100) -> Relocalisation:
+               least_paired: int = 20, sigmas: float = 2.45, most_points: int = 100,
+               bound_margin: float | None = None) -> Relocalisation:
     """The revolution ``points`` (robot frame), believed seen from ``pose``, placed at every
     pose of a grid (``step`` m, within ``radius`` m of ``pose``, at each of ``headings``)
     over ``map_points`` (map frame; ``map_sds[:, 0]``: how wrong each may be, m); see the
@@ -91,7 +92,11 @@ def relocalise(map_points: np.ndarray, map_sds: np.ndarray, points: np.ndarray, 
     not on the search's edge (the grid scores every k-th point, at most ``most_points``:
     a wall-rich revolution's 400 points cost 0.5 s on a busy machine); then its ``sd`` counts the farthest pose within ``unique``
     (as a ``sigmas`` bound: conservative, ``unique`` is five times chi-square's 95 % point
-    with two degrees of freedom), the map's uncertainty where it meets it, and the grid."""
+    with two degrees of freedom), the map's uncertainty where it meets it, and the grid.
+    ``bound_margin`` (default ``unique``): the misfit margin of the poses whose reach sets
+    ``sd`` (6, chi-square's 95 % point with two degrees of freedom: the goal's wide search,
+    :func:`~clomp.runtime.estimation.doubt.trusted_check`, whose ``unique`` still guards
+    against a rival)."""
     pts = np.asarray(points, dtype=float).reshape(-1, 2)
     ref = np.asarray(map_points, dtype=float).reshape(-1, 2)
     if len(pts) < min_points or len(ref) < min_points:
@@ -109,6 +114,7 @@ def relocalise(map_points: np.ndarray, map_sds: np.ndarray, points: np.ndarray, 
     near_as_well = cost <= best + unique
     rival = float(rivals[near_as_well & (rivals > apart)].min()) if np.any(near_as_well & (rivals > apart)) else math.inf
     spread = float(rivals[near_as_well].max())  # the poses as good, conservatively: how far they reach
+    reach_sd = spread if bound_margin is None else float(rivals[cost <= best + bound_margin].max())
     at = Pose(pose.x + float(dx[a]), pose.y + float(dy[b]), pose.theta + headings[h])
     d_best, idx = cKDTree(ref).query(points_from_frame(pts, at), distance_upper_bound=cap)
     met = np.isfinite(d_best)
@@ -125,7 +131,7 @@ def relocalise(map_points: np.ndarray, map_sds: np.ndarray, points: np.ndarray, 
     if refined.ok and math.hypot(refined.pose.x - at.x, refined.pose.y - at.y) <= 2 * step:  # within the grid's own blur
         at = refined.pose
     map_sd = float(np.median(np.asarray(map_sds, dtype=float).reshape(len(ref), -1)[idx[met], 0]))
-    out = math.sqrt(map_sd ** 2 + (max(spread, step) / sigmas) ** 2)
+    out = math.sqrt(map_sd ** 2 + (max(reach_sd, step) / sigmas) ** 2)
     return Relocalisation(at, out, inl, spread, rival,
                           f"pairs {inl:.0%} of {len(pts)} points, poses as good within {spread * 100:.0f} cm, "
                           f"none farther")
@@ -158,6 +164,7 @@ class KickMemory:
     last_relocalisation: Relocalisation | None
     last_map_sd: tuple[float, float]
 
+    kick_radius = 0.55  # m searched about the estimate: a push of up to 0.5 m, and the estimate's own error
     slide_sensing = False  # the IMU measures a kick's slide (clomp run --imu): the revolutions in it are not matched
     _slide_span: tuple[float, float] | None = None  # (from, to) odometry s: a kick's slide, to inf until measured
 
@@ -206,8 +213,8 @@ class KickMemory:
         ref, ref_sds = self._before_doubt
         keep = np.cos(np.arctan2(ref[:, 1] - seen.y, ref[:, 0] - seen.x) - ref_sds[:, 2]) > 0.0
         sd = max(2 * self.match_sd, self.noise_factor * (self.range_sd or 0.0))
-        res = relocalise(ref[keep], ref_sds[keep], points, seen, min_points=self.min_points, sd=sd,
-                         correlation=self.correlation)
+        res = relocalise(ref[keep], ref_sds[keep], points, seen, radius=self.kick_radius, min_points=self.min_points,
+                         sd=sd, correlation=self.correlation)
         self.last_relocalisation = res
         if res.pose is None:
             return None
