@@ -268,22 +268,24 @@ def trusted_check(doubt: Doubt, map_points: np.ndarray, map_sds: np.ndarray, poi
 
 def grid_check(doubt: Doubt, map_points: np.ndarray, map_sds: np.ndarray, points: np.ndarray, pose: Pose, *,
                radius: float = 0.55, sd: float = 0.02, correlation: float = 4.0, sigmas: float = 2.45,
-               least_inliers: float = 0.3, least_paired: int = 40, bound_margin: float = 6.0) -> Pose | None:
+               least_inliers: float = 0.5, least_paired: int = 40, bound_margin: float = 6.0) -> Pose | None:
     """The trusted surfaces (``map_points``, drawn before the doubt) searched exhaustively for
     the revolution ``points`` (robot frame), at every pose within ``radius`` m of the estimate
     ``pose`` (:func:`~clomp.runtime.estimation.relocalise.relocalise`: a push's range of up to
     0.5 m and the estimate's own error): when a *unique* best fit (no pose farther than its
     ``apart`` as good within its ``unique``; not on the search's edge) pairs ``least_paired``
-    points and ``least_inliers`` of the revolution (standing at the goal the robot sees much the
-    start's surfaces do not hold: at ``harsh`` a unique fit paired 40-45 % there, the ICP's check
-    above asks 50 %), and lies within its ``sigmas`` bound of the estimate, the doubt falls to
+    points and ``least_inliers`` of the revolution (as the ICP's check above: a unique fit of a
+    third of a revolution is no evidence, the rest may fall where the trusted surfaces were never
+    seen and the best fit be the pose that lands most points on their drawn extent; at ``harsh``
+    unique fits at the goal paired 26-47 %, so this rarely adds a confirmation), and lies within
+    its ``sigmas`` bound of the estimate, the doubt falls to
     what it shows (its ``sd``, the poses within ``bound_margin`` of its misfit as a ``sigmas``
     bound, plus the estimate's distance from it over ``sigmas``) and :attr:`Doubt.pinned` says
     so. A fit elsewhere is returned (the caller may relocate); an ambiguous one (a corridor's
     axis) or too little paired leaves the doubt. None unless elsewhere.
 
     >>> room = np.array([[0.8, y] for y in np.linspace(-0.6, 0.6, 61)] + [[x, 0.6] for x in np.linspace(-0.6, 0.8, 71)])
-    >>> seen = np.vstack([room, [[-0.5, y] for y in np.linspace(-0.5, 0.5, 150)]])   # and a wall the map lacks
+    >>> seen = np.vstack([room, [[-0.5, y] for y in np.linspace(-0.5, 0.5, 60)]])   # and a wall the map lacks
     >>> d = Doubt(sd=0.15)
     >>> grid_check(d, room, np.zeros((len(room), 2)), seen, Pose(0.0, 0.0, 0.0)), d.sd < 0.02, d.pinned is not None
     (None, True, True)

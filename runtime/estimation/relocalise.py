@@ -53,11 +53,14 @@ from clomp.runtime.estimation.doubt import Doubt
 from clomp.runtime.estimation.ekf import OdometryFilter
 from clomp.runtime.estimation.icp import ReferenceScan, match_scans
 
-__all__ = ["HEADINGS", "KickMemory", "Relocalisation", "relocalise"]
+__all__ = ["HEADINGS", "KickMemory", "Relocalisation", "SEEN_MOVED", "relocalise"]
 
 HEADINGS: tuple[float, ...] = (-0.1, -0.05, 0.0, 0.05, 0.1)
 """The headings (rad, about the estimate's) searched: the IMU keeps the heading, a push off
 the centre turns the body a little."""
+SEEN_MOVED: tuple[str, ...] = ("seen through", "seen nearer")
+"""The doubt's events (:meth:`~clomp.runtime.estimation.doubt.Doubt.seen`) that keep the map drawn
+before them for the wide search (:meth:`KickMemory.seen_moved`), as a shock does."""
 
 
 @dataclass(frozen=True)
@@ -164,6 +167,7 @@ class KickMemory:
     last_relocalisation: Relocalisation | None
     last_map_sd: tuple[float, float]
 
+    _seen_moved_at = -math.inf  # the doubt's last seen-through event taken (seen_moved)
     kick_radius = 0.55  # m searched about the estimate: a push of up to 0.5 m, and the estimate's own error
     slide_sensing = False  # the IMU measures a kick's slide (clomp run --imu): the revolutions in it are not matched
     _slide_span: tuple[float, float] | None = None  # (from, to) odometry s: a kick's slide, to inf until measured
@@ -192,8 +196,28 @@ class KickMemory:
     def kick_pending(self, stamp: float, settle: float = 0.3, search: float = 5.0) -> bool:
         """Whether a revolution stamped ``stamp``, while driving, is searched against the map
         drawn before the shock: from ``settle`` s after it (the slide is over) to ``search`` s
-        after it (near where it was kicked, the robot still sees what it saw before)."""
+        after it (near where it was kicked, the robot still sees what it saw before). A doubt
+        raised by revolutions that saw through or nearer than the map (:meth:`seen_moved`)
+        counts as a shock felt when it was raised."""
+        self.seen_moved()
         return self._before_doubt is not None and self._kicked_at + settle <= stamp <= self._kicked_at + search
+
+    def seen_moved(self) -> None:
+        """The doubt's newest event says revolutions saw through, or nearer than, the map
+        (:meth:`~clomp.runtime.estimation.doubt.Doubt.seen`: a push nothing felt, or a world
+        that changed): the map as it is now is the one drawn before it (the revolutions that
+        contradicted it were not drawn), kept as after a shock, so the wide search re-localises
+        against it (a flagged push was not re-localised: the goal's search had only the start's
+        surfaces, and from the goal they rarely pinned a pose)."""
+        events = self.doubt.events
+        if not events:
+            return
+        t, kind, _ = events[-1]
+        if kind in SEEN_MOVED and t > self._seen_moved_at:
+            self._seen_moved_at = t
+            if self._before_doubt is None and self._map_points is not None and self._map_sds is not None:
+                self._before_doubt = (self._map_points, self._map_sds)
+                self._kicked_at = t
 
     def relocalise_after_kick(self, points: np.ndarray, at: Pose | None = None, sigmas: float = 2.45) -> Pose | None:
         """In doubt after a shock, a revolution ``points`` (robot frame) believed seen from
