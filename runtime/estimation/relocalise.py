@@ -69,7 +69,8 @@ class Relocalisation:
     ``sd`` (m): how far it may be off (inf without one); ``inliers``: the share of the
     revolution it pairs; ``spread`` (m): the farthest pose from it explaining the revolution
     about as well; ``rival`` (m): the nearest pose farther than ``apart`` explaining it
-    nearly as well (inf: none); ``why``: in words."""
+    nearly as well (inf: none); ``why``: in words; ``edge``: the best lay on the search's edge
+    (a wider search may find it)."""
 
     pose: Pose | None
     sd: float
@@ -77,6 +78,7 @@ class Relocalisation:
     spread: float
     rival: float
     why: str
+    edge: bool = False
 
 
 def relocalise(map_points: np.ndarray, map_sds: np.ndarray, points: np.ndarray, pose: Pose, *,
@@ -129,7 +131,7 @@ def relocalise(map_points: np.ndarray, map_sds: np.ndarray, points: np.ndarray, 
         return Relocalisation(None, math.inf, inl, spread, rival,
                               f"a pose {rival:.2f} m from the best explains it nearly as well: not unique")
     if max(abs(a - len(offs) // 2), abs(b - len(offs) // 2)) >= len(offs) // 2:
-        return Relocalisation(None, math.inf, inl, spread, rival, "the best lies on the search's edge")
+        return Relocalisation(None, math.inf, inl, spread, rival, "the best lies on the search's edge", True)
     refined = match_scans(ReferenceScan(ref), pts, at, gate=None, min_points=min_points)
     if refined.ok and math.hypot(refined.pose.x - at.x, refined.pose.y - at.y) <= 2 * step:  # within the grid's own blur
         at = refined.pose
@@ -168,7 +170,10 @@ class KickMemory:
     last_map_sd: tuple[float, float]
 
     _seen_moved_at = -math.inf  # the doubt's last seen-through event taken (seen_moved)
-    kick_radius = 0.55  # m searched about the estimate: a push of up to 0.5 m, and the estimate's own error
+    _seen_kept = False  # the map before the doubt was kept by seen_moved, not by a shock
+    kick_radius = 0.55  # m searched when 0.4 m found its best on the edge: a push of up to 0.5 m (a wider
+    # search first met more of a doorway's walls: doorway 5/0 kicked 0.3 m, found at 0.29 m within 0.4 m, lay on
+    # the edge of 0.55 m and ended lost, 0.56 m off)
     slide_sensing = False  # the IMU measures a kick's slide (clomp run --imu): the revolutions in it are not matched
     _slide_span: tuple[float, float] | None = None  # (from, to) odometry s: a kick's slide, to inf until measured
 
@@ -188,7 +193,11 @@ class KickMemory:
         return span is not None and span[0] <= stamp <= min(span[1], span[0] + longest)
 
     def remember_before_doubt(self) -> None:
-        """A shock was felt: keep the map as it is now (drawn before it), once per doubt."""
+        """A shock was felt: keep the map as it is now (drawn before it), once per doubt (kept
+        since revolutions saw through it, :meth:`seen_moved`: that older map, searched from
+        this shock on)."""
+        if self._before_doubt is not None and self._seen_kept:
+            self._kicked_at, self._seen_kept = self._t, False
         if self._before_doubt is None and self._map_points is not None and self._map_sds is not None:
             self._before_doubt = (self._map_points, self._map_sds)
             self._kicked_at = self._t
@@ -217,7 +226,7 @@ class KickMemory:
             self._seen_moved_at = t
             if self._before_doubt is None and self._map_points is not None and self._map_sds is not None:
                 self._before_doubt = (self._map_points, self._map_sds)
-                self._kicked_at = t
+                self._kicked_at, self._seen_kept = t, True
 
     def relocalise_after_kick(self, points: np.ndarray, at: Pose | None = None, sigmas: float = 2.45) -> Pose | None:
         """In doubt after a shock, a revolution ``points`` (robot frame) believed seen from
@@ -237,8 +246,11 @@ class KickMemory:
         ref, ref_sds = self._before_doubt
         keep = np.cos(np.arctan2(ref[:, 1] - seen.y, ref[:, 0] - seen.x) - ref_sds[:, 2]) > 0.0
         sd = max(2 * self.match_sd, self.noise_factor * (self.range_sd or 0.0))
-        res = relocalise(ref[keep], ref_sds[keep], points, seen, radius=self.kick_radius, min_points=self.min_points,
-                         sd=sd, correlation=self.correlation)
+        res = relocalise(ref[keep], ref_sds[keep], points, seen, min_points=self.min_points, sd=sd,
+                         correlation=self.correlation)
+        if res.pose is None and res.edge:  # pushed farther than 0.4 m, perhaps: the wider search
+            res = relocalise(ref[keep], ref_sds[keep], points, seen, radius=self.kick_radius,
+                             min_points=self.min_points, sd=sd, correlation=self.correlation)
         self.last_relocalisation = res
         if res.pose is None:
             return None
