@@ -54,7 +54,7 @@ from clomp.runtime.estimation.confirm import ambiguity
 from clomp.runtime.estimation.icp import ReferenceScan, match_scans
 from clomp.runtime.estimation.seethrough import see_nearer, see_through, see_through_along
 
-__all__ = ["Doubt", "see_through", "trusted_check"]
+__all__ = ["Doubt", "grid_check", "see_through", "trusted_check"]
 
 
 
@@ -117,6 +117,7 @@ class Doubt:
     nearer_shift: float = 0.1
     sd: float = 0.0
     through_in_a_row: int = 0
+    pinned: tuple[float, float] | None = None
     _past_in_row: int = 0
     events: list[tuple[float, str, float]] = field(default_factory=list)
 
@@ -133,6 +134,7 @@ class Doubt:
         it), and whether it was a shock."""
         if not (math.isfinite(peak) and peak > self.jolt):
             return 0.0, False
+        self.pinned = None
         if peak >= self.kick:
             self.events.append((t, "kick", round(float(peak), 1)))
             self.sd = max(self.sd, self.kick_sd)
@@ -194,6 +196,7 @@ class Doubt:
 
     def raise_to(self, sd: float, t: float, why: str) -> None:
         """The estimate may be ``sd`` m off for a reason its filter does not see (``why``)."""
+        self.pinned = None
         if math.isfinite(sd) and sd > self.sd:
             self.events.append((t, why, round(float(sd), 3)))
             self.sd = float(sd)
@@ -202,6 +205,22 @@ class Doubt:
         """A wider search against the trusted surfaces found the estimate explained, no pose
         farther than ``sd`` (m) explaining them as well: the floor is that."""
         self.sd = max(0.0, float(sd))
+
+    def take_pinned(self, pose: Pose, near: float = 0.01) -> bool:
+        """Whether the last wide search pinned the estimate, standing at ``pose`` (within ``near``
+        m of where it pinned it), by a unique fit to the surfaces drawn before the doubt
+        (:func:`grid_check`; :attr:`pinned`: where); cleared once read, and by any raise.
+        Standing at the goal, what sees past the map then says the world or the map drawn
+        since changed, not where the robot stands (the goal's ``seen_past``).
+
+        >>> d = Doubt(pinned=(1.0, 0.0))
+        >>> d.take_pinned(Pose(1.0, 0.0, 0.3)), d.take_pinned(Pose(1.0, 0.0, 0.3))
+        (True, False)
+        >>> Doubt(pinned=(1.0, 0.0)).take_pinned(Pose(1.1, 0.0, 0.0))          # moved since: stale
+        False
+        """
+        was, self.pinned = self.pinned, None
+        return was is not None and math.hypot(pose.x - was[0], pose.y - was[1]) <= near
 
 
 def trusted_check(doubt: Doubt, map_points: np.ndarray, map_sds: np.ndarray, points: np.ndarray, pose: Pose, *,
@@ -226,6 +245,7 @@ def trusted_check(doubt: Doubt, map_points: np.ndarray, map_sds: np.ndarray, poi
     >>> trusted_check(d, room, np.zeros((len(room), 2)), room, Pose(0.0, 0.0, 0.0)), d.sd < 0.01
     (None, True)
     """
+    doubt.pinned = None
     sds = np.asarray(map_sds)
     keep = sds[:, 0] <= doubt.trust
     if sds.shape[1] > 2:  # only surfaces seen from this side: a box's front face is not its back
@@ -238,8 +258,51 @@ def trusted_check(doubt: Doubt, map_points: np.ndarray, map_sds: np.ndarray, poi
     if amb.better is not None:
         return amb.better
     if not amb.matched or amb.inliers < least_inliers:
-        return None
+        return grid_check(doubt, np.asarray(map_points)[keep], sds[keep], points, pose, sd=sd,
+                          correlation=correlation, sigmas=sigmas)
     here = match_scans(ref, points, pose, gate=None, min_points=min_points)
     off = math.hypot(here.pose.x - pose.x, here.pose.y - pose.y)
     doubt.confirmed(max(off, amb.distance) / sigmas)
+    return None
+
+
+def grid_check(doubt: Doubt, map_points: np.ndarray, map_sds: np.ndarray, points: np.ndarray, pose: Pose, *,
+               radius: float = 0.55, sd: float = 0.02, correlation: float = 4.0, sigmas: float = 2.45,
+               least_inliers: float = 0.5, least_paired: int = 40, bound_margin: float = 6.0) -> Pose | None:
+    """The trusted surfaces (``map_points``, drawn before the doubt) searched exhaustively for
+    the revolution ``points`` (robot frame), at every pose within ``radius`` m of the estimate
+    ``pose`` (:func:`~clomp.runtime.estimation.relocalise.relocalise`: a push's range of up to
+    0.5 m and the estimate's own error): when a *unique* best fit (no pose farther than its
+    ``apart`` as good within its ``unique``; not on the search's edge) pairs ``least_paired``
+    points and ``least_inliers`` of the revolution (as the ICP's check above: a unique fit of a
+    third of a revolution is no evidence, the rest may fall where the trusted surfaces were never
+    seen and the best fit be the pose that lands most points on their drawn extent; at ``harsh``
+    unique fits at the goal paired 26-47 %, so this rarely adds a confirmation), and lies within
+    its ``sigmas`` bound of the estimate, the doubt falls to
+    what it shows (its ``sd``, the poses within ``bound_margin`` of its misfit as a ``sigmas``
+    bound, plus the estimate's distance from it over ``sigmas``) and :attr:`Doubt.pinned` says
+    so. A fit elsewhere is returned (the caller may relocate); an ambiguous one (a corridor's
+    axis) or too little paired leaves the doubt. None unless elsewhere.
+
+    >>> room = np.array([[0.8, y] for y in np.linspace(-0.6, 0.6, 61)] + [[x, 0.6] for x in np.linspace(-0.6, 0.8, 71)])
+    >>> seen = np.vstack([room, [[-0.5, y] for y in np.linspace(-0.5, 0.5, 60)]])   # and a wall the map lacks
+    >>> d = Doubt(sd=0.15)
+    >>> grid_check(d, room, np.zeros((len(room), 2)), seen, Pose(0.0, 0.0, 0.0)), d.sd < 0.02, d.pinned is not None
+    (None, True, True)
+    >>> wall = np.array([[x, 0.5] for x in np.linspace(-3.0, 3.0, 301)])
+    >>> d = Doubt(sd=0.15)
+    >>> grid_check(d, wall, np.zeros((301, 2)), wall[100:200], Pose(0.0, 0.0, 0.0)), d.sd   # along a wall: anywhere
+    (None, 0.15)
+    """
+    from clomp.runtime.estimation.relocalise import relocalise  # it imports this module
+
+    res = relocalise(map_points, map_sds, points, pose, radius=radius, sd=sd, correlation=correlation,
+                     least_inliers=least_inliers, least_paired=least_paired, sigmas=sigmas, bound_margin=bound_margin)
+    if res.pose is None:
+        return None
+    off = math.hypot(res.pose.x - pose.x, res.pose.y - pose.y)
+    if off > sigmas * res.sd:
+        return res.pose
+    doubt.confirmed(res.sd + off / sigmas)
+    doubt.pinned = (pose.x, pose.y)
     return None

@@ -53,11 +53,14 @@ from clomp.runtime.estimation.doubt import Doubt
 from clomp.runtime.estimation.ekf import OdometryFilter
 from clomp.runtime.estimation.icp import ReferenceScan, match_scans
 
-__all__ = ["HEADINGS", "KickMemory", "Relocalisation", "relocalise"]
+__all__ = ["HEADINGS", "KickMemory", "Relocalisation", "SEEN_MOVED", "relocalise"]
 
 HEADINGS: tuple[float, ...] = (-0.1, -0.05, 0.0, 0.05, 0.1)
 """The headings (rad, about the estimate's) searched: the IMU keeps the heading, a push off
 the centre turns the body a little."""
+SEEN_MOVED: tuple[str, ...] = ("seen through", "seen nearer")
+"""The doubt's events (:meth:`~clomp.runtime.estimation.doubt.Doubt.seen`) that keep the map drawn
+before them for the wide search (:meth:`KickMemory.seen_moved`), as a shock does."""
 
 
 @dataclass(frozen=True)
@@ -66,7 +69,8 @@ class Relocalisation:
     ``sd`` (m): how far it may be off (inf without one); ``inliers``: the share of the
     revolution it pairs; ``spread`` (m): the farthest pose from it explaining the revolution
     about as well; ``rival`` (m): the nearest pose farther than ``apart`` explaining it
-    nearly as well (inf: none); ``why``: in words."""
+    nearly as well (inf: none); ``why``: in words; ``edge``: the best lay on the search's edge
+    (a wider search may find it)."""
 
     pose: Pose | None
     sd: float
@@ -74,13 +78,15 @@ class Relocalisation:
     spread: float
     rival: float
     why: str
+    edge: bool = False
 
 
 def relocalise(map_points: np.ndarray, map_sds: np.ndarray, points: np.ndarray, pose: Pose, *,
                radius: float = 0.4, step: float = 0.02, headings: tuple[float, ...] = HEADINGS,
                min_points: int = 10, sd: float = 0.02, correlation: float = 4.0, reach: float = 3.0,
                apart: float = 0.15, unique: float = 30.0, least_inliers: float = 0.6,
-               least_paired: int = 20, sigmas: float = 2.45, most_points: int = 100) -> Relocalisation:
+               least_paired: int = 20, sigmas: float = 2.45, most_points: int = 100,
+               bound_margin: float | None = None) -> Relocalisation:
     """The revolution ``points`` (robot frame), believed seen from ``pose``, placed at every
     pose of a grid (``step`` m, within ``radius`` m of ``pose``, at each of ``headings``)
     over ``map_points`` (map frame; ``map_sds[:, 0]``: how wrong each may be, m); see the
@@ -91,7 +97,11 @@ def relocalise(map_points: np.ndarray, map_sds: np.ndarray, points: np.ndarray, 
     not on the search's edge (the grid scores every k-th point, at most ``most_points``:
     a wall-rich revolution's 400 points cost 0.5 s on a busy machine); then its ``sd`` counts the farthest pose within ``unique``
     (as a ``sigmas`` bound: conservative, ``unique`` is five times chi-square's 95 % point
-    with two degrees of freedom), the map's uncertainty where it meets it, and the grid."""
+    with two degrees of freedom), the map's uncertainty where it meets it, and the grid.
+    ``bound_margin`` (default ``unique``): the misfit margin of the poses whose reach sets
+    ``sd`` (6, chi-square's 95 % point with two degrees of freedom: the goal's wide search,
+    :func:`~clomp.runtime.estimation.doubt.trusted_check`, whose ``unique`` still guards
+    against a rival)."""
     pts = np.asarray(points, dtype=float).reshape(-1, 2)
     ref = np.asarray(map_points, dtype=float).reshape(-1, 2)
     if len(pts) < min_points or len(ref) < min_points:
@@ -109,6 +119,7 @@ def relocalise(map_points: np.ndarray, map_sds: np.ndarray, points: np.ndarray, 
     near_as_well = cost <= best + unique
     rival = float(rivals[near_as_well & (rivals > apart)].min()) if np.any(near_as_well & (rivals > apart)) else math.inf
     spread = float(rivals[near_as_well].max())  # the poses as good, conservatively: how far they reach
+    reach_sd = spread if bound_margin is None else float(rivals[cost <= best + bound_margin].max())
     at = Pose(pose.x + float(dx[a]), pose.y + float(dy[b]), pose.theta + headings[h])
     d_best, idx = cKDTree(ref).query(points_from_frame(pts, at), distance_upper_bound=cap)
     met = np.isfinite(d_best)
@@ -120,12 +131,12 @@ def relocalise(map_points: np.ndarray, map_sds: np.ndarray, points: np.ndarray, 
         return Relocalisation(None, math.inf, inl, spread, rival,
                               f"a pose {rival:.2f} m from the best explains it nearly as well: not unique")
     if max(abs(a - len(offs) // 2), abs(b - len(offs) // 2)) >= len(offs) // 2:
-        return Relocalisation(None, math.inf, inl, spread, rival, "the best lies on the search's edge")
+        return Relocalisation(None, math.inf, inl, spread, rival, "the best lies on the search's edge", True)
     refined = match_scans(ReferenceScan(ref), pts, at, gate=None, min_points=min_points)
     if refined.ok and math.hypot(refined.pose.x - at.x, refined.pose.y - at.y) <= 2 * step:  # within the grid's own blur
         at = refined.pose
     map_sd = float(np.median(np.asarray(map_sds, dtype=float).reshape(len(ref), -1)[idx[met], 0]))
-    out = math.sqrt(map_sd ** 2 + (max(spread, step) / sigmas) ** 2)
+    out = math.sqrt(map_sd ** 2 + (max(reach_sd, step) / sigmas) ** 2)
     return Relocalisation(at, out, inl, spread, rival,
                           f"pairs {inl:.0%} of {len(pts)} points, poses as good within {spread * 100:.0f} cm, "
                           f"none farther")
@@ -158,6 +169,14 @@ class KickMemory:
     last_relocalisation: Relocalisation | None
     last_map_sd: tuple[float, float]
 
+    _seen_moved_at = -math.inf  # the doubt's last seen-through event taken (seen_moved)
+    _seen_kept = False  # the map before the doubt was kept by seen_moved, not by a shock
+    keep_on_seen = False  # seen_moved on: off by default (session 14: on the harsh sample it re-localised
+    # doorway 0/0 with the gyro from a map holding surfaces drawn after the push, 0.085 -> 0.40 m off, and gained
+    # no claim; truly at the goal 35 -> 34 and 23 -> 22 of 50)
+    kick_radius = 0.55  # m searched when 0.4 m found its best on the edge: a push of up to 0.5 m (a wider
+    # search first met more of a doorway's walls: doorway 5/0 kicked 0.3 m, found at 0.29 m within 0.4 m, lay on
+    # the edge of 0.55 m and ended lost, 0.56 m off)
     slide_sensing = False  # the IMU measures a kick's slide (clomp run --imu): the revolutions in it are not matched
     _slide_span: tuple[float, float] | None = None  # (from, to) odometry s: a kick's slide, to inf until measured
 
@@ -177,7 +196,11 @@ class KickMemory:
         return span is not None and span[0] <= stamp <= min(span[1], span[0] + longest)
 
     def remember_before_doubt(self) -> None:
-        """A shock was felt: keep the map as it is now (drawn before it), once per doubt."""
+        """A shock was felt: keep the map as it is now (drawn before it), once per doubt (kept
+        since revolutions saw through it, :meth:`seen_moved`: that older map, searched from
+        this shock on)."""
+        if self._before_doubt is not None and self._seen_kept:
+            self._kicked_at, self._seen_kept = self._t, False
         if self._before_doubt is None and self._map_points is not None and self._map_sds is not None:
             self._before_doubt = (self._map_points, self._map_sds)
             self._kicked_at = self._t
@@ -185,8 +208,29 @@ class KickMemory:
     def kick_pending(self, stamp: float, settle: float = 0.3, search: float = 5.0) -> bool:
         """Whether a revolution stamped ``stamp``, while driving, is searched against the map
         drawn before the shock: from ``settle`` s after it (the slide is over) to ``search`` s
-        after it (near where it was kicked, the robot still sees what it saw before)."""
+        after it (near where it was kicked, the robot still sees what it saw before). A doubt
+        raised by revolutions that saw through or nearer than the map (:meth:`seen_moved`)
+        counts as a shock felt when it was raised."""
+        self.seen_moved()
         return self._before_doubt is not None and self._kicked_at + settle <= stamp <= self._kicked_at + search
+
+    def seen_moved(self) -> None:
+        """The doubt's newest event says revolutions saw through, or nearer than, the map
+        (:meth:`~clomp.runtime.estimation.doubt.Doubt.seen`: a push nothing felt, or a world
+        that changed): the map as it is now is the one drawn before it (the revolutions that
+        contradicted it were not drawn), kept as after a shock, so the wide search re-localises
+        against it (a flagged push was not re-localised: the goal's search had only the start's
+        surfaces, and from the goal they rarely pinned a pose). Only with :attr:`keep_on_seen`
+        (off by default: the map then may hold surfaces drawn after a push nothing felt)."""
+        events = self.doubt.events
+        if not self.keep_on_seen or not events:
+            return
+        t, kind, _ = events[-1]
+        if kind in SEEN_MOVED and t > self._seen_moved_at:
+            self._seen_moved_at = t
+            if self._before_doubt is None and self._map_points is not None and self._map_sds is not None:
+                self._before_doubt = (self._map_points, self._map_sds)
+                self._kicked_at, self._seen_kept = t, True
 
     def relocalise_after_kick(self, points: np.ndarray, at: Pose | None = None, sigmas: float = 2.45) -> Pose | None:
         """In doubt after a shock, a revolution ``points`` (robot frame) believed seen from
@@ -208,6 +252,9 @@ class KickMemory:
         sd = max(2 * self.match_sd, self.noise_factor * (self.range_sd or 0.0))
         res = relocalise(ref[keep], ref_sds[keep], points, seen, min_points=self.min_points, sd=sd,
                          correlation=self.correlation)
+        if res.pose is None and res.edge:  # pushed farther than 0.4 m, perhaps: the wider search
+            res = relocalise(ref[keep], ref_sds[keep], points, seen, radius=self.kick_radius,
+                             min_points=self.min_points, sd=sd, correlation=self.correlation)
         self.last_relocalisation = res
         if res.pose is None:
             return None

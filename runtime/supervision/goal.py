@@ -115,6 +115,8 @@ def seen_past(sup: Supervisor) -> int:
     est = sup.estimator
     if est is None or sup.sensing.scan is None:
         return 0
+    if est.doubt.take_pinned(est.pose):  # the wide search just pinned it to the surfaces drawn before the doubt
+        return 0
     scan = sup.sensing.planning_scan()
     through, _ = est.sees_past(scan)
     if through >= est.doubt.goal_through:

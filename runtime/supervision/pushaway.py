@@ -43,10 +43,11 @@ if TYPE_CHECKING:  # pragma: no cover
 
 __all__ = ["LOOK_S", "PUSH_EVIDENCE", "away_move", "move_tick", "push_tick"]
 
-PUSH_EVIDENCE = ("kick", "seen through")
+PUSH_EVIDENCE = ("kick", "seen through", "seen nearer")
 """The estimator's doubt events that mean the body was moved by something else than its wheels:
 a kick alone; a revolution seeing through the map only with the estimate jumping within
-:data:`LOOK_S` of it. Seeing through happens without a push too (a surface the map drew
+:data:`LOOK_S` of it; a revolution seeing surfaces nearer than the map holds them (``seen nearer``,
+a push *towards* them) as seeing through. Seeing through happens without a push too (a surface the map drew
 wrong, a body that moved away), and next to an obstacle a move away is then a needless
 detour."""
 LOOK_S = 1.0
@@ -123,7 +124,7 @@ def _felt(sup: Supervisor, now: float) -> None:
     new, sup._push_events = events[sup._push_events:], len(events)
     if sup._pushed_at is None and any(why == PUSH_EVIDENCE[0] for _, why, _ in new):
         sup._pushed_at = now  # the first: the collision a push ends in kicks the accelerometer again
-    if any(why == PUSH_EVIDENCE[1] for _, why, _ in new):
+    if any(why in PUSH_EVIDENCE[1:] for _, why, _ in new):
         sup._seen_at = now
     seen, jump = sup._seen_at, sup._jumped_at
     if seen is None:

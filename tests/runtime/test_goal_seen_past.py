@@ -84,3 +84,23 @@ def test_a_wall_seen_along_itself_does_not_stand_before_its_own_points() -> None
     assert not occluding(np.array([[1.6, 0.1], [1.2, 0.1]]), wall, bearings).any()
     across = np.array([[1.8, 0.01 * k] for k in range(-3, 4)])
     assert occluding(np.array([[1.6, 0.0]]), across, np.arctan2(across[:, 1], across[:, 0])).all()  # across the ray
+
+
+def test_a_pose_pinned_by_the_wide_search_is_not_doubted_for_what_changed_since() -> None:
+    """The goal's wide search pinned the estimate to the surfaces drawn before the doubt
+    (:func:`~clomp.runtime.estimation.doubt.grid_check`): what the revolution sees past the map
+    (a body that walked away, a surface drawn in doubt) is not evidence of where it stands, this
+    look only; elsewhere than where it was pinned, or a look later, it counts again."""
+    from clomp.runtime.estimation.doubt import grid_check
+
+    body = np.array([[0.45, y] for y in np.linspace(-0.5, 0.5, 51)])  # drawn at the start, gone since
+    sup = _standing(_ROOM)
+    odo = sup.estimator = ScanOdometry(wheel_base=0.15)
+    odo.reset(Pose(0.0, 0.0, 0.0), 0.0)
+    odo.update(ScanFrame(np.r_[_ROOM[_ROOM[:, 0] < 0.8], body], 0.0))
+    odo.doubt.raise_to(odo.doubt.kick_sd, 0.2, "seen past at the goal")
+    assert seen_past(sup) >= Doubt().goal_through  # type: ignore[arg-type]  # it sees past the body's points
+    assert grid_check(odo.doubt, _ROOM, np.zeros((len(_ROOM), 2)), _ROOM, odo.pose) is None
+    assert odo.doubt.sd < 0.02 and odo.doubt.pinned is not None
+    assert seen_past(sup) == 0  # type: ignore[arg-type]  # pinned: the body's going is the world's change
+    assert seen_past(sup) >= Doubt().goal_through  # type: ignore[arg-type]  # the pin was for one look

@@ -67,7 +67,7 @@ def test_away_move_takes_the_side_that_helps_and_never_drives_into_a_point():
     assert away_move(ahead[:1], m, 0.04, 0.12) is None  # one point is noise, not an obstacle (hazard_points 2)
 
 
-def _seen_through_beside_the_box(jump: float) -> Supervisor:
+def _seen_through_beside_the_box(jump: float, kind: str = "seen through") -> Supervisor:
     """Overtaking at ``ideal``, no push: 3 s in, while a task runs, three points appear 2 cm
     ahead of the body in every revolution (within the push margin), and the estimator's
     doubt records a revolution seeing through the map; with ``jump`` > 0 that revolution
@@ -91,7 +91,7 @@ def _seen_through_beside_the_box(jump: float) -> Supervisor:
         rec = take(frame, now, cmd, still)
         if not seen and now > 3.0 and sup.state is S.EXECUTING:
             assert sup.estimator is not None
-            sup.estimator.doubt.events.append((now, "seen through", 0.1))
+            sup.estimator.doubt.events.append((now, kind, 0.1))
             if jump > 0:
                 p = sup.sensing.pose
                 sup.sensing.relocate(Pose(p.x + jump, p.y, p.theta))
@@ -117,6 +117,13 @@ def test_seeing_through_the_map_without_a_push_does_not_start_a_move_away() -> N
 def test_seeing_through_the_map_as_the_estimate_jumps_is_a_push() -> None:
     sup = _seen_through_beside_the_box(0.1)
     assert [t for t in sup.transitions if t.target is S.MOVING_AWAY], sup.transitions
+
+
+def test_seeing_nearer_than_the_map_as_the_estimate_jumps_is_a_push_too() -> None:
+    """A push *towards* surfaces is seen nearer, not through (``Doubt.seen``): the same move away."""
+    sup = _seen_through_beside_the_box(0.1, "seen nearer")
+    assert [t for t in sup.transitions if t.target is S.MOVING_AWAY], sup.transitions
+    assert not [t for t in _seen_through_beside_the_box(0.0, "seen nearer").transitions if t.target is S.MOVING_AWAY]
 
 
 def _arc(cx: float, cy: float, r: float, a0: float, a1: float) -> np.ndarray:
