@@ -25,12 +25,13 @@ import pytest
 import clomp.runtime.backends.hardware as hardware
 import clomp.runtime.cli.run as run_cli
 import clomp.runtime.records.runlog as runlog
+import clomp.runtime.supervision as supervision
 from clomp.runtime.backends.calibration import ToldCalibration
 from clomp.runtime.backends.emulated import EmulatedWorld
 from tests.runtime._simline import LockstepClock, SimLine
 from tests.runtime._stack import StackRun, _HookedClock
 
-__all__ = ["LIDAR", "MOTORS", "PORTS", "simulate_cli"]
+__all__ = ["LIDAR", "MOTORS", "PORTS", "record_supervisors", "simulate_cli"]
 
 LIDAR, MOTORS = "sim-lidar", "sim-maestro"
 #: the device options every simulated ``clomp run`` takes: the two lines, and the Maestro driver's
@@ -103,3 +104,17 @@ def simulate_cli(monkeypatch: pytest.MonkeyPatch, scenario: Any, *, seed: int = 
     # test_run_kernels.py); here it would only run the tests' patched planners once more
     monkeypatch.setattr(run_cli, "ready_kernels", lambda: 0.0)
     return run
+
+
+def record_supervisors(monkeypatch: pytest.MonkeyPatch) -> list[Any]:
+    """Every :class:`~clomp.runtime.supervision.Supervisor` made until the test ends, in order
+    (``clomp run``'s, to read the prior and the config it was given)."""
+    made: list[Any] = []
+
+    class Recorded(supervision.Supervisor):
+        def __init__(self, *args: Any, **kwargs: Any) -> None:
+            super().__init__(*args, **kwargs)
+            made.append(self)
+
+    monkeypatch.setattr(supervision, "Supervisor", Recorded)
+    return made

@@ -11,12 +11,10 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
-from typing import Any
 
 import pytest
 
 import clomp.runtime.cli as cli
-import clomp.runtime.supervision as supervision
 from clomp.planner import load_scenario
 from clomp.planner.noise import NoiseTerms
 from clomp.planner.robot_model import RobotModel
@@ -28,7 +26,7 @@ from clomp.runtime.estimation.prior import OdometryPrior
 from clomp.runtime.interface import Calibrated
 from clomp.runtime.supervision import DRIVE_DELAY, SupervisorConfig
 from clomp.runtime.supervision.sensing import Sensing
-from tests.runtime._simcli import PORTS, simulate_cli
+from tests.runtime._simcli import PORTS, record_supervisors, simulate_cli
 
 # -- the file ---------------------------------------------------------------------------------------
 BAD = [
@@ -101,18 +99,6 @@ def test_a_told_robot_gets_the_prior_of_its_terms(preset: str, floor: bool) -> N
 
 
 # -- clomp run --calibration ----------------------------------------------------------------------------
-def _recording(monkeypatch: pytest.MonkeyPatch) -> list[Any]:
-    made: list[Any] = []
-
-    class Recorded(supervision.Supervisor):
-        def __init__(self, *args: Any, **kwargs: Any) -> None:
-            super().__init__(*args, **kwargs)
-            made.append(self)
-
-    monkeypatch.setattr(supervision, "Supervisor", Recorded)
-    return made
-
-
 @pytest.mark.parametrize("name, text, said", BAD[:6])
 def test_clomp_run_refuses_a_bad_file_before_any_device_opens(
         tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str], name: str, text: str,
@@ -133,7 +119,7 @@ def test_clomp_run_tells_the_estimator_the_file(tmp_path: Path, monkeypatch: pyt
     ramp) unless ``--drive-delay`` is given; the run log records what it was told."""
     terms, model = NoiseTerms.preset(preset), RobotModel()
     path = write_calibration(tmp_path / "drive.toml", terms)
-    made = _recording(monkeypatch)
+    made = record_supervisors(monkeypatch)
     sim = simulate_cli(monkeypatch, "open")
     rc = cli.main(["run", *PORTS, "--goal", "1.0,0.0", "--log", str(tmp_path / "run.jsonl"), "--max-time", "2.5",
                    "--calibration", str(path)])
@@ -150,7 +136,7 @@ def test_clomp_run_tells_the_estimator_the_file(tmp_path: Path, monkeypatch: pyt
 
 def test_a_given_drive_delay_overrides_the_told_one(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     path = write_calibration(tmp_path / "drive.json", NoiseTerms.preset("paper"))
-    made = _recording(monkeypatch)
+    made = record_supervisors(monkeypatch)
     simulate_cli(monkeypatch, "open")
     rc = cli.main(["run", *PORTS, "--goal", "1.0,0.0", "--log", str(tmp_path / "run.jsonl"), "--max-time", "1",
                    "--calibration", str(path), "--drive-delay", "0.2"])

@@ -12,19 +12,17 @@ from __future__ import annotations
 
 import dataclasses
 from pathlib import Path
-from typing import Any
 
 import pytest
 
 import clomp.runtime.cli as cli
-import clomp.runtime.supervision as supervision
 from clomp.planner import load_scenario
 from clomp.planner.robot_model import RobotModel
 from clomp.runtime.backends.sim import SimRobot
 from clomp.runtime.estimation.prior import OdometryPrior
 from clomp.runtime.supervision import DRIVE_DELAY, SupervisorConfig
 from clomp.runtime.supervision.sensing import Sensing
-from tests.runtime._simcli import PORTS, simulate_cli
+from tests.runtime._simcli import PORTS, record_supervisors, simulate_cli
 from tests.runtime.test_start_lead import _hops
 
 _RUN_MODULE = "clomp.runtime.cli.run"
@@ -62,14 +60,7 @@ def test_clomp_run_dead_reckons_the_commands_late_by_its_drive_delay(
     ``--drive-delay 0`` is the run as before."""
     if _RUN_MODULE not in cli._COMMAND_MODULES:
         monkeypatch.setattr(cli, "_COMMAND_MODULES", [*cli._COMMAND_MODULES, _RUN_MODULE])
-    made: list[Any] = []
-
-    class Recorded(supervision.Supervisor):
-        def __init__(self, *args: Any, **kwargs: Any) -> None:
-            super().__init__(*args, **kwargs)
-            made.append(self)
-
-    monkeypatch.setattr(supervision, "Supervisor", Recorded)
+    made = record_supervisors(monkeypatch)
     sim = simulate_cli(monkeypatch, "open")
     rc = cli.main(["run", *PORTS, "--goal", "1.0,0.0", "--log", str(tmp_path / "run.jsonl"), "--max-time", "2.5",
                    *extra])
