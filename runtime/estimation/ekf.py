@@ -135,9 +135,7 @@ class OdometryFilter:
     ``shared_floor``: :attr:`honest` is not let below a match's floor (``match_floor`` or its
     ``floor``) in the directions it observes: the floor is the error the revolutions share, which
     fusing more of them does not average out (False: only below the map's, as before issue #36's
-    bound coverage bench). ``scale_mean``: the forward scale's prior mean, where ``s`` starts at
-    each :meth:`reset` (a drive told it slips loses distance on average:
-    :func:`~clomp.runtime.estimation.prior.slip_loss`).
+    bound coverage bench).
     """
 
     def __init__(
@@ -162,7 +160,6 @@ class OdometryFilter:
         turn_learn_after: float = 0.5,
         turn_asymmetry: float = 0.0,
         shared_floor: bool = True,
-        scale_mean: float = 0.0,
     ) -> None:
         if not (math.isfinite(wheel_base) and wheel_base > 0):
             raise ValueError(f"wheel_base must be positive, got {wheel_base!r}")
@@ -184,7 +181,6 @@ class OdometryFilter:
         self.turn_learn_after = float(turn_learn_after)
         self.turn_asymmetry = float(turn_asymmetry)
         self.shared_floor = bool(shared_floor)
-        self.scale_mean = float(scale_mean)
         self.match_floor = np.square(np.asarray(match_floor, dtype=float))
         # no learnt term beyond three prior standard deviations: a wrong association must
         # not teach the filter wheels no robot has
@@ -202,7 +198,6 @@ class OdometryFilter:
         if keep_calibration:
             self.x[3:], self.P[3:, 3:] = cal, pcal
         else:
-            self.x[3] = self.scale_mean  # the forward scale starts at its expected value (slip only loses)
             self.P[3:, 3:] = np.diag(np.square((*self.calibration_sd, self.rate_offset_sd)))
         self.P[:3, :3] = np.eye(3) * 1e-10
         self.honest = self.P.copy()
@@ -521,8 +516,6 @@ class OdometryFilter:
             # corridor's axis, a translation, keeps the full gain: holding it too cost the
             # named slalom scene through the supervisor's patience, for no paper run.)
             kgain[:3, :] = u @ (u.T @ kgain[:3, :])
-        if learn and self._travel_unobserved(vecs[:, ~keep]):
-            kgain[3, :] = 0.0  # the forward scale: not from a match blind along the way driven
         if not learn:
             keep = kgain[4, :].copy()
             kgain[3:, :] = 0.0  # Joseph form below keeps P right for any gain
@@ -562,21 +555,3 @@ class OdometryFilter:
         if pos.any():
             add = u @ (vecs[:, pos] * lam[pos]) @ vecs[:, pos].T @ u.T
             self.honest[:3, :3] += add
-
-    def _travel_unobserved(self, unobserved: np.ndarray, *, share: float = 0.7) -> bool:
-        """Whether a match leaves the way the robot drives unobserved: one of the directions
-        ``unobserved`` (3×m, pose units: those it gives no information in) is mostly a step
-        along the heading (its component there over ``share``). The forward scale ``s`` is
-        then not learnt from it (issue #36): what the match says of the motion comes only
-        sideways, through a heading it pins no better than the map it meets, and a corridor's
-        walls seen at a small angle taught ``s`` whatever that map's errors made of it.
-
-        >>> f = OdometryFilter(0.15)
-        >>> f._travel_unobserved(np.array([[1.0], [0.0], [0.0]])), f._travel_unobserved(np.array([[0.0], [1.0], [0.0]]))
-        (True, False)
-        """
-        if not unobserved.size:
-            return False
-        th = float(self.x[2])
-        along = np.array([math.cos(th), math.sin(th), 0.0])
-        return bool(np.any(np.abs(along @ unobserved) > share))

@@ -51,9 +51,8 @@ from clomp.runtime.jit import interruptible
 __all__ = ["observed_information", "shape_information"]
 
 
-def shape_information(world: np.ndarray, centre: tuple[float, float], *, radius: float = 0.2,
-                      neighbours: int | None = None, line_ratio: float = 0.25,
-                      lever: float = 0.5) -> tuple[np.ndarray, int]:
+def shape_information(world: np.ndarray, centre: tuple[float, float], *, radius: float = 0.2, neighbours: int = 32,
+                      line_ratio: float = 0.25, lever: float = 0.5) -> tuple[np.ndarray, int]:
     """The information (3×3, rotation scaled by ``lever`` m, as the matcher's) that the shape
     of the points ``world`` (N×2, supervisor frame) gives about the pose of a robot at
     ``centre``, and how many points gave it: a point whose ``neighbours`` nearest within
@@ -70,8 +69,7 @@ def shape_information(world: np.ndarray, centre: tuple[float, float], *, radius:
     pts = np.asarray(world, dtype=float).reshape(-1, 2)
     if len(pts) < 4:
         return np.zeros((3, 3)), 0
-    k = len(pts) if neighbours is None else max(2, int(neighbours))
-    count, line, angle = neighbour_lines(pts, radius, k, line_ratio)  # the matcher's test
+    count, line, angle = neighbour_lines(pts, radius, neighbours, line_ratio)  # the matcher's test
     usable = count >= 4
     line = usable & line
     spot = usable & ~line
@@ -96,8 +94,8 @@ def _surely_observed(world: np.ndarray, centre: tuple[float, float], r: np.ndarr
     pts = np.ascontiguousarray(world, dtype=float).reshape(-1, 2)
     if len(pts) < 4 or not np.isfinite(pts).all():
         return False
-    shape, n, unsure = interruptible(shape_estimate, pts, float(centre[0]), float(centre[1]), float(radius), len(pts),
-                                     0.25, float(lever))  # every neighbour within the radius, as shape_information
+    shape, n, unsure = interruptible(shape_estimate, pts, float(centre[0]), float(centre[1]), float(radius), 32, 0.25,
+                                     float(lever))
     if unsure or n < 1:
         return False
     per = shape / n

@@ -53,7 +53,7 @@ from typing import Any
 
 from clomp.planner.noise import UNMODELLED_FIELDS, NoiseTerms
 
-__all__ = ["UNSEEN_WALK", "OdometryPrior", "slip_loss", "slip_walk"]
+__all__ = ["UNSEEN_WALK", "OdometryPrior", "slip_walk"]
 
 # what a robot without a heading sensor, told of error sources the filter does not model,
 # admits beyond its model (m per √m driven, rad per √m driven, rad per √rad turned): the
@@ -81,23 +81,6 @@ def slip_walk(told: NoiseTerms, speed: float = 0.1) -> float:
     return told.slip_duration * math.sqrt(max(told.slip_rate, 0.0) * max(speed, 0.0))
 
 
-def slip_loss(told: NoiseTerms) -> float:
-    """The share of the commanded distance slip takes on average (the forward scale's expected
-    value is minus it): each control tick each wheel loses ``|N(0, slip)|`` of its speed (mean
-    ``slip * sqrt(2/pi)``), and slip events hold the body for ``slip_duration`` s at
-    ``slip_rate`` a second of driving (a share ``rD / (1 + rD)`` of it). Both are losses, never
-    gains: a prior centred on 0 dead-reckons ahead of the body by their sum along any way the
-    scans leave unobserved (a corridor's axis: 6 % at ``harsh``, 8 cm by the goal), and a match
-    that claimed to see along it learnt them as whatever its map said (issue #36).
-
-    >>> round(slip_loss(NoiseTerms.preset("harsh")), 4), round(slip_loss(NoiseTerms.preset("paper")), 4)
-    (0.0633, 0.008)
-    """
-    tick = _HALF_NORMAL_MEAN * max(told.slip, 0.0)
-    held = max(told.slip_rate, 0.0) * max(told.slip_duration, 0.0)
-    return 1.0 - (1.0 - tick) * (1.0 - held / (1.0 + held))
-
-
 @dataclass(frozen=True)
 class OdometryPrior:
     """The filter's prior on the drive (see the module): ``calibration_sd`` of (s, k, c, d),
@@ -108,12 +91,7 @@ class OdometryPrior:
     dead-reckons with (0, told nothing: the body is taken to follow at once).
     ``turn_asymmetry``: half the told difference of a gyro's gain between the two ways of
     turning, with the margin (0, told nothing), admitted per radian turned
-    (:meth:`~clomp.runtime.estimation.ekf.OdometryFilter._floor_turn`). ``scale_mean``: the
-    forward scale's expected value, where the filter's starts: minus :func:`slip_loss` for a robot
-    told of error sources the filter does not model (``harsh``, where it was measured); 0 told
-    nothing or told only modelled terms (at ``paper`` the loss is 0.8 %, inside the told prior's
-    1.3 %, and it moved a knife-edge push test, corridor 1 set down 0.1 m along its axis unfelt,
-    from 0.096 to 0.106 m: that displacement no version sees).
+    (:meth:`~clomp.runtime.estimation.ekf.OdometryFilter._floor_turn`).
     """
 
     calibration_sd: tuple[float, float, float, float] = (0.06, 0.06, 0.3, 0.02)
@@ -128,7 +106,6 @@ class OdometryPrior:
     nothing or told of error sources the filter does not model (their drift draws the map the
     matches meet); off for one told its drive follows the model (``paper``: there the floor kept
     every corridor run truly 1 cm from the goal unconfirmed)."""
-    scale_mean: float = 0.0
 
     @classmethod
     def worst(cls) -> OdometryPrior:
@@ -163,7 +140,7 @@ class OdometryPrior:
         delay = told.latency + speed / (2.0 * wheel_accel)
         if not heading and any(getattr(told, name) > 0 for name in UNMODELLED_FIELDS):
             # the worst-case wheels, but the body's told lateness all the same (see the module)
-            return dataclasses.replace(worst, honest_walk=UNSEEN_WALK, delay=delay, scale_mean=-slip_loss(told))
+            return dataclasses.replace(worst, honest_walk=UNSEEN_WALK, delay=delay)
         scale = math.hypot(told.wheel_bias / math.sqrt(2.0), _HALF_NORMAL_MEAN * told.slip)
         gyro = math.hypot(told.rate_scale, told.rate_asymmetry)
         curvature = told.wheel_bias * math.sqrt(2.0) / wheel_base
@@ -180,12 +157,10 @@ class OdometryPrior:
         # way half of it from the one gain the filter learns
         unmodelled = any(getattr(told, name) > 0 for name in UNMODELLED_FIELDS)
         return cls((sd[0], sd[1], sd[2], sd[3]), walk, noise, delay, turn_asymmetry=m * told.rate_asymmetry / 2.0,
-                   honest_walk=(m * slip_walk(told, speed), 0.0, 0.0), shared_floor=unmodelled,
-                   scale_mean=-slip_loss(told) if unmodelled else 0.0)
+                   honest_walk=(m * slip_walk(told, speed), 0.0, 0.0), shared_floor=unmodelled)
 
     def filter_kwargs(self) -> dict[str, Any]:
         """The :class:`~clomp.runtime.estimation.ekf.OdometryFilter` keyword arguments it sets."""
         return {"calibration_sd": self.calibration_sd, "calibration_walk": self.calibration_walk,
                 "wheel_noise": self.wheel_noise, "honest_walk": self.honest_walk,
-                "turn_asymmetry": self.turn_asymmetry, "shared_floor": self.shared_floor,
-                "scale_mean": self.scale_mean}
+                "turn_asymmetry": self.turn_asymmetry, "shared_floor": self.shared_floor}

@@ -88,8 +88,7 @@ def test_a_robot_told_of_slip_events_admits_them_per_metre_driven() -> None:
     f = OdometryFilter(0.15, **prior.filter_kwargs())
     for _ in range(100):  # 1 m at 0.1 m/s, the gyro measuring no turn
         f.predict(0.1, 0.0, 0.1, turned=0.0)
-    driven = 1.0 * (1.0 + prior.scale_mean)  # the metre commanded, less what slip loses on average
-    assert f.honest[0, 0] - f.P[0, 0] >= prior.honest_walk[0] ** 2 * driven * (1 - 1e-6)
+    assert f.honest[0, 0] - f.P[0, 0] >= prior.honest_walk[0] ** 2 * 1.0 * (1 - 1e-6)
 
 
 @pytest.mark.slow

@@ -27,13 +27,13 @@ HALF_WIDTH = 0.36  # m: the walls at y = ±0.36, as corridor 21's
 REACH = 1.2  # m: returns beyond are dropped, so no end of the walls is ever seen
 
 
-def _revolution(x: float, rng: np.random.Generator, noise: float = 0.025, half_width: float = HALF_WIDTH) -> np.ndarray:
-    """One revolution (robot frame, heading 0) at (x, 0) between two endless walls ``half_width``
-    (m) either side: a ray a degree, Gaussian range noise ``noise`` (m), nothing beyond ``REACH``."""
+def _revolution(x: float, rng: np.random.Generator, noise: float = 0.025) -> np.ndarray:
+    """One revolution (robot frame, heading 0) at (x, 0) between two endless walls: a ray a
+    degree, Gaussian range noise ``noise`` (m), nothing beyond ``REACH``."""
     del x  # the walls look the same from anywhere along them
     a = np.radians(np.arange(360) + 0.5)
     s = np.sin(a)
-    r = half_width / np.abs(s)
+    r = HALF_WIDTH / np.abs(s)
     r = r + rng.normal(0.0, noise, len(r))
     keep = r <= REACH
     pts: np.ndarray = np.c_[r[keep] * np.cos(a[keep]), r[keep] * s[keep]]
@@ -80,23 +80,6 @@ def test_an_unfelt_push_along_a_corridor_stays_within_what_the_estimate_admits()
     assert 2.45 * odo.position_sd() > error - 0.06  # ... but it does not vouch for the spot it believes either
 
 
-@settings(max_examples=30, deadline=None)
-@given(st.integers(0, 2**31 - 1), st.floats(0.2, 0.45))
-def test_walls_close_by_do_not_pin_the_position_along_them(seed: int, half_width: float) -> None:
-    """Walls 0.2-0.45 m either side, at ``harsh`` range noise: the shape leaves the position
-    along them unobserved, however close. Near the robot a ray a degree puts a wall's returns
-    4-8 mm apart, and the 32 nearest of them (the old neighbourhood) spanned a few centimetres
-    along a band 5 cm thick: a blob, which claimed both coordinates. ``corridor`` 1/4 at
-    ``harsh`` without the gyro (walls 0.28 m away) kept the matcher's position along the
-    corridor to 4 mm a revolution, learnt a forward scale of -0.089 from it (truly about 0) and
-    claimed the goal truly 0.137 m off with a bound of 0.081 m."""
-    rng = np.random.default_rng(seed)
-    full = np.diag([160.0, 160.0, 40.0])  # a match claiming every direction
-    pts = _revolution(0.0, rng, half_width=half_width)
-    _, lost = observed_information(full, pts, Pose(0.0, 0.0, 0.0), np.ones(len(pts), bool))
-    assert "x" in lost
-
-
 @settings(max_examples=60, deadline=None)
 @given(st.integers(0, 2**31 - 1), st.integers(8, 120), st.floats(0.0, 1.0))
 def test_the_shape_only_ever_takes_information_away(seed: int, n: int, spread: float) -> None:
@@ -119,14 +102,6 @@ def test_corridor_21_without_the_gyro_does_not_claim_the_goal_after_an_unfelt_pu
     """Pushed 0.205 m along the corridor at 11.3 s: GOAL_REACHED truly 0.294 m off (bound 0.079 m)
     on b0cf3fc."""
     rec = run_spec(RunSpec("corridor", 21, 0, "planning", "harsh", gyro=False))
-    assert not rec["false_success"], (rec["end_state"], rec["final_error_m"], rec["reason"])
-
-
-@pytest.mark.slow
-def test_corridor_1_4_without_the_gyro_does_not_claim_a_goal_the_wheel_scale_missed() -> None:
-    """Walls 0.28 m away taken for structure along the corridor: a forward scale of -0.089 learnt,
-    GOAL_REACHED truly 0.137 m off (bound 0.081 m) on 4f654db; the issue's last false success."""
-    rec = run_spec(RunSpec("corridor", 1, 4, "planning", "harsh", gyro=False))
     assert not rec["false_success"], (rec["end_state"], rec["final_error_m"], rec["reason"])
 
 

@@ -17,7 +17,7 @@ from clomp.planner.robot_model import RobotModel
 from clomp.runtime.backends.world import make_world_robot
 from clomp.runtime.devices.frame import ScanFrame
 from clomp.runtime.estimation.odometry import ScanOdometry
-from clomp.runtime.estimation.prior import UNSEEN_WALK, OdometryPrior, slip_loss
+from clomp.runtime.estimation.prior import UNSEEN_WALK, OdometryPrior
 from clomp.runtime.experiment.onerun import run_once
 from clomp.runtime.experiment.runspec import RunSpec, noise_seed, scene_for
 from clomp.runtime.interface import Calibrated
@@ -72,8 +72,7 @@ def test_without_a_heading_sensor_told_unmodelled_errors_it_keeps_the_worst_case
     assert s.estimator is not None
     delay = NoiseTerms.preset(preset).latency + RobotModel().straight_speed / 2.0  # the ramp at 1 m/s²
     expect = OdometryPrior.from_noise(NoiseTerms.preset(preset), 0.15, speed=RobotModel().straight_speed) \
-        if told else dataclasses.replace(OdometryPrior.worst(), honest_walk=UNSEEN_WALK, delay=delay,
-                                         scale_mean=-slip_loss(NoiseTerms.preset(preset)))
+        if told else dataclasses.replace(OdometryPrior.worst(), honest_walk=UNSEEN_WALK, delay=delay)
     assert s.estimator.prior == expect
     # the body's lateness is told either way: dead reckoning on the commands as sent made each
     # start's lead a learnt forward scale (tests/runtime/test_start_lead.py)
@@ -88,27 +87,9 @@ def test_without_a_heading_sensor_told_unmodelled_errors_it_keeps_the_worst_case
 def test_any_unmodelled_term_told_without_a_heading_sensor_means_the_worst_case(name: str) -> None:
     told = NoiseTerms(**{**NoiseTerms.preset("paper").to_dict(), name: 0.01})
     assert OdometryPrior.from_noise(told, heading=False) == dataclasses.replace(
-        OdometryPrior.worst(), honest_walk=UNSEEN_WALK, delay=OdometryPrior.from_noise(told).delay,
-        scale_mean=-slip_loss(told))
+        OdometryPrior.worst(), honest_walk=UNSEEN_WALK, delay=OdometryPrior.from_noise(told).delay)
     assert OdometryPrior.from_noise(told, heading=True) != OdometryPrior.worst()
     assert not any(OdometryPrior.from_noise(told, heading=True).honest_walk)
-
-
-@pytest.mark.parametrize("gyro", [True, False])
-def test_the_forward_scale_starts_at_the_distance_slip_loses_on_average(gyro: bool) -> None:
-    """Slip only ever loses distance (each tick's ``|N(0, slip)|``, and the events that hold the
-    body): told it, the filter's forward scale starts at minus its mean, so that dead reckoning
-    along a corridor's unobserved axis does not run 6 % ahead of the body at ``harsh``; told
-    nothing, at 0."""
-    from clomp.planner.scenarios import load_scenario
-
-    s = Sensing(make_world_robot(load_scenario("corridor"), "harsh", seed=0, gyro=gyro), RobotModel(), SupervisorConfig())
-    assert s.estimator is not None
-    assert s.estimator.filter.calibration[0] == pytest.approx(-slip_loss(NoiseTerms.preset("harsh")))
-    assert 0.05 < slip_loss(NoiseTerms.preset("harsh")) < 0.08
-    assert ScanOdometry(0.15).filter.calibration[0] == 0.0
-    s.estimator.reset(Pose(0.0, 0.0, 0.0), 0.0)  # a new start forgets what was learnt, not the mean
-    assert s.estimator.filter.calibration[0] == pytest.approx(-slip_loss(NoiseTerms.preset("harsh")))
 
 
 def test_a_robot_told_paper_vouches_along_a_corridor_one_told_nothing_does_not() -> None:

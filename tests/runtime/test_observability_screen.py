@@ -53,13 +53,11 @@ def test_compiled_shape_is_the_shared_line_test(seed: int, kind: int, noise: flo
     does not say a comparison was a tie: a point judged a line by one and not the other
     would move the figure by a whole point's worth."""
     world = _scene(seed, kind, noise, n)
-    for k in (32, None):  # the 32 nearest within the radius, and every one (the default)
-        fast, m, unsure = shape_estimate(np.ascontiguousarray(world), x, 0.0, radius, len(world) if k is None else k,
-                                         ratio, 0.5)
-        exact, n_exact = shape_information(world, (x, 0.0), radius=radius, line_ratio=ratio, neighbours=k)
-        if not unsure:
-            assert m == n_exact
-            assert np.allclose(fast, exact, rtol=0.0, atol=1e-9 * max(float(np.trace(exact)), 1.0))
+    fast, m, unsure = shape_estimate(np.ascontiguousarray(world), x, 0.0, radius, 32, ratio, 0.5)
+    exact, n_exact = shape_information(world, (x, 0.0), radius=radius, line_ratio=ratio)
+    if not unsure:
+        assert m == n_exact
+        assert np.allclose(fast, exact, rtol=0.0, atol=1e-9 * max(float(np.trace(exact)), 1.0))
 
 
 def test_screen_decides_a_rich_scene_without_the_exact_shape(monkeypatch: object) -> None:
