@@ -22,7 +22,7 @@ from clomp.runtime.devices.bno08x_slide import Slide
 from clomp.runtime.devices.frame import ScanFrame
 
 __all__ = ["ScanFrame", "Robot", "RobotFault", "TurnSensing", "ShockSensing", "SlideSensing", "OdometryUncertainty", "Calibrated",
-           "finite_goal"]
+           "finite_goal", "has_heading_sensor"]
 
 
 class RobotFault(RuntimeError):
@@ -164,6 +164,28 @@ class Calibrated(Protocol):
     def calibration(self) -> dict[str, float]:
         """The noise terms the robot's drive and sensors are specified to (standard deviations, by name)."""
         ...
+
+
+def has_heading_sensor(robot: object) -> bool:
+    """Whether ``robot`` carries a heading sensor (a gyro, an IMU), whether or not it has
+    reported yet: its ``heading_sensor`` attribute when it says (a bool), else whether its
+    :meth:`TurnSensing.rotation` has a value now.
+
+    Why: the estimator's wheel prior depends on it (a robot without one, told of errors the
+    filter does not model, keeps the worst-case wheels), and it is chosen when the
+    supervisor is built, before an IMU's first report has arrived: asking the reading alone
+    would take a robot with an IMU for one without.
+
+    >>> from clomp.planner import load_scenario
+    >>> from clomp.runtime.backends import make_world_robot
+    >>> scene = load_scenario("open")
+    >>> has_heading_sensor(make_world_robot(scene, "harsh", seed=0)), has_heading_sensor(make_world_robot(scene, "harsh", seed=0, gyro=False))
+    (True, False)
+    """
+    declared = getattr(robot, "heading_sensor", None)
+    if isinstance(declared, bool):
+        return declared
+    return isinstance(robot, TurnSensing) and robot.rotation() is not None
 
 
 def finite_goal(goal: tuple[float, float]) -> tuple[float, float]:

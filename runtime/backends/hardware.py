@@ -357,6 +357,11 @@ class HardwareRobot(LidarWatch):
             self._dead_reckon(self.clock.now())
             return self._pose
 
+    @property
+    def heading_sensor(self) -> bool:
+        """Whether the robot carries an IMU, reported yet or not (:func:`~clomp.runtime.interface.has_heading_sensor`)."""
+        return self.imu is not None
+
     def rotation(self) -> float | None:
         """The heading the IMU turned since its first report (rad, ccw; None: no IMU; TurnSensing; RobotFault once tripped)."""
         return self._from_imu(Bno08xRvc.rotation)

@@ -249,6 +249,11 @@ class WorldRobot(SimulatedBackend):
         """None: the robot has no wheel encoders."""
         return None
 
+    @property
+    def heading_sensor(self) -> bool:
+        """Whether the robot carries its gyro (:func:`~clomp.runtime.interface.has_heading_sensor`)."""
+        return self._gyro is not None
+
     def rotation(self) -> float | None:
         """The heading turned since start-up as the rate gyro integrates it (rad; see
         :class:`~clomp.runtime.backends._gyro.RateGyro`), or None when built with ``gyro=False``."""

@@ -35,7 +35,7 @@ from clomp.runtime.estimation.fusion import fuse_revolutions
 from clomp.runtime.estimation.odometry import FeedbackRecord, ScanOdometry
 from clomp.runtime.estimation.prior import OdometryPrior
 from clomp.runtime.interface import (Calibrated, OdometryUncertainty, Robot, ScanFrame, ShockSensing, SlideSensing,
-                                     TurnSensing)
+                                     TurnSensing, has_heading_sensor)
 from clomp.runtime.supervision.config import SupervisorConfig
 
 __all__ = ["Sensing", "crop_far", "turning"]
@@ -101,9 +101,11 @@ class Sensing:
         self.config = config
         self.wheel_base = model.wheel_base
         # a robot told its calibration (the execution world) sizes the wheel prior to it (issue #36),
-        # unless it has no heading sensor and is told of errors the filter does not model
+        # unless it has no heading sensor and is told of errors the filter does not model; whether
+        # it has one is what it carries, not whether the sensor has spoken yet (an IMU's first
+        # report comes after the supervisor is built)
         prior = OdometryPrior.from_noise(NoiseTerms(**robot.calibration()), model.wheel_base,
-                                         speed=model.straight_speed, heading=self._rotation() is not None) \
+                                         speed=model.straight_speed, heading=has_heading_sensor(robot)) \
             if isinstance(robot, Calibrated) else None
         if config.drive_delay is not None:  # told how late the drive follows (clomp run --drive-delay)
             prior = dataclasses.replace(prior or OdometryPrior.worst(), delay=config.drive_delay)

@@ -98,6 +98,26 @@ def test_a_told_robot_gets_the_prior_of_its_terms(preset: str, floor: bool) -> N
     assert untold is not None and untold.prior == OdometryPrior.worst() and untold.prior != want
 
 
+def test_a_told_robot_with_an_imu_gets_the_heading_prior_before_its_first_report() -> None:
+    """``clomp run --imu --calibration`` told ``harsh``: the supervisor is built before the
+    IMU's first report, yet the prior is the one with a heading sensor (not the worst-case
+    wheels a robot without one keeps), because the robot carries the IMU. Through the real
+    drivers in simulated time; the run is cut at 0.5 s."""
+    from tests.runtime._stack import run_stack
+
+    terms, model = NoiseTerms.preset("harsh"), RobotModel()
+    run = run_stack("overtaking", max_time=0.5, imu=True, calibration=terms, noise="harsh")
+    assert run.robot is not None and run.robot.heading_sensor and run.supervisor is not None
+    estimator = run.supervisor.sensing.estimator
+    with_heading = OdometryPrior.from_noise(terms, model.wheel_base, speed=model.straight_speed, heading=True)
+    without = OdometryPrior.from_noise(terms, model.wheel_base, speed=model.straight_speed, heading=False)
+    assert with_heading != without
+    assert estimator is not None and estimator.prior == with_heading
+    no_imu = run_stack("overtaking", max_time=0.5, calibration=terms, noise="harsh")
+    assert no_imu.supervisor is not None and not no_imu.robot.heading_sensor
+    assert no_imu.supervisor.sensing.estimator.prior == without
+
+
 # -- clomp run --calibration ----------------------------------------------------------------------------
 @pytest.mark.parametrize("name, text, said", BAD[:6])
 def test_clomp_run_refuses_a_bad_file_before_any_device_opens(
