@@ -405,6 +405,13 @@ def _summary(pairs: list[dict[str, Any]], noise: str) -> None:
         print(f"    {fam} {k}: P {r['pred'][main]:.3f}, goal in the first map {r['goal_in_map']}, {r['end']}, "
               f"{r['plans']} plans, {r['distance']:.2f} m, collisions {r['collisions']}, false success {r['false_success']}")
     inmap = [r for r in g if r["goal_in_map"]]
+    if any(r["pushes"] for r in g):  # the world pushed some runs: a disturbance no first map holds
+        calm = [r for r in g if not r["pushes"]]
+        pushed = [r for r in g if r["pushes"]]
+        _print_table(f"greedy runs the world did not push, first plan: {main}", [r["pred"][main] for r in calm],
+                     [r["ok"] for r in calm])
+        _print_table(f"greedy runs the world pushed, first plan: {main}", [r["pred"][main] for r in pushed],
+                     [r["ok"] for r in pushed])
     for name in PREDICTIONS:
         _print_table(f"greedy runs, first plan: {name}", [r["pred"][name] for r in g], ok)
         _print_table("  the same, runs whose first (best-first) plan reaches the goal", [r["pred"][name] for r in inmap],
