@@ -79,7 +79,7 @@ def ambiguity(reference: ReferenceScan, points: np.ndarray, pose: Pose, *,
               guesses: tuple[tuple[float, float, float], ...] = GUESSES, min_points: int = 10,
               sd: float = 0.01, correlation: float = 4.0, margin: float = 6.0, reach: float = 3.0,
               apart: float = 0.04, better: float = 30.0,
-              far_enough: float = 0.05) -> Ambiguity:
+              far_enough: float = 0.05, least_gain: float = -math.inf) -> Ambiguity:
     """How far from ``pose`` the revolution ``points`` (robot frame) matches ``reference``
     (map frame) as well as at ``pose``; see the module docstring. The ICP from each guess
     converges somewhere; that pose is an alternative when its misfit (each point's
@@ -90,7 +90,9 @@ def ambiguity(reference: ReferenceScan, points: np.ndarray, pose: Pose, *,
     match at the estimate at all is not ``matched`` (its distance: infinite). An alternative
     whose misfit is lower than the estimate's by more than ``better`` (in the same units) is
     ``better`` and lies more than ``far_enough`` (m) from
-    the estimate is ``better``: the revolution says the robot is there, not where the estimate puts it."""
+    the estimate is ``better``: the revolution says the robot is there, not where the estimate puts it.
+    ``least_gain``: an alternative fitting better than the estimate by more than this is not
+    counted as explaining it *as well* (default: every one is)."""
     here = match_scans(reference, points, pose, gate=None, min_points=min_points)
     tree = reference.tree
     if not here.ok or tree is None:
@@ -106,7 +108,7 @@ def ambiguity(reference: ReferenceScan, points: np.ndarray, pose: Pose, *,
         if not alt.ok or math.hypot(alt.pose.x - here.pose.x, alt.pose.y - here.pose.y) <= apart:
             continue
         gain = (_cost(tree, pts, alt.pose, reach * sd, sd) - base) / correlation
-        if gain <= margin:
+        if least_gain <= gain <= margin:
             n += 1
             best = max(best, math.hypot(alt.pose.x - pose.x, alt.pose.y - pose.y))
         far = math.hypot(alt.pose.x - pose.x, alt.pose.y - pose.y) > far_enough

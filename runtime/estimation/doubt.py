@@ -53,6 +53,7 @@ from clomp.formal.model import Pose
 from clomp.runtime.estimation.confirm import ambiguity
 from clomp.runtime.estimation.icp import ReferenceScan, match_scans
 from clomp.runtime.estimation.seethrough import see_nearer, see_through, see_through_along
+from clomp.runtime.estimation.vouch import trusted_surfaces
 
 __all__ = ["Doubt", "grid_check", "see_through", "trusted_check"]
 
@@ -247,10 +248,7 @@ def trusted_check(doubt: Doubt, map_points: np.ndarray, map_sds: np.ndarray, poi
     """
     doubt.pinned = None
     sds = np.asarray(map_sds)
-    keep = sds[:, 0] <= doubt.trust
-    if sds.shape[1] > 2:  # only surfaces seen from this side: a box's front face is not its back
-        toward = np.arctan2(np.asarray(map_points)[:, 1] - pose.y, np.asarray(map_points)[:, 0] - pose.x)
-        keep &= np.cos(toward - sds[:, 2]) > 0.0
+    keep = trusted_surfaces(map_points, sds, pose, doubt.trust)  # seen from this side: a box's front face is not its back
     if int(keep.sum()) < min_points:
         return None
     ref = ReferenceScan(np.asarray(map_points)[keep])

@@ -67,6 +67,7 @@ from clomp.runtime.estimation.prior import OdometryPrior
 from clomp.runtime.estimation.relocalise import KickMemory, Relocalisation
 from clomp.runtime.estimation.reported import OdometryCovariance, step_noise_floor
 from clomp.runtime.estimation.standing import StandingSeed
+from clomp.runtime.estimation.vouch import start_ambiguity
 
 __all__ = ["ScanOdometry", "FeedbackRecord", "deskew"]
 
@@ -474,6 +475,22 @@ class ScanOdometry(LocalMap, KickMemory, StandingSeed, PoseHistory):
             self.filter.P[:2, :2] += np.eye(2) * self.agree[0] ** 2
             self.relocalised += 1
             self.rejected_in_a_row = 0
+
+    @property
+    def start_pose(self) -> Pose:
+        """Where the robot stood when it seeded the map: the one pose known exactly."""
+        return self._seed_pose
+
+    def start_ambiguity(self, points: np.ndarray) -> float:
+        """How far from the estimate a pose explains a revolution ``points`` (robot frame) as
+        well against the surfaces drawn before any doubt
+        (:func:`~clomp.runtime.estimation.vouch.start_ambiguity`, m; 0 when they pin it or
+        cannot judge)."""
+        if self._map_points is None or self._map_sds is None:
+            return 0.0
+        sd = max(2 * self.match_sd, self.noise_factor * (self.range_sd or 0.0))
+        return start_ambiguity(self._map_points, self._map_sds, points, self.pose, trust=self.doubt.trust, sd=sd,
+                               correlation=self.correlation, min_points=self.min_points)
 
     def ambiguity(self, points: np.ndarray) -> Ambiguity:
         """How far from the estimate a revolution ``points`` seen standing here (robot frame)

@@ -49,12 +49,14 @@ import math
 from typing import TYPE_CHECKING
 
 from clomp.formal.geometry import relative
+from clomp.runtime.estimation.vouch import blind_floor
 from clomp.runtime.supervision.states import Event as E
 
 if TYPE_CHECKING:  # pragma: no cover
     from clomp.runtime.supervision.supervisor import Supervisor
 
-__all__ = ["at_goal", "bound_parts", "bound_words", "confirm_tick", "relocated_at_goal", "seen_past", "standing_bound"]
+__all__ = ["at_goal", "bound_parts", "bound_words", "claim_floor", "confirm_tick", "relocated_at_goal", "seen_past",
+           "standing_bound"]
 
 
 def relocated_at_goal(sup: Supervisor, now: float) -> bool:
@@ -160,6 +162,11 @@ def at_goal(sup: Supervisor, dist: float, what: str) -> None:
     cfg = sup.config
     past = seen_past(sup) if cfg.vouch_radius is not None else 0
     bound = sup.sensing.position_bound(cfg.vouch_sigmas)
+    floored = ""
+    if bound is not None and cfg.vouch_radius is not None:
+        floor = claim_floor(sup)
+        if floor > bound:
+            bound, floored = floor, _floor_words(sup)
     sup._goal_end = (dist, bound)
     if bound is None or cfg.vouch_radius is None:
         sup._fire(E.AT_GOAL, f"{what} ({dist:.3f} m)")
@@ -172,7 +179,8 @@ def at_goal(sup: Supervisor, dist: float, what: str) -> None:
         est = sup.estimator
         sup._confirm_honest = 0.0 if est is None else est.vouched_sd()
         sup._confirm_from = 0 if est is None else len(est.records)
-        why = f"{what} by the estimate ({dist:.3f} m), but its 95 % bound {bound:.3f} m cannot vouch for {cfg.vouch_radius:g} m"
+        why = (f"{what} by the estimate ({dist:.3f} m), but its 95 % bound {bound:.3f} m"
+               f"{f', {floored},' if floored else ''} cannot vouch for {cfg.vouch_radius:g} m")
         if past:
             why += f" (standing, {_past_words(sup, past)}: it may stand elsewhere)"
         sup._fire(E.GOAL_UNCONFIRMED, f"{why}: confirming")
@@ -194,12 +202,33 @@ def standing_bound(sup: Supervisor) -> float | None:
     est = sup.estimator
     if bound is None or est is None:
         return bound
+    bound = max(bound, claim_floor(sup))  # what the revolution here cannot vouch for, whatever the filter says
     if _fresh_evidence(sup):  # it counts the error of the surfaces it met itself
         return bound
     floor = sigmas * float(est.last_map_sd[0])
     if sup._confirm_blind:
         floor = max(floor, sigmas * sup._confirm_honest)
     return max(bound, floor)
+
+
+def claim_floor(sup: Supervisor) -> float:
+    """The least 95 % bound (m) the revolutions seen at the goal leave the position, whatever
+    the filter believes (:mod:`~clomp.runtime.estimation.vouch`): along a translation they
+    leave unobserved, the prior's forward-scale uncertainty times the way from the start along
+    it (:func:`~clomp.runtime.estimation.vouch.blind_floor`); and how far a pose lies that the
+    surfaces seen first explain as well
+    (:meth:`~clomp.runtime.estimation.odometry.ScanOdometry.start_ambiguity`). 0 without scan
+    feedback, a revolution or ``vouch_radius``; both parts are kept for :func:`bound_parts`."""
+    est = sup.estimator
+    sup._claim_floor = (0.0, "", 0.0)
+    if est is None or sup.sensing.scan is None or sup.config.vouch_radius is None:
+        return 0.0
+    scan = sup.sensing.planning_scan()
+    blind, along = blind_floor(scan, est.pose, est.start_pose, est.filter.calibration_sd[0],
+                               sigmas=sup.config.vouch_sigmas)
+    start = est.start_ambiguity(scan)
+    sup._claim_floor = (blind, along, start)
+    return max(blind, start)
 
 
 def _fresh_evidence(sup: Supervisor) -> bool:
@@ -218,8 +247,10 @@ def bound_parts(sup: Supervisor) -> dict[str, float]:
     uncertainty), ``doubt`` (the floor only a wide search lowers,
     :class:`~clomp.runtime.estimation.doubt.Doubt`), ``disagreement`` (well-matched revolutions
     rejected just now), ``map`` (how wrong the surfaces met may be), ``blind`` (the filter's
-    figure when confirming began, once a revolution standing left a direction unobserved);
-    empty without scan feedback. The bound is the largest but for ``disagreement``, which adds.
+    figure when confirming began, once a revolution standing left a direction unobserved),
+    ``unobserved`` (the prior along a direction the goal's revolution leaves unobserved) and
+    ``start`` (a pose the surfaces seen first explain as well; both :func:`claim_floor`, as
+    last computed); empty without scan feedback. The bound is the largest but for ``disagreement``, which adds.
     Why a run ended unconfirmed, in its reason and log (issue #36: on seeds 35-44 at ``harsh``
     most truly-reached runs that were not claimed stood at a doubt's floor of 0.367 m).
 
@@ -228,7 +259,7 @@ def bound_parts(sup: Supervisor) -> dict[str, float]:
     >>> from clomp.runtime.supervision.supervisor import Supervisor
     >>> scene = load_scenario("open")
     >>> sorted(bound_parts(Supervisor(SimRobot(scene, seed=0), scene.goal_in_robot_frame())))
-    ['blind', 'disagreement', 'doubt', 'filter', 'map']
+    ['blind', 'disagreement', 'doubt', 'filter', 'map', 'start', 'unobserved']
     """
     est = sup.estimator
     if est is None:
@@ -238,7 +269,8 @@ def bound_parts(sup: Supervisor) -> dict[str, float]:
     dis = est.disagreement if est.rejected_in_a_row > 0 and est.disagreement is not None else (0.0, 0.0, 0.0)
     return {"filter": k * est.vouched_sd(), "doubt": k * est.doubt.sd,
             "disagreement": k * math.hypot(dis[0], dis[1]), "map": 0.0 if fresh else k * float(est.last_map_sd[0]),
-            "blind": k * sup._confirm_honest if sup._confirm_blind and not fresh else 0.0}
+            "blind": k * sup._confirm_honest if sup._confirm_blind and not fresh else 0.0,
+            "unobserved": sup._claim_floor[0], "start": sup._claim_floor[2]}
 
 
 _PART_WORDS = {
@@ -246,7 +278,16 @@ _PART_WORDS = {
     "disagreement": "matches that disagree with the prediction",
     "map": "how wrong the surfaces it meets may be",
     "blind": "the filter's uncertainty when confirming began (standing left a direction unobserved)",
+    "unobserved": "the prior along {along}, which the revolution at the goal leaves unobserved",
+    "start": "a pose as far that the surfaces seen first explain as well",
 }
+
+
+def _floor_words(sup: Supervisor) -> str:
+    """Which part of :func:`claim_floor` is the larger, in words (as :func:`bound_words`)."""
+    blind, along, start = sup._claim_floor
+    name = "unobserved" if blind >= start else "start"
+    return f"set by {_PART_WORDS[name].format(along=along)}"
 
 
 def _doubt_source(sup: Supervisor) -> str:
@@ -279,8 +320,10 @@ def bound_words(sup: Supervisor) -> str:
     if not parts:
         return ""
     name = max(parts, key=lambda n: parts[n])
+    if parts[name] <= 0.0:
+        return ""
     if name != "doubt":
-        return f"set by {_PART_WORDS[name]}"
+        return f"set by {_PART_WORDS[name].format(along=sup._claim_floor[1])}"
     source = _doubt_source(sup)
     return "set by the doubt's floor" + (f" (raised by: {source})" if source else "")
 

@@ -172,6 +172,7 @@ class Supervisor:
         self._confirm_blind = False  # a revolution seen confirming left a direction of the position unobserved
         self._confirm_honest = 0.0  # the filter's position sd (m) when confirming began
         self._confirm_from = 0  # the estimator's revolution records when confirming began
+        self._claim_floor: tuple[float, str, float] = (0.0, "", 0.0)  # goal.claim_floor's parts: unobserved, along, start
         self.watch = PlanWatch(self.model, self._log)  # hazard test, plan check, recall (clomp.runtime.supervision.planwatch)
         self.alarms = self.watch.alarms
         self.checks, self.recalls = self.watch.checks, self.watch.recalls
