@@ -20,9 +20,9 @@ scene fool a match in a way no later match can show:
   before any doubt (:attr:`~clomp.runtime.estimation.doubt.Doubt.trust`), carry the least
   error; the map drawn since follows the estimate. When the start's surfaces explain the
   goal's revolution as well at a pose a decimetre away (``overtaking`` layout 78 at
-  ``paper``: the box's faces repeat along the way by 13.5 cm; the estimate jumped onto the
-  alias and claimed the goal 0.141 m off with a bound of 6 mm), the estimate cannot vouch
-  for better than that distance. :func:`start_ambiguity` searches widely from several
+  ``paper``: the box's faces repeat along the way by 13.5 cm; after a doubt opened the gain
+  the estimate jumped onto the alias, and claimed the goal 0.141 m off with a bound of 6 mm),
+  the estimate cannot vouch for better than that distance. :func:`start_ambiguity` searches widely from several
   guesses (:func:`~clomp.runtime.estimation.confirm.ambiguity`) at a margin of 15 (the
   99.95 % point of chi-square with 2 degrees of freedom: only what the start's surfaces
   clearly tell apart is told apart).
